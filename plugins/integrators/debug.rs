@@ -1,0 +1,120 @@
+//! Debug views: `normals` (the shading normal as a colour) and `depth` (distance as grey).
+
+use raylab::error::Result;
+use raylab::params::{Default, ParamKind, ParamSpec, Params};
+use raylab::trace::TraceHit;
+use raylab::{Color, Integrator, LoadContext, PluginInfo, Ray, RayKind, RayStats, Sampler, Scene, TraceNode};
+
+/// Shows the direction-aware normal: `(n + 1) / 2` as RGB (x → red, y → green, z → blue).
+#[derive(Clone, Debug, std::default::Default)]
+pub struct Normals;
+
+/// The `normals` plugin's description.
+pub const NORMALS_INFO: PluginInfo = PluginInfo {
+    name: "normals",
+    summary: "Debug view: the shading normal (facing the camera) as colour, (n + 1)/2; background black.",
+    params: &[],
+};
+
+/// Builds the normals view.
+pub fn build_normals(_: &mut Params, _: &LoadContext) -> Result<Box<dyn Integrator>> {
+    Ok(Box::new(Normals))
+}
+
+/// Shows distance from the ray origin: white at the origin fading to black at `far`.
+#[derive(Clone, Debug)]
+pub struct Depth {
+    far: Option<f64>,
+}
+
+/// The `depth` plugin's description.
+pub const DEPTH_INFO: PluginInfo = PluginInfo {
+    name: "depth",
+    summary: "Debug view: distance along the camera ray as grey, 1 at the camera to 0 at `far`; background black.",
+    params: &[ParamSpec::new(
+        "far",
+        ParamKind::Float,
+        Default::Optional,
+        "distance shown as black, scene units; default: the farthest corner of the scene's bounded objects",
+    )],
+};
+
+/// Builds the depth view.
+pub fn build_depth(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Integrator>> {
+    let far = p.float_opt("far")?;
+    if far.is_some_and(|f| !(f > 0.0)) {
+        return Err(p.error_at("far", "expected a distance > 0"));
+    }
+    Ok(Box::new(Depth { far }))
+}
+
+fn explain_one(scene: &Scene, ray: &Ray, color: impl Fn(&Scene, f64, raylab::glam::DVec3) -> Color) -> TraceNode {
+    let mut node = TraceNode::new(RayKind::Camera, *ray, 0, Color::ONE);
+    if let Some(h) = scene.intersect(ray, 0.0, f64::INFINITY) {
+        let g = &scene.geometries[h.object as usize];
+        let n = g.normal(&h, ray.dir);
+        node.hit = Some(TraceHit {
+            object: h.object as usize,
+            name: scene.object_name(h.object).to_string(),
+            t: h.t,
+            point: h.point,
+            normal: n,
+            front_face: g.outward_normal(&h).dot(ray.dir) < 0.0,
+        });
+        node.color = color(scene, h.t, n);
+    }
+    node
+}
+
+impl Integrator for Normals {
+    fn radiance(&self, scene: &Scene, ray: &Ray, _: &mut Sampler, _: &mut RayStats) -> Color {
+        match scene.intersect(ray, 0.0, f64::INFINITY) {
+            Some(h) => (scene.geometries[h.object as usize].normal(&h, ray.dir) + Color::ONE) * 0.5,
+            None => Color::ZERO,
+        }
+    }
+    fn explain(&self, scene: &Scene, ray: &Ray, _: &mut Sampler) -> Option<TraceNode> {
+        Some(explain_one(scene, ray, |_, _, n| (n + Color::ONE) * 0.5))
+    }
+}
+
+impl Depth {
+    fn far(&self, scene: &Scene) -> f64 {
+        self.far.unwrap_or_else(|| {
+            let b = scene.bounds();
+            if b.is_empty() {
+                return 100.0;
+            }
+            let eye = scene.camera.position;
+            let mut far: f64 = 0.0;
+            for i in 0..8 {
+                let corner = raylab::glam::DVec3::new(
+                    if i & 1 == 0 { b.min.x } else { b.max.x },
+                    if i & 2 == 0 { b.min.y } else { b.max.y },
+                    if i & 4 == 0 { b.min.z } else { b.max.z },
+                );
+                far = far.max((corner - eye).length());
+            }
+            if far > 0.0 { far } else { 1.0 }
+        })
+    }
+
+    fn shade(&self, scene: &Scene, t: f64) -> Color {
+        Color::splat((1.0 - t / self.far(scene)).clamp(0.0, 1.0))
+    }
+}
+
+impl Integrator for Depth {
+    fn radiance(&self, scene: &Scene, ray: &Ray, _: &mut Sampler, _: &mut RayStats) -> Color {
+        match scene.intersect(ray, 0.0, f64::INFINITY) {
+            Some(h) => self.shade(scene, h.t),
+            None => Color::ZERO,
+        }
+    }
+    fn explain(&self, scene: &Scene, ray: &Ray, _: &mut Sampler) -> Option<TraceNode> {
+        Some(explain_one(scene, ray, |s, t, _| self.shade(s, t)))
+    }
+    fn describe(&self) -> String {
+        self.far.map_or_else(|| "far auto".into(), |f| format!("far {f}"))
+    }
+}

@@ -1,0 +1,36 @@
+//! raylab's built-in plugins: the report's shapes, lights and recursive Phong integrator, plus
+//! debug integrators. They use only the public API of the `raylab` core crate, exactly as a
+//! third-party plugin crate would.
+//!
+//! ```no_run
+//! let registry = raylab_plugins::registry();
+//! let job = raylab::load::load_file(&registry, "scenes/showcase.toml".as_ref(), &Default::default()).unwrap();
+//! ```
+
+pub mod integrators;
+pub mod lights;
+pub mod shapes;
+
+use raylab::Registry;
+
+/// The scene `raylab` renders when run without arguments (`scenes/showcase.toml`).
+pub const DEFAULT_SCENE: (&str, &str) = ("scenes/showcase.toml", include_str!("../scenes/showcase.toml"));
+
+/// Adds every built-in plugin to `r`.
+pub fn register(r: &mut Registry) {
+    shapes::register(r);
+    lights::register(r);
+    integrators::register(r);
+}
+
+/// A registry holding every built-in plugin.
+pub fn registry() -> Registry {
+    let mut r = Registry::new();
+    register(&mut r);
+    r
+}
+
+/// The command line with the built-in plugins: what the `raylab` binary runs.
+pub fn app() -> raylab::cli::App {
+    raylab::cli::App { registry: registry(), default_scene: DEFAULT_SCENE }
+}

@@ -1,0 +1,139 @@
+//! `point` and `spot`: the report's PointLight, `I_L = I₀ / (kc + kl·d + kq·d²)`, and SpotLight,
+//! the same times `max(0, D·L)^exponent` (the report's formula has a typo: the terms add).
+
+use raylab::error::Result;
+use raylab::glam::{DVec2, DVec3};
+use raylab::params::{Default, ParamKind, ParamSpec, Params};
+use raylab::{Color, LightSample, LightSource, LoadContext, PluginInfo};
+
+/// A light at a point with distance attenuation, optionally a spot.
+#[derive(Clone, Debug)]
+pub struct PointLight {
+    color: Color,
+    position: DVec3,
+    kc: f64,
+    kl: f64,
+    kq: f64,
+    spot: Option<Spot>,
+}
+
+/// The directional part of a spot light.
+#[derive(Clone, Copy, Debug)]
+pub struct Spot {
+    /// Unit axis of the spot (D).
+    pub direction: DVec3,
+    /// Narrowing exponent: `max(0, D·L)^exponent`; 1 is the report's spot.
+    pub exponent: f64,
+    /// Cosine of the cone's half-angle: no light where `D·L` is below it.
+    pub cos_cutoff: f64,
+}
+
+const ATTENUATION: [ParamSpec; 3] = [
+    ParamSpec::new("kc", ParamKind::Float, Default::Float(1.0), "constant attenuation, ≥ 0"),
+    ParamSpec::new("kl", ParamKind::Float, Default::Float(0.0), "linear attenuation, per scene unit, ≥ 0"),
+    ParamSpec::new("kq", ParamKind::Float, Default::Float(0.0), "quadratic attenuation, per scene unit², ≥ 0 (kc + kl + kq > 0)"),
+];
+
+/// The `point` plugin's description.
+pub const INFO: PluginInfo = PluginInfo {
+    name: "point",
+    summary: "A light bulb at a point: I = color / (kc + kl·d + kq·d²), d the distance to the light.",
+    params: &[
+        ParamSpec::new("color", ParamKind::Color, Default::Float(1.0), "intensity I₀, linear RGB"),
+        ParamSpec::new("position", ParamKind::Vec3, Default::Required, "where the light is"),
+        ATTENUATION[0],
+        ATTENUATION[1],
+        ATTENUATION[2],
+    ],
+};
+
+/// The `spot` plugin's description.
+pub const SPOT_INFO: PluginInfo = PluginInfo {
+    name: "spot",
+    summary: "A spot light: a point light times max(0, D·L)^exponent, where L points from the light to the shaded point; no light beyond the cone angle.",
+    params: &[
+        ParamSpec::new("color", ParamKind::Color, Default::Float(1.0), "intensity I₀, linear RGB"),
+        ParamSpec::new("position", ParamKind::Vec3, Default::Required, "where the light is"),
+        ParamSpec::new("direction", ParamKind::Vec3, Default::Required, "axis of the spot (D), from the light outward"),
+        ParamSpec::new(
+            "exponent",
+            ParamKind::Float,
+            Default::Float(1.0),
+            "narrowing exponent (1 = the report's spot; larger = tighter), ≥ 0",
+        ),
+        ParamSpec::new(
+            "cone_angle",
+            ParamKind::Float,
+            Default::Float(90.0),
+            "half-angle of the cone outside which there is no light, degrees, in (0, 90]",
+        ),
+        ATTENUATION[0],
+        ATTENUATION[1],
+        ATTENUATION[2],
+    ],
+};
+
+fn attenuation(p: &mut Params) -> Result<(f64, f64, f64)> {
+    let (kc, kl, kq) = (p.non_negative("kc")?, p.non_negative("kl")?, p.non_negative("kq")?);
+    if kc + kl + kq <= 0.0 {
+        return Err(p.error("at least one of kc, kl, kq must be > 0"));
+    }
+    Ok((kc, kl, kq))
+}
+
+/// Builds a point light from its parameters.
+pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn LightSource>> {
+    let color = p.color("color")?;
+    let position = p.vec3("position")?;
+    let (kc, kl, kq) = attenuation(p)?;
+    Ok(Box::new(PointLight { color, position, kc, kl, kq, spot: None }))
+}
+
+/// Builds a spot light from its parameters.
+pub fn build_spot(p: &mut Params, _: &LoadContext) -> Result<Box<dyn LightSource>> {
+    let color = p.color("color")?;
+    let position = p.vec3("position")?;
+    let direction = p.direction("direction")?;
+    let exponent = p.non_negative("exponent")?;
+    let cone = p.float("cone_angle")?;
+    if !(cone > 0.0 && cone <= 90.0) {
+        return Err(p.error_at("cone_angle", format_args!("{cone} is out of range; expected a half-angle in (0, 90] degrees")));
+    }
+    let (kc, kl, kq) = attenuation(p)?;
+    let spot = Spot { direction, exponent, cos_cutoff: cone.to_radians().cos() };
+    Ok(Box::new(PointLight { color, position, kc, kl, kq, spot: Some(spot) }))
+}
+
+impl PointLight {
+    /// A point light with attenuation `(kc, kl, kq)` (non-negative, not all zero).
+    pub fn new(color: Color, position: DVec3, kc: f64, kl: f64, kq: f64) -> Self {
+        PointLight { color, position, kc, kl, kq, spot: None }
+    }
+
+    /// A spot light (the report's: exponent 1, cone 90°).
+    pub fn spot(color: Color, position: DVec3, kc: f64, kl: f64, kq: f64, spot: Spot) -> Self {
+        PointLight { color, position, kc, kl, kq, spot: Some(spot) }
+    }
+}
+
+impl LightSource for PointLight {
+    #[inline]
+    fn illuminate(&self, p: DVec3, _: DVec2) -> Option<LightSample> {
+        let to_light = self.position - p;
+        let d = to_light.length();
+        if !(d > 0.0) {
+            return None;
+        }
+        let dir = to_light / d;
+        let mut factor = 1.0 / (self.kc + self.kl * d + self.kq * d * d);
+        if let Some(s) = &self.spot {
+            // L points from the light to the point: L = −dir.
+            let cos = s.direction.dot(-dir);
+            if cos <= 0.0 || cos < s.cos_cutoff {
+                return None;
+            }
+            factor *= cos.powf(s.exponent);
+        }
+        Some(LightSample { dir, distance: d, intensity: self.color * factor })
+    }
+}

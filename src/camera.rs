@@ -1,0 +1,239 @@
+//! The pinhole (or thin-lens) camera of the report: eye point, `to` and `up` directions, and a
+//! screen at a distance in front of the eye.
+
+use crate::error::Result;
+use crate::params::{Default, ParamKind, ParamSpec, Params};
+use crate::ray::Ray;
+use glam::{DVec2, DVec3};
+
+/// A camera. `right = to × up`; `to`, `up` and `right` are unit and mutually orthogonal. Rays
+/// leave the eye through points of a `screen_width × screen_height` rectangle centred at
+/// `position + screen_distance · to` (scene units).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    /// The eye point (the report's P0).
+    pub position: DVec3,
+    /// Viewing direction (vTo), unit.
+    pub to: DVec3,
+    /// Up direction (vUp), unit, orthogonal to `to`.
+    pub up: DVec3,
+    /// `to × up` (vRight), unit.
+    pub right: DVec3,
+    /// Distance from the eye to the screen, scene units (> 0).
+    pub screen_distance: f64,
+    /// Screen width, scene units (> 0).
+    pub screen_width: f64,
+    /// Screen height, scene units (> 0).
+    pub screen_height: f64,
+    /// Lens radius for depth of field, scene units; 0 is a pinhole.
+    pub aperture: f64,
+    /// Distance along `to` of the plane in perfect focus, scene units (> 0).
+    pub focus_distance: f64,
+}
+
+/// The camera's parameter table (`[camera]`). Two forms: the report's (`to`, `screen_*`) and
+/// look-at (`look_at`, `fov`).
+pub const CAMERA_PARAMS: &[ParamSpec] = &[
+    ParamSpec::new("position", ParamKind::Vec3, Default::Vec3([0.0, 0.0, 0.0]), "eye point (P0)"),
+    ParamSpec::new("up", ParamKind::Vec3, Default::Vec3([0.0, 1.0, 0.0]), "up direction (vUp); made orthogonal to the view direction"),
+    ParamSpec::new("to", ParamKind::Vec3, Default::Optional, "report form: viewing direction (vTo)"),
+    ParamSpec::new("screen_distance", ParamKind::Float, Default::Float(100.0), "report form: eye-to-screen distance, scene units"),
+    ParamSpec::new("screen_width", ParamKind::Float, Default::Optional, "report form: screen width, scene units (required)"),
+    ParamSpec::new("screen_height", ParamKind::Float, Default::Optional, "report form: screen height, scene units (required)"),
+    ParamSpec::new("look_at", ParamKind::Vec3, Default::Optional, "look-at form: the point the camera looks at"),
+    ParamSpec::new("fov", ParamKind::Float, Default::Float(45.0), "look-at form: vertical field of view, degrees, in (0, 180)"),
+    ParamSpec::new("aperture", ParamKind::Float, Default::Float(0.0), "lens radius for depth of field, scene units (0 = pinhole)"),
+    ParamSpec::new(
+        "focus_distance",
+        ParamKind::Float,
+        Default::Optional,
+        "distance of the plane in focus; default: the look_at point or the screen",
+    ),
+];
+
+/// Why a camera could not be built.
+#[derive(Clone, Debug, PartialEq)]
+pub enum CameraError {
+    /// `up` is zero or parallel to the viewing direction.
+    UpParallelToView,
+    /// The viewing direction is zero.
+    NoViewDirection,
+    /// A size or distance is not finite and positive.
+    BadSize(&'static str),
+}
+
+impl std::fmt::Display for CameraError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            CameraError::UpParallelToView => write!(f, "`up` must not be zero or parallel to the viewing direction"),
+            CameraError::NoViewDirection => write!(f, "the viewing direction is zero (to, or look_at − position)"),
+            CameraError::BadSize(what) => write!(f, "`{what}` must be a finite number > 0"),
+        }
+    }
+}
+
+impl Camera {
+    /// The report's camera: eye `position`, view direction `to`, `up` (made orthogonal to `to`),
+    /// and the screen.
+    pub fn report(
+        position: DVec3,
+        to: DVec3,
+        up: DVec3,
+        screen_distance: f64,
+        screen_width: f64,
+        screen_height: f64,
+    ) -> Result<Camera, CameraError> {
+        let to = to.try_normalize().filter(|t| t.is_finite()).ok_or(CameraError::NoViewDirection)?;
+        // Gram–Schmidt; an `up` within ~1e-6 rad of `to` would orthogonalise to rounding noise.
+        let perp = up - up.dot(to) * to;
+        if !(perp.length() > 1e-6 * up.length()) {
+            return Err(CameraError::UpParallelToView);
+        }
+        let up = perp.normalize();
+        for (v, name) in [(screen_distance, "screen_distance"), (screen_width, "screen_width"), (screen_height, "screen_height")] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(CameraError::BadSize(name));
+            }
+        }
+        let right = to.cross(up);
+        Ok(Camera { position, to, up, right, screen_distance, screen_width, screen_height, aperture: 0.0, focus_distance: screen_distance })
+    }
+
+    /// A look-at camera with vertical field of view `fov_deg` for an image of `width × height`
+    /// pixels (square pixels). The screen is placed at the focus distance (the look-at point).
+    pub fn look_at(position: DVec3, target: DVec3, up: DVec3, fov_deg: f64, width: u32, height: u32) -> Result<Camera, CameraError> {
+        if !(fov_deg > 0.0 && fov_deg < 180.0) {
+            return Err(CameraError::BadSize("fov"));
+        }
+        let dist = (target - position).length();
+        if !(dist > 0.0 && dist.is_finite()) {
+            return Err(CameraError::NoViewDirection);
+        }
+        let h = 2.0 * dist * (fov_deg.to_radians() * 0.5).tan();
+        let w = h * width.max(1) as f64 / height.max(1) as f64;
+        Camera::report(position, target - position, up, dist, w, h)
+    }
+
+    /// Reads `[camera]` for an image of `width × height` pixels.
+    pub fn from_params(p: &mut Params, width: u32, height: u32) -> Result<Camera> {
+        let position = p.vec3("position")?;
+        let up = p.vec3("up")?;
+        let cam = if let Some(target) = p.vec3_opt("look_at")? {
+            let fov = p.float("fov")?;
+            Camera::look_at(position, target, up, fov, width, height)
+        } else if let Some(to) = p.vec3_opt("to")? {
+            let dist = p.float("screen_distance")?;
+            let (Some(w), Some(h)) = (p.float_opt("screen_width")?, p.float_opt("screen_height")?) else {
+                return Err(p.error("the report-form camera needs `screen_width` and `screen_height`"));
+            };
+            Camera::report(position, to, up, dist, w, h)
+        } else {
+            return Err(p.error("the camera needs `to` (report form) or `look_at` (look-at form)"));
+        };
+        let mut cam = cam.map_err(|e| p.error(e.to_string()))?;
+        cam.aperture = p.non_negative("aperture")?;
+        if let Some(f) = p.float_opt("focus_distance")? {
+            if !(f > 0.0) {
+                return Err(p.error_at("focus_distance", "expected a number > 0"));
+            }
+            cam.focus_distance = f;
+        }
+        Ok(cam)
+    }
+
+    /// The report's `constructRayThroughPixel`: the ray from the eye through the centre of pixel
+    /// (`x`, `y`) of an `nx × ny` image (x right, y down, from 0):
+    /// `P = Pc + [((x − Nx/2)·Rx + Rx/2)·vRight − ((y − Ny/2)·Ry + Ry/2)·vUp]`.
+    pub fn construct_ray_through_pixel(&self, nx: u32, ny: u32, x: f64, y: f64) -> Ray {
+        self.ray_through(nx, ny, DVec2::new(x + 0.5, y + 0.5), DVec2::splat(0.5))
+    }
+
+    /// The ray through continuous image position `film` (pixel (x, y) covers [x, x+1) × [y, y+1))
+    /// of an `nx × ny` image. `lens` ∈ [0, 1)² picks the point on the lens (ignored for a pinhole).
+    #[inline]
+    pub fn ray_through(&self, nx: u32, ny: u32, film: DVec2, lens: DVec2) -> Ray {
+        let rx = self.screen_width / nx as f64;
+        let ry = self.screen_height / ny as f64;
+        let pc = self.position + self.screen_distance * self.to;
+        let p = pc + ((film.x - nx as f64 / 2.0) * rx) * self.right - ((film.y - ny as f64 / 2.0) * ry) * self.up;
+        let dir = p - self.position;
+        if self.aperture <= 0.0 {
+            return Ray::new(self.position, dir);
+        }
+        let dir = dir.normalize();
+        let focus = self.position + dir * (self.focus_distance / dir.dot(self.to));
+        let d = crate::sampler::concentric_disc(lens) * self.aperture;
+        let origin = self.position + d.x * self.right + d.y * self.up;
+        Ray::new(origin, focus - origin)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The report's formula, written out independently.
+    fn report_formula(c: &Camera, nx: u32, ny: u32, x: f64, y: f64) -> DVec3 {
+        let pc = c.position + c.screen_distance * c.to;
+        let rx = c.screen_width / nx as f64;
+        let ry = c.screen_height / ny as f64;
+        let p = pc + (((x - nx as f64 / 2.0) * rx + rx / 2.0) * c.right - ((y - ny as f64 / 2.0) * ry + ry / 2.0) * c.up);
+        (p - c.position).normalize()
+    }
+
+    #[test]
+    fn rays_match_the_report_at_corners_and_centre_for_odd_and_even_sizes() {
+        let cam = Camera::report(DVec3::new(1.0, 2.0, 3.0), DVec3::new(0.0, 0.0, -1.0), DVec3::Y, 100.0, 300.0, 200.0).unwrap();
+        for (nx, ny) in [(3, 3), (4, 4), (800, 600), (801, 599), (1, 1)] {
+            for (x, y) in [(0, 0), (nx - 1, 0), (0, ny - 1), (nx - 1, ny - 1), (nx / 2, ny / 2)] {
+                let r = cam.construct_ray_through_pixel(nx, ny, x as f64, y as f64);
+                let e = report_formula(&cam, nx, ny, x as f64, y as f64);
+                assert!((r.dir - e).length() < 1e-12, "{nx}x{ny} ({x},{y}): {} vs {}", r.dir, e);
+                assert_eq!(r.origin, cam.position);
+            }
+        }
+    }
+
+    #[test]
+    fn odd_resolution_centre_pixel_looks_straight_ahead() {
+        let cam = Camera::report(DVec3::ZERO, DVec3::new(0.0, 0.0, -1.0), DVec3::Y, 100.0, 150.0, 150.0).unwrap();
+        let r = cam.construct_ray_through_pixel(3, 3, 1.0, 1.0);
+        assert!((r.dir - DVec3::new(0.0, 0.0, -1.0)).length() < 1e-15);
+        // Top-left pixel of 3×3: x toward −right, y toward +up.
+        let tl = cam.construct_ray_through_pixel(3, 3, 0.0, 0.0);
+        assert!(tl.dir.x < 0.0 && tl.dir.y > 0.0);
+        assert_eq!(cam.right, DVec3::X);
+    }
+
+    #[test]
+    fn bad_cameras_are_rejected() {
+        assert_eq!(Camera::report(DVec3::ZERO, DVec3::Y, DVec3::Y, 1.0, 1.0, 1.0), Err(CameraError::UpParallelToView));
+        assert_eq!(Camera::report(DVec3::ZERO, DVec3::ZERO, DVec3::Y, 1.0, 1.0, 1.0), Err(CameraError::NoViewDirection));
+        assert!(Camera::report(DVec3::ZERO, DVec3::Z, DVec3::Y, 0.0, 1.0, 1.0).is_err());
+        assert!(Camera::look_at(DVec3::ZERO, DVec3::ZERO, DVec3::Y, 45.0, 4, 3).is_err());
+        assert!(Camera::look_at(DVec3::ZERO, DVec3::Z, DVec3::Y, 180.0, 4, 3).is_err());
+    }
+
+    #[test]
+    fn look_at_covers_the_field_of_view() {
+        let cam = Camera::look_at(DVec3::ZERO, DVec3::new(0.0, 0.0, -10.0), DVec3::Y, 90.0, 200, 100).unwrap();
+        let top = cam.ray_through(200, 100, DVec2::new(100.0, 0.0), DVec2::ZERO);
+        assert!((top.dir.y / -top.dir.z - 1.0).abs() < 1e-12, "top edge at 45°");
+        let right = cam.ray_through(200, 100, DVec2::new(200.0, 50.0), DVec2::ZERO);
+        assert!((right.dir.x / -right.dir.z - 2.0).abs() < 1e-12, "aspect 2:1");
+    }
+
+    #[test]
+    fn thin_lens_rays_converge_on_the_focus_plane() {
+        let mut cam = Camera::look_at(DVec3::ZERO, DVec3::new(0.0, 0.0, -10.0), DVec3::Y, 40.0, 64, 64).unwrap();
+        cam.aperture = 0.5;
+        let film = DVec2::new(10.5, 20.5);
+        let a = cam.ray_through(64, 64, film, DVec2::new(0.1, 0.2));
+        let b = cam.ray_through(64, 64, film, DVec2::new(0.9, 0.7));
+        let pa = a.at((10.0 - 0.0) / -a.dir.z * 1.0 + 0.0);
+        let hit_a = a.origin + a.dir * ((-10.0 - a.origin.z) / a.dir.z);
+        let hit_b = b.origin + b.dir * ((-10.0 - b.origin.z) / b.dir.z);
+        assert!((hit_a - hit_b).length() < 1e-9, "{pa}");
+        assert_ne!(a.origin, b.origin);
+    }
+}

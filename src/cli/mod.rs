@@ -1,0 +1,228 @@
+//! The `raylab` command line, as a library: a binary builds a [`Registry`] (the built-in plugins,
+//! plus any of its own) and calls [`run`]. The built-in `raylab` binary and a third-party
+//! plugin's binary therefore share one interface. One file per subcommand.
+
+mod plugins;
+mod render;
+mod trace;
+
+use crate::error::{Loc, SceneError, Source};
+use crate::load::{LoadOptions, Overrides};
+use crate::params::{Node, Value};
+use crate::registry::Registry;
+use crate::render::RenderJob;
+use clap::{Args, Parser, Subcommand};
+use std::path::Path;
+use std::process::ExitCode;
+
+pub use render::stats_table;
+
+/// What a binary brings to the CLI: its plugins and its default scene.
+pub struct App {
+    /// All plugins the binary offers.
+    pub registry: Registry,
+    /// The scene rendered when `raylab` runs without arguments: (display name, TOML text).
+    pub default_scene: (&'static str, &'static str),
+}
+
+#[derive(Parser, Debug)]
+#[command(name = "raylab", version, about = "raylab: an extensible, plugin-based ray tracer", long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Render a scene to an image (the bundled default scene when SCENE is omitted).
+    Render(render::RenderArgs),
+    /// Explain one pixel (or one ray): every hit, light test and child ray, and the final colour.
+    Trace(trace::TraceArgs),
+    /// List the registered plugins and their parameters.
+    Plugins(plugins::PluginsArgs),
+}
+
+/// Options shared by every command that loads a scene: overrides of the scene's settings, and
+/// the limits and path policy for untrusted scenes.
+#[derive(Args, Debug, Default, Clone)]
+pub(crate) struct SceneArgs {
+    /// Image width in pixels (overrides the scene).
+    #[arg(long)]
+    width: Option<u32>,
+    /// Image height in pixels (overrides the scene).
+    #[arg(long)]
+    height: Option<u32>,
+    /// Samples per pixel (overrides the scene).
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Maximum recursion depth (sets the integrator's `max_depth`).
+    #[arg(long)]
+    depth: Option<i64>,
+    /// Random seed (overrides the scene).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Integrator type, replacing the scene's (e.g. `normals`, `depth`).
+    #[arg(long)]
+    integrator: Option<String>,
+    /// Set an integrator parameter: `--set max_depth=5` (value in TOML syntax; repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+    /// 8-bit encoding: `srgb` (default) or `linear` (clamped values written straight, as the report).
+    #[arg(long, value_parser = ["srgb", "linear"])]
+    encoding: Option<String>,
+    /// Let the scene read files outside its own folder.
+    #[arg(long)]
+    allow_outside_paths: bool,
+    /// Largest image in pixels (width × height) the scene may ask for.
+    #[arg(long, value_name = "N")]
+    max_pixels: Option<u64>,
+    /// Largest image side in pixels.
+    #[arg(long, value_name = "N")]
+    max_side: Option<u32>,
+    /// Most samples per pixel the scene may ask for.
+    #[arg(long, value_name = "N")]
+    max_spp: Option<u32>,
+    /// Deepest recursion the scene may ask for.
+    #[arg(long, value_name = "N")]
+    max_depth_limit: Option<u32>,
+    /// Largest file (bytes) the scene may make raylab read.
+    #[arg(long, value_name = "N")]
+    max_file_bytes: Option<u64>,
+}
+
+/// Parses `std::env::args` and runs the command.
+pub fn run(app: App) -> ExitCode {
+    run_with_args(app, std::env::args_os())
+}
+
+/// Runs the command given by `args` (the first item is the program name). Exit status 0 on
+/// success, 1 when the command fails (the error is printed to stderr), 2 on a usage error.
+pub fn run_with_args<I, T>(app: App, args: I) -> ExitCode
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    let cli = match Cli::try_parse_from(args) {
+        Ok(c) => c,
+        Err(e) => {
+            let _ = e.print();
+            return if e.use_stderr() { ExitCode::from(2) } else { ExitCode::SUCCESS };
+        }
+    };
+    let result = match cli.command {
+        None => render::run(&app, render::RenderArgs::default_scene()),
+        Some(Command::Render(a)) => render::run(&app, a),
+        Some(Command::Trace(a)) => trace::run(&app, a),
+        Some(Command::Plugins(a)) => plugins::run(&app, a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// A user-facing failure: a located scene error or a plain message.
+pub(crate) enum Failure {
+    Scene(SceneError),
+    Other(String),
+}
+
+impl std::fmt::Display for Failure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Failure::Scene(e) => f.write_str(&e.report()),
+            Failure::Other(s) => f.write_str(s),
+        }
+    }
+}
+
+impl From<SceneError> for Failure {
+    fn from(e: SceneError) -> Self {
+        Failure::Scene(e)
+    }
+}
+
+impl From<String> for Failure {
+    fn from(e: String) -> Self {
+        Failure::Other(e)
+    }
+}
+
+impl SceneArgs {
+    /// The load options these arguments ask for.
+    pub(crate) fn load_options(&self) -> Result<LoadOptions, Failure> {
+        let mut params = Vec::new();
+        if let Some(d) = self.depth {
+            let src = Source::new("--depth", d.to_string());
+            let loc = Loc::new(&src, 0..src.text.len());
+            params.push(("max_depth".to_string(), Node { value: Value::Int(d), loc }));
+        }
+        for s in &self.set {
+            let src = Source::new("--set", s.clone());
+            let Some(eq) = s.find('=') else {
+                return Err(SceneError::at(&Loc::new(&src, 0..s.len()), "expected KEY=VALUE").into());
+            };
+            let key = s[..eq].trim().to_string();
+            let node = crate::load::parse_toml_value(&src, eq + 1..s.len())?;
+            params.push((key, node));
+        }
+        let mut limits = crate::load::Limits::default();
+        if let Some(v) = self.max_pixels {
+            limits.max_pixels = v;
+        }
+        if let Some(v) = self.max_side {
+            limits.max_side = v;
+        }
+        if let Some(v) = self.max_spp {
+            limits.max_spp = v;
+        }
+        if let Some(v) = self.max_depth_limit {
+            limits.max_depth = v;
+        }
+        if let Some(v) = self.max_file_bytes {
+            limits.max_file_bytes = v;
+        }
+        Ok(LoadOptions {
+            overrides: Overrides {
+                width: self.width,
+                height: self.height,
+                spp: self.spp,
+                seed: self.seed,
+                encoding: self.encoding.as_deref().and_then(crate::color::Encoding::parse),
+                integrator: self.integrator.clone(),
+                integrator_params: params,
+            },
+            limits,
+            allow_outside_paths: self.allow_outside_paths,
+        })
+    }
+}
+
+/// Loads `scene` (or the app's default scene) with the options in `a`; returns the job and a
+/// display name.
+pub(crate) fn load(app: &App, scene: Option<&Path>, a: &SceneArgs) -> Result<(RenderJob, String), Failure> {
+    let opts = a.load_options()?;
+    match scene {
+        Some(p) => Ok((crate::load::load_file(&app.registry, p, &opts)?, p.display().to_string())),
+        None => {
+            let (name, text) = app.default_scene;
+            Ok((crate::load::load_str(&app.registry, name, text, Path::new("."), &opts)?, format!("{name} (bundled)")))
+        }
+    }
+}
+
+/// `1234567.0` → `1.23 M`.
+pub(crate) fn si(x: f64) -> String {
+    if x >= 1e9 {
+        format!("{:.2} G", x / 1e9)
+    } else if x >= 1e6 {
+        format!("{:.2} M", x / 1e6)
+    } else if x >= 1e3 {
+        format!("{:.1} k", x / 1e3)
+    } else {
+        format!("{x:.0}")
+    }
+}

@@ -1,0 +1,69 @@
+//! `raylab plugins`: every registered type with its parameter table (name, type, default, meaning).
+
+use super::{App, Failure};
+use crate::registry::{PluginInfo, Registry};
+use clap::Args;
+
+#[derive(Args, Debug)]
+pub(crate) struct PluginsArgs {
+    /// Print Markdown tables (for documentation).
+    #[arg(long)]
+    markdown: bool,
+}
+
+pub(crate) fn run(app: &App, a: PluginsArgs) -> Result<(), Failure> {
+    print!("{}", if a.markdown { markdown(&app.registry) } else { text(&app.registry) });
+    Ok(())
+}
+
+fn sections(reg: &Registry) -> [(&'static str, &'static str, Vec<&PluginInfo>); 3] {
+    [
+        ("GEOMETRIES", "[[object]] type = ...", reg.geometries().collect()),
+        ("LIGHTS", "[[light]] type = ...", reg.lights().collect()),
+        ("INTEGRATORS", "[integrator] type = ...", reg.integrators().collect()),
+    ]
+}
+
+/// The registry as plain text.
+pub fn text(reg: &Registry) -> String {
+    let mut out = String::new();
+    for (title, usage, items) in sections(reg) {
+        out.push_str(&format!("{title} ({usage})\n"));
+        for p in items {
+            out.push_str(&format!("\n  {}  — {}\n", p.name, p.summary));
+            for s in p.params {
+                out.push_str(&format!("    {:<16} {:<9} {:<18} {}\n", s.name, s.kind.name(), s.default.to_string(), s.doc));
+            }
+        }
+        out.push('\n');
+    }
+    if !reg.formats().is_empty() {
+        out.push_str("SCENE FORMATS (besides .toml)\n");
+        for f in reg.formats() {
+            out.push_str(&format!("  .{}  — {}\n", f.extensions.join(", ."), f.summary));
+        }
+    }
+    out
+}
+
+/// The registry as Markdown tables.
+pub fn markdown(reg: &Registry) -> String {
+    let mut out = String::new();
+    for (title, usage, items) in sections(reg) {
+        let title = title[..1].to_string() + &title[1..].to_lowercase();
+        out.push_str(&format!("## {title}\n\nIn a scene: `{usage}`.\n\n"));
+        for p in items {
+            out.push_str(&format!("### `{}`\n\n{}\n\n", p.name, p.summary));
+            if p.params.is_empty() {
+                out.push_str("No parameters.\n\n");
+                continue;
+            }
+            out.push_str("| parameter | type | default | meaning |\n|---|---|---|---|\n");
+            for s in p.params {
+                out.push_str(&format!("| `{}` | {} | {} | {} |\n", s.name, s.kind.name(), s.default, s.doc));
+            }
+            out.push('\n');
+        }
+    }
+    out
+}

@@ -1,0 +1,135 @@
+//! `raylab render`: render a scene to an image, with a progress bar and a one-line summary.
+
+use super::{App, Failure, SceneArgs, si};
+use crate::output::Grid;
+use crate::render::RenderOptions;
+use clap::Args;
+use std::path::PathBuf;
+use std::time::Instant;
+
+#[derive(Args, Debug)]
+pub(crate) struct RenderArgs {
+    /// Scene file (.toml, or any registered format). Omit for the bundled default scene.
+    scene: Option<PathBuf>,
+    /// Output image: .png, .jpg or .jpeg.
+    #[arg(short, long, default_value = "render.png")]
+    output: PathBuf,
+    /// Worker threads (default: all cores). The image does not depend on it.
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Draw grid lines every N pixels over the image (the report's printGrid).
+    #[arg(long, value_name = "N")]
+    grid: Option<u32>,
+    /// Grid line colour as R,G,B (0–255).
+    #[arg(long, value_name = "R,G,B", default_value = "255,255,255")]
+    grid_color: String,
+    /// Print the counters of traced and avoided work after the summary.
+    #[arg(long)]
+    stats: bool,
+    /// No progress bar.
+    #[arg(short, long)]
+    quiet: bool,
+    #[command(flatten)]
+    scene_args: SceneArgs,
+}
+
+impl RenderArgs {
+    /// What `raylab` without arguments does: the default scene to render.png.
+    pub(crate) fn default_scene() -> Self {
+        RenderArgs {
+            scene: None,
+            output: "render.png".into(),
+            threads: None,
+            grid: None,
+            grid_color: "255,255,255".into(),
+            stats: false,
+            quiet: false,
+            scene_args: SceneArgs::default(),
+        }
+    }
+}
+
+pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
+    let t0 = Instant::now();
+    let grid = match a.grid {
+        None => None,
+        Some(0) => return Err("--grid must be at least 1".to_string().into()),
+        Some(interval) => Some(Grid { interval, color: parse_rgb8(&a.grid_color)? }),
+    };
+    crate::output::kind_for(&a.output).map_err(|e| e.to_string())?;
+    let (job, scene_name) = super::load(app, a.scene.as_deref(), &a.scene_args)?;
+    let load_time = t0.elapsed();
+    let s = job.settings;
+    let bar = if a.quiet {
+        indicatif::ProgressBar::hidden()
+    } else {
+        let total = u64::from(s.width) * u64::from(s.height);
+        let b = indicatif::ProgressBar::with_draw_target(Some(total), indicatif::ProgressDrawTarget::stderr());
+        if let Ok(style) = indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {percent:>3}% {msg}") {
+            b.set_style(style.progress_chars("=> "));
+        }
+        b
+    };
+    bar.set_message(scene_name.clone());
+    let options = RenderOptions { threads: a.threads, cancel: None };
+    let rendered = crate::render::render(&job, &options, &|done, _| bar.set_position(done))?;
+    bar.finish_and_clear();
+    let t_write = Instant::now();
+    crate::output::write_image(&a.output, &rendered.film, s.encoding, grid).map_err(|e| e.to_string())?;
+    let write_time = t_write.elapsed();
+    let st = rendered.stats;
+    let secs = rendered.elapsed.as_secs_f64();
+    let threads = a.threads.unwrap_or_else(rayon::current_num_threads);
+    let describe = job.integrator.describe();
+    println!(
+        "wrote {} ({}×{}, {} spp, {}{}) from {scene_name}: trace {:.3} s on {threads} thread{}, {} rays, {} rays/s (load {:.3} s, write {:.3} s)",
+        a.output.display(),
+        s.width,
+        s.height,
+        s.spp,
+        job.integrator_name,
+        if describe.is_empty() { String::new() } else { format!(" {describe}") },
+        secs,
+        if threads == 1 { "" } else { "s" },
+        si(st.total_rays() as f64),
+        si(st.total_rays() as f64 / secs.max(1e-9)),
+        load_time.as_secs_f64(),
+        write_time.as_secs_f64(),
+    );
+    if st.nonfinite_samples > 0 {
+        eprintln!("warning: {} samples were NaN or infinite and were dropped", st.nonfinite_samples);
+    }
+    if a.stats {
+        print!("{}", stats_table(&st));
+    }
+    Ok(())
+}
+
+/// The counters of a render as an aligned table.
+pub fn stats_table(st: &crate::stats::RayStats) -> String {
+    let rows = [
+        ("camera rays", st.camera_rays),
+        ("shadow rays", st.shadow_rays),
+        ("reflection rays", st.reflection_rays),
+        ("refraction rays", st.refraction_rays),
+        ("avoided: light behind surface", st.lights_behind),
+        ("avoided: light negligible", st.lights_negligible),
+        ("avoided: pruned rays", st.pruned_rays),
+        ("avoided: depth limit", st.depth_limited),
+        ("non-finite samples", st.nonfinite_samples),
+    ];
+    rows.iter().map(|(k, v)| format!("  {k:<32}{v:>14}\n")).collect()
+}
+
+fn parse_rgb8(s: &str) -> Result<[u8; 3], Failure> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    let bad = || Failure::Other(format!("--grid-color: expected R,G,B with each 0–255, found \"{s}\""));
+    if parts.len() != 3 {
+        return Err(bad());
+    }
+    let mut c = [0u8; 3];
+    for (slot, p) in c.iter_mut().zip(parts) {
+        *slot = p.parse().map_err(|_| bad())?;
+    }
+    Ok(c)
+}

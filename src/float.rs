@@ -1,0 +1,123 @@
+//! Floating-point robustness, in one place: rounding-error bounds, ulp steps, robust ray
+//! origins, and every tolerance the renderer uses.
+//!
+//! raylab computes geometry in `f64`. Rather than one magic epsilon, each shape returns the hit
+//! point together with a conservative bound on its rounding error (pbrt-v4, §6.8). A secondary
+//! ray starts from that point pushed just outside its error box along the normal
+//! ([`offset_ray_origin`]), so it cannot re-hit the surface it leaves, whatever the scene's scale.
+
+use glam::DVec3;
+
+/// Bound on the relative rounding error of one correctly rounded `f64` operation (½ ulp of 1).
+pub const MACHINE_EPSILON: f64 = f64::EPSILON * 0.5;
+
+/// γ(n) = nε / (1 − nε): bound on the relative error accumulated by `n` successive
+/// floating-point operations (Higham, *Accuracy and Stability of Numerical Algorithms*, §3.1).
+#[inline]
+pub const fn gamma(n: u32) -> f64 {
+    let ne = n as f64 * MACHINE_EPSILON;
+    ne / (1.0 - ne)
+}
+
+/// Fraction of a light's distance that shadow rays stop short of it, so a light placed on a
+/// surface is not shadowed by that surface. Relative, hence independent of the scene's scale.
+pub const SHADOW_EPSILON: f64 = 1e-9;
+
+/// Relative tolerance used by tests and validators when checking that a point lies on a surface:
+/// `|f(p)| ≤ SURFACE_TOLERANCE · scale`, where `scale` is the magnitude of the coordinates.
+pub const SURFACE_TOLERANCE: f64 = 1e-9;
+
+/// Componentwise absolute value bound helper: `gamma(n) * |v|`.
+#[inline]
+pub fn error_bound(n: u32, v: DVec3) -> DVec3 {
+    gamma(n) * v.abs()
+}
+
+/// Moves `p` (with absolute error bound `err` per axis) off its surface along the unit normal `n`,
+/// onto the side that direction `w` leaves towards, and rounds the result away from `p`, so that a
+/// ray from the returned origin along `w` cannot intersect the surface it starts on.
+///
+/// This is pbrt-v4's `OffsetRayOrigin`: the offset is the projection of the error box onto the
+/// normal, so it scales with the magnitude of the coordinates and needs no scene-specific epsilon.
+#[inline]
+pub fn offset_ray_origin(p: DVec3, err: DVec3, n: DVec3, w: DVec3) -> DVec3 {
+    let d = n.abs().dot(err);
+    let mut offset = d * n;
+    if w.dot(n) < 0.0 {
+        offset = -offset;
+    }
+    let mut po = p + offset;
+    for i in 0..3 {
+        if offset[i] > 0.0 {
+            po[i] = po[i].next_up();
+        } else if offset[i] < 0.0 {
+            po[i] = po[i].next_down();
+        }
+    }
+    po
+}
+
+/// Quadratic `a t² + b t + c = 0` solved without cancellation; roots in ascending order.
+/// Returns `None` when the discriminant is negative or the equation is degenerate.
+#[inline]
+pub fn solve_quadratic(a: f64, b: f64, c: f64) -> Option<(f64, f64)> {
+    if a == 0.0 {
+        if b == 0.0 {
+            return None;
+        }
+        let t = -c / b;
+        return Some((t, t));
+    }
+    let disc = b * b - 4.0 * a * c;
+    if disc < 0.0 {
+        return None;
+    }
+    let root = disc.sqrt();
+    let q = if b < 0.0 { -0.5 * (b - root) } else { -0.5 * (b + root) };
+    let (t0, t1) = if q == 0.0 { (0.0, 0.0) } else { (q / a, c / q) };
+    Some(if t0 <= t1 { (t0, t1) } else { (t1, t0) })
+}
+
+/// Largest absolute coordinate of `v`, used as the "scale" of a position.
+#[inline]
+pub fn max_abs(v: DVec3) -> f64 {
+    v.abs().max_element()
+}
+
+/// True when every component is finite.
+#[inline]
+pub fn is_finite3(v: DVec3) -> bool {
+    v.is_finite()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gamma_grows_with_operation_count() {
+        assert!(gamma(1) > MACHINE_EPSILON * 0.99);
+        assert!(gamma(5) > gamma(3));
+        assert!(gamma(10) < 1e-14);
+    }
+
+    #[test]
+    fn offset_moves_to_the_side_of_w_and_beyond_the_error_box() {
+        let p = DVec3::new(1e5, -3.0, 7.5);
+        let err = DVec3::splat(1e-9);
+        let n = DVec3::Z;
+        let above = offset_ray_origin(p, err, n, DVec3::new(0.3, 0.0, 1.0));
+        let below = offset_ray_origin(p, err, n, DVec3::new(0.3, 0.0, -1.0));
+        assert!(above.z > p.z + 1e-9 && below.z < p.z - 1e-9);
+        assert_eq!(above.x, p.x);
+    }
+
+    #[test]
+    fn quadratic_roots_are_ordered_and_accurate() {
+        // (t - 1e-8)(t - 1e8) = t² - (1e8 + 1e-8) t + 1
+        let (t0, t1) = solve_quadratic(1.0, -(1e8 + 1e-8), 1.0).unwrap();
+        assert!((t0 - 1e-8).abs() < 1e-20 && (t1 - 1e8).abs() < 1e-6);
+        assert!(solve_quadratic(1.0, 0.0, 1.0).is_none());
+        assert!(solve_quadratic(0.0, 0.0, 1.0).is_none());
+    }
+}

@@ -1,0 +1,30 @@
+//! The [`Integrator`] trait: turns a camera ray into a colour.
+
+use crate::color::Color;
+use crate::ray::Ray;
+use crate::sampler::Sampler;
+use crate::scene::Scene;
+use crate::stats::RayStats;
+use crate::trace::TraceNode;
+
+/// A light-transport algorithm: the recursive Phong model, a debug view, a path tracer…
+///
+/// Implementations must be deterministic given the sampler (draw every random number from it)
+/// and must not allocate per ray in [`Integrator::radiance`].
+pub trait Integrator: Send + Sync {
+    /// The colour seen along the camera ray `ray` (linear RGB). Counts traced and avoided rays in
+    /// `stats`.
+    fn radiance(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler, stats: &mut RayStats) -> Color;
+
+    /// The same computation as [`Integrator::radiance`], recorded as a ray tree for
+    /// `raylab trace`. `None` when the integrator cannot explain itself.
+    fn explain(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler) -> Option<TraceNode> {
+        let _ = (scene, ray, sampler);
+        None
+    }
+
+    /// One line describing the settings, for the render summary (e.g. `max_depth 3, prune 0.001`).
+    fn describe(&self) -> String {
+        String::new()
+    }
+}

@@ -1,0 +1,48 @@
+//! The [`LightSource`] trait: how much light arrives at a point, from where.
+
+use crate::color::Color;
+use glam::{DVec2, DVec3};
+
+/// Light arriving at a point from one light (or one sample point of an area light).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightSample {
+    /// Unit direction from the shaded point toward the light (the report's `−L`).
+    pub dir: DVec3,
+    /// Distance to the light along `dir`, scene units; `f64::INFINITY` for directional lights.
+    /// Shadow rays test for occluders closer than this.
+    pub distance: f64,
+    /// Intensity arriving at the point (linear RGB), attenuation included.
+    pub intensity: Color,
+}
+
+/// A source of light.
+pub trait LightSource: Send + Sync {
+    /// Light arriving at `p`. `u` is a uniform sample in [0, 1)² that area lights use to pick a
+    /// point on the emitter; point-like lights ignore it. `None` when no light reaches `p`
+    /// (outside a spot's cone, or an ambient light, which has no direction).
+    fn illuminate(&self, p: DVec3, u: DVec2) -> Option<LightSample>;
+
+    /// Constant light this source adds everywhere, independent of direction (ambient light).
+    /// Zero for lights with a position or direction.
+    fn ambient(&self) -> Color {
+        Color::ZERO
+    }
+
+    /// Number of shadow samples an integrator should take (1 for point-like lights; area lights
+    /// may ask for more to resolve penumbrae).
+    fn sample_count(&self) -> u32 {
+        1
+    }
+}
+
+impl<T: LightSource + ?Sized> LightSource for Box<T> {
+    fn illuminate(&self, p: DVec3, u: DVec2) -> Option<LightSample> {
+        (**self).illuminate(p, u)
+    }
+    fn ambient(&self) -> Color {
+        (**self).ambient()
+    }
+    fn sample_count(&self) -> u32 {
+        (**self).sample_count()
+    }
+}

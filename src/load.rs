@@ -1,0 +1,533 @@
+//! Loading a scene: reading a scene file into raylab's scene description (a located [`Table`]),
+//! then building it, plugin by plugin, through the [`Registry`].
+//!
+//! Every format (raylab's TOML here; others registered as [`crate::registry::SceneFormat`])
+//! produces the same description, so validation, limits and error locations work alike for all.
+
+use crate::camera::{CAMERA_PARAMS, Camera};
+use crate::color::Encoding;
+use crate::error::{Loc, Result, SceneError, Source, did_you_mean};
+use crate::material::{Material, MaterialLibrary};
+use crate::params::{Default, Node, ParamKind, ParamSpec, Params, Table, Value};
+use crate::registry::Registry;
+use crate::render::{RenderJob, RenderSettings};
+use crate::scene::Scene;
+use std::path::{Component, Path, PathBuf};
+use std::sync::Arc;
+
+/// A scene as read from a file, before building: the root table in raylab's format.
+#[derive(Clone, Debug)]
+pub struct SceneDescription {
+    /// Scene name (the file stem unless the file sets `name`).
+    pub name: String,
+    /// The root table (keys as in the TOML format).
+    pub root: Table,
+    /// Location of the whole document.
+    pub loc: Loc,
+}
+
+/// Upper bounds checked before anything is allocated. Each can be raised from the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Limits {
+    /// Largest image, in pixels (width × height).
+    pub max_pixels: u64,
+    /// Largest image side, in pixels.
+    pub max_side: u32,
+    /// Most samples per pixel.
+    pub max_spp: u32,
+    /// Deepest recursion an integrator may be asked for.
+    pub max_depth: u32,
+    /// Largest file a scene may make raylab read (meshes, included files), bytes.
+    pub max_file_bytes: u64,
+}
+
+impl std::default::Default for Limits {
+    fn default() -> Self {
+        Limits { max_pixels: 1 << 26, max_side: 1 << 15, max_spp: 1 << 16, max_depth: 64, max_file_bytes: 1 << 31 }
+    }
+}
+
+impl Limits {
+    /// No limits (every bound at its type's maximum).
+    pub fn unlimited() -> Self {
+        Limits { max_pixels: u64::MAX, max_side: u32::MAX, max_spp: u32::MAX, max_depth: u32::MAX, max_file_bytes: u64::MAX }
+    }
+}
+
+/// Settings given outside the scene file (command line), which take precedence over it.
+#[derive(Clone, Debug, std::default::Default)]
+pub struct Overrides {
+    /// Image width, pixels.
+    pub width: Option<u32>,
+    /// Image height, pixels.
+    pub height: Option<u32>,
+    /// Samples per pixel.
+    pub spp: Option<u32>,
+    /// Random seed.
+    pub seed: Option<u64>,
+    /// 8-bit encoding.
+    pub encoding: Option<Encoding>,
+    /// Integrator type; replaces the scene's integrator and its parameters.
+    pub integrator: Option<String>,
+    /// Integrator parameters, `(name, value)`, applied over the scene's.
+    pub integrator_params: Vec<(String, Node)>,
+}
+
+/// How to load a scene.
+#[derive(Clone, Debug, std::default::Default)]
+pub struct LoadOptions {
+    /// Command-line settings over the file's.
+    pub overrides: Overrides,
+    /// Size limits.
+    pub limits: Limits,
+    /// Let the scene read files outside its own folder (absolute paths, `..`). Off by default, so
+    /// untrusted scenes can be rendered safely.
+    pub allow_outside_paths: bool,
+}
+
+/// What a plugin constructor may use while building: where the scene is, and the load options.
+pub struct LoadContext<'a> {
+    /// Folder of the scene file; relative asset paths resolve against it.
+    pub scene_dir: &'a Path,
+    /// The options the scene is loaded with.
+    pub options: &'a LoadOptions,
+}
+
+impl LoadContext<'_> {
+    /// Resolves a path written in the scene (at `loc`) against the scene's folder, refusing
+    /// absolute paths and paths that leave the folder unless `allow_outside_paths` is set.
+    pub fn resolve_path(&self, path: &str, loc: &Loc) -> Result<PathBuf> {
+        let p = Path::new(path);
+        if path.is_empty() {
+            return Err(SceneError::at(loc, "expected a file path, found an empty string"));
+        }
+        let escapes = p.is_absolute() || p.components().any(|c| matches!(c, Component::ParentDir | Component::Prefix(_)));
+        if escapes && !self.options.allow_outside_paths {
+            return Err(SceneError::at(loc, format!("path \"{path}\" leaves the scene's folder"))
+                .with_help("scenes may only read files in their own folder; pass --allow-outside-paths to permit this"));
+        }
+        let full = self.scene_dir.join(p);
+        if !self.options.allow_outside_paths {
+            // A symbolic link inside the folder must not lead out of it either.
+            if let (Ok(dir), Ok(target)) = (self.scene_dir.canonicalize(), full.canonicalize()) {
+                if !target.starts_with(&dir) {
+                    return Err(SceneError::at(loc, format!("path \"{path}\" resolves outside the scene's folder"))
+                        .with_help("pass --allow-outside-paths to permit this"));
+                }
+            }
+        }
+        Ok(full)
+    }
+
+    /// Reads a file the scene names (resolved with [`LoadContext::resolve_path`]), refusing files
+    /// larger than the limit before reading them.
+    pub fn read_file(&self, path: &str, loc: &Loc) -> Result<(PathBuf, Vec<u8>)> {
+        let full = self.resolve_path(path, loc)?;
+        let meta = std::fs::metadata(&full).map_err(|e| SceneError::at(loc, format!("cannot read \"{}\": {e}", full.display())))?;
+        if meta.len() > self.options.limits.max_file_bytes {
+            return Err(SceneError::at(
+                loc,
+                format!("\"{}\" is {} bytes, over the limit of {}", full.display(), meta.len(), self.options.limits.max_file_bytes),
+            )
+            .with_help("raise it with --max-file-bytes"));
+        }
+        let bytes = std::fs::read(&full).map_err(|e| SceneError::at(loc, format!("cannot read \"{}\": {e}", full.display())))?;
+        Ok((full, bytes))
+    }
+}
+
+/// The keys of a scene file's root.
+pub const SCENE_PARAMS: &[ParamSpec] = &[
+    ParamSpec::new("name", ParamKind::Str, Default::Optional, "scene name (default: the file name)"),
+    ParamSpec::new("background", ParamKind::Color, Default::Float(0.0), "colour of rays that hit nothing, linear RGB"),
+    ParamSpec::new("render", ParamKind::Any, Default::Optional, "[render] table: image size, samples, seed, encoding"),
+    ParamSpec::new("camera", ParamKind::Any, Default::Required, "[camera] table"),
+    ParamSpec::new("integrator", ParamKind::Any, Default::Optional, "[integrator] table: `type` and its parameters"),
+    ParamSpec::new("materials", ParamKind::Any, Default::Optional, "[materials.NAME] tables"),
+    ParamSpec::new("object", ParamKind::Any, Default::Optional, "[[object]] tables: `type`, optional `name`, and the type's parameters"),
+    ParamSpec::new("light", ParamKind::Any, Default::Optional, "[[light]] tables: `type`, optional `name`, and the type's parameters"),
+];
+
+/// The keys of `[render]`.
+pub const RENDER_PARAMS: &[ParamSpec] = &[
+    ParamSpec::new("width", ParamKind::Int, Default::Int(800), "image width, pixels"),
+    ParamSpec::new("height", ParamKind::Int, Default::Int(600), "image height, pixels"),
+    ParamSpec::new("spp", ParamKind::Int, Default::Int(1), "samples per pixel (1 = through the pixel centre, more = stratified jitter)"),
+    ParamSpec::new("seed", ParamKind::Int, Default::Int(0), "random seed; same seed, same image"),
+    ParamSpec::new(
+        "encoding",
+        ParamKind::Str,
+        Default::Str("srgb"),
+        "8-bit encoding: \"srgb\" or \"linear\" (clamped values written straight, as the report)",
+    ),
+];
+
+/// Reads and builds the scene file at `path`, choosing the format by extension (`.toml` is
+/// raylab's own; others must be registered).
+pub fn load_file(registry: &Registry, path: &Path, options: &LoadOptions) -> Result<RenderJob> {
+    let desc = read_file(registry, path, options)?;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    build(registry, &desc, &LoadContext { scene_dir: dir, options })
+}
+
+/// Reads the scene file at `path` into a description without building it.
+pub fn read_file(registry: &Registry, path: &Path, options: &LoadOptions) -> Result<SceneDescription> {
+    let meta = std::fs::metadata(path).map_err(|e| SceneError::in_file(path, None, format!("cannot read scene: {e}")))?;
+    if meta.len() > options.limits.max_file_bytes {
+        return Err(SceneError::in_file(
+            path,
+            None,
+            format!("scene file is {} bytes, over the limit of {}", meta.len(), options.limits.max_file_bytes),
+        ));
+    }
+    let bytes = std::fs::read(path).map_err(|e| SceneError::in_file(path, None, format!("cannot read scene: {e}")))?;
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let ctx = LoadContext { scene_dir: dir, options };
+    if ext == "toml" {
+        let text = String::from_utf8(bytes).map_err(|e| {
+            SceneError::in_file(path, None, format!("scene file is not UTF-8 text (byte {})", e.utf8_error().valid_up_to()))
+        })?;
+        return parse_toml(&Source::new(path.display().to_string(), text), stem(path));
+    }
+    match registry.format_for(&ext) {
+        Some(f) => (f.read)(path, &bytes, &ctx),
+        None => {
+            let known: Vec<String> = std::iter::once("toml".to_string())
+                .chain(registry.formats().iter().flat_map(|f| f.extensions.iter().map(|e| e.to_string())))
+                .collect();
+            Err(SceneError::in_file(path, None, format!("unknown scene format \".{ext}\"; expected one of: .{}", known.join(", ."))))
+        }
+    }
+}
+
+/// Builds a TOML scene given as text. `name` names it in messages; relative paths resolve
+/// against `scene_dir`.
+pub fn load_str(registry: &Registry, name: &str, text: &str, scene_dir: &Path, options: &LoadOptions) -> Result<RenderJob> {
+    let desc = parse_toml(&Source::new(name, text), stem(Path::new(name)))?;
+    build(registry, &desc, &LoadContext { scene_dir, options })
+}
+
+fn stem(p: &Path) -> String {
+    p.file_stem().and_then(|s| s.to_str()).unwrap_or("scene").to_string()
+}
+
+/// Parses raylab's TOML scene format into a description.
+pub fn parse_toml(source: &Arc<Source>, name: String) -> Result<SceneDescription> {
+    let doc = toml::de::DeTable::parse(&source.text).map_err(|e| {
+        let span = e.span().unwrap_or(0..0);
+        SceneError::at(&Loc::new(source, span), format!("TOML syntax error: {}", e.message().trim()))
+    })?;
+    let loc = Loc::new(source, 0..source.text.len());
+    let root = convert_table(doc.get_ref(), source)?;
+    Ok(SceneDescription { name, root, loc })
+}
+
+/// Parses one TOML value written on the command line (`--set key=VALUE`).
+pub fn parse_toml_value(source: &Arc<Source>, range: std::ops::Range<usize>) -> Result<Node> {
+    let text = &source.text[range.clone()];
+    let v = toml::de::DeValue::parse(text)
+        .map_err(|e| SceneError::at(&Loc::new(source, range.clone()), format!("expected a TOML value: {}", e.message().trim())))?;
+    let mut n = convert_value(&v, source)?;
+    shift_locs(&mut n, range.start);
+    Ok(n)
+}
+
+fn shift_locs(n: &mut Node, by: usize) {
+    n.loc.start += by;
+    n.loc.end += by;
+    match &mut n.value {
+        Value::Array(items) => items.iter_mut().for_each(|i| shift_locs(i, by)),
+        Value::Table(t) => t.entries.iter_mut().for_each(|e| {
+            e.key_loc.start += by;
+            e.key_loc.end += by;
+            shift_locs(&mut e.value, by);
+        }),
+        _ => {}
+    }
+}
+
+fn convert_table(t: &toml::de::DeTable<'_>, src: &Arc<Source>) -> Result<Table> {
+    let mut out = Table::default();
+    for (k, v) in t {
+        let key_loc = Loc::new(src, k.span());
+        out.entries.push(crate::params::Entry { key: k.get_ref().to_string(), key_loc, value: convert_value(v, src)? });
+    }
+    Ok(out)
+}
+
+fn convert_value(v: &toml::Spanned<toml::de::DeValue<'_>>, src: &Arc<Source>) -> Result<Node> {
+    use toml::de::DeValue;
+    let loc = Loc::new(src, v.span());
+    let value = match v.get_ref() {
+        DeValue::String(s) => Value::Str(s.to_string()),
+        DeValue::Boolean(b) => Value::Bool(*b),
+        DeValue::Integer(i) => {
+            let digits = i.as_str().replace('_', "");
+            let (neg, body) = match digits.strip_prefix('-') {
+                Some(b) => (true, b),
+                None => (false, digits.strip_prefix('+').unwrap_or(&digits)),
+            };
+            let body = if i.radix() != 10 { &body[2..] } else { body };
+            let mag = i128::from_str_radix(body, i.radix()).map_err(|_| SceneError::at(&loc, "integer out of range"))?;
+            let val = if neg { -mag } else { mag };
+            Value::Int(i64::try_from(val).map_err(|_| SceneError::at(&loc, "integer out of range for 64 bits"))?)
+        }
+        DeValue::Float(f) => {
+            let s = f.as_str().replace('_', "");
+            Value::Float(s.parse::<f64>().map_err(|_| SceneError::at(&loc, format!("malformed number {s}")))?)
+        }
+        DeValue::Datetime(_) => return Err(SceneError::at(&loc, "dates and times are not valid in a scene")),
+        DeValue::Array(items) => Value::Array(items.iter().map(|i| convert_value(i, src)).collect::<Result<_>>()?),
+        DeValue::Table(t) => Value::Table(convert_table(t, src)?),
+    };
+    Ok(Node { value, loc })
+}
+
+/// Builds a scene description into a render job: validates every table against its plugin's
+/// parameter table, applies command-line overrides and limits, and constructs every plugin.
+pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) -> Result<RenderJob> {
+    let opts = ctx.options;
+    let ov = &opts.overrides;
+    let mut root = Params::new(format!("scene {}", desc.name), SCENE_PARAMS, &desc.root, desc.loc.clone(), None);
+    let name = match root.node("name")? {
+        Some(n) => match &n.value {
+            Value::Str(s) => s.clone(),
+            _ => return Err(SceneError::at(&n.loc, "`name` must be a string")),
+        },
+        None => desc.name.clone(),
+    };
+    let background = root.color("background")?;
+
+    // [render]
+    let empty = Table::default();
+    let (render_table, render_loc) = sub_table(root.node("render")?, &desc.loc, &empty, "render")?;
+    let mut rp = Params::new("[render]", RENDER_PARAMS, render_table, render_loc, None);
+    let limits = &opts.limits;
+    let max_side = i64::from(limits.max_side.min(i32::MAX as u32));
+    let width = match ov.width {
+        Some(w) => i64::from(w),
+        None => rp.int_in("width", 1..=i64::MAX)?,
+    };
+    let height = match ov.height {
+        Some(h) => i64::from(h),
+        None => rp.int_in("height", 1..=i64::MAX)?,
+    };
+    for (v, what) in [(width, "width"), (height, "height")] {
+        if v < 1 || v > max_side {
+            return Err(rp
+                .error_at(what, format_args!("image {what} {v} is outside 1..={max_side}"))
+                .with_help("raise the limit with --max-side"));
+        }
+    }
+    let pixels = width as u64 * height as u64;
+    if pixels > limits.max_pixels {
+        return Err(rp
+            .error(format!("image of {width}×{height} = {pixels} pixels exceeds the limit of {} pixels", limits.max_pixels))
+            .with_help("raise the limit with --max-pixels"));
+    }
+    let spp = match ov.spp {
+        Some(s) => i64::from(s),
+        None => rp.int_in("spp", 1..=i64::MAX)?,
+    };
+    if spp < 1 || spp > i64::from(limits.max_spp) {
+        return Err(rp
+            .error_at("spp", format_args!("{spp} samples per pixel is outside 1..={}", limits.max_spp))
+            .with_help("raise the limit with --max-spp"));
+    }
+    let seed = match ov.seed {
+        Some(s) => s,
+        None => rp.int_in("seed", 0..=i64::MAX)? as u64,
+    };
+    let encoding = match ov.encoding {
+        Some(e) => e,
+        None => Encoding::parse(&rp.choice("encoding", &["srgb", "linear"])?).unwrap_or_default(),
+    };
+    rp.finish()?;
+    let settings = RenderSettings { width: width as u32, height: height as u32, spp: spp as u32, seed, encoding };
+
+    // [camera]
+    let Some(cam_node) = root.node("camera")? else {
+        return Err(SceneError::at(&desc.loc, "the scene has no [camera]")
+            .with_help("add a [camera] table with `position` and `look_at` (or the report's `to` and `screen_*`)"));
+    };
+    let (cam_table, cam_loc) = sub_table(Some(cam_node), &desc.loc, &empty, "camera")?;
+    let mut cp = Params::new("[camera]", CAMERA_PARAMS, cam_table, cam_loc, None);
+    let camera = Camera::from_params(&mut cp, settings.width, settings.height)?;
+    cp.finish()?;
+
+    // [materials.NAME]
+    let mut materials = MaterialLibrary::default();
+    if let Some(n) = root.node("materials")? {
+        let Value::Table(t) = &n.value else {
+            return Err(SceneError::at(&n.loc, "`materials` must be a table of [materials.NAME] tables"));
+        };
+        for e in &t.entries {
+            let Value::Table(mt) = &e.value.value else {
+                return Err(SceneError::at(&e.value.loc, format!("material \"{}\" must be a table of coefficients", e.key)));
+            };
+            materials.insert(e.key.clone(), Material::from_table(mt, &e.value.loc, &format!("material \"{}\"", e.key))?);
+        }
+    }
+
+    // [[object]]
+    let mut objects = Vec::new();
+    let mut names = NameSet::default();
+    for (i, node) in array_of_tables(root.node("object")?, "object")?.into_iter().enumerate() {
+        let (ty, label, params) =
+            plugin_header(node, i, "object", |n| registry.geometry(n).is_some(), || registry.geometries().map(|p| p.name).collect())?;
+        let plugin = registry.geometry(&ty).expect("checked by plugin_header");
+        let what = format!("object #{i} {label}({ty})");
+        let mut p = Params::new(&what, plugin.info.params, &params, node.loc.clone(), Some(&materials));
+        let g = (plugin.build)(&mut p, ctx)?;
+        p.finish()?;
+        objects.push((names.claim(node, &label, &ty, i)?, g));
+    }
+
+    // [[light]]
+    let mut lights = Vec::new();
+    let mut light_names = NameSet::default();
+    for (i, node) in array_of_tables(root.node("light")?, "light")?.into_iter().enumerate() {
+        let (ty, label, params) =
+            plugin_header(node, i, "light", |n| registry.light(n).is_some(), || registry.lights().map(|p| p.name).collect())?;
+        let plugin = registry.light(&ty).expect("checked by plugin_header");
+        let what = format!("light #{i} {label}({ty})");
+        let mut p = Params::new(&what, plugin.info.params, &params, node.loc.clone(), None);
+        let l = (plugin.build)(&mut p, ctx)?;
+        p.finish()?;
+        lights.push((light_names.claim(node, &label, &ty, i)?, l));
+    }
+
+    // [integrator]
+    let integ_node = root.node("integrator")?;
+    root.finish()?;
+    let (file_table, integ_loc) = sub_table(integ_node, &desc.loc, &empty, "integrator")?;
+    let mut integ_table = file_table.clone();
+    let file_type = match integ_table.remove("type") {
+        Some(e) => match e.value.value {
+            Value::Str(s) => Some((s, e.value.loc)),
+            _ => return Err(SceneError::at(&e.value.loc, "integrator `type` must be a string")),
+        },
+        None => None,
+    };
+    let (ty, ty_loc) = match (&ov.integrator, file_type) {
+        (Some(t), Some((ft, _))) if *t != ft => {
+            integ_table = Table::default();
+            (t.clone(), None)
+        }
+        (Some(t), _) => (t.clone(), None),
+        (None, Some((t, l))) => (t, Some(l)),
+        (None, None) => (registry.default_integrator().ok_or_else(|| SceneError::msg("no integrator is registered"))?.to_string(), None),
+    };
+    let Some(plugin) = registry.integrator(&ty) else {
+        let names: Vec<&str> = registry.integrators().map(|p| p.name).collect();
+        let e = match &ty_loc {
+            Some(l) => SceneError::at(l, format!("unknown integrator \"{ty}\"")),
+            None => SceneError::msg(format!("unknown integrator \"{ty}\"")),
+        };
+        return Err(e.with_help(suggest(&ty, &names)));
+    };
+    for (k, v) in &ov.integrator_params {
+        if !plugin.info.params.iter().any(|s| s.name == k) {
+            let names: Vec<&str> = plugin.info.params.iter().map(|s| s.name).collect();
+            return Err(SceneError::at(&v.loc, format!("integrator \"{ty}\" has no parameter `{k}`"))
+                .with_help(format!("its parameters: {}", names.join(", "))));
+        }
+        integ_table.set(k, v.loc.clone(), v.clone());
+    }
+    if let Some(n) = integ_table.get("max_depth") {
+        if let Value::Int(d) = n.value {
+            if d > i64::from(limits.max_depth) {
+                return Err(SceneError::at(&n.loc, format!("max_depth {d} exceeds the limit of {}", limits.max_depth))
+                    .with_help("raise it with --max-depth-limit"));
+            }
+        }
+    }
+    let mut ip = Params::new(format!("integrator \"{ty}\""), plugin.info.params, &integ_table, integ_loc, None);
+    let integrator = (plugin.build)(&mut ip, ctx)?;
+    ip.finish()?;
+
+    let scene = Scene::new(name, camera, background, objects, lights);
+    Ok(RenderJob { scene, integrator, integrator_name: ty, settings })
+}
+
+fn sub_table<'a>(node: Option<&'a Node>, doc: &Loc, empty: &'a Table, what: &str) -> Result<(&'a Table, Loc)> {
+    match node {
+        None => Ok((empty, doc.clone())),
+        Some(n) => match &n.value {
+            Value::Table(t) => Ok((t, n.loc.clone())),
+            other => Err(SceneError::at(&n.loc, format!("`{what}` must be a table, found {}", other.type_name()))),
+        },
+    }
+}
+
+fn array_of_tables<'a>(node: Option<&'a Node>, what: &str) -> Result<Vec<&'a Node>> {
+    let Some(n) = node else { return Ok(Vec::new()) };
+    let Value::Array(items) = &n.value else {
+        return Err(SceneError::at(&n.loc, format!("`{what}` must be a list of tables; write [[{what}]]")));
+    };
+    for it in items {
+        if !matches!(it.value, Value::Table(_)) {
+            return Err(SceneError::at(&it.loc, format!("each {what} must be a table, found {}", it.value.type_name())));
+        }
+    }
+    Ok(items.iter().collect())
+}
+
+/// Splits `type` and `name` off a plugin table; returns (type, "\"name\" " or "", the rest).
+fn plugin_header(
+    node: &Node,
+    i: usize,
+    what: &str,
+    known: impl Fn(&str) -> bool,
+    names: impl Fn() -> Vec<&'static str>,
+) -> Result<(String, String, Table)> {
+    let Value::Table(t) = &node.value else { unreachable!("array_of_tables checked this") };
+    let mut rest = t.clone();
+    let ty = match rest.remove("type") {
+        None => {
+            return Err(SceneError::at(&node.loc, format!("{what} #{i} has no `type`"))
+                .with_help(format!("known {what} types: {}", names().join(", "))));
+        }
+        Some(e) => match e.value.value {
+            Value::Str(s) if known(&s) => s,
+            Value::Str(s) => {
+                return Err(SceneError::at(&e.value.loc, format!("unknown {what} type \"{s}\"")).with_help(suggest(&s, &names())));
+            }
+            other => return Err(SceneError::at(&e.value.loc, format!("`type` must be a string, found {}", other.type_name()))),
+        },
+    };
+    let label = match rest.remove("name") {
+        None => String::new(),
+        Some(e) => match e.value.value {
+            Value::Str(s) => format!("\"{s}\" "),
+            other => return Err(SceneError::at(&e.value.loc, format!("`name` must be a string, found {}", other.type_name()))),
+        },
+    };
+    Ok((ty, label, rest))
+}
+
+fn suggest(word: &str, names: &[&str]) -> String {
+    match did_you_mean(word, names.iter().copied()) {
+        Some(m) => format!("did you mean \"{m}\"? (known: {})", names.join(", ")),
+        None => format!("known: {}", names.join(", ")),
+    }
+}
+
+#[derive(Default)]
+struct NameSet(std::collections::HashMap<String, Loc>);
+
+impl NameSet {
+    /// The display name for a plugin instance, rejecting duplicates of explicit names.
+    fn claim(&mut self, node: &Node, label: &str, ty: &str, i: usize) -> Result<String> {
+        if label.is_empty() {
+            return Ok(format!("{ty} #{i}"));
+        }
+        let name = label.trim().trim_matches('"').to_string();
+        if let Some(prev) = self.0.get(&name) {
+            return Err(SceneError::at(&node.loc, format!("the name \"{name}\" is already used at {}", prev.describe())));
+        }
+        self.0.insert(name.clone(), node.loc.clone());
+        Ok(name)
+    }
+}

@@ -1,0 +1,594 @@
+//! Plugin parameters: the located value tree every scene format produces, the typed parameter
+//! table each plugin declares once ([`ParamSpec`]), and the checked accessor plugins read through
+//! ([`Params`]).
+//!
+//! A plugin's parameter table is the single source of truth: the getters take their defaults from
+//! it, `raylab plugins` prints it, and a key in the scene that the plugin never read is an error
+//! naming its location (a typo never passes silently).
+
+use crate::color::Color;
+use crate::error::{Loc, Result, SceneError, did_you_mean};
+use crate::material::{Material, MaterialLibrary};
+use glam::DVec3;
+use std::fmt;
+
+/// A value from a scene file, with where it came from.
+#[derive(Clone, Debug)]
+pub struct Node {
+    /// The value.
+    pub value: Value,
+    /// Where it was written.
+    pub loc: Loc,
+}
+
+/// A scene value: the data model shared by every scene format (TOML, the report's XML, overrides
+/// from the command line).
+#[derive(Clone, Debug)]
+pub enum Value {
+    /// `true` / `false`.
+    Bool(bool),
+    /// An integer.
+    Int(i64),
+    /// A floating-point number (may be non-finite: validation rejects it where it matters).
+    Float(f64),
+    /// A string.
+    Str(String),
+    /// A list.
+    Array(Vec<Node>),
+    /// A table of named values.
+    Table(Table),
+}
+
+impl Value {
+    /// What the value is, for "expected X, found Y" messages.
+    pub fn type_name(&self) -> &'static str {
+        match self {
+            Value::Bool(_) => "a boolean",
+            Value::Int(_) => "an integer",
+            Value::Float(_) => "a number",
+            Value::Str(_) => "a string",
+            Value::Array(_) => "a list",
+            Value::Table(_) => "a table",
+        }
+    }
+}
+
+/// A key of a [`Table`], with where it was written.
+#[derive(Clone, Debug)]
+pub struct Entry {
+    /// The key.
+    pub key: String,
+    /// Where the key was written.
+    pub key_loc: Loc,
+    /// The value.
+    pub value: Node,
+}
+
+/// An ordered table of named values (order as written).
+#[derive(Clone, Debug, Default)]
+pub struct Table {
+    /// Entries in the order they were written. Keys are unique.
+    pub entries: Vec<Entry>,
+}
+
+impl Table {
+    /// The entry for `key`.
+    pub fn get(&self, key: &str) -> Option<&Node> {
+        self.entries.iter().find(|e| e.key == key).map(|e| &e.value)
+    }
+
+    /// The entry for `key`, with its key location.
+    pub fn entry(&self, key: &str) -> Option<&Entry> {
+        self.entries.iter().find(|e| e.key == key)
+    }
+
+    /// Sets `key`, replacing an existing entry in place or appending a new one.
+    pub fn set(&mut self, key: &str, key_loc: Loc, value: Node) {
+        match self.entries.iter_mut().find(|e| e.key == key) {
+            Some(e) => e.value = value,
+            None => self.entries.push(Entry { key: key.to_string(), key_loc, value }),
+        }
+    }
+
+    /// Removes and returns `key`.
+    pub fn remove(&mut self, key: &str) -> Option<Entry> {
+        let i = self.entries.iter().position(|e| e.key == key)?;
+        Some(self.entries.remove(i))
+    }
+}
+
+/// The type of a plugin parameter.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ParamKind {
+    /// A finite number.
+    Float,
+    /// An integer.
+    Int,
+    /// `true` or `false`.
+    Bool,
+    /// A string.
+    Str,
+    /// Three finite numbers `[x, y, z]`.
+    Vec3,
+    /// Linear RGB `[r, g, b]` (each ≥ 0) or one number for grey.
+    Color,
+    /// The name of a material in `[materials]`, or an inline material table.
+    Material,
+    /// A path to a file, relative to the scene file.
+    Path,
+    /// A list of `[x, y, z]` points.
+    Vec3List,
+    /// Anything else: a table or list the plugin reads itself.
+    Any,
+}
+
+impl ParamKind {
+    /// The name shown in parameter tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            ParamKind::Float => "float",
+            ParamKind::Int => "int",
+            ParamKind::Bool => "bool",
+            ParamKind::Str => "string",
+            ParamKind::Vec3 => "vec3",
+            ParamKind::Color => "color",
+            ParamKind::Material => "material",
+            ParamKind::Path => "path",
+            ParamKind::Vec3List => "[vec3]",
+            ParamKind::Any => "table",
+        }
+    }
+}
+
+/// The default of a plugin parameter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Default {
+    /// The parameter must be given.
+    Required,
+    /// The parameter may be absent; the plugin handles absence (`*_opt` getters).
+    Optional,
+    /// A number.
+    Float(f64),
+    /// An integer.
+    Int(i64),
+    /// A boolean.
+    Bool(bool),
+    /// A string.
+    Str(&'static str),
+    /// A vector or colour.
+    Vec3([f64; 3]),
+}
+
+impl fmt::Display for Default {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Default::Required => write!(f, "required"),
+            Default::Optional => write!(f, "—"),
+            Default::Float(v) => write!(f, "{v}"),
+            Default::Int(v) => write!(f, "{v}"),
+            Default::Bool(v) => write!(f, "{v}"),
+            Default::Str(v) => write!(f, "\"{v}\""),
+            Default::Vec3([x, y, z]) => write!(f, "[{x}, {y}, {z}]"),
+        }
+    }
+}
+
+/// One row of a plugin's parameter table: name, type, default and meaning (with units).
+#[derive(Clone, Copy, Debug)]
+pub struct ParamSpec {
+    /// The key in the scene file.
+    pub name: &'static str,
+    /// Its type.
+    pub kind: ParamKind,
+    /// Its default.
+    pub default: Default,
+    /// What it means, its units and its valid range.
+    pub doc: &'static str,
+}
+
+impl ParamSpec {
+    /// A row of a parameter table.
+    pub const fn new(name: &'static str, kind: ParamKind, default: Default, doc: &'static str) -> Self {
+        ParamSpec { name, kind, default, doc }
+    }
+}
+
+/// The `material` parameter every geometry takes.
+pub const MATERIAL_PARAM: ParamSpec = ParamSpec::new(
+    "material",
+    ParamKind::Material,
+    Default::Str("default"),
+    "name of a material in [materials], or an inline table such as { kd = [0.8, 0.2, 0.2] }",
+);
+
+/// Read access to one plugin instance's parameters, checked against its parameter table.
+///
+/// Every getter marks its key as used and takes the default from the table; [`Params::finish`]
+/// reports any key that was never read.
+pub struct Params<'a> {
+    what: String,
+    specs: &'a [ParamSpec],
+    table: &'a Table,
+    loc: Loc,
+    used: Vec<bool>,
+    materials: Option<&'a MaterialLibrary>,
+}
+
+impl<'a> Params<'a> {
+    /// Parameters of `what` (e.g. `sphere "ball"`) read from `table` (written at `loc`) against `specs`.
+    /// `materials` resolves material names; without it, only inline materials are accepted.
+    pub fn new(
+        what: impl Into<String>,
+        specs: &'a [ParamSpec],
+        table: &'a Table,
+        loc: Loc,
+        materials: Option<&'a MaterialLibrary>,
+    ) -> Self {
+        Params { what: what.into(), specs, table, loc, used: vec![false; table.entries.len()], materials }
+    }
+
+    /// What these parameters belong to, for messages.
+    pub fn what(&self) -> &str {
+        &self.what
+    }
+
+    /// Where the plugin's table was written.
+    pub fn loc(&self) -> &Loc {
+        &self.loc
+    }
+
+    /// An error about the whole table.
+    pub fn error(&self, message: impl Into<String>) -> SceneError {
+        SceneError::at(&self.loc, message.into()).context(&self.what)
+    }
+
+    /// An error about parameter `name` (at its value when given, else at the table).
+    pub fn error_at(&self, name: &str, message: impl fmt::Display) -> SceneError {
+        let loc = self.table.get(name).map_or(&self.loc, |n| &n.loc);
+        SceneError::at(loc, format!("parameter `{name}`: {message}")).context(&self.what)
+    }
+
+    /// True when the scene gives `name` (does not mark it used).
+    pub fn has(&self, name: &str) -> bool {
+        self.table.get(name).is_some()
+    }
+
+    fn spec(&self, name: &str) -> Result<&'a ParamSpec> {
+        self.specs
+            .iter()
+            .find(|s| s.name == name)
+            .ok_or_else(|| self.error(format!("plugin bug: parameter `{name}` is read but not declared in its parameter table")))
+    }
+
+    /// The raw located value of `name`, marking it used. `None` when absent.
+    pub fn node(&mut self, name: &str) -> Result<Option<&'a Node>> {
+        self.spec(name)?;
+        Ok(self.take(name))
+    }
+
+    fn take(&mut self, name: &str) -> Option<&'a Node> {
+        let i = self.table.entries.iter().position(|e| e.key == name)?;
+        self.used[i] = true;
+        Some(&self.table.entries[i].value)
+    }
+
+    fn missing(&self, name: &str, kind: ParamKind) -> SceneError {
+        let spec = self.specs.iter().find(|s| s.name == name);
+        self.error(format!("missing required parameter `{name}` ({})", kind.name()))
+            .with_help(spec.map_or(String::new(), |s| format!("`{name}`: {}", s.doc)))
+    }
+
+    fn wrong_type(&self, name: &str, node: &Node, expected: &str) -> SceneError {
+        self.error_at(name, format_args!("expected {expected}, found {}", node.value.type_name()))
+    }
+
+    /// A finite number.
+    pub fn float(&mut self, name: &str) -> Result<f64> {
+        let spec = self.spec(name)?;
+        match self.take(name) {
+            Some(n) => self.as_float(name, n),
+            None => match spec.default {
+                Default::Float(v) => Ok(v),
+                Default::Int(v) => Ok(v as f64),
+                _ => Err(self.missing(name, ParamKind::Float)),
+            },
+        }
+    }
+
+    /// A finite number, or `None` when absent.
+    pub fn float_opt(&mut self, name: &str) -> Result<Option<f64>> {
+        self.spec(name)?;
+        self.take(name).map(|n| self.as_float(name, n)).transpose()
+    }
+
+    /// A finite number in `range` (inclusive), with a message naming the range.
+    pub fn float_in(&mut self, name: &str, range: std::ops::RangeInclusive<f64>) -> Result<f64> {
+        let v = self.float(name)?;
+        if range.contains(&v) {
+            Ok(v)
+        } else {
+            Err(self.error_at(name, format_args!("{v} is out of range; expected {} to {}", range.start(), range.end())))
+        }
+    }
+
+    /// A finite number > 0.
+    pub fn positive(&mut self, name: &str) -> Result<f64> {
+        let v = self.float(name)?;
+        if v > 0.0 { Ok(v) } else { Err(self.error_at(name, format_args!("expected a number > 0, found {v}"))) }
+    }
+
+    /// A finite number ≥ 0.
+    pub fn non_negative(&mut self, name: &str) -> Result<f64> {
+        let v = self.float(name)?;
+        if v >= 0.0 { Ok(v) } else { Err(self.error_at(name, format_args!("expected a number ≥ 0, found {v}"))) }
+    }
+
+    fn as_float(&self, name: &str, n: &Node) -> Result<f64> {
+        let v = match n.value {
+            Value::Float(v) => v,
+            Value::Int(v) => v as f64,
+            _ => return Err(self.wrong_type(name, n, "a number")),
+        };
+        if v.is_finite() { Ok(v) } else { Err(self.error_at(name, format_args!("expected a finite number, found {v}"))) }
+    }
+
+    /// An integer in `range` (inclusive).
+    pub fn int_in(&mut self, name: &str, range: std::ops::RangeInclusive<i64>) -> Result<i64> {
+        let spec = self.spec(name)?;
+        let v = match self.take(name) {
+            Some(n) => match n.value {
+                Value::Int(v) => v,
+                _ => return Err(self.wrong_type(name, n, "an integer")),
+            },
+            None => match spec.default {
+                Default::Int(v) => v,
+                _ => return Err(self.missing(name, ParamKind::Int)),
+            },
+        };
+        if range.contains(&v) {
+            Ok(v)
+        } else {
+            Err(self.error_at(name, format_args!("{v} is out of range; expected {} to {}", range.start(), range.end())))
+        }
+    }
+
+    /// `true` or `false`.
+    pub fn bool(&mut self, name: &str) -> Result<bool> {
+        let spec = self.spec(name)?;
+        match self.take(name) {
+            Some(n) => match n.value {
+                Value::Bool(b) => Ok(b),
+                _ => Err(self.wrong_type(name, n, "true or false")),
+            },
+            None => match spec.default {
+                Default::Bool(b) => Ok(b),
+                _ => Err(self.missing(name, ParamKind::Bool)),
+            },
+        }
+    }
+
+    /// A string.
+    pub fn string(&mut self, name: &str) -> Result<String> {
+        let spec = self.spec(name)?;
+        match self.take(name) {
+            Some(n) => match &n.value {
+                Value::Str(s) => Ok(s.clone()),
+                _ => Err(self.wrong_type(name, n, "a string")),
+            },
+            None => match spec.default {
+                Default::Str(s) => Ok(s.to_string()),
+                _ => Err(self.missing(name, ParamKind::Str)),
+            },
+        }
+    }
+
+    /// One of `choices` (a string).
+    pub fn choice(&mut self, name: &str, choices: &[&str]) -> Result<String> {
+        let s = self.string(name)?;
+        if choices.contains(&s.as_str()) {
+            Ok(s)
+        } else {
+            let mut e = self.error_at(name, format_args!("unknown value \"{s}\"; expected one of: {}", choices.join(", ")));
+            if let Some(m) = did_you_mean(&s, choices.iter().copied()) {
+                e = e.with_help(format!("did you mean \"{m}\"?"));
+            }
+            Err(e)
+        }
+    }
+
+    /// Three finite numbers.
+    pub fn vec3(&mut self, name: &str) -> Result<DVec3> {
+        let spec = self.spec(name)?;
+        match self.take(name) {
+            Some(n) => self.as_vec3(name, n),
+            None => match spec.default {
+                Default::Vec3(v) => Ok(DVec3::from(v)),
+                _ => Err(self.missing(name, ParamKind::Vec3)),
+            },
+        }
+    }
+
+    /// Three finite numbers, or `None` when absent.
+    pub fn vec3_opt(&mut self, name: &str) -> Result<Option<DVec3>> {
+        self.spec(name)?;
+        self.take(name).map(|n| self.as_vec3(name, n)).transpose()
+    }
+
+    /// A non-zero vector, normalised to unit length.
+    pub fn direction(&mut self, name: &str) -> Result<DVec3> {
+        let v = self.vec3(name)?;
+        self.normalize(name, v)
+    }
+
+    /// A non-zero vector normalised to unit length, or `None` when absent.
+    pub fn direction_opt(&mut self, name: &str) -> Result<Option<DVec3>> {
+        self.vec3_opt(name)?.map(|v| self.normalize(name, v)).transpose()
+    }
+
+    fn normalize(&self, name: &str, v: DVec3) -> Result<DVec3> {
+        let n = v.try_normalize().filter(|n| n.is_finite());
+        n.ok_or_else(|| self.error_at(name, format_args!("expected a non-zero direction, found {v}")))
+    }
+
+    fn as_vec3(&self, name: &str, n: &Node) -> Result<DVec3> {
+        vec3_of(n).map_err(|m| self.error_at(name, m))
+    }
+
+    /// A colour: `[r, g, b]` or one number for grey, each channel finite and ≥ 0.
+    pub fn color(&mut self, name: &str) -> Result<Color> {
+        let spec = self.spec(name)?;
+        match self.take(name) {
+            Some(n) => color_of(n).map_err(|m| self.error_at(name, m)),
+            None => match spec.default {
+                Default::Vec3(v) => Ok(DVec3::from(v)),
+                Default::Float(v) => Ok(DVec3::splat(v)),
+                _ => Err(self.missing(name, ParamKind::Color)),
+            },
+        }
+    }
+
+    /// A list of points `[[x, y, z], ...]`.
+    pub fn vec3_list(&mut self, name: &str) -> Result<Vec<DVec3>> {
+        self.spec(name)?;
+        let Some(n) = self.take(name) else { return Err(self.missing(name, ParamKind::Vec3List)) };
+        let Value::Array(items) = &n.value else { return Err(self.wrong_type(name, n, "a list of [x, y, z] points")) };
+        items
+            .iter()
+            .map(|it| vec3_of(it).map_err(|m| SceneError::at(&it.loc, format!("parameter `{name}`: {m}")).context(&self.what)))
+            .collect()
+    }
+
+    /// The material: a name from `[materials]` or an inline table. Defaults to the library's
+    /// `default` material.
+    pub fn material(&mut self, name: &str) -> Result<Material> {
+        self.spec(name)?;
+        let lib = self.materials;
+        match self.take(name) {
+            None => Ok(lib.map(|l| l.default_material()).unwrap_or_default()),
+            Some(n) => match &n.value {
+                Value::Str(s) => match lib.and_then(|l| l.get(s)) {
+                    Some(m) => Ok(m.clone()),
+                    None if s == "default" => Ok(Material::default()),
+                    None => {
+                        let names: Vec<&str> = lib.map(|l| l.names().collect()).unwrap_or_default();
+                        let mut e = self.error_at(name, format_args!("no material named \"{s}\" in [materials]"));
+                        e = e.with_help(match did_you_mean(s, names.iter().copied()) {
+                            Some(m) => format!("did you mean \"{m}\"?"),
+                            None if names.is_empty() => "no materials are defined; add a [materials.NAME] table".into(),
+                            None => format!("defined materials: {}", names.join(", ")),
+                        });
+                        Err(e)
+                    }
+                },
+                Value::Table(t) => Material::from_table(t, &n.loc, &format!("{} material", self.what)),
+                _ => Err(self.wrong_type(name, n, "a material name or an inline table")),
+            },
+        }
+    }
+
+    /// Reports keys the plugin never read (unknown or not applicable), with a suggestion.
+    pub fn finish(self) -> Result<()> {
+        for (e, used) in self.table.entries.iter().zip(&self.used) {
+            if *used {
+                continue;
+            }
+            let known = self.specs.iter().any(|s| s.name == e.key);
+            let names: Vec<&str> = self.specs.iter().map(|s| s.name).collect();
+            let err = if known {
+                SceneError::at(&e.key_loc, format!("parameter `{}` does not apply here", e.key))
+                    .with_help("it is valid for this type, but not in combination with the other parameters given")
+            } else {
+                let mut err = SceneError::at(&e.key_loc, format!("unknown parameter `{}`", e.key));
+                err = err.with_help(match did_you_mean(&e.key, names.iter().copied()) {
+                    Some(m) => format!("did you mean `{m}`?  (parameters: {})", names.join(", ")),
+                    None if names.is_empty() => "this type takes no parameters".into(),
+                    None => format!("parameters: {}", names.join(", ")),
+                });
+                err
+            };
+            return Err(err.context(&self.what));
+        }
+        Ok(())
+    }
+}
+
+/// Reads `[x, y, z]` (three finite numbers) from a node.
+pub fn vec3_of(n: &Node) -> std::result::Result<DVec3, String> {
+    let Value::Array(items) = &n.value else {
+        return Err(format!("expected [x, y, z], found {}", n.value.type_name()));
+    };
+    if items.len() != 3 {
+        return Err(format!("expected 3 numbers [x, y, z], found a list of {}", items.len()));
+    }
+    let mut v = [0.0; 3];
+    for (slot, it) in v.iter_mut().zip(items) {
+        *slot = match it.value {
+            Value::Float(f) => f,
+            Value::Int(i) => i as f64,
+            _ => return Err(format!("expected numbers in [x, y, z], found {}", it.value.type_name())),
+        };
+        if !slot.is_finite() {
+            return Err(format!("expected finite numbers, found {slot}"));
+        }
+    }
+    Ok(DVec3::from(v))
+}
+
+/// Reads a colour (`[r, g, b]` or one number), each channel finite and ≥ 0.
+pub fn color_of(n: &Node) -> std::result::Result<Color, String> {
+    let c = match n.value {
+        Value::Float(f) => DVec3::splat(f),
+        Value::Int(i) => DVec3::splat(i as f64),
+        Value::Array(_) => vec3_of(n).map_err(|m| m.replace("[x, y, z]", "[r, g, b]"))?,
+        _ => return Err(format!("expected a colour [r, g, b] or a number, found {}", n.value.type_name())),
+    };
+    if !c.is_finite() {
+        return Err(format!("expected finite colour channels, found {c}"));
+    }
+    if c.min_element() < 0.0 {
+        return Err(format!("colour channels must be ≥ 0, found {c}"));
+    }
+    Ok(c)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::error::Source;
+
+    fn table(src: &std::sync::Arc<Source>, kv: &[(&str, Value)]) -> Table {
+        let mut t = Table::default();
+        for (k, v) in kv {
+            t.set(k, Loc::new(src, 0..1), Node { value: v.clone(), loc: Loc::new(src, 0..1) });
+        }
+        t
+    }
+
+    const SPECS: &[ParamSpec] = &[
+        ParamSpec::new("radius", ParamKind::Float, Default::Float(1.0), "radius"),
+        ParamSpec::new("center", ParamKind::Vec3, Default::Required, "centre"),
+    ];
+
+    #[test]
+    fn defaults_come_from_the_table_and_unknown_keys_fail() {
+        let src = Source::new("t", "x");
+        let t = table(&src, &[("center", Value::Array(vec![])), ("radus", Value::Float(2.0))]);
+        let mut p = Params::new("sphere", SPECS, &t, Loc::new(&src, 0..1), None);
+        assert_eq!(p.float("radius").unwrap(), 1.0);
+        let e = p.vec3("center").unwrap_err();
+        assert!(e.message.contains("expected 3 numbers"), "{e}");
+        let e = p.finish().unwrap_err();
+        assert!(e.message.contains("unknown parameter `radus`"), "{e}");
+        assert!(e.help.unwrap().contains("did you mean `radius`"));
+    }
+
+    #[test]
+    fn missing_required_and_non_finite_are_errors() {
+        let src = Source::new("t", "x");
+        let t = table(&src, &[("radius", Value::Float(f64::NAN))]);
+        let mut p = Params::new("sphere", SPECS, &t, Loc::new(&src, 0..1), None);
+        assert!(p.float("radius").unwrap_err().message.contains("finite"));
+        assert!(p.vec3("center").unwrap_err().message.contains("missing required parameter `center`"));
+        assert!(p.float("nope").unwrap_err().message.contains("plugin bug"));
+    }
+}

@@ -1,0 +1,139 @@
+//! The scene model: camera, background, objects, lights; and the ray queries integrators use.
+
+use crate::accel::ObjectList;
+use crate::bounds::Aabb;
+use crate::camera::Camera;
+use crate::color::Color;
+use crate::float::offset_ray_origin;
+use crate::geometry::{Geometry, Hit};
+use crate::light::LightSource;
+use crate::ray::Ray;
+
+/// Most surfaces a shadow ray passes through before it is treated as blocked (guards against
+/// pathological stacks of transparent sheets).
+pub const MAX_TRANSPARENT_LAYERS: u32 = 64;
+
+/// Everything the integrators see: camera, background, ambient light, objects and lights.
+pub struct Scene {
+    /// Name for messages (the file stem).
+    pub name: String,
+    /// The camera.
+    pub camera: Camera,
+    /// Colour of rays that hit nothing (linear RGB).
+    pub background: Color,
+    /// Sum of the ambient terms of all lights (`colour × ka` of each ambient light).
+    pub ambient: Color,
+    /// Names of the objects, parallel to `geometries` (the type and index when unnamed).
+    pub object_names: Vec<String>,
+    /// The objects' shapes.
+    pub geometries: Vec<Box<dyn Geometry>>,
+    /// Names of the lights, parallel to `lights`.
+    pub light_names: Vec<String>,
+    /// The lights (ambient lights included; they return no samples).
+    pub lights: Vec<Box<dyn LightSource>>,
+    accel: ObjectList,
+    opaque: ObjectList,
+    transmissive: ObjectList,
+    bounds: Aabb,
+}
+
+impl Scene {
+    /// A scene from its parts. `objects` and `lights` are (name, value) pairs.
+    pub fn new(
+        name: impl Into<String>,
+        camera: Camera,
+        background: Color,
+        objects: Vec<(String, Box<dyn Geometry>)>,
+        lights: Vec<(String, Box<dyn LightSource>)>,
+    ) -> Scene {
+        let (object_names, geometries): (Vec<_>, Vec<_>) = objects.into_iter().unzip();
+        let (light_names, lights): (Vec<_>, Vec<_>) = lights.into_iter().unzip();
+        let refs: Vec<&dyn Geometry> = geometries.iter().map(|g| g.as_ref()).collect();
+        let accel = ObjectList::build(&refs, |_| true);
+        let opaque = ObjectList::build(&refs, |i| !refs[i].material().is_transmissive());
+        let transmissive = ObjectList::build(&refs, |i| refs[i].material().is_transmissive());
+        let bounds = geometries.iter().filter_map(|g| g.bounds()).fold(Aabb::EMPTY, Aabb::union);
+        let ambient = lights.iter().map(|l| l.ambient()).sum();
+        Scene {
+            name: name.into(),
+            camera,
+            background,
+            ambient,
+            object_names,
+            geometries,
+            light_names,
+            lights,
+            accel,
+            opaque,
+            transmissive,
+            bounds,
+        }
+    }
+
+    /// Box around all bounded objects (empty when there are none).
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    /// The closest hit with `t_min < t < t_max`. `Hit::object` indexes `geometries`.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<Hit> {
+        self.accel.intersect(&self.geometries, ray, t_min, t_max)
+    }
+
+    /// Whether anything at all lies on the ray with `0 < t < t_max`.
+    #[inline]
+    pub fn occluded(&self, ray: &Ray, t_max: f64) -> bool {
+        self.accel.occluded(&self.geometries, ray, 0.0, t_max)
+    }
+
+    /// The fraction of light that travels along `ray` for `0 < t < t_max`: the product of the
+    /// `kt` of every surface crossed, zero if any opaque surface is in the way. Opaque objects are
+    /// tested first with the cheap any-hit query; only then are transparent ones walked.
+    #[inline]
+    pub fn transmittance(&self, ray: &Ray, t_max: f64) -> Color {
+        if self.opaque.occluded(&self.geometries, ray, 0.0, t_max) {
+            return Color::ZERO;
+        }
+        if self.transmissive.is_empty() {
+            return Color::ONE;
+        }
+        self.walk(&self.transmissive, ray, t_max).0
+    }
+
+    /// Like [`Scene::transmittance`], also naming the first surface crossed (for explanations).
+    pub fn transmittance_and_occluder(&self, ray: &Ray, t_max: f64) -> (Color, Option<u32>) {
+        self.walk(&self.accel, ray, t_max)
+    }
+
+    /// Walks the surfaces of `list` along the ray, multiplying their `kt`.
+    fn walk(&self, list: &ObjectList, ray: &Ray, t_max: f64) -> (Color, Option<u32>) {
+        let mut tr = Color::ONE;
+        let mut first = None;
+        let mut r = *ray;
+        let target = t_max.is_finite().then(|| ray.at(t_max));
+        let mut t_max = t_max;
+        for _ in 0..MAX_TRANSPARENT_LAYERS {
+            let Some(h) = list.intersect(&self.geometries, &r, 0.0, t_max) else { return (tr, first) };
+            first.get_or_insert(h.object);
+            let g = &self.geometries[h.object as usize];
+            tr *= g.material().kt;
+            if tr.max_element() <= 0.0 {
+                return (Color::ZERO, first);
+            }
+            r.origin = offset_ray_origin(h.point, h.error, g.outward_normal(&h), r.dir);
+            if let Some(target) = target {
+                t_max = (target - r.origin).dot(r.dir);
+                if t_max <= 0.0 {
+                    return (tr, first);
+                }
+            }
+        }
+        (Color::ZERO, first)
+    }
+
+    /// The display name of object `i`.
+    pub fn object_name(&self, i: u32) -> &str {
+        self.object_names.get(i as usize).map_or("?", String::as_str)
+    }
+}

@@ -1,0 +1,51 @@
+//! Counters of the work a render did, and of the work it avoided.
+
+use serde::Serialize;
+use std::ops::AddAssign;
+
+/// Rays traced by kind, and work skipped because it could not change the image. Counted per
+/// tile and summed, so counting costs no synchronisation.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct RayStats {
+    /// Rays from the camera.
+    pub camera_rays: u64,
+    /// Shadow rays toward lights.
+    pub shadow_rays: u64,
+    /// Reflection rays (mirror and glossy).
+    pub reflection_rays: u64,
+    /// Transmission rays (refracted or passed through thin sheets).
+    pub refraction_rays: u64,
+    /// Light samples skipped without a shadow ray: the light lies on the other side of the
+    /// surface from the viewer.
+    pub lights_behind: u64,
+    /// Light samples skipped without a shadow ray: the light cannot reach the point (outside a
+    /// spot's cone) or its largest possible contribution is below the pruning threshold.
+    pub lights_negligible: u64,
+    /// Secondary rays not traced because their accumulated weight fell below the pruning threshold.
+    pub pruned_rays: u64,
+    /// Secondary rays not traced because the maximum recursion depth was reached.
+    pub depth_limited: u64,
+    /// Samples whose radiance was NaN or infinite; they are dropped from the pixel average.
+    pub nonfinite_samples: u64,
+}
+
+impl RayStats {
+    /// All rays traced.
+    pub fn total_rays(&self) -> u64 {
+        self.camera_rays + self.shadow_rays + self.reflection_rays + self.refraction_rays
+    }
+}
+
+impl AddAssign for RayStats {
+    fn add_assign(&mut self, o: RayStats) {
+        self.camera_rays += o.camera_rays;
+        self.shadow_rays += o.shadow_rays;
+        self.reflection_rays += o.reflection_rays;
+        self.refraction_rays += o.refraction_rays;
+        self.lights_behind += o.lights_behind;
+        self.lights_negligible += o.lights_negligible;
+        self.pruned_rays += o.pruned_rays;
+        self.depth_limited += o.depth_limited;
+        self.nonfinite_samples += o.nonfinite_samples;
+    }
+}
