@@ -563,4 +563,48 @@ mod tests {
             assert!(found.len() <= 1);
         }
     }
+
+    // Regressions: literal cases the properties found.
+
+    /// A ray entering from a point of the side, away from the origin, re-hit the side at t ≈ 3e-16.
+    #[test]
+    fn bad_case_a_ray_from_the_side_hit_it_again() {
+        let axis = DVec3::new(0.3000282715879019, -0.8800120058287808, 0.3681873243950449);
+        let e = ExactCylinder { base: DVec3::new(0.0, 0.0, -4.441711640535202), axis, radius: 0.05, height: Some(0.39880737980527237) };
+        let g = Cylinder::new(e.base, e.axis, e.radius, e.height, Material::default());
+        let start = e.base + 0.16090993414494115 * e.height.unwrap() * axis + e.radius * perpendicular(axis, 2.0853621691237145);
+        let found = hits(&g, &e, &Ray::new(start, DVec3::X));
+        assert_eq!(found.len(), 1, "{found:?}");
+        assert!(found[0].t > 0.03);
+    }
+
+    /// Rays along the axis: d − (d·a)a was rounding noise (the axis is unit only to rounding) and
+    /// the side was "hit" 1e11 away.
+    #[test]
+    fn bad_case_rays_along_the_axis_hit_the_side_far_away() {
+        for axis in [DVec3::new(0.9224005862007832, 0.0, 0.3862345900828302), DVec3::new(0.807691151622583, 0.45161682161361233, 0.37904782023671485)] {
+            let tube = Cylinder::new(DVec3::ZERO, axis, 5e-5, None, Material::default());
+            let ray = Ray { origin: 1.001 * 5e-5 * axis, dir: -axis };
+            assert_eq!(tube.intersect(&ray, 0.0, f64::INFINITY), None);
+            let capped = Cylinder::new(DVec3::ZERO, axis, 5e-5, Some(5e-5), Material::default());
+            assert_eq!(capped.intersect(&ray, 0.0, f64::INFINITY).map(|h| h.prim), Some(TOP_CAP));
+        }
+    }
+
+    /// A ray entering exactly at the top rim: the side rejected it (height above the cap by
+    /// rounding) and so did the cap (radius beyond the rim by rounding), so the ray got in unseen
+    /// and its exit looked like an entry.
+    #[test]
+    fn bad_case_a_ray_entering_at_the_rim_slipped_through() {
+        let axis = DVec3::new(0.7888914169617218, 0.0, 0.6145326128401382);
+        let e = ExactCylinder { base: DVec3::ZERO, axis, radius: 0.05, height: Some(2.635690655089092) };
+        let g = Cylinder::new(e.base, e.axis, e.radius, e.height, Material::default());
+        let rim = e.height.unwrap() * axis + e.radius * perpendicular(axis, 4.21603005964019);
+        let origin = rim + 0.2 * e.height.unwrap() * DVec3::new(-0.27466060064896114, -0.7935698964667327, 0.5429625897545165);
+        let ray = Ray::new(origin, rim - origin);
+        let found = hits(&g, &e, &ray);
+        assert_eq!(found.len(), 2, "{found:?}");
+        assert!((found[0].point - rim).length() < 1e-12);
+        check_closed_crossings(&g, &ray, &found, false).unwrap();
+    }
 }

@@ -297,4 +297,20 @@ mod tests {
         // Leaving through the opening: nothing.
         assert!(g.intersect(&Ray::new(DVec3::new(-s, -s, 0.0), DVec3::new(1.0, 3.0, 0.0)), 0.0, f64::INFINITY).is_none());
     }
+
+    // Regressions: literal cases the properties found.
+
+    /// A large bowl far from the origin: a ray from its inner wall out through the opening re-hit
+    /// the wall at t ≈ 0.
+    #[test]
+    fn bad_case_a_ray_from_a_far_bowl_hit_it_again() {
+        let (center, radius, open) = (DVec3::new(-34417.1139580764, -38967.203278238885, 0.0), 500.0, DVec3::new(-0.7042642209588147, 0.7099379600199399, 0.0));
+        let g = Hemisphere::new(center, radius, open, Material::default());
+        let u = DVec3::new(-0.6191611402231467, 0.7852639571746387, 0.0);
+        let u = if u.dot(open) > 0.0 { -u } else { u };
+        let ray = Ray::new(center + radius * u, DVec3::new(-0.9223807222973924, 0.3862820253831915, 0.0));
+        let far = ray.at(-2.0 * radius * ray.dir.dot(u));
+        assert!(ray.dir.dot(u) < 0.0 && (far - center).dot(open) > 0.0, "into the sphere and out through the opening");
+        assert_eq!(g.intersect(&ray, 0.0, f64::INFINITY), None);
+    }
 }

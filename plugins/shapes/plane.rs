@@ -195,4 +195,16 @@ mod tests {
             assert!(g.intersect(&Ray::new(DVec3::new(3.0, 1.0, 0.0), dir), 0.0, f64::INFINITY).is_none());
         }
     }
+
+    // Regressions: literal cases the properties found.
+
+    /// A direction parallel to the plane to within the rounding of n·d hit it ~1e11 away (on a
+    /// side that rounding chose).
+    #[test]
+    fn bad_case_a_parallel_ray_hit_far_away() {
+        let normal = DVec3::new(-0.9224963529793111, 0.3860058014329192, 0.0);
+        let g = Plane::new(DVec3::ZERO, normal, Material::default());
+        let ray = Ray { origin: 1e-6 * normal, dir: DVec3::new(-0.09725808128787794, -0.2324323234334201, -0.9677376094001632) };
+        assert_eq!(g.intersect(&ray, 0.0, f64::INFINITY), None);
+    }
 }

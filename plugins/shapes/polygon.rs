@@ -386,4 +386,21 @@ mod tests {
         let dart = vec![p(0.0, 0.0, 0.0), p(2.0, 0.0, 0.0), p(1.0, 0.5, 0.0), p(1.0, 2.0, 0.0)];
         assert!(matches!(Polygon::new(dart, m()).unwrap_err(), PolygonError::NotConvex(_)));
     }
+
+    // Regressions: literal cases the properties found.
+
+    /// Newell's sums of coordinates far from the origin tilted the normal by 5e-15, so a ray
+    /// starting on the polygon found it again 3e-14 away.
+    #[test]
+    fn bad_case_a_far_polygon_had_a_tilted_normal() {
+        let v = vec![DVec3::new(5.725267332431449, -5.346158519809949, 1.0156084590696055), DVec3::new(3.797871597017973, -4.011467856951285, -1.2472884473455568), DVec3::new(5.457948279667441, -5.614629969938661, 1.2399140012659242)];
+        let g = Polygon::new(v.clone(), Material::default()).unwrap();
+        let exact = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
+        assert!((g.normal - exact).length() < 1e-15, "{} vs {exact}", g.normal);
+        let w = [0.02, 0.8375766139301917, 0.02];
+        let on = v.iter().zip(w).map(|(v, w)| w * *v).sum::<DVec3>() / w.iter().sum::<f64>();
+        let on = on - exact.dot(on - v[0]) * exact;
+        let ray = Ray::new(on, DVec3::new(-0.9812681386666113, 0.19264693103645433, 0.0));
+        assert_eq!(g.intersect(&ray, 0.0, f64::INFINITY), None);
+    }
 }

@@ -257,4 +257,18 @@ mod tests {
         let tol = Tolerance::for_scale(10.0);
         raylab::testing::check_hits_ascending(g, ray, &tol, exact, 2).unwrap_or_else(|v| panic!("{v}"))
     }
+
+    // Regressions: literal cases the properties found.
+
+    /// A small sphere away from the origin: the start point's own rounding (relative to its
+    /// coordinates, not to the radius) put it just outside, and the sphere was hit at t ≈ 3e-19.
+    #[test]
+    fn bad_case_a_ray_from_a_small_offset_sphere_hit_it_again() {
+        let (center, radius) = (DVec3::new(0.0, 0.004066781978006635, 0.0), 0.00025531711221155127);
+        let g = Sphere::new(center, radius, Material::default());
+        let ray = Ray::new(center + radius * DVec3::new(-0.7222485624026194, 0.6916335837040807, 0.0), DVec3::X);
+        let hits = check_hits_ascending_ok(&g, &ray, &ExactSphere { center, radius });
+        assert_eq!(hits.len(), 1, "{hits:?}");
+        assert!((hits[0].t - 2.0 * radius * 0.7222485624026194).abs() < 1e-15);
+    }
 }

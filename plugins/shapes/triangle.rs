@@ -412,4 +412,39 @@ mod tests {
         let hits = check_hits_ascending(&g, &ray, &tol, &ExactTriangle { p: [DVec3::ZERO, DVec3::X, DVec3::Y] }, 1).unwrap();
         assert_eq!(hits.len(), 1);
     }
+
+    // Regressions: literal cases the properties found, kept as pbrt keeps Triangle.BadCases.
+
+    /// The scaled range test passed a t that rounded onto t_max: a query in (0, t) returned t.
+    #[test]
+    fn bad_case_t_equal_to_t_max_was_returned() {
+        let cases = [
+            (
+                [DVec3::new(121.53333303779588, 568.7835996593128, -48190.190502268066), DVec3::new(226.61169424885406, -563.7053439716464, -47518.6199406257), DVec3::new(-849.7226444145446, -641.8112313164244, -47518.6199406257)],
+                Ray { origin: DVec3::new(0.0, 0.0, -47005.01894834951), dir: DVec3::new(0.0, -0.09890722109902335, -0.9950966594328758) },
+                812.0052853516123,
+            ),
+            (
+                [DVec3::new(3.9077738731981637, 4.913669030507929, 0.8318765194363695), DVec3::new(4.076807613047912, 3.540285856672028, 0.0), DVec3::new(3.1080181318749243, 3.540285856672028, 1.5849631754180011)],
+                Ray { origin: DVec3::new(3.8743256133835415, 4.222878717997288, 0.35121507286865455), dir: DVec3::new(0.5960265884880274, -0.8029646977391495, 0.0) },
+                0.19699987448074466,
+            ),
+        ];
+        for ([a, b, c], ray, t) in cases {
+            let g = Triangle::new(a, b, c, Material::default()).unwrap();
+            assert_eq!(g.intersect(&ray, 0.0, f64::INFINITY).map(|h| h.t), Some(t));
+            assert_eq!(g.intersect(&ray, 0.0, t), None);
+            assert!(!g.occludes(&ray, 0.0, t));
+        }
+    }
+
+    /// An origin computed on the triangle lay a rounding error in front of it: hit at t ≈ 1e-16.
+    #[test]
+    fn bad_case_a_ray_from_the_triangle_hit_it_again() {
+        let p = [DVec3::new(-3.934438784016334, 0.0, 4.468437813679143), DVec3::new(-3.972869336081107, 0.0, 4.5730530956043225), DVec3::new(-3.934438784016334, 0.1754464572213331, 4.415710549976163)];
+        let g = Triangle::new(p[0], p[1], p[2], Material::default()).unwrap();
+        let on = at(p, DVec3::new(0.2978277008887222, 0.3051222605710677, 0.5209323715473884));
+        let ray = Ray::new(on, DVec3::new(-0.7712068822766014, 0.6365845935374216, 0.0));
+        assert_eq!(g.intersect(&ray, 0.0, f64::INFINITY), None);
+    }
 }
