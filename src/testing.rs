@@ -212,3 +212,144 @@ pub fn check_t_window(g: &dyn Geometry, ray: &Ray, hits: &[Hit], t_min: f64, t_m
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bounds::Aabb;
+    use crate::geometry::Intersectable;
+    use crate::material::Material;
+
+    /// The unit sphere at the origin, with one deliberate fault.
+    #[derive(Default)]
+    struct Faulty {
+        fault: Option<Fault>,
+        material: Material,
+    }
+
+    #[derive(Clone, Copy, PartialEq)]
+    enum Fault {
+        PointOffSurface,
+        TOffPoint,
+        InwardNormal,
+        FacesAway,
+        OccludesLies,
+        ReturnsTMax,
+        FarHitFirst,
+        TinyBounds,
+    }
+
+    struct UnitSphere;
+
+    impl ExactSurface for UnitSphere {
+        fn signed_distance(&self, p: DVec3) -> f64 {
+            p.length() - 1.0
+        }
+        fn outward_normal(&self, p: DVec3) -> DVec3 {
+            p.normalize()
+        }
+    }
+
+    impl Intersectable for Faulty {
+        fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<Hit> {
+            let b = ray.origin.dot(ray.dir);
+            let disc = b * b - (ray.origin.length_squared() - 1.0);
+            if disc < 0.0 {
+                return None;
+            }
+            let mut roots = [-b - disc.sqrt(), -b + disc.sqrt()];
+            if self.fault == Some(Fault::FarHitFirst) {
+                roots.reverse();
+            }
+            let accept = |t: f64| t > t_min && (t < t_max || (self.fault == Some(Fault::ReturnsTMax) && t <= t_max));
+            let t = roots.into_iter().find(|&t| accept(t))?;
+            let mut point = ray.at(t).normalize();
+            let mut t_reported = t;
+            match self.fault {
+                Some(Fault::PointOffSurface) => point *= 1.001,
+                Some(Fault::TOffPoint) => t_reported += 0.01,
+                _ => {}
+            }
+            Some(Hit::new(t_reported, point, DVec3::ZERO))
+        }
+        fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
+            let hit = self.intersect(ray, t_min, t_max).is_some();
+            if self.fault == Some(Fault::OccludesLies) { !hit } else { hit }
+        }
+    }
+
+    impl Geometry for Faulty {
+        fn outward_normal(&self, at: &Hit) -> DVec3 {
+            if self.fault == Some(Fault::InwardNormal) { -at.point.normalize() } else { at.point.normalize() }
+        }
+        fn normal(&self, at: &Hit, dir: DVec3) -> DVec3 {
+            let n = crate::geometry::face_forward(self.outward_normal(at), dir);
+            if self.fault == Some(Fault::FacesAway) { -n } else { n }
+        }
+        fn material(&self) -> &Material {
+            &self.material
+        }
+        fn bounds(&self) -> Option<Aabb> {
+            let r = if self.fault == Some(Fault::TinyBounds) { 0.5 } else { 1.0 };
+            Some(Aabb::new(DVec3::splat(-r), DVec3::splat(r)))
+        }
+        fn is_closed(&self) -> bool {
+            true
+        }
+    }
+
+    fn ray() -> Ray {
+        Ray::new(DVec3::new(0.3, -0.2, -5.0), DVec3::Z)
+    }
+
+    #[test]
+    fn a_correct_geometry_passes_every_check() {
+        let g = Faulty::default();
+        let tol = Tolerance::for_scale(5.0);
+        let hits = check_hits_ascending(&g, &ray(), &tol, &UnitSphere, 2).unwrap();
+        assert_eq!(hits.len(), 2);
+        check_closed_crossings(&g, &ray(), &hits, false).unwrap();
+        for (t0, t1) in [(0.0, 1.0), (0.0, 5.0), (4.5, 10.0), (5.5, 6.0)] {
+            check_t_window(&g, &ray(), &hits, t0, t1).unwrap();
+        }
+    }
+
+    #[test]
+    fn each_fault_is_caught() {
+        use Fault::*;
+        let tol = Tolerance::for_scale(5.0);
+        for fault in [PointOffSurface, TOffPoint, InwardNormal, FacesAway, OccludesLies, TinyBounds] {
+            let g = Faulty { fault: Some(fault), ..Faulty::default() };
+            assert!(check_hit(&g, &ray(), 0.0, f64::INFINITY, &tol, &UnitSphere).is_err());
+        }
+        // t_max itself returned: the closest-hit query up to the hit's own t finds it again.
+        let g = Faulty { fault: Some(ReturnsTMax), ..Faulty::default() };
+        assert!(check_hit(&g, &ray(), 0.0, f64::INFINITY, &tol, &UnitSphere).is_err());
+        // The far hit first: the walk sees a hit closer than the one reported.
+        let g = Faulty { fault: Some(FarHitFirst), ..Faulty::default() };
+        assert!(check_hits_ascending(&g, &ray(), &tol, &UnitSphere, 2).is_err());
+    }
+
+    #[test]
+    fn crossings_and_windows_catch_wrong_answers() {
+        let g = Faulty::default();
+        let tol = Tolerance::for_scale(5.0);
+        let hits = check_hits_ascending(&g, &ray(), &tol, &UnitSphere, 2).unwrap();
+        // Claiming the origin is inside makes the first hit an entry while inside.
+        assert!(check_closed_crossings(&g, &ray(), &hits, true).is_err());
+        assert!(check_closed_crossings(&g, &ray(), &hits[..1], false).is_err());
+        // A window answered with a hit that was never there.
+        let ghost = [Hit::new(4.2, DVec3::ZERO, DVec3::ZERO)];
+        assert!(check_t_window(&g, &ray(), &ghost, 0.0, 10.0).is_err());
+        // More hits than allowed.
+        assert!(check_hits_ascending(&g, &ray(), &tol, &UnitSphere, 1).is_err());
+    }
+
+    #[test]
+    fn the_distance_tolerance_grows_with_the_hit_magnitude() {
+        let tol = Tolerance::for_scale(2.0);
+        assert_eq!(tol.distance(1.0, DVec3::ONE), 2.0 * SURFACE_TOLERANCE);
+        assert_eq!(tol.distance(1e6, DVec3::ONE), 1e6 * SURFACE_TOLERANCE);
+        assert_eq!(tol.distance(1.0, DVec3::new(0.0, -3e3, 0.0)), 3e3 * SURFACE_TOLERANCE);
+    }
+}

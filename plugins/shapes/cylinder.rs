@@ -138,7 +138,8 @@ impl Cylinder {
         let c = fp.length_squared() - r2;
         // Moving the origin by the on-surface slack moves c by up to 2|fp|·slack.
         let slack = 2.0 * fp.length() * on_surface_slack(ray.origin, self.base);
-        let small = Crossing { t: c / q, err: (gamma(10) * (fp.length_squared() + r2) + slack) / q.abs() + gamma(5) * (c / q).abs(), prim: SIDE };
+        let small =
+            Crossing { t: c / q, err: (gamma(10) * (fp.length_squared() + r2) + slack) / q.abs() + gamma(5) * (c / q).abs(), prim: SIDE };
         let large = Crossing { t: q / aa, err: gamma(10) * (q / aa).abs(), prim: SIDE };
         Some(if small.t <= large.t { [small, large] } else { [large, small] })
     }
@@ -157,7 +158,8 @@ impl Cylinder {
     }
 
     fn cap_hit(&self, ray: &Ray, c: Crossing) -> Hit {
-        let (center, n) = if c.prim == TOP_CAP { (self.base + self.height.unwrap_or(0.0) * self.axis, self.axis) } else { (self.base, -self.axis) };
+        let (center, n) =
+            if c.prim == TOP_CAP { (self.base + self.height.unwrap_or(0.0) * self.axis, self.axis) } else { (self.base, -self.axis) };
         let p = ray.at(c.t);
         let point = p - n * n.dot(p - center);
         Hit { t: c.t, point, error: gamma(8) * (point.abs() + center.abs()), uv: DVec2::ZERO, prim: c.prim, object: 0 }
@@ -502,11 +504,9 @@ mod tests {
     #[test]
     fn rays_along_the_side_surface_keep_every_contract() {
         let (g, e) = unit_cylinder();
-        for (origin, dir) in [
-            (DVec3::new(1.0, -3.0, 0.0), DVec3::Y),
-            (DVec3::new(0.0, 5.0, -1.0), -DVec3::Y),
-            (DVec3::new(0.6, -1.0, 0.8), DVec3::Y),
-        ] {
+        for (origin, dir) in
+            [(DVec3::new(1.0, -3.0, 0.0), DVec3::Y), (DVec3::new(0.0, 5.0, -1.0), -DVec3::Y), (DVec3::new(0.6, -1.0, 0.8), DVec3::Y)]
+        {
             let ray = Ray::new(origin, dir);
             let found = hits(&g, &e, &ray);
             // On the side line: in at one rim and out at the other, or nothing; never one alone.
@@ -564,6 +564,19 @@ mod tests {
         }
     }
 
+    #[test]
+    fn a_ray_starting_on_a_tube_hits_only_the_far_side() {
+        let e = ExactCylinder { base: DVec3::ZERO, axis: DVec3::Y, radius: 1.0, height: None };
+        let tube = Cylinder::new(e.base, e.axis, e.radius, None, Material::default());
+        let inward = Ray::new(DVec3::new(-1.0, 7.0, 0.0), DVec3::new(1.0, 0.5, 0.0));
+        let found = hits(&tube, &e, &inward);
+        assert_eq!(found.len(), 1);
+        assert!((found[0].point - DVec3::new(1.0, 8.0, 0.0)).length() < 1e-15);
+        // Seen from inside, the normal points to the axis.
+        assert_eq!(tube.normal(&found[0], inward.dir), -DVec3::X);
+        assert!(tube.intersect(&Ray::new(DVec3::new(-1.0, 7.0, 0.0), DVec3::new(-1.0, 0.5, 0.3)), 0.0, f64::INFINITY).is_none());
+    }
+
     // Regressions: literal cases the properties found.
 
     /// A ray entering from a point of the side, away from the origin, re-hit the side at t ≈ 3e-16.
@@ -582,7 +595,10 @@ mod tests {
     /// the side was "hit" 1e11 away.
     #[test]
     fn bad_case_rays_along_the_axis_hit_the_side_far_away() {
-        for axis in [DVec3::new(0.9224005862007832, 0.0, 0.3862345900828302), DVec3::new(0.807691151622583, 0.45161682161361233, 0.37904782023671485)] {
+        for axis in [
+            DVec3::new(0.9224005862007832, 0.0, 0.3862345900828302),
+            DVec3::new(0.807691151622583, 0.45161682161361233, 0.37904782023671485),
+        ] {
             let tube = Cylinder::new(DVec3::ZERO, axis, 5e-5, None, Material::default());
             let ray = Ray { origin: 1.001 * 5e-5 * axis, dir: -axis };
             assert_eq!(tube.intersect(&ray, 0.0, f64::INFINITY), None);

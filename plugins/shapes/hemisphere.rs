@@ -304,7 +304,8 @@ mod tests {
     /// the wall at t ≈ 0.
     #[test]
     fn bad_case_a_ray_from_a_far_bowl_hit_it_again() {
-        let (center, radius, open) = (DVec3::new(-34417.1139580764, -38967.203278238885, 0.0), 500.0, DVec3::new(-0.7042642209588147, 0.7099379600199399, 0.0));
+        let (center, radius, open) =
+            (DVec3::new(-34417.1139580764, -38967.203278238885, 0.0), 500.0, DVec3::new(-0.7042642209588147, 0.7099379600199399, 0.0));
         let g = Hemisphere::new(center, radius, open, Material::default());
         let u = DVec3::new(-0.6191611402231467, 0.7852639571746387, 0.0);
         let u = if u.dot(open) > 0.0 { -u } else { u };

@@ -379,7 +379,10 @@ mod tests {
         let p = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
         let m = Material::default;
         assert_eq!(Polygon::new(vec![p(0.0, 0.0, 0.0), p(1.0, 0.0, 0.0)], m()).unwrap_err(), PolygonError::TooFew(2));
-        assert_eq!(Polygon::new(vec![p(0.0, 0.0, 0.0), p(1.0, 0.0, 0.0), p(f64::NAN, 0.0, 0.0)], m()).unwrap_err(), PolygonError::NotFinite);
+        assert_eq!(
+            Polygon::new(vec![p(0.0, 0.0, 0.0), p(1.0, 0.0, 0.0), p(f64::NAN, 0.0, 0.0)], m()).unwrap_err(),
+            PolygonError::NotFinite
+        );
         assert_eq!(Polygon::new(vec![p(0.0, 0.0, 0.0), p(1.0, 0.0, 0.0), p(2.0, 0.0, 0.0)], m()).unwrap_err(), PolygonError::Degenerate);
         let skew = vec![p(0.0, 0.0, 0.0), p(1.0, 0.0, 0.0), p(1.0, 1.0, 0.5), p(0.0, 1.0, 0.0)];
         assert!(matches!(Polygon::new(skew, m()).unwrap_err(), PolygonError::NotPlanar(_)));
@@ -393,7 +396,11 @@ mod tests {
     /// starting on the polygon found it again 3e-14 away.
     #[test]
     fn bad_case_a_far_polygon_had_a_tilted_normal() {
-        let v = vec![DVec3::new(5.725267332431449, -5.346158519809949, 1.0156084590696055), DVec3::new(3.797871597017973, -4.011467856951285, -1.2472884473455568), DVec3::new(5.457948279667441, -5.614629969938661, 1.2399140012659242)];
+        let v = vec![
+            DVec3::new(5.725267332431449, -5.346158519809949, 1.0156084590696055),
+            DVec3::new(3.797871597017973, -4.011467856951285, -1.2472884473455568),
+            DVec3::new(5.457948279667441, -5.614629969938661, 1.2399140012659242),
+        ];
         let g = Polygon::new(v.clone(), Material::default()).unwrap();
         let exact = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
         assert!((g.normal - exact).length() < 1e-15, "{} vs {exact}", g.normal);

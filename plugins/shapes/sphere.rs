@@ -218,7 +218,9 @@ mod tests {
     #[test]
     fn a_tangent_ray_reports_at_most_the_tangent_point() {
         let (g, exact) = unit_sphere();
-        for (origin, dir) in [(DVec3::new(-5.0, 1.0, 0.0), DVec3::X), (DVec3::new(0.0, -3.0, -1.0), DVec3::Y), (DVec3::new(0.6, 0.8, 9.0), -DVec3::Z)] {
+        for (origin, dir) in
+            [(DVec3::new(-5.0, 1.0, 0.0), DVec3::X), (DVec3::new(0.0, -3.0, -1.0), DVec3::Y), (DVec3::new(0.6, 0.8, 9.0), -DVec3::Z)]
+        {
             let ray = Ray::new(origin, dir);
             let hits = check_hits_ascending_ok(&g, &ray, &exact);
             assert!(hits.len() <= 1, "tangent ray hit {} times", hits.len());
