@@ -1,9 +1,11 @@
 //! `triangle`: a single triangle given by three vertices.
 //!
 //! The intersection is the watertight test of Woop, Benthin & Wald (JCGT 2013) with pbrt-v4's
-//! conservative bound on `t`. A lone triangle follows the report: a ray through an edge or a
-//! vertex does **not** hit it (edge functions must be strictly non-zero). Meshes use the same
-//! test with edges counted as hits ([`EdgeRule::Inclusive`]), which makes shared edges watertight.
+//! conservative bound on `t`. By default a triangle follows the report: a ray through an edge or
+//! a vertex does **not** hit it (edge functions must be strictly non-zero). That rule is right for
+//! a lone triangle and wrong for triangles that share edges: two such triangles leave a crack
+//! along the edge. `edges = "inclusive"` ([`EdgeRule::Inclusive`], what meshes use) counts edge
+//! hits, and the test's consistent edge functions then make shared edges watertight.
 
 use raylab::error::Result;
 use raylab::float::{gamma, on_surface_slack};
@@ -111,6 +113,7 @@ pub fn barycentric_point(b: DVec3, p0: DVec3, p1: DVec3, p2: DVec3) -> (DVec3, D
 pub struct Triangle {
     p: [DVec3; 3],
     normal: DVec3,
+    edges: EdgeRule,
     material: Material,
 }
 
@@ -118,23 +121,34 @@ impl Triangle {
     /// A triangle, or `None` when it is degenerate (zero area, collinear or repeated vertices,
     /// non-finite coordinates).
     pub fn new(p0: DVec3, p1: DVec3, p2: DVec3, material: Material) -> Option<Self> {
+        Self::with_edges(p0, p1, p2, EdgeRule::Exclusive, material)
+    }
+
+    /// A triangle with the given edge rule, or `None` when it is degenerate.
+    pub fn with_edges(p0: DVec3, p1: DVec3, p2: DVec3, edges: EdgeRule, material: Material) -> Option<Self> {
         let n = (p1 - p0).cross(p2 - p0);
         let scale = (p1 - p0).length() * (p2 - p0).length();
         if !(n.is_finite() && n.length() > 1e-12 * scale && scale > 0.0) {
             return None;
         }
-        Some(Triangle { p: [p0, p1, p2], normal: n.normalize(), material })
+        Some(Triangle { p: [p0, p1, p2], normal: n.normalize(), edges, material })
     }
 }
 
 /// The `triangle` plugin's description.
 pub const INFO: PluginInfo = PluginInfo {
     name: "triangle",
-    summary: "A triangle. Its outward normal follows the winding (p1 − p0) × (p2 − p0). As in the report, a ray exactly through an edge or vertex misses a lone triangle; use a mesh for shared edges.",
+    summary: "A triangle. Its outward normal follows the winding (p1 − p0) × (p2 − p0). As in the report, a ray exactly through an edge or vertex misses it, unless edges = \"inclusive\" (use that for triangles sharing edges: no crack).",
     params: &[
         ParamSpec::new("p0", ParamKind::Vec3, Default::Required, "first vertex"),
         ParamSpec::new("p1", ParamKind::Vec3, Default::Required, "second vertex"),
         ParamSpec::new("p2", ParamKind::Vec3, Default::Required, "third vertex"),
+        ParamSpec::new(
+            "edges",
+            ParamKind::Str,
+            Default::Str("exclusive"),
+            "\"exclusive\": an edge or vertex hit is a miss (the report); \"inclusive\": it is a hit (watertight between triangles)",
+        ),
         MATERIAL_PARAM,
     ],
 };
@@ -142,8 +156,9 @@ pub const INFO: PluginInfo = PluginInfo {
 /// Builds a triangle from its parameters.
 pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Geometry>> {
     let (p0, p1, p2) = (p.vec3("p0")?, p.vec3("p1")?, p.vec3("p2")?);
+    let edges = if p.choice("edges", &["exclusive", "inclusive"])? == "inclusive" { EdgeRule::Inclusive } else { EdgeRule::Exclusive };
     let m = p.material("material")?;
-    Triangle::new(p0, p1, p2, m)
+    Triangle::with_edges(p0, p1, p2, edges, m)
         .map(|t| Box::new(t) as Box<dyn Geometry>)
         .ok_or_else(|| p.error("degenerate triangle: the vertices are collinear or repeated (zero area)"))
 }
@@ -151,7 +166,7 @@ pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Geometry>> {
 impl Intersectable for Triangle {
     fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<Hit> {
         let [p0, p1, p2] = self.p;
-        let h = intersect_triangle(ray, p0, p1, p2, t_min, t_max, EdgeRule::Exclusive)?;
+        let h = intersect_triangle(ray, p0, p1, p2, t_min, t_max, self.edges)?;
         // An origin within rounding of the triangle's plane is on it: no hit at t ≈ 0.
         if h.t * self.normal.dot(ray.dir).abs() <= on_surface_slack(ray.origin, p0) {
             return None;
@@ -362,6 +377,8 @@ mod tests {
             for (ray, [a, b, c]) in axis_rays(x, y) {
                 let h = intersect_triangle(&ray, a, b, c, 0.0, f64::INFINITY, EdgeRule::Inclusive);
                 assert_eq!(h.map(|h| h.t), Some(4.0), "({x}, {y}) missed by {ray:?}");
+                let g = Triangle::with_edges(a, b, c, EdgeRule::Inclusive, Material::default()).unwrap();
+                assert_eq!(g.intersect(&ray, 0.0, f64::INFINITY).map(|h| h.t), Some(4.0));
             }
         }
     }
