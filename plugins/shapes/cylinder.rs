@@ -10,7 +10,7 @@
 //! only beyond its own rounding-error bound, so a ray starting on the surface does not hit it again.
 
 use raylab::error::Result;
-use raylab::float::{gamma, on_surface_slack};
+use raylab::float::{gamma, max_abs, on_surface_slack};
 use raylab::geometry::{Geometry, Hit, Intersectable};
 use raylab::glam::{DVec2, DVec3};
 use raylab::params::{Default, MATERIAL_PARAM, ParamKind, ParamSpec, Params};
@@ -136,10 +136,13 @@ impl Cylinder {
             return None;
         }
         let c = fp.length_squared() - r2;
-        // Moving the origin by the on-surface slack moves c by up to 2|fp|·slack.
-        let slack = 2.0 * fp.length() * on_surface_slack(ray.origin, self.base);
-        let small =
-            Crossing { t: c / q, err: (gamma(10) * (fp.length_squared() + r2) + slack) / q.abs() + gamma(5) * (c / q).abs(), prim: SIDE };
+        let mut small = Crossing { t: c / q, err: gamma(10) * (fp.length_squared() + r2) / q.abs() + gamma(5) * (c / q).abs(), prim: SIDE };
+        // Moving the origin by the on-surface slack moves c by up to 2|fp|·slack; only a root near
+        // zero needs that term exactly (|fp| ≤ 2·|fp|∞ bounds it without a square root).
+        let slack = on_surface_slack(ray.origin, self.base) / q.abs();
+        if small.t.abs() <= small.err + 4.0 * max_abs(fp) * slack {
+            small.err += 2.0 * fp.length() * slack;
+        }
         let large = Crossing { t: q / aa, err: gamma(10) * (q / aa).abs(), prim: SIDE };
         Some(if small.t <= large.t { [small, large] } else { [large, small] })
     }

@@ -7,7 +7,7 @@
 //! rejected, so a ray leaving the surface never reports it again.
 
 use raylab::error::Result;
-use raylab::float::{gamma, on_surface_slack};
+use raylab::float::{gamma, max_abs, on_surface_slack};
 use raylab::geometry::{Geometry, Hit, Intersectable};
 use raylab::glam::{DVec2, DVec3};
 use raylab::params::{Default, MATERIAL_PARAM, ParamKind, ParamSpec, Params};
@@ -57,10 +57,15 @@ pub fn sphere_roots(f: DVec3, d: DVec3, radius: f64, slack: f64) -> Option<[(f64
     if q == 0.0 {
         return None;
     }
-    // c/q is the root of smaller magnitude; its error is dominated by that of c = |f|² − r², and
-    // moving the origin by `slack` moves c by up to 2|f|·slack.
+    // c/q is the root of smaller magnitude; its error is dominated by that of c = |f|² − r².
     let small = c / q;
-    let small = (small, (gamma(8) * (f.length_squared() + r2) + 2.0 * f.length() * slack) / q.abs() + gamma(4) * small.abs());
+    let mut small_err = gamma(8) * (f.length_squared() + r2) / q.abs() + gamma(4) * small.abs();
+    // Moving the origin by `slack` moves c by up to 2|f|·slack; only a root near zero needs that
+    // term exactly (|f| ≤ 2·|f|∞ bounds it without a square root).
+    if small.abs() <= small_err + 4.0 * max_abs(f) * slack / q.abs() {
+        small_err += 2.0 * f.length() * slack / q.abs();
+    }
+    let small = (small, small_err);
     let large = (q, gamma(8) * q.abs());
     Some(if small.0 <= large.0 { [small, large] } else { [large, small] })
 }
