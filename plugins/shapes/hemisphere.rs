@@ -205,6 +205,25 @@ mod tests {
             prop_assert!((n + u).length() < 1e-6, "inner normal {} should point to the centre ({})", n, -u);
         }
 
+        /// No crack at the rim: a ray through any point just inside it (1e-10 radians, well above
+        /// the rounding of the ray itself), from any side, hits the bowl there.
+        #[test]
+        fn rays_just_inside_the_rim_hit_it((g, exact, mag) in bowl(), phi in 0.0..std::f64::consts::TAU, from in unit(), dist in 0.2..3.0f64) {
+            let (w, delta) = (perpendicular(exact.open, phi), 1e-10f64);
+            let rim = exact.center + exact.radius * (delta.cos() * w - delta.sin() * exact.open);
+            let origin = rim + dist * exact.radius * from;
+            let ray = Ray::new(origin, rim - origin);
+            // Not tangent to the sphere there.
+            prop_assume!(ray.dir.dot((rim - exact.center) / exact.radius).abs() > 1e-3);
+            let tol = tolerance(mag, &ray);
+            let hits = check_ray(&g, &ray, &tol, &exact, 2, &[])?;
+            let at_rim = (rim - origin).length();
+            prop_assert!(
+                hits.iter().any(|h| (h.point - rim).length() <= 1e3 * tol.distance(at_rim, rim)),
+                "no hit at the rim {} among {:?}", rim, hits
+            );
+        }
+
         #[test]
         fn grazing_rays_keep_every_contract(
             (g, exact, mag) in bowl(), u in unit(), phi in 0.0..std::f64::consts::TAU,
