@@ -2,7 +2,7 @@
 //! screen at a distance in front of the eye.
 
 use crate::error::Result;
-use crate::params::{Default, ParamKind, ParamSpec, Params};
+use crate::params::{Default, Node, ParamKind, ParamSpec, Params, Table};
 use crate::ray::Ray;
 use glam::{DVec2, DVec3};
 
@@ -50,6 +50,28 @@ pub const CAMERA_PARAMS: &[ParamSpec] = &[
         "distance of the plane in focus; default: the look_at point or the screen",
     ),
 ];
+
+/// Keys of the look-at form; giving one of them replaces the report form, and vice versa.
+const LOOK_AT_KEYS: &[&str] = &["look_at", "fov"];
+/// Keys of the report form.
+const REPORT_KEYS: &[&str] = &["to", "screen_distance", "screen_width", "screen_height"];
+
+/// The `[camera]` table with command-line `overrides` applied over it. An override of one form's
+/// key (look-at: `look_at`, `fov`; report: `to`, `screen_*`) drops the other form's keys from the
+/// file, so `--camera look_at=[0,0,0]` works on a report-form camera.
+pub fn apply_overrides(file: &Table, overrides: &[(String, Node)]) -> Table {
+    let mut t = file.clone();
+    let given = |keys: &[&str]| overrides.iter().any(|(k, _)| keys.contains(&k.as_str()));
+    for (keys, other) in [(LOOK_AT_KEYS, REPORT_KEYS), (REPORT_KEYS, LOOK_AT_KEYS)] {
+        if given(keys) && !given(other) {
+            t.entries.retain(|e| !other.contains(&e.key.as_str()));
+        }
+    }
+    for (k, v) in overrides {
+        t.set(k, v.loc.clone(), v.clone());
+    }
+    t
+}
 
 /// Why a camera could not be built.
 #[derive(Clone, Debug, PartialEq)]

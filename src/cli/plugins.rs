@@ -46,9 +46,12 @@ pub fn text(reg: &Registry) -> String {
     out
 }
 
-/// The registry as Markdown tables.
+/// The registry as Markdown tables (what `docs/plugins.md` holds for the built-in plugins).
 pub fn markdown(reg: &Registry) -> String {
-    let mut out = String::new();
+    let mut out = String::from(
+        "# Plugin reference\n\nEvery registered type and its parameters, written by `raylab plugins --markdown` from the \
+         parameter tables in the plugins' sources.\n\n",
+    );
     for (title, usage, items) in sections(reg) {
         let title = title[..1].to_string() + &title[1..].to_lowercase();
         out.push_str(&format!("## {title}\n\nIn a scene: `{usage}`.\n\n"));
@@ -63,6 +66,12 @@ pub fn markdown(reg: &Registry) -> String {
                 out.push_str(&format!("| `{}` | {} | {} | {} |\n", s.name, s.kind.name(), s.default, s.doc));
             }
             out.push('\n');
+        }
+    }
+    if !reg.formats().is_empty() {
+        out.push_str("## Scene formats\n\nBesides raylab's own `.toml`, chosen by file extension:\n\n| extension | format |\n|---|---|\n");
+        for f in reg.formats() {
+            out.push_str(&format!("| `.{}` | {} |\n", f.extensions.join("`, `."), f.summary));
         }
     }
     out
