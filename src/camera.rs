@@ -237,6 +237,25 @@ mod tests {
     }
 
     #[test]
+    fn overrides_replace_keys_and_switch_forms() {
+        let src = crate::error::Source::new("t", "x");
+        let loc = crate::error::Loc::new(&src, 0..1);
+        let node = |v: f64| Node { value: crate::params::Value::Float(v), loc: loc.clone() };
+        let mut file = Table::default();
+        for (k, v) in [("to", 1.0), ("screen_width", 2.0), ("fov", 3.0), ("position", 4.0)] {
+            file.set(k, loc.clone(), node(v));
+        }
+        let keys = |t: &Table| t.entries.iter().map(|e| e.key.as_str()).collect::<Vec<_>>().join(" ");
+        let t = apply_overrides(&file, &[("look_at".into(), node(9.0))]);
+        assert_eq!(keys(&t), "fov position look_at", "report-form keys dropped");
+        let t = apply_overrides(&file, &[("screen_width".into(), node(9.0))]);
+        assert_eq!(keys(&t), "to screen_width position", "look-at keys dropped");
+        assert!(matches!(t.get("screen_width").unwrap().value, crate::params::Value::Float(9.0)));
+        let t = apply_overrides(&file, &[("position".into(), node(9.0))]);
+        assert_eq!(keys(&t), "to screen_width fov position", "a shared key changes nothing else");
+    }
+
+    #[test]
     fn look_at_covers_the_field_of_view() {
         let cam = Camera::look_at(DVec3::ZERO, DVec3::new(0.0, 0.0, -10.0), DVec3::Y, 90.0, 200, 100).unwrap();
         let top = cam.ray_through(200, 100, DVec2::new(100.0, 0.0), DVec2::ZERO);

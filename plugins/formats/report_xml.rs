@@ -172,8 +172,8 @@ pub const ELEMENTS: &[ElementSpec] = &[
         becomes: Becomes::Structure,
         attrs: &[
             attr(&["background-color"], "background", Color, Dv("0 0 0"), "colour of rays that hit nothing"),
-            attr(SCREEN_W, "", Number, Computed, "screen width, scene units (older style; or on <image>)"),
-            attr(SCREEN_H, "", Number, Computed, "screen height, scene units (older style; or on <image>)"),
+            attr(SCREEN_W, "", Number, Computed, "screen width, scene units (older style; or on `<image>`)"),
+            attr(SCREEN_H, "", Number, Computed, "screen height, scene units (older style; or on `<image>`)"),
             attr(&["screen-dist", "screen-distance"], "screen_distance", Number, Dv("100"), "eye-to-screen distance, scene units"),
             attr(&["name"], "name", Text, Plugin, "scene name (default: the file name)"),
         ],
@@ -191,7 +191,7 @@ pub const ELEMENTS: &[ElementSpec] = &[
             attr(&["Ny"], "height", Count, Computed, "image height, pixels"),
         ],
         material: false,
-        doc: "Screen and image size (later style). Missing pairs: see \"Image size\" below.",
+        doc: "Screen and image size (later style). A missing pair: see \"Image size\" above.",
     },
     ElementSpec {
         name: "camera",
@@ -203,7 +203,7 @@ pub const ELEMENTS: &[ElementSpec] = &[
             attr(&["vUp"], "up", Vector, Dv("0 1 0"), "up direction (vRight = vTo × vUp)"),
         ],
         material: false,
-        doc: "The report's camera. At most one; without it the defaults apply (and `--camera KEY=VALUE` overrides).",
+        doc: "The report's camera. At most one; without it the defaults apply (`--camera KEY=VALUE` overrides any of them).",
     },
     ElementSpec {
         name: "geometries",
@@ -219,7 +219,7 @@ pub const ELEMENTS: &[ElementSpec] = &[
         becomes: Becomes::Structure,
         attrs: &[],
         material: false,
-        doc: "Optionally holds the lights (they may also stand directly in <scene>).",
+        doc: "Optionally holds the lights (they may also stand directly in `<scene>`).",
     },
     ElementSpec {
         name: "ambient-light",
@@ -407,7 +407,7 @@ pub fn reference() -> String {
     let default = |d: AttrDefault| match d {
         Required => "required".to_string(),
         Dv(v) => format!("`{v}`"),
-        Plugin => "plugin's".to_string(),
+        Plugin => "raylab's".to_string(),
         Computed => "computed".to_string(),
     };
     let table = |out: &mut String, attrs: &[AttrSpec]| {

@@ -254,7 +254,7 @@ fn errors_name_line_and_column() {
     fails_at("<scene>\n  <sphere center=\"0 0 0\" radius=\"1\"/>\n</scene>", 2, 3, "<sphere> belongs in <geometries>");
     fails_at("<scene>\n <geometries>\n  <sphere center=\"0 0 -1\" radus=\"1\"/></geometries></scene>", 3, 27, "did you mean `radius`?");
     fails_at("<scene background-color=\"0 0 256\"/>", 1, 30, "colour channels are 0–255");
-    fails_at("<scene background-color=\"0 0\"/>", 1, 25, "expected a colour");
+    fails_at("<scene background-color=\"0 0\"/>", 1, 26, "expected a colour");
     fails_at("<scene><camera vTo=\"0 0 -1\" Vto=\"0 0 1\"/></scene>", 1, 29, "given twice");
     fails_at("<scene><camera/>\n<camera/></scene>", 2, 1, "a second <camera>");
     fails_at("<scene>\n  hello\n</scene>", 2, 3, "unexpected text in <scene>");
@@ -264,8 +264,8 @@ fn errors_name_line_and_column() {
     fails_at("<scene><image Nx=\"1.5\" Ny=\"2\"/></scene>", 1, 19, "whole number");
     fails_at("<scene><image Nx=\"10\"/></scene>", 1, 8, "gives `Nx` without `Ny`");
     fails_at("<scene screen-width=\"5\" screen-height=\"5\"><image screen-width=\"5\" screen-height=\"5\"/></scene>", 1, 8, "both <scene> and <image>");
-    fails_at("<scene><geometries><sphere center=\"0 0 -1\" radius=\"1\"><x/></sphere></geometries></scene>", 1, 53, "takes no child elements");
-    fails_at("<scene><geometries><polygon vertices=\"0 0 0 1 0 0 1 1\"/></geometries></scene>", 1, 38, "expected points");
+    fails_at("<scene><geometries><sphere center=\"0 0 -1\" radius=\"1\"><x/></sphere></geometries></scene>", 1, 55, "takes no child elements");
+    fails_at("<scene><geometries><polygon vertices=\"0 0 0 1 0 0 1 1\"/></geometries></scene>", 1, 39, "expected points");
     // Errors found by the plugins point into the XML too.
     fails_at("<scene>\n<geometries>\n<sphere center=\"0 0 -1\" radius=\"-2\"/></geometries></scene>", 3, 33, "expected a number > 0");
     fails_at("<scene><camera vTo=\"0 1 0\" vUp=\"0 2 0\"/></scene>", 1, 8, "parallel");
@@ -277,7 +277,7 @@ fn errors_name_line_and_column() {
 fn entities_in_values_are_read_and_located_at_the_whole_value() {
     let job = load_xml(r#"<scene name="a &amp; b"/>"#, &LoadOptions::default()).unwrap();
     assert_eq!(job.scene.name, "a & b");
-    fails_at("<scene background-color=\"0 &#48; x\"/>", 1, 25, "expected a number, found \"x\"");
+    fails_at("<scene background-color=\"0 &#48; x\"/>", 1, 26, "expected a number, found \"x\"");
 }
 
 #[test]
