@@ -74,11 +74,8 @@ fn tables_of(v: &Value) -> Option<Vec<&Table>> {
 /// written inline.
 fn write_section(out: &mut String, path: &[&str], t: &Table) {
     let at_root = path.is_empty();
-    let plain: Vec<_> = t
-        .entries
-        .iter()
-        .filter(|e| !matches!(e.value.value, Value::Table(_)) && !(at_root && tables_of(&e.value.value).is_some()))
-        .collect();
+    let is_section = |v: &Value| matches!(v, Value::Table(_)) || (at_root && tables_of(v).is_some());
+    let plain: Vec<_> = t.entries.iter().filter(|e| !is_section(&e.value.value)).collect();
     let has_sub = t.entries.iter().any(|e| matches!(e.value.value, Value::Table(_)));
     if !at_root && (!plain.is_empty() || !has_sub) {
         let header: Vec<String> = path.iter().map(|k| key(k)).collect();

@@ -31,7 +31,12 @@ const DISC: PluginInfo = PluginInfo {
 };
 
 fn build_disc(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Geometry>> {
-    Ok(Box::new(Disc { center: p.vec3("center")?, normal: p.direction("normal")?, radius: p.positive("radius")?, material: p.material("material")? }))
+    Ok(Box::new(Disc {
+        center: p.vec3("center")?,
+        normal: p.direction("normal")?,
+        radius: p.positive("radius")?,
+        material: p.material("material")?,
+    }))
 }
 
 impl Intersectable for Disc {
@@ -48,8 +53,14 @@ impl Intersectable for Disc {
         }
         let p = ray.at(t);
         let point = p - self.normal * self.normal.dot(p - self.center);
-        ((point - self.center).length_squared() < self.radius * self.radius)
-            .then(|| Hit { t, point, error: gamma(6) * (point.abs() + self.center.abs()), uv: DVec2::ZERO, prim: 0, object: 0 })
+        ((point - self.center).length_squared() < self.radius * self.radius).then(|| Hit {
+            t,
+            point,
+            error: gamma(6) * (point.abs() + self.center.abs()),
+            uv: DVec2::ZERO,
+            prim: 0,
+            object: 0,
+        })
     }
 }
 
@@ -92,7 +103,8 @@ material = { kd = 0, ka = 0, emission = [1, 0.5, 0] }
 
 #[test]
 fn a_geometry_defined_outside_raylab_renders_from_a_scene_file() {
-    let job = load_str(&registry(), "disc.toml", SCENE, Path::new("."), &LoadOptions::default()).unwrap_or_else(|e| panic!("{}", e.report()));
+    let job =
+        load_str(&registry(), "disc.toml", SCENE, Path::new("."), &LoadOptions::default()).unwrap_or_else(|e| panic!("{}", e.report()));
     assert_eq!(job.scene.object_name(0), "the disc");
     let film = render(&job, &RenderOptions::default(), &|_, _| {}).unwrap().film;
     assert_eq!(film.get(16, 16).to_array(), [1.0, 0.5, 0.0], "the disc's emission at the centre");

@@ -31,11 +31,11 @@
 //! Every value keeps its position in the XML text, so an error anywhere (syntax, an unknown
 //! element or attribute, a bad number, or a value a plugin rejects) names the line and column.
 
+use raylab::LoadContext;
 use raylab::error::{Loc, Result, SceneError, Source, did_you_mean};
 use raylab::load::SceneDescription;
 use raylab::params::{Entry, Node, Table, Value};
 use raylab::registry::SceneFormat;
-use raylab::LoadContext;
 use roxmltree::{Attribute, Node as XmlNode};
 use std::ops::Range;
 use std::path::Path;
@@ -508,7 +508,9 @@ impl Reader<'_> {
         err = err.with_help(match did_you_mean(&name.to_ascii_lowercase(), names.iter().copied()) {
             Some(m) => format!("did you mean <{m}>? (expected one of {list})"),
             None => match ELEMENTS.iter().find(|e| e.name.eq_ignore_ascii_case(name)) {
-                Some(e) => format!("<{}> belongs in {}", e.name, e.parents.iter().map(|p| format!("<{p}>")).collect::<Vec<_>>().join(" or ")),
+                Some(e) => {
+                    format!("<{}> belongs in {}", e.name, e.parents.iter().map(|p| format!("<{p}>")).collect::<Vec<_>>().join(" or "))
+                }
                 None => format!("expected one of {list}"),
             },
         });
@@ -598,7 +600,10 @@ impl Reader<'_> {
             AttrKind::Color => {
                 let n = self.numbers(text, range.clone(), what)?;
                 if n.len() != 3 {
-                    return Err(SceneError::at(&loc, format!("{what}: expected a colour \"r g b\" (0–255 each), found {} numbers", n.len())));
+                    return Err(SceneError::at(
+                        &loc,
+                        format!("{what}: expected a colour \"r g b\" (0–255 each), found {} numbers", n.len()),
+                    ));
                 }
                 let mut items = Vec::with_capacity(3);
                 for (v, r) in n {
@@ -650,8 +655,10 @@ impl Reader<'_> {
                 relocate(&mut node, &a.loc);
                 Ok(Some((a.loc.clone(), node)))
             }
-            Required => Err(SceneError::at(&a.loc, format!("<{}> needs attribute `{}` ({})", a.spec.name, spec.names[0], spec.kind.form()))
-                .with_help(format!("`{}`: {}", spec.names[0], spec.doc))),
+            Required => {
+                Err(SceneError::at(&a.loc, format!("<{}> needs attribute `{}` ({})", a.spec.name, spec.names[0], spec.kind.form()))
+                    .with_help(format!("`{}`: {}", spec.names[0], spec.doc)))
+            }
             Plugin | Computed => Ok(None),
         }
     }
@@ -729,7 +736,11 @@ impl Reader<'_> {
         render.entries.push(entry("width", pixels.0));
         render.entries.push(entry("height", pixels.1));
         render.entries.push(entry("encoding", (sa.loc.clone(), Node { value: Value::Str("linear".into()), loc: sa.loc.clone() })));
-        out.entries.push(Entry { key: "render".into(), key_loc: render_loc.clone(), value: Node { value: Value::Table(render), loc: render_loc } });
+        out.entries.push(Entry {
+            key: "render".into(),
+            key_loc: render_loc.clone(),
+            value: Node { value: Value::Table(render), loc: render_loc },
+        });
 
         // Camera.
         let ca = match camera {
@@ -777,7 +788,8 @@ impl Reader<'_> {
             (true, true) => Ok(Some((self.value(a, w)?.expect("given"), self.value(a, h)?.expect("given")))),
             (gw, _) => {
                 let (has, missing) = if gw { (w, h) } else { (h, w) };
-                Err(SceneError::at(&a.loc, format!("<{}> gives `{has}` without `{missing}`", a.spec.name)).with_help("give both or neither"))
+                Err(SceneError::at(&a.loc, format!("<{}> gives `{has}` without `{missing}`", a.spec.name))
+                    .with_help("give both or neither"))
             }
         }
     }
@@ -856,6 +868,8 @@ fn sizes(
             let (sw, sh) = fit(num(&p.0.1), num(&p.1.1));
             ((at(Value::Float(sw)), at(Value::Float(sh))), p)
         }
-        (None, None) => ((at(Value::Float(side)), at(Value::Float(side))), (at(Value::Int(DEFAULT_SIDE.into())), at(Value::Int(DEFAULT_SIDE.into())))),
+        (None, None) => {
+            ((at(Value::Float(side)), at(Value::Float(side))), (at(Value::Int(DEFAULT_SIDE.into())), at(Value::Int(DEFAULT_SIDE.into()))))
+        }
     }
 }

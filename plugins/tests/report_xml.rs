@@ -115,13 +115,10 @@ fn converted_scenes_render_the_same_image() {
     std::fs::create_dir_all(&dir).unwrap();
     for xml in report_scenes() {
         let toml = dir.join(xml.file_stem().unwrap()).with_extension("toml");
-        let code = raylab::cli::run_with_args(raylab_plugins::app(), [
-            "raylab".as_ref(),
-            "convert".as_ref(),
-            xml.as_os_str(),
-            "-o".as_ref(),
-            toml.as_os_str(),
-        ]);
+        let code = raylab::cli::run_with_args(
+            raylab_plugins::app(),
+            ["raylab".as_ref(), "convert".as_ref(), xml.as_os_str(), "-o".as_ref(), toml.as_os_str()],
+        );
         assert_eq!(code, std::process::ExitCode::SUCCESS, "convert {}", xml.display());
 
         // Same description…
@@ -148,11 +145,17 @@ fn converting_refuses_a_non_toml_output_and_an_invalid_scene() {
     std::fs::write(&bad, r#"<scene><geometries><sphere center="0 0 -9" radius="0"/></geometries></scene>"#).unwrap();
     let out = dir.join("bad.toml");
     let run = |args: &[&std::ffi::OsStr]| raylab::cli::run_with_args(raylab_plugins::app(), args.iter().copied());
-    assert_ne!(run(&["raylab".as_ref(), "convert".as_ref(), bad.as_os_str(), "-o".as_ref(), out.as_os_str()]), std::process::ExitCode::SUCCESS);
+    assert_ne!(
+        run(&["raylab".as_ref(), "convert".as_ref(), bad.as_os_str(), "-o".as_ref(), out.as_os_str()]),
+        std::process::ExitCode::SUCCESS
+    );
     assert!(!out.exists(), "nothing is written for an invalid scene");
     let classic = root().join("scenes/report-classic.xml");
     let png = dir.join("x.png");
-    assert_ne!(run(&["raylab".as_ref(), "convert".as_ref(), classic.as_os_str(), "-o".as_ref(), png.as_os_str()]), std::process::ExitCode::SUCCESS);
+    assert_ne!(
+        run(&["raylab".as_ref(), "convert".as_ref(), classic.as_os_str(), "-o".as_ref(), png.as_os_str()]),
+        std::process::ExitCode::SUCCESS
+    );
     assert!(!png.exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -263,8 +266,18 @@ fn errors_name_line_and_column() {
     fails_at("<scene><geometries><sphere center=\"0 0 -1\" radius=\"inf\"/></geometries></scene>", 1, 52, "finite");
     fails_at("<scene><image Nx=\"1.5\" Ny=\"2\"/></scene>", 1, 19, "whole number");
     fails_at("<scene><image Nx=\"10\"/></scene>", 1, 8, "gives `Nx` without `Ny`");
-    fails_at("<scene screen-width=\"5\" screen-height=\"5\"><image screen-width=\"5\" screen-height=\"5\"/></scene>", 1, 8, "both <scene> and <image>");
-    fails_at("<scene><geometries><sphere center=\"0 0 -1\" radius=\"1\"><x/></sphere></geometries></scene>", 1, 55, "takes no child elements");
+    fails_at(
+        "<scene screen-width=\"5\" screen-height=\"5\"><image screen-width=\"5\" screen-height=\"5\"/></scene>",
+        1,
+        8,
+        "both <scene> and <image>",
+    );
+    fails_at(
+        "<scene><geometries><sphere center=\"0 0 -1\" radius=\"1\"><x/></sphere></geometries></scene>",
+        1,
+        55,
+        "takes no child elements",
+    );
     fails_at("<scene><geometries><polygon vertices=\"0 0 0 1 0 0 1 1\"/></geometries></scene>", 1, 39, "expected points");
     // Errors found by the plugins point into the XML too.
     fails_at("<scene>\n<geometries>\n<sphere center=\"0 0 -1\" radius=\"-2\"/></geometries></scene>", 3, 33, "expected a number > 0");

@@ -18,7 +18,12 @@ pub const INFO: PluginInfo = PluginInfo {
     summary: "Ambient occlusion: kd × the fraction of a cosine-weighted hemisphere around the normal that is open within `distance`. Rays that miss show the background.",
     params: &[
         ParamSpec::new("rays", ParamKind::Int, Default::Int(16), "occlusion rays per camera ray, 1..4096"),
-        ParamSpec::new("distance", ParamKind::Float, Default::Optional, "only occluders closer than this count, scene units (> 0); default: any"),
+        ParamSpec::new(
+            "distance",
+            ParamKind::Float,
+            Default::Optional,
+            "only occluders closer than this count, scene units (> 0); default: any",
+        ),
     ],
 };
 

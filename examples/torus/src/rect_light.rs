@@ -19,7 +19,12 @@ pub const INFO: PluginInfo = PluginInfo {
         ParamSpec::new("color", ParamKind::Color, Default::Float(1.0), "intensity, linear RGB"),
         ParamSpec::new("corner", ParamKind::Vec3, Default::Required, "one corner of the rectangle"),
         ParamSpec::new("edge1", ParamKind::Vec3, Default::Required, "first edge from the corner, scene units"),
-        ParamSpec::new("edge2", ParamKind::Vec3, Default::Required, "second edge from the corner, perpendicular to edge1; light leaves toward edge1 × edge2"),
+        ParamSpec::new(
+            "edge2",
+            ParamKind::Vec3,
+            Default::Required,
+            "second edge from the corner, perpendicular to edge1; light leaves toward edge1 × edge2",
+        ),
         ParamSpec::new("samples", ParamKind::Int, Default::Int(16), "shadow samples per shaded point (more: smoother penumbrae), 1..4096"),
         ParamSpec::new("kc", ParamKind::Float, Default::Float(1.0), "constant attenuation, ≥ 0"),
         ParamSpec::new("kl", ParamKind::Float, Default::Float(0.0), "linear attenuation, per scene unit, ≥ 0"),

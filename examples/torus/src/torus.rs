@@ -109,7 +109,7 @@ impl Intersectable for Torus {
         let d = ray.dir;
         let f = ray.origin - self.center;
 
-        // Bounding sphere: skip misses, and move a far origin to the entry point.
+        // Bounding sphere: skip misses, and move a far origin to just before the entry point.
         let b_rad = self.bounding_radius();
         let b = f.dot(d);
         let closest = f - b * d;
@@ -149,13 +149,12 @@ impl Intersectable for Torus {
         let k_abs = q.length_squared() + r_big * r_big + r_small * r_small;
         let c0_err = gamma(12) * ((rho + r_big) * (rho + r_big) + qa * qa + r_small * r_small) * (k_abs + 2.0 * r_big * rho);
 
-        // All roots from the (shifted) origin to beyond the sphere, whatever t_min and t_max, so
-        // asking again from a hit's t never finds that hit's root a hair further on.
+        // All roots from the (shifted) origin to beyond the sphere, whatever t_min and t_max (rays
+        // start at t ≥ 0), so asking again from a hit's t never finds that root a hair further on.
         let mut roots = [0.0; 4];
         let n = quartic_roots(&c, 0.0, t_exit + margin - t0, &mut roots);
         for &s in &roots[..n] {
-            // |f'(s)| ≈ |c1| near s = 0: a root within c0_err / |c1| of the origin is the surface
-            // the ray starts on.
+            // A root within c0_err / |f'(s)| of the origin is the surface the ray starts on.
             let slope = (c[1] + s * (2.0 * c[2] + s * (3.0 * c[3] + 4.0 * s))).abs();
             if t0 == 0.0 && s.abs() * slope <= c0_err {
                 continue;
@@ -188,7 +187,8 @@ impl Geometry for Torus {
     fn bounds(&self) -> Option<Aabb> {
         // Per world axis i: r + R·sin(angle between axis and e_i).
         let half = DVec3::ONE - self.axis * self.axis;
-        let ext = DVec3::new(half.x.max(0.0).sqrt(), half.y.max(0.0).sqrt(), half.z.max(0.0).sqrt()) * self.major + DVec3::splat(self.minor);
+        let ext =
+            DVec3::new(half.x.max(0.0).sqrt(), half.y.max(0.0).sqrt(), half.z.max(0.0).sqrt()) * self.major + DVec3::splat(self.minor);
         Some(Aabb::new(self.center - ext, self.center + ext))
     }
     fn is_closed(&self) -> bool {

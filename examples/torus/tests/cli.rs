@@ -18,7 +18,19 @@ fn the_documented_command_renders_the_torus_scene() {
     std::fs::create_dir_all(&out_dir).unwrap();
     let png = out_dir.join("torus.png");
     // The README's command, smaller so the test is quick.
-    let out = run(&["render", "examples/torus/scenes/torus.toml", "-o", png.to_str().unwrap(), "--width", "80", "--height", "60", "--spp", "1", "-q"]);
+    let out = run(&[
+        "render",
+        "examples/torus/scenes/torus.toml",
+        "-o",
+        png.to_str().unwrap(),
+        "--width",
+        "80",
+        "--height",
+        "60",
+        "--spp",
+        "1",
+        "-q",
+    ]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(String::from_utf8_lossy(&out.stdout).starts_with(&format!("wrote {} (80×60", png.display())));
     assert!(std::fs::metadata(&png).unwrap().len() > 0);

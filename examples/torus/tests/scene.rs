@@ -10,7 +10,8 @@ fn scene() -> std::path::PathBuf {
 }
 
 fn options(integrator: Option<&str>) -> LoadOptions {
-    let overrides = Overrides { width: Some(80), height: Some(60), spp: Some(1), integrator: integrator.map(String::from), ..Overrides::default() };
+    let overrides =
+        Overrides { width: Some(80), height: Some(60), spp: Some(1), integrator: integrator.map(String::from), ..Overrides::default() };
     LoadOptions { overrides, ..LoadOptions::default() }
 }
 

@@ -48,12 +48,7 @@ fn case() -> impl Strategy<Value = Case> {
     (-4.0..4.0f64, 0.05..0.95f64, 0.0..1.0f64, 0.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64, -3.0..3.0f64).prop_map(
         |(log_size, thickness, au, av, cx, cy, cz, log_offset)| {
             let major = 10f64.powf(log_size);
-            Case {
-                center: DVec3::new(cx, cy, cz) * 10f64.powf(log_offset) * major,
-                axis: unit(au, av),
-                major,
-                minor: major * thickness,
-            }
+            Case { center: DVec3::new(cx, cy, cz) * 10f64.powf(log_offset) * major, axis: unit(au, av), major, minor: major * thickness }
         },
     )
 }
