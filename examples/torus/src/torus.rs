@@ -186,9 +186,8 @@ impl Geometry for Torus {
     }
     fn bounds(&self) -> Option<Aabb> {
         // Per world axis i: r + R·sin(angle between axis and e_i).
-        let half = DVec3::ONE - self.axis * self.axis;
-        let ext =
-            DVec3::new(half.x.max(0.0).sqrt(), half.y.max(0.0).sqrt(), half.z.max(0.0).sqrt()) * self.major + DVec3::splat(self.minor);
+        let sin = (DVec3::ONE - self.axis * self.axis).max(DVec3::ZERO).sqrt();
+        let ext = sin * self.major + DVec3::splat(self.minor);
         Some(Aabb::new(self.center - ext, self.center + ext))
     }
     fn is_closed(&self) -> bool {
