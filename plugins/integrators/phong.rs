@@ -131,14 +131,7 @@ impl Phong {
         let ambient = m.ka * scene.ambient;
         let mut color = m.emission + ambient;
         if let Some(nd) = node.as_deref_mut() {
-            nd.hit = Some(TraceHit {
-                object: hit.object as usize,
-                name: scene.object_name(hit.object).to_string(),
-                t: hit.t,
-                point: hit.point,
-                normal: n,
-                front_face: front,
-            });
+            nd.hit = Some(TraceHit::new(scene, &hit, ray.dir));
             nd.emission = m.emission;
             nd.ambient = ambient;
         }
