@@ -642,7 +642,7 @@ impl Reader<'_> {
 
     /// Attribute `name` of `a` as (key location, value), the default when absent, or `None` when
     /// absent and left to the plugin. A required attribute that is absent is an error.
-    fn value(&self, a: &Attrs, name: &str) -> Result<Option<(Loc, Node)>> {
+    fn value(&self, a: &Attrs, name: &str) -> Result<Option<Located>> {
         let spec = a.spec.attrs.iter().chain(MATERIAL_ATTRS).find(|s| s.names[0] == name).expect("attribute in its element's spec");
         let what = format!("<{} {}>", a.spec.name, spec.names[0]);
         if let Some((_, at)) = a.found.iter().find(|(s, _)| std::ptr::eq(*s, spec)) {
@@ -705,7 +705,7 @@ impl Reader<'_> {
             }
         }
 
-        let mut put = |key: &str, v: Option<(Loc, Node)>| {
+        let mut put = |key: &str, v: Option<Located>| {
             if let Some((kl, node)) = v {
                 out.entries.push(Entry { key: key.to_string(), key_loc: kl, value: node });
             }
@@ -722,7 +722,7 @@ impl Reader<'_> {
         if let Some(ia) = &ia {
             let on_image = self.pair(ia, SCREEN_W[0], SCREEN_H[0])?;
             if let (Some(s), Some(_)) = (&screen, &on_image) {
-                return Err(SceneError::at(&s.0.0, "the screen size is given on both <scene> and <image>").with_help("give it once"));
+                return Err(SceneError::at(&s.width.0, "the screen size is given on both <scene> and <image>").with_help("give it once"));
             }
             screen = screen.or(on_image);
         }
@@ -733,8 +733,8 @@ impl Reader<'_> {
         let (screen, pixels) = sizes(screen, pixels, &sa.loc);
         let render_loc = ia.as_ref().map_or(&sa.loc, |a| &a.loc).clone();
         let mut render = Table::default();
-        render.entries.push(entry("width", pixels.0));
-        render.entries.push(entry("height", pixels.1));
+        render.entries.push(entry("width", pixels.width));
+        render.entries.push(entry("height", pixels.height));
         render.entries.push(entry("encoding", (sa.loc.clone(), Node { value: Value::Str("linear".into()), loc: sa.loc.clone() })));
         out.entries.push(Entry {
             key: "render".into(),
@@ -756,8 +756,8 @@ impl Reader<'_> {
         if let Some(v) = self.value(&sa, "screen-dist")? {
             cam.entries.push(entry("screen_distance", v));
         }
-        cam.entries.push(entry("screen_width", screen.0));
-        cam.entries.push(entry("screen_height", screen.1));
+        cam.entries.push(entry("screen_width", screen.width));
+        cam.entries.push(entry("screen_height", screen.height));
         out.entries.push(Entry { key: "camera".into(), key_loc: ca.loc.clone(), value: Node { value: Value::Table(cam), loc: ca.loc } });
 
         // The report's default material, for geometries that set no material attribute.
@@ -781,11 +781,10 @@ impl Reader<'_> {
     }
 
     /// Both or neither of two attributes (a width and a height), as numbers.
-    #[allow(clippy::type_complexity)]
-    fn pair(&self, a: &Attrs, w: &str, h: &str) -> Result<Option<((Loc, Node), (Loc, Node))>> {
+    fn pair(&self, a: &Attrs, w: &str, h: &str) -> Result<Option<Size>> {
         match (self.given(a, w), self.given(a, h)) {
             (false, false) => Ok(None),
-            (true, true) => Ok(Some((self.value(a, w)?.expect("given"), self.value(a, h)?.expect("given")))),
+            (true, true) => Ok(Some(Size { width: self.value(a, w)?.expect("given"), height: self.value(a, h)?.expect("given") })),
             (gw, _) => {
                 let (has, missing) = if gw { (w, h) } else { (h, w) };
                 Err(SceneError::at(&a.loc, format!("<{}> gives `{has}` without `{missing}`", a.spec.name))
@@ -827,7 +826,16 @@ impl Reader<'_> {
     }
 }
 
-fn entry(key: &str, (key_loc, value): (Loc, Node)) -> Entry {
+/// A value with the location of its key: (key location, value).
+type Located = (Loc, Node);
+
+/// A width and a height (of the screen or the image).
+struct Size {
+    width: Located,
+    height: Located,
+}
+
+fn entry(key: &str, (key_loc, value): Located) -> Entry {
     Entry { key: key.to_string(), key_loc, value }
 }
 
@@ -841,12 +849,8 @@ fn relocate(node: &mut Node, loc: &Loc) {
 
 /// The screen size (scene units) and image size (pixels), each filled in from the other's aspect
 /// ratio when absent (longer side [`DEFAULT_SIDE`]), or `DEFAULT_SIDE` square when both are.
-#[allow(clippy::type_complexity)]
-fn sizes(
-    screen: Option<((Loc, Node), (Loc, Node))>,
-    pixels: Option<((Loc, Node), (Loc, Node))>,
-    loc: &Loc,
-) -> (((Loc, Node), (Loc, Node)), ((Loc, Node), (Loc, Node))) {
+/// Values filled in are located at `loc`.
+fn sizes(screen: Option<Size>, pixels: Option<Size>, loc: &Loc) -> (Size, Size) {
     let num = |n: &Node| match n.value {
         Value::Float(v) => v,
         Value::Int(v) => v as f64,
@@ -854,22 +858,29 @@ fn sizes(
     };
     let side = f64::from(DEFAULT_SIDE);
     let at = |v: Value| (loc.clone(), Node { value: v, loc: loc.clone() });
+    let floats = |w: f64, h: f64| Size { width: at(Value::Float(w)), height: at(Value::Float(h)) };
+    let ints =
+        |w: f64, h: f64| Size { width: at(Value::Int((w.round() as i64).max(1))), height: at(Value::Int((h.round() as i64).max(1))) };
     // Width and height with the aspect ratio w : h and DEFAULT_SIDE on the longer side.
-    let fit = |w: f64, h: f64| if w >= h { (side, side * h / w) } else { (side * w / h, side) };
+    let fit = |w: f64, h: f64| {
+        if !(w > 0.0 && h > 0.0) {
+            (side, side)
+        } else if w >= h {
+            (side, side * h / w)
+        } else {
+            (side * w / h, side)
+        }
+    };
     match (screen, pixels) {
         (Some(s), Some(p)) => (s, p),
         (Some(s), None) => {
-            let (w, h) = (num(&s.0.1), num(&s.1.1));
-            let (pw, ph) = if w > 0.0 && h > 0.0 { fit(w, h) } else { (side, side) };
-            let px = |v: f64| Value::Int((v.round() as i64).max(1));
-            (s, (at(px(pw)), at(px(ph))))
+            let (w, h) = fit(num(&s.width.1), num(&s.height.1));
+            (s, ints(w, h))
         }
         (None, Some(p)) => {
-            let (sw, sh) = fit(num(&p.0.1), num(&p.1.1));
-            ((at(Value::Float(sw)), at(Value::Float(sh))), p)
+            let (w, h) = fit(num(&p.width.1), num(&p.height.1));
+            (floats(w, h), p)
         }
-        (None, None) => {
-            ((at(Value::Float(side)), at(Value::Float(side))), (at(Value::Int(DEFAULT_SIDE.into())), at(Value::Int(DEFAULT_SIDE.into()))))
-        }
+        (None, None) => (floats(side, side), ints(side, side)),
     }
 }

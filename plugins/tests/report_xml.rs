@@ -239,6 +239,37 @@ fn the_command_line_supplies_or_overrides_the_camera() {
     };
     let job = load_path(&root().join("scenes/report-classic.xml"), &opts);
     assert_eq!(job.scene.camera.to, DVec3::NEG_Z, "look_at replaces the report-form camera");
+
+    // Any scene format: a TOML scene without [camera] takes it from the command line.
+    let reg = raylab_plugins::registry();
+    let toml = "[[object]]\ntype = \"sphere\"\n";
+    assert!(raylab::load::load_str(&reg, "t.toml", toml, Path::new("."), &LoadOptions::default()).is_err());
+    let job = raylab::load::load_str(&reg, "t.toml", toml, Path::new("."), &opts).unwrap_or_else(|e| panic!("{}", e.report()));
+    assert_eq!(job.scene.camera.to, DVec3::NEG_Z);
+}
+
+#[test]
+fn the_binary_renders_an_xml_scene_with_a_camera_from_the_command_line() {
+    let dir = std::env::temp_dir().join(format!("raylab-xml-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let png = dir.join("m.png");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args(["render", "scenes/report-minimal.xml", "--camera", "position=[0,0,50]", "--width", "10", "--height", "10", "-q", "-o"])
+        .arg(&png)
+        .current_dir(root())
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(png.exists());
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args(["render", "scenes/report-minimal.xml", "--camera", "positon=[0,0,50]", "-o"])
+        .arg(&png)
+        .current_dir(root())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("--camera:1:") && err.contains("did you mean `position`"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 fn src_loc() -> raylab::error::Loc {

@@ -103,8 +103,10 @@ impl Torus {
     }
 }
 
-impl Intersectable for Torus {
-    fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<Hit> {
+impl Torus {
+    /// The first root with `t_min < t < t_max`: its `t` and the point `ray.at(t)` relative to the
+    /// centre (computed near the torus, not from the far origin).
+    fn first_root(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<(f64, DVec3)> {
         let (r_big, r_small) = (self.major, self.minor);
         let d = ray.dir;
         let f = ray.origin - self.center;
@@ -160,20 +162,29 @@ impl Intersectable for Torus {
                 continue;
             }
             let t = t0 + s;
-            if !(t > t_min && t < t_max) {
-                continue;
+            if t > t_min && t < t_max {
+                return Some((t, q + s * d));
             }
-            let along = q + s * d;
-            let local = self.project(along).map_or(along, |(p, _)| p);
-            let point = self.center + local;
-            let error = gamma(10) * (local.abs() + point.abs() + DVec3::splat(r_big + r_small));
-            let z = local.dot(self.axis);
-            let around = local.dot(self.v).atan2(local.dot(self.u));
-            let tube_angle = z.atan2((local - z * self.axis).length() - r_big);
-            let uv = DVec2::new(around.rem_euclid(TAU) / TAU, tube_angle.rem_euclid(TAU) / TAU);
-            return Some(Hit { t, point, error, uv, prim: 0, object: 0 });
         }
         None
+    }
+}
+
+impl Intersectable for Torus {
+    fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<Hit> {
+        let (t, along) = self.first_root(ray, t_min, t_max)?;
+        let local = self.project(along).map_or(along, |(p, _)| p);
+        let point = self.center + local;
+        let error = gamma(10) * (local.abs() + point.abs() + DVec3::splat(self.major + self.minor));
+        let z = local.dot(self.axis);
+        let around = local.dot(self.v).atan2(local.dot(self.u));
+        let tube_angle = z.atan2((local - z * self.axis).length() - self.major);
+        let uv = DVec2::new(around.rem_euclid(TAU) / TAU, tube_angle.rem_euclid(TAU) / TAU);
+        Some(Hit { t, point, error, uv, prim: 0, object: 0 })
+    }
+
+    fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
+        self.first_root(ray, t_min, t_max).is_some()
     }
 }
 
