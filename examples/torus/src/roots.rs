@@ -33,11 +33,20 @@ fn eval_with_derivative<const N: usize>(c: &Poly<N>, x: f64) -> (f64, f64) {
 /// range and about 60 for any realistic interval, so this only guards against pathological input.
 const MAX_STEPS: u32 = 200;
 
+/// Relative precision (of the interval's length) to which critical points are located. They only
+/// separate monotone pieces: an error matters only for two roots closer together than it (a ray
+/// within ~1e-9 of tangent to the surface), which may then be missed.
+const CRITICAL_TOLERANCE: f64 = 1e-9;
+
 /// The one root in `[a, b]` of a polynomial monotone there, with `f(a)` and `f(b)` of opposite
-/// signs (neither zero).
-fn polish<const N: usize>(c: &Poly<N>, mut a: f64, mut b: f64, fa: f64) -> f64 {
+/// signs (neither zero), to within `xtol` (0: to full precision). Newton's method from the chord's
+/// zero, falling back to bisection whenever a step would leave the bracket or shrink it too
+/// slowly (Numerical Recipes' `rtsafe`).
+fn polish<const N: usize>(c: &Poly<N>, mut a: f64, mut b: f64, fa: f64, fb: f64, xtol: f64) -> f64 {
     let rising = fa < 0.0;
-    let mut x = 0.5 * (a + b);
+    let chord = a + (b - a) * (fa / (fa - fb));
+    let mut x = if chord > a && chord < b { chord } else { 0.5 * (a + b) };
+    let mut last_step = b - a;
     for _ in 0..MAX_STEPS {
         let (f, df) = eval_with_derivative(c, x);
         if f == 0.0 {
@@ -49,72 +58,115 @@ fn polish<const N: usize>(c: &Poly<N>, mut a: f64, mut b: f64, fa: f64) -> f64 {
             b = x;
         }
         let mid = 0.5 * (a + b);
-        if mid <= a || mid >= b {
-            break; // the bracket is two adjacent floats
+        if mid <= a || mid >= b || b - a <= xtol {
+            break; // the bracket is two adjacent floats, or as narrow as asked
         }
         let newton = x - f / df;
-        let next = if newton > a && newton < b { newton } else { mid };
-        if next == x {
-            break; // Newton has converged to a fixed point
+        let next = if newton > a && newton < b && (2.0 * f).abs() <= (last_step * df).abs() { newton } else { mid };
+        last_step = next - x;
+        if next == x || last_step.abs() <= xtol {
+            return next;
         }
         x = next;
     }
     x
 }
 
-/// Real roots in the open interval `(lo, hi)` of the quadratic `c`, ascending, into `out`;
-/// returns how many. Sign changes only (a double root is not reported).
-fn quadratic_roots(c: &Poly<3>, lo: f64, hi: f64, out: &mut [f64]) -> usize {
-    critical_split(c, lo, hi, linear_root(&[c[1], 2.0 * c[2]], lo, hi).as_slice(), out)
+/// Walks the monotone pieces of a polynomial in order: fed the end of each piece (a critical
+/// point, or the interval's end), it finds the piece's root, if its ends differ in sign, and
+/// offers it to `accept`.
+struct Pieces<'a, const N: usize> {
+    c: &'a Poly<N>,
+    lo: f64,
+    xtol: f64,
+    a: f64,
+    fa: f64,
 }
 
-/// The root of the linear `c` in `(lo, hi)`, if any.
-fn linear_root(c: &Poly<2>, lo: f64, hi: f64) -> Option<f64> {
-    if c[1] == 0.0 {
-        return None;
+impl<'a, const N: usize> Pieces<'a, N> {
+    fn new(c: &'a Poly<N>, lo: f64, xtol: f64) -> Self {
+        Pieces { c, lo, xtol, a: lo, fa: eval(c, lo) }
     }
-    let x = -c[0] / c[1];
-    (x > lo && x < hi).then_some(x)
+
+    /// The piece from the previous end to `b`: its root, if `accept` takes it.
+    fn next(&mut self, b: f64, accept: &mut impl FnMut(f64) -> bool) -> Option<f64> {
+        let fb = eval(self.c, b);
+        let (a, fa) = (self.a, self.fa);
+        self.a = b;
+        self.fa = fb;
+        if fa == 0.0 && a > self.lo && accept(a) {
+            return Some(a);
+        }
+        if fa != 0.0 && fb != 0.0 && (fa < 0.0) != (fb < 0.0) {
+            let x = polish(self.c, a, b, fa, fb, self.xtol);
+            if accept(x) {
+                return Some(x);
+            }
+        }
+        None
+    }
 }
 
-/// Roots of `c` in `(lo, hi)`, given the roots of its derivative there (ascending): one root per
-/// monotone piece whose ends differ in sign.
-fn critical_split<const N: usize>(c: &Poly<N>, lo: f64, hi: f64, critical: &[f64], out: &mut [f64]) -> usize {
+/// Real roots in the open interval `(lo, hi)` of the quadratic `c`, ascending, into `out`, from
+/// the cancellation-free closed form (a double root counts once).
+pub fn quadratic_roots(c: &Poly<3>, lo: f64, hi: f64, out: &mut [f64; 2]) -> usize {
     let mut n = 0;
-    let mut a = lo;
-    let mut fa = eval(c, a);
-    let ends = critical.iter().copied().chain(std::iter::once(hi));
-    for b in ends {
-        let fb = eval(c, b);
-        if fa == 0.0 && a > lo && n < out.len() && out[..n].last() != Some(&a) {
-            out[n] = a;
-            n += 1;
+    if let Some((x0, x1)) = raylab::float::solve_quadratic(c[2], c[1], c[0]) {
+        for x in [x0, x1] {
+            if x > lo && x < hi && (n == 0 || out[n - 1] != x) {
+                out[n] = x;
+                n += 1;
+            }
         }
-        if fa != 0.0 && fb != 0.0 && (fa < 0.0) != (fb < 0.0) && n < out.len() {
-            out[n] = polish(c, a, b, fa);
-            n += 1;
-        }
-        a = b;
-        fa = fb;
     }
     n
 }
 
-/// Real roots in the open interval `(lo, hi)` of the cubic `c`, ascending, into `out`.
-pub fn cubic_roots(c: &Poly<4>, lo: f64, hi: f64, out: &mut [f64]) -> usize {
-    let d = [c[1], 2.0 * c[2], 3.0 * c[3]];
+/// Calls `accept` with each root of the cubic `c` in `(lo, hi)`, ascending, to within `xtol`,
+/// until it returns true; returns that root.
+fn each_cubic_root(c: &Poly<4>, lo: f64, hi: f64, xtol: f64, mut accept: impl FnMut(f64) -> bool) -> Option<f64> {
     let mut crit = [0.0; 2];
-    let k = quadratic_roots(&d, lo, hi, &mut crit);
-    critical_split(c, lo, hi, &crit[..k], out)
+    let k = quadratic_roots(&[c[1], 2.0 * c[2], 3.0 * c[3]], lo, hi, &mut crit);
+    let mut pieces = Pieces::new(c, lo, xtol);
+    crit[..k].iter().chain(&[hi]).find_map(|&b| pieces.next(b, &mut accept))
 }
 
-/// Real roots in the open interval `(lo, hi)` of the quartic `c` (`c[4]` ≠ 0), ascending, into
-/// `out` (at most 4); returns how many.
+/// Real roots in the open interval `(lo, hi)` of the cubic `c`, ascending, to within `xtol`,
+/// into `out`; returns how many.
+pub fn cubic_roots(c: &Poly<4>, lo: f64, hi: f64, xtol: f64, out: &mut [f64; 3]) -> usize {
+    let mut n = 0;
+    each_cubic_root(c, lo, hi, xtol, |x| {
+        out[n] = x;
+        n += 1;
+        false
+    });
+    n
+}
+
+/// The smallest root of the quartic `c` in `(lo, hi)` that `accept` accepts, to full precision.
+/// Critical points and roots beyond it are not computed.
+pub fn first_quartic_root(c: &Poly<5>, lo: f64, hi: f64, mut accept: impl FnMut(f64) -> bool) -> Option<f64> {
+    let derivative = [c[1], 2.0 * c[2], 3.0 * c[3], 4.0 * c[4]];
+    let mut pieces = Pieces::new(c, lo, 0.0);
+    let mut found = None;
+    // Each critical point, as the cubic walk finds it, ends a piece of the quartic.
+    each_cubic_root(&derivative, lo, hi, CRITICAL_TOLERANCE * (hi - lo), |b| {
+        found = pieces.next(b, &mut accept);
+        found.is_some()
+    });
+    found.or_else(|| pieces.next(hi, &mut accept))
+}
+
+/// Real roots in the open interval `(lo, hi)` of the quartic `c`, ascending, to full precision,
+/// into `out`; returns how many.
 pub fn quartic_roots(c: &Poly<5>, lo: f64, hi: f64, out: &mut [f64; 4]) -> usize {
-    let d = [c[1], 2.0 * c[2], 3.0 * c[3], 4.0 * c[4]];
-    let mut crit = [0.0; 3];
-    let k = cubic_roots(&d, lo, hi, &mut crit);
-    critical_split(c, lo, hi, &crit[..k], out)
+    let mut n = 0;
+    first_quartic_root(c, lo, hi, |x| {
+        out[n] = x;
+        n += 1;
+        false
+    });
+    n
 }
 
 #[cfg(test)]
@@ -173,7 +225,7 @@ mod tests {
     fn cubic_roots_match() {
         // (x + 2)(x − 1)(x − 4) = x³ − 3x² − 6x + 8
         let mut out = [0.0; 3];
-        let n = cubic_roots(&[8.0, -6.0, -3.0, 1.0], -5.0, 5.0, &mut out);
+        let n = cubic_roots(&[8.0, -6.0, -3.0, 1.0], -5.0, 5.0, 0.0, &mut out);
         assert_eq!(n, 3);
         for (got, want) in out.iter().zip([-2.0, 1.0, 4.0]) {
             assert!((got - want).abs() < 1e-14);

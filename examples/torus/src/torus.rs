@@ -9,13 +9,15 @@
 //! - **No cancellation in the coefficients.** Every term is written with components perpendicular
 //!   to the axis, and the constant term is factored as
 //!   `((ρ − R)² + z² − r²) · (|q|² + R² − r² + 2Rρ)`, accurate even when the origin is on the surface.
-//! - **Robust roots.** [`crate::roots::quartic_roots`] isolates each root between the critical points
-//!   and polishes it with safeguarded Newton steps: no closed-form formula to lose digits.
+//! - **Robust roots.** [`crate::roots::first_quartic_root`] isolates each root between the
+//!   critical points and polishes it with safeguarded Newton steps: no closed-form formula to lose
+//!   digits. Only the first acceptable root is computed, and only where the ray is inside the
+//!   bounding sphere and the slab `|z| ≤ r` around the torus's plane.
 //! - **Exact surface point.** The hit point is projected onto the torus (nearest point on the core
 //!   circle, then out by `r`), and a root within its own error bound of the origin is rejected, so
 //!   a ray leaving the surface never reports it again.
 
-use crate::roots::quartic_roots;
+use crate::roots::first_quartic_root;
 use raylab::error::Result;
 use raylab::float::gamma;
 use raylab::geometry::{Geometry, Hit, Intersectable};
@@ -151,22 +153,32 @@ impl Torus {
         let k_abs = q.length_squared() + r_big * r_big + r_small * r_small;
         let c0_err = gamma(12) * ((rho + r_big) * (rho + r_big) + qa * qa + r_small * r_small) * (k_abs + 2.0 * r_big * rho);
 
-        // All roots from the (shifted) origin to beyond the sphere, whatever t_min and t_max (rays
-        // start at t ≥ 0), so asking again from a hit's t never finds that root a hair further on.
-        let mut roots = [0.0; 4];
-        let n = quartic_roots(&c, 0.0, t_exit + margin - t0, &mut roots);
-        for &s in &roots[..n] {
+        // Roots from the (shifted) origin to beyond the sphere, whatever t_min and t_max (rays
+        // start at t ≥ 0), so asking again from a hit's t never finds that root a hair further on;
+        // only where the ray is within the slab |z| ≤ r around the torus's plane.
+        let (mut lo, mut hi) = (0.0, t_exit + margin - t0);
+        let slab = r_small + 1e-9 * (r_big + r_small);
+        if da == 0.0 {
+            if qa.abs() > slab {
+                return None;
+            }
+        } else {
+            let (s0, s1) = ((-slab - qa) / da, (slab - qa) / da);
+            lo = f64::max(lo, s0.min(s1));
+            hi = f64::min(hi, s0.max(s1));
+            if !(lo < hi) {
+                return None;
+            }
+        }
+        let s = first_quartic_root(&c, lo, hi, |s| {
             // A root within c0_err / |f'(s)| of the origin is the surface the ray starts on.
             let slope = (c[1] + s * (2.0 * c[2] + s * (3.0 * c[3] + 4.0 * s))).abs();
             if t0 == 0.0 && s.abs() * slope <= c0_err {
-                continue;
+                return false;
             }
-            let t = t0 + s;
-            if t > t_min && t < t_max {
-                return Some((t, q + s * d));
-            }
-        }
-        None
+            t0 + s > t_min && t0 + s < t_max
+        })?;
+        Some((t0 + s, q + s * d))
     }
 }
 
