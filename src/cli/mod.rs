@@ -2,6 +2,7 @@
 //! plus any of its own) and calls [`run`]. The built-in `raylab` binary and a third-party
 //! plugin's binary therefore share one interface. One file per subcommand.
 
+mod convert;
 mod plugins;
 mod render;
 mod trace;
@@ -40,6 +41,8 @@ enum Command {
     Trace(trace::TraceArgs),
     /// List the registered plugins and their parameters.
     Plugins(plugins::PluginsArgs),
+    /// Convert a scene (e.g. the report's XML) to raylab's TOML format.
+    Convert(convert::ConvertArgs),
 }
 
 /// Options shared by every command that loads a scene: overrides of the scene's settings, and
@@ -67,6 +70,10 @@ pub(crate) struct SceneArgs {
     /// Set an integrator parameter: `--set max_depth=5` (value in TOML syntax; repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
+    /// Set a camera parameter: `--camera position=[0,0,10]` (value in TOML syntax; repeatable).
+    /// Supplies the camera of a scene that has none (e.g. a report XML scene without <camera>).
+    #[arg(long = "camera", value_name = "KEY=VALUE")]
+    camera: Vec<String>,
     /// 8-bit encoding: `srgb` (default) or `linear` (clamped values written straight, as the report).
     #[arg(long, value_parser = ["srgb", "linear"])]
     encoding: Option<String>,
@@ -114,6 +121,7 @@ where
         Some(Command::Render(a)) => render::run(&app, a),
         Some(Command::Trace(a)) => trace::run(&app, a),
         Some(Command::Plugins(a)) => plugins::run(&app, a),
+        Some(Command::Convert(a)) => convert::run(&app, a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -160,15 +168,7 @@ impl SceneArgs {
             let loc = Loc::new(&src, 0..src.text.len());
             params.push(("max_depth".to_string(), Node { value: Value::Int(d), loc }));
         }
-        for s in &self.set {
-            let src = Source::new("--set", s.clone());
-            let Some(eq) = s.find('=') else {
-                return Err(SceneError::at(&Loc::new(&src, 0..s.len()), "expected KEY=VALUE").into());
-            };
-            let key = s[..eq].trim().to_string();
-            let node = crate::load::parse_toml_value(&src, eq + 1..s.len())?;
-            params.push((key, node));
-        }
+        params.extend(key_values("--set", &self.set)?);
         let mut limits = crate::load::Limits::default();
         if let Some(v) = self.max_pixels {
             limits.max_pixels = v;
@@ -194,11 +194,26 @@ impl SceneArgs {
                 encoding: self.encoding.as_deref().and_then(crate::color::Encoding::parse),
                 integrator: self.integrator.clone(),
                 integrator_params: params,
+                camera_params: key_values("--camera", &self.camera)?,
             },
             limits,
             allow_outside_paths: self.allow_outside_paths,
         })
     }
+}
+
+/// Parses repeated `KEY=VALUE` options (value in TOML syntax) of option `flag`.
+fn key_values(flag: &str, items: &[String]) -> Result<Vec<(String, Node)>, Failure> {
+    let mut out = Vec::new();
+    for s in items {
+        let src = Source::new(flag, s.clone());
+        let Some(eq) = s.find('=') else {
+            return Err(SceneError::at(&Loc::new(&src, 0..s.len()), "expected KEY=VALUE").into());
+        };
+        let key = s[..eq].trim().to_string();
+        out.push((key, crate::load::parse_toml_value(&src, eq + 1..s.len())?));
+    }
+    Ok(out)
 }
 
 /// Loads `scene` (or the app's default scene) with the options in `a`; returns the job and a
