@@ -118,10 +118,10 @@ pub fn check_hit(
     if !(d.abs() <= dist_tol) {
         return fail(format!("point {} at t = {} is {d} off the surface (tolerance {dist_tol})", h.point, h.t));
     }
-    if let Some(b) = g.bounds() {
-        if !b.expand(DVec3::splat(dist_tol)).contains(h.point) {
-            return fail(format!("point {} outside the bounds {b:?}", h.point));
-        }
+    if let Some(b) = g.bounds()
+        && !b.expand(DVec3::splat(dist_tol)).contains(h.point)
+    {
+        return fail(format!("point {} outside the bounds {b:?}", h.point));
     }
     let o = g.outward_normal(&h);
     if !((o.length() - 1.0).abs() <= tol.normal) {
