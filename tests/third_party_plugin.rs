@@ -129,6 +129,19 @@ fn the_plugin_gets_the_same_checks_and_listing_as_built_ins() {
     assert!(e.report().contains("expected a number > 0"), "{}", e.report());
 }
 
+/// The disc of the test below, from its definition: radius 2 around (1, 2, 3) in the plane z = 3.
+struct ExactDisc;
+
+impl raylab::testing::ExactSurface for ExactDisc {
+    fn signed_distance(&self, p: DVec3) -> f64 {
+        let radial = (p.truncate() - DVec3::new(1.0, 2.0, 3.0).truncate()).length();
+        (p.z - 3.0).hypot((radial - 2.0).max(0.0)).copysign(p.z - 3.0)
+    }
+    fn outward_normal(&self, _: DVec3) -> DVec3 {
+        DVec3::Z
+    }
+}
+
 #[test]
 fn the_reusable_property_checks_apply() {
     let disc = Disc { center: DVec3::new(1.0, 2.0, 3.0), normal: DVec3::Z, radius: 2.0, material: Material::default() };
@@ -137,9 +150,10 @@ fn the_reusable_property_checks_apply() {
         let target = disc.center + 1.9 * f64::from(i % 7) / 6.0 * DVec3::new(a.cos(), a.sin(), 0.0);
         let dir = DVec3::new(0.3 * a.sin(), 0.2, -1.0).normalize();
         let ray = Ray::new(target - 10.0 * dir, dir);
-        let h = raylab::testing::check_hit(&disc, &ray, 0.0, f64::INFINITY, 1e-12, |p| p.z - 3.0).unwrap();
+        let tol = raylab::testing::Tolerance::for_scale(20.0);
+        let h = raylab::testing::check_hit(&disc, &ray, 0.0, f64::INFINITY, &tol, &ExactDisc).unwrap();
         assert!(h.is_some(), "ray {i} should hit");
-        let ts = raylab::testing::check_hits_ascending(&disc, &ray, 4).unwrap();
-        assert_eq!(ts.len(), 1);
+        let hits = raylab::testing::check_hits_ascending(&disc, &ray, &tol, &ExactDisc, 1).unwrap();
+        assert_eq!(hits.len(), 1);
     }
 }

@@ -4,7 +4,7 @@
 use proptest::prelude::*;
 use raylab::float::offset_ray_origin;
 use raylab::glam::DVec3;
-use raylab::testing::{check_hit, check_hits_ascending};
+use raylab::testing::{ExactSurface, Tolerance, check_hits_ascending};
 use raylab::{Geometry, Intersectable, Material, Ray};
 use raylab_torus::torus::Torus;
 
@@ -52,6 +52,26 @@ impl Case {
     }
 }
 
+/// The exact torus, from its definition: the points at `minor` from the core circle.
+struct ExactTorus<'a>(&'a Case);
+
+impl ExactSurface for ExactTorus<'_> {
+    fn signed_distance(&self, p: DVec3) -> f64 {
+        let (c, q) = (self.0, p - self.0.center);
+        let z = q.dot(c.axis);
+        ((q - z * c.axis).length() - c.major).hypot(z) - c.minor
+    }
+    fn outward_normal(&self, p: DVec3) -> DVec3 {
+        let (c, q) = (self.0, p - self.0.center);
+        let core = c.major * (q - q.dot(c.axis) * c.axis).normalize();
+        (q - core).normalize()
+    }
+}
+
+fn fail(v: raylab::testing::Violation) -> TestCaseError {
+    TestCaseError::fail(v.to_string())
+}
+
 fn case() -> impl Strategy<Value = Case> {
     (-4.0..4.0f64, 0.05..0.95f64, 0.0..1.0f64, 0.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64, -3.0..3.0f64).prop_map(
         |(log_size, thickness, au, av, cx, cy, cz, log_offset)| {
@@ -65,20 +85,16 @@ proptest! {
     // Failures print the minimal case; it belongs in a unit test, not in a persistence file.
     #![proptest_config(ProptestConfig { cases: 2000, failure_persistence: None, ..ProptestConfig::default() })]
 
-    /// Rays from anywhere near the torus: every hit lies on the surface with a unit normal facing
-    /// the ray, hits come in ascending order, there are at most four, and occludes agrees.
+    /// Rays from anywhere near the torus: every hit lies on the surface with the exact outward
+    /// normal and a unit normal facing the ray, hits come in ascending order, there are at most
+    /// four, and occludes agrees.
     #[test]
     fn hits_are_on_the_surface_in_order(c in case(), ou in 0.0..1.0f64, ov in 0.0..1.0f64, dist in 0.0..4.0f64, du in 0.0..1.0f64, dv in 0.0..1.0f64) {
         let t = c.torus();
         let origin = c.center + unit(ou, ov) * dist * (c.major + c.minor);
         let ray = Ray::new(origin, unit(du, dv));
-        let tol = 1e-9 * (c.scale() + origin.abs().max_element());
-        let ts = check_hits_ascending(&t, &ray, 6).map_err(|v| TestCaseError::fail(format!("{}: {:?}", v.what, v.ray)))?;
-        prop_assert!(ts.len() <= 4, "{} hits: {ts:?}", ts.len());
-        for &t_hit in &ts {
-            check_hit(&t, &ray, t_hit * (1.0 - 1e-12) - tol, f64::INFINITY, tol, |p| t.signed_distance(p))
-                .map_err(|v| TestCaseError::fail(format!("{}: {:?}", v.what, v.ray)))?;
-        }
+        let tol = Tolerance::for_scale(c.scale() + origin.abs().max_element());
+        check_hits_ascending(&t, &ray, &tol, &ExactTorus(&c), 4).map_err(fail)?;
     }
 
     /// A ray aimed at a surface point from up to 1e8 times the torus's size away finds that point
@@ -93,7 +109,9 @@ proptest! {
         let origin = target - far * dir;
         let ray = Ray::new(origin, dir);
         let tol = (1e-13 * far + 1e-9 * c.scale()) / -dir.dot(n);
-        let ts = check_hits_ascending(&t, &ray, 6).map_err(|v| TestCaseError::fail(format!("{}: {:?}", v.what, v.ray)))?;
+        let exact = Tolerance::for_scale(c.scale() + origin.abs().max_element());
+        let hits = check_hits_ascending(&t, &ray, &exact, &ExactTorus(&c), 6).map_err(fail)?;
+        let ts: Vec<f64> = hits.iter().map(|h| h.t).collect();
         prop_assert!(ts.first().is_some_and(|&t0| t0 <= far + tol), "first hit {ts:?} beyond the target at {far}");
         prop_assert!(ts.iter().any(|&th| (th - far).abs() <= tol), "no hit at the target {far} (tol {tol}): {ts:?}");
     }
