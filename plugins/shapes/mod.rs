@@ -2,6 +2,7 @@
 //! finite capped cylinder and infinite tube.
 
 pub mod cylinder;
+pub mod exact;
 pub mod hemisphere;
 pub mod plane;
 pub mod polygon;

@@ -167,47 +167,11 @@ impl Geometry for Polygon {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::shapes::exact::ExactPolygon;
     use crate::shapes::test_support::*;
     use proptest::prelude::*;
     use raylab::testing::ExactSurface;
     use std::f64::consts::TAU;
-
-    /// The exact convex polygon: signed distance to its closest point, positive on the winding side.
-    #[derive(Debug)]
-    struct ExactPolygon {
-        v: Vec<DVec3>,
-    }
-
-    impl ExactPolygon {
-        /// From two well-spread chords, so it is accurate even where neighbouring vertices are close.
-        fn normal(&self) -> DVec3 {
-            let k = self.v.len();
-            (self.v[k / 2] - self.v[0]).cross(self.v[(3 * k) / 4] - self.v[k / 4]).normalize()
-        }
-        fn centroid(&self) -> DVec3 {
-            self.v.iter().sum::<DVec3>() / self.v.len() as f64
-        }
-        fn edges(&self) -> impl Iterator<Item = (DVec3, DVec3)> + '_ {
-            (0..self.v.len()).map(|i| (self.v[i], self.v[(i + 1) % self.v.len()]))
-        }
-    }
-
-    impl ExactSurface for ExactPolygon {
-        fn signed_distance(&self, p: DVec3) -> f64 {
-            let n = self.normal();
-            let plane = n.dot(p - self.v[0]);
-            let inside = self.edges().all(|(a, b)| n.cross(b - a).dot(p - a) >= 0.0);
-            let dist = if inside {
-                plane.abs()
-            } else {
-                self.edges().map(|(a, b)| (p - closest_on_segment(p, a, b)).length()).fold(f64::INFINITY, f64::min)
-            };
-            dist.copysign(plane)
-        }
-        fn outward_normal(&self, _: DVec3) -> DVec3 {
-            self.normal()
-        }
-    }
 
     /// A random strictly convex polygon of 3 to 8 vertices: points of an ellipse, one per sector,
     /// in a random plane; also its centre, size and magnitude.

@@ -191,47 +191,10 @@ impl Geometry for Triangle {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::shapes::exact::{ExactTriangle, closest_on_segment};
     use crate::shapes::test_support::*;
     use proptest::prelude::*;
     use raylab::testing::{ExactSurface, Tolerance, check_hits_ascending};
-
-    /// The exact triangle: signed distance to the closest point, positive on the winding side.
-    #[derive(Debug)]
-    struct ExactTriangle {
-        p: [DVec3; 3],
-    }
-
-    impl ExactTriangle {
-        fn normal(&self) -> DVec3 {
-            let [a, b, c] = self.p;
-            (b - a).cross(c - a).normalize()
-        }
-        /// Barycentric coordinates of `p`'s projection onto the plane.
-        fn barycentric(&self, p: DVec3) -> DVec3 {
-            let [a, b, c] = self.p;
-            let n = (b - a).cross(c - a);
-            let area = |x: DVec3, y: DVec3, z: DVec3| (y - x).cross(z - x).dot(n) / n.length_squared();
-            DVec3::new(area(p, b, c), area(a, p, c), area(a, b, p))
-        }
-    }
-
-    impl ExactSurface for ExactTriangle {
-        fn signed_distance(&self, p: DVec3) -> f64 {
-            let [a, b, c] = self.p;
-            let n = self.normal();
-            let plane = n.dot(p - a);
-            let inside = self.barycentric(p).min_element() >= 0.0;
-            let dist = if inside {
-                plane.abs()
-            } else {
-                [(a, b), (b, c), (c, a)].iter().map(|&(x, y)| (p - closest_on_segment(p, x, y)).length()).fold(f64::INFINITY, f64::min)
-            };
-            dist.copysign(plane)
-        }
-        fn outward_normal(&self, _: DVec3) -> DVec3 {
-            self.normal()
-        }
-    }
 
     /// A random triangle of reasonable shape (no sliver: every angle above ~3°).
     fn triangle() -> impl Strategy<Value = (Triangle, ExactTriangle, DVec3, f64, f64)> {
