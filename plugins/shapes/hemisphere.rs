@@ -99,7 +99,7 @@ mod tests {
     use crate::shapes::test_support::*;
     use proptest::prelude::*;
     use raylab::float::max_abs;
-    use raylab::testing::{ExactSurface, Tolerance, check_hits_ascending};
+    use raylab::testing::{Tolerance, check_hits_ascending};
 
     fn bowl() -> impl Strategy<Value = (Hemisphere, ExactBowl, f64)> {
         (scale(), cube(), 0.05..2.0f64, unit()).prop_map(|(s, c, r, open)| {

@@ -170,7 +170,6 @@ mod tests {
     use crate::shapes::exact::ExactPolygon;
     use crate::shapes::test_support::*;
     use proptest::prelude::*;
-    use raylab::testing::ExactSurface;
     use std::f64::consts::TAU;
 
     /// A random strictly convex polygon of 3 to 8 vertices: points of an ellipse, one per sector,

@@ -194,7 +194,7 @@ mod tests {
     use crate::shapes::exact::{ExactTriangle, closest_on_segment};
     use crate::shapes::test_support::*;
     use proptest::prelude::*;
-    use raylab::testing::{ExactSurface, Tolerance, check_hits_ascending};
+    use raylab::testing::{Tolerance, check_hits_ascending};
 
     /// A random triangle of reasonable shape (no sliver: every angle above ~3°).
     fn triangle() -> impl Strategy<Value = (Triangle, ExactTriangle, DVec3, f64, f64)> {
