@@ -10,6 +10,8 @@ pub mod sphere;
 pub mod triangle;
 
 #[cfg(test)]
+mod reintersect;
+#[cfg(test)]
 mod test_support;
 
 use raylab::Registry;
