@@ -47,7 +47,8 @@ impl Hit {
     #[inline]
     pub fn spawn_shadow_ray(&self, n: DVec3, dir: DVec3, distance: f64) -> (Ray, f64) {
         let ray = self.spawn_ray(n, dir);
-        let t_max = if distance.is_finite() { (distance - (ray.origin - self.point).length()) * (1.0 - SHADOW_EPSILON) } else { f64::INFINITY };
+        let t_max =
+            if distance.is_finite() { (distance - (ray.origin - self.point).length()) * (1.0 - SHADOW_EPSILON) } else { f64::INFINITY };
         (ray, t_max)
     }
 }

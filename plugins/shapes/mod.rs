@@ -3,6 +3,7 @@
 
 pub mod cylinder;
 pub mod exact;
+pub mod fuzz;
 pub mod hemisphere;
 pub mod plane;
 pub mod polygon;

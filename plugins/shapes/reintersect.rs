@@ -147,7 +147,11 @@ fn subject(shape: Shape, s: f64, far: f64, r: &mut Rng) -> Subject {
         Shape::Sphere | Shape::NaiveSphere => {
             let radius = s * (0.05 + r.next());
             Subject {
-                g: if matches!(shape, Shape::Sphere) { Box::new(Sphere::new(center, radius, m())) } else { Box::new(NaiveSphere(center, radius, m())) },
+                g: if matches!(shape, Shape::Sphere) {
+                    Box::new(Sphere::new(center, radius, m()))
+                } else {
+                    Box::new(NaiveSphere(center, radius, m()))
+                },
                 kind: Kind::Convex,
                 center,
                 size: radius,
@@ -236,7 +240,8 @@ fn campaign(shape: Shape, points: u32, per_point: u32) -> Tally {
         let ray = Ray::new(origin, target - origin);
         let Some(hit) = sub.g.intersect(&ray, 0.0, f64::INFINITY) else { continue };
         tally.hits += 1;
-        let at = |what: &str, d: DVec3| format!("{shape:?} s={s:e} {what}: hit {:?} err {:?} from ray {ray:?}, dir {d:?}", hit.point, hit.error);
+        let at =
+            |what: &str, d: DVec3| format!("{shape:?} s={s:e} {what}: hit {:?} err {:?} from ray {ray:?}, dir {d:?}", hit.point, hit.error);
         let n = sub.g.normal(&hit, ray.dir);
         let outward = sub.g.outward_normal(&hit);
         for i in 0..per_point {
@@ -282,7 +287,8 @@ fn run_all(points: u32, per_point: u32) {
         let t = campaign(shape, points, per_point);
         eprintln!("{shape:?}: {} hit points, {} spawned rays, {} shadow rays, {} failures", t.hits, t.spawned, t.shadow, t.failures.len());
         if !t.failures.is_empty() {
-            report += &format!("{shape:?}: {} failures, e.g.\n  {}\n", t.failures.len(), t.failures[..t.failures.len().min(5)].join("\n  "));
+            report +=
+                &format!("{shape:?}: {} failures, e.g.\n  {}\n", t.failures.len(), t.failures[..t.failures.len().min(5)].join("\n  "));
         }
     }
     assert!(report.is_empty(), "{report}");
@@ -329,4 +335,3 @@ fn the_campaign_catches_a_sphere_without_error_bounds() {
     let t = campaign(Shape::NaiveSphere, 64, 64);
     assert!(t.failures.len() > 100, "only {} failures of {} rays", t.failures.len(), t.spawned + t.shadow);
 }
-
