@@ -46,7 +46,8 @@ pub const TILE_SIZE: u32 = 16;
 pub struct RenderOptions<'a> {
     /// Worker threads; `None` uses all cores.
     pub threads: Option<usize>,
-    /// Set to stop early; unfinished tiles stay black and [`Rendered::complete`] is false.
+    /// Set to stop early (checked per row of each tile); unfinished tiles stay black and
+    /// [`Rendered::complete`] is false.
     pub cancel: Option<&'a AtomicBool>,
 }
 
@@ -100,7 +101,7 @@ fn render_tiles(job: &RenderJob, options: &RenderOptions, progress: &(dyn Fn(u64
             if options.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
                 return None;
             }
-            let r = render_tile(job, t);
+            let r = render_tile(job, t, options.cancel)?;
             let n = done.fetch_add(u64::from((t.x1 - t.x0) * (t.y1 - t.y0)), Ordering::Relaxed) + u64::from((t.x1 - t.x0) * (t.y1 - t.y0));
             progress(n, total);
             Some(r)
@@ -124,15 +125,20 @@ fn render_tiles(job: &RenderJob, options: &RenderOptions, progress: &(dyn Fn(u64
     Rendered { film, stats, elapsed, complete }
 }
 
-fn render_tile(job: &RenderJob, t: &Tile) -> (Vec<Vec3>, RayStats) {
+/// The tile's pixels, or `None` when cancelled part-way (checked once per row of the tile, so a
+/// cancel takes effect within one row of samples, not one whole tile).
+fn render_tile(job: &RenderJob, t: &Tile, cancel: Option<&AtomicBool>) -> Option<(Vec<Vec3>, RayStats)> {
     let mut stats = RayStats::default();
     let mut out = Vec::with_capacity(((t.x1 - t.x0) * (t.y1 - t.y0)) as usize);
     for y in t.y0..t.y1 {
+        if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+            return None;
+        }
         for x in t.x0..t.x1 {
             out.push(render_pixel(job, x, y, &mut stats));
         }
     }
-    (out, stats)
+    Some((out, stats))
 }
 
 /// The colour of pixel (`x`, `y`): the mean of `spp` samples. One sample goes through the pixel

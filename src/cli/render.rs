@@ -4,7 +4,9 @@ use super::{App, Failure, SceneArgs, si};
 use crate::output::Grid;
 use crate::render::RenderOptions;
 use clap::Args;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::sync::Once;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
 
 #[derive(Args, Debug)]
@@ -49,7 +51,33 @@ impl RenderArgs {
     }
 }
 
+/// Set by Ctrl-C (SIGINT) while `raylab render` runs; a second Ctrl-C exits at once.
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+/// Installs the Ctrl-C handler once per process. Without one (another handler was installed
+/// first), Ctrl-C keeps its default effect.
+fn catch_ctrl_c() {
+    static INSTALL: Once = Once::new();
+    INSTALL.call_once(|| {
+        let _ = ctrlc::set_handler(|| {
+            if INTERRUPTED.swap(true, Ordering::SeqCst) {
+                eprintln!("\ninterrupted twice: exiting without writing");
+                std::process::exit(130);
+            }
+        });
+    });
+    INTERRUPTED.store(false, Ordering::SeqCst);
+}
+
+/// Where the image of an interrupted render goes: beside the target, `NAME.partial.EXT`.
+pub(crate) fn partial_path(output: &Path) -> PathBuf {
+    let stem = output.file_stem().map_or_else(|| "render".into(), |s| s.to_string_lossy().into_owned());
+    let ext = output.extension().map_or_else(String::new, |e| format!(".{}", e.to_string_lossy()));
+    output.with_file_name(format!("{stem}.partial{ext}"))
+}
+
 pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
+    catch_ctrl_c();
     let t0 = Instant::now();
     let grid = match a.grid {
         None => None,
@@ -58,6 +86,9 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
     };
     crate::output::kind_for(&a.output).map_err(|e| e.to_string())?;
     let (job, scene_name) = super::load(app, a.scene.as_deref(), &a.scene_args)?;
+    if INTERRUPTED.load(Ordering::SeqCst) {
+        return Err(Failure::Interrupted("interrupted while loading: nothing rendered, nothing written".into()));
+    }
     let load_time = t0.elapsed();
     let s = job.settings;
     let bar = if a.quiet {
@@ -71,9 +102,24 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
         b
     };
     bar.set_message(scene_name.clone());
-    let options = RenderOptions { threads: a.threads, cancel: None };
-    let rendered = crate::render::render(&job, &options, &|done, _| bar.set_position(done))?;
+    let options = RenderOptions { threads: a.threads, cancel: Some(&INTERRUPTED) };
+    let pixels_done = AtomicU64::new(0);
+    let rendered = crate::render::render(&job, &options, &|done, _| {
+        pixels_done.fetch_max(done, Ordering::Relaxed);
+        bar.set_position(done)
+    })?;
     bar.finish_and_clear();
+    if !rendered.complete {
+        let partial = partial_path(&a.output);
+        crate::output::write_image(&partial, &rendered.film, s.encoding, grid).map_err(|e| e.to_string())?;
+        let (done, total) = (pixels_done.load(Ordering::Relaxed), u64::from(s.width) * u64::from(s.height));
+        return Err(Failure::Interrupted(format!(
+            "interrupted: wrote the {:.1} % rendered so far ({done} of {total} pixels; the rest black) to {}; {} was not written",
+            100.0 * done as f64 / total as f64,
+            partial.display(),
+            a.output.display()
+        )));
+    }
     let t_write = Instant::now();
     crate::output::write_image(&a.output, &rendered.film, s.encoding, grid).map_err(|e| e.to_string())?;
     let write_time = t_write.elapsed();
@@ -82,7 +128,7 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
     let threads = a.threads.unwrap_or_else(rayon::current_num_threads);
     let describe = job.integrator.describe();
     println!(
-        "wrote {} ({}×{}, {} spp, {}{}) from {scene_name}: trace {:.3} s on {threads} thread{}, {} rays, {} rays/s (load {:.3} s, write {:.3} s)",
+        "wrote {} ({}×{}, {} spp, {}{}) from {scene_name}: trace {:.3} s on {threads} thread{}, {} rays, {} rays/s, {} non-finite samples (load {:.3} s, write {:.3} s)",
         a.output.display(),
         s.width,
         s.height,
@@ -93,11 +139,12 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
         if threads == 1 { "" } else { "s" },
         si(st.total_rays() as f64),
         si(st.total_rays() as f64 / secs.max(1e-9)),
+        st.nonfinite_samples,
         load_time.as_secs_f64(),
         write_time.as_secs_f64(),
     );
     if st.nonfinite_samples > 0 {
-        eprintln!("warning: {} samples were NaN or infinite and were dropped", st.nonfinite_samples);
+        eprintln!("warning: {} samples were NaN or infinite and were dropped from their pixels", st.nonfinite_samples);
     }
     if a.stats {
         print!("{}", stats_table(&st));
