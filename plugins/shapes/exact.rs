@@ -3,6 +3,7 @@
 //! oracles that the shapes' property tests, the reintersection campaign and the `intersect` fuzz
 //! target check every hit against with [`raylab::testing::check_hit`].
 
+use raylab::float::triangle_normal;
 use raylab::glam::DVec3;
 use raylab::testing::ExactSurface;
 
@@ -94,13 +95,12 @@ pub struct ExactTriangle {
 impl ExactTriangle {
     /// Unit normal of the winding.
     pub fn normal(&self) -> DVec3 {
-        let [a, b, c] = self.p;
-        (b - a).cross(c - a).normalize()
+        triangle_normal(self.p).0.normalize()
     }
     /// Barycentric coordinates of `p`'s projection onto the plane.
     pub fn barycentric(&self, p: DVec3) -> DVec3 {
         let [a, b, c] = self.p;
-        let n = (b - a).cross(c - a);
+        let n = triangle_normal(self.p).0;
         let area = |x: DVec3, y: DVec3, z: DVec3| (y - x).cross(z - x).dot(n) / n.length_squared();
         DVec3::new(area(p, b, c), area(a, p, c), area(a, b, p))
     }
@@ -110,7 +110,9 @@ impl ExactSurface for ExactTriangle {
     fn signed_distance(&self, p: DVec3) -> f64 {
         let [a, b, c] = self.p;
         let n = self.normal();
-        let plane = n.dot(p - a);
+        // From the nearest vertex: the plane's offset is then as accurate as the normal allows.
+        let q = self.p.into_iter().min_by(|x, y| (p - *x).length_squared().total_cmp(&(p - *y).length_squared())).unwrap_or(a);
+        let plane = n.dot(p - q);
         let inside = self.barycentric(p).min_element() >= 0.0;
         let dist = if inside {
             plane.abs()

@@ -8,7 +8,7 @@
 //! hits, and the test's consistent edge functions then make shared edges watertight.
 
 use raylab::error::Result;
-use raylab::float::{gamma, on_surface_slack};
+use raylab::float::{gamma, on_surface_slack, triangle_normal};
 use raylab::geometry::{Geometry, Hit, Intersectable};
 use raylab::glam::{DVec2, DVec3};
 use raylab::params::{Default, MATERIAL_PARAM, ParamKind, ParamSpec, Params};
@@ -126,8 +126,7 @@ impl Triangle {
 
     /// A triangle with the given edge rule, or `None` when it is degenerate.
     pub fn with_edges(p0: DVec3, p1: DVec3, p2: DVec3, edges: EdgeRule, material: Material) -> Option<Self> {
-        let n = (p1 - p0).cross(p2 - p0);
-        let scale = (p1 - p0).length() * (p2 - p0).length();
+        let (n, scale) = triangle_normal([p0, p1, p2]);
         if !(n.is_finite() && n.length() > 1e-12 * scale && scale > 0.0) {
             return None;
         }
@@ -391,6 +390,21 @@ mod tests {
         let tol = Tolerance::for_scale(2.0);
         let hits = check_hits_ascending(&g, &ray, &tol, &ExactTriangle { p: [DVec3::ZERO, DVec3::X, DVec3::Y] }, 1).unwrap();
         assert_eq!(hits.len(), 1);
+    }
+
+    /// Found by the `intersect` fuzz target: a sliver 1e-9 as wide as it is long (7e5). Its normal,
+    /// the plain cross product at p0, was off by 1e-7 rad, so a hit at its far vertex lay 0.005 off
+    /// the plane; now from the edges at the largest angle, with compensated products.
+    #[test]
+    fn bad_case_a_slivers_normal_was_off_by_1e_7_rad() {
+        let p =
+            [DVec3::new(-52681.62727651227, 3e5, -3e5), DVec3::new(147318.37179216516, 7e5, 2e5), DVec3::new(147318.37272348773, 7e5, 2e5)];
+        let g = Triangle::with_edges(p[0], p[1], p[2], EdgeRule::Inclusive, Material::default()).unwrap();
+        let ray = Ray::new(DVec3::new(947318.3727234877, 1.5e6, 1e6), -DVec3::ONE);
+        let exact = ExactTriangle { p };
+        let hits = check_hits_ascending(&g, &ray, &Tolerance::for_scale(1.5e6), &exact, 1).unwrap_or_else(|v| panic!("{v}"));
+        assert_eq!(hits.len(), 1);
+        assert!((g.outward_normal(&hits[0]) - DVec3::new(0.0, 5.0, -4.0).normalize()).length() < 1e-15);
     }
 
     // Regressions: literal cases the properties found, kept as pbrt keeps Triangle.BadCases.
