@@ -67,6 +67,25 @@ pub(crate) struct SceneArgs {
     /// Set an integrator parameter: `--set max_depth=5` (value in TOML syntax; repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
+    /// Anti-aliasing: `stratified` (--spp samples per pixel) or `adaptive` (recursive corner
+    /// subdivision where neighbouring samples disagree).
+    #[arg(long, value_parser = ["stratified", "adaptive"])]
+    aa: Option<String>,
+    /// Adaptive anti-aliasing: split where corner values (displayed, 0..1) differ by more than this.
+    #[arg(long, value_name = "T")]
+    aa_threshold: Option<f64>,
+    /// Adaptive anti-aliasing: most subdivision levels per pixel (0–8).
+    #[arg(long, value_name = "N")]
+    aa_depth: Option<i64>,
+    /// Rays through distinct lens points per image sample (depth of field).
+    #[arg(long, value_name = "N")]
+    lens_samples: Option<i64>,
+    /// Lens radius for depth of field, scene units (overrides the camera's `aperture`).
+    #[arg(long, value_name = "R")]
+    aperture: Option<f64>,
+    /// Distance of the plane in focus, scene units (overrides the camera's `focus_distance`).
+    #[arg(long, value_name = "D")]
+    focus_distance: Option<f64>,
     /// 8-bit encoding: `srgb` (default) or `linear` (clamped values written straight, as the report).
     #[arg(long, value_parser = ["srgb", "linear"])]
     encoding: Option<String>,
@@ -156,9 +175,7 @@ impl SceneArgs {
     pub(crate) fn load_options(&self) -> Result<LoadOptions, Failure> {
         let mut params = Vec::new();
         if let Some(d) = self.depth {
-            let src = Source::new("--depth", d.to_string());
-            let loc = Loc::new(&src, 0..src.text.len());
-            params.push(("max_depth".to_string(), Node { value: Value::Int(d), loc }));
+            params.push(flag_node("--depth", "max_depth", Value::Int(d)));
         }
         for s in &self.set {
             let src = Source::new("--set", s.clone());
@@ -168,6 +185,26 @@ impl SceneArgs {
             let key = s[..eq].trim().to_string();
             let node = crate::load::parse_toml_value(&src, eq + 1..s.len())?;
             params.push((key, node));
+        }
+        let mut render_params = Vec::new();
+        if let Some(v) = &self.aa {
+            render_params.push(flag_node("--aa", "aa", Value::Str(v.clone())));
+        }
+        if let Some(v) = self.aa_threshold {
+            render_params.push(flag_node("--aa-threshold", "aa_threshold", Value::Float(v)));
+        }
+        if let Some(v) = self.aa_depth {
+            render_params.push(flag_node("--aa-depth", "aa_depth", Value::Int(v)));
+        }
+        if let Some(v) = self.lens_samples {
+            render_params.push(flag_node("--lens-samples", "lens_samples", Value::Int(v)));
+        }
+        let mut camera_params = Vec::new();
+        if let Some(v) = self.aperture {
+            camera_params.push(flag_node("--aperture", "aperture", Value::Float(v)));
+        }
+        if let Some(v) = self.focus_distance {
+            camera_params.push(flag_node("--focus-distance", "focus_distance", Value::Float(v)));
         }
         let mut limits = crate::load::Limits::default();
         if let Some(v) = self.max_pixels {
@@ -194,11 +231,27 @@ impl SceneArgs {
                 encoding: self.encoding.as_deref().and_then(crate::color::Encoding::parse),
                 integrator: self.integrator.clone(),
                 integrator_params: params,
+                render_params,
+                camera_params,
             },
             limits,
             allow_outside_paths: self.allow_outside_paths,
         })
     }
+}
+
+/// A setting given by command-line flag `flag`, as the scene key `key` with a location naming the flag.
+pub(crate) fn flag_node(flag: &str, key: &str, value: Value) -> (String, Node) {
+    let text = match &value {
+        Value::Str(s) => s.clone(),
+        Value::Int(i) => i.to_string(),
+        Value::Float(f) => f.to_string(),
+        Value::Bool(b) => b.to_string(),
+        other => other.type_name().to_string(),
+    };
+    let src = Source::new(flag, text);
+    let loc = Loc::new(&src, 0..src.text.len());
+    (key.to_string(), Node { value, loc })
 }
 
 /// Loads `scene` (or the app's default scene) with the options in `a`; returns the job and a
