@@ -330,11 +330,17 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
     let limits = &opts.limits;
     let max_side = i64::from(limits.max_side.min(i32::MAX as u32));
     let width = match ov.width {
-        Some(w) => i64::from(w),
+        Some(w) => {
+            rp.node("width")?; // overridden: the file's value is not used
+            i64::from(w)
+        }
         None => rp.int_in("width", 1..=i64::MAX)?,
     };
     let height = match ov.height {
-        Some(h) => i64::from(h),
+        Some(h) => {
+            rp.node("height")?; // overridden: the file's value is not used
+            i64::from(h)
+        }
         None => rp.int_in("height", 1..=i64::MAX)?,
     };
     for (v, what) in [(width, "width"), (height, "height")] {
@@ -351,7 +357,10 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
             .with_help("raise the limit with --max-pixels"));
     }
     let spp = match ov.spp {
-        Some(s) => i64::from(s),
+        Some(s) => {
+            rp.node("spp")?; // overridden: the file's value is not used
+            i64::from(s)
+        }
         None => rp.int_in("spp", 1..=i64::MAX)?,
     };
     if spp < 1 || spp > i64::from(limits.max_spp) {
@@ -360,11 +369,17 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
             .with_help("raise the limit with --max-spp"));
     }
     let seed = match ov.seed {
-        Some(s) => s,
+        Some(s) => {
+            rp.node("seed")?;
+            s
+        }
         None => rp.int_in("seed", 0..=i64::MAX)? as u64,
     };
     let encoding = match ov.encoding {
-        Some(e) => e,
+        Some(e) => {
+            rp.node("encoding")?;
+            e
+        }
         None => Encoding::parse(&rp.choice("encoding", &["srgb", "linear"])?).unwrap_or_default(),
     };
     let aa = match rp.choice("aa", &["stratified", "adaptive"])?.as_str() {
@@ -377,7 +392,10 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
     let lens_samples = rp.int_in("lens_samples", 1..=i64::from(limits.max_spp))? as u32;
     if u64::from(lens_samples) * spp as u64 > u64::from(limits.max_spp) {
         return Err(rp
-            .error_at("lens_samples", format_args!("{spp} spp × {lens_samples} lens samples exceeds the limit of {} rays per pixel", limits.max_spp))
+            .error_at(
+                "lens_samples",
+                format_args!("{spp} spp × {lens_samples} lens samples exceeds the limit of {} rays per pixel", limits.max_spp),
+            )
             .with_help("raise the limit with --max-spp"));
     }
     rp.finish()?;

@@ -34,10 +34,7 @@ impl ImageError {
 /// Compares `image` with `reference` (same size), both displayed with `encoding`.
 pub fn compare(image: &Film, reference: &Film, encoding: Encoding) -> Result<ImageError, String> {
     if (image.width, image.height) != (reference.width, reference.height) {
-        return Err(format!(
-            "the image is {}×{} but the reference is {}×{}",
-            image.width, image.height, reference.width, reference.height
-        ));
+        return Err(format!("the image is {}×{} but the reference is {}×{}", image.width, image.height, reference.width, reference.height));
     }
     let a = displayed(image, encoding);
     let b = displayed(reference, encoding);

@@ -303,7 +303,12 @@ fn add_samples(job: &RenderJob, x: u32, y: u32, samples: std::ops::Range<u32>, a
         let sampler = Sampler::new(pixel, i, s.seed);
         let jitter = if s.spp == 1 { DVec2::splat(0.5) } else { stratified_2d(i, s.spp, pattern) };
         let film = DVec2::new(f64::from(x), f64::from(y)) + jitter;
-        let lenses = LensSet { first: i * s.lens_samples, per_sample: s.lens_samples, total: s.spp * s.lens_samples, pattern: pattern ^ LENS_PATTERN };
+        let lenses = LensSet {
+            first: i * s.lens_samples,
+            per_sample: s.lens_samples,
+            total: s.spp * s.lens_samples,
+            pattern: pattern ^ LENS_PATTERN,
+        };
         camera_sample(job, film, &lenses, &sampler, acc, stats);
     }
 }
@@ -379,14 +384,21 @@ impl Adaptive<'_> {
             return (c[0] + c[1] + c[2] + c[3]) * 0.25;
         }
         let h = size / 2;
-        let q = [self.square(x, y, h, levels - 1), self.square(x + h, y, h, levels - 1), self.square(x, y + h, h, levels - 1), self.square(x + h, y + h, h, levels - 1)];
+        let q = [
+            self.square(x, y, h, levels - 1),
+            self.square(x + h, y, h, levels - 1),
+            self.square(x, y + h, h, levels - 1),
+            self.square(x + h, y + h, h, levels - 1),
+        ];
         (q[0] + q[1] + q[2] + q[3]) * 0.25
     }
 
     /// Whether the displayed values of `c` differ by more than the threshold in any channel.
     fn differ(&self, c: &[Color; 4]) -> bool {
         let enc = self.job.settings.encoding;
-        let d = |v: Color| DVec3::new(f64::from(enc.display(v.x as f32)), f64::from(enc.display(v.y as f32)), f64::from(enc.display(v.z as f32)));
+        let d = |v: Color| {
+            DVec3::new(f64::from(enc.display(v.x as f32)), f64::from(enc.display(v.y as f32)), f64::from(enc.display(v.z as f32)))
+        };
         let e = c.map(d);
         let lo = e[0].min(e[1]).min(e[2]).min(e[3]);
         let hi = e[0].max(e[1]).max(e[2]).max(e[3]);

@@ -38,7 +38,12 @@ pub struct Spot {
 
 /// The parameters that make a point or spot light an area light.
 pub(crate) const AREA: [ParamSpec; 2] = [
-    ParamSpec::new("radius", ParamKind::Float, Default::Float(0.0), "radius of the ball-shaped light for soft shadows, scene units (0 = a point), ≥ 0"),
+    ParamSpec::new(
+        "radius",
+        ParamKind::Float,
+        Default::Float(0.0),
+        "radius of the ball-shaped light for soft shadows, scene units (0 = a point), ≥ 0",
+    ),
     ParamSpec::new(
         "samples",
         ParamKind::Int,

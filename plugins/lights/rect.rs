@@ -34,7 +34,12 @@ pub const INFO: PluginInfo = PluginInfo {
         ATTENUATION[0],
         ATTENUATION[1],
         ATTENUATION[2],
-        ParamSpec::new("samples", ParamKind::Int, Default::Int(16), "shadow rays per shading point (the integrator's shadow_rays may override), ≥ 1"),
+        ParamSpec::new(
+            "samples",
+            ParamKind::Int,
+            Default::Int(16),
+            "shadow rays per shading point (the integrator's shadow_rays may override), ≥ 1",
+        ),
     ],
 };
 

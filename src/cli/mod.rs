@@ -2,8 +2,10 @@
 //! plus any of its own) and calls [`run`]. The built-in `raylab` binary and a third-party
 //! plugin's binary therefore share one interface. One file per subcommand.
 
+mod plot;
 mod plugins;
 mod render;
+mod sweep;
 mod trace;
 
 use crate::error::{Loc, SceneError, Source};
@@ -40,6 +42,9 @@ enum Command {
     Trace(trace::TraceArgs),
     /// List the registered plugins and their parameters.
     Plugins(plugins::PluginsArgs),
+    /// Measure the speed/accuracy trade: render at many settings of the quality knobs, time each,
+    /// compare with a reference (RMSE, PSNR, SSIM), and plot error against time.
+    Sweep(Box<sweep::SweepArgs>),
 }
 
 /// Options shared by every command that loads a scene: overrides of the scene's settings, and
@@ -133,6 +138,7 @@ where
         Some(Command::Render(a)) => render::run(&app, a),
         Some(Command::Trace(a)) => trace::run(&app, a),
         Some(Command::Plugins(a)) => plugins::run(&app, a),
+        Some(Command::Sweep(a)) => sweep::run(&app, *a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
