@@ -17,8 +17,9 @@ pub struct LightSample {
 
 /// A source of light.
 pub trait LightSource: Send + Sync {
-    /// Light arriving at `p`. `u` is a uniform sample in [0, 1)² that area lights use to pick a
-    /// point on the emitter; point-like lights ignore it. `None` when the light has no direction
+    /// Light arriving at `p`. `u` ∈ [0, 1]² picks a point on an area light's emitter (uniform
+    /// samples for estimates; the square's corners should map to the emitter's extreme points,
+    /// which integrators use as probes); point-like lights ignore it. `None` when the light has no direction
     /// at `p` (an ambient light, or `p` at the light itself). A light that cannot reach `p`
     /// (outside a spot's cone) returns a sample of zero intensity, so the integrator decides, and
     /// counts, what it skips.

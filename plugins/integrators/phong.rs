@@ -79,7 +79,7 @@ pub const INFO: PluginInfo = PluginInfo {
             "shadow_probes",
             ParamKind::Int,
             Default::Int(0),
-            "adaptive soft shadows: probe rays per area light; the full set only where they disagree (0 = off), ≥ 0",
+            "adaptive soft shadows: probe rays per area light (its corners or rim first); the full set only where they disagree (0 = off), ≥ 0",
         ),
         ParamSpec::new(
             "avoid",
@@ -268,7 +268,7 @@ impl Phong {
             let probes = if light.is_area() && self.shadow_probes > 0 && self.shadow_probes < full { self.shadow_probes } else { 0 };
             let mut acc = LightSum { sum: Color::ZERO, n: 0, first: None, agree: true };
             let shade = Shade { ray, hit, n, weight, full, li, no_response };
-            let first_set = if probes > 0 { probes } else { full };
+            let first_set = if probes > 0 { Samples::Probes(probes) } else { Samples::Stratified(full) };
             let pattern = stream.next_pattern();
             let u0 = stream.next_2d();
             if !self.light_samples(c, &shade, light.as_ref(), first_set, pattern, u0, &mut acc, node.as_deref_mut()) {
@@ -282,7 +282,7 @@ impl Phong {
                         nd.notes.push(format!("{}: the {probes} probe rays disagree; {full} more samples", scene.light_names[li]));
                     }
                     let pattern = stream.next_pattern();
-                    self.light_samples(c, &shade, light.as_ref(), full, pattern, u0, &mut acc, node.as_deref_mut());
+                    self.light_samples(c, &shade, light.as_ref(), Samples::Stratified(full), pattern, u0, &mut acc, node.as_deref_mut());
                 }
             }
             if acc.n > 0 {
@@ -292,15 +292,15 @@ impl Phong {
         total
     }
 
-    /// Takes `count` stratified samples (pattern `pattern`; `u0` when `count` is 1) of `light` and
-    /// adds them to `acc`. False when the light has no direction here (ambient).
+    /// Takes the samples `set` of `light` (stratified with `pattern`; `u0` for a single sample)
+    /// and adds them to `acc`. False when the light has no direction here (ambient).
     #[allow(clippy::too_many_arguments)]
     fn light_samples(
         &self,
         c: &mut Ctx,
         sh: &Shade,
         light: &dyn LightSource,
-        count: u32,
+        set: Samples,
         pattern: u32,
         u0: DVec2,
         acc: &mut LightSum,
@@ -309,8 +309,16 @@ impl Phong {
         let scene = c.scene;
         let (hit, n, ray) = (sh.hit, sh.n, sh.ray);
         let m = scene.geometries[hit.object as usize].material();
+        let count = match set {
+            Samples::Stratified(n) | Samples::Probes(n) => n,
+        };
         for s in 0..count {
-            let u = if count > 1 { stratified_2d(s, count, pattern) } else { u0 };
+            let u = match set {
+                Samples::Probes(_) if s < 4 => PROBE_CORNERS[s as usize],
+                Samples::Probes(n) => stratified_2d(s - 4, n - 4, pattern),
+                Samples::Stratified(1) => u0,
+                Samples::Stratified(n) => stratified_2d(s, n, pattern),
+            };
             let Some(ls) = light.illuminate(hit.point, u) else { return false };
             acc.n += 1;
             if self.avoid && sh.no_response {
@@ -457,6 +465,20 @@ impl Phong {
         mean
     }
 }
+
+/// Which samples of a light to take.
+#[derive(Clone, Copy)]
+enum Samples {
+    /// `n` stratified over the light.
+    Stratified(u32),
+    /// Probes for adaptive soft shadows: the light's corners (the sample square's corners, which
+    /// lights map to their extreme points: a rectangle's corners, a ball's rim), then `n − 4`
+    /// stratified points. A straight occluder edge across the light separates its corners.
+    Probes(u32),
+}
+
+/// The sample square's corners, diagonal pairs first.
+const PROBE_CORNERS: [DVec2; 4] = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 1.0), DVec2::new(1.0, 0.0), DVec2::new(0.0, 1.0)];
 
 /// What a shading point's light samples share.
 struct Shade<'a> {
