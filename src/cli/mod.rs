@@ -150,6 +150,7 @@ where
 }
 
 /// A user-facing failure: a located scene error or a plain message.
+#[derive(Debug)]
 pub(crate) enum Failure {
     Scene(SceneError),
     Other(String),
