@@ -1,9 +1,11 @@
 //! `triangle`: a single triangle given by three vertices.
 //!
 //! The intersection is the watertight test of Woop, Benthin & Wald (JCGT 2013) with pbrt-v4's
-//! conservative bound on `t`. A lone triangle follows the report: a ray through an edge or a
-//! vertex does **not** hit it (edge functions must be strictly non-zero). Meshes use the same
-//! test with edges counted as hits ([`EdgeRule::Inclusive`]), which makes shared edges watertight.
+//! conservative bound on `t`. By default a triangle follows the report: a ray through an edge or
+//! a vertex does **not** hit it (edge functions must be strictly non-zero). That rule is right for
+//! a lone triangle and wrong for triangles that share edges: two such triangles leave a crack
+//! along the edge. `edges = "inclusive"` ([`EdgeRule::Inclusive`], what meshes use) counts edge
+//! hits, and the test's consistent edge functions then make shared edges watertight.
 
 use raylab::error::Result;
 use raylab::float::gamma;
@@ -106,6 +108,7 @@ pub fn barycentric_point(b: DVec3, p0: DVec3, p1: DVec3, p2: DVec3) -> (DVec3, D
 pub struct Triangle {
     p: [DVec3; 3],
     normal: DVec3,
+    edges: EdgeRule,
     material: Material,
 }
 
@@ -113,23 +116,34 @@ impl Triangle {
     /// A triangle, or `None` when it is degenerate (zero area, collinear or repeated vertices,
     /// non-finite coordinates).
     pub fn new(p0: DVec3, p1: DVec3, p2: DVec3, material: Material) -> Option<Self> {
+        Self::with_edges(p0, p1, p2, EdgeRule::Exclusive, material)
+    }
+
+    /// A triangle with the given edge rule, or `None` when it is degenerate.
+    pub fn with_edges(p0: DVec3, p1: DVec3, p2: DVec3, edges: EdgeRule, material: Material) -> Option<Self> {
         let n = (p1 - p0).cross(p2 - p0);
         let scale = (p1 - p0).length() * (p2 - p0).length();
         if !(n.is_finite() && n.length() > 1e-12 * scale && scale > 0.0) {
             return None;
         }
-        Some(Triangle { p: [p0, p1, p2], normal: n.normalize(), material })
+        Some(Triangle { p: [p0, p1, p2], normal: n.normalize(), edges, material })
     }
 }
 
 /// The `triangle` plugin's description.
 pub const INFO: PluginInfo = PluginInfo {
     name: "triangle",
-    summary: "A triangle. Its outward normal follows the winding (p1 − p0) × (p2 − p0). As in the report, a ray exactly through an edge or vertex misses a lone triangle; use a mesh for shared edges.",
+    summary: "A triangle. Its outward normal follows the winding (p1 − p0) × (p2 − p0). As in the report, a ray exactly through an edge or vertex misses it, unless edges = \"inclusive\" (use that for triangles sharing edges: no crack).",
     params: &[
         ParamSpec::new("p0", ParamKind::Vec3, Default::Required, "first vertex"),
         ParamSpec::new("p1", ParamKind::Vec3, Default::Required, "second vertex"),
         ParamSpec::new("p2", ParamKind::Vec3, Default::Required, "third vertex"),
+        ParamSpec::new(
+            "edges",
+            ParamKind::Str,
+            Default::Str("exclusive"),
+            "\"exclusive\": an edge or vertex hit is a miss (the report); \"inclusive\": it is a hit (watertight between triangles)",
+        ),
         MATERIAL_PARAM,
     ],
 };
@@ -137,8 +151,9 @@ pub const INFO: PluginInfo = PluginInfo {
 /// Builds a triangle from its parameters.
 pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Geometry>> {
     let (p0, p1, p2) = (p.vec3("p0")?, p.vec3("p1")?, p.vec3("p2")?);
+    let edges = if p.choice("edges", &["exclusive", "inclusive"])? == "inclusive" { EdgeRule::Inclusive } else { EdgeRule::Exclusive };
     let m = p.material("material")?;
-    Triangle::new(p0, p1, p2, m)
+    Triangle::with_edges(p0, p1, p2, edges, m)
         .map(|t| Box::new(t) as Box<dyn Geometry>)
         .ok_or_else(|| p.error("degenerate triangle: the vertices are collinear or repeated (zero area)"))
 }
@@ -146,7 +161,7 @@ pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Geometry>> {
 impl Intersectable for Triangle {
     fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<Hit> {
         let [p0, p1, p2] = self.p;
-        let h = intersect_triangle(ray, p0, p1, p2, t_min, t_max, EdgeRule::Exclusive)?;
+        let h = intersect_triangle(ray, p0, p1, p2, t_min, t_max, self.edges)?;
         let (point, error) = barycentric_point(h.b, p0, p1, p2);
         Some(Hit { t: h.t, point, error, uv: DVec2::new(h.b.y, h.b.z), prim: 0, object: 0 })
     }
