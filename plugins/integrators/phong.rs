@@ -67,7 +67,7 @@ pub const INFO: PluginInfo = PluginInfo {
             "glossy_rays",
             ParamKind::Int,
             Default::Int(16),
-            "rays per glossy reflection / blurry refraction (materials with blur > 0), ≥ 1",
+            "rays per glossy reflection / blurry refraction (materials with blur > 0), scaled by the fan's weight in the pixel (at least 1), ≥ 1",
         ),
         ParamSpec::new(
             "shadow_rays",
@@ -420,9 +420,12 @@ impl Phong {
         mut node: Option<&mut TraceNode>,
     ) -> Color {
         let sharp = fan.blur <= 0.0;
-        let count = if sharp && self.avoid { 1 } else { self.glossy_rays };
+        // A fan gets rays in proportion to its weight in the pixel (at least one), so nested
+        // glossy bounces cost about `glossy_rays` per sample instead of `glossy_rays^depth`.
+        let fan_size = ((f64::from(self.glossy_rays) * max_channel(weight)).ceil() as u32).clamp(1, self.glossy_rays);
+        let count = if sharp && self.avoid { 1 } else { fan_size };
         if sharp && self.avoid {
-            c.stats.glossy_rays_saved += u64::from(self.glossy_rays - 1);
+            c.stats.glossy_rays_saved += u64::from(fan_size - 1);
         }
         let pattern = if sharp { 0 } else { sampler.fork(fan.tag | FAN_PATTERN).next_pattern() };
         let (b1, b2) = orthonormal_basis(fan.ideal);
@@ -726,13 +729,13 @@ mod tests {
             vec![floor(mirror.clone()), Box::new(Plane::new(DVec3::new(0.0, 10.0, 0.0), -DVec3::Y, mirror))];
         let s = scene(planes, vec![], DVec3::ONE);
         let ray = Ray::new(DVec3::new(0.0, 5.0, 0.0), DVec3::new(0.0, -1.0, 0.01));
-        let deep = Phong { max_depth: 100, prune_threshold: 0.01, glossy_rays: 1 };
+        let deep = Phong { max_depth: 100, prune_threshold: 0.01, glossy_rays: 1, ..Phong::default() };
         let (c, st) = shade(&s, &deep, &ray);
         // 0.5^7 = 0.0078 < 0.01: the 7th reflection is pruned.
         assert_eq!((st.reflection_rays, st.pruned_rays, st.depth_limited), (6, 1, 0));
         // Between two infinite mirrors no ray ever escapes to the background.
         assert_eq!(c, Color::ZERO);
-        let shallow = Phong { max_depth: 2, prune_threshold: 0.0, glossy_rays: 1 };
+        let shallow = Phong { max_depth: 2, prune_threshold: 0.0, glossy_rays: 1, ..Phong::default() };
         let (_, st) = shade(&s, &shallow, &ray);
         assert_eq!((st.reflection_rays, st.pruned_rays, st.depth_limited), (2, 0, 1));
     }
