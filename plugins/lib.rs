@@ -1,5 +1,5 @@
 //! raylab's built-in plugins: the report's shapes, lights and recursive Phong integrator, plus
-//! debug integrators. They use only the public API of the `raylab` core crate, exactly as a
+//! debug integrators, and the reader of the report's XML scenes. They use only the public API of the `raylab` core crate, exactly as a
 //! third-party plugin crate would.
 //!
 //! ```no_run
@@ -7,6 +7,7 @@
 //! let job = raylab::load::load_file(&registry, "scenes/showcase.toml".as_ref(), &Default::default()).unwrap();
 //! ```
 
+pub mod formats;
 pub mod integrators;
 pub mod lights;
 pub mod shapes;
@@ -21,6 +22,7 @@ pub fn register(r: &mut Registry) {
     shapes::register(r);
     lights::register(r);
     integrators::register(r);
+    formats::register(r);
 }
 
 /// A registry holding every built-in plugin.

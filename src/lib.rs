@@ -32,6 +32,7 @@ pub mod registry;
 pub mod render;
 pub mod sampler;
 pub mod scene;
+pub mod scene_toml;
 pub mod stats;
 pub mod testing;
 pub mod trace;

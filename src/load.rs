@@ -73,7 +73,8 @@ pub struct Overrides {
     pub integrator_params: Vec<(String, Node)>,
     /// `[render]` keys, `(name, value)`, applied over the scene's (e.g. `aa`, `lens_samples`).
     pub render_params: Vec<(String, Node)>,
-    /// `[camera]` keys, `(name, value)`, applied over the scene's (e.g. `aperture`).
+    /// Camera parameters, `(name, value)`, applied over the scene's `[camera]` (see
+    /// [`crate::camera::apply_overrides`]); they also supply a camera to a scene that has none.
     pub camera_params: Vec<(String, Node)>,
 }
 
@@ -377,12 +378,14 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
     let settings = RenderSettings { width: width as u32, height: height as u32, spp: spp as u32, seed, encoding, aa, lens_samples };
 
     // [camera]
-    let Some(cam_node) = root.node("camera")? else {
-        return Err(SceneError::at(&desc.loc, "the scene has no [camera]")
-            .with_help("add a [camera] table with `position` and `look_at` (or the report's `to` and `screen_*`)"));
-    };
-    let (cam_table, cam_loc) = sub_table(Some(cam_node), &desc.loc, &empty, "camera")?;
-    let cam_table = with_overrides(cam_table, &ov.camera_params);
+    let cam_node = root.node("camera")?;
+    if cam_node.is_none() && ov.camera_params.is_empty() {
+        return Err(SceneError::at(&desc.loc, "the scene has no [camera]").with_help(
+            "add a [camera] table with `position` and `look_at` (or the report's `to` and `screen_*`), or give one with --camera KEY=VALUE",
+        ));
+    }
+    let (cam_table, cam_loc) = sub_table(cam_node, &desc.loc, &empty, "camera")?;
+    let cam_table = crate::camera::apply_overrides(cam_table, &ov.camera_params);
     let mut cp = Params::new("[camera]", CAMERA_PARAMS, &cam_table, cam_loc, None);
     let camera = Camera::from_params(&mut cp, settings.width, settings.height)?;
     cp.finish()?;

@@ -24,3 +24,18 @@ fn scene_toml_corpus_loads_or_fails_cleanly() {
         }
     }
 }
+
+#[test]
+fn scene_xml_corpus_loads_or_fails_cleanly() {
+    let registry = raylab_plugins::registry();
+    let options = raylab::LoadOptions::default();
+    let ctx = raylab::LoadContext { scene_dir: Path::new("."), options: &options };
+    for f in corpus("scene_xml") {
+        let data = std::fs::read(&f).unwrap();
+        let result = raylab_plugins::formats::report_xml::read(Path::new("fuzz.xml"), &data, &ctx)
+            .and_then(|desc| raylab::load::build(&registry, &desc, &ctx));
+        if let Err(e) = result {
+            assert!(e.where_().is_some(), "{}: error without a location: {e}", f.display());
+        }
+    }
+}

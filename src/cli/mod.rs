@@ -2,6 +2,7 @@
 //! plus any of its own) and calls [`run`]. The built-in `raylab` binary and a third-party
 //! plugin's binary therefore share one interface. One file per subcommand.
 
+mod convert;
 mod plot;
 mod plugins;
 mod render;
@@ -45,6 +46,8 @@ enum Command {
     /// Measure the speed/accuracy trade: render at many settings of the quality knobs, time each,
     /// compare with a reference (RMSE, PSNR, SSIM), and plot error against time.
     Sweep(Box<sweep::SweepArgs>),
+    /// Convert a scene (e.g. the report's XML) to raylab's TOML format.
+    Convert(convert::ConvertArgs),
 }
 
 /// Options shared by every command that loads a scene: overrides of the scene's settings, and
@@ -91,6 +94,10 @@ pub(crate) struct SceneArgs {
     /// Distance of the plane in focus, scene units (overrides the camera's `focus_distance`).
     #[arg(long, value_name = "D")]
     focus_distance: Option<f64>,
+    /// Set a camera parameter: `--camera position=[0,0,10]` (value in TOML syntax; repeatable).
+    /// Supplies the camera of a scene that has none (e.g. a report XML scene without <camera>).
+    #[arg(long = "camera", value_name = "KEY=VALUE")]
+    camera: Vec<String>,
     /// 8-bit encoding: `srgb` (default) or `linear` (clamped values written straight, as the report).
     #[arg(long, value_parser = ["srgb", "linear"])]
     encoding: Option<String>,
@@ -139,6 +146,7 @@ where
         Some(Command::Trace(a)) => trace::run(&app, a),
         Some(Command::Plugins(a)) => plugins::run(&app, a),
         Some(Command::Sweep(a)) => sweep::run(&app, *a),
+        Some(Command::Convert(a)) => convert::run(&app, a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -184,15 +192,7 @@ impl SceneArgs {
         if let Some(d) = self.depth {
             params.push(flag_node("--depth", "max_depth", Value::Int(d)));
         }
-        for s in &self.set {
-            let src = Source::new("--set", s.clone());
-            let Some(eq) = s.find('=') else {
-                return Err(SceneError::at(&Loc::new(&src, 0..s.len()), "expected KEY=VALUE").into());
-            };
-            let key = s[..eq].trim().to_string();
-            let node = crate::load::parse_toml_value(&src, eq + 1..s.len())?;
-            params.push((key, node));
-        }
+        params.extend(key_values("--set", &self.set)?);
         let mut render_params = Vec::new();
         if let Some(v) = &self.aa {
             render_params.push(flag_node("--aa", "aa", Value::Str(v.clone())));
@@ -206,7 +206,7 @@ impl SceneArgs {
         if let Some(v) = self.lens_samples {
             render_params.push(flag_node("--lens-samples", "lens_samples", Value::Int(v)));
         }
-        let mut camera_params = Vec::new();
+        let mut camera_params = key_values("--camera", &self.camera)?;
         if let Some(v) = self.aperture {
             camera_params.push(flag_node("--aperture", "aperture", Value::Float(v)));
         }
@@ -259,6 +259,20 @@ pub(crate) fn flag_node(flag: &str, key: &str, value: Value) -> (String, Node) {
     let src = Source::new(flag, text);
     let loc = Loc::new(&src, 0..src.text.len());
     (key.to_string(), Node { value, loc })
+}
+
+/// Parses repeated `KEY=VALUE` options (value in TOML syntax) of option `flag`.
+fn key_values(flag: &str, items: &[String]) -> Result<Vec<(String, Node)>, Failure> {
+    let mut out = Vec::new();
+    for s in items {
+        let src = Source::new(flag, s.clone());
+        let Some(eq) = s.find('=') else {
+            return Err(SceneError::at(&Loc::new(&src, 0..s.len()), "expected KEY=VALUE").into());
+        };
+        let key = s[..eq].trim().to_string();
+        out.push((key, crate::load::parse_toml_value(&src, eq + 1..s.len())?));
+    }
+    Ok(out)
 }
 
 /// Loads `scene` (or the app's default scene) with the options in `a`; returns the job and a
