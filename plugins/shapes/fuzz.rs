@@ -6,7 +6,10 @@
 //! vertices, repeated vertices) or as arbitrary fractions, times a scale from 10⁻⁶ to 10⁶, around a
 //! centre near the origin or 10³ sizes away. Shapes the loader would refuse (zero radius, zero
 //! direction, degenerate triangle, non-convex polygon) are refused here too, through the same
-//! constructors. Rays start anywhere, on the surface at a previous hit, or spawned from it.
+//! constructors. Rays start anywhere, on the surface at a previous hit, or spawned from it. Hits
+//! are held to [`SURFACE_TOLERANCE`] of the problem's magnitude, except on a sliver triangle, whose
+//! hits are only as accurate as its shape allows (`4ε / aspect`, aspect = 2·area / longest edge²:
+//! more than 1e-9 only for triangles thinner than 4e-7 of their length).
 
 use super::cylinder::Cylinder;
 use super::exact::{ExactBowl, ExactCylinder, ExactPlane, ExactPolygon, ExactSphere, ExactTriangle};
@@ -15,7 +18,7 @@ use super::plane::Plane;
 use super::polygon::Polygon;
 use super::sphere::Sphere;
 use super::triangle::{EdgeRule, Triangle};
-use raylab::float::max_abs;
+use raylab::float::{MACHINE_EPSILON, SURFACE_TOLERANCE, max_abs, triangle_normal};
 use raylab::glam::DVec3;
 use raylab::testing::{ExactSurface, Tolerance, Violation, check_hits_ascending};
 use raylab::{Geometry, Hit, Material, Ray};
@@ -52,6 +55,8 @@ struct Case {
     exact: Box<dyn ExactSurface>,
     magnitude: f64,
     max_hits: usize,
+    /// Relative tolerance of the hits: [`SURFACE_TOLERANCE`], or more for a sliver triangle.
+    relative: f64,
 }
 
 fn decode(b: &mut Bytes) -> Option<(Case, DVec3, f64)> {
@@ -69,6 +74,7 @@ fn decode(b: &mut Bytes) -> Option<(Case, DVec3, f64)> {
                 exact: Box::new(ExactPlane { point: center, normal }),
                 magnitude: max_abs(center) + s,
                 max_hits: 1,
+                relative: SURFACE_TOLERANCE,
             }
         }
         1 => {
@@ -79,6 +85,7 @@ fn decode(b: &mut Bytes) -> Option<(Case, DVec3, f64)> {
                 exact: Box::new(ExactSphere { center, radius }),
                 magnitude: max_abs(center) + radius,
                 max_hits: 2,
+                relative: SURFACE_TOLERANCE,
             }
         }
         2 => {
@@ -90,18 +97,24 @@ fn decode(b: &mut Bytes) -> Option<(Case, DVec3, f64)> {
                 exact: Box::new(ExactBowl { center, radius, open }),
                 magnitude: max_abs(center) + radius,
                 max_hits: 2,
+                relative: SURFACE_TOLERANCE,
             }
         }
         k @ (3 | 4) => {
             let p = [center + b.vec3(s), center + b.vec3(s), center + b.vec3(s)];
             let rule = if k == 3 { EdgeRule::Exclusive } else { EdgeRule::Inclusive };
             let g = Box::new(Triangle::with_edges(p[0], p[1], p[2], rule, m())?);
+            // A sliver's hits are only as accurate as its shape allows: the edge functions' rounding
+            // over its tiny area, ε / aspect (aspect = 2·area / longest edge²).
+            let longest = (0..3).map(|i| (p[(i + 1) % 3] - p[i]).length_squared()).fold(0.0, f64::max);
+            let aspect = triangle_normal(p).0.length() / longest;
             Case {
                 name: if k == 3 { "triangle" } else { "inclusive triangle" },
                 g,
                 exact: Box::new(ExactTriangle { p }),
                 magnitude: p.iter().map(|v| max_abs(*v)).fold(0.0, f64::max),
                 max_hits: 1,
+                relative: SURFACE_TOLERANCE.max(4.0 * MACHINE_EPSILON / aspect),
             }
         }
         k @ (5 | 6) => {
@@ -116,7 +129,14 @@ fn decode(b: &mut Bytes) -> Option<(Case, DVec3, f64)> {
             if v.iter().any(|p| exact.normal().dot(*p - v[0]).abs() > 1e-12 * size) {
                 return None;
             }
-            Case { name: if k == 5 { "quadrangle" } else { "polygon" }, g, exact: Box::new(ExactPolygon { v }), magnitude, max_hits: 1 }
+            Case {
+                name: if k == 5 { "quadrangle" } else { "polygon" },
+                g,
+                exact: Box::new(exact),
+                magnitude,
+                max_hits: 1,
+                relative: SURFACE_TOLERANCE,
+            }
         }
         k => {
             let (axis, radius) = (b.direction()?, size(b)?);
@@ -129,6 +149,7 @@ fn decode(b: &mut Bytes) -> Option<(Case, DVec3, f64)> {
                 exact,
                 magnitude: max_abs(center) + radius + height.unwrap_or(0.0),
                 max_hits: 2,
+                relative: SURFACE_TOLERANCE,
             }
         }
     };
@@ -156,7 +177,7 @@ pub fn check_bytes(data: &[u8]) -> Result<(), Violation> {
             (2, Some((h, from))) => h.spawn_ray(case.g.normal(&h, from.dir), dir),
             _ => Ray::new(origin, dir),
         };
-        let tol = Tolerance::for_scale(case.magnitude.max(max_abs(ray.origin)));
+        let tol = Tolerance { relative: case.relative, ..Tolerance::for_scale(case.magnitude.max(max_abs(ray.origin))) };
         let hits = check_hits_ascending(case.g.as_ref(), &ray, &tol, case.exact.as_ref(), case.max_hits)
             .map_err(|v| Violation { what: format!("{} (scale {s:e}, centre {center}): {}", case.name, v.what), ..v })?;
         if let Some(h) = hits.first() {
