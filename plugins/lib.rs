@@ -1,6 +1,6 @@
 //! raylab's built-in plugins: the report's shapes, lights and recursive Phong integrator, plus
-//! debug integrators. They use only the public API of the `raylab` core crate, exactly as a
-//! third-party plugin crate would.
+//! debug integrators, and (feature `mesh`) triangle meshes from OBJ and glTF files. They use
+//! only the public API of the `raylab` core crate, exactly as a third-party plugin crate would.
 //!
 //! ```no_run
 //! let registry = raylab_plugins::registry();
@@ -9,6 +9,8 @@
 
 pub mod integrators;
 pub mod lights;
+#[cfg(feature = "mesh")]
+pub mod mesh;
 pub mod shapes;
 
 use raylab::Registry;
@@ -21,6 +23,8 @@ pub fn register(r: &mut Registry) {
     shapes::register(r);
     lights::register(r);
     integrators::register(r);
+    #[cfg(feature = "mesh")]
+    mesh::register(r);
 }
 
 /// A registry holding every built-in plugin.

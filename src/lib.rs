@@ -12,6 +12,7 @@
 
 pub mod accel;
 pub mod bounds;
+pub mod bvh;
 pub mod camera;
 pub mod cli;
 pub mod color;
@@ -33,6 +34,7 @@ pub mod scene;
 pub mod stats;
 pub mod testing;
 pub mod trace;
+pub mod transform;
 
 pub use glam;
 
@@ -54,3 +56,4 @@ pub use sampler::Sampler;
 pub use scene::Scene;
 pub use stats::RayStats;
 pub use trace::TraceNode;
+pub use transform::{Transform, Transformed};

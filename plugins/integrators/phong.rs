@@ -124,7 +124,7 @@ impl Phong {
             return scene.background;
         };
         let g = &scene.geometries[hit.object as usize];
-        let m = g.material();
+        let m = g.material_at(&hit);
         let n = g.normal(&hit, ray.dir);
         let outward = g.outward_normal(&hit);
         let front = outward.dot(ray.dir) < 0.0;
@@ -199,11 +199,14 @@ impl Phong {
     /// Direct light at `hit`: diffuse and specular from every light, shadowed.
     fn direct(&self, c: &mut Ctx, ray: &Ray, hit: &Hit, n: DVec3, weight: Color, mut node: Option<&mut TraceNode>) -> Color {
         let scene = c.scene;
-        let m = scene.geometries[hit.object as usize].material();
+        let g = &scene.geometries[hit.object as usize];
+        let m = g.material_at(hit);
         let mut sum = Color::ZERO;
         if max_channel(m.kd) <= 0.0 && max_channel(m.ks) <= 0.0 {
             return sum;
         }
+        // Lighting uses the shading normal; sides and ray offsets the geometric `n`.
+        let ns = g.shading_normal(hit, ray.dir);
         for (li, light) in scene.lights.iter().enumerate() {
             let count = light.sample_count().max(1);
             let pattern = if count > 1 { c.sampler.next_pattern() } else { 0 };
@@ -211,7 +214,7 @@ impl Phong {
                 let u = if count > 1 { stratified_2d(s, count, pattern) } else { c.sampler.next_2d() };
                 let Some(ls) = light.illuminate(hit.point, u) else { continue };
                 let name = || scene.light_names[li].clone();
-                let nl = n.dot(ls.dir);
+                let nl = if n.dot(ls.dir) > 0.0 { ns.dot(ls.dir) } else { 0.0 };
                 let mut rec = node.as_deref_mut().map(|_| TraceLight {
                     light: name(),
                     dir: ls.dir,
@@ -232,7 +235,7 @@ impl Phong {
                     }
                     continue;
                 }
-                let r = reflect(-ls.dir, n);
+                let r = reflect(-ls.dir, ns);
                 let vr = -ray.dir.dot(r);
                 let spec = if vr > 0.0 && max_channel(m.ks) > 0.0 { vr.powf(m.shininess) } else { 0.0 };
                 let scale = ls.intensity / f64::from(count);

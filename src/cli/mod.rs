@@ -70,6 +70,10 @@ pub(crate) struct SceneArgs {
     /// 8-bit encoding: `srgb` (default) or `linear` (clamped values written straight, as the report).
     #[arg(long, value_parser = ["srgb", "linear"])]
     encoding: Option<String>,
+    /// Spatial index for the objects and each mesh: `auto` (a BVH when there are enough to pay
+    /// for it), `bvh` or `list`.
+    #[arg(long, value_parser = ["auto", "bvh", "list"], default_value = "auto")]
+    accel: String,
     /// Let the scene read files outside its own folder.
     #[arg(long)]
     allow_outside_paths: bool,
@@ -197,6 +201,7 @@ impl SceneArgs {
             },
             limits,
             allow_outside_paths: self.allow_outside_paths,
+            accel: crate::accel::AccelChoice::parse(&self.accel).unwrap_or_default(),
         })
     }
 }
