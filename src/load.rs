@@ -366,14 +366,9 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
     let mut rp = Params::new("[render]", RENDER_PARAMS, render_table, render_loc, None);
     let limits = &opts.limits;
     let max_side = i64::from(limits.max_side.min(i32::MAX as u32));
-    let width = match ov.width {
-        Some(w) => i64::from(w),
-        None => rp.int_in("width", 1..=i64::MAX)?,
-    };
-    let height = match ov.height {
-        Some(h) => i64::from(h),
-        None => rp.int_in("height", 1..=i64::MAX)?,
-    };
+    // The file's values are read (and checked) even when the command line overrides them.
+    let width = ov.width.map_or(rp.int_in("width", 1..=i64::MAX)?, i64::from);
+    let height = ov.height.map_or(rp.int_in("height", 1..=i64::MAX)?, i64::from);
     for (v, what) in [(width, "width"), (height, "height")] {
         if v < 1 || v > max_side {
             return Err(rp
@@ -387,23 +382,14 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
             .error(format!("image of {width}×{height} = {pixels} pixels exceeds the limit of {} pixels", limits.max_pixels))
             .with_help("raise the limit with --max-pixels"));
     }
-    let spp = match ov.spp {
-        Some(s) => i64::from(s),
-        None => rp.int_in("spp", 1..=i64::MAX)?,
-    };
+    let spp = ov.spp.map_or(rp.int_in("spp", 1..=i64::MAX)?, i64::from);
     if spp < 1 || spp > i64::from(limits.max_spp) {
         return Err(rp
             .error_at("spp", format_args!("{spp} samples per pixel is outside 1..={}", limits.max_spp))
             .with_help("raise the limit with --max-spp"));
     }
-    let seed = match ov.seed {
-        Some(s) => s,
-        None => rp.int_in("seed", 0..=i64::MAX)? as u64,
-    };
-    let encoding = match ov.encoding {
-        Some(e) => e,
-        None => Encoding::parse(&rp.choice("encoding", &["srgb", "linear"])?).unwrap_or_default(),
-    };
+    let seed = ov.seed.unwrap_or(rp.int_in("seed", 0..=i64::MAX)? as u64);
+    let encoding = ov.encoding.unwrap_or(Encoding::parse(&rp.choice("encoding", &["srgb", "linear"])?).unwrap_or_default());
     rp.finish()?;
     let settings = RenderSettings { width: width as u32, height: height as u32, spp: spp as u32, seed, encoding };
 

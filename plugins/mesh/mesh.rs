@@ -169,7 +169,11 @@ impl TriangleMesh {
             (Vec::new(), materials)
         };
         let bounds = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(*b));
-        Ok(TriangleMesh { tris, index, shading, material_ids, materials, degenerate, bounds, closed: OnceLock::new(), build })
+        let mut mesh = TriangleMesh { tris, index, shading, material_ids, materials, degenerate, bounds, closed: OnceLock::new(), build };
+        // Reported per triangle: the whole store, not only the hierarchy's nodes.
+        mesh.build.primitives = mesh.tris.len() as u64;
+        mesh.build.bytes = mesh.memory_bytes() as u64;
+        Ok(mesh)
     }
 
     /// Number of triangles stored.
@@ -192,7 +196,7 @@ impl TriangleMesh {
         self.index.is_bvh()
     }
 
-    /// Cost of building the index.
+    /// Cost of building the index; `bytes` counts the whole store (triangles, attributes, index).
     pub fn build_stats(&self) -> BuildStats {
         self.build
     }

@@ -2,6 +2,7 @@
 //! plus any of its own) and calls [`run`]. The built-in `raylab` binary and a third-party
 //! plugin's binary therefore share one interface. One file per subcommand.
 
+mod bench;
 mod plugins;
 mod render;
 mod trace;
@@ -40,6 +41,8 @@ enum Command {
     Trace(trace::TraceArgs),
     /// List the registered plugins and their parameters.
     Plugins(plugins::PluginsArgs),
+    /// Measure mesh loading, BVH building and ray throughput, from 1k to 1M triangles.
+    Bench(bench::BenchArgs),
 }
 
 /// Options shared by every command that loads a scene: overrides of the scene's settings, and
@@ -118,6 +121,7 @@ where
         Some(Command::Render(a)) => render::run(&app, a),
         Some(Command::Trace(a)) => trace::run(&app, a),
         Some(Command::Plugins(a)) => plugins::run(&app, a),
+        Some(Command::Bench(a)) => bench::run(&app, a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
