@@ -8,8 +8,8 @@
 //! stored once.
 
 use crate::bounds::Aabb;
-pub use crate::bvh::{AccelChoice, BuildStats, MESH_BVH_THRESHOLD, SCENE_BVH_THRESHOLD};
 use crate::bvh::PrimitiveIndex;
+pub use crate::bvh::{AccelChoice, BuildStats, MESH_BVH_THRESHOLD, SCENE_BVH_THRESHOLD};
 use crate::geometry::{Geometry, Hit};
 use crate::ray::Ray;
 

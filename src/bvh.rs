@@ -262,10 +262,7 @@ mod wide {
                 .iter()
                 .map(|b| {
                     let (lo, hi) = (b.min - pad, b.max + pad);
-                    obvhs::aabb::Aabb::new(
-                        Vec3A::new(down(lo.x), down(lo.y), down(lo.z)),
-                        Vec3A::new(up(hi.x), up(hi.y), up(hi.z)),
-                    )
+                    obvhs::aabb::Aabb::new(Vec3A::new(down(lo.x), down(lo.y), down(lo.z)), Vec3A::new(up(hi.x), up(hi.y), up(hi.z)))
                 })
                 .collect();
             // obvhs' `fast_build` preset: PLOC with a short search radius and a little reinsertion.
@@ -319,10 +316,11 @@ mod wide {
             let r = Vec3A::ONE / d;
             let cap = Vec3A::splat(MAX_INV_DIR).copysign(d);
             let inv = Vec3A::select(r.abs().cmple(Vec3A::splat(MAX_INV_DIR)), r, cap);
-            let oct_inv4 = (if d.x < 0.0 { 0 } else { 0x0404_0404 })
-                | (if d.y < 0.0 { 0 } else { 0x0202_0202 })
-                | (if d.z < 0.0 { 0 } else { 0x0101_0101 });
-            Some((NodeRay { origin: o.as_vec3a(), inv, neg: [d.x < 0.0, d.y < 0.0, d.z < 0.0], oct_inv4 }, base))
+            // Signs from the reciprocal, so −0 counts as negative everywhere (as in 1/−0 = −∞).
+            let neg = [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0];
+            let oct_inv4 =
+                (if neg[0] { 0 } else { 0x0404_0404 }) | (if neg[1] { 0 } else { 0x0202_0202 }) | (if neg[2] { 0 } else { 0x0101_0101 });
+            Some((NodeRay { origin: o.as_vec3a(), inv, neg, oct_inv4 }, base))
         }
 
         #[inline]
@@ -552,7 +550,11 @@ mod tests {
                 let dir = if start > 100.0 { -DVec3::X } else { DVec3::X };
                 let ray = Ray::new(DVec3::new(start, 0.5, 0.5), dir);
                 let hit = index.closest(&ray, 0.0, f64::INFINITY, |s, tm| enter(&stored[s as usize], &ray, 0.0, tm));
-                let expect = bx.iter().enumerate().filter_map(|(i, b)| enter(b, &ray, 0.0, f64::INFINITY).map(|t| (i, t))).min_by(|a, b| a.1.total_cmp(&b.1));
+                let expect = bx
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(i, b)| enter(b, &ray, 0.0, f64::INFINITY).map(|t| (i, t)))
+                    .min_by(|a, b| a.1.total_cmp(&b.1));
                 assert_eq!(hit.map(|(s, t)| (order[s as usize] as usize, t)), expect, "start {start}, bvh {bvh}");
                 let any = index.any(&ray, 0.0, f64::INFINITY, |s| enter(&stored[s as usize], &ray, 0.0, f64::INFINITY).is_some());
                 assert_eq!(any, expect.is_some());
@@ -563,9 +565,8 @@ mod tests {
     #[test]
     fn axis_parallel_rays_far_from_the_origin_are_not_culled() {
         // Thin boxes (zero thickness in y) far from the origin, rays with zero direction components.
-        let bx: Vec<Aabb> = (0..50)
-            .map(|i| Aabb::new(DVec3::new(1e5 + i as f64, 7.0, -3.0), DVec3::new(1e5 + i as f64 + 0.5, 7.0, -2.0)))
-            .collect();
+        let bx: Vec<Aabb> =
+            (0..50).map(|i| Aabb::new(DVec3::new(1e5 + i as f64, 7.0, -3.0), DVec3::new(1e5 + i as f64 + 0.5, 7.0, -2.0))).collect();
         let (index, order, _) = PrimitiveIndex::build(&bx, true);
         for (i, b) in bx.iter().enumerate() {
             let ray = Ray::new(DVec3::new(b.center().x, 1e6, b.center().z), -DVec3::Y);

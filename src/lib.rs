@@ -11,12 +11,15 @@
 //! files, colours as linear RGB. Geometry is computed in `f64`; the film stores `f32`.
 
 pub mod accel;
+pub mod aov;
 pub mod bounds;
 pub mod bvh;
 pub mod camera;
 pub mod cli;
 pub mod color;
 pub mod error;
+#[cfg(feature = "exr")]
+pub mod exr;
 pub mod film;
 pub mod float;
 pub mod geometry;

@@ -143,13 +143,9 @@ pub fn render_pixel(job: &RenderJob, x: u32, y: u32, stats: &mut RayStats) -> Ve
     let pixel = u64::from(y) * u64::from(s.width) + u64::from(x);
     let mut sum = Color::ZERO;
     let mut n = 0u32;
-    let pattern = (crate::sampler::mix64(pixel ^ s.seed.rotate_left(17)) >> 32) as u32;
     for i in 0..s.spp {
         let mut sampler = Sampler::new(pixel, i, s.seed);
-        let jitter = if s.spp == 1 { DVec2::splat(0.5) } else { stratified_2d(i, s.spp, pattern) };
-        let lens = if job.scene.camera.aperture > 0.0 { stratified_2d(i, s.spp, pattern ^ 0x5bd1_e995) } else { DVec2::ZERO };
-        let film = DVec2::new(f64::from(x), f64::from(y)) + jitter;
-        let ray = job.scene.camera.ray_through(s.width, s.height, film, lens);
+        let ray = camera_ray(job, x, y, i);
         stats.camera_rays += 1;
         let c = job.integrator.radiance(&job.scene, &ray, &mut sampler, stats);
         if c.is_finite() {
@@ -160,4 +156,18 @@ pub fn render_pixel(job: &RenderJob, x: u32, y: u32, stats: &mut RayStats) -> Ve
         }
     }
     if n == 0 { Vec3::ZERO } else { (sum / f64::from(n)).as_vec3() }
+}
+
+/// The camera ray of sample `i` of pixel (`x`, `y`): through the pixel centre for one sample per
+/// pixel, stratified over the pixel (and the lens) for more. A pure function of the pixel, the
+/// sample and the seed, so other passes (depth, normal, albedo layers) see the same rays.
+#[inline]
+pub fn camera_ray(job: &RenderJob, x: u32, y: u32, i: u32) -> crate::ray::Ray {
+    let s = &job.settings;
+    let pixel = u64::from(y) * u64::from(s.width) + u64::from(x);
+    let pattern = (crate::sampler::mix64(pixel ^ s.seed.rotate_left(17)) >> 32) as u32;
+    let jitter = if s.spp == 1 { DVec2::splat(0.5) } else { stratified_2d(i, s.spp, pattern) };
+    let lens = if job.scene.camera.aperture > 0.0 { stratified_2d(i, s.spp, pattern ^ 0x5bd1_e995) } else { DVec2::ZERO };
+    let film = DVec2::new(f64::from(x), f64::from(y)) + jitter;
+    job.scene.camera.ray_through(s.width, s.height, film, lens)
 }

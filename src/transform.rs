@@ -224,8 +224,11 @@ pub fn parse_transform(node: &Node) -> Result<Transform> {
         Value::Table(_) => vec![node],
         Value::Array(items) if !items.is_empty() => items.iter().collect(),
         _ => {
-            return Err(SceneError::at(&node.loc, format!("`transform` must be a table or a list of tables, found {}", node.value.type_name()))
-                .with_help("e.g. transform = { scale = 2, rotate = [0, 90, 0], translate = [1, 0, 0] }"));
+            return Err(SceneError::at(
+                &node.loc,
+                format!("`transform` must be a table or a list of tables, found {}", node.value.type_name()),
+            )
+            .with_help("e.g. transform = { scale = 2, rotate = [0, 90, 0], translate = [1, 0, 0] }"));
         }
     };
     let mut m = DAffine3::IDENTITY;
@@ -291,7 +294,9 @@ fn parse_rotation(n: &Node) -> Result<DMat3> {
     match &n.value {
         Value::Array(_) => {
             let a = vec3_of(n).map_err(|e| SceneError::at(&n.loc, format!("`rotate`: {e} (degrees about x, y, z)")))?;
-            Ok(DMat3::from_rotation_z(a.z.to_radians()) * DMat3::from_rotation_y(a.y.to_radians()) * DMat3::from_rotation_x(a.x.to_radians()))
+            Ok(DMat3::from_rotation_z(a.z.to_radians())
+                * DMat3::from_rotation_y(a.y.to_radians())
+                * DMat3::from_rotation_x(a.x.to_radians()))
         }
         Value::Table(t) => {
             for e in &t.entries {
@@ -306,7 +311,9 @@ fn parse_rotation(n: &Node) -> Result<DMat3> {
             let v = v.try_normalize().ok_or_else(|| SceneError::at(&axis.loc, "`axis` must not be zero"))?;
             Ok(DMat3::from_axis_angle(v, number(angle)?.to_radians()))
         }
-        _ => Err(SceneError::at(&n.loc, format!("`rotate`: expected [x, y, z] degrees or {{ axis, angle }}, found {}", n.value.type_name()))),
+        _ => {
+            Err(SceneError::at(&n.loc, format!("`rotate`: expected [x, y, z] degrees or {{ axis, angle }}, found {}", n.value.type_name())))
+        }
     }
 }
 
@@ -390,7 +397,15 @@ mod tests {
         assert!((t.point(DVec3::ZERO) - DVec3::Y).length() < 1e-12);
         let t = parse("{ matrix = [[1, 0, 0, 5], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]] }").unwrap();
         assert_eq!(t.point(DVec3::ZERO), DVec3::new(5.0, 0.0, 0.0));
-        for bad in ["{ scale = 0 }", "{ scael = 2 }", "{ matrix = [[1, 0, 0]] }", "{ matrix = [[1,0,0,0],[0,1,0,0],[0,0,1,0],[1,0,0,1]] }", "3", "{ rotate = { axis = [0, 0, 0], angle = 3 } }", "{ matrix = [[1,0,0,0],[0,1,0,0],[0,0,1,0]], translate = [1, 2, 3] }"] {
+        for bad in [
+            "{ scale = 0 }",
+            "{ scael = 2 }",
+            "{ matrix = [[1, 0, 0]] }",
+            "{ matrix = [[1,0,0,0],[0,1,0,0],[0,0,1,0],[1,0,0,1]] }",
+            "3",
+            "{ rotate = { axis = [0, 0, 0], angle = 3 } }",
+            "{ matrix = [[1,0,0,0],[0,1,0,0],[0,0,1,0]], translate = [1, 2, 3] }",
+        ] {
             assert!(parse(bad).is_err(), "{bad}");
         }
         assert!(parse("{ scael = 2 }").unwrap_err().help.unwrap().contains("scale"));

@@ -14,7 +14,7 @@
 //! | `ks` | `F0 = 0.04·(1 − m) + c·m` (the specular colour at normal incidence) |
 //! | `shininess` | `(2/α² − 2) / 4` (Blinn-Phong's equivalent exponent, in Phong's terms), at most 10⁴ |
 //! | `kr` | `F0 · m · (1 − r)²`: smooth metals mirror; rough ones and dielectrics do not |
-//! | `blur` | `α` where `kr > 0` |
+//! | `blur` | `α` where `kr > 0` and α ≥ 0.05 (sharper lobes are mirrors) |
 //! | `kt` | `KHR_materials_transmission` factor, or `1 − alpha` for `alphaMode = BLEND` |
 //! | `ior` | `KHR_materials_ior` (default 1.5) |
 //! | `emission` | `emissiveFactor × KHR_materials_emissive_strength` |
@@ -72,16 +72,14 @@ fn parse(ctx: &LoadContext, path: &str, full: &Path, bytes: Vec<u8>, loc: &Loc) 
     let mut buffers = Vec::new();
     for b in gltf.document.buffers() {
         let data = match b.source() {
-            gltf::buffer::Source::Bin => blob
-                .take()
-                .ok_or_else(|| SceneError::in_file(&name, None, format!("buffer {} refers to the binary chunk, which the file lacks", b.index())))?,
+            gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
+                SceneError::in_file(&name, None, format!("buffer {} refers to the binary chunk, which the file lacks", b.index()))
+            })?,
             gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => data_uri(uri)
                 .ok_or_else(|| SceneError::in_file(&name, None, format!("buffer {}: malformed data: URI (expected base64)", b.index())))?,
             gltf::buffer::Source::Uri(uri) => {
                 let rel = base.join(percent_decode(uri));
-                ctx.read_file(&rel.to_string_lossy(), loc)
-                    .map_err(|e| e.context(format!("{name}: buffer {} (\"{uri}\")", b.index())))?
-                    .1
+                ctx.read_file(&rel.to_string_lossy(), loc).map_err(|e| e.context(format!("{name}: buffer {} (\"{uri}\")", b.index())))?.1
             }
         };
         if data.len() < b.length() {
@@ -242,12 +240,15 @@ impl GltfFile {
                 gltf::mesh::Mode::TriangleStrip => {
                     indices.windows(3).enumerate().map(|(i, w)| if i % 2 == 0 { [w[0], w[1], w[2]] } else { [w[1], w[0], w[2]] }).collect()
                 }
-                gltf::mesh::Mode::TriangleFan => (1..indices.len().saturating_sub(1)).map(|i| [indices[0], indices[i], indices[i + 1]]).collect(),
+                gltf::mesh::Mode::TriangleFan => {
+                    (1..indices.len().saturating_sub(1)).map(|i| [indices[0], indices[i], indices[i + 1]]).collect()
+                }
                 _ => continue,
             };
             let base = out.positions.len() as u32;
             out.positions.extend(positions.iter().map(|p| m.transform_point3(DVec3::from(p.map(f64::from))).as_vec3().to_array()));
-            let normals: Option<Vec<[f32; 3]>> = reader.read_normals().map(|r| r.collect()).filter(|v: &Vec<[f32; 3]>| v.len() == positions.len());
+            let normals: Option<Vec<[f32; 3]>> =
+                reader.read_normals().map(|r| r.collect()).filter(|v: &Vec<[f32; 3]>| v.len() == positions.len());
             // The mesh keeps vertex normals only if every primitive has them.
             let keep = normals.is_some() && out.normal_indices.len() == out.triangles.len();
             match normals.filter(|_| keep) {
@@ -309,7 +310,15 @@ pub fn material(m: &gltf::Material) -> Material {
 }
 
 /// The mapping of the module's table.
-pub fn pbr_to_phong(base: [f32; 4], metallic: f32, roughness: f32, blend: bool, transmission: Option<f32>, ior: Option<f32>, emissive: [f32; 3]) -> Material {
+pub fn pbr_to_phong(
+    base: [f32; 4],
+    metallic: f32,
+    roughness: f32,
+    blend: bool,
+    transmission: Option<f32>,
+    ior: Option<f32>,
+    emissive: [f32; 3],
+) -> Material {
     let clamp01 = |v: f32| if v.is_finite() { f64::from(v).clamp(0.0, 1.0) } else { 0.0 };
     let c = Color::new(clamp01(base[0]), clamp01(base[1]), clamp01(base[2]));
     let (m, r) = (clamp01(metallic), clamp01(roughness));
@@ -329,7 +338,7 @@ pub fn pbr_to_phong(base: [f32; 4], metallic: f32, roughness: f32, blend: bool, 
         kt: Color::splat(kt),
         ior: ior.filter(|i| i.is_finite() && *i > 0.0).map_or(1.5, f64::from),
         emission: Color::new(f64::from(emissive[0]), f64::from(emissive[1]), f64::from(emissive[2])).max(Color::ZERO),
-        blur: if kr.max_element() > 0.0 { alpha.min(1.0) } else { 0.0 },
+        blur: if kr.max_element() > 0.0 && alpha >= 0.05 { alpha.min(1.0) } else { 0.0 },
         ..Material::default()
     }
 }
@@ -411,7 +420,12 @@ pub fn scene_toml(file: &GltfFile, file_name: &str) -> Result<String> {
                 let _ = writeln!(t, "[[light]]\ntype = \"directional\"\nname = {name}\ncolor = {}\ndirection = {}\n", v(color), v(dir));
             }
             gltf::khr_lights_punctual::Kind::Point => {
-                let _ = writeln!(t, "[[light]]\ntype = \"point\"\nname = {name}\ncolor = {}\nposition = {}\nkc = 0.0\nkq = 1.0\n", v(color), v(pos));
+                let _ = writeln!(
+                    t,
+                    "[[light]]\ntype = \"point\"\nname = {name}\ncolor = {}\nposition = {}\nkc = 0.0\nkq = 1.0\n",
+                    v(color),
+                    v(pos)
+                );
             }
             gltf::khr_lights_punctual::Kind::Spot { outer_cone_angle, .. } => {
                 let cone = f64::from(outer_cone_angle).to_degrees().clamp(0.1, 90.0);

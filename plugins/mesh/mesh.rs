@@ -145,10 +145,8 @@ impl TriangleMesh {
             Normals::Smooth => Some(Shading { normals: vertex_normals(&positions, &triangles), indices: triangles.clone() }),
             Normals::Auto => None,
         };
-        let boxes: Vec<Aabb> = keep
-            .iter()
-            .map(|&i| Aabb::from_points(triangles[i].map(|v| Vec3::from(positions[v as usize]).as_dvec3())))
-            .collect();
+        let boxes: Vec<Aabb> =
+            keep.iter().map(|&i| Aabb::from_points(triangles[i].map(|v| Vec3::from(positions[v as usize]).as_dvec3()))).collect();
         let (index, order, build) = PrimitiveIndex::build(&boxes, choice.use_bvh(boxes.len(), MESH_BVH_THRESHOLD));
         let source: Vec<usize> = order.iter().map(|&s| keep[s as usize]).collect();
         let tris = source

@@ -107,10 +107,13 @@ pub fn load_mesh(
             }
             "gltf" | "glb" => {
                 let g = gltf::open(ctx, file, loc)?;
-                (match selection {
-                    Some(i) => g.mesh(i)?,
-                    None => g.whole()?,
-                }, None)
+                (
+                    match selection {
+                        Some(i) => g.mesh(i)?,
+                        None => g.whole()?,
+                    },
+                    None,
+                )
             }
             _ => {
                 return Err(SceneError::at(loc, format!("unknown mesh format \".{ext}\"; expected .obj, .gltf or .glb")));

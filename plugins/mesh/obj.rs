@@ -64,9 +64,9 @@ pub fn read(ctx: &LoadContext, path: &str, full: &Path, bytes: &[u8], need_mater
         Err(_) if !need_materials => Vec::new(),
         Err(_) => match mtl_error.into_inner() {
             Some(e) => {
-                return Err(e.context(format!("{name}: its material library")).with_help(
-                    "fix or add the .mtl file, or give the object a `material` to render without the file's materials",
-                ));
+                return Err(e
+                    .context(format!("{name}: its material library"))
+                    .with_help("fix or add the .mtl file, or give the object a `material` to render without the file's materials"));
             }
             None => Vec::new(), // no `mtllib` line: the default material
         },
@@ -130,7 +130,7 @@ fn text_of<'a>(bytes: &'a [u8], name: &str) -> Result<&'a str> {
 
 /// An MTL material as a raylab material (see the module's table).
 fn material(m: &tobj::Material) -> Material {
-    let rgb = |c: Option<[f32; 3]>| c.map(|c| Vec3::from(c).as_dvec3().max(DVec3::ZERO));
+    let rgb = |c: Option<[f32; 3]>| c.map(|c| Vec3::from(c).as_dvec3()).filter(|c| c.is_finite()).map(|c| c.max(DVec3::ZERO));
     let mut out = Material::default();
     let d = f64::from(m.dissolve.unwrap_or(1.0)).clamp(0.0, 1.0);
     if let Some(kd) = rgb(m.diffuse) {
@@ -149,19 +149,10 @@ fn material(m: &tobj::Material) -> Material {
     if let Some(ni) = m.optical_density.filter(|n| n.is_finite() && *n > 0.0) {
         out.ior = f64::from(ni);
     }
-    if let Some(ke) = m.unknown_param.get("Ke").and_then(|s| parse3(s)) {
-        out.emission = ke.max(DVec3::ZERO);
+    if let Some(ke) = rgb(m.emissive) {
+        out.emission = ke;
     }
     out
-}
-
-fn parse3(s: &str) -> Option<DVec3> {
-    let v: Vec<f64> = s.split_whitespace().map(str::parse).collect::<std::result::Result<_, _>>().ok()?;
-    match v[..] {
-        [x] if x.is_finite() => Some(DVec3::splat(x)),
-        [x, y, z] if x.is_finite() && y.is_finite() && z.is_finite() => Some(DVec3::new(x, y, z)),
-        _ => None,
-    }
 }
 
 /// A tobj error with the line it is about, found by scanning the file the way tobj reads it.
@@ -195,7 +186,9 @@ fn located(name: &str, text: &str, e: &tobj::LoadError) -> SceneError {
             "f" => {
                 for corner in words {
                     let mut parts = corner.split('/');
-                    for (slot, count, what) in [(parts.next(), v, "vertex"), (parts.next(), vt, "texture coordinate"), (parts.next(), vn, "normal")] {
+                    for (slot, count, what) in
+                        [(parts.next(), v, "vertex"), (parts.next(), vt, "texture coordinate"), (parts.next(), vn, "normal")]
+                    {
                         let Some(s) = slot.filter(|s| !s.is_empty()) else { continue };
                         let Ok(k) = s.parse::<i64>() else {
                             return at(format!("malformed face corner \"{corner}\": expected v, v/vt, v//vn or v/vt/vn indices"));

@@ -44,8 +44,7 @@ pub fn triangulate(points: &[DVec3]) -> Vec<[u32; 3]> {
         let m = left.len();
         let ear = (0..m).find(|&i| {
             let (a, b, c) = (left[(i + m - 1) % m], left[i], left[(i + 1) % m]);
-            cross(p[a], p[b], p[c]) > 0.0
-                && left.iter().all(|&k| k == a || k == b || k == c || !inside(p[k], p[a], p[b], p[c]))
+            cross(p[a], p[b], p[c]) > 0.0 && left.iter().all(|&k| k == a || k == b || k == c || !inside(p[k], p[a], p[b], p[c]))
         });
         // A self-intersecting outline has no ear: clip any corner rather than loop forever.
         let i = ear.unwrap_or(0);
@@ -66,7 +65,9 @@ mod tests {
     use super::*;
 
     fn area(points: &[DVec3], tris: &[[u32; 3]]) -> f64 {
-        tris.iter().map(|t| (points[t[1] as usize] - points[t[0] as usize]).cross(points[t[2] as usize] - points[t[0] as usize]).z * 0.5).sum()
+        tris.iter()
+            .map(|t| (points[t[1] as usize] - points[t[0] as usize]).cross(points[t[2] as usize] - points[t[0] as usize]).z * 0.5)
+            .sum()
     }
 
     #[test]

@@ -180,8 +180,19 @@ fn bench_one(app: &App, name: &str, path: &Path, accel: AccelChoice, width: u32,
 }
 
 fn table(rows: &[Row], markdown: bool, threads: usize) -> String {
-    let head =
-        ["mesh", "triangles", "index", "load s", "BVH build s", "primary Mrays/s", "shadow Mrays/s", "all Mrays/s", "bytes/tri", "wall Mrays/s", "CPU busy"];
+    let head = [
+        "mesh",
+        "triangles",
+        "index",
+        "load s",
+        "BVH build s",
+        "primary Mrays/s",
+        "shadow Mrays/s",
+        "all Mrays/s",
+        "bytes/tri",
+        "wall Mrays/s",
+        "CPU busy",
+    ];
     let cells: Vec<[String; 11]> = rows
         .iter()
         .map(|r| {
@@ -209,7 +220,8 @@ fn table(rows: &[Row], markdown: bool, threads: usize) -> String {
         }
     } else {
         let w: Vec<usize> = (0..head.len()).map(|i| cells.iter().map(|c| c[i].len()).chain([head[i].len()]).max().unwrap_or(0)).collect();
-        let line = |c: &[String]| c.iter().enumerate().map(|(i, s)| format!("{s:>width$}", width = w[i])).collect::<Vec<_>>().join("  ") + "\n";
+        let line =
+            |c: &[String]| c.iter().enumerate().map(|(i, s)| format!("{s:>width$}", width = w[i])).collect::<Vec<_>>().join("  ") + "\n";
         out.push_str(&line(&head.map(String::from)));
         for c in &cells {
             out.push_str(&line(c));
