@@ -62,9 +62,10 @@ impl AccelChoice {
 /// True when raylab is built with the `bvh` feature.
 pub const BVH_AVAILABLE: bool = cfg!(feature = "bvh");
 
-/// Fewest bounded scene objects for which `auto` builds a scene-level hierarchy. Below it, a list
-/// with a box test per object is as fast (measured on `scenes/dozen.toml`: see the README).
-pub const SCENE_BVH_THRESHOLD: usize = 16;
+/// Fewest bounded scene objects for which `auto` builds a scene-level hierarchy. Below it a list
+/// with a box test per object is as fast, within measurement noise; from about eight objects on
+/// the hierarchy wins (measured: README, "Speed").
+pub const SCENE_BVH_THRESHOLD: usize = 8;
 
 /// Fewest triangles for which `auto` builds a mesh hierarchy.
 pub const MESH_BVH_THRESHOLD: usize = 16;

@@ -112,7 +112,8 @@ fn gltf_and_glb_give_the_same_scene_with_camera_light_and_instances() {
 
 #[test]
 fn a_gltf_file_is_also_one_object_in_a_raylab_scene() {
-    let job = scene("[[object]]\ntype = \"mesh\"\nfile = \"pyramids.glb\"\ntransform = { translate = [0, -10, 0] }\n", AccelChoice::Auto).unwrap();
+    let job = scene("[[object]]\ntype = \"mesh\"\nfile = \"pyramids.glb\"\ntransform = { translate = [0, -10, 0] }\n", AccelChoice::Auto)
+        .unwrap();
     assert_eq!(job.scene.geometries.len(), 1);
     let h = down(&job, DVec3::new(1.5, 0.0, 0.0), -DVec3::Y).unwrap();
     assert!((h.point.y + 7.0).abs() < 1e-6);
@@ -141,7 +142,7 @@ fn malformed_files_load_or_fail_clearly_and_never_panic() {
         ("issue-140-zero-face-idx.obj", Some("refers to vertex 0")),
         ("issue-161-inconsistent-f.obj", Some("cube.mtl")), // its `mtllib` names a file that is not there
         ("issue-295-trianguation-failure.obj", None),
-        ("missing_material_file.obj", None), // `mtllib` commented out: the default material
+        ("missing_material_file.obj", None),         // `mtllib` commented out: the default material
         ("test-nan.obj", Some("test-nan.obj:14:1")), // `v 1.#IND …` is no number
         ("tobj-invalid_index.obj", Some("refers to vertex 7")),
         ("AllIndicesOutOfRange.gltf", Some("out of range")),
@@ -203,13 +204,44 @@ fn files_outside_the_scene_folder_and_unknown_formats_are_refused() {
 /// by a random factor in [0.8, 1.2].
 fn perturbed_sphere(levels: u32, seed: u64) -> MeshData {
     let t = (1.0 + 5f64.sqrt()) / 2.0;
-    let mut p: Vec<DVec3> = [[-1.0, t, 0.0], [1.0, t, 0.0], [-1.0, -t, 0.0], [1.0, -t, 0.0], [0.0, -1.0, t], [0.0, 1.0, t], [0.0, -1.0, -t], [0.0, 1.0, -t], [t, 0.0, -1.0], [t, 0.0, 1.0], [-t, 0.0, -1.0], [-t, 0.0, 1.0]]
-        .iter()
-        .map(|&v| DVec3::from(v).normalize())
-        .collect();
+    let mut p: Vec<DVec3> = [
+        [-1.0, t, 0.0],
+        [1.0, t, 0.0],
+        [-1.0, -t, 0.0],
+        [1.0, -t, 0.0],
+        [0.0, -1.0, t],
+        [0.0, 1.0, t],
+        [0.0, -1.0, -t],
+        [0.0, 1.0, -t],
+        [t, 0.0, -1.0],
+        [t, 0.0, 1.0],
+        [-t, 0.0, -1.0],
+        [-t, 0.0, 1.0],
+    ]
+    .iter()
+    .map(|&v| DVec3::from(v).normalize())
+    .collect();
     let mut f: Vec<[u32; 3]> = vec![
-        [0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4], [11, 10, 2], [10, 7, 6], [7, 1, 8],
-        [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1],
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
     ];
     for _ in 0..levels {
         let mut mid = std::collections::HashMap::new();
