@@ -1,12 +1,14 @@
 //! raylab's built-in plugins: the report's shapes, lights and recursive Phong integrator, plus
-//! debug integrators, and (feature `mesh`) triangle meshes from OBJ and glTF files. They use
-//! only the public API of the `raylab` core crate, exactly as a third-party plugin crate would.
+//! debug integrators, the reader of the report's XML scenes, and (feature `mesh`) triangle meshes
+//! from OBJ and glTF files. They use only the public API of the `raylab` core crate, exactly as a
+//! third-party plugin crate would.
 //!
 //! ```no_run
 //! let registry = raylab_plugins::registry();
 //! let job = raylab::load::load_file(&registry, "scenes/showcase.toml".as_ref(), &Default::default()).unwrap();
 //! ```
 
+pub mod formats;
 pub mod integrators;
 pub mod lights;
 #[cfg(feature = "mesh")]
@@ -23,6 +25,7 @@ pub fn register(r: &mut Registry) {
     shapes::register(r);
     lights::register(r);
     integrators::register(r);
+    formats::register(r);
     #[cfg(feature = "mesh")]
     mesh::register(r);
 }

@@ -2,7 +2,7 @@
 //! screen at a distance in front of the eye.
 
 use crate::error::Result;
-use crate::params::{Default, ParamKind, ParamSpec, Params};
+use crate::params::{Default, Node, ParamKind, ParamSpec, Params, Table};
 use crate::ray::Ray;
 use glam::{DVec2, DVec3};
 
@@ -50,6 +50,28 @@ pub const CAMERA_PARAMS: &[ParamSpec] = &[
         "distance of the plane in focus; default: the look_at point or the screen",
     ),
 ];
+
+/// Keys of the look-at form; giving one of them replaces the report form, and vice versa.
+const LOOK_AT_KEYS: &[&str] = &["look_at", "fov"];
+/// Keys of the report form.
+const REPORT_KEYS: &[&str] = &["to", "screen_distance", "screen_width", "screen_height"];
+
+/// The `[camera]` table with command-line `overrides` applied over it. An override of one form's
+/// key (look-at: `look_at`, `fov`; report: `to`, `screen_*`) drops the other form's keys from the
+/// file, so `--camera look_at=[0,0,0]` works on a report-form camera.
+pub fn apply_overrides(file: &Table, overrides: &[(String, Node)]) -> Table {
+    let mut t = file.clone();
+    let given = |keys: &[&str]| overrides.iter().any(|(k, _)| keys.contains(&k.as_str()));
+    for (keys, other) in [(LOOK_AT_KEYS, REPORT_KEYS), (REPORT_KEYS, LOOK_AT_KEYS)] {
+        if given(keys) && !given(other) {
+            t.entries.retain(|e| !other.contains(&e.key.as_str()));
+        }
+    }
+    for (k, v) in overrides {
+        t.set(k, v.loc.clone(), v.clone());
+    }
+    t
+}
 
 /// Why a camera could not be built.
 #[derive(Clone, Debug, PartialEq)]
@@ -212,6 +234,25 @@ mod tests {
         assert!(Camera::report(DVec3::ZERO, DVec3::Z, DVec3::Y, 0.0, 1.0, 1.0).is_err());
         assert!(Camera::look_at(DVec3::ZERO, DVec3::ZERO, DVec3::Y, 45.0, 4, 3).is_err());
         assert!(Camera::look_at(DVec3::ZERO, DVec3::Z, DVec3::Y, 180.0, 4, 3).is_err());
+    }
+
+    #[test]
+    fn overrides_replace_keys_and_switch_forms() {
+        let src = crate::error::Source::new("t", "x");
+        let loc = crate::error::Loc::new(&src, 0..1);
+        let node = |v: f64| Node { value: crate::params::Value::Float(v), loc: loc.clone() };
+        let mut file = Table::default();
+        for (k, v) in [("to", 1.0), ("screen_width", 2.0), ("fov", 3.0), ("position", 4.0)] {
+            file.set(k, loc.clone(), node(v));
+        }
+        let keys = |t: &Table| t.entries.iter().map(|e| e.key.as_str()).collect::<Vec<_>>().join(" ");
+        let t = apply_overrides(&file, &[("look_at".into(), node(9.0))]);
+        assert_eq!(keys(&t), "fov position look_at", "report-form keys dropped");
+        let t = apply_overrides(&file, &[("screen_width".into(), node(9.0))]);
+        assert_eq!(keys(&t), "to screen_width position", "look-at keys dropped");
+        assert!(matches!(t.get("screen_width").unwrap().value, crate::params::Value::Float(9.0)));
+        let t = apply_overrides(&file, &[("position".into(), node(9.0))]);
+        assert_eq!(keys(&t), "to screen_width fov position", "a shared key changes nothing else");
     }
 
     #[test]

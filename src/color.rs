@@ -42,12 +42,18 @@ impl Encoding {
     /// Encodes one linear channel value to 0..=255 (NaN becomes 0).
     #[inline]
     pub fn to_u8(self, v: f32) -> u8 {
+        (self.display(v) * 255.0 + 0.5) as u8
+    }
+
+    /// The displayed value of one linear channel: clamped to [0, 1] and encoded, before 8-bit
+    /// quantisation (NaN becomes 0). Image comparisons and contrast tests work on this.
+    #[inline]
+    pub fn display(self, v: f32) -> f32 {
         let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
-        let e = match self {
+        match self {
             Encoding::Srgb => srgb_encode(v),
             Encoding::Linear => v,
-        };
-        (e * 255.0 + 0.5) as u8
+        }
     }
 }
 

@@ -27,6 +27,20 @@ pub const SHADOW_EPSILON: f64 = 1e-9;
 /// `|f(p)| ≤ SURFACE_TOLERANCE · scale`, where `scale` is the magnitude of the coordinates.
 pub const SURFACE_TOLERANCE: f64 = 1e-9;
 
+/// Tolerance of tests and validators on unit vectors: a normal `n` passes when `|‖n‖ − 1|` and its
+/// distance from the exact unit normal (≈ the angle between them, radians) are at most this.
+pub const NORMAL_TOLERANCE: f64 = 1e-9;
+
+/// Distance (scene units) within which a ray origin counts as lying on a surface: the rounding
+/// error of a point computed on a surface defined around `reference` (its centre, base or a
+/// vertex), `γ(5) · (‖origin‖∞ + ‖reference‖∞)`. A shape does not report a hit at `t ≈ 0` closer
+/// than this to the origin (a ray starting on the surface does not hit it again), as the plane's
+/// numerator test does.
+#[inline]
+pub fn on_surface_slack(origin: DVec3, reference: DVec3) -> f64 {
+    gamma(5) * (max_abs(origin) + max_abs(reference))
+}
+
 /// Componentwise absolute value bound helper: `gamma(n) * |v|`.
 #[inline]
 pub fn error_bound(n: u32, v: DVec3) -> DVec3 {

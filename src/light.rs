@@ -17,9 +17,12 @@ pub struct LightSample {
 
 /// A source of light.
 pub trait LightSource: Send + Sync {
-    /// Light arriving at `p`. `u` is a uniform sample in [0, 1)² that area lights use to pick a
-    /// point on the emitter; point-like lights ignore it. `None` when no light reaches `p`
-    /// (outside a spot's cone, or an ambient light, which has no direction).
+    /// Light arriving at `p`. `u` ∈ [0, 1]² picks a point on an area light's emitter (uniform
+    /// samples for estimates; the square's corners should map to the emitter's extreme points,
+    /// which integrators use as probes); point-like lights ignore it. `None` when the light has no direction
+    /// at `p` (an ambient light, or `p` at the light itself). A light that cannot reach `p`
+    /// (outside a spot's cone) returns a sample of zero intensity, so the integrator decides, and
+    /// counts, what it skips.
     fn illuminate(&self, p: DVec3, u: DVec2) -> Option<LightSample>;
 
     /// Constant light this source adds everywhere, independent of direction (ambient light).
@@ -33,6 +36,12 @@ pub trait LightSource: Send + Sync {
     fn sample_count(&self) -> u32 {
         1
     }
+
+    /// True for lights with an extent (whose samples depend on `u`): an integrator may override
+    /// their [`LightSource::sample_count`] with its own shadow-ray count.
+    fn is_area(&self) -> bool {
+        false
+    }
 }
 
 impl<T: LightSource + ?Sized> LightSource for Box<T> {
@@ -44,5 +53,8 @@ impl<T: LightSource + ?Sized> LightSource for Box<T> {
     }
     fn sample_count(&self) -> u32 {
         (**self).sample_count()
+    }
+    fn is_area(&self) -> bool {
+        (**self).is_area()
     }
 }

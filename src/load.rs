@@ -11,7 +11,7 @@ use crate::error::{Loc, Result, SceneError, Source, did_you_mean};
 use crate::material::{Material, MaterialLibrary};
 use crate::params::{Default, Node, ParamKind, ParamSpec, Params, Table, Value};
 use crate::registry::Registry;
-use crate::render::{RenderJob, RenderSettings};
+use crate::render::{Antialiasing, MAX_ADAPTIVE_DEPTH, RenderJob, RenderSettings};
 use crate::scene::Scene;
 use crate::transform::{Transformed, parse_transform};
 use std::any::Any;
@@ -75,6 +75,11 @@ pub struct Overrides {
     pub integrator: Option<String>,
     /// Integrator parameters, `(name, value)`, applied over the scene's.
     pub integrator_params: Vec<(String, Node)>,
+    /// `[render]` keys, `(name, value)`, applied over the scene's (e.g. `aa`, `lens_samples`).
+    pub render_params: Vec<(String, Node)>,
+    /// Camera parameters, `(name, value)`, applied over the scene's `[camera]` (see
+    /// [`crate::camera::apply_overrides`]); they also supply a camera to a scene that has none.
+    pub camera_params: Vec<(String, Node)>,
 }
 
 /// How to load a scene.
@@ -210,6 +215,25 @@ pub const RENDER_PARAMS: &[ParamSpec] = &[
         ParamKind::Str,
         Default::Str("srgb"),
         "8-bit encoding: \"srgb\" or \"linear\" (clamped values written straight, as the report)",
+    ),
+    ParamSpec::new(
+        "aa",
+        ParamKind::Str,
+        Default::Str("stratified"),
+        "anti-aliasing: \"stratified\" (spp samples per pixel) or \"adaptive\" (recursive corner subdivision)",
+    ),
+    ParamSpec::new(
+        "aa_threshold",
+        ParamKind::Float,
+        Default::Float(0.05),
+        "adaptive: split where corner values (displayed, 0..1) differ by more than this, in [0, 1]",
+    ),
+    ParamSpec::new("aa_depth", ParamKind::Int, Default::Int(3), "adaptive: most subdivision levels per pixel, 0..=8"),
+    ParamSpec::new(
+        "lens_samples",
+        ParamKind::Int,
+        Default::Int(1),
+        "rays through distinct lens points per image sample (depth of field only), ≥ 1",
     ),
 ];
 
@@ -363,12 +387,14 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
     // [render]
     let empty = Table::default();
     let (render_table, render_loc) = sub_table(root.node("render")?, &desc.loc, &empty, "render")?;
-    let mut rp = Params::new("[render]", RENDER_PARAMS, render_table, render_loc, None);
+    let render_table = with_overrides(render_table, &ov.render_params);
+    let mut rp = Params::new("[render]", RENDER_PARAMS, &render_table, render_loc, None);
     let limits = &opts.limits;
     let max_side = i64::from(limits.max_side.min(i32::MAX as u32));
-    // The file's values are read (and checked) even when the command line overrides them.
-    let width = ov.width.map_or(rp.int_in("width", 1..=i64::MAX)?, i64::from);
-    let height = ov.height.map_or(rp.int_in("height", 1..=i64::MAX)?, i64::from);
+    // The file's values are read (and validated) even when the command line overrides them.
+    let (file_width, file_height) = (rp.int_in("width", 1..=i64::MAX)?, rp.int_in("height", 1..=i64::MAX)?);
+    let width = ov.width.map_or(file_width, i64::from);
+    let height = ov.height.map_or(file_height, i64::from);
     for (v, what) in [(width, "width"), (height, "height")] {
         if v < 1 || v > max_side {
             return Err(rp
@@ -382,24 +408,46 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
             .error(format!("image of {width}×{height} = {pixels} pixels exceeds the limit of {} pixels", limits.max_pixels))
             .with_help("raise the limit with --max-pixels"));
     }
-    let spp = ov.spp.map_or(rp.int_in("spp", 1..=i64::MAX)?, i64::from);
+    let file_spp = rp.int_in("spp", 1..=i64::MAX)?;
+    let spp = ov.spp.map_or(file_spp, i64::from);
     if spp < 1 || spp > i64::from(limits.max_spp) {
         return Err(rp
             .error_at("spp", format_args!("{spp} samples per pixel is outside 1..={}", limits.max_spp))
             .with_help("raise the limit with --max-spp"));
     }
-    let seed = ov.seed.unwrap_or(rp.int_in("seed", 0..=i64::MAX)? as u64);
-    let encoding = ov.encoding.unwrap_or(Encoding::parse(&rp.choice("encoding", &["srgb", "linear"])?).unwrap_or_default());
+    let file_seed = rp.int_in("seed", 0..=i64::MAX)? as u64;
+    let seed = ov.seed.unwrap_or(file_seed);
+    let file_encoding = Encoding::parse(&rp.choice("encoding", &["srgb", "linear"])?).unwrap_or_default();
+    let encoding = ov.encoding.unwrap_or(file_encoding);
+    let aa = match rp.choice("aa", &["stratified", "adaptive"])?.as_str() {
+        "adaptive" => Antialiasing::Adaptive {
+            threshold: rp.float_in("aa_threshold", 0.0..=1.0)?,
+            max_depth: rp.int_in("aa_depth", 0..=i64::from(MAX_ADAPTIVE_DEPTH))? as u32,
+        },
+        _ => Antialiasing::Stratified,
+    };
+    let lens_samples = rp.int_in("lens_samples", 1..=i64::from(limits.max_spp))? as u32;
+    if u64::from(lens_samples) * spp as u64 > u64::from(limits.max_spp) {
+        return Err(rp
+            .error_at(
+                "lens_samples",
+                format_args!("{spp} spp × {lens_samples} lens samples exceeds the limit of {} rays per pixel", limits.max_spp),
+            )
+            .with_help("raise the limit with --max-spp"));
+    }
     rp.finish()?;
-    let settings = RenderSettings { width: width as u32, height: height as u32, spp: spp as u32, seed, encoding };
+    let settings = RenderSettings { width: width as u32, height: height as u32, spp: spp as u32, seed, encoding, aa, lens_samples };
 
     // [camera]
-    let Some(cam_node) = root.node("camera")? else {
-        return Err(SceneError::at(&desc.loc, "the scene has no [camera]")
-            .with_help("add a [camera] table with `position` and `look_at` (or the report's `to` and `screen_*`)"));
-    };
-    let (cam_table, cam_loc) = sub_table(Some(cam_node), &desc.loc, &empty, "camera")?;
-    let mut cp = Params::new("[camera]", CAMERA_PARAMS, cam_table, cam_loc, None);
+    let cam_node = root.node("camera")?;
+    if cam_node.is_none() && ov.camera_params.is_empty() {
+        return Err(SceneError::at(&desc.loc, "the scene has no [camera]").with_help(
+            "add a [camera] table with `position` and `look_at` (or the report's `to` and `screen_*`), or give one with --camera KEY=VALUE",
+        ));
+    }
+    let (cam_table, cam_loc) = sub_table(cam_node, &desc.loc, &empty, "camera")?;
+    let cam_table = crate::camera::apply_overrides(cam_table, &ov.camera_params);
+    let mut cp = Params::new("[camera]", CAMERA_PARAMS, &cam_table, cam_loc, None);
     let camera = Camera::from_params(&mut cp, settings.width, settings.height)?;
     cp.finish()?;
 
@@ -501,6 +549,16 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
     let mut scene = Scene::with_accel(name, camera, background, objects, lights, opts.accel);
     scene.record_object_builds(ctx.assets.build_stats());
     Ok(RenderJob { scene, integrator, integrator_name: ty, settings })
+}
+
+/// `table` with `overrides` set over it (unknown keys are reported by the table's reader, at the
+/// override's location).
+fn with_overrides(table: &Table, overrides: &[(String, Node)]) -> Table {
+    let mut t = table.clone();
+    for (k, v) in overrides {
+        t.set(k, v.loc.clone(), v.clone());
+    }
+    t
 }
 
 fn sub_table<'a>(node: Option<&'a Node>, doc: &Loc, empty: &'a Table, what: &str) -> Result<(&'a Table, Loc)> {

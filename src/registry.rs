@@ -1,7 +1,7 @@
 //! The plugin registry: geometries, lights, integrators and scene formats, by type name.
 //!
 //! Built-in plugins register themselves through exactly this API; a crate outside raylab adds a
-//! geometry the same way (see the README's "Writing a plugin").
+//! geometry the same way (see docs/writing-a-plugin.md).
 
 use crate::error::Result;
 use crate::geometry::Geometry;

@@ -4,7 +4,7 @@
 //! Stratified 2-D patterns use correlated multi-jittered sampling (Kensler 2013, "Correlated
 //! Multi-Jittered Sampling"), which stratifies any sample count, not only perfect squares.
 
-use glam::DVec2;
+use glam::{DVec2, DVec3};
 
 /// A stream of uniform numbers in [0, 1) for one (pixel, sample, seed).
 #[derive(Clone, Debug)]
@@ -34,6 +34,14 @@ impl Sampler {
     #[inline]
     pub fn next_2d(&mut self) -> DVec2 {
         DVec2::new(self.next_1d(), self.next_1d())
+    }
+
+    /// An independent stream for a sub-task (a child ray, a light's samples), keyed by `tag`. It
+    /// depends only on this stream's key and `tag`, not on how many numbers were drawn, so work
+    /// skipped in one branch of a ray tree never shifts the numbers another branch sees.
+    #[inline]
+    pub fn fork(&self, tag: u64) -> Sampler {
+        Sampler { key: mix64(self.key ^ mix64(tag.wrapping_add(0x2545_F491_4F6C_DD1D))), dim: 0 }
     }
 
     /// A 32-bit pattern key for [`stratified_2d`], unique to this stream and dimension.
@@ -81,6 +89,16 @@ pub fn concentric_disc(u: DVec2) -> DVec2 {
         (o.y, std::f64::consts::FRAC_PI_2 - std::f64::consts::FRAC_PI_4 * (o.x / o.y))
     };
     r * DVec2::new(theta.cos(), theta.sin())
+}
+
+/// An orthonormal pair `(b1, b2)` perpendicular to unit `w` (Duff et al. 2017, "Building an
+/// Orthonormal Basis, Revisited"): maps disc samples into 3-D around an axis.
+#[inline]
+pub fn orthonormal_basis(w: DVec3) -> (DVec3, DVec3) {
+    let sign = 1f64.copysign(w.z);
+    let a = -1.0 / (sign + w.z);
+    let b = w.x * w.y * a;
+    (DVec3::new(1.0 + sign * w.x * w.x * a, sign * b, -sign * w.x), DVec3::new(b, sign + w.y * w.y * a, -w.y))
 }
 
 /// SplitMix64's finaliser: a fast, well-mixing 64-bit hash.
@@ -171,6 +189,15 @@ mod tests {
     }
 
     #[test]
+    fn forks_ignore_draws_and_differ_by_tag() {
+        let a = Sampler::new(1, 2, 3);
+        let mut b = a.clone();
+        b.next_1d();
+        assert_eq!(a.fork(5).next_1d(), b.fork(5).next_1d());
+        assert_ne!(a.fork(5).next_1d(), a.fork(6).next_1d());
+    }
+
+    #[test]
     fn stratified_points_fill_every_row_and_column_stratum() {
         for count in [1u32, 2, 3, 5, 7, 16, 33] {
             let pts: Vec<DVec2> = (0..count).map(|i| stratified_2d(i, count, 12345)).collect();
@@ -180,6 +207,17 @@ mod tests {
                 rows[(p.y * count as f64) as usize] = true;
             }
             assert!(rows.iter().all(|&r| r), "count {count}: a y-stratum is empty");
+        }
+    }
+
+    #[test]
+    fn basis_is_orthonormal() {
+        for w in [DVec3::X, DVec3::NEG_Z, DVec3::Z, DVec3::new(0.3, -0.5, 0.8).normalize(), DVec3::new(-1e-9, 1.0, -1e-12).normalize()] {
+            let (a, b) = orthonormal_basis(w);
+            for (x, y) in [(a, b), (a, w), (b, w)] {
+                assert!(x.dot(y).abs() < 1e-12);
+            }
+            assert!((a.length() - 1.0).abs() < 1e-12 && (b.length() - 1.0).abs() < 1e-12);
         }
     }
 

@@ -19,9 +19,20 @@ pub struct RayStats {
     /// Light samples skipped without a shadow ray: the light lies on the other side of the
     /// surface from the viewer.
     pub lights_behind: u64,
-    /// Light samples skipped without a shadow ray: the light cannot reach the point (outside a
-    /// spot's cone) or its largest possible contribution is below the pruning threshold.
+    /// Light samples skipped without a shadow ray: no light arrives (outside a spot's cone).
+    pub lights_unreachable: u64,
+    /// Light samples skipped without a shadow ray: the surface has no response to them (no
+    /// diffuse and no specular term).
+    pub lights_no_response: u64,
+    /// Light samples skipped without a shadow ray: their largest possible contribution to the
+    /// pixel is below the pruning threshold (changes the image by less than the threshold).
     pub lights_negligible: u64,
+    /// Shadow rays not traced because an area light's probe rays agreed (adaptive soft shadows).
+    pub shadow_rays_saved: u64,
+    /// Reflection or refraction rays not traced because the coefficient (kr or kt) is zero.
+    pub zero_coefficient_rays: u64,
+    /// Rays a glossy fan would have added at sharp surfaces (blur = 0): one ray does.
+    pub glossy_rays_saved: u64,
     /// Secondary rays not traced because their accumulated weight fell below the pruning threshold.
     pub pruned_rays: u64,
     /// Secondary rays not traced because the maximum recursion depth was reached.
@@ -44,7 +55,12 @@ impl AddAssign for RayStats {
         self.reflection_rays += o.reflection_rays;
         self.refraction_rays += o.refraction_rays;
         self.lights_behind += o.lights_behind;
+        self.lights_unreachable += o.lights_unreachable;
+        self.lights_no_response += o.lights_no_response;
         self.lights_negligible += o.lights_negligible;
+        self.shadow_rays_saved += o.shadow_rays_saved;
+        self.zero_coefficient_rays += o.zero_coefficient_rays;
+        self.glossy_rays_saved += o.glossy_rays_saved;
         self.pruned_rays += o.pruned_rays;
         self.depth_limited += o.depth_limited;
         self.nonfinite_samples += o.nonfinite_samples;

@@ -70,6 +70,21 @@ pub struct TraceHit {
     pub front_face: bool,
 }
 
+impl TraceHit {
+    /// The explanation of `hit` in `scene` as seen along direction `dir`.
+    pub fn new(scene: &crate::scene::Scene, hit: &crate::geometry::Hit, dir: DVec3) -> Self {
+        let g = &scene.geometries[hit.object as usize];
+        TraceHit {
+            object: hit.object as usize,
+            name: scene.object_name(hit.object).to_string(),
+            t: hit.t,
+            point: hit.point,
+            normal: g.normal(hit, dir),
+            front_face: g.outward_normal(hit).dot(dir) < 0.0,
+        }
+    }
+}
+
 /// One light's contribution at a hit point.
 #[derive(Clone, Debug, Serialize)]
 pub struct TraceLight {

@@ -51,17 +51,9 @@ pub fn build_depth(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Integrator
 fn explain_one(scene: &Scene, ray: &Ray, color: impl Fn(&Scene, f64, raylab::glam::DVec3) -> Color) -> TraceNode {
     let mut node = TraceNode::new(RayKind::Camera, *ray, 0, Color::ONE);
     if let Some(h) = scene.intersect(ray, 0.0, f64::INFINITY) {
-        let g = &scene.geometries[h.object as usize];
-        let n = g.shading_normal(&h, ray.dir);
-        node.hit = Some(TraceHit {
-            object: h.object as usize,
-            name: scene.object_name(h.object).to_string(),
-            t: h.t,
-            point: h.point,
-            normal: n,
-            front_face: g.outward_normal(&h).dot(ray.dir) < 0.0,
-        });
-        node.color = color(scene, h.t, n);
+        let hit = TraceHit::new(scene, &h, ray.dir);
+        node.color = color(scene, h.t, scene.geometries[h.object as usize].shading_normal(&h, ray.dir));
+        node.hit = Some(hit);
     }
     node
 }

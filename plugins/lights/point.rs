@@ -1,9 +1,15 @@
 //! `point` and `spot`: the report's PointLight, `I_L = I₀ / (kc + kl·d + kq·d²)`, and SpotLight,
 //! the same times `max(0, D·L)^exponent` (the report's formula has a typo: the terms add).
+//!
+//! With `radius > 0` the light is a ball: each sample takes a point, uniform over the disc of that
+//! radius centred on the light and facing the shaded point, and attenuates by the distance to it;
+//! shadows get penumbrae. The spot's cone and exponent use the light's centre, so the cone's edge
+//! stays where it is written.
 
 use raylab::error::Result;
 use raylab::glam::{DVec2, DVec3};
 use raylab::params::{Default, ParamKind, ParamSpec, Params};
+use raylab::sampler::{concentric_disc, orthonormal_basis};
 use raylab::{Color, LightSample, LightSource, LoadContext, PluginInfo};
 
 /// A light at a point with distance attenuation, optionally a spot.
@@ -15,6 +21,8 @@ pub struct PointLight {
     kl: f64,
     kq: f64,
     spot: Option<Spot>,
+    radius: f64,
+    samples: u32,
 }
 
 /// The directional part of a spot light.
@@ -28,7 +36,23 @@ pub struct Spot {
     pub cos_cutoff: f64,
 }
 
-const ATTENUATION: [ParamSpec; 3] = [
+/// The parameters that make a point or spot light an area light.
+pub(crate) const AREA: [ParamSpec; 2] = [
+    ParamSpec::new(
+        "radius",
+        ParamKind::Float,
+        Default::Float(0.0),
+        "radius of the ball-shaped light for soft shadows, scene units (0 = a point), ≥ 0",
+    ),
+    ParamSpec::new(
+        "samples",
+        ParamKind::Int,
+        Default::Int(16),
+        "shadow rays per shading point when radius > 0 (the integrator's shadow_rays may override), ≥ 1",
+    ),
+];
+
+pub(crate) const ATTENUATION: [ParamSpec; 3] = [
     ParamSpec::new("kc", ParamKind::Float, Default::Float(1.0), "constant attenuation, ≥ 0"),
     ParamSpec::new("kl", ParamKind::Float, Default::Float(0.0), "linear attenuation, per scene unit, ≥ 0"),
     ParamSpec::new("kq", ParamKind::Float, Default::Float(0.0), "quadratic attenuation, per scene unit², ≥ 0 (kc + kl + kq > 0)"),
@@ -44,6 +68,8 @@ pub const INFO: PluginInfo = PluginInfo {
         ATTENUATION[0],
         ATTENUATION[1],
         ATTENUATION[2],
+        AREA[0],
+        AREA[1],
     ],
 };
 
@@ -70,10 +96,17 @@ pub const SPOT_INFO: PluginInfo = PluginInfo {
         ATTENUATION[0],
         ATTENUATION[1],
         ATTENUATION[2],
+        AREA[0],
+        AREA[1],
     ],
 };
 
-fn attenuation(p: &mut Params) -> Result<(f64, f64, f64)> {
+/// Reads `samples` (a shadow-ray count).
+pub(crate) fn samples(p: &mut Params) -> Result<u32> {
+    Ok(p.int_in("samples", 1..=65536)? as u32)
+}
+
+pub(crate) fn attenuation(p: &mut Params) -> Result<(f64, f64, f64)> {
     let (kc, kl, kq) = (p.non_negative("kc")?, p.non_negative("kl")?, p.non_negative("kq")?);
     if kc + kl + kq <= 0.0 {
         return Err(p.error("at least one of kc, kl, kq must be > 0"));
@@ -86,7 +119,8 @@ pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn LightSource>> {
     let color = p.color("color")?;
     let position = p.vec3("position")?;
     let (kc, kl, kq) = attenuation(p)?;
-    Ok(Box::new(PointLight { color, position, kc, kl, kq, spot: None }))
+    let (radius, samples) = (p.non_negative("radius")?, samples(p)?);
+    Ok(Box::new(PointLight { color, position, kc, kl, kq, spot: None, radius, samples }))
 }
 
 /// Builds a spot light from its parameters.
@@ -101,39 +135,63 @@ pub fn build_spot(p: &mut Params, _: &LoadContext) -> Result<Box<dyn LightSource
     }
     let (kc, kl, kq) = attenuation(p)?;
     let spot = Spot { direction, exponent, cos_cutoff: cone.to_radians().cos() };
-    Ok(Box::new(PointLight { color, position, kc, kl, kq, spot: Some(spot) }))
+    let (radius, samples) = (p.non_negative("radius")?, samples(p)?);
+    Ok(Box::new(PointLight { color, position, kc, kl, kq, spot: Some(spot), radius, samples }))
 }
 
 impl PointLight {
     /// A point light with attenuation `(kc, kl, kq)` (non-negative, not all zero).
     pub fn new(color: Color, position: DVec3, kc: f64, kl: f64, kq: f64) -> Self {
-        PointLight { color, position, kc, kl, kq, spot: None }
+        PointLight { color, position, kc, kl, kq, spot: None, radius: 0.0, samples: 1 }
     }
 
     /// A spot light (the report's: exponent 1, cone 90°).
     pub fn spot(color: Color, position: DVec3, kc: f64, kl: f64, kq: f64, spot: Spot) -> Self {
-        PointLight { color, position, kc, kl, kq, spot: Some(spot) }
+        PointLight { color, position, kc, kl, kq, spot: Some(spot), radius: 0.0, samples: 1 }
+    }
+
+    /// The same light as a ball of `radius` (> 0 for soft shadows), sampled `samples` times.
+    pub fn with_radius(mut self, radius: f64, samples: u32) -> Self {
+        self.radius = radius;
+        self.samples = samples.max(1);
+        self
     }
 }
 
 impl LightSource for PointLight {
     #[inline]
-    fn illuminate(&self, p: DVec3, _: DVec2) -> Option<LightSample> {
-        let to_light = self.position - p;
+    fn illuminate(&self, p: DVec3, u: DVec2) -> Option<LightSample> {
+        let to_centre = self.position - p;
+        let dc = to_centre.length();
+        if !(dc > 0.0) {
+            return None;
+        }
+        let mut factor = 1.0;
+        if let Some(s) = &self.spot {
+            // L points from the light to the point: L = −dir.
+            let cos = s.direction.dot(-to_centre / dc);
+            factor = if cos <= 0.0 || cos < s.cos_cutoff { 0.0 } else { cos.powf(s.exponent) };
+        }
+        let to_light = if self.radius > 0.0 {
+            let (b1, b2) = orthonormal_basis(to_centre / dc);
+            let q = concentric_disc(u) * self.radius;
+            to_centre + q.x * b1 + q.y * b2
+        } else {
+            to_centre
+        };
         let d = to_light.length();
         if !(d > 0.0) {
             return None;
         }
-        let dir = to_light / d;
-        let mut factor = 1.0 / (self.kc + self.kl * d + self.kq * d * d);
-        if let Some(s) = &self.spot {
-            // L points from the light to the point: L = −dir.
-            let cos = s.direction.dot(-dir);
-            if cos <= 0.0 || cos < s.cos_cutoff {
-                return None;
-            }
-            factor *= cos.powf(s.exponent);
-        }
-        Some(LightSample { dir, distance: d, intensity: self.color * factor })
+        factor /= self.kc + self.kl * d + self.kq * d * d;
+        Some(LightSample { dir: to_light / d, distance: d, intensity: self.color * factor })
+    }
+
+    fn sample_count(&self) -> u32 {
+        if self.radius > 0.0 { self.samples } else { 1 }
+    }
+
+    fn is_area(&self) -> bool {
+        self.radius > 0.0
     }
 }

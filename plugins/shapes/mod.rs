@@ -8,6 +8,9 @@ pub mod polygon;
 pub mod sphere;
 pub mod triangle;
 
+#[cfg(test)]
+mod test_support;
+
 use raylab::Registry;
 
 /// Registers every shape.

@@ -7,7 +7,7 @@
 //! rejected, so a ray leaving the surface never reports it again.
 
 use raylab::error::Result;
-use raylab::float::gamma;
+use raylab::float::{gamma, max_abs, on_surface_slack};
 use raylab::geometry::{Geometry, Hit, Intersectable};
 use raylab::glam::{DVec2, DVec3};
 use raylab::params::{Default, MATERIAL_PARAM, ParamKind, ParamSpec, Params};
@@ -41,8 +41,10 @@ pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Geometry>> {
 
 /// The two roots of the ray–sphere quadratic, ascending, each with a conservative absolute error
 /// bound, for a ray with origin `f` relative to the centre and unit direction `d`. `None` on a miss.
+/// `slack` is the distance within which the origin counts as on the sphere
+/// ([`raylab::float::on_surface_slack`]): the near-zero root's bound includes its effect on `t`.
 #[inline]
-pub fn sphere_roots(f: DVec3, d: DVec3, radius: f64) -> Option<[(f64, f64); 2]> {
+pub fn sphere_roots(f: DVec3, d: DVec3, radius: f64, slack: f64) -> Option<[(f64, f64); 2]> {
     let r2 = radius * radius;
     let b = f.dot(d);
     let l = f - b * d;
@@ -57,7 +59,13 @@ pub fn sphere_roots(f: DVec3, d: DVec3, radius: f64) -> Option<[(f64, f64); 2]> 
     }
     // c/q is the root of smaller magnitude; its error is dominated by that of c = |f|² − r².
     let small = c / q;
-    let small = (small, gamma(8) * (f.length_squared() + r2) / q.abs() + gamma(4) * small.abs());
+    let mut small_err = gamma(8) * (f.length_squared() + r2) / q.abs() + gamma(4) * small.abs();
+    // Moving the origin by `slack` moves c by up to 2|f|·slack; only a root near zero needs that
+    // term exactly (|f| ≤ 2·|f|∞ bounds it without a square root).
+    if small.abs() <= small_err + 4.0 * max_abs(f) * slack / q.abs() {
+        small_err += 2.0 * f.length() * slack / q.abs();
+    }
+    let small = (small, small_err);
     let large = (q, gamma(8) * q.abs());
     Some(if small.0 <= large.0 { [small, large] } else { [large, small] })
 }
@@ -81,7 +89,7 @@ impl Intersectable for Sphere {
     #[inline]
     fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<Hit> {
         let f = ray.origin - self.center;
-        let roots = sphere_roots(f, ray.dir, self.radius)?;
+        let roots = sphere_roots(f, ray.dir, self.radius, on_surface_slack(ray.origin, self.center))?;
         let (t, _) = roots.into_iter().find(|&(t, err)| t > t_min && t > err && t < t_max)?;
         Some(self.hit_at(ray, f, t))
     }
@@ -99,5 +107,175 @@ impl Geometry for Sphere {
     }
     fn is_closed(&self) -> bool {
         true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shapes::test_support::*;
+    use proptest::prelude::*;
+    use raylab::float::max_abs;
+    use raylab::testing::{ExactSurface, Tolerance, check_closed_crossings};
+
+    /// The exact sphere.
+    #[derive(Debug)]
+    struct ExactSphere {
+        center: DVec3,
+        radius: f64,
+    }
+
+    impl ExactSurface for ExactSphere {
+        fn signed_distance(&self, p: DVec3) -> f64 {
+            (p - self.center).length() - self.radius
+        }
+        fn outward_normal(&self, p: DVec3) -> DVec3 {
+            (p - self.center).normalize()
+        }
+    }
+
+    fn sphere() -> impl Strategy<Value = (Sphere, ExactSphere, f64)> {
+        (scale(), cube(), 0.05..2.0f64).prop_map(|(s, c, r)| {
+            let (center, radius) = (5.0 * s * c, s * r);
+            (Sphere::new(center, radius, Material::default()), ExactSphere { center, radius }, max_abs(center) + radius)
+        })
+    }
+
+    /// Distance from the centre to the ray's line.
+    fn miss_distance(ray: &Ray, c: DVec3) -> f64 {
+        let f = ray.origin - c;
+        (f - f.dot(ray.dir) * ray.dir).length()
+    }
+
+    proptest! {
+        #![proptest_config(config(CASES))]
+
+        #[test]
+        fn hits_are_exact_ascending_and_alternate((g, exact, mag) in sphere(), aim in aim(), win in windows()) {
+            let ray = aim.ray(exact.center, exact.radius);
+            let tol = tolerance(mag, &ray);
+            let hits = check_ray(&g, &ray, &tol, &exact, 2, &win)?;
+            let inside = exact.signed_distance(ray.origin) < 0.0;
+            let toward = (exact.center - ray.origin).dot(ray.dir) > 0.0;
+            let margin = (miss_distance(&ray, exact.center) - exact.radius).abs();
+            if margin > 1e-6 * exact.radius && exact.signed_distance(ray.origin).abs() > 1e-6 * exact.radius {
+                check_closed_crossings(&g, &ray, &hits, inside).map_err(fail)?;
+                let expected = if inside { 1 } else if toward && miss_distance(&ray, exact.center) < exact.radius { 2 } else { 0 };
+                prop_assert_eq!(hits.len(), expected);
+            }
+        }
+
+        #[test]
+        fn a_ray_pointing_away_misses((g, _, _) in sphere(), w in unit(), v in unit(), gap in 0.0..3.0f64) {
+            let ray = away_ray(g.bounds().unwrap(), w, v, gap);
+            prop_assert!(g.intersect(&ray, 0.0, f64::INFINITY).is_none());
+            prop_assert!(!g.occludes(&ray, 0.0, f64::INFINITY));
+        }
+
+        #[test]
+        fn a_ray_toward_the_centre_hits_at_the_exact_distance((g, exact, mag) in sphere(), w in unit(), gap in 1e-3..4.0f64) {
+            let origin = exact.center + exact.radius * (1.0 + gap) * w;
+            let ray = Ray::new(origin, -w);
+            let tol = tolerance(mag, &ray);
+            let hits = check_ray(&g, &ray, &tol, &exact, 2, &[])?;
+            prop_assert_eq!(hits.len(), 2);
+            let dist = (origin - exact.center).length();
+            close("entry t", hits[0].t, dist - exact.radius, tol.distance(dist, origin))?;
+            close("exit t", hits[1].t, dist + exact.radius, tol.distance(dist, origin))?;
+        }
+
+        #[test]
+        fn grazing_rays_keep_every_contract(
+            (g, exact, mag) in sphere(), u in unit(), phi in 0.0..std::f64::consts::TAU,
+            tilt in -8.0..-1.0f64, inward in any::<bool>(), back in 0.2..3.0f64,
+        ) {
+            // Tangent at p = c + r·u, tilted by 10^tilt toward or away from the centre.
+            let p = exact.center + exact.radius * u;
+            let eps = 10f64.powf(tilt) * if inward { -1.0 } else { 1.0 };
+            let dir = (perpendicular(u, phi) + eps * u).normalize();
+            let ray = Ray::new(p - back * exact.radius * dir, dir);
+            let tol = tolerance(mag, &ray);
+            check_ray(&g, &ray, &tol, &exact, 2, &[])?;
+        }
+
+        #[test]
+        fn a_ray_starting_on_the_surface_does_not_hit_it_again(
+            (g, exact, mag) in sphere(), u in unit(), d in unit(),
+        ) {
+            let cos = d.dot(u);
+            prop_assume!(cos.abs() > 0.05);
+            let ray = Ray::new(exact.center + exact.radius * u, d);
+            let tol = tolerance(mag, &ray);
+            let hits = check_ray(&g, &ray, &tol, &exact, 1, &[])?;
+            if cos > 0.0 {
+                prop_assert!(hits.is_empty(), "leaving ray hit at t = {}", hits[0].t);
+            } else {
+                prop_assert_eq!(hits.len(), 1);
+                close("far side t", hits[0].t, -2.0 * exact.radius * cos, tol.distance(exact.radius, ray.origin))?;
+            }
+        }
+    }
+
+    fn unit_sphere() -> (Sphere, ExactSphere) {
+        (Sphere::new(DVec3::ZERO, 1.0, Material::default()), ExactSphere { center: DVec3::ZERO, radius: 1.0 })
+    }
+
+    #[test]
+    fn a_tangent_ray_reports_at_most_the_tangent_point() {
+        let (g, exact) = unit_sphere();
+        for (origin, dir) in
+            [(DVec3::new(-5.0, 1.0, 0.0), DVec3::X), (DVec3::new(0.0, -3.0, -1.0), DVec3::Y), (DVec3::new(0.6, 0.8, 9.0), -DVec3::Z)]
+        {
+            let ray = Ray::new(origin, dir);
+            let hits = check_hits_ascending_ok(&g, &ray, &exact);
+            assert!(hits.len() <= 1, "tangent ray hit {} times", hits.len());
+            let tangent = origin + (-origin.dot(dir)) * dir;
+            for h in hits {
+                // The tangent point is ill-conditioned along the ray: √ε of the radius.
+                assert!((h.point - tangent).length() < 1e-7, "{:?} far from the tangent point {tangent}", h.point);
+            }
+        }
+    }
+
+    #[test]
+    fn a_ray_starting_on_the_surface_hits_only_the_far_side() {
+        let (g, exact) = unit_sphere();
+        let up = Ray::new(DVec3::Z, DVec3::Z);
+        assert!(g.intersect(&up, 0.0, f64::INFINITY).is_none());
+        let down = Ray::new(DVec3::Z, -DVec3::Z);
+        let hits = check_hits_ascending_ok(&g, &down, &exact);
+        assert_eq!(hits.len(), 1);
+        assert!((hits[0].t - 2.0).abs() < 1e-15 && (hits[0].point + DVec3::Z).length() < 1e-15);
+    }
+
+    #[test]
+    fn the_normal_faces_the_viewer_inside_and_outside() {
+        let (g, _) = unit_sphere();
+        let out = Ray::new(DVec3::new(0.0, 0.0, 5.0), -DVec3::Z);
+        let h = g.intersect(&out, 0.0, f64::INFINITY).unwrap();
+        assert_eq!(g.normal(&h, out.dir), DVec3::Z);
+        let inside = Ray::new(DVec3::ZERO, -DVec3::Z);
+        let h = g.intersect(&inside, 0.0, f64::INFINITY).unwrap();
+        assert_eq!((h.t, g.outward_normal(&h), g.normal(&h, inside.dir)), (1.0, -DVec3::Z, DVec3::Z));
+        assert!(g.is_closed());
+    }
+
+    fn check_hits_ascending_ok(g: &Sphere, ray: &Ray, exact: &ExactSphere) -> Vec<Hit> {
+        let tol = Tolerance::for_scale(10.0);
+        raylab::testing::check_hits_ascending(g, ray, &tol, exact, 2).unwrap_or_else(|v| panic!("{v}"))
+    }
+
+    // Regressions: literal cases the properties found.
+
+    /// A small sphere away from the origin: the start point's own rounding (relative to its
+    /// coordinates, not to the radius) put it just outside, and the sphere was hit at t ≈ 3e-19.
+    #[test]
+    fn bad_case_a_ray_from_a_small_offset_sphere_hit_it_again() {
+        let (center, radius) = (DVec3::new(0.0, 0.004066781978006635, 0.0), 0.00025531711221155127);
+        let g = Sphere::new(center, radius, Material::default());
+        let ray = Ray::new(center + radius * DVec3::new(-0.7222485624026194, 0.6916335837040807, 0.0), DVec3::X);
+        let hits = check_hits_ascending_ok(&g, &ray, &ExactSphere { center, radius });
+        assert_eq!(hits.len(), 1, "{hits:?}");
+        assert!((hits[0].t - 2.0 * radius * 0.7222485624026194).abs() < 1e-15);
     }
 }

@@ -3,8 +3,11 @@
 //! plugin's binary therefore share one interface. One file per subcommand.
 
 mod bench;
+mod convert;
+mod plot;
 mod plugins;
 mod render;
+mod sweep;
 mod trace;
 
 use crate::error::{Loc, SceneError, Source};
@@ -41,6 +44,11 @@ enum Command {
     Trace(trace::TraceArgs),
     /// List the registered plugins and their parameters.
     Plugins(plugins::PluginsArgs),
+    /// Measure the speed/accuracy trade: render at many settings of the quality knobs, time each,
+    /// compare with a reference (RMSE, PSNR, SSIM), and plot error against time.
+    Sweep(Box<sweep::SweepArgs>),
+    /// Convert a scene (e.g. the report's XML) to raylab's TOML format.
+    Convert(convert::ConvertArgs),
     /// Measure mesh loading, BVH building and ray throughput, from 1k to 1M triangles.
     Bench(bench::BenchArgs),
 }
@@ -70,6 +78,29 @@ pub(crate) struct SceneArgs {
     /// Set an integrator parameter: `--set max_depth=5` (value in TOML syntax; repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
+    /// Anti-aliasing: `stratified` (--spp samples per pixel) or `adaptive` (recursive corner
+    /// subdivision where neighbouring samples disagree).
+    #[arg(long, value_parser = ["stratified", "adaptive"])]
+    aa: Option<String>,
+    /// Adaptive anti-aliasing: split where corner values (displayed, 0..1) differ by more than this.
+    #[arg(long, value_name = "T")]
+    aa_threshold: Option<f64>,
+    /// Adaptive anti-aliasing: most subdivision levels per pixel (0–8).
+    #[arg(long, value_name = "N")]
+    aa_depth: Option<i64>,
+    /// Rays through distinct lens points per image sample (depth of field).
+    #[arg(long, value_name = "N")]
+    lens_samples: Option<i64>,
+    /// Lens radius for depth of field, scene units (overrides the camera's `aperture`).
+    #[arg(long, value_name = "R")]
+    aperture: Option<f64>,
+    /// Distance of the plane in focus, scene units (overrides the camera's `focus_distance`).
+    #[arg(long, value_name = "D")]
+    focus_distance: Option<f64>,
+    /// Set a camera parameter: `--camera position=[0,0,10]` (value in TOML syntax; repeatable).
+    /// Supplies the camera of a scene that has none (e.g. a report XML scene without <camera>).
+    #[arg(long = "camera", value_name = "KEY=VALUE")]
+    camera: Vec<String>,
     /// 8-bit encoding: `srgb` (default) or `linear` (clamped values written straight, as the report).
     #[arg(long, value_parser = ["srgb", "linear"])]
     encoding: Option<String>,
@@ -121,6 +152,8 @@ where
         Some(Command::Render(a)) => render::run(&app, a),
         Some(Command::Trace(a)) => trace::run(&app, a),
         Some(Command::Plugins(a)) => plugins::run(&app, a),
+        Some(Command::Sweep(a)) => sweep::run(&app, *a),
+        Some(Command::Convert(a)) => convert::run(&app, a),
         Some(Command::Bench(a)) => bench::run(&app, a),
     };
     match result {
@@ -133,6 +166,7 @@ where
 }
 
 /// A user-facing failure: a located scene error or a plain message.
+#[derive(Debug)]
 pub(crate) enum Failure {
     Scene(SceneError),
     Other(String),
@@ -164,18 +198,28 @@ impl SceneArgs {
     pub(crate) fn load_options(&self) -> Result<LoadOptions, Failure> {
         let mut params = Vec::new();
         if let Some(d) = self.depth {
-            let src = Source::new("--depth", d.to_string());
-            let loc = Loc::new(&src, 0..src.text.len());
-            params.push(("max_depth".to_string(), Node { value: Value::Int(d), loc }));
+            params.push(flag_node("--depth", "max_depth", Value::Int(d)));
         }
-        for s in &self.set {
-            let src = Source::new("--set", s.clone());
-            let Some(eq) = s.find('=') else {
-                return Err(SceneError::at(&Loc::new(&src, 0..s.len()), "expected KEY=VALUE").into());
-            };
-            let key = s[..eq].trim().to_string();
-            let node = crate::load::parse_toml_value(&src, eq + 1..s.len())?;
-            params.push((key, node));
+        params.extend(key_values("--set", &self.set)?);
+        let mut render_params = Vec::new();
+        if let Some(v) = &self.aa {
+            render_params.push(flag_node("--aa", "aa", Value::Str(v.clone())));
+        }
+        if let Some(v) = self.aa_threshold {
+            render_params.push(flag_node("--aa-threshold", "aa_threshold", Value::Float(v)));
+        }
+        if let Some(v) = self.aa_depth {
+            render_params.push(flag_node("--aa-depth", "aa_depth", Value::Int(v)));
+        }
+        if let Some(v) = self.lens_samples {
+            render_params.push(flag_node("--lens-samples", "lens_samples", Value::Int(v)));
+        }
+        let mut camera_params = key_values("--camera", &self.camera)?;
+        if let Some(v) = self.aperture {
+            camera_params.push(flag_node("--aperture", "aperture", Value::Float(v)));
+        }
+        if let Some(v) = self.focus_distance {
+            camera_params.push(flag_node("--focus-distance", "focus_distance", Value::Float(v)));
         }
         let mut limits = crate::load::Limits::default();
         if let Some(v) = self.max_pixels {
@@ -202,12 +246,42 @@ impl SceneArgs {
                 encoding: self.encoding.as_deref().and_then(crate::color::Encoding::parse),
                 integrator: self.integrator.clone(),
                 integrator_params: params,
+                render_params,
+                camera_params,
             },
             limits,
             allow_outside_paths: self.allow_outside_paths,
             accel: crate::accel::AccelChoice::parse(&self.accel).unwrap_or_default(),
         })
     }
+}
+
+/// A setting given by command-line flag `flag`, as the scene key `key` with a location naming the flag.
+pub(crate) fn flag_node(flag: &str, key: &str, value: Value) -> (String, Node) {
+    let text = match &value {
+        Value::Str(s) => s.clone(),
+        Value::Int(i) => i.to_string(),
+        Value::Float(f) => f.to_string(),
+        Value::Bool(b) => b.to_string(),
+        other => other.type_name().to_string(),
+    };
+    let src = Source::new(flag, text);
+    let loc = Loc::new(&src, 0..src.text.len());
+    (key.to_string(), Node { value, loc })
+}
+
+/// Parses repeated `KEY=VALUE` options (value in TOML syntax) of option `flag`.
+fn key_values(flag: &str, items: &[String]) -> Result<Vec<(String, Node)>, Failure> {
+    let mut out = Vec::new();
+    for s in items {
+        let src = Source::new(flag, s.clone());
+        let Some(eq) = s.find('=') else {
+            return Err(SceneError::at(&Loc::new(&src, 0..s.len()), "expected KEY=VALUE").into());
+        };
+        let key = s[..eq].trim().to_string();
+        out.push((key, crate::load::parse_toml_value(&src, eq + 1..s.len())?));
+    }
+    Ok(out)
 }
 
 /// Loads `scene` (or the app's default scene) with the options in `a`; returns the job and a

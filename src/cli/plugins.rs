@@ -46,9 +46,23 @@ pub fn text(reg: &Registry) -> String {
     out
 }
 
-/// The registry as Markdown tables.
+/// The registry as Markdown tables (what `docs/plugins.md` holds for the built-in plugins).
 pub fn markdown(reg: &Registry) -> String {
-    let mut out = String::new();
+    let mut out = String::from(
+        "# Plugin reference\n\nEvery registered type and its parameters, written by `raylab plugins --markdown` from the \
+         parameter tables in the plugins' sources.\n\n",
+    );
+    out.push_str("## Scene file\n\nThe tables of a TOML scene around the plugins.\n\n");
+    for (title, specs) in [
+        ("The root", crate::load::SCENE_PARAMS),
+        ("`[render]`", crate::load::RENDER_PARAMS),
+        ("`[camera]`", crate::camera::CAMERA_PARAMS),
+        ("`[materials.NAME]` and inline materials", crate::material::MATERIAL_PARAMS),
+    ] {
+        out.push_str(&format!("### {title}\n\n"));
+        param_table(&mut out, specs);
+        out.push('\n');
+    }
     for (title, usage, items) in sections(reg) {
         let title = title[..1].to_string() + &title[1..].to_lowercase();
         out.push_str(&format!("## {title}\n\nIn a scene: `{usage}`.\n\n"));
@@ -58,12 +72,23 @@ pub fn markdown(reg: &Registry) -> String {
                 out.push_str("No parameters.\n\n");
                 continue;
             }
-            out.push_str("| parameter | type | default | meaning |\n|---|---|---|---|\n");
-            for s in p.params {
-                out.push_str(&format!("| `{}` | {} | {} | {} |\n", s.name, s.kind.name(), s.default, s.doc));
-            }
+            param_table(&mut out, p.params);
             out.push('\n');
         }
     }
+    if !reg.formats().is_empty() {
+        out.push_str("## Scene formats\n\nBesides raylab's own `.toml`, chosen by file extension:\n\n| extension | format |\n|---|---|\n");
+        for f in reg.formats() {
+            out.push_str(&format!("| `.{}` | {} |\n", f.extensions.join("`, `."), f.summary));
+        }
+    }
     out
+}
+
+/// A parameter table as Markdown.
+fn param_table(out: &mut String, specs: &[crate::params::ParamSpec]) {
+    out.push_str("| parameter | type | default | meaning |\n|---|---|---|---|\n");
+    for s in specs {
+        out.push_str(&format!("| `{}` | {} | {} | {} |\n", s.name, s.kind.name(), s.default, s.doc));
+    }
 }

@@ -4,6 +4,7 @@ use super::{App, Failure, SceneArgs, si};
 use crate::output::Grid;
 use crate::render::RenderOptions;
 use clap::Args;
+use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -11,8 +12,8 @@ use std::time::Instant;
 pub(crate) struct RenderArgs {
     /// Scene file (.toml, or any registered format). Omit for the bundled default scene.
     scene: Option<PathBuf>,
-    /// Output image: .png, .jpg or .jpeg (8-bit, clamped and encoded), or .exr (linear HDR floats;
-    /// feature `exr`).
+    /// Output image: .png, .jpg or .jpeg (8-bit, clamped and encoded), .pfm (linear float, e.g. a
+    /// reference), or .exr (linear HDR floats with optional layers; feature `exr`).
     #[arg(short, long, default_value = "render.png")]
     output: PathBuf,
     /// EXR only: store colour (and normal, albedo) as 16-bit half floats instead of 32-bit.
@@ -33,6 +34,13 @@ pub(crate) struct RenderArgs {
     /// Print the counters of traced and avoided work after the summary.
     #[arg(long)]
     stats: bool,
+    /// Reference image (.pfm, or .png) to measure the render against: prints RMSE, PSNR and SSIM.
+    #[arg(long, value_name = "REF")]
+    reference: Option<PathBuf>,
+    /// With --reference: write error against samples per pixel as the render progresses (passes
+    /// at 1, 2, 4, … spp) to this CSV file.
+    #[arg(long, value_name = "CSV", requires = "reference")]
+    error_csv: Option<PathBuf>,
     /// No progress bar.
     #[arg(short, long)]
     quiet: bool,
@@ -50,6 +58,8 @@ impl RenderArgs {
             grid: None,
             grid_color: "255,255,255".into(),
             stats: false,
+            reference: None,
+            error_csv: None,
             quiet: false,
             half: false,
             aov: Vec::new(),
@@ -65,13 +75,18 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
         Some(0) => return Err("--grid must be at least 1".to_string().into()),
         Some(interval) => Some(Grid { interval, color: parse_rgb8(&a.grid_color)? }),
     };
-    let kind = crate::output::kind_for(&a.output).map_err(|e| e.to_string())?;
-    if kind != crate::output::ImageKind::Exr && (a.half || !a.aov.is_empty()) {
+    let pfm = a.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("pfm"));
+    let kind = if pfm { None } else { Some(crate::output::kind_for(&a.output).map_err(|e| e.to_string())?) };
+    if kind != Some(crate::output::ImageKind::Exr) && (a.half || !a.aov.is_empty()) {
         return Err("--half and --aov apply to .exr output only".to_string().into());
     }
     let (job, scene_name) = super::load(app, a.scene.as_deref(), &a.scene_args)?;
-    let load_time = t0.elapsed();
     let s = job.settings;
+    let reference = match &a.reference {
+        Some(p) => Some(crate::reference::read(p, s.encoding)?),
+        None => None,
+    };
+    let load_time = t0.elapsed();
     let bar = if a.quiet {
         indicatif::ProgressBar::hidden()
     } else {
@@ -84,10 +99,37 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
     };
     bar.set_message(scene_name.clone());
     let options = RenderOptions { threads: a.threads, cancel: None };
-    let rendered = crate::render::render(&job, &options, &|done, _| bar.set_position(done))?;
+    let mut error_log = match (&a.error_csv, &reference) {
+        (Some(path), Some(r)) => Some(ErrorLog::new(path, r, s.encoding)?),
+        _ => None,
+    };
+    let checkpoints: Vec<u32> = if error_log.is_some() { (0..32).map(|k| 1u32 << k).collect() } else { Vec::new() };
+    let mut log_failure = None;
+    let rendered = crate::render::render_progressive(
+        &job,
+        &options,
+        &checkpoints,
+        &|done, total| {
+            bar.set_length(total);
+            bar.set_position(done)
+        },
+        &mut |pass| {
+            if let Some(log) = error_log.as_mut() {
+                if let Err(e) = log.record(pass) {
+                    log_failure.get_or_insert(e);
+                }
+            }
+        },
+    )?;
     bar.finish_and_clear();
+    if let Some(e) = log_failure {
+        return Err(e.into());
+    }
     let t_write = Instant::now();
-    write(&job, &a, kind, &rendered.film, grid)?;
+    match kind {
+        None => crate::reference::write_pfm(&a.output, &rendered.film)?,
+        Some(kind) => write(&job, &a, kind, &rendered.film, grid)?,
+    }
     let write_time = t_write.elapsed();
     let st = rendered.stats;
     let secs = rendered.elapsed.as_secs_f64();
@@ -97,11 +139,11 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
     let build_time = (accel.build.time + accel.object_builds.time).as_secs_f64();
     let memory = crate::stats::peak_memory_bytes().map_or_else(String::new, |b| format!(", peak memory {}B", si(b as f64)));
     println!(
-        "wrote {} ({}×{}, {} spp, {}{}) from {scene_name}: trace {:.3} s on {threads} thread{}, {} rays, {} rays/s (load {:.3} s, BVH build {:.3} s, write {:.3} s{memory})",
+        "wrote {} ({}×{}, {}, {}{}) from {scene_name}: trace {:.3} s on {threads} thread{}, {} rays, {} rays/s (load {:.3} s, BVH build {:.3} s, write {:.3} s{memory})",
         a.output.display(),
         s.width,
         s.height,
-        s.spp,
+        s.describe_sampling(),
         job.integrator_name,
         if describe.is_empty() { String::new() } else { format!(" {describe}") },
         secs,
@@ -115,6 +157,19 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
     println!("  {}", accel_line(&accel));
     if st.nonfinite_samples > 0 {
         eprintln!("warning: {} samples were NaN or infinite and were dropped", st.nonfinite_samples);
+    }
+    if let Some(r) = &reference {
+        let e = crate::metrics::compare(&rendered.film, r, s.encoding)?;
+        println!(
+            "error against {}: RMSE {:.5}, PSNR {:.2} dB, SSIM {:.5}",
+            a.reference.as_ref().map_or(String::new(), |p| p.display().to_string()),
+            e.rmse,
+            e.psnr,
+            e.ssim
+        );
+    }
+    if let Some(p) = &a.error_csv {
+        println!("wrote {}", p.display());
     }
     if a.stats {
         print!("{}", stats_table(&st));
@@ -160,6 +215,39 @@ pub fn accel_line(s: &crate::scene::AccelSummary) -> String {
     format!("acceleration: {objects}{unbounded}{meshes}")
 }
 
+/// Error against a reference after each pass of a progressive render, written as CSV lines as
+/// they come (flushed, so the file can be watched).
+struct ErrorLog<'a> {
+    file: std::io::BufWriter<std::fs::File>,
+    reference: &'a crate::film::Film,
+    encoding: crate::color::Encoding,
+}
+
+impl<'a> ErrorLog<'a> {
+    fn new(path: &std::path::Path, reference: &'a crate::film::Film, encoding: crate::color::Encoding) -> Result<Self, Failure> {
+        let f = std::fs::File::create(path).map_err(|e| Failure::Other(format!("cannot create \"{}\": {e}", path.display())))?;
+        let mut file = std::io::BufWriter::new(f);
+        writeln!(file, "spp,seconds,rays,rmse,psnr_db,ssim").map_err(|e| e.to_string())?;
+        Ok(ErrorLog { file, reference, encoding })
+    }
+
+    fn record(&mut self, pass: &crate::render::Pass) -> Result<(), String> {
+        let e = crate::metrics::compare(pass.film, self.reference, self.encoding)?;
+        writeln!(
+            self.file,
+            "{},{:.6},{},{:.6e},{:.4},{:.6}",
+            pass.samples,
+            pass.elapsed.as_secs_f64(),
+            pass.stats.total_rays(),
+            e.rmse,
+            e.psnr,
+            e.ssim
+        )
+        .and_then(|_| self.file.flush())
+        .map_err(|e| format!("writing the error CSV failed: {e}"))
+    }
+}
+
 /// The counters of a render as an aligned table.
 pub fn stats_table(st: &crate::stats::RayStats) -> String {
     let rows = [
@@ -168,9 +256,14 @@ pub fn stats_table(st: &crate::stats::RayStats) -> String {
         ("reflection rays", st.reflection_rays),
         ("refraction rays", st.refraction_rays),
         ("avoided: light behind surface", st.lights_behind),
-        ("avoided: light negligible", st.lights_negligible),
-        ("avoided: pruned rays", st.pruned_rays),
-        ("avoided: depth limit", st.depth_limited),
+        ("avoided: light outside its cone", st.lights_unreachable),
+        ("avoided: surface has no response", st.lights_no_response),
+        ("avoided: zero kr/kt rays", st.zero_coefficient_rays),
+        ("avoided: glossy fans at sharp", st.glossy_rays_saved),
+        ("pruned: light negligible", st.lights_negligible),
+        ("pruned: rays below threshold", st.pruned_rays),
+        ("saved: adaptive shadow rays", st.shadow_rays_saved),
+        ("limited: max depth", st.depth_limited),
         ("non-finite samples", st.nonfinite_samples),
     ];
     rows.iter().map(|(k, v)| format!("  {k:<32}{v:>14}\n")).collect()

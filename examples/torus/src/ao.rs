@@ -1,0 +1,71 @@
+//! `ao`: ambient occlusion, a view of how open each visible point is to its surroundings (the
+//! integrator of `docs/writing-a-plugin.md`).
+//!
+//! At the first hit, `rays` rays leave in a cosine-weighted hemisphere around the normal (facing
+//! the camera); the colour is the material's `kd` times the fraction that meet nothing within
+//! `distance`. Sample directions come from the pixel's [`Sampler`], stratified, so the image is
+//! deterministic and independent of the thread count. No allocation per ray.
+
+use raylab::error::Result;
+use raylab::float::offset_ray_origin;
+use raylab::params::{Default, ParamKind, ParamSpec, Params};
+use raylab::sampler::{concentric_disc, stratified_2d};
+use raylab::{Color, Integrator, LoadContext, PluginInfo, Ray, RayStats, Sampler, Scene};
+
+/// The `ao` plugin's description.
+pub const INFO: PluginInfo = PluginInfo {
+    name: "ao",
+    summary: "Ambient occlusion: kd × the fraction of a cosine-weighted hemisphere around the normal that is open within `distance`. Rays that miss show the background.",
+    params: &[
+        ParamSpec::new("rays", ParamKind::Int, Default::Int(16), "occlusion rays per camera ray, 1..4096"),
+        ParamSpec::new(
+            "distance",
+            ParamKind::Float,
+            Default::Optional,
+            "only occluders closer than this count, scene units (> 0); default: any",
+        ),
+    ],
+};
+
+/// Ambient occlusion.
+#[derive(Clone, Debug)]
+pub struct AmbientOcclusion {
+    rays: u32,
+    distance: f64,
+}
+
+/// Builds the integrator from its parameters.
+pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Integrator>> {
+    let rays = p.int_in("rays", 1..=4096)? as u32;
+    let distance = p.float_opt("distance")?.unwrap_or(f64::INFINITY);
+    if !(distance > 0.0) {
+        return Err(p.error_at("distance", "expected a distance > 0"));
+    }
+    Ok(Box::new(AmbientOcclusion { rays, distance }))
+}
+
+impl Integrator for AmbientOcclusion {
+    fn radiance(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler, stats: &mut RayStats) -> Color {
+        let Some(hit) = scene.intersect(ray, 0.0, f64::INFINITY) else { return scene.background };
+        let g = &scene.geometries[hit.object as usize];
+        let n = g.normal(&hit, ray.dir);
+        let (t, b) = n.any_orthonormal_pair();
+        let pattern = sampler.next_pattern();
+        let mut open = 0;
+        for i in 0..self.rays {
+            // Cosine-weighted direction: a uniform disc point lifted onto the hemisphere.
+            let d = concentric_disc(stratified_2d(i, self.rays, pattern));
+            let dir = d.x * t + d.y * b + (1.0 - d.length_squared()).max(0.0).sqrt() * n;
+            let origin = offset_ray_origin(hit.point, hit.error, n, dir);
+            stats.shadow_rays += 1;
+            if !scene.occluded(&Ray { origin, dir }, self.distance) {
+                open += 1;
+            }
+        }
+        g.material().kd * (f64::from(open) / f64::from(self.rays))
+    }
+
+    fn describe(&self) -> String {
+        format!("rays {}, distance {}", self.rays, self.distance)
+    }
+}

@@ -1,0 +1,44 @@
+//! # raylab-torus
+//!
+//! A plugin crate outside raylab's core, written as any third party would write one: it depends
+//! on `raylab` (the traits, the registry, the CLI) and `raylab-plugins` (the built-in plugins),
+//! implements the traits, and registers its types by name. Scene files then use them like any
+//! built-in (`type = "torus"`), and the `raylab-torus` binary renders them with the same CLI.
+//!
+//! It adds a [`torus`] geometry (a quartic, solved robustly by [`roots`]), and the two other
+//! examples of `docs/writing-a-plugin.md`: a [`rect_light`] area light and an [`ao`]
+//! (ambient occlusion) integrator.
+//!
+//! ```no_run
+//! let registry = raylab_torus::registry();
+//! let job = raylab::load::load_file(&registry, "examples/torus/scenes/torus.toml".as_ref(), &Default::default()).unwrap();
+//! ```
+
+pub mod ao;
+pub mod rect_light;
+pub mod roots;
+pub mod torus;
+
+use raylab::Registry;
+
+/// The scene the `raylab-torus` binary renders when run without arguments.
+pub const DEFAULT_SCENE: (&str, &str) = ("examples/torus/scenes/torus.toml", include_str!("../scenes/torus.toml"));
+
+/// Adds this crate's plugins to `r`: `torus`, the `rect` light and the `ao` integrator.
+pub fn register(r: &mut Registry) {
+    r.add_geometry(torus::INFO, torus::build);
+    r.add_light(rect_light::INFO, rect_light::build);
+    r.add_integrator(ao::INFO, ao::build);
+}
+
+/// Every built-in plugin plus this crate's.
+pub fn registry() -> Registry {
+    let mut r = raylab_plugins::registry();
+    register(&mut r);
+    r
+}
+
+/// raylab's command line with [`registry`]: what the `raylab-torus` binary runs.
+pub fn app() -> raylab::cli::App {
+    raylab::cli::App { registry: registry(), default_scene: DEFAULT_SCENE }
+}

@@ -1,0 +1,88 @@
+//! `rect`: a rectangular area light, for soft shadows (the light of `docs/writing-a-plugin.md`).
+//!
+//! The rectangle `corner + a·edge1 + b·edge2` (a, b ∈ [0, 1]) emits from one side, toward
+//! `edge1 × edge2`. Each of `samples` shadow samples picks a point on it from the integrator's
+//! stratified `u` and sends light `color · cos θ / (kc + kl·d + kq·d²)` from there, θ being the
+//! angle from the rectangle's normal; the integrator averages the samples, so points that see only
+//! part of the rectangle lie in a penumbra.
+
+use raylab::error::Result;
+use raylab::glam::{DVec2, DVec3};
+use raylab::params::{Default, ParamKind, ParamSpec, Params};
+use raylab::{Color, LightSample, LightSource, LoadContext, PluginInfo};
+
+/// The `rect` plugin's description.
+pub const INFO: PluginInfo = PluginInfo {
+    name: "rect",
+    summary: "A one-sided rectangular area light, corner + a·edge1 + b·edge2, emitting toward edge1 × edge2: soft shadows. Each sample: color · cos θ / (kc + kl·d + kq·d²).",
+    params: &[
+        ParamSpec::new("color", ParamKind::Color, Default::Float(1.0), "intensity, linear RGB"),
+        ParamSpec::new("corner", ParamKind::Vec3, Default::Required, "one corner of the rectangle"),
+        ParamSpec::new("edge1", ParamKind::Vec3, Default::Required, "first edge from the corner, scene units"),
+        ParamSpec::new(
+            "edge2",
+            ParamKind::Vec3,
+            Default::Required,
+            "second edge from the corner, perpendicular to edge1; light leaves toward edge1 × edge2",
+        ),
+        ParamSpec::new("samples", ParamKind::Int, Default::Int(16), "shadow samples per shaded point (more: smoother penumbrae), 1..4096"),
+        ParamSpec::new("kc", ParamKind::Float, Default::Float(1.0), "constant attenuation, ≥ 0"),
+        ParamSpec::new("kl", ParamKind::Float, Default::Float(0.0), "linear attenuation, per scene unit, ≥ 0"),
+        ParamSpec::new("kq", ParamKind::Float, Default::Float(0.0), "quadratic attenuation, per scene unit², ≥ 0"),
+    ],
+};
+
+/// A rectangular area light.
+#[derive(Clone, Debug)]
+pub struct RectLight {
+    color: Color,
+    corner: DVec3,
+    edge1: DVec3,
+    edge2: DVec3,
+    normal: DVec3,
+    samples: u32,
+    attenuation: [f64; 3],
+}
+
+/// Builds a rectangular light from its parameters.
+pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn LightSource>> {
+    let color = p.color("color")?;
+    let corner = p.vec3("corner")?;
+    let edge1 = p.vec3("edge1")?;
+    let edge2 = p.vec3("edge2")?;
+    let normal = edge1.cross(edge2);
+    if !(normal.length() > 1e-12 * edge1.length() * edge2.length()) {
+        return Err(p.error("edge1 and edge2 must be non-zero and not parallel"));
+    }
+    if edge1.dot(edge2).abs() > 1e-9 * edge1.length() * edge2.length() {
+        return Err(p.error_at("edge2", "must be perpendicular to edge1 (the light is a rectangle)"));
+    }
+    let samples = p.int_in("samples", 1..=4096)? as u32;
+    let attenuation = [p.non_negative("kc")?, p.non_negative("kl")?, p.non_negative("kq")?];
+    if attenuation.iter().sum::<f64>() <= 0.0 {
+        return Err(p.error("at least one of kc, kl, kq must be > 0"));
+    }
+    Ok(Box::new(RectLight { color, corner, edge1, edge2, normal: normal.normalize(), samples, attenuation }))
+}
+
+impl LightSource for RectLight {
+    fn illuminate(&self, p: DVec3, u: DVec2) -> Option<LightSample> {
+        let on_light = self.corner + u.x * self.edge1 + u.y * self.edge2;
+        let to_light = on_light - p;
+        let d = to_light.length();
+        if !(d > 0.0) {
+            return None;
+        }
+        let dir = to_light / d;
+        let cos = -self.normal.dot(dir);
+        if cos <= 0.0 {
+            return None; // behind the emitting side
+        }
+        let [kc, kl, kq] = self.attenuation;
+        Some(LightSample { dir, distance: d, intensity: self.color * (cos / (kc + kl * d + kq * d * d)) })
+    }
+
+    fn sample_count(&self) -> u32 {
+        self.samples
+    }
+}

@@ -1,0 +1,48 @@
+//! The `raylab-torus` binary: the documented command renders the torus scene, and the crate's
+//! plugins appear beside the built-in ones in `raylab-torus plugins`.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn run(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_raylab-torus")).args(args).current_dir(repo()).output().expect("raylab-torus runs")
+}
+
+#[test]
+fn the_documented_command_renders_the_torus_scene() {
+    let out_dir = std::env::temp_dir().join(format!("raylab-torus-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&out_dir).unwrap();
+    let png = out_dir.join("torus.png");
+    // The README's command, smaller so the test is quick.
+    let out = run(&[
+        "render",
+        "examples/torus/scenes/torus.toml",
+        "-o",
+        png.to_str().unwrap(),
+        "--width",
+        "80",
+        "--height",
+        "60",
+        "--spp",
+        "1",
+        "-q",
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stdout).starts_with(&format!("wrote {} (80×60", png.display())));
+    assert!(std::fs::metadata(&png).unwrap().len() > 0);
+    std::fs::remove_dir_all(&out_dir).unwrap();
+}
+
+#[test]
+fn plugins_lists_the_crates_types_beside_the_built_ins() {
+    let out = run(&["plugins"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    for ty in ["torus", "rect", "ao", "sphere", "phong"] {
+        assert!(text.contains(&format!("\n  {ty}  — ")), "missing {ty} in:\n{text}");
+    }
+    assert!(text.contains("major_radius") && text.contains("samples"));
+}

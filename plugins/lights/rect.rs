@@ -1,0 +1,105 @@
+//! `rect`: a rectangular area light, for soft shadows: a point light spread uniformly over a
+//! rectangle (as POV-Ray's `area_light`). Each sample takes a point of the rectangle and lights the
+//! shaded point from there, with the point light's attenuation `I₀ / (kc + kl·d + kq·d²)`. It
+//! shines to both sides and, like every light, is invisible to camera rays.
+
+use super::point::{ATTENUATION, attenuation, samples};
+use raylab::error::Result;
+use raylab::glam::{DVec2, DVec3};
+use raylab::params::{Default, ParamKind, ParamSpec, Params};
+use raylab::{Color, LightSample, LightSource, LoadContext, PluginInfo};
+
+/// A rectangle `center + s·edge1 + t·edge2`, `s, t ∈ [−½, ½]`, of uniform intensity.
+#[derive(Clone, Debug)]
+pub struct RectLight {
+    color: Color,
+    corner: DVec3,
+    edge1: DVec3,
+    edge2: DVec3,
+    kc: f64,
+    kl: f64,
+    kq: f64,
+    samples: u32,
+}
+
+/// The `rect` plugin's description.
+pub const INFO: PluginInfo = PluginInfo {
+    name: "rect",
+    summary: "A rectangular area light for soft shadows: a point light spread uniformly over a rectangle (both sides), sampled with `samples` shadow rays.",
+    params: &[
+        ParamSpec::new("color", ParamKind::Color, Default::Float(1.0), "intensity I₀ of the whole light, linear RGB"),
+        ParamSpec::new("center", ParamKind::Vec3, Default::Required, "centre of the rectangle"),
+        ParamSpec::new("edge1", ParamKind::Vec3, Default::Required, "first side, as a vector (its length is the side's length)"),
+        ParamSpec::new("edge2", ParamKind::Vec3, Default::Required, "second side, as a vector, not parallel to edge1"),
+        ATTENUATION[0],
+        ATTENUATION[1],
+        ATTENUATION[2],
+        ParamSpec::new(
+            "samples",
+            ParamKind::Int,
+            Default::Int(16),
+            "shadow rays per shading point (the integrator's shadow_rays may override), ≥ 1",
+        ),
+    ],
+};
+
+/// Builds a rectangular light from its parameters.
+pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn LightSource>> {
+    let color = p.color("color")?;
+    let center = p.vec3("center")?;
+    let (edge1, edge2) = (p.vec3("edge1")?, p.vec3("edge2")?);
+    let area = edge1.cross(edge2).length();
+    if !(area > 1e-12 * edge1.length_squared().max(edge2.length_squared())) {
+        return Err(p.error_at("edge2", "edge1 and edge2 must be non-zero and not parallel (the rectangle has no area)"));
+    }
+    let (kc, kl, kq) = attenuation(p)?;
+    let samples = samples(p)?;
+    Ok(Box::new(RectLight::new(color, center, edge1, edge2, (kc, kl, kq), samples)))
+}
+
+impl RectLight {
+    /// A rectangle centred at `center` with sides `edge1`, `edge2`, attenuation `(kc, kl, kq)`.
+    pub fn new(color: Color, center: DVec3, edge1: DVec3, edge2: DVec3, (kc, kl, kq): (f64, f64, f64), samples: u32) -> Self {
+        RectLight { color, corner: center - 0.5 * (edge1 + edge2), edge1, edge2, kc, kl, kq, samples: samples.max(1) }
+    }
+}
+
+impl LightSource for RectLight {
+    #[inline]
+    fn illuminate(&self, p: DVec3, u: DVec2) -> Option<LightSample> {
+        let to_light = self.corner + u.x * self.edge1 + u.y * self.edge2 - p;
+        let d = to_light.length();
+        if !(d > 0.0) {
+            return None;
+        }
+        let factor = 1.0 / (self.kc + self.kl * d + self.kq * d * d);
+        Some(LightSample { dir: to_light / d, distance: d, intensity: self.color * factor })
+    }
+
+    fn sample_count(&self) -> u32 {
+        self.samples
+    }
+
+    fn is_area(&self) -> bool {
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn samples_cover_the_rectangle() {
+        let l = RectLight::new(Color::ONE, DVec3::new(0.0, 5.0, 0.0), DVec3::X * 2.0, DVec3::Z, (1.0, 0.0, 0.0), 4);
+        let p = DVec3::ZERO;
+        let at = |u: DVec2| {
+            let s = l.illuminate(p, u).unwrap();
+            p + s.dir * s.distance
+        };
+        assert!((at(DVec2::ZERO) - DVec3::new(-1.0, 5.0, -0.5)).length() < 1e-12);
+        assert!((at(DVec2::splat(0.5)) - DVec3::new(0.0, 5.0, 0.0)).length() < 1e-12);
+        assert!((at(DVec2::new(1.0, 1.0)) - DVec3::new(1.0, 5.0, 0.5)).length() < 1e-12);
+        assert!(l.is_area() && l.sample_count() == 4);
+    }
+}

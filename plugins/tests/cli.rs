@@ -1,0 +1,180 @@
+//! The `raylab` binary, run as a user would.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn raylab(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_raylab")).args(args).current_dir(dir).output().expect("raylab runs")
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("raylab-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+#[test]
+fn no_arguments_renders_the_default_scene_to_render_png() {
+    let dir = temp_dir("default");
+    let out = raylab(&dir, &[]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    assert!(stdout.starts_with("wrote render.png (800×600, 1 spp"), "{stdout}");
+    assert!(stdout.contains("rays/s") && stdout.contains("trace "), "{stdout}");
+    let img = image::open(dir.join("render.png")).unwrap();
+    assert_eq!((img.width(), img.height()), (800, 600));
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn render_writes_png_and_jpeg_with_a_grid() {
+    let dir = temp_dir("grid");
+    let scene = repo().join("scenes/report-two-colour.toml");
+    let out = raylab(
+        &dir,
+        &[
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            "g.png",
+            "--width",
+            "50",
+            "--height",
+            "50",
+            "--grid",
+            "10",
+            "--grid-color",
+            "255,0,0",
+            "-q",
+            "--stats",
+        ],
+    );
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(text(&out.stdout).contains("camera rays"), "--stats prints the counters");
+    let img = image::open(dir.join("g.png")).unwrap().to_rgb8();
+    assert_eq!(img.get_pixel(20, 7).0, [255, 0, 0], "grid column");
+    assert_ne!(img.get_pixel(25, 25).0, [255, 0, 0], "not on the grid");
+    let out = raylab(&dir, &["render", scene.to_str().unwrap(), "-o", "g.jpg", "--width", "40", "--height", "40", "-q"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert_eq!(image::open(dir.join("g.jpg")).unwrap().width(), 40);
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn scene_errors_exit_1_and_name_the_location() {
+    let dir = temp_dir("errors");
+    std::fs::write(
+        dir.join("bad.toml"),
+        "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n[[object]]\ntype = \"sphere\"\nradius = \"x\"\n",
+    )
+    .unwrap();
+    let out = raylab(&dir, &["render", "bad.toml", "-q"]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = text(&out.stderr);
+    assert!(err.contains("bad.toml:6:10:") && err.contains("expected a number"), "{err}");
+    assert!(!dir.join("render.png").exists(), "no image for a failed load");
+    let out = raylab(&dir, &["render", "missing.toml"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stderr).contains("missing.toml: cannot read scene"));
+    let out = raylab(&dir, &["render", "bad.toml", "-o", "x.bmp"]);
+    assert!(text(&out.stderr).contains("unknown image type"));
+    let out = raylab(&dir, &["render", "--no-such-flag"]);
+    assert_eq!(out.status.code(), Some(2), "usage errors exit 2");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn trace_explains_a_pixel_as_text_and_json() {
+    let scene = repo().join("scenes/showcase.toml");
+    let out = raylab(&repo(), &["trace", scene.to_str().unwrap(), "--pixel", "330,280"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let t = text(&out.stdout);
+    for needle in ["camera ray", "hit glass ball", "refraction ray", "light key", "diffuse", "final colour"] {
+        assert!(t.contains(needle), "missing {needle:?} in:\n{t}");
+    }
+    let out = raylab(&repo(), &["trace", scene.to_str().unwrap(), "--pixel", "330,280", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("valid JSON");
+    assert_eq!(v["pixel"], serde_json::json!([330, 280]));
+    assert_eq!(v["tree"]["hit"]["name"], "glass ball");
+    assert!(v["tree"]["children"].as_array().unwrap().len() >= 2);
+    assert_eq!(v["rgb8"].as_array().unwrap().len(), 3);
+    let out = raylab(&repo(), &["trace", scene.to_str().unwrap(), "--ray", "0,1,10:0,0,-1"]);
+    assert!(out.status.success() && text(&out.stdout).contains("camera ray"));
+    let out = raylab(&repo(), &["trace", scene.to_str().unwrap(), "--pixel", "800,0"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stderr).contains("inside the 800×600 image"));
+}
+
+#[test]
+fn the_pixel_trace_agrees_with_the_rendered_pixel() {
+    let dir = temp_dir("agree");
+    let scene = repo().join("scenes/showcase.toml");
+    let out = raylab(&dir, &["render", scene.to_str().unwrap(), "-o", "a.png", "-q"]);
+    assert!(out.status.success());
+    let img = image::open(dir.join("a.png")).unwrap().to_rgb8();
+    for (x, y) in [(330, 280), (100, 500), (600, 200), (10, 10)] {
+        let out = raylab(&dir, &["trace", scene.to_str().unwrap(), "--pixel", &format!("{x},{y}"), "--json"]);
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let traced: Vec<u8> = v["rgb8"].as_array().unwrap().iter().map(|c| c.as_u64().unwrap() as u8).collect();
+        assert_eq!(traced, img.get_pixel(x, y).0.to_vec(), "pixel ({x}, {y})");
+    }
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn plugins_lists_every_type_with_its_parameters() {
+    let out = raylab(&repo(), &["plugins"]);
+    let t = text(&out.stdout);
+    for ty in [
+        "plane",
+        "sphere",
+        "hemisphere",
+        "triangle",
+        "quadrangle",
+        "polygon",
+        "cylinder",
+        "tube",
+        "ambient",
+        "directional",
+        "point",
+        "spot",
+        "phong",
+        "normals",
+        "depth",
+    ] {
+        assert!(t.contains(&format!("\n  {ty}  — ")), "missing {ty}");
+    }
+    assert!(t.contains("radius") && t.contains("max_depth") && t.contains("0.001"));
+    let md = text(&raylab(&repo(), &["plugins", "--markdown"]).stdout);
+    assert!(md.contains("### `sphere`") && md.contains("| `radius` | float | 1 |"));
+}
+
+#[test]
+fn integrator_and_parameter_overrides() {
+    let dir = temp_dir("overrides");
+    let scene = repo().join("scenes/showcase.toml");
+    let s = scene.to_str().unwrap();
+    let out = raylab(&dir, &["render", s, "-o", "n.png", "--integrator", "normals", "--width", "16", "--height", "12", "-q"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let out = raylab(
+        &dir,
+        &["render", s, "-o", "d.png", "--depth", "1", "--set", "prune_threshold=0.01", "--width", "16", "--height", "12", "-q"],
+    );
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(text(&out.stdout).contains("max_depth 1, prune 0.01"));
+    let out = raylab(&dir, &["render", s, "--integrator", "normals", "--depth", "2"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stderr).contains("integrator \"normals\" has no parameter `max_depth`"));
+    let out = raylab(&dir, &["render", s, "--set", "max_depth"]);
+    assert!(text(&out.stderr).contains("expected KEY=VALUE"));
+    std::fs::remove_dir_all(dir).unwrap();
+}

@@ -1,0 +1,200 @@
+//! Anti-aliasing and the speed/accuracy measurements: error falls with samples, adaptive
+//! supersampling beats uniform on rays, progressive passes match a single pass, renders do not
+//! depend on the thread count, and an analytic scene matches its closed form.
+
+use raylab::film::Film;
+use raylab::glam::DVec3;
+use raylab::load::{LoadOptions, load_str};
+use raylab::render::{Antialiasing, RenderJob, RenderOptions, Rendered, render, render_progressive};
+use raylab::{Encoding, metrics};
+use std::path::Path;
+
+fn job(text: &str) -> RenderJob {
+    load_str(&raylab_plugins::registry(), "test.toml", text, Path::new("."), &LoadOptions::default()).unwrap()
+}
+
+fn run(job: &RenderJob, threads: Option<usize>) -> Rendered {
+    render(job, &RenderOptions { threads, cancel: None }, &|_, _| {}).unwrap()
+}
+
+/// Hard edges at many angles: spheres, a tilted triangle and a plane's horizon, in contrasting
+/// colours.
+const EDGES: &str = r#"
+background = [0.9, 0.9, 0.95]
+[render]
+width = 48
+height = 36
+[camera]
+position = [0, 1, 6]
+look_at = [0, 0.6, 0]
+fov = 40
+[integrator]
+max_depth = 1
+[[object]]
+type = "plane"
+point = [0, 0, 0]
+normal = [0, 1, 0]
+material = { kd = [0.1, 0.1, 0.1] }
+[[object]]
+type = "sphere"
+center = [-1.2, 0.8, 0]
+radius = 0.8
+material = { kd = [0.9, 0.2, 0.1], ks = 0.5, shininess = 40 }
+[[object]]
+type = "sphere"
+center = [1.1, 0.5, 0.8]
+radius = 0.5
+material = { kd = [0.1, 0.3, 0.9] }
+[[object]]
+type = "triangle"
+p0 = [-0.5, 0.0, -1]
+p1 = [1.5, 0.3, -1.5]
+p2 = [0.2, 2.2, -1.2]
+material = { kd = [0.95, 0.9, 0.2] }
+[[light]]
+type = "directional"
+direction = [-0.3, -1, -0.5]
+[[light]]
+type = "ambient"
+"#;
+
+fn with(text: &str, spp: u32, aa: Antialiasing) -> RenderJob {
+    let mut j = job(text);
+    j.settings.spp = spp;
+    j.settings.aa = aa;
+    j
+}
+
+fn rmse(a: &Film, b: &Film) -> f64 {
+    metrics::compare(a, b, Encoding::Srgb).unwrap().rmse
+}
+
+#[test]
+fn error_falls_as_samples_rise_on_a_scene_with_edges() {
+    let reference = run(&with(EDGES, 1024, Antialiasing::Stratified), None).film;
+    let errors: Vec<f64> =
+        [1, 4, 16, 64].iter().map(|&spp| rmse(&run(&with(EDGES, spp, Antialiasing::Stratified), None).film, &reference)).collect();
+    for w in errors.windows(2) {
+        assert!(w[1] < w[0], "error did not fall: {errors:?}");
+    }
+    assert!(errors[3] < errors[0] / 4.0, "64 spp should be far better than 1: {errors:?}");
+}
+
+#[test]
+fn adaptive_supersampling_traces_fewer_rays_than_16_spp_for_no_more_error() {
+    let reference = run(&with(EDGES, 1024, Antialiasing::Stratified), None).film;
+    let uniform = run(&with(EDGES, 16, Antialiasing::Stratified), None);
+    let adaptive = run(&with(EDGES, 1, Antialiasing::Adaptive { threshold: 0.02, max_depth: 3 }), None);
+    let (eu, ea) = (rmse(&uniform.film, &reference), rmse(&adaptive.film, &reference));
+    let (ru, ra) = (uniform.stats.camera_rays, adaptive.stats.camera_rays);
+    assert!(ea <= eu, "adaptive error {ea} > uniform {eu}");
+    assert!(ra * 3 < ru * 2, "adaptive traced {ra} camera rays, uniform {ru}");
+}
+
+#[test]
+fn adaptive_supersampling_refines_only_where_samples_disagree() {
+    // A flat background costs the corner lattice alone: (w + 1)(h + 1) rays, shared by pixels.
+    let flat = "[render]\nwidth = 20\nheight = 10\n[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\n";
+    let r = run(&with(flat, 1, Antialiasing::Adaptive { threshold: 0.0, max_depth: 4 }), None);
+    let tiles_x = 2; // 16-pixel tiles: one lattice column is shared by two tiles and traced by each.
+    assert_eq!(r.stats.camera_rays, 21 * 11 + (tiles_x - 1) * 11);
+    // Edges force refinement, and a threshold of 1 never refines.
+    let busy = run(&with(EDGES, 1, Antialiasing::Adaptive { threshold: 0.05, max_depth: 2 }), None).stats.camera_rays;
+    let none = run(&with(EDGES, 1, Antialiasing::Adaptive { threshold: 1.0, max_depth: 2 }), None).stats.camera_rays;
+    assert!(busy > none + 48 * 36 / 4, "{busy} vs {none}");
+}
+
+#[test]
+fn images_do_not_depend_on_the_thread_count() {
+    for aa in [Antialiasing::Stratified, Antialiasing::Adaptive { threshold: 0.05, max_depth: 3 }] {
+        let mut j = with(EDGES, 5, aa);
+        j.scene.camera.aperture = 0.05;
+        j.settings.lens_samples = 2;
+        assert_eq!(run(&j, Some(1)).film, run(&j, Some(2)).film, "{aa:?}");
+    }
+}
+
+#[test]
+fn progressive_passes_end_with_the_single_pass_image() {
+    let j = with(EDGES, 8, Antialiasing::Stratified);
+    let mut seen = Vec::new();
+    let mut errors = Vec::new();
+    let single = run(&j, None).film;
+    let last = render_progressive(&j, &RenderOptions::default(), &[1, 2, 4, 16], &|_, _| {}, &mut |p| {
+        seen.push(p.samples);
+        errors.push(rmse(p.film, &single));
+    })
+    .unwrap();
+    assert_eq!(seen, [1, 2, 4, 8]);
+    assert_eq!(last.film, single);
+    assert_eq!(*errors.last().unwrap(), 0.0);
+    assert!(errors[0] > 0.0);
+}
+
+/// A Lambert sphere under a directional light, sampled at pixel centres: every pixel is
+/// `kd · max(0, n·l)` at the point the report's pixel-centre ray hits, or the background.
+#[test]
+fn lambert_sphere_matches_the_closed_form() {
+    let (nx, ny) = (41u32, 31u32);
+    let kd = 0.7;
+    let light_dir = DVec3::new(-1.0, -2.0, -1.5).normalize();
+    let text = format!(
+        r#"
+[render]
+width = {nx}
+height = {ny}
+encoding = "linear"
+[camera]
+position = [0, 0, 0]
+to = [0, 0, -1]
+up = [0, 1, 0]
+screen_distance = 2
+screen_width = 1.6
+screen_height = 1.2
+[integrator]
+max_depth = 0
+prune_threshold = 0
+[[object]]
+type = "sphere"
+center = [0.1, -0.05, -5]
+radius = 1.3
+material = {{ ka = 0, kd = {kd}, ks = 0 }}
+[[light]]
+type = "directional"
+direction = [{}, {}, {}]
+"#,
+        light_dir.x, light_dir.y, light_dir.z
+    );
+    let film = run(&job(&text), None).film;
+    let (c, r) = (DVec3::new(0.1, -0.05, -5.0), 1.3);
+    let mut lit = 0;
+    for y in 0..ny {
+        for x in 0..nx {
+            // The report's pixel-centre ray, written out.
+            let (rx, ry) = (1.6 / f64::from(nx), 1.2 / f64::from(ny));
+            let p = DVec3::new(
+                (f64::from(x) - f64::from(nx) / 2.0) * rx + rx / 2.0,
+                -((f64::from(y) - f64::from(ny) / 2.0) * ry + ry / 2.0),
+                -2.0,
+            );
+            let d = p.normalize();
+            // |t d − c|² = r²  →  t = d·c − √((d·c)² − |c|² + r²)
+            let b = d.dot(c);
+            let disc = b * b - c.length_squared() + r * r;
+            let expected = if disc < 0.0 {
+                0.0
+            } else {
+                let n = (d * (b - disc.sqrt()) - c) / r;
+                kd * n.dot(-light_dir).max(0.0)
+            };
+            if expected > 0.0 {
+                lit += 1;
+            }
+            let got = film.get(x, y);
+            for ch in 0..3 {
+                assert!((f64::from(got[ch]) - expected).abs() < 1e-6, "pixel ({x}, {y}): {} vs {expected}", got[ch]);
+            }
+        }
+    }
+    assert!(lit > 200, "the sphere should cover many lit pixels, got {lit}");
+}
