@@ -79,6 +79,7 @@ pub const BOX_PADDING: f64 = 1.0 / (1u64 << 18) as f64;
 /// Largest reciprocal of a direction component used by the `f32` slab test. A component
 /// smaller than its inverse is treated as that small: the resulting displacement of the ray is
 /// far below [`BOX_PADDING`] of anything the ray can reach.
+#[cfg(feature = "bvh")]
 const MAX_INV_DIR: f32 = 1e15;
 
 /// What building an index cost, for the render summary and `raylab bench`.

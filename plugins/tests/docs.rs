@@ -1,11 +1,11 @@
 //! Documentation generated from the code stays in step with it.
+#![cfg(feature = "mesh")]
 
 use std::path::Path;
 
 /// docs/plugins.md documents every built-in plugin, the feature-gated `mesh` too: it is compared
 /// when that feature is on (as in CI's `--all-features`).
 #[test]
-#[cfg(feature = "mesh")]
 fn docs_plugins_md_is_the_output_of_raylab_plugins_markdown() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_raylab")).args(["plugins", "--markdown"]).output().unwrap();
