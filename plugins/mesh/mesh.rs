@@ -13,6 +13,7 @@ use crate::shapes::triangle::{EdgeRule, TriangleRay, barycentric_point};
 use raylab::Material;
 use raylab::accel::{AccelChoice, BuildStats, MESH_BVH_THRESHOLD};
 use raylab::bvh::PrimitiveIndex;
+use raylab::float::on_surface_slack;
 use raylab::geometry::Hit;
 use raylab::glam::{DVec2, DVec3, Vec3};
 use raylab::{Aabb, Ray};
@@ -242,6 +243,9 @@ impl TriangleMesh {
         let (slot, t) = self.index.closest(ray, t_min, t_max, |slot, t_max| {
             let [p0, p1, p2] = self.vertices(slot);
             let h = tr.intersect(p0, p1, p2, t_min, t_max, EdgeRule::Inclusive)?;
+            if on_surface(ray, h.t, p0, p1, p2) {
+                return None;
+            }
             b = h.b;
             Some(h.t)
         })?;
@@ -256,7 +260,7 @@ impl TriangleMesh {
         let tr = TriangleRay::new(ray);
         self.index.any(ray, t_min, t_max, |slot| {
             let [p0, p1, p2] = self.vertices(slot);
-            tr.intersect(p0, p1, p2, t_min, t_max, EdgeRule::Inclusive).is_some()
+            tr.intersect(p0, p1, p2, t_min, t_max, EdgeRule::Inclusive).is_some_and(|h| !on_surface(ray, h.t, p0, p1, p2))
         })
     }
 
@@ -284,6 +288,16 @@ impl TriangleMesh {
     pub fn is_closed(&self) -> bool {
         *self.closed.get_or_init(|| closed(&self.tris))
     }
+}
+
+/// Whether a hit at `t` is the ray's own origin: the origin lies within rounding
+/// ([`on_surface_slack`]) of the triangle's plane, as for the `triangle` shape, so a ray starting
+/// on the mesh does not hit it again at `t ≈ 0`.
+#[inline(always)]
+fn on_surface(ray: &Ray, t: f64, p0: [f64; 3], p1: [f64; 3], p2: [f64; 3]) -> bool {
+    let (a, b, c) = (DVec3::from(p0), DVec3::from(p1), DVec3::from(p2));
+    let n = (b - a).cross(c - a);
+    t * n.dot(ray.dir).abs() <= on_surface_slack(ray.origin, a) * n.length()
 }
 
 /// Angle-weighted vertex normals (Thürmer & Wüthrich 1998).
