@@ -53,7 +53,9 @@ pub fn open(ctx: &LoadContext, path: &str, loc: &Loc) -> Result<Arc<GltfFile>> {
     })
 }
 
-fn parse(ctx: &LoadContext, path: &str, full: &Path, bytes: Vec<u8>, loc: &Loc) -> Result<GltfFile> {
+/// Parses glTF `bytes` (the file `path` of the scene, resolved to `full`); external buffers are
+/// read relative to `path` through `ctx`.
+pub fn parse(ctx: &LoadContext, path: &str, full: &Path, bytes: Vec<u8>, loc: &Loc) -> Result<GltfFile> {
     let name = full.display().to_string();
     let parsed = std::panic::catch_unwind(|| gltf::Gltf::from_slice(&bytes));
     let gltf = match parsed {

@@ -129,6 +129,19 @@ pub fn load_mesh(
     })
 }
 
+/// Reads mesh-file `bytes` of format `ext` (`obj`, `gltf`, `glb`) into an indexed mesh, without
+/// touching the file system for the file itself (what the fuzz targets exercise): a mesh or a
+/// located error, never a panic. The whole glTF scene is read; MTL libraries are not.
+pub fn mesh_from_bytes(ctx: &LoadContext, name: &str, ext: &str, bytes: &[u8]) -> Result<TriangleMesh> {
+    let src = raylab::Source::new(name, String::new());
+    let loc = Loc::new(&src, 0..0);
+    let data = match ext {
+        "obj" => obj::read(ctx, name, std::path::Path::new(name), bytes, false, &loc)?,
+        _ => gltf::parse(ctx, name, std::path::Path::new(name), bytes.to_vec(), &loc)?.whole()?,
+    };
+    TriangleMesh::new(data, Normals::Smooth, ctx.options.accel).map_err(|e| SceneError::in_file(name, None, e.to_string()))
+}
+
 /// A mesh placed in a scene, with its materials.
 #[derive(Debug)]
 pub struct MeshObject {

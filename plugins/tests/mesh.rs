@@ -190,6 +190,30 @@ fn malformed_files_load_or_fail_clearly_and_never_panic() {
     load_str(&raylab_plugins::registry(), "t.toml", text, &assets().join("malformed"), &LoadOptions::default()).unwrap();
 }
 
+/// The fuzz targets' corpora (`fuzz/corpus/mesh_*`): every file loads or fails with a located
+/// error, without panicking (what `cargo fuzz run mesh_obj` checks at length).
+#[test]
+fn fuzz_corpora_load_or_fail_cleanly() {
+    let options = LoadOptions::default();
+    let dir = assets();
+    let ctx = raylab::LoadContext::new(&dir, &options);
+    for (target, ext) in [("mesh_obj", "obj"), ("mesh_gltf", "gltf")] {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/corpus").join(target);
+        let files: Vec<PathBuf> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).collect();
+        assert!(files.len() >= 5, "{}: corpus too small", dir.display());
+        for f in files {
+            let bytes = std::fs::read(&f).unwrap();
+            let r =
+                std::panic::catch_unwind(|| raylab_plugins::mesh::mesh_from_bytes(&ctx, "fuzz", ext, &bytes).map(|m| m.triangle_count()));
+            match r {
+                Err(_) => panic!("{}: panicked", f.display()),
+                Ok(Err(e)) => assert!(e.where_().is_some(), "{}: error without a location: {e}", f.display()),
+                Ok(Ok(n)) => assert!(n > 0),
+            }
+        }
+    }
+}
+
 #[test]
 fn files_outside_the_scene_folder_and_unknown_formats_are_refused() {
     let e = fails(scene("[[object]]\ntype = \"mesh\"\nfile = \"../scenes/assets/teapot.obj\"\n", AccelChoice::Auto));
