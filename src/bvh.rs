@@ -565,6 +565,21 @@ mod tests {
     }
 
     #[test]
+    fn identical_boxes_build_and_traverse() {
+        // Degenerate input (every primitive in one place): any tree shape must still find all.
+        let bx = vec![Aabb::new(DVec3::ZERO, DVec3::ONE); 5000];
+        let (index, _, _) = PrimitiveIndex::build(&bx, true);
+        let ray = Ray::new(DVec3::new(0.5, 0.5, -3.0), DVec3::Z);
+        let mut seen = 0;
+        index.any(&ray, 0.0, f64::INFINITY, |_| {
+            seen += 1;
+            false
+        });
+        assert_eq!(seen, 5000);
+        assert!(index.closest(&ray, 0.0, f64::INFINITY, |_, t| (t > 3.0).then_some(3.0)).is_some());
+    }
+
+    #[test]
     fn axis_parallel_rays_far_from_the_origin_are_not_culled() {
         // Thin boxes (zero thickness in y) far from the origin, rays with zero direction components.
         let bx: Vec<Aabb> =

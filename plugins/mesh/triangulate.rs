@@ -7,9 +7,13 @@
 
 use raylab::glam::{DVec2, DVec3};
 
+/// Most corners a concave face is ear-clipped with (the clipping takes time cubic in them);
+/// larger faces are fanned, so a hostile file cannot stall loading.
+pub const MAX_EAR_CLIPPED_CORNERS: usize = 256;
+
 /// Triangles covering the simple polygon `points` (corners in order, possibly concave), as
-/// indices into `points`, wound like the polygon. A polygon with no area gives a fan, whose
-/// triangles the mesh then drops as degenerate.
+/// indices into `points`, wound like the polygon. A polygon with no area, or with more than
+/// [`MAX_EAR_CLIPPED_CORNERS`] corners, gives a fan (the mesh drops degenerate triangles).
 pub fn triangulate(points: &[DVec3]) -> Vec<[u32; 3]> {
     let n = points.len();
     let fan = || (1..n.saturating_sub(1)).map(|i| [0, i as u32, i as u32 + 1]).collect();
@@ -34,7 +38,7 @@ pub fn triangulate(points: &[DVec3]) -> Vec<[u32; 3]> {
     let flip = normal[axis] < 0.0;
     let p: Vec<DVec2> = points.iter().map(|q| if flip { DVec2::new(q[v], q[u]) } else { DVec2::new(q[u], q[v]) }).collect();
     let cross = |a: DVec2, b: DVec2, c: DVec2| (b - a).perp_dot(c - a);
-    if (0..n).all(|i| cross(p[i], p[(i + 1) % n], p[(i + 2) % n]) >= 0.0) {
+    if n > MAX_EAR_CLIPPED_CORNERS || (0..n).all(|i| cross(p[i], p[(i + 1) % n], p[(i + 2) % n]) >= 0.0) {
         return fan();
     }
     // Ear clipping over the remaining corners.
