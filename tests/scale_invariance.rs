@@ -109,7 +109,7 @@ fn render_transformed(path: &str, s: f64, offset: DVec3, faulty: bool, width: u3
     let mut options = LoadOptions::default();
     options.overrides.width = Some(width);
     options.overrides.height = Some(height);
-    let ctx = LoadContext { scene_dir: full.parent().unwrap(), options: &options };
+    let ctx = LoadContext::new(full.parent().unwrap(), &options);
     let job = raylab::load::build(&raylab_plugins::registry(), &desc, &ctx).unwrap_or_else(|e| panic!("{}", e.report()));
     let rendered = render(&job, &RenderOptions::default(), &|_, _| {}).unwrap();
     assert_eq!(rendered.stats.nonfinite_samples, 0, "scale {s:e}, offset {offset}: NaN or infinite samples");
