@@ -9,7 +9,9 @@
 //! constructors. Rays start anywhere, on the surface at a previous hit, or spawned from it. Hits
 //! are held to [`SURFACE_TOLERANCE`] of the problem's magnitude, except on a sliver triangle, whose
 //! hits are only as accurate as its shape allows (`4ε / aspect`, aspect = 2·area / longest edge²:
-//! more than 1e-9 only for triangles thinner than 4e-7 of their length).
+//! more than 1e-9 only for triangles thinner than 4e-7 of their length). Likewise the normals of a
+//! curved surface are known only to the hit point's rounding over the radius: a bowl of radius 1e-9
+//! at 30 has normals good to about 1e-6.
 
 use super::cylinder::Cylinder;
 use super::exact::{ExactBowl, ExactCylinder, ExactPlane, ExactPolygon, ExactSphere, ExactTriangle};
@@ -18,7 +20,7 @@ use super::plane::Plane;
 use super::polygon::Polygon;
 use super::sphere::Sphere;
 use super::triangle::{EdgeRule, Triangle};
-use raylab::float::{MACHINE_EPSILON, SURFACE_TOLERANCE, max_abs, triangle_normal};
+use raylab::float::{MACHINE_EPSILON, NORMAL_TOLERANCE, SURFACE_TOLERANCE, max_abs, triangle_normal};
 use raylab::glam::DVec3;
 use raylab::testing::{ExactSurface, Tolerance, Violation, check_hits_ascending};
 use raylab::{Geometry, Hit, Material, Ray};
@@ -57,6 +59,9 @@ struct Case {
     max_hits: usize,
     /// Relative tolerance of the hits: [`SURFACE_TOLERANCE`], or more for a sliver triangle.
     relative: f64,
+    /// Radius of curvature of a curved surface: its normals are known to the hit point's rounding
+    /// (relative to the magnitude) over it; `INFINITY` for flat shapes.
+    curvature_radius: f64,
 }
 
 fn decode(b: &mut Bytes) -> Option<(Case, DVec3, f64)> {
@@ -70,6 +75,7 @@ fn decode(b: &mut Bytes) -> Option<(Case, DVec3, f64)> {
             let normal = b.direction()?;
             Case {
                 name: "plane",
+                curvature_radius: f64::INFINITY,
                 g: Box::new(Plane::new(center, normal, m())),
                 exact: Box::new(ExactPlane { point: center, normal }),
                 magnitude: max_abs(center) + s,
@@ -81,6 +87,7 @@ fn decode(b: &mut Bytes) -> Option<(Case, DVec3, f64)> {
             let radius = size(b)?;
             Case {
                 name: "sphere",
+                curvature_radius: radius,
                 g: Box::new(Sphere::new(center, radius, m())),
                 exact: Box::new(ExactSphere { center, radius }),
                 magnitude: max_abs(center) + radius,
@@ -93,6 +100,7 @@ fn decode(b: &mut Bytes) -> Option<(Case, DVec3, f64)> {
             let g = Box::new(Hemisphere::new(center, radius, open, m()));
             Case {
                 name: "hemisphere",
+                curvature_radius: radius,
                 g,
                 exact: Box::new(ExactBowl { center, radius, open }),
                 magnitude: max_abs(center) + radius,
@@ -110,6 +118,7 @@ fn decode(b: &mut Bytes) -> Option<(Case, DVec3, f64)> {
             let aspect = triangle_normal(p).0.length() / longest;
             Case {
                 name: if k == 3 { "triangle" } else { "inclusive triangle" },
+                curvature_radius: f64::INFINITY,
                 g,
                 exact: Box::new(ExactTriangle { p }),
                 magnitude: p.iter().map(|v| max_abs(*v)).fold(0.0, f64::max),
@@ -131,6 +140,7 @@ fn decode(b: &mut Bytes) -> Option<(Case, DVec3, f64)> {
             }
             Case {
                 name: if k == 5 { "quadrangle" } else { "polygon" },
+                curvature_radius: f64::INFINITY,
                 g,
                 exact: Box::new(exact),
                 magnitude,
@@ -145,6 +155,7 @@ fn decode(b: &mut Bytes) -> Option<(Case, DVec3, f64)> {
             let exact = Box::new(ExactCylinder { base: center, axis, radius, height });
             Case {
                 name: if k == 7 { "cylinder" } else { "tube" },
+                curvature_radius: radius,
                 g,
                 exact,
                 magnitude: max_abs(center) + radius + height.unwrap_or(0.0),
@@ -177,7 +188,9 @@ pub fn check_bytes(data: &[u8]) -> Result<(), Violation> {
             (2, Some((h, from))) => h.spawn_ray(case.g.normal(&h, from.dir), dir),
             _ => Ray::new(origin, dir),
         };
-        let tol = Tolerance { relative: case.relative, ..Tolerance::for_scale(case.magnitude.max(max_abs(ray.origin))) };
+        let scale = case.magnitude.max(max_abs(ray.origin));
+        let normal = NORMAL_TOLERANCE.max(64.0 * MACHINE_EPSILON * case.magnitude / case.curvature_radius);
+        let tol = Tolerance { relative: case.relative, normal, ..Tolerance::for_scale(scale) };
         let hits = check_hits_ascending(case.g.as_ref(), &ray, &tol, case.exact.as_ref(), case.max_hits)
             .map_err(|v| Violation { what: format!("{} (scale {s:e}, centre {center}): {}", case.name, v.what), ..v })?;
         if let Some(h) = hits.first() {

@@ -40,6 +40,8 @@ pub enum PolygonError {
     NotPlanar(usize),
     /// The outline turns the wrong way, or repeats a vertex, at this vertex.
     NotConvex(usize),
+    /// The outline turns one way throughout but crosses itself (a star: it winds around twice).
+    SelfCrossing,
 }
 
 impl std::fmt::Display for PolygonError {
@@ -53,6 +55,9 @@ impl std::fmt::Display for PolygonError {
                 f,
                 "the outline is not strictly convex at vertex {i} (or repeats it); give the vertices in order around a convex shape"
             ),
+            PolygonError::SelfCrossing => {
+                write!(f, "the outline crosses itself (a star winds around twice); give the vertices in order around a convex shape")
+            }
         }
     }
 }
@@ -93,6 +98,17 @@ impl Polygon {
                 return Err(PolygonError::NotConvex((i + 1) % n));
             }
             edge_normals.push(normal.cross(e));
+        }
+        // Turning the same way at every vertex is not enough: a pentagram does, winding twice.
+        // Every vertex must lie strictly inside every edge's half-plane.
+        for i in 0..n {
+            let e = vertices[(i + 1) % n] - vertices[i];
+            for (j, v) in vertices.iter().enumerate() {
+                let w = *v - vertices[i];
+                if j != i && j != (i + 1) % n && !(normal.dot(e.cross(w)) > 1e-12 * e.length() * w.length()) {
+                    return Err(PolygonError::SelfCrossing);
+                }
+            }
         }
         Ok(Polygon { vertices, edge_normals, normal, material })
     }
@@ -335,6 +351,15 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Found by the `intersect` fuzz target: a star outline turns the same way at every vertex and
+    /// was accepted as convex; only its inner pentagon was hit.
+    #[test]
+    fn bad_case_a_pentagram_was_accepted_as_convex() {
+        let star: Vec<DVec3> =
+            [0.0f64, 144.0, 288.0, 72.0, 216.0].iter().map(|a| DVec3::new(a.to_radians().cos(), a.to_radians().sin(), 0.0)).collect();
+        assert_eq!(Polygon::new(star, Material::default()).err(), Some(PolygonError::SelfCrossing));
     }
 
     #[test]
