@@ -1,5 +1,6 @@
 //! Scale and translation invariance: a scene scaled uniformly by any factor from 10⁻⁴ to 10⁵, or
-//! moved 10⁵ units from the origin, renders the same image as the original. Nothing in raylab may
+//! moved 10⁵ units from the origin, renders the same image as the original (the showcase, and the
+//! Cornell box with meshes). Nothing in raylab may
 //! depend on the scene's absolute size or position (no fixed epsilon).
 //!
 //! The scene description is transformed parameter by parameter: points `p → s·p + offset`, lengths
@@ -36,11 +37,15 @@ fn rule(key: &str) -> Rule {
     match key {
         "center" | "position" | "point" | "base" | "p0" | "p1" | "p2" | "p3" | "vertices" | "look_at" => Rule::Point,
         "radius" | "height" | "screen_distance" | "screen_width" | "screen_height" | "aperture" | "focus_distance" | "far" => Rule::Length,
+        // Inside an object's `transform` table (scale, then rotate, then translate): scaling the
+        // world by s scales `scale` and `translate` by s; the offset is added to `translate`.
+        "scale" => Rule::Length,
+        "translate" => Rule::Point,
         "kl" => Rule::PerLength,
         "kq" => Rule::PerArea,
-        "type" | "name" | "material" | "edges" | "normal" | "axis" | "open" | "direction" | "to" | "up" | "color" | "kc" | "ka" | "kd"
-        | "ks" | "kr" | "kt" | "shininess" | "ior" | "emission" | "blur" | "fov" | "exponent" | "cone_angle" | "background"
-        | "max_depth" | "prune_threshold" | "glossy_rays" => Rule::Same,
+        "type" | "name" | "material" | "edges" | "file" | "mesh" | "normals" | "rotate" | "normal" | "axis" | "open" | "direction"
+        | "to" | "up" | "color" | "kc" | "ka" | "kd" | "ks" | "kr" | "kt" | "shininess" | "ior" | "emission" | "blur" | "fov"
+        | "exponent" | "cone_angle" | "background" | "max_depth" | "prune_threshold" | "glossy_rays" => Rule::Same,
         other => panic!("the scale test does not know how parameter `{other}` scales: classify it in rule()"),
     }
 }
@@ -65,6 +70,32 @@ fn move_point(n: &mut Node, s: f64, offset: DVec3) {
             }
         }
         other => panic!("not a point: {other:?}"),
+    }
+}
+
+/// Gives every mesh object a `transform` table (the identity) if it has none, so that scaling
+/// and moving it can be written there: a mesh's vertices are in its file.
+fn add_mesh_transforms(root: &mut Table) {
+    let Some(Value::Array(objects)) = root.entries.iter_mut().find(|e| e.key == "object").map(|e| &mut e.value.value) else { return };
+    for o in objects {
+        let loc = o.loc.clone();
+        let Value::Table(t) = &mut o.value else { continue };
+        let is_mesh = matches!(t.get("type").map(|n| &n.value), Some(Value::Str(ty)) if ty == "mesh");
+        if is_mesh && t.get("transform").is_none() {
+            let number = |x: f64| Node { value: Value::Float(x), loc: loc.clone() };
+            let mut identity = Table::default();
+            identity.set("scale", loc.clone(), number(1.0));
+            identity.set(
+                "translate",
+                loc.clone(),
+                Node { value: Value::Array(vec![number(0.0), number(0.0), number(0.0)]), loc: loc.clone() },
+            );
+            t.set("transform", loc.clone(), Node { value: Value::Table(identity), loc: loc.clone() });
+        }
+        if let Some(Value::Table(_)) = t.get("transform").map(|n| &n.value) {
+        } else if t.get("transform").is_some() {
+            panic!("the scale test handles a `transform` table, not a list or a matrix");
+        }
     }
 }
 
@@ -105,6 +136,7 @@ fn render_transformed(path: &str, s: f64, offset: DVec3, faulty: bool, width: u3
     let full = Path::new(env!("CARGO_MANIFEST_DIR")).join(path);
     let text = std::fs::read_to_string(&full).unwrap();
     let mut desc: SceneDescription = parse_toml(&Source::new(path, text), "scene".into()).unwrap();
+    add_mesh_transforms(&mut desc.root);
     transform(&mut desc.root, s, offset, faulty);
     let mut options = LoadOptions::default();
     options.overrides.width = Some(width);
@@ -166,4 +198,13 @@ fn check_invariance(path: &str) {
 #[test]
 fn the_showcase_renders_the_same_at_any_scale_and_position() {
     check_invariance("scenes/showcase.toml");
+}
+
+/// The Cornell box (an OBJ with its materials), a torus knot placed by a transform, a glass
+/// sphere: meshes, their hierarchy and their transforms at any scale. Needs the `mesh` feature.
+#[test]
+fn the_mesh_scene_renders_the_same_at_any_scale_and_position() {
+    if raylab_plugins::registry().geometry("mesh").is_some() {
+        check_invariance("scenes/cornell.toml");
+    }
 }

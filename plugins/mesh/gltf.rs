@@ -38,6 +38,17 @@ use std::sync::Arc;
 const SUPPORTED: &[&str] = &["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_ior", "KHR_materials_transmission"];
 
 /// A parsed glTF file with its buffers loaded.
+/// The triangles `mesh` declares (its accessors' counts; no data decoded): an upper bound for
+/// strips and fans, exact for triangle lists.
+fn triangle_count(mesh: &gltf::Mesh) -> u64 {
+    mesh.primitives()
+        .map(|p| {
+            let corners = p.indices().or_else(|| p.get(&gltf::Semantic::Positions)).map_or(0, |a| a.count() as u64);
+            corners / 3 + if matches!(p.mode(), gltf::mesh::Mode::Triangles) { 0 } else { corners }
+        })
+        .sum()
+}
+
 /// Deepest node hierarchy read from a glTF file (real files stay far below; a deeper chain is
 /// refused rather than cut off).
 pub const MAX_NODE_DEPTH: usize = 1024;
@@ -46,6 +57,8 @@ pub struct GltfFile {
     name: String,
     doc: gltf::Document,
     buffers: Vec<Vec<u8>>,
+    /// The scene's triangle limit ([`raylab::load::Limits::max_triangles`]).
+    max_triangles: u64,
 }
 
 /// The file `path` (as written in the scene), parsed once per scene.
@@ -97,7 +110,7 @@ pub fn parse(ctx: &LoadContext, path: &str, full: &Path, bytes: Vec<u8>, loc: &L
         }
         buffers.push(data);
     }
-    Ok(GltfFile { name, doc: gltf.document, buffers })
+    Ok(GltfFile { name, doc: gltf.document, buffers, max_triangles: ctx.options.limits.max_triangles })
 }
 
 fn gltf_error(name: &str, e: gltf::Error) -> SceneError {
@@ -175,14 +188,28 @@ impl GltfFile {
             SceneError::in_file(&self.name, None, format!("there is no mesh {index}: the file has {} meshes", self.mesh_count()))
         })?;
         let mut out = self.empty();
+        self.check_triangles(triangle_count(&mesh))?;
         self.append(&mesh, DMat4::IDENTITY, &mut out)?;
         Ok(out)
+    }
+
+    /// Refuses more than [`raylab::load::Limits::max_triangles`] triangles.
+    fn check_triangles(&self, count: u64) -> Result<()> {
+        if count > self.max_triangles {
+            return Err(SceneError::in_file(&self.name, None, format!("{count} triangles, over the limit of {}", self.max_triangles))
+                .with_help("raise the limit with --max-triangles"));
+        }
+        Ok(())
     }
 
     /// Every mesh of the default scene, placed by its node's world matrix, as one mesh.
     pub fn whole(&self) -> Result<MeshData> {
         let mut out = self.empty();
-        for (node, world) in self.nodes()? {
+        let nodes = self.nodes()?;
+        // Counted from the accessors before any data is decoded: nodes may place one mesh many times.
+        let count: u64 = nodes.iter().filter_map(|(n, _)| n.mesh()).map(|m| triangle_count(&m)).sum();
+        self.check_triangles(count)?;
+        for (node, world) in nodes {
             if let Some(mesh) = node.mesh() {
                 self.append(&mesh, world, &mut out)?;
             }

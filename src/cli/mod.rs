@@ -126,6 +126,9 @@ pub(crate) struct SceneArgs {
     /// Largest file (bytes) the scene may make raylab read.
     #[arg(long, value_name = "N")]
     max_file_bytes: Option<u64>,
+    /// Most triangles one mesh object may have.
+    #[arg(long, value_name = "N")]
+    max_triangles: Option<u64>,
 }
 
 /// Parses `std::env::args` and runs the command.
@@ -243,6 +246,9 @@ impl SceneArgs {
         }
         if let Some(v) = self.max_file_bytes {
             limits.max_file_bytes = v;
+        }
+        if let Some(v) = self.max_triangles {
+            limits.max_triangles = v;
         }
         Ok(LoadOptions {
             overrides: Overrides {

@@ -1,0 +1,75 @@
+//! Limits for untrusted scenes that need meshes: the triangle limit, checked before a mesh's index
+//! and hierarchy are built (for glTF, from its accessors before any data is decoded), and raised
+//! by `--max-triangles`.
+#![cfg(feature = "mesh")]
+
+use raylab::load::{Limits, LoadOptions, load_str};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn assets() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/assets")
+}
+
+fn load(file: &str, max_triangles: u64) -> Result<raylab::RenderJob, raylab::SceneError> {
+    let text = format!("[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\n[[object]]\ntype = \"mesh\"\nfile = \"{file}\"\n");
+    let options = LoadOptions { limits: Limits { max_triangles, ..Limits::default() }, ..LoadOptions::default() };
+    load_str(&raylab_plugins::registry(), "limits.toml", &text, &assets(), &options)
+}
+
+#[test]
+fn meshes_over_the_triangle_limit_are_refused_with_the_flag_to_raise_it() {
+    for file in ["cube.obj", "Box.gltf", "Box.glb"] {
+        assert!(load(file, 12).is_ok(), "{file} has 12 triangles");
+        let e = load(file, 11).err().unwrap_or_else(|| panic!("{file} loaded over the limit"));
+        assert!(e.message.contains("12 triangles, over the limit of 11"), "{file}: {}", e.report());
+        assert!(e.help.as_deref().unwrap_or("").contains("--max-triangles"), "{file}: {}", e.report());
+    }
+}
+
+/// A glTF file placing one mesh from 4096 nodes: counted before the copies are made.
+#[test]
+fn instanced_gltf_meshes_are_counted_before_they_are_copied() {
+    let dir = std::env::temp_dir().join(format!("raylab-limits-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let box_gltf = std::fs::read_to_string(assets().join("Box.gltf")).unwrap();
+    let mut doc: serde_json::Value = serde_json::from_str(&box_gltf).unwrap();
+    let mesh_node = doc["nodes"].as_array().unwrap().iter().position(|n| n.get("mesh").is_some()).unwrap();
+    let nodes: Vec<serde_json::Value> =
+        (0..4096).map(|i| serde_json::json!({ "mesh": doc["nodes"][mesh_node]["mesh"], "translation": [i, 0, 0] })).collect();
+    doc["nodes"] = serde_json::Value::Array(nodes);
+    doc["scenes"] = serde_json::json!([{ "nodes": (0..4096).collect::<Vec<_>>() }]);
+    doc["scene"] = serde_json::json!(0);
+    std::fs::write(dir.join("many.gltf"), doc.to_string()).unwrap();
+    std::fs::copy(assets().join("Box0.bin"), dir.join("Box0.bin")).unwrap();
+    let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\n[[object]]\ntype = \"mesh\"\nfile = \"many.gltf\"\n";
+    let options = LoadOptions { limits: Limits { max_triangles: 10_000, ..Limits::default() }, ..LoadOptions::default() };
+    let e = load_str(&raylab_plugins::registry(), "many.toml", text, &dir, &options).err().expect("over the limit");
+    assert!(e.message.contains("49152 triangles, over the limit of 10000"), "{}", e.report());
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn the_command_line_flag_raises_the_limit() {
+    let scene = std::env::temp_dir().join(format!("raylab-limits-cli-{}.toml", std::process::id()));
+    let cube = assets().join("cube.obj");
+    std::fs::write(
+        &scene,
+        format!("[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\n[[object]]\ntype = \"mesh\"\nfile = \"{}\"\n", cube.display()),
+    )
+    .unwrap();
+    let out_png = scene.with_extension("png");
+    let run = |extra: &[&str]| {
+        let mut args = vec!["render", scene.to_str().unwrap(), "-o", out_png.to_str().unwrap(), "--width", "8", "--height", "8", "-q"];
+        args.extend(["--allow-outside-paths"]);
+        args.extend(extra);
+        Command::new(env!("CARGO_BIN_EXE_raylab")).args(&args).output().unwrap()
+    };
+    let refused = run(&["--max-triangles", "11"]);
+    assert_eq!(refused.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("over the limit of 11"));
+    let allowed = run(&["--max-triangles", "12"]);
+    assert!(allowed.status.success(), "{}", String::from_utf8_lossy(&allowed.stderr));
+    let _ = std::fs::remove_file(&scene);
+    let _ = std::fs::remove_file(&out_png);
+}
