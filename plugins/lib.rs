@@ -1,5 +1,6 @@
 //! raylab's built-in plugins: the report's shapes, lights and recursive Phong integrator, plus
-//! debug integrators, and the reader of the report's XML scenes. They use only the public API of the `raylab` core crate, exactly as a
+//! debug integrators, the reader of the report's XML scenes, and (feature `mesh`) triangle meshes
+//! from OBJ and glTF files. They use only the public API of the `raylab` core crate, exactly as a
 //! third-party plugin crate would.
 //!
 //! ```no_run
@@ -10,6 +11,8 @@
 pub mod formats;
 pub mod integrators;
 pub mod lights;
+#[cfg(feature = "mesh")]
+pub mod mesh;
 pub mod shapes;
 
 use raylab::Registry;
@@ -23,6 +26,8 @@ pub fn register(r: &mut Registry) {
     lights::register(r);
     integrators::register(r);
     formats::register(r);
+    #[cfg(feature = "mesh")]
+    mesh::register(r);
 }
 
 /// A registry holding every built-in plugin.

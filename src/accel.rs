@@ -1,35 +1,64 @@
 //! Acceleration of ray queries over a scene's objects.
 //!
-//! [`ObjectList`] tests every object, bounding boxes first. It is the right structure for small
-//! scenes (a dozen analytic shapes), where building a hierarchy costs more than it saves.
+//! [`ObjectAccel`] keeps unbounded objects (planes, tubes) in a small list that every ray tests,
+//! and bounded ones in a [`PrimitiveIndex`]: a hierarchy when the scene has enough of them
+//! ([`SCENE_BVH_THRESHOLD`] under `auto`), a list with a box test per object otherwise: for a
+//! dozen analytic shapes, building a hierarchy costs more than it saves. Meshes index their own
+//! triangles, so a scene of meshes is a two-level hierarchy, and a mesh placed several times is
+//! stored once.
 
 use crate::bounds::Aabb;
+use crate::bvh::PrimitiveIndex;
+pub use crate::bvh::{AccelChoice, BuildStats, MESH_BVH_THRESHOLD, SCENE_BVH_THRESHOLD};
 use crate::geometry::{Geometry, Hit};
 use crate::ray::Ray;
 
-/// Every object in a flat list; bounded objects are culled by their box before the exact test.
-#[derive(Clone, Debug, Default)]
-pub struct ObjectList {
+/// The objects of a scene (or a subset of them) arranged for ray queries.
+#[derive(Debug)]
+pub struct ObjectAccel {
+    index: PrimitiveIndex,
+    /// Box and object index of each bounded object, in the index's slot order.
     bounded: Vec<(Aabb, u32)>,
     unbounded: Vec<u32>,
 }
 
-impl ObjectList {
-    /// The list over the objects for which `keep(index)` holds (indices into `objects` are stored).
-    pub fn build<G: Geometry + ?Sized>(objects: &[&G], keep: impl Fn(usize) -> bool) -> Self {
-        let mut list = ObjectList::default();
+impl Default for ObjectAccel {
+    fn default() -> Self {
+        ObjectAccel { index: PrimitiveIndex::list(0), bounded: Vec::new(), unbounded: Vec::new() }
+    }
+}
+
+impl ObjectAccel {
+    /// The structure over the objects for which `keep(index)` holds (indices into `objects` are
+    /// stored); a hierarchy when `choice` asks for one for this many bounded objects.
+    pub fn build<G: Geometry + ?Sized>(objects: &[&G], keep: impl Fn(usize) -> bool, choice: AccelChoice) -> (Self, BuildStats) {
+        let mut bounded = Vec::new();
+        let mut unbounded = Vec::new();
         for (i, g) in objects.iter().enumerate().filter(|(i, _)| keep(*i)) {
-            match g.bounds() {
-                Some(b) => list.bounded.push((b, i as u32)),
-                None => list.unbounded.push(i as u32),
+            match g.bounds().filter(|b| !b.is_empty() && b.min.is_finite() && b.max.is_finite()) {
+                Some(b) => bounded.push((b, i as u32)),
+                None => unbounded.push(i as u32),
             }
         }
-        list
+        let boxes: Vec<Aabb> = bounded.iter().map(|(b, _)| *b).collect();
+        let (index, order, stats) = PrimitiveIndex::build(&boxes, choice.use_bvh(boxes.len(), SCENE_BVH_THRESHOLD));
+        let bounded = order.iter().map(|&i| bounded[i as usize]).collect();
+        (ObjectAccel { index, bounded, unbounded }, stats)
     }
 
-    /// True when the list holds no object.
+    /// True when the structure holds no object.
     pub fn is_empty(&self) -> bool {
         self.bounded.is_empty() && self.unbounded.is_empty()
+    }
+
+    /// True when the bounded objects are in a hierarchy.
+    pub fn is_bvh(&self) -> bool {
+        self.index.is_bvh()
+    }
+
+    /// Number of (bounded, unbounded) objects.
+    pub fn counts(&self) -> (usize, usize) {
+        (self.bounded.len(), self.unbounded.len())
     }
 
     /// Closest hit among `objects` with `t_min < t < t_max`; `Hit::object` is set.
@@ -44,15 +73,17 @@ impl ObjectList {
             }
         }
         let inv = ray.dir.recip();
-        for &(b, i) in &self.bounded {
-            if b.hit(ray, inv, t_min, t_max) {
-                if let Some(mut h) = objects[i as usize].intersect(ray, t_min, t_max) {
-                    h.object = i;
-                    t_max = h.t;
-                    best = Some(h);
-                }
+        let list = !self.index.is_bvh();
+        self.index.closest(ray, t_min, t_max, |slot, t_max| {
+            let (b, i) = self.bounded[slot as usize];
+            if list && !b.hit(ray, inv, t_min, t_max) {
+                return None;
             }
-        }
+            let mut h = objects[i as usize].intersect(ray, t_min, t_max)?;
+            h.object = i;
+            best = Some(h);
+            Some(h.t)
+        });
         best
     }
 
@@ -63,6 +94,10 @@ impl ObjectList {
             return true;
         }
         let inv = ray.dir.recip();
-        self.bounded.iter().any(|&(b, i)| b.hit(ray, inv, t_min, t_max) && objects[i as usize].occludes(ray, t_min, t_max))
+        let list = !self.index.is_bvh();
+        self.index.any(ray, t_min, t_max, |slot| {
+            let (b, i) = self.bounded[slot as usize];
+            (!list || b.hit(ray, inv, t_min, t_max)) && objects[i as usize].occludes(ray, t_min, t_max)
+        })
     }
 }

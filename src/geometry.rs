@@ -59,8 +59,28 @@ pub trait Geometry: Intersectable {
         face_forward(self.outward_normal(at), dir)
     }
 
-    /// The surface's material.
+    /// Unit normal used for shading at `at`, on the side `dir` comes from: the interpolated
+    /// vertex normal of a smooth mesh, otherwise [`Geometry::normal`]. Integrators light with it
+    /// but offset secondary rays and decide sides with the geometric [`Geometry::normal`].
+    fn shading_normal(&self, at: &Hit, dir: DVec3) -> DVec3 {
+        self.normal(at, dir)
+    }
+
+    /// The surface's material (for a shape with several, the first).
     fn material(&self) -> &Material;
+
+    /// The material at a hit: meshes with several materials choose by triangle. Defaults to
+    /// [`Geometry::material`].
+    fn material_at(&self, at: &Hit) -> &Material {
+        let _ = at;
+        self.material()
+    }
+
+    /// True when some part of the surface may transmit light (shadow rays then walk through it
+    /// rather than stopping). Defaults to whether [`Geometry::material`] is transmissive.
+    fn may_transmit(&self) -> bool {
+        self.material().is_transmissive()
+    }
 
     /// A box containing the whole shape, or `None` for unbounded shapes (planes, infinite tubes).
     fn bounds(&self) -> Option<Aabb>;
@@ -95,8 +115,17 @@ macro_rules! forward_impls {
             fn normal(&self, at: &Hit, dir: DVec3) -> DVec3 {
                 (**self).normal(at, dir)
             }
+            fn shading_normal(&self, at: &Hit, dir: DVec3) -> DVec3 {
+                (**self).shading_normal(at, dir)
+            }
             fn material(&self) -> &Material {
                 (**self).material()
+            }
+            fn material_at(&self, at: &Hit) -> &Material {
+                (**self).material_at(at)
+            }
+            fn may_transmit(&self) -> bool {
+                (**self).may_transmit()
             }
             fn bounds(&self) -> Option<Aabb> {
                 (**self).bounds()

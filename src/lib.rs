@@ -11,11 +11,15 @@
 //! files, colours as linear RGB. Geometry is computed in `f64`; the film stores `f32`.
 
 pub mod accel;
+pub mod aov;
 pub mod bounds;
+pub mod bvh;
 pub mod camera;
 pub mod cli;
 pub mod color;
 pub mod error;
+#[cfg(feature = "exr")]
+pub mod exr;
 pub mod film;
 pub mod float;
 pub mod geometry;
@@ -36,6 +40,7 @@ pub mod scene_toml;
 pub mod stats;
 pub mod testing;
 pub mod trace;
+pub mod transform;
 
 pub use glam;
 
@@ -57,3 +62,4 @@ pub use sampler::Sampler;
 pub use scene::Scene;
 pub use stats::RayStats;
 pub use trace::TraceNode;
+pub use transform::{Transform, Transformed};

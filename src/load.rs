@@ -4,6 +4,7 @@
 //! Every format (raylab's TOML here; others registered as [`crate::registry::SceneFormat`])
 //! produces the same description, so validation, limits and error locations work alike for all.
 
+use crate::accel::{AccelChoice, BuildStats};
 use crate::camera::{CAMERA_PARAMS, Camera};
 use crate::color::Encoding;
 use crate::error::{Loc, Result, SceneError, Source, did_you_mean};
@@ -12,8 +13,11 @@ use crate::params::{Default, Node, ParamKind, ParamSpec, Params, Table, Value};
 use crate::registry::Registry;
 use crate::render::{Antialiasing, MAX_ADAPTIVE_DEPTH, RenderJob, RenderSettings};
 use crate::scene::Scene;
+use crate::transform::{Transformed, parse_transform};
+use std::any::Any;
+use std::collections::HashMap;
 use std::path::{Component, Path, PathBuf};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 /// A scene as read from a file, before building: the root table in raylab's format.
 #[derive(Clone, Debug)]
@@ -88,17 +92,59 @@ pub struct LoadOptions {
     /// Let the scene read files outside its own folder (absolute paths, `..`). Off by default, so
     /// untrusted scenes can be rendered safely.
     pub allow_outside_paths: bool,
+    /// List or hierarchy, for the scene's objects and for each mesh's triangles.
+    pub accel: AccelChoice,
 }
 
-/// What a plugin constructor may use while building: where the scene is, and the load options.
+/// Things shared by the objects of one scene while it loads: decoded assets (a mesh file placed
+/// several times is read and indexed once) and the cost of the spatial indices plugins build.
+#[derive(Default)]
+pub struct AssetCache {
+    items: Mutex<HashMap<String, Arc<dyn Any + Send + Sync>>>,
+    builds: Mutex<BuildStats>,
+}
+
+impl AssetCache {
+    /// The asset stored under `key`, or the result of `load`, stored under `key` when it
+    /// succeeds. Keys should name the resolved file and whatever else selects the asset.
+    pub fn get_or_load<T: Any + Send + Sync>(&self, key: &str, load: impl FnOnce() -> Result<T>) -> Result<Arc<T>> {
+        let found = self.items.lock().unwrap_or_else(|e| e.into_inner()).get(key).cloned();
+        if let Some(a) = found.and_then(|a| a.downcast::<T>().ok()) {
+            return Ok(a);
+        }
+        let a = Arc::new(load()?);
+        self.items.lock().unwrap_or_else(|e| e.into_inner()).insert(key.to_string(), a.clone());
+        Ok(a)
+    }
+
+    /// Records the cost of a spatial index a plugin built (for the render summary).
+    pub fn record_build(&self, stats: BuildStats) {
+        *self.builds.lock().unwrap_or_else(|e| e.into_inner()) += stats;
+    }
+
+    /// Total cost of the indices recorded so far.
+    pub fn build_stats(&self) -> BuildStats {
+        *self.builds.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+/// What a plugin constructor may use while building: where the scene is, the load options, and
+/// the assets shared by the scene's objects.
 pub struct LoadContext<'a> {
     /// Folder of the scene file; relative asset paths resolve against it.
     pub scene_dir: &'a Path,
     /// The options the scene is loaded with.
     pub options: &'a LoadOptions,
+    /// Assets decoded once per scene, and the cost of the indices plugins build.
+    pub assets: AssetCache,
 }
 
-impl LoadContext<'_> {
+impl<'a> LoadContext<'a> {
+    /// The context for a scene in `scene_dir`, with an empty asset cache.
+    pub fn new(scene_dir: &'a Path, options: &'a LoadOptions) -> Self {
+        LoadContext { scene_dir, options, assets: AssetCache::default() }
+    }
+
     /// Resolves a path written in the scene (at `loc`) against the scene's folder, refusing
     /// absolute paths and paths that leave the folder unless `allow_outside_paths` is set.
     pub fn resolve_path(&self, path: &str, loc: &Loc) -> Result<PathBuf> {
@@ -149,7 +195,12 @@ pub const SCENE_PARAMS: &[ParamSpec] = &[
     ParamSpec::new("camera", ParamKind::Any, Default::Required, "[camera] table"),
     ParamSpec::new("integrator", ParamKind::Any, Default::Optional, "[integrator] table: `type` and its parameters"),
     ParamSpec::new("materials", ParamKind::Any, Default::Optional, "[materials.NAME] tables"),
-    ParamSpec::new("object", ParamKind::Any, Default::Optional, "[[object]] tables: `type`, optional `name`, and the type's parameters"),
+    ParamSpec::new(
+        "object",
+        ParamKind::Any,
+        Default::Optional,
+        "[[object]] tables: `type`, optional `name` and `transform`, and the type's parameters",
+    ),
     ParamSpec::new("light", ParamKind::Any, Default::Optional, "[[light]] tables: `type`, optional `name`, and the type's parameters"),
 ];
 
@@ -189,13 +240,21 @@ pub const RENDER_PARAMS: &[ParamSpec] = &[
 /// Reads and builds the scene file at `path`, choosing the format by extension (`.toml` is
 /// raylab's own; others must be registered).
 pub fn load_file(registry: &Registry, path: &Path, options: &LoadOptions) -> Result<RenderJob> {
-    let desc = read_file(registry, path, options)?;
     let dir = path.parent().unwrap_or(Path::new("."));
-    build(registry, &desc, &LoadContext { scene_dir: dir, options })
+    // One context for reading and building, so assets a format reader decoded are reused.
+    let ctx = LoadContext::new(dir, options);
+    let desc = read_with(registry, path, &ctx)?;
+    build(registry, &desc, &ctx)
 }
 
 /// Reads the scene file at `path` into a description without building it.
 pub fn read_file(registry: &Registry, path: &Path, options: &LoadOptions) -> Result<SceneDescription> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    read_with(registry, path, &LoadContext::new(dir, options))
+}
+
+fn read_with(registry: &Registry, path: &Path, ctx: &LoadContext) -> Result<SceneDescription> {
+    let options = ctx.options;
     let meta = std::fs::metadata(path).map_err(|e| SceneError::in_file(path, None, format!("cannot read scene: {e}")))?;
     if meta.len() > options.limits.max_file_bytes {
         return Err(SceneError::in_file(
@@ -206,8 +265,6 @@ pub fn read_file(registry: &Registry, path: &Path, options: &LoadOptions) -> Res
     }
     let bytes = std::fs::read(path).map_err(|e| SceneError::in_file(path, None, format!("cannot read scene: {e}")))?;
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-    let dir = path.parent().unwrap_or(Path::new("."));
-    let ctx = LoadContext { scene_dir: dir, options };
     if ext == "toml" {
         let text = String::from_utf8(bytes).map_err(|e| {
             SceneError::in_file(path, None, format!("scene file is not UTF-8 text (byte {})", e.utf8_error().valid_up_to()))
@@ -215,7 +272,7 @@ pub fn read_file(registry: &Registry, path: &Path, options: &LoadOptions) -> Res
         return parse_toml(&Source::new(path.display().to_string(), text), stem(path));
     }
     match registry.format_for(&ext) {
-        Some(f) => (f.read)(path, &bytes, &ctx),
+        Some(f) => (f.read)(path, &bytes, ctx),
         None => {
             let known: Vec<String> = std::iter::once("toml".to_string())
                 .chain(registry.formats().iter().flat_map(|f| f.extensions.iter().map(|e| e.to_string())))
@@ -229,7 +286,7 @@ pub fn read_file(registry: &Registry, path: &Path, options: &LoadOptions) -> Res
 /// against `scene_dir`.
 pub fn load_str(registry: &Registry, name: &str, text: &str, scene_dir: &Path, options: &LoadOptions) -> Result<RenderJob> {
     let desc = parse_toml(&Source::new(name, text), stem(Path::new(name)))?;
-    build(registry, &desc, &LoadContext { scene_dir, options })
+    build(registry, &desc, &LoadContext::new(scene_dir, options))
 }
 
 fn stem(p: &Path) -> String {
@@ -313,6 +370,10 @@ fn convert_value(v: &toml::Spanned<toml::de::DeValue<'_>>, src: &Arc<Source>) ->
 pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) -> Result<RenderJob> {
     let opts = ctx.options;
     let ov = &opts.overrides;
+    if opts.accel == AccelChoice::Bvh && !crate::bvh::BVH_AVAILABLE {
+        return Err(SceneError::msg("a BVH was asked for, but raylab was built without the `bvh` feature")
+            .with_help("rebuild with `--features bvh`, or use --accel auto/list"));
+    }
     let mut root = Params::new(format!("scene {}", desc.name), SCENE_PARAMS, &desc.root, desc.loc.clone(), None);
     let name = match root.node("name")? {
         Some(n) => match &n.value {
@@ -408,13 +469,17 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
     let mut objects = Vec::new();
     let mut names = NameSet::default();
     for (i, node) in array_of_tables(root.node("object")?, "object")?.into_iter().enumerate() {
-        let (ty, label, params) =
+        let (ty, label, mut params) =
             plugin_header(node, i, "object", |n| registry.geometry(n).is_some(), || registry.geometries().map(|p| p.name).collect())?;
         let plugin = registry.geometry(&ty).expect("checked by plugin_header");
         let what = format!("object #{i} {label}({ty})");
+        let transform = params.remove("transform").map(|e| parse_transform(&e.value).map_err(|e| e.context(&what))).transpose()?;
         let mut p = Params::new(&what, plugin.info.params, &params, node.loc.clone(), Some(&materials));
-        let g = (plugin.build)(&mut p, ctx)?;
+        let mut g = (plugin.build)(&mut p, ctx)?;
         p.finish()?;
+        if let Some(t) = transform.filter(|t| !t.is_identity()) {
+            g = Box::new(Transformed::new(g, t));
+        }
         objects.push((names.claim(node, &label, &ty, i)?, g));
     }
 
@@ -481,7 +546,8 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
     let integrator = (plugin.build)(&mut ip, ctx)?;
     ip.finish()?;
 
-    let scene = Scene::new(name, camera, background, objects, lights);
+    let mut scene = Scene::with_accel(name, camera, background, objects, lights, opts.accel);
+    scene.record_object_builds(ctx.assets.build_stats());
     Ok(RenderJob { scene, integrator, integrator_name: ty, settings })
 }
 

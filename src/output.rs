@@ -24,6 +24,8 @@ pub enum ImageKind {
     Png,
     /// JPEG, 8 bits per channel, quality 95.
     Jpeg,
+    /// OpenEXR: linear, unclamped floating point (feature `exr`; see [`crate::exr`]).
+    Exr,
 }
 
 /// Error writing an image.
@@ -38,13 +40,22 @@ impl std::fmt::Display for WriteError {
 
 impl std::error::Error for WriteError {}
 
-/// The kind for a path's extension (`png`, `jpg`, `jpeg`; case-insensitive).
+/// The kind for a path's extension (`png`, `jpg`, `jpeg`, `exr`; case-insensitive).
 pub fn kind_for(path: &Path) -> Result<ImageKind, WriteError> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     match ext.as_str() {
         "png" => Ok(ImageKind::Png),
         "jpg" | "jpeg" => Ok(ImageKind::Jpeg),
-        _ => Err(WriteError(format!("cannot write \"{}\": unknown image type \".{ext}\"; expected .png, .jpg or .jpeg", path.display()))),
+        "exr" if cfg!(feature = "exr") => Ok(ImageKind::Exr),
+        "exr" => Err(WriteError(format!(
+            "cannot write \"{}\": EXR output needs raylab built with the `exr` feature (cargo run --features exr)",
+            path.display()
+        ))),
+        _ => Err(WriteError(format!(
+            "cannot write \"{}\": unknown image type \".{ext}\"; expected .png, .jpg, .jpeg{}",
+            path.display(),
+            if cfg!(feature = "exr") { " or .exr" } else { "" }
+        ))),
     }
 }
 
@@ -82,6 +93,7 @@ pub fn encode_rgb8(w: &mut dyn Write, rgb: &[u8], width: u32, height: u32, kind:
         ImageKind::Jpeg => {
             image::codecs::jpeg::JpegEncoder::new_with_quality(w, 95).write_image(rgb, width, height, image::ExtendedColorType::Rgb8)
         }
+        ImageKind::Exr => return Err("EXR is not an 8-bit format; write it with crate::exr".into()),
     };
     r.map_err(|e| e.to_string())
 }

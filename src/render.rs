@@ -313,6 +313,24 @@ fn add_samples(job: &RenderJob, x: u32, y: u32, samples: std::ops::Range<u32>, a
     }
 }
 
+/// The (first) camera ray of stratified sample `i` of pixel (`x`, `y`): the same ray the render
+/// traces for that sample, so other passes (the depth, normal and albedo layers of
+/// [`crate::aov`]) see what the image shows.
+pub fn camera_ray(job: &RenderJob, x: u32, y: u32, i: u32) -> crate::ray::Ray {
+    let s = &job.settings;
+    let pixel = u64::from(y) * u64::from(s.width) + u64::from(x);
+    let pattern = (mix64(pixel ^ s.seed.rotate_left(17)) >> 32) as u32;
+    let jitter = if s.spp == 1 { DVec2::splat(0.5) } else { stratified_2d(i, s.spp, pattern) };
+    let film = DVec2::new(f64::from(x), f64::from(y)) + jitter;
+    let camera = &job.scene.camera;
+    let lens = if camera.aperture > 0.0 {
+        stratified_2d(i * s.lens_samples, (s.spp * s.lens_samples).max(1), pattern ^ LENS_PATTERN)
+    } else {
+        DVec2::ZERO
+    };
+    camera.ray_through(s.width, s.height, film, lens)
+}
+
 /// Which stratified lens points an image sample uses: points `first .. first + per_sample` of a
 /// set of `total`.
 struct LensSet {

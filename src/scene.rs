@@ -1,6 +1,6 @@
 //! The scene model: camera, background, objects, lights; and the ray queries integrators use.
 
-use crate::accel::ObjectList;
+use crate::accel::{AccelChoice, BuildStats, ObjectAccel};
 use crate::bounds::Aabb;
 use crate::camera::Camera;
 use crate::color::Color;
@@ -31,14 +31,32 @@ pub struct Scene {
     pub light_names: Vec<String>,
     /// The lights (ambient lights included; they return no samples).
     pub lights: Vec<Box<dyn LightSource>>,
-    accel: ObjectList,
-    opaque: ObjectList,
-    transmissive: ObjectList,
+    accel: ObjectAccel,
+    opaque: ObjectAccel,
+    transmissive: ObjectAccel,
     bounds: Aabb,
+    build_stats: BuildStats,
+    object_builds: BuildStats,
+}
+
+/// How a scene's objects are arranged for ray queries, for the render summary.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AccelSummary {
+    /// True when the bounded objects are in a hierarchy (false: a list).
+    pub bvh: bool,
+    /// Objects with a bounding box.
+    pub bounded: usize,
+    /// Objects without one (planes, tubes), tested by every ray.
+    pub unbounded: usize,
+    /// Cost of building the scene-level hierarchies (zero for lists).
+    pub build: BuildStats,
+    /// Cost of the hierarchies objects built over their own parts (mesh triangles).
+    pub object_builds: BuildStats,
 }
 
 impl Scene {
-    /// A scene from its parts. `objects` and `lights` are (name, value) pairs.
+    /// A scene from its parts. `objects` and `lights` are (name, value) pairs. The objects are
+    /// arranged for ray queries as [`AccelChoice::Auto`] decides.
     pub fn new(
         name: impl Into<String>,
         camera: Camera,
@@ -46,12 +64,32 @@ impl Scene {
         objects: Vec<(String, Box<dyn Geometry>)>,
         lights: Vec<(String, Box<dyn LightSource>)>,
     ) -> Scene {
+        Scene::with_accel(name, camera, background, objects, lights, AccelChoice::Auto)
+    }
+
+    /// [`Scene::new`] with the choice of list or hierarchy for the objects.
+    pub fn with_accel(
+        name: impl Into<String>,
+        camera: Camera,
+        background: Color,
+        objects: Vec<(String, Box<dyn Geometry>)>,
+        lights: Vec<(String, Box<dyn LightSource>)>,
+        choice: AccelChoice,
+    ) -> Scene {
         let (object_names, geometries): (Vec<_>, Vec<_>) = objects.into_iter().unzip();
         let (light_names, lights): (Vec<_>, Vec<_>) = lights.into_iter().unzip();
         let refs: Vec<&dyn Geometry> = geometries.iter().map(|g| g.as_ref()).collect();
-        let accel = ObjectList::build(&refs, |_| true);
-        let opaque = ObjectList::build(&refs, |i| !refs[i].material().is_transmissive());
-        let transmissive = ObjectList::build(&refs, |i| refs[i].material().is_transmissive());
+        let transmits: Vec<bool> = refs.iter().map(|g| g.may_transmit()).collect();
+        let (accel, mut build_stats) = ObjectAccel::build(&refs, |_| true, choice);
+        let (opaque, transmissive) = if transmits.iter().any(|&t| t) {
+            let (o, so) = ObjectAccel::build(&refs, |i| !transmits[i], choice);
+            let (t, st) = ObjectAccel::build(&refs, |i| transmits[i], choice);
+            build_stats += so;
+            build_stats += st;
+            (o, t)
+        } else {
+            (ObjectAccel::default(), ObjectAccel::default())
+        };
         let bounds = geometries.iter().filter_map(|g| g.bounds()).fold(Aabb::EMPTY, Aabb::union);
         let ambient = lights.iter().map(|l| l.ambient()).sum();
         Scene {
@@ -67,7 +105,21 @@ impl Scene {
             opaque,
             transmissive,
             bounds,
+            build_stats,
+            object_builds: BuildStats::default(),
         }
+    }
+
+    /// Records the cost of the hierarchies the objects built over their own parts (reported by
+    /// the loader from [`crate::load::AssetCache::build_stats`]).
+    pub fn record_object_builds(&mut self, stats: BuildStats) {
+        self.object_builds += stats;
+    }
+
+    /// How the objects are arranged for ray queries.
+    pub fn accel_summary(&self) -> AccelSummary {
+        let (bounded, unbounded) = self.accel.counts();
+        AccelSummary { bvh: self.accel.is_bvh(), bounded, unbounded, build: self.build_stats, object_builds: self.object_builds }
     }
 
     /// Box around all bounded objects (empty when there are none).
@@ -92,11 +144,11 @@ impl Scene {
     /// tested first with the cheap any-hit query; only then are transparent ones walked.
     #[inline]
     pub fn transmittance(&self, ray: &Ray, t_max: f64) -> Color {
+        if self.transmissive.is_empty() {
+            return if self.accel.occluded(&self.geometries, ray, 0.0, t_max) { Color::ZERO } else { Color::ONE };
+        }
         if self.opaque.occluded(&self.geometries, ray, 0.0, t_max) {
             return Color::ZERO;
-        }
-        if self.transmissive.is_empty() {
-            return Color::ONE;
         }
         self.walk(&self.transmissive, ray, t_max).0
     }
@@ -107,7 +159,7 @@ impl Scene {
     }
 
     /// Walks the surfaces of `list` along the ray, multiplying their `kt`.
-    fn walk(&self, list: &ObjectList, ray: &Ray, t_max: f64) -> (Color, Option<u32>) {
+    fn walk(&self, list: &ObjectAccel, ray: &Ray, t_max: f64) -> (Color, Option<u32>) {
         let mut tr = Color::ONE;
         let mut first = None;
         let mut r = *ray;
@@ -117,7 +169,7 @@ impl Scene {
             let Some(h) = list.intersect(&self.geometries, &r, 0.0, t_max) else { return (tr, first) };
             first.get_or_insert(h.object);
             let g = &self.geometries[h.object as usize];
-            tr *= g.material().kt;
+            tr *= g.material_at(&h).kt;
             if tr.max_element() <= 0.0 {
                 return (Color::ZERO, first);
             }

@@ -2,6 +2,7 @@
 
 use serde::Serialize;
 use std::ops::AddAssign;
+use std::time::Duration;
 
 /// Rays traced by kind, and work skipped because it could not change the image. Counted per
 /// tile and summed, so counting costs no synchronisation.
@@ -64,4 +65,36 @@ impl AddAssign for RayStats {
         self.depth_limited += o.depth_limited;
         self.nonfinite_samples += o.nonfinite_samples;
     }
+}
+
+/// CPU time used so far by all threads of this process; `None` where unavailable.
+pub fn process_cpu_time() -> Option<Duration> {
+    #[cfg(unix)]
+    return clock(libc::CLOCK_PROCESS_CPUTIME_ID);
+    #[cfg(not(unix))]
+    None
+}
+
+/// CPU time used so far by the calling thread; `None` where unavailable.
+pub fn thread_cpu_time() -> Option<Duration> {
+    #[cfg(unix)]
+    return clock(libc::CLOCK_THREAD_CPUTIME_ID);
+    #[cfg(not(unix))]
+    None
+}
+
+#[cfg(unix)]
+fn clock(id: libc::clockid_t) -> Option<Duration> {
+    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: `ts` is a valid, writable timespec; clock_gettime only writes to it.
+    let r = unsafe { libc::clock_gettime(id, &mut ts) };
+    (r == 0).then(|| Duration::new(ts.tv_sec as u64, ts.tv_nsec as u32))
+}
+
+/// Peak resident memory of this process so far, bytes (Linux: `VmHWM`); `None` where unavailable.
+pub fn peak_memory_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
 }

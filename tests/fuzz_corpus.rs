@@ -29,7 +29,7 @@ fn scene_toml_corpus_loads_or_fails_cleanly() {
 fn scene_xml_corpus_loads_or_fails_cleanly() {
     let registry = raylab_plugins::registry();
     let options = raylab::LoadOptions::default();
-    let ctx = raylab::LoadContext { scene_dir: Path::new("."), options: &options };
+    let ctx = raylab::LoadContext::new(Path::new("."), &options);
     for f in corpus("scene_xml") {
         let data = std::fs::read(&f).unwrap();
         let result = raylab_plugins::formats::report_xml::read(Path::new("fuzz.xml"), &data, &ctx)

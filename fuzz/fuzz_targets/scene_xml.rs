@@ -7,7 +7,7 @@ use libfuzzer_sys::fuzz_target;
 fuzz_target!(|data: &[u8]| {
     let registry = raylab_plugins::registry();
     let options = raylab::LoadOptions::default();
-    let ctx = raylab::LoadContext { scene_dir: std::path::Path::new("."), options: &options };
+    let ctx = raylab::LoadContext::new(std::path::Path::new("."), &options);
     if let Ok(desc) = raylab_plugins::formats::report_xml::read(std::path::Path::new("fuzz.xml"), data, &ctx) {
         let _ = raylab::load::build(&registry, &desc, &ctx);
     }

@@ -52,7 +52,7 @@ fn explain_one(scene: &Scene, ray: &Ray, color: impl Fn(&Scene, f64, raylab::gla
     let mut node = TraceNode::new(RayKind::Camera, *ray, 0, Color::ONE);
     if let Some(h) = scene.intersect(ray, 0.0, f64::INFINITY) {
         let hit = TraceHit::new(scene, &h, ray.dir);
-        node.color = color(scene, h.t, hit.normal);
+        node.color = color(scene, h.t, scene.geometries[h.object as usize].shading_normal(&h, ray.dir));
         node.hit = Some(hit);
     }
     node
@@ -61,7 +61,7 @@ fn explain_one(scene: &Scene, ray: &Ray, color: impl Fn(&Scene, f64, raylab::gla
 impl Integrator for Normals {
     fn radiance(&self, scene: &Scene, ray: &Ray, _: &mut Sampler, _: &mut RayStats) -> Color {
         match scene.intersect(ray, 0.0, f64::INFINITY) {
-            Some(h) => (scene.geometries[h.object as usize].normal(&h, ray.dir) + Color::ONE) * 0.5,
+            Some(h) => (scene.geometries[h.object as usize].shading_normal(&h, ray.dir) + Color::ONE) * 0.5,
             None => Color::ZERO,
         }
     }

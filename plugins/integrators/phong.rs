@@ -175,7 +175,7 @@ impl Phong {
             return scene.background;
         };
         let g = &scene.geometries[hit.object as usize];
-        let m = g.material();
+        let m = g.material_at(&hit);
         let n = g.normal(&hit, ray.dir);
         let outward = g.outward_normal(&hit);
         let front = outward.dot(ray.dir) < 0.0;
@@ -248,7 +248,8 @@ impl Phong {
         mut node: Option<&mut TraceNode>,
     ) -> Color {
         let scene = c.scene;
-        let m = scene.geometries[hit.object as usize].material();
+        let g = &scene.geometries[hit.object as usize];
+        let m = g.material_at(hit);
         let no_response = max_channel(m.kd) <= 0.0 && max_channel(m.ks) <= 0.0;
         let streams = sampler.fork(TAG_LIGHTS);
         let mut total = Color::ZERO;
@@ -260,7 +261,7 @@ impl Phong {
             let mut stream = streams.fork(li as u64);
             let probes = if light.is_area() && self.shadow_probes > 0 && self.shadow_probes < full { self.shadow_probes } else { 0 };
             let mut acc = LightSum { sum: Color::ZERO, n: 0, first: None, agree: true };
-            let shade = Shade { ray, hit, n, weight, full, li, no_response };
+            let shade = Shade { ray, hit, n, ns: g.shading_normal(hit, ray.dir), weight, full, li, no_response };
             let first_set = if probes > 0 { Samples::Probes(probes) } else { Samples::Stratified(full) };
             let pattern = stream.next_pattern();
             let u0 = stream.next_2d();
@@ -301,7 +302,7 @@ impl Phong {
     ) -> bool {
         let scene = c.scene;
         let (hit, n, ray) = (sh.hit, sh.n, sh.ray);
-        let m = scene.geometries[hit.object as usize].material();
+        let m = scene.geometries[hit.object as usize].material_at(hit);
         let count = match set {
             Samples::Stratified(n) | Samples::Probes(n) => n,
         };
@@ -323,7 +324,8 @@ impl Phong {
                 }
                 return true;
             }
-            let nl = n.dot(ls.dir);
+            // Lit only from the viewer's side of the geometric surface; shaded with `ns`.
+            let nl = if n.dot(ls.dir) > 0.0 { sh.ns.dot(ls.dir) } else { 0.0 };
             let mut rec = node.as_deref_mut().map(|_| TraceLight {
                 light: scene.light_names[sh.li].clone(),
                 dir: ls.dir,
@@ -355,7 +357,7 @@ impl Phong {
                 continue;
             }
             let lit = nl > 0.0;
-            let r = reflect(-ls.dir, n);
+            let r = reflect(-ls.dir, sh.ns);
             let vr = -ray.dir.dot(r);
             let spec = if lit && vr > 0.0 && max_channel(m.ks) > 0.0 { vr.powf(m.shininess) } else { 0.0 };
             let diffuse = m.kd * nl.max(0.0) * ls.intensity;
@@ -480,7 +482,10 @@ const PROBE_CORNERS: [DVec2; 4] = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 1.0), D
 struct Shade<'a> {
     ray: &'a Ray,
     hit: &'a Hit,
+    /// Geometric normal facing the ray: sides and ray offsets.
     n: DVec3,
+    /// Shading normal facing the ray: lighting (the interpolated normal of a smooth mesh).
+    ns: DVec3,
     weight: Color,
     /// The light's full sample count (the pruning share divides by it).
     full: u32,

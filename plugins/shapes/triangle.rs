@@ -38,66 +38,88 @@ pub struct TriangleHit {
 /// it; [`Triangle`] therefore also rejects hits within [`on_surface_slack`] of the origin.
 #[inline]
 pub fn intersect_triangle(ray: &Ray, p0: DVec3, p1: DVec3, p2: DVec3, t_min: f64, t_max: f64, rule: EdgeRule) -> Option<TriangleHit> {
-    let d = ray.dir;
-    // Translate to the ray origin, permute so the ray's largest axis is z, and shear onto +z.
-    let kz = d.abs().max_position();
-    let kx = if kz == 2 { 0 } else { kz + 1 };
-    let ky = if kx == 2 { 0 } else { kx + 1 };
-    let perm = |v: DVec3| DVec3::new(v[kx], v[ky], v[kz]);
-    let dp = perm(d);
-    let (mut a, mut b, mut c) = (perm(p0 - ray.origin), perm(p1 - ray.origin), perm(p2 - ray.origin));
-    let sx = -dp.x / dp.z;
-    let sy = -dp.y / dp.z;
-    let sz = 1.0 / dp.z;
-    a.x += sx * a.z;
-    a.y += sy * a.z;
-    b.x += sx * b.z;
-    b.y += sy * b.z;
-    c.x += sx * c.z;
-    c.y += sy * c.z;
-    // Edge functions. Evaluated identically for a shared edge from either triangle (with
-    // opposite sign), which is what makes adjacent triangles watertight.
-    let e0 = b.x * c.y - b.y * c.x;
-    let e1 = c.x * a.y - c.y * a.x;
-    let e2 = a.x * b.y - a.y * b.x;
-    let inside = match rule {
-        EdgeRule::Inclusive => !((e0 < 0.0 || e1 < 0.0 || e2 < 0.0) && (e0 > 0.0 || e1 > 0.0 || e2 > 0.0)),
-        EdgeRule::Exclusive => (e0 > 0.0 && e1 > 0.0 && e2 > 0.0) || (e0 < 0.0 && e1 < 0.0 && e2 < 0.0),
-    };
-    let det = e0 + e1 + e2;
-    if !inside || det == 0.0 {
-        return None;
+    TriangleRay::new(ray).intersect(p0.to_array(), p1.to_array(), p2.to_array(), t_min, t_max, rule)
+}
+
+/// A ray prepared for [`TriangleRay::intersect`]: the axis permutation and shear of Woop et al.,
+/// computed once per ray rather than once per triangle (what a mesh traversal needs).
+#[derive(Clone, Copy, Debug)]
+pub struct TriangleRay {
+    origin: [f64; 3],
+    /// Axes permuted so the ray's largest direction component is the last.
+    k: [usize; 3],
+    /// Shear onto +z: (−dx/dz, −dy/dz, 1/dz) in permuted axes.
+    shear: [f64; 3],
+}
+
+impl TriangleRay {
+    /// Prepares `ray` (unit, finite direction).
+    #[inline]
+    pub fn new(ray: &Ray) -> Self {
+        let d = ray.dir;
+        let kz = d.abs().max_position();
+        let kx = if kz == 2 { 0 } else { kz + 1 };
+        let ky = if kx == 2 { 0 } else { kx + 1 };
+        let shear = [-d[kx] / d[kz], -d[ky] / d[kz], 1.0 / d[kz]];
+        TriangleRay { origin: ray.origin.to_array(), k: [kx, ky, kz], shear }
     }
-    a.z *= sz;
-    b.z *= sz;
-    c.z *= sz;
-    let t_scaled = e0 * a.z + e1 * b.z + e2 * c.z;
-    if det < 0.0 && (t_scaled >= t_min * det || t_scaled <= t_max * det) {
-        return None;
+
+    /// The watertight test against the triangle `p0 p1 p2` (see [`intersect_triangle`]).
+    #[inline(always)]
+    pub fn intersect(&self, p0: [f64; 3], p1: [f64; 3], p2: [f64; 3], t_min: f64, t_max: f64, rule: EdgeRule) -> Option<TriangleHit> {
+        let [kx, ky, kz] = self.k;
+        let o = self.origin;
+        let [sx, sy, sz] = self.shear;
+        // Translate to the ray origin, permute so the ray's largest axis is z, and shear onto +z.
+        let rel = |p: [f64; 3]| {
+            let z = p[kz] - o[kz];
+            DVec3::new(p[kx] - o[kx] + sx * z, p[ky] - o[ky] + sy * z, z)
+        };
+        let (mut a, mut b, mut c) = (rel(p0), rel(p1), rel(p2));
+        // Edge functions. Evaluated identically for a shared edge from either triangle (with
+        // opposite sign), which is what makes adjacent triangles watertight.
+        let e0 = b.x * c.y - b.y * c.x;
+        let e1 = c.x * a.y - c.y * a.x;
+        let e2 = a.x * b.y - a.y * b.x;
+        let inside = match rule {
+            EdgeRule::Inclusive => !((e0 < 0.0 || e1 < 0.0 || e2 < 0.0) && (e0 > 0.0 || e1 > 0.0 || e2 > 0.0)),
+            EdgeRule::Exclusive => (e0 > 0.0 && e1 > 0.0 && e2 > 0.0) || (e0 < 0.0 && e1 < 0.0 && e2 < 0.0),
+        };
+        let det = e0 + e1 + e2;
+        if !inside || det == 0.0 {
+            return None;
+        }
+        a.z *= sz;
+        b.z *= sz;
+        c.z *= sz;
+        let t_scaled = e0 * a.z + e1 * b.z + e2 * c.z;
+        if det < 0.0 && (t_scaled >= t_min * det || t_scaled <= t_max * det) {
+            return None;
+        }
+        if det > 0.0 && (t_scaled <= t_min * det || t_scaled >= t_max * det) {
+            return None;
+        }
+        let inv_det = 1.0 / det;
+        let t = t_scaled * inv_det;
+        // The scaled tests above can pass a t that rounds onto t_min or t_max.
+        if !(t > t_min && t < t_max) {
+            return None;
+        }
+        // Conservative error bound on t (pbrt-v4): reject hits indistinguishable from t = 0.
+        let max_zt = DVec3::new(a.z, b.z, c.z).abs().max_element();
+        let max_xt = DVec3::new(a.x, b.x, c.x).abs().max_element();
+        let max_yt = DVec3::new(a.y, b.y, c.y).abs().max_element();
+        let delta_z = gamma(3) * max_zt;
+        let delta_x = gamma(5) * (max_xt + max_zt);
+        let delta_y = gamma(5) * (max_yt + max_zt);
+        let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+        let max_e = DVec3::new(e0, e1, e2).abs().max_element();
+        let delta_t = 3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv_det.abs();
+        if !(t > delta_t) || !t.is_finite() {
+            return None;
+        }
+        Some(TriangleHit { t, b: DVec3::new(e0, e1, e2) * inv_det })
     }
-    if det > 0.0 && (t_scaled <= t_min * det || t_scaled >= t_max * det) {
-        return None;
-    }
-    let inv_det = 1.0 / det;
-    let t = t_scaled * inv_det;
-    // The scaled tests above can pass a t that rounds onto t_min or t_max.
-    if !(t > t_min && t < t_max) {
-        return None;
-    }
-    // Conservative error bound on t (pbrt-v4): reject hits indistinguishable from t = 0.
-    let max_zt = DVec3::new(a.z, b.z, c.z).abs().max_element();
-    let max_xt = DVec3::new(a.x, b.x, c.x).abs().max_element();
-    let max_yt = DVec3::new(a.y, b.y, c.y).abs().max_element();
-    let delta_z = gamma(3) * max_zt;
-    let delta_x = gamma(5) * (max_xt + max_zt);
-    let delta_y = gamma(5) * (max_yt + max_zt);
-    let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
-    let max_e = DVec3::new(e0, e1, e2).abs().max_element();
-    let delta_t = 3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv_det.abs();
-    if !(t > delta_t) || !t.is_finite() {
-        return None;
-    }
-    Some(TriangleHit { t, b: DVec3::new(e0, e1, e2) * inv_det })
 }
 
 /// The hit point from barycentrics, with pbrt's error bound γ(7)·Σ|bᵢpᵢ|.

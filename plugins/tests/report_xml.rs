@@ -36,7 +36,7 @@ fn load_path(p: &Path, opts: &LoadOptions) -> RenderJob {
 /// Parses XML text and builds it; the error when either fails.
 fn load_xml(text: &str, opts: &LoadOptions) -> Result<RenderJob, raylab::SceneError> {
     let desc = report_xml::parse(&Source::new("t.xml", text), "t".into())?;
-    build(&raylab_plugins::registry(), &desc, &LoadContext { scene_dir: Path::new("."), options: opts })
+    build(&raylab_plugins::registry(), &desc, &LoadContext::new(Path::new("."), opts))
 }
 
 fn error(text: &str) -> raylab::SceneError {

@@ -2,6 +2,7 @@
 //! plus any of its own) and calls [`run`]. The built-in `raylab` binary and a third-party
 //! plugin's binary therefore share one interface. One file per subcommand.
 
+mod bench;
 mod convert;
 mod plot;
 mod plugins;
@@ -48,6 +49,8 @@ enum Command {
     Sweep(Box<sweep::SweepArgs>),
     /// Convert a scene (e.g. the report's XML) to raylab's TOML format.
     Convert(convert::ConvertArgs),
+    /// Measure mesh loading, BVH building and ray throughput, from 1k to 1M triangles.
+    Bench(bench::BenchArgs),
 }
 
 /// Options shared by every command that loads a scene: overrides of the scene's settings, and
@@ -101,6 +104,10 @@ pub(crate) struct SceneArgs {
     /// 8-bit encoding: `srgb` (default) or `linear` (clamped values written straight, as the report).
     #[arg(long, value_parser = ["srgb", "linear"])]
     encoding: Option<String>,
+    /// Spatial index for the objects and each mesh: `auto` (a BVH when there are enough to pay
+    /// for it), `bvh` or `list`.
+    #[arg(long, value_parser = ["auto", "bvh", "list"], default_value = "auto")]
+    accel: String,
     /// Let the scene read files outside its own folder.
     #[arg(long)]
     allow_outside_paths: bool,
@@ -147,6 +154,7 @@ where
         Some(Command::Plugins(a)) => plugins::run(&app, a),
         Some(Command::Sweep(a)) => sweep::run(&app, *a),
         Some(Command::Convert(a)) => convert::run(&app, a),
+        Some(Command::Bench(a)) => bench::run(&app, a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -243,6 +251,7 @@ impl SceneArgs {
             },
             limits,
             allow_outside_paths: self.allow_outside_paths,
+            accel: crate::accel::AccelChoice::parse(&self.accel).unwrap_or_default(),
         })
     }
 }

@@ -12,9 +12,16 @@ use std::time::Instant;
 pub(crate) struct RenderArgs {
     /// Scene file (.toml, or any registered format). Omit for the bundled default scene.
     scene: Option<PathBuf>,
-    /// Output image: .png, .jpg or .jpeg (8-bit), or .pfm (linear float, e.g. a reference).
+    /// Output image: .png, .jpg or .jpeg (8-bit, clamped and encoded), .pfm (linear float, e.g. a
+    /// reference), or .exr (linear HDR floats with optional layers; feature `exr`).
     #[arg(short, long, default_value = "render.png")]
     output: PathBuf,
+    /// EXR only: store colour (and normal, albedo) as 16-bit half floats instead of 32-bit.
+    #[arg(long)]
+    half: bool,
+    /// EXR only: extra layers for denoisers, comma-separated: depth, normal, albedo.
+    #[arg(long, value_delimiter = ',', value_parser = ["depth", "normal", "albedo"])]
+    aov: Vec<String>,
     /// Worker threads (default: all cores). The image does not depend on it.
     #[arg(long)]
     threads: Option<usize>,
@@ -54,6 +61,8 @@ impl RenderArgs {
             reference: None,
             error_csv: None,
             quiet: false,
+            half: false,
+            aov: Vec::new(),
             scene_args: SceneArgs::default(),
         }
     }
@@ -67,8 +76,9 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
         Some(interval) => Some(Grid { interval, color: parse_rgb8(&a.grid_color)? }),
     };
     let pfm = a.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("pfm"));
-    if !pfm {
-        crate::output::kind_for(&a.output).map_err(|e| e.to_string())?;
+    let kind = if pfm { None } else { Some(crate::output::kind_for(&a.output).map_err(|e| e.to_string())?) };
+    if kind != Some(crate::output::ImageKind::Exr) && (a.half || !a.aov.is_empty()) {
+        return Err("--half and --aov apply to .exr output only".to_string().into());
     }
     let (job, scene_name) = super::load(app, a.scene.as_deref(), &a.scene_args)?;
     let s = job.settings;
@@ -116,18 +126,20 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
         return Err(e.into());
     }
     let t_write = Instant::now();
-    if pfm {
-        crate::reference::write_pfm(&a.output, &rendered.film)?;
-    } else {
-        crate::output::write_image(&a.output, &rendered.film, s.encoding, grid).map_err(|e| e.to_string())?;
+    match kind {
+        None => crate::reference::write_pfm(&a.output, &rendered.film)?,
+        Some(kind) => write(&job, &a, kind, &rendered.film, grid)?,
     }
     let write_time = t_write.elapsed();
     let st = rendered.stats;
     let secs = rendered.elapsed.as_secs_f64();
     let threads = a.threads.unwrap_or_else(rayon::current_num_threads);
     let describe = job.integrator.describe();
+    let accel = job.scene.accel_summary();
+    let build_time = (accel.build.time + accel.object_builds.time).as_secs_f64();
+    let memory = crate::stats::peak_memory_bytes().map_or_else(String::new, |b| format!(", peak memory {}B", si(b as f64)));
     println!(
-        "wrote {} ({}×{}, {}, {}{}) from {scene_name}: trace {:.3} s on {threads} thread{}, {} rays, {} rays/s (load {:.3} s, write {:.3} s)",
+        "wrote {} ({}×{}, {}, {}{}) from {scene_name}: trace {:.3} s on {threads} thread{}, {} rays, {} rays/s (load {:.3} s, BVH build {:.3} s, write {:.3} s{memory})",
         a.output.display(),
         s.width,
         s.height,
@@ -138,9 +150,11 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
         if threads == 1 { "" } else { "s" },
         si(st.total_rays() as f64),
         si(st.total_rays() as f64 / secs.max(1e-9)),
-        load_time.as_secs_f64(),
+        load_time.as_secs_f64() - build_time,
+        build_time,
         write_time.as_secs_f64(),
     );
+    println!("  {}", accel_line(&accel));
     if st.nonfinite_samples > 0 {
         eprintln!("warning: {} samples were NaN or infinite and were dropped", st.nonfinite_samples);
     }
@@ -161,6 +175,44 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
         print!("{}", stats_table(&st));
     }
     Ok(())
+}
+
+/// Writes the image: 8-bit PNG/JPEG, or EXR with the layers asked for.
+fn write(
+    job: &crate::render::RenderJob,
+    a: &RenderArgs,
+    kind: crate::output::ImageKind,
+    film: &crate::film::Film,
+    grid: Option<Grid>,
+) -> Result<(), Failure> {
+    #[cfg(feature = "exr")]
+    if kind == crate::output::ImageKind::Exr {
+        let which: Vec<crate::aov::Aov> = a.aov.iter().filter_map(|s| crate::aov::Aov::parse(s)).collect();
+        let aovs = if which.is_empty() { crate::aov::Aovs::default() } else { crate::aov::render_aovs(job, &which) };
+        return crate::exr::write_exr(&a.output, film, &aovs, a.half).map_err(|e| e.to_string().into());
+    }
+    let _ = (job, kind);
+    crate::output::write_image(&a.output, film, job.settings.encoding, grid).map_err(|e| e.to_string().into())
+}
+
+/// One line saying how the objects and meshes are indexed for ray queries.
+pub fn accel_line(s: &crate::scene::AccelSummary) -> String {
+    let objects = if s.bvh { format!("BVH over {} objects", s.bounded) } else { format!("list of {} objects", s.bounded) };
+    let unbounded = if s.unbounded > 0 { format!(" + {} unbounded", s.unbounded) } else { String::new() };
+    let parts = &s.object_builds;
+    let meshes = if parts.primitives == 0 {
+        String::new()
+    } else if parts.hierarchies > 0 {
+        format!(
+            "; {} mesh BVH{} over {} triangles",
+            parts.hierarchies,
+            if parts.hierarchies == 1 { "" } else { "s" },
+            si(parts.primitives as f64)
+        )
+    } else {
+        format!("; meshes as triangle lists ({} triangles)", si(parts.primitives as f64))
+    };
+    format!("acceleration: {objects}{unbounded}{meshes}")
 }
 
 /// Error against a reference after each pass of a progressive render, written as CSV lines as

@@ -1,0 +1,206 @@
+//! `mesh`: a triangle mesh read from an OBJ (+ MTL) or glTF 2.0 file; and glTF files as whole
+//! scenes (`raylab render model.glb`).
+//!
+//! A mesh file placed several times (several objects naming the same file and selection, each
+//! with its own `transform`) is read, triangulated and indexed once and shared. Without a
+//! `material`, the file's materials are used (MTL and glTF mappings: [`obj`], [`gltf`]).
+
+pub mod gltf;
+pub mod mesh;
+pub mod obj;
+pub mod triangulate;
+
+use mesh::{MeshError, Normals, TriangleMesh};
+use raylab::error::{Loc, Result, SceneError};
+use raylab::geometry::{Geometry, Hit, Intersectable, face_forward};
+use raylab::glam::DVec3;
+use raylab::params::{Default, ParamKind, ParamSpec, Params, Value};
+use raylab::registry::SceneFormat;
+use raylab::{Aabb, LoadContext, Material, PluginInfo, Ray, Registry};
+use std::sync::Arc;
+
+/// The `mesh` plugin's description.
+pub const INFO: PluginInfo = PluginInfo {
+    name: "mesh",
+    summary: "A triangle mesh from a file: .obj (with its .mtl) or glTF 2.0 (.gltf, .glb). Watertight: a ray through a shared edge or vertex hits exactly one of its triangles. Place it with `transform`; a file used several times is stored once.",
+    params: &[
+        ParamSpec::new("file", ParamKind::Path, Default::Required, "the mesh file, relative to the scene file"),
+        ParamSpec::new(
+            "mesh",
+            ParamKind::Int,
+            Default::Optional,
+            "glTF only: the index of one mesh, in its own frame; default: every mesh of the file's scene, placed by its nodes",
+        ),
+        ParamSpec::new(
+            "normals",
+            ParamKind::Str,
+            Default::Str("auto"),
+            "\"auto\" (the file's vertex normals if any, else flat), \"flat\", or \"smooth\" (the file's, else computed)",
+        ),
+        ParamSpec::new(
+            "material",
+            ParamKind::Material,
+            Default::Optional,
+            "replaces the file's materials; default: the file's (MTL, glTF), else the scene's `default`",
+        ),
+    ],
+};
+
+/// Registers the `mesh` geometry and the glTF scene format.
+pub fn register(r: &mut Registry) {
+    r.add_geometry(INFO, build);
+    r.add_format(SceneFormat {
+        extensions: &["gltf", "glb"],
+        summary: "glTF 2.0 as a whole scene: meshes placed by their nodes, PBR materials mapped to Phong, the first camera, KHR_lights_punctual lights",
+        read: Arc::new(gltf::read_scene),
+    });
+}
+
+/// Builds a mesh object from its parameters.
+pub fn build(p: &mut Params, ctx: &LoadContext) -> Result<Box<dyn Geometry>> {
+    let (file, loc) = match p.node("file")? {
+        Some(n) => match &n.value {
+            Value::Str(s) => (s.clone(), n.loc.clone()),
+            other => return Err(p.error_at("file", format_args!("expected a path (a string), found {}", other.type_name()))),
+        },
+        None => return Err(p.error("missing required parameter `file` (path)")),
+    };
+    let selection = match p.node("mesh")? {
+        Some(n) => match n.value {
+            Value::Int(i) if i >= 0 => Some(i as usize),
+            _ => return Err(p.error_at("mesh", "expected a mesh index (an integer ≥ 0)")),
+        },
+        None => None,
+    };
+    let normals = match p.choice("normals", &["auto", "flat", "smooth"])?.as_str() {
+        "flat" => Normals::Flat,
+        "smooth" => Normals::Smooth,
+        _ => Normals::Auto,
+    };
+    let given = p.has("material");
+    let fallback = p.material("material")?;
+    let mesh = load_mesh(ctx, &file, &loc, selection, normals, !given).map_err(|e| e.context(p.what()))?;
+    let materials = if given || mesh.materials().is_empty() { vec![fallback] } else { mesh.materials().to_vec() };
+    Ok(Box::new(MeshObject { mesh, materials }))
+}
+
+/// The mesh in `file` (with `selection` and `normals`), read and indexed once per scene.
+pub fn load_mesh(
+    ctx: &LoadContext,
+    file: &str,
+    loc: &Loc,
+    selection: Option<usize>,
+    normals: Normals,
+    with_materials: bool,
+) -> Result<Arc<TriangleMesh>> {
+    let full = ctx.resolve_path(file, loc)?;
+    let ext = full.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let key = format!("mesh:{}:{selection:?}:{normals:?}:{with_materials}", full.display());
+    ctx.assets.get_or_load(&key, || {
+        let (data, obj_bytes) = match ext.as_str() {
+            "obj" => {
+                if selection.is_some() {
+                    return Err(SceneError::at(loc, "`mesh` selects a mesh of a glTF file; an OBJ file is read whole"));
+                }
+                let (full, bytes) = ctx.read_file(file, loc)?;
+                (obj::read(ctx, file, &full, &bytes, with_materials, loc)?, Some(bytes))
+            }
+            "gltf" | "glb" => {
+                let g = gltf::open(ctx, file, loc)?;
+                (
+                    match selection {
+                        Some(i) => g.mesh(i)?,
+                        None => g.whole()?,
+                    },
+                    None,
+                )
+            }
+            _ => {
+                return Err(SceneError::at(loc, format!("unknown mesh format \".{ext}\"; expected .obj, .gltf or .glb")));
+            }
+        };
+        let name = full.display().to_string();
+        let mesh = TriangleMesh::new(data, normals, ctx.options.accel).map_err(|e| match (&e, &obj_bytes) {
+            (MeshError::NonFinite { .. }, Some(bytes)) => SceneError::in_file(&name, obj::non_finite_line(bytes), e.to_string()),
+            _ => SceneError::in_file(&name, None, e.to_string()),
+        })?;
+        ctx.assets.record_build(mesh.build_stats());
+        Ok(mesh)
+    })
+}
+
+/// Reads mesh-file `bytes` of format `ext` (`obj`, `gltf`, `glb`) into an indexed mesh, without
+/// touching the file system for the file itself (what the fuzz targets exercise): a mesh or a
+/// located error, never a panic. The whole glTF scene is read; MTL libraries are not.
+pub fn mesh_from_bytes(ctx: &LoadContext, name: &str, ext: &str, bytes: &[u8]) -> Result<TriangleMesh> {
+    let src = raylab::Source::new(name, String::new());
+    let loc = Loc::new(&src, 0..0);
+    let data = match ext {
+        "obj" => obj::read(ctx, name, std::path::Path::new(name), bytes, false, &loc)?,
+        _ => gltf::parse(ctx, name, std::path::Path::new(name), bytes.to_vec(), &loc)?.whole()?,
+    };
+    TriangleMesh::new(data, Normals::Smooth, ctx.options.accel).map_err(|e| SceneError::in_file(name, None, e.to_string()))
+}
+
+/// A mesh placed in a scene, with its materials.
+#[derive(Debug)]
+pub struct MeshObject {
+    mesh: Arc<TriangleMesh>,
+    /// One material for the whole mesh, or the file's, indexed by triangle.
+    materials: Vec<Material>,
+}
+
+impl MeshObject {
+    /// A placed mesh: `materials` has one entry for the whole mesh, or one per file material.
+    pub fn new(mesh: Arc<TriangleMesh>, materials: Vec<Material>) -> Self {
+        let materials = if materials.is_empty() { vec![Material::default()] } else { materials };
+        MeshObject { mesh, materials }
+    }
+
+    /// The shared triangle store.
+    pub fn mesh(&self) -> &Arc<TriangleMesh> {
+        &self.mesh
+    }
+}
+
+impl Intersectable for MeshObject {
+    #[inline]
+    fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<Hit> {
+        self.mesh.intersect(ray, t_min, t_max)
+    }
+    #[inline]
+    fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
+        self.mesh.occludes(ray, t_min, t_max)
+    }
+}
+
+impl Geometry for MeshObject {
+    fn outward_normal(&self, at: &Hit) -> DVec3 {
+        self.mesh.geometric_normal(at.prim)
+    }
+    fn shading_normal(&self, at: &Hit, dir: DVec3) -> DVec3 {
+        let ng = self.normal(at, dir);
+        match self.mesh.interpolated_normal(at) {
+            Some(ns) => face_forward(ns, -ng),
+            None => ng,
+        }
+    }
+    fn material(&self) -> &Material {
+        &self.materials[0]
+    }
+    fn material_at(&self, at: &Hit) -> &Material {
+        if self.materials.len() == 1 {
+            return &self.materials[0];
+        }
+        self.materials.get(self.mesh.material_id(at.prim)).unwrap_or(&self.materials[0])
+    }
+    fn may_transmit(&self) -> bool {
+        self.materials.iter().any(Material::is_transmissive)
+    }
+    fn bounds(&self) -> Option<Aabb> {
+        Some(self.mesh.bounds())
+    }
+    fn is_closed(&self) -> bool {
+        self.mesh.is_closed()
+    }
+}

@@ -1,0 +1,218 @@
+//! Wavefront OBJ and MTL files, read by tobj.
+//!
+//! Faces with more than three corners are triangulated by raylab ([`super::triangulate`]: fans
+//! for convex faces, ear clipping for concave ones); points and lines are ignored. Vertex normals
+//! (`vn`) are used for smooth shading when every face of a group has them. The MTL library is
+//! read relative to the OBJ file, through the scene's folder sandbox and size limit.
+//!
+//! MTL → raylab material:
+//!
+//! | MTL | raylab | note |
+//! |---|---|---|
+//! | `Kd` | `kd` | scaled by the dissolve `d` |
+//! | `Ks` | `ks` | also `kr` (mirror) under `illum` 3, 5 and 7 |
+//! | `Ns` | `shininess` | the Phong exponent |
+//! | `d`, `Tr` (= 1 − d) | `kt = 1 − d` | transparency; `Tf` is ignored |
+//! | `Ni` | `ior` | values ≤ 0 keep the default 1.5 |
+//! | `Ke` | `emission` | |
+//! | `Ka` | — | ignored: exporters write it inconsistently; `ka` keeps its default |
+//!
+//! tobj reports errors without a line number; raylab then finds the offending line itself, so
+//! every error names `file:line:col`.
+
+use super::mesh::MeshData;
+use super::triangulate::triangulate;
+use raylab::error::{Loc, Result, SceneError};
+use raylab::glam::{DVec3, Vec3};
+use raylab::{Color, LoadContext, Material};
+use std::cell::RefCell;
+use std::path::{Path, PathBuf};
+
+/// Reads the OBJ file `bytes` (named `path` in the scene, resolved to `full`), with its MTL
+/// library unless `need_materials` is false.
+pub fn read(ctx: &LoadContext, path: &str, full: &Path, bytes: &[u8], need_materials: bool, loc: &Loc) -> Result<MeshData> {
+    let name = full.display().to_string();
+    let text = text_of(bytes, &name)?;
+    let opts = tobj::LoadOptions { triangulate: false, single_index: false, ignore_points: true, ignore_lines: true };
+    let mtl_error: RefCell<Option<SceneError>> = RefCell::new(None);
+    let base = Path::new(path).parent().map(Path::to_path_buf).unwrap_or_default();
+    let load_mtl = |mtl: &Path| -> tobj::MTLLoadResult {
+        if !need_materials {
+            return Err(tobj::LoadError::GenericFailure);
+        }
+        let rel: PathBuf = base.join(mtl);
+        let rel = rel.to_string_lossy().into_owned();
+        match ctx.read_file(&rel, loc) {
+            Ok((_, data)) => tobj::load_mtl_buf(&mut data.as_slice()).map_err(|e| {
+                mtl_error.borrow_mut().get_or_insert(SceneError::in_file(&rel, None, format!("cannot read the material library: {e}")));
+                e
+            }),
+            Err(e) => {
+                mtl_error.borrow_mut().get_or_insert(e);
+                Err(tobj::LoadError::OpenFileFailed)
+            }
+        }
+    };
+    let parsed = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| tobj::load_obj_buf(&mut text.as_bytes(), &opts, load_mtl)));
+    let (models, materials) = match parsed {
+        Ok(Ok(r)) => r,
+        Ok(Err(e)) => return Err(located(&name, text, &e)),
+        Err(_) => return Err(SceneError::in_file(&name, None, "the OBJ reader failed on this file (it is malformed)")),
+    };
+    let materials = match materials {
+        Ok(m) => m.iter().map(material).collect(),
+        Err(_) if !need_materials => Vec::new(),
+        Err(_) => match mtl_error.into_inner() {
+            Some(e) => {
+                return Err(e
+                    .context(format!("{name}: its material library"))
+                    .with_help("fix or add the .mtl file, or give the object a `material` to render without the file's materials"));
+            }
+            None => Vec::new(), // no `mtllib` line: the default material
+        },
+    };
+    let mut out = MeshData { materials, ..MeshData::default() };
+    let mut any_normals = true;
+    for model in &models {
+        let m = &model.mesh;
+        let base_vertex = out.positions.len() as u32;
+        out.positions.extend(m.positions.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
+        let has_normals = !m.normals.is_empty() && m.normal_indices.len() == m.indices.len();
+        any_normals &= has_normals;
+        let base_normal = out.normals.len() as u32;
+        if has_normals {
+            out.normals.extend(m.normals.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
+        }
+        let material = m.material_id.map_or(0, |i| i as u32);
+        // Corners of each face, then its triangles.
+        let arities: Vec<u32> = if m.face_arities.is_empty() { vec![3; m.indices.len() / 3] } else { m.face_arities.clone() };
+        let mut start = 0usize;
+        for &k in &arities {
+            let k = k as usize;
+            let Some(corners) = m.indices.get(start..start + k) else { break };
+            let position = |i: u32| {
+                let p = m.positions.get(3 * i as usize..3 * i as usize + 3).unwrap_or(&[0.0; 3]);
+                Vec3::new(p[0], p[1], p[2]).as_dvec3()
+            };
+            let tris = if k == 3 { vec![[0, 1, 2]] } else { triangulate(&corners.iter().map(|&i| position(i)).collect::<Vec<DVec3>>()) };
+            for t in tris {
+                out.triangles.push(t.map(|c| base_vertex + corners[c as usize]));
+                if has_normals {
+                    out.normal_indices.push(t.map(|c| base_normal + m.normal_indices[start + c as usize]));
+                }
+                out.material_ids.push(material);
+            }
+            start += k;
+        }
+    }
+    if !any_normals {
+        out.normals.clear();
+        out.normal_indices.clear();
+    }
+    if out.triangles.is_empty() {
+        return Err(SceneError::in_file(&name, None, "the file has no faces with three or more corners (points and lines are ignored)"));
+    }
+    Ok(out)
+}
+
+/// The file as UTF-8 text, or an error naming the first bad line.
+fn text_of<'a>(bytes: &'a [u8], name: &str) -> Result<&'a str> {
+    if bytes.starts_with(&[0xFE, 0xFF]) || bytes.starts_with(&[0xFF, 0xFE]) {
+        return Err(SceneError::in_file(name, Some((1, 1)), "the file is UTF-16 text; OBJ files must be ASCII or UTF-8"));
+    }
+    std::str::from_utf8(bytes).map_err(|e| {
+        let at = e.valid_up_to();
+        let line = bytes[..at].iter().filter(|&&b| b == b'\n').count() + 1;
+        let col = at - bytes[..at].iter().rposition(|&b| b == b'\n').map_or(0, |p| p + 1) + 1;
+        SceneError::in_file(name, Some((line, col)), "the file is not UTF-8 text")
+    })
+}
+
+/// An MTL material as a raylab material (see the module's table).
+fn material(m: &tobj::Material) -> Material {
+    let rgb = |c: Option<[f32; 3]>| c.map(|c| Vec3::from(c).as_dvec3()).filter(|c| c.is_finite()).map(|c| c.max(DVec3::ZERO));
+    let mut out = Material::default();
+    let d = f64::from(m.dissolve.unwrap_or(1.0)).clamp(0.0, 1.0);
+    if let Some(kd) = rgb(m.diffuse) {
+        out.kd = kd * d;
+    }
+    if let Some(ks) = rgb(m.specular) {
+        out.ks = ks;
+        if matches!(m.illumination_model, Some(3 | 5 | 7)) {
+            out.kr = ks;
+        }
+    }
+    if let Some(ns) = m.shininess.filter(|s| s.is_finite() && *s >= 0.0) {
+        out.shininess = f64::from(ns);
+    }
+    out.kt = Color::splat(1.0 - d);
+    if let Some(ni) = m.optical_density.filter(|n| n.is_finite() && *n > 0.0) {
+        out.ior = f64::from(ni);
+    }
+    if let Some(ke) = rgb(m.emissive) {
+        out.emission = ke;
+    }
+    out
+}
+
+/// A tobj error with the line it is about, found by scanning the file the way tobj reads it.
+fn located(name: &str, text: &str, e: &tobj::LoadError) -> SceneError {
+    use tobj::LoadError as E;
+    let (mut v, mut vt, mut vn) = (0i64, 0i64, 0i64);
+    for (i, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        let Some(key) = words.next() else { continue };
+        let at = |msg: String| SceneError::in_file(name, Some((i + 1, line.find(key).unwrap_or(0) + 1)), msg);
+        let numbers = |n: usize| words.clone().take(n).all(|w| w.parse::<f32>().is_ok()) && words.clone().count() >= n;
+        match key {
+            "v" => {
+                if matches!(e, E::PositionParseError) && !numbers(3) {
+                    return at("expected a vertex `v x y z` with three numbers".into());
+                }
+                v += 1;
+            }
+            "vt" => {
+                if matches!(e, E::TexcoordParseError) && !numbers(1) {
+                    return at("expected a texture coordinate `vt u [v]`".into());
+                }
+                vt += 1;
+            }
+            "vn" => {
+                if matches!(e, E::NormalParseError) && !numbers(3) {
+                    return at("expected a normal `vn x y z` with three numbers".into());
+                }
+                vn += 1;
+            }
+            "f" => {
+                for corner in words {
+                    let mut parts = corner.split('/');
+                    for (slot, count, what) in
+                        [(parts.next(), v, "vertex"), (parts.next(), vt, "texture coordinate"), (parts.next(), vn, "normal")]
+                    {
+                        let Some(s) = slot.filter(|s| !s.is_empty()) else { continue };
+                        let Ok(k) = s.parse::<i64>() else {
+                            return at(format!("malformed face corner \"{corner}\": expected v, v/vt, v//vn or v/vt/vn indices"));
+                        };
+                        let resolved = if k < 0 { count + k + 1 } else { k };
+                        if !(1..=count).contains(&resolved) {
+                            return at(format!(
+                                "face corner \"{corner}\" refers to {what} {k}, but only {count} are defined before this line (indices start at 1)"
+                            ));
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    SceneError::in_file(name, None, format!("malformed OBJ file: {e}"))
+}
+
+/// The first `v` line with a non-finite coordinate, for the error about it.
+pub fn non_finite_line(bytes: &[u8]) -> Option<(usize, usize)> {
+    let text = std::str::from_utf8(bytes).ok()?;
+    text.lines().enumerate().find_map(|(i, l)| {
+        let mut w = l.split_whitespace();
+        (w.next() == Some("v") && w.take(3).any(|x| x.parse::<f32>().is_ok_and(|f| !f.is_finite()))).then_some((i + 1, 1))
+    })
+}

@@ -1,0 +1,95 @@
+//! Triangulation of a mesh file's polygons (OBJ faces may have any number of corners).
+//!
+//! A fan from the first corner is right only for convex polygons; a concave face (an L-shaped
+//! floor tile, say) fanned that way gets triangles outside its outline. raylab fans convex faces
+//! and clips ears off the others, in the polygon's own plane (Eberly, *Triangulation by Ear
+//! Clipping*).
+
+use raylab::glam::{DVec2, DVec3};
+
+/// Most corners a concave face is ear-clipped with (the clipping takes time cubic in them);
+/// larger faces are fanned, so a hostile file cannot stall loading.
+pub const MAX_EAR_CLIPPED_CORNERS: usize = 256;
+
+/// Triangles covering the simple polygon `points` (corners in order, possibly concave), as
+/// indices into `points`, wound like the polygon. A polygon with no area, or with more than
+/// [`MAX_EAR_CLIPPED_CORNERS`] corners, gives a fan (the mesh drops degenerate triangles).
+pub fn triangulate(points: &[DVec3]) -> Vec<[u32; 3]> {
+    let n = points.len();
+    let fan = || (1..n.saturating_sub(1)).map(|i| [0, i as u32, i as u32 + 1]).collect();
+    if n <= 3 {
+        return fan();
+    }
+    // Newell's normal; project onto the plane of its two smaller axes, keeping the orientation.
+    let mut normal = DVec3::ZERO;
+    for i in 0..n {
+        let (a, b) = (points[i], points[(i + 1) % n]);
+        normal += DVec3::new((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
+    }
+    if !(normal.length_squared() > 0.0) || !normal.is_finite() {
+        return fan();
+    }
+    let axis = normal.abs().max_position();
+    let (u, v) = match axis {
+        0 => (1, 2),
+        1 => (2, 0),
+        _ => (0, 1),
+    };
+    let flip = normal[axis] < 0.0;
+    let p: Vec<DVec2> = points.iter().map(|q| if flip { DVec2::new(q[v], q[u]) } else { DVec2::new(q[u], q[v]) }).collect();
+    let cross = |a: DVec2, b: DVec2, c: DVec2| (b - a).perp_dot(c - a);
+    if n > MAX_EAR_CLIPPED_CORNERS || (0..n).all(|i| cross(p[i], p[(i + 1) % n], p[(i + 2) % n]) >= 0.0) {
+        return fan();
+    }
+    // Ear clipping over the remaining corners.
+    let mut left: Vec<usize> = (0..n).collect();
+    let mut out = Vec::with_capacity(n - 2);
+    while left.len() > 3 {
+        let m = left.len();
+        let ear = (0..m).find(|&i| {
+            let (a, b, c) = (left[(i + m - 1) % m], left[i], left[(i + 1) % m]);
+            cross(p[a], p[b], p[c]) > 0.0 && left.iter().all(|&k| k == a || k == b || k == c || !inside(p[k], p[a], p[b], p[c]))
+        });
+        // A self-intersecting outline has no ear: clip any corner rather than loop forever.
+        let i = ear.unwrap_or(0);
+        out.push([left[(i + m - 1) % m] as u32, left[i] as u32, left[(i + 1) % m] as u32]);
+        left.remove(i);
+    }
+    out.push([left[0] as u32, left[1] as u32, left[2] as u32]);
+    out
+}
+
+/// Whether `p` lies in the counter-clockwise triangle `a b c` or on its boundary.
+fn inside(p: DVec2, a: DVec2, b: DVec2, c: DVec2) -> bool {
+    (b - a).perp_dot(p - a) >= 0.0 && (c - b).perp_dot(p - b) >= 0.0 && (a - c).perp_dot(p - c) >= 0.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn area(points: &[DVec3], tris: &[[u32; 3]]) -> f64 {
+        tris.iter()
+            .map(|t| (points[t[1] as usize] - points[t[0] as usize]).cross(points[t[2] as usize] - points[t[0] as usize]).z * 0.5)
+            .sum()
+    }
+
+    #[test]
+    fn convex_faces_are_fanned_and_concave_ones_stay_inside_their_outline() {
+        let square: Vec<DVec3> = [[0, 0], [1, 0], [1, 1], [0, 1]].iter().map(|&[x, y]| DVec3::new(x as f64, y as f64, 0.0)).collect();
+        assert_eq!(triangulate(&square), vec![[0, 1, 2], [0, 2, 3]]);
+        // An L: a fan from corner 0 would cover the missing square.
+        let l: Vec<DVec3> =
+            [[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]].iter().map(|&[x, y]| DVec3::new(x as f64, y as f64, 0.0)).collect();
+        let tris = triangulate(&l);
+        assert_eq!(tris.len(), 4);
+        assert!((area(&l, &tris) - 3.0).abs() < 1e-12, "every triangle positive and inside: total area 3");
+        for t in &tris {
+            let c = (l[t[0] as usize] + l[t[1] as usize] + l[t[2] as usize]) / 3.0;
+            assert!(!(c.x > 1.0 && c.y > 1.0), "triangle {t:?} lies in the notch");
+        }
+        // The same L seen from behind (clockwise) keeps its winding.
+        let back: Vec<DVec3> = l.iter().rev().copied().collect();
+        assert!((area(&back, &triangulate(&back)) + 3.0).abs() < 1e-12);
+    }
+}

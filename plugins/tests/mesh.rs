@@ -1,0 +1,408 @@
+//! Meshes: loading OBJ, MTL, glTF and GLB (with transforms and instancing), clear errors for
+//! malformed files, watertightness, and hierarchy-versus-list agreement.
+#![cfg(feature = "mesh")]
+
+use proptest::prelude::*;
+use raylab::accel::AccelChoice;
+use raylab::float::offset_ray_origin;
+use raylab::geometry::{Geometry, Intersectable};
+use raylab::glam::DVec3;
+use raylab::load::{LoadOptions, load_file, load_str};
+use raylab::render::RenderJob;
+use raylab::{Color, Ray};
+use raylab_plugins::mesh::MeshObject;
+use raylab_plugins::mesh::mesh::{MeshData, Normals, TriangleMesh};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+fn assets() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/assets")
+}
+
+fn options(accel: AccelChoice) -> LoadOptions {
+    LoadOptions { accel, ..LoadOptions::default() }
+}
+
+/// Loads a TOML scene written in the test-assets folder.
+fn scene(body: &str, accel: AccelChoice) -> Result<RenderJob, raylab::SceneError> {
+    let text = format!("[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\n{body}");
+    load_str(&raylab_plugins::registry(), "test.toml", &text, &assets(), &options(accel))
+}
+
+/// The error of a load that must fail.
+fn fails(r: Result<RenderJob, raylab::SceneError>) -> raylab::SceneError {
+    match r {
+        Ok(_) => panic!("the scene loaded, but should not"),
+        Err(e) => e,
+    }
+}
+
+fn down(job: &RenderJob, origin: DVec3, dir: DVec3) -> Option<raylab::Hit> {
+    job.scene.intersect(&Ray::new(origin, dir), 0.0, f64::INFINITY)
+}
+
+#[test]
+fn obj_quads_are_triangulated_and_mtl_materials_mapped() {
+    let job = scene("[[object]]\ntype = \"mesh\"\nfile = \"cube.obj\"\n", AccelChoice::Auto).unwrap();
+    let g = &job.scene.geometries[0];
+    let h = down(&job, DVec3::new(0.3, 5.0, 0.6), -DVec3::Y).expect("top face");
+    assert!((h.t - 4.0).abs() < 1e-12 && (g.outward_normal(&h) - DVec3::Y).length() < 1e-12);
+    let glass = g.material_at(&h);
+    assert_eq!((glass.kt, glass.ior), (Color::splat(0.75), 1.45f32 as f64), "d 0.25 → kt 0.75; Ni → ior");
+    assert_eq!(glass.kr, glass.ks, "illum 7 mirrors with Ks");
+    assert!((glass.kd - Color::splat(0.25)).length() < 1e-6, "Kd scaled by d");
+    let h = down(&job, DVec3::new(0.3, 0.6, -5.0), DVec3::Z).expect("back face");
+    let red = g.material_at(&h);
+    assert_eq!((red.kd.x as f32, red.shininess, red.emission.x as f32), (0.8, 40.0, 0.1));
+    assert!(g.may_transmit() && g.is_closed(), "a cube of consistently wound quads is closed");
+}
+
+#[test]
+fn concave_faces_stay_inside_their_outline_and_vertex_normals_shade() {
+    let job = scene("[[object]]\ntype = \"mesh\"\nfile = \"concave.obj\"\n", AccelChoice::Auto).unwrap();
+    // The notch of the L (x, z in (1, 2)) is empty; a fan from the first corner would cover it.
+    assert!(down(&job, DVec3::new(1.5, 1.0, 1.5), -DVec3::Y).is_none());
+    for (x, z) in [(0.5, 0.5), (1.5, 0.5), (0.5, 1.5)] {
+        let h = down(&job, DVec3::new(x, 1.0, z), -DVec3::Y).expect("inside the L");
+        let g = &job.scene.geometries[0];
+        assert!((g.shading_normal(&h, -DVec3::Y) - DVec3::Y).length() < 1e-6);
+    }
+}
+
+#[test]
+fn transforms_place_meshes_and_one_file_is_stored_once() {
+    let body = "[[object]]\ntype = \"mesh\"\nfile = \"cube.obj\"\ntransform = { translate = [5, 0, 0] }\n\
+                [[object]]\ntype = \"mesh\"\nfile = \"cube.obj\"\ntransform = [{ scale = [2, 1, 1] }, { rotate = [0, 90, 0] }]\n";
+    let job = scene(body, AccelChoice::Bvh).unwrap();
+    let a = job.scene.accel_summary();
+    assert_eq!(a.object_builds.primitives, 12, "the cube's 12 triangles are indexed once for both objects");
+    let h = down(&job, DVec3::new(5.5, 5.0, 0.5), -DVec3::Y).unwrap();
+    assert_eq!((h.object, h.t), (0, 4.0));
+    // Scaled ×2 along x, then turned 90° about y: x ∈ [0, 1], z ∈ [−2, 0].
+    let h = down(&job, DVec3::new(0.5, 5.0, -1.9), -DVec3::Y).unwrap();
+    assert_eq!(h.object, 1);
+    assert!(down(&job, DVec3::new(0.5, 5.0, 0.5), -DVec3::Y).is_none());
+    let g = &job.scene.geometries[1];
+    let side = down(&job, DVec3::new(0.5, 0.5, -9.0), DVec3::Z).unwrap();
+    assert!((g.outward_normal(&side) + DVec3::Z).length() < 1e-9, "normals follow the transform");
+}
+
+#[test]
+fn gltf_and_glb_give_the_same_scene_with_camera_light_and_instances() {
+    let reg = raylab_plugins::registry();
+    let a = load_file(&reg, &assets().join("pyramids.gltf"), &LoadOptions::default()).unwrap();
+    let b = load_file(&reg, &assets().join("pyramids.glb"), &LoadOptions::default()).unwrap();
+    for job in [&a, &b] {
+        assert_eq!(job.scene.geometries.len(), 2);
+        assert_eq!(job.scene.accel_summary().object_builds.primitives, 6, "one pyramid, placed twice");
+        assert_eq!((job.settings.width, job.settings.height), (800, 533));
+        assert!((job.scene.camera.position - DVec3::new(0.0, 1.5, 8.0)).length() < 1e-9);
+        assert_eq!(job.scene.light_names.len(), 1);
+        // The parent's scale (×2 in y) reaches the child: its apex is at y = 3.
+        let h = down(job, DVec3::new(1.5, 10.0, 0.0), -DVec3::Y).unwrap();
+        assert!((h.point.y - 3.0).abs() < 1e-6, "{}", h.point);
+        let gold = job.scene.geometries[h.object as usize].material_at(&h);
+        assert_eq!(gold.kd, Color::ZERO, "a metal has no diffuse term");
+        assert!(job.scene.geometries[0].is_closed());
+    }
+    for (ga, gb) in a.scene.geometries.iter().zip(&b.scene.geometries) {
+        assert_eq!(ga.bounds(), gb.bounds());
+    }
+}
+
+#[test]
+fn a_gltf_file_is_also_one_object_in_a_raylab_scene() {
+    let job = scene("[[object]]\ntype = \"mesh\"\nfile = \"pyramids.glb\"\ntransform = { translate = [0, -10, 0] }\n", AccelChoice::Auto)
+        .unwrap();
+    assert_eq!(job.scene.geometries.len(), 1);
+    let h = down(&job, DVec3::new(1.5, 0.0, 0.0), -DVec3::Y).unwrap();
+    assert!((h.point.y + 7.0).abs() < 1e-6);
+    let job = scene("[[object]]\ntype = \"mesh\"\nfile = \"Box.gltf\"\nmesh = 0\nmaterial = { kd = 0.5 }\n", AccelChoice::Auto).unwrap();
+    assert_eq!(job.scene.geometries[0].material().kd, Color::splat(0.5));
+    let e = fails(scene("[[object]]\ntype = \"mesh\"\nfile = \"Box.gltf\"\nmesh = 7\n", AccelChoice::Auto));
+    assert!(e.message.contains("no mesh 7"), "{e}");
+}
+
+/// Loads `file` from the malformed folder as a mesh object.
+fn malformed(file: &str) -> Result<RenderJob, raylab::SceneError> {
+    let text = format!("[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\n[[object]]\ntype = \"mesh\"\nfile = \"{file}\"\n");
+    load_str(&raylab_plugins::registry(), "test.toml", &text, &assets().join("malformed"), &LoadOptions::default())
+}
+
+#[test]
+fn malformed_files_load_or_fail_clearly_and_never_panic() {
+    // (file, None when it must load, else words the error must contain)
+    let cases: &[(&str, Option<&str>)] = &[
+        ("box_UTF16BE.obj", Some("UTF-16")),
+        ("box_longline.obj", None),
+        ("box_without_lineending.obj", None),
+        ("invalid-face-definition.obj", Some("no faces with three or more corners")),
+        ("invalid-relative-texture-index.obj", Some("refers to vertex 1, but only 0 are defined")),
+        ("invalid-relative-vertex-index.obj", Some("refers to vertex -4")),
+        ("issue-140-zero-face-idx.obj", Some("refers to vertex 0")),
+        ("issue-161-inconsistent-f.obj", Some("cube.mtl")), // its `mtllib` names a file that is not there
+        ("issue-295-trianguation-failure.obj", None),
+        ("missing_material_file.obj", None),         // `mtllib` commented out: the default material
+        ("test-nan.obj", Some("test-nan.obj:14:1")), // `v 1.#IND …` is no number
+        ("tobj-invalid_index.obj", Some("refers to vertex 7")),
+        ("AllIndicesOutOfRange.gltf", Some("out of range")),
+        ("IndexOutOfRange.gltf", Some("out of range")),
+        ("BoxWithInfinites.glb", Some("POSITION\"].min: Missing data")),
+        ("missing-bin/MissingBin-BoxTextured.gltf", Some("buffer 0 (\"BoxTextured0.bin\")")),
+        ("badArray.gltf", Some("invalid glTF")),
+        ("badExtension.gltf", None), // a malformed texture transform: textures are not read
+        ("badNumber.gltf", Some("invalid glTF")),
+        ("badObject.gltf", Some("invalid glTF")),
+        ("badString.gltf", Some("invalid glTF")),
+        ("badUint.gltf", Some("invalid glTF")),
+        ("minimal_accessor_invalid.gltf", Some("invalid glTF")),
+        ("non_sparse_accessor_without_buffer_view.gltf", Some("")),
+        ("sceneWrongType.gltf", Some("invalid glTF")),
+    ];
+    let mut wrong = Vec::new();
+    for (file, expect) in cases {
+        let r = std::panic::catch_unwind(|| malformed(file));
+        let Ok(r) = r else {
+            wrong.push(format!("{file}: panicked"));
+            continue;
+        };
+        let stem = file.rsplit_once('.').map_or(*file, |(s, _)| s).rsplit('/').next().unwrap_or(file);
+        match (expect, r) {
+            (None, Ok(job)) => assert!(job.scene.accel_summary().object_builds.primitives > 0, "{file}"),
+            (None, Err(e)) => wrong.push(format!("{file} should load: {}", e.report())),
+            (Some(_), Ok(_)) => wrong.push(format!("{file} should be an error")),
+            (Some(words), Err(e)) => {
+                let report = e.report();
+                // The error names the mesh file (as its location, or in the message when the
+                // location is the scene line that names it).
+                if !report.contains(words) || !report.contains(stem) || e.where_().is_none() {
+                    wrong.push(format!("{file}: expected \"{words}\" and the file's name: {report}"));
+                }
+            }
+        }
+    }
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+    // OBJ errors name the line.
+    let e = fails(malformed("issue-140-zero-face-idx.obj"));
+    assert!(e.where_().unwrap().ends_with("issue-140-zero-face-idx.obj:16:1"), "{}", e.report());
+    // A material override makes a missing library irrelevant.
+    let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\n[[object]]\ntype = \"mesh\"\nfile = \"issue-161-inconsistent-f.obj\"\nmaterial = { kd = 0.5 }\n";
+    load_str(&raylab_plugins::registry(), "t.toml", text, &assets().join("malformed"), &LoadOptions::default()).unwrap();
+}
+
+/// The fuzz targets' corpora (`fuzz/corpus/mesh_*`): every file loads or fails with a located
+/// error, without panicking (what `cargo fuzz run mesh_obj` checks at length).
+#[test]
+fn fuzz_corpora_load_or_fail_cleanly() {
+    let options = LoadOptions::default();
+    let dir = assets();
+    let ctx = raylab::LoadContext::new(&dir, &options);
+    for (target, ext) in [("mesh_obj", "obj"), ("mesh_gltf", "gltf")] {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/corpus").join(target);
+        let files: Vec<PathBuf> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).collect();
+        assert!(files.len() >= 5, "{}: corpus too small", dir.display());
+        for f in files {
+            let bytes = std::fs::read(&f).unwrap();
+            let r =
+                std::panic::catch_unwind(|| raylab_plugins::mesh::mesh_from_bytes(&ctx, "fuzz", ext, &bytes).map(|m| m.triangle_count()));
+            match r {
+                Err(_) => panic!("{}: panicked", f.display()),
+                Ok(Err(e)) => assert!(e.where_().is_some(), "{}: error without a location: {e}", f.display()),
+                Ok(Ok(n)) => assert!(n > 0),
+            }
+        }
+    }
+}
+
+#[test]
+fn files_outside_the_scene_folder_and_unknown_formats_are_refused() {
+    let e = fails(scene("[[object]]\ntype = \"mesh\"\nfile = \"../scenes/assets/teapot.obj\"\n", AccelChoice::Auto));
+    assert!(e.message.contains("leaves the scene's folder"), "{e}");
+    let e = fails(scene("[[object]]\ntype = \"mesh\"\nfile = \"cube.stl\"\n", AccelChoice::Auto));
+    assert!(e.message.contains("unknown mesh format"), "{e}");
+    let e = fails(scene("[[object]]\ntype = \"mesh\"\nfile = \"cube.obj\"\nnormals = \"smoth\"\n", AccelChoice::Auto));
+    assert!(e.help.unwrap().contains("smooth"));
+}
+
+/// A closed, star-shaped mesh: an icosphere refined `levels` times, each vertex moved radially
+/// by a random factor in [0.8, 1.2].
+fn perturbed_sphere(levels: u32, seed: u64) -> MeshData {
+    let t = (1.0 + 5f64.sqrt()) / 2.0;
+    let mut p: Vec<DVec3> = [
+        [-1.0, t, 0.0],
+        [1.0, t, 0.0],
+        [-1.0, -t, 0.0],
+        [1.0, -t, 0.0],
+        [0.0, -1.0, t],
+        [0.0, 1.0, t],
+        [0.0, -1.0, -t],
+        [0.0, 1.0, -t],
+        [t, 0.0, -1.0],
+        [t, 0.0, 1.0],
+        [-t, 0.0, -1.0],
+        [-t, 0.0, 1.0],
+    ]
+    .iter()
+    .map(|&v| DVec3::from(v).normalize())
+    .collect();
+    let mut f: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..levels {
+        let mut mid = std::collections::HashMap::new();
+        let mut next = Vec::new();
+        for [a, b, c] in f {
+            let mut m = |i: u32, j: u32| {
+                *mid.entry((i.min(j), i.max(j))).or_insert_with(|| {
+                    p.push(((p[i as usize] + p[j as usize]) * 0.5).normalize());
+                    p.len() as u32 - 1
+                })
+            };
+            let (ab, bc, ca) = (m(a, b), m(b, c), m(c, a));
+            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        f = next;
+    }
+    let mut rng = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    let positions = p
+        .iter()
+        .map(|v| {
+            rng = rng.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            let k = 0.8 + 0.4 * ((rng >> 11) as f64 / (1u64 << 53) as f64);
+            (*v * k).as_vec3().to_array()
+        })
+        .collect();
+    MeshData { positions, triangles: f, ..MeshData::default() }
+}
+
+fn sphere_mesh(levels: u32, seed: u64, accel: AccelChoice) -> (Arc<MeshObject>, MeshData) {
+    let data = perturbed_sphere(levels, seed);
+    let mesh = TriangleMesh::new(data.clone(), Normals::Flat, accel).unwrap();
+    (Arc::new(MeshObject::new(Arc::new(mesh), vec![raylab::Material::default()])), data)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    /// Rays from inside a closed mesh always hit it, including rays aimed exactly at its vertices
+    /// and at points on its edges (where two triangles meet), with a hierarchy and with a list.
+    #[test]
+    fn closed_meshes_are_watertight(seed in any::<u64>(), inside in prop::array::uniform3(-0.5f64..0.5), scale in prop::sample::select(vec![1e-4, 1.0, 1e4])) {
+        for accel in [AccelChoice::Bvh, AccelChoice::List] {
+            let (g, data) = sphere_mesh(2, seed, accel);
+            prop_assert!(g.is_closed());
+            let o = DVec3::from(inside) * 0.6;
+            let v = |i: u32| DVec3::from(data.positions[i as usize].map(f64::from));
+            let mut targets: Vec<DVec3> = data.positions.iter().map(|q| DVec3::from(q.map(f64::from))).collect();
+            for t in &data.triangles {
+                for k in 0..3 {
+                    let (a, b) = (v(t[k]), v(t[(k + 1) % 3]));
+                    targets.extend([a + (b - a) * 0.5, a + (b - a) * 0.25]);
+                }
+            }
+            for target in targets {
+                // The whole configuration scaled: watertightness must not depend on the scale.
+                let t = Transform3 { s: scale };
+                let ray = Ray::new(t.p(o), target - o);
+                let hit = t.mesh_hit(&g, &ray);
+                prop_assert!(hit.is_some(), "ray from {o} toward {target} escaped (scale {scale}, {accel:?})");
+            }
+        }
+    }
+
+    /// A ray leaving a hit point (offset by its error bound) never reports its own triangle, in
+    /// either direction; inward it meets the far side of the closed mesh.
+    #[test]
+    fn spawned_rays_never_rehit_their_own_triangle(seed in any::<u64>(), dir in prop::array::uniform3(-1.0f64..1.0)) {
+        let (g, _) = sphere_mesh(2, seed, AccelChoice::Bvh);
+        let d = DVec3::from(dir).try_normalize().unwrap_or(DVec3::Z);
+        let h = g.intersect(&Ray::new(DVec3::ZERO, d), 0.0, f64::INFINITY).unwrap();
+        let n = g.outward_normal(&h);
+        let out = offset_ray_origin(h.point, h.error, n, d);
+        prop_assert!(g.intersect(&Ray::new(out, d), 0.0, f64::INFINITY).is_none(), "outward ray re-hit the mesh");
+        let back = offset_ray_origin(h.point, h.error, n, -d);
+        let h2 = g.intersect(&Ray::new(back, -d), 0.0, f64::INFINITY).unwrap();
+        prop_assert!(h2.prim != h.prim && h2.t > 0.5, "inward ray hit prim {} at t {} (own {})", h2.prim, h2.t, h.prim);
+    }
+}
+
+/// Uniform scaling of a test configuration (tests the scale independence of watertightness).
+struct Transform3 {
+    s: f64,
+}
+
+impl Transform3 {
+    fn p(&self, v: DVec3) -> DVec3 {
+        v * self.s
+    }
+    fn mesh_hit(&self, g: &Arc<MeshObject>, ray: &Ray) -> Option<raylab::Hit> {
+        if self.s == 1.0 {
+            return g.intersect(ray, 0.0, f64::INFINITY);
+        }
+        // Same mesh scaled through a transform wrapper, so rounding happens at the new scale.
+        let t = raylab::Transform::new(raylab::glam::DAffine3::from_scale(DVec3::splat(self.s))).unwrap();
+        let placed = raylab::Transformed::new(g.clone(), t);
+        placed.intersect(ray, 0.0, f64::INFINITY)
+    }
+}
+
+/// A random scene of spheres, triangles, a plane and a mesh, as TOML.
+fn random_scene(seed: u64, n: usize) -> String {
+    let mut rng = seed | 1;
+    let mut r = || {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        (rng >> 11) as f64 / (1u64 << 53) as f64 * 20.0 - 10.0
+    };
+    let mut s = String::from("[[object]]\ntype = \"plane\"\npoint = [0, -12, 0]\nnormal = [0, 1, 0]\n");
+    s.push_str("[[object]]\ntype = \"mesh\"\nfile = \"cube.obj\"\ntransform = { scale = 3, translate = [1, 2, 3] }\n");
+    for _ in 0..n {
+        let (x, y, z, rad) = (r(), r(), r(), r().abs() * 0.1 + 0.1);
+        s.push_str(&format!("[[object]]\ntype = \"sphere\"\ncenter = [{x}, {y}, {z}]\nradius = {rad}\n"));
+        let (a, b, c) = ([r(), r(), r()], [r(), r(), r()], [r(), r(), r()]);
+        s.push_str(&format!("[[object]]\ntype = \"triangle\"\np0 = {a:?}\np1 = {b:?}\np2 = {c:?}\n"));
+    }
+    s
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(16))]
+
+    /// The hierarchy and the list find the same closest hit and the same occlusion.
+    #[test]
+    fn hierarchy_and_list_agree(seed in any::<u64>(), n in 1usize..60, rays in prop::collection::vec((prop::array::uniform3(-15.0f64..15.0), prop::array::uniform3(-1.0f64..1.0)), 40)) {
+        let body = random_scene(seed, n);
+        let bvh = scene(&body, AccelChoice::Bvh).unwrap();
+        let list = scene(&body, AccelChoice::List).unwrap();
+        prop_assert!(bvh.scene.accel_summary().bvh && !list.scene.accel_summary().bvh);
+        for (o, d) in rays {
+            let Some(d) = DVec3::from(d).try_normalize() else { continue };
+            let ray = Ray::new(DVec3::from(o), d);
+            let (a, b) = (bvh.scene.intersect(&ray, 0.0, f64::INFINITY), list.scene.intersect(&ray, 0.0, f64::INFINITY));
+            prop_assert_eq!(a.map(|h| (h.t, h.object)), b.map(|h| (h.t, h.object)), "ray {:?}", ray);
+            for t_max in [1.0, 5.0, f64::INFINITY] {
+                prop_assert_eq!(bvh.scene.occluded(&ray, t_max), list.scene.occluded(&ray, t_max));
+            }
+        }
+    }
+}

@@ -1,0 +1,89 @@
+//! Arbitrary output variables: per-pixel depth, normal and albedo, the extra layers a denoiser
+//! (Intel Open Image Denoise, OptiX) or a compositor wants beside the colour.
+//!
+//! They come from a separate pass over the same camera rays as the render (same sample
+//! positions, [`crate::render::camera_ray`]), each the mean over the pixel's samples:
+//!
+//! - `depth` (`Z`): distance along the camera ray to the first surface, scene units, over the
+//!   samples that hit one; +∞ where none does.
+//! - `normal` (`normal.X/Y/Z`): the shading normal at the first surface, world space, facing the
+//!   camera; zero for misses.
+//! - `albedo` (`albedo.R/G/B`): `min(1, kd + kr + kt)` of the first surface: the diffuse colour of
+//!   matte surfaces and about 1 for mirrors and glass, as the denoisers ask; the background colour
+//!   (clamped to 1) for misses.
+
+use crate::color::Color;
+use crate::render::{RenderJob, camera_ray};
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// An extra output layer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Aov {
+    /// Distance to the first surface.
+    Depth,
+    /// Shading normal at the first surface.
+    Normal,
+    /// Reflectance of the first surface.
+    Albedo,
+}
+
+impl Aov {
+    /// Parses `depth`, `normal` or `albedo`.
+    pub fn parse(s: &str) -> Option<Aov> {
+        match s {
+            "depth" => Some(Aov::Depth),
+            "normal" => Some(Aov::Normal),
+            "albedo" => Some(Aov::Albedo),
+            _ => None,
+        }
+    }
+}
+
+/// The extra layers of an image, row-major like [`crate::film::Film`]; each present if asked for.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Aovs {
+    /// Distance per pixel (+∞: nothing hit).
+    pub depth: Option<Vec<f32>>,
+    /// Mean shading normal per pixel.
+    pub normal: Option<Vec<Vec3>>,
+    /// Mean albedo per pixel.
+    pub albedo: Option<Vec<Vec3>>,
+}
+
+/// Computes the layers in `which` for `job` (in parallel on the current rayon pool).
+pub fn render_aovs(job: &RenderJob, which: &[Aov]) -> Aovs {
+    let s = job.settings;
+    let (w, h) = (s.width as usize, s.height as usize);
+    let pixels: Vec<(f32, Vec3, Vec3)> = (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = ((i % w) as u32, (i / w) as u32);
+            let (mut depth, mut hits) = (0.0, 0u32);
+            let (mut normal, mut albedo) = (Color::ZERO, Color::ZERO);
+            for k in 0..s.spp {
+                let ray = camera_ray(job, x, y, k);
+                match job.scene.intersect(&ray, 0.0, f64::INFINITY) {
+                    Some(hit) => {
+                        let g = &job.scene.geometries[hit.object as usize];
+                        let m = g.material_at(&hit);
+                        depth += hit.t;
+                        hits += 1;
+                        normal += g.shading_normal(&hit, ray.dir);
+                        albedo += (m.kd + m.kr + m.kt).min(Color::ONE);
+                    }
+                    None => albedo += job.scene.background.min(Color::ONE),
+                }
+            }
+            let n = f64::from(s.spp.max(1));
+            let depth = if hits == 0 { f32::INFINITY } else { (depth / f64::from(hits)) as f32 };
+            (depth, (normal / n).as_vec3(), (albedo / n).as_vec3())
+        })
+        .collect();
+    let has = |a: Aov| which.contains(&a);
+    Aovs {
+        depth: has(Aov::Depth).then(|| pixels.iter().map(|p| p.0).collect()),
+        normal: has(Aov::Normal).then(|| pixels.iter().map(|p| p.1).collect()),
+        albedo: has(Aov::Albedo).then(|| pixels.iter().map(|p| p.2).collect()),
+    }
+}
