@@ -406,3 +406,22 @@ proptest! {
         }
     }
 }
+
+/// Regression: `raylab bench --mesh FILE` once deleted FILE after benchmarking it (the clean-up
+/// of its generated meshes removed every input). A user's mesh must survive the bench.
+#[test]
+fn bench_never_deletes_the_meshes_it_is_given() {
+    let dir = std::env::temp_dir().join(format!("raylab-bench-input-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mesh = dir.join("cube.obj");
+    std::fs::copy(assets().join("cube.obj"), &mesh).unwrap();
+    let before = std::fs::read(&mesh).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args(["bench", "--sizes", "", "--width", "16", "--height", "12", "--threads", "1"])
+        .arg(&mesh)
+        .output()
+        .expect("raylab runs");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(std::fs::read(&mesh).expect("the input mesh still exists"), before);
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -97,7 +97,10 @@ pub(crate) fn run(app: &App, a: BenchArgs) -> Result<(), Failure> {
     let mut rows = Vec::new();
     for (name, path) in &cases {
         let row = pool.install(|| bench_one(app, name, path, accel, a.width, a.height));
-        let _ = std::fs::remove_file(path).ok().filter(|_| path.starts_with(&dir));
+        // Only the meshes generated here are removed; a user's --mesh file is never touched.
+        if path.starts_with(&dir) {
+            let _ = std::fs::remove_file(path);
+        }
         rows.push(row?);
     }
     let _ = std::fs::remove_dir_all(&dir);
