@@ -160,11 +160,11 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
         return Err(e.into());
     }
     if !rendered.complete {
+        // In the target's format; EXR layers (AOVs) would cost another render, so none.
         let partial = partial_path(&a.output);
-        if pfm {
-            crate::reference::write_pfm(&partial, &rendered.film)?;
-        } else {
-            crate::output::write_image(&partial, &rendered.film, s.encoding, grid).map_err(|e| e.to_string())?;
+        match kind {
+            None => crate::reference::write_pfm(&partial, &rendered.film)?,
+            Some(kind) => write(&job, &a, &partial, kind, &rendered.film, grid, false)?,
         }
         let done = 100.0 * work[0].load(Ordering::Relaxed) as f64 / work[1].load(Ordering::Relaxed) as f64;
         return Err(Failure::Interrupted(format!(
@@ -176,7 +176,7 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
     let t_write = Instant::now();
     match kind {
         None => crate::reference::write_pfm(&a.output, &rendered.film)?,
-        Some(kind) => write(&job, &a, kind, &rendered.film, grid)?,
+        Some(kind) => write(&job, &a, &a.output, kind, &rendered.film, grid, true)?,
     }
     let write_time = t_write.elapsed();
     let st = rendered.stats;
@@ -226,22 +226,25 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-/// Writes the image: 8-bit PNG/JPEG, or EXR with the layers asked for.
+/// Writes the image to `path`: 8-bit PNG/JPEG, or EXR with the layers asked for (when `aovs`).
+#[allow(clippy::too_many_arguments)]
 fn write(
     job: &crate::render::RenderJob,
     a: &RenderArgs,
+    path: &Path,
     kind: crate::output::ImageKind,
     film: &crate::film::Film,
     grid: Option<Grid>,
+    aovs: bool,
 ) -> Result<(), Failure> {
     #[cfg(feature = "exr")]
     if kind == crate::output::ImageKind::Exr {
         let which: Vec<crate::aov::Aov> = a.aov.iter().filter_map(|s| crate::aov::Aov::parse(s)).collect();
-        let aovs = if which.is_empty() { crate::aov::Aovs::default() } else { crate::aov::render_aovs(job, &which) };
-        return crate::exr::write_exr(&a.output, film, &aovs, a.half).map_err(|e| e.to_string().into());
+        let layers = if which.is_empty() || !aovs { crate::aov::Aovs::default() } else { crate::aov::render_aovs(job, &which) };
+        return crate::exr::write_exr(path, film, &layers, a.half).map_err(|e| e.to_string().into());
     }
-    let _ = (job, kind);
-    crate::output::write_image(&a.output, film, job.settings.encoding, grid).map_err(|e| e.to_string().into())
+    let _ = (a, kind, aovs);
+    crate::output::write_image(path, film, job.settings.encoding, grid).map_err(|e| e.to_string().into())
 }
 
 /// One line saying how the objects and meshes are indexed for ray queries.
