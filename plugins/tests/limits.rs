@@ -1,6 +1,6 @@
 //! Limits for untrusted scenes that need meshes: the triangle limit, checked before a mesh's index
 //! and hierarchy are built (for glTF, from its accessors before any data is decoded), and raised
-//! by `--max-triangles`.
+//! by `--max-triangles`; and meshes whose coordinates are too large for a hierarchy.
 #![cfg(feature = "mesh")]
 
 use raylab::load::{Limits, LoadOptions, load_str};
@@ -72,4 +72,15 @@ fn the_command_line_flag_raises_the_limit() {
     assert!(allowed.status.success(), "{}", String::from_utf8_lossy(&allowed.stderr));
     let _ = std::fs::remove_file(&scene);
     let _ = std::fs::remove_file(&out_png);
+}
+
+/// Found by the `mesh_obj` fuzz target: a vertex at 1e34 made obvhs' single-precision build fail
+/// an assertion (a crash). Boxes beyond `raylab::bvh::MAX_BVH_COORDINATE` are indexed by a list.
+#[test]
+fn a_mesh_reaching_1e34_is_indexed_by_a_list_instead_of_crashing_the_hierarchy() {
+    let text = "[camera]\nposition = [0.5, 0.5, 10]\nlook_at = [0.5, 0.5, 0]\n[[object]]\ntype = \"mesh\"\nfile = \"far-vertex.obj\"\n";
+    let options = LoadOptions { accel: raylab::accel::AccelChoice::Bvh, ..LoadOptions::default() };
+    let job = load_str(&raylab_plugins::registry(), "far.toml", text, &assets(), &options).unwrap_or_else(|e| panic!("{}", e.report()));
+    let hit = job.scene.intersect(&raylab::Ray::new(raylab::glam::DVec3::new(0.5, 0.5, 10.0), -raylab::glam::DVec3::Z), 0.0, f64::INFINITY);
+    assert!(hit.is_some_and(|h| (h.t - 9.0).abs() < 1e-9), "{hit:?}");
 }
