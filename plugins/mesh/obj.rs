@@ -163,9 +163,10 @@ fn located(name: &str, text: &str, e: &tobj::LoadError) -> SceneError {
     scan(name, text, Some(e)).unwrap_or_else(|| SceneError::in_file(name, None, format!("malformed OBJ file: {e}")))
 }
 
-/// The first face corner that refers to a vertex, texture coordinate or normal not defined
-/// before it (or is not a number), and, when tobj reported a parse error `e`, the first line of
-/// that kind that does not parse. Run before tobj too: it overflows on such indices.
+/// The first face corner that is not a number or refers to a vertex, texture coordinate or normal
+/// the file does not define (a relative index: not defined before it), and, when tobj reported a
+/// parse error `e`, the first line of that kind that does not parse. Run before tobj too: it
+/// overflows on such indices.
 fn scan(name: &str, text: &str, e: Option<&tobj::LoadError>) -> Option<SceneError> {
     use tobj::LoadError as E;
     let mut total = [0i64; 3];
