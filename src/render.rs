@@ -286,7 +286,7 @@ fn stratified_tile(job: &RenderJob, st: &mut TileState, samples: std::ops::Range
     let t = st.tile;
     let w = t.x1 - t.x0;
     for (i, acc) in st.pixels.iter_mut().enumerate() {
-        if i as u32 % w == 0 && cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+        if (i as u32).is_multiple_of(w) && cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
             return false;
         }
         let (x, y) = (t.x0 + i as u32 % w, t.y0 + i as u32 / w);
