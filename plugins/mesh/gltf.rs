@@ -292,6 +292,20 @@ impl GltfFile {
         for prim in mesh.primitives() {
             let what = || format!("mesh {} ({}) primitive {}", mesh.index(), mesh.name().unwrap_or("unnamed"), prim.index());
             let err = |msg: String| SceneError::in_file(&self.name, None, format!("{}: {msg}", what()));
+            // The gltf crate's readers assume the types the specification requires (they panic
+            // otherwise, found by the mesh_gltf fuzz target): checked first.
+            use gltf::accessor::{DataType, Dimensions};
+            let typed = |a: Option<gltf::Accessor>, types: &[DataType], dims: Dimensions, what: &str| match a {
+                Some(a) if !(types.contains(&a.data_type()) && a.dimensions() == dims) => Err(err(format!(
+                    "its {what} accessor holds {:?} of {:?}; expected {dims:?} of {types:?}",
+                    a.dimensions(),
+                    a.data_type()
+                ))),
+                _ => Ok(()),
+            };
+            typed(prim.get(&gltf::Semantic::Positions), &[DataType::F32], Dimensions::Vec3, "POSITION")?;
+            typed(prim.get(&gltf::Semantic::Normals), &[DataType::F32], Dimensions::Vec3, "NORMAL")?;
+            typed(prim.indices(), &[DataType::U8, DataType::U16, DataType::U32], Dimensions::Scalar, "index")?;
             let reader = prim.reader(|b| self.buffers.get(b.index()).map(Vec::as_slice));
             let Some(positions) = reader.read_positions() else {
                 return Err(err("its POSITION data is missing or lies outside its buffer".into()));
