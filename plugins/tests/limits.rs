@@ -84,3 +84,22 @@ fn a_mesh_reaching_1e34_is_indexed_by_a_list_instead_of_crashing_the_hierarchy()
     let hit = job.scene.intersect(&raylab::Ray::new(raylab::glam::DVec3::new(0.5, 0.5, 10.0), -raylab::glam::DVec3::Z), 0.0, f64::INFINITY);
     assert!(hit.is_some_and(|h| (h.t - 9.0).abs() < 1e-9), "{hit:?}");
 }
+
+/// A symbolic link inside the scene's folder that leads out of it is refused like `..`, unless
+/// the user allows paths outside the folder.
+#[cfg(unix)]
+#[test]
+fn a_symbolic_link_out_of_the_scene_folder_is_refused() {
+    let dir = std::env::temp_dir().join(format!("raylab-symlink-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::os::unix::fs::symlink(assets().join("cube.obj"), dir.join("link.obj")).unwrap();
+    let text =
+        "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\n[[object]]\ntype = \"mesh\"\nfile = \"link.obj\"\nmaterial = { kd = 0.5 }\n";
+    let e = load_str(&raylab_plugins::registry(), "s.toml", text, &dir, &LoadOptions::default()).err().expect("refused");
+    assert!(e.message.contains("resolves outside the scene's folder"), "{}", e.report());
+    assert_eq!(e.where_().as_deref(), Some("s.toml:6:8"));
+    let allowed = LoadOptions { allow_outside_paths: true, ..LoadOptions::default() };
+    assert!(load_str(&raylab_plugins::registry(), "s.toml", text, &dir, &allowed).is_ok());
+    std::fs::remove_dir_all(dir).unwrap();
+}
