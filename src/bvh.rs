@@ -107,6 +107,11 @@ impl std::ops::AddAssign for BuildStats {
     }
 }
 
+/// Largest coordinate a hierarchy is built over. obvhs costs its splits in `f32` (box areas times
+/// primitive counts), which overflow beyond about 1e15 and then fail its build; primitives farther
+/// out than this (1e6 times raylab's tested range) are indexed by a list instead: slower, exact.
+pub const MAX_BVH_COORDINATE: f64 = 1e12;
+
 /// A spatial index over `len` primitives: a hierarchy or a flat list.
 pub struct PrimitiveIndex {
     len: u32,
@@ -131,13 +136,14 @@ impl PrimitiveIndex {
     }
 
     /// An index over primitives with the given boxes (finite, non-empty), a hierarchy when
-    /// `bvh` is true and raylab is built with the `bvh` feature. Returns the index and the slot
+    /// `bvh` is true, raylab is built with the `bvh` feature and every box lies within
+    /// [`MAX_BVH_COORDINATE`]. Returns the index and the slot
     /// order: `order[slot]` is the primitive stored at `slot`; the caller must store its
     /// primitives in that order, since the traversal reports slots.
     pub fn build(boxes: &[Aabb], bvh: bool) -> (Self, Vec<u32>, BuildStats) {
         let identity = || (0..boxes.len() as u32).collect::<Vec<u32>>();
         #[cfg(feature = "bvh")]
-        if bvh && boxes.len() >= 2 {
+        if bvh && boxes.len() >= 2 && boxes.iter().all(|b| b.min.abs().max(b.max.abs()).max_element() <= MAX_BVH_COORDINATE) {
             let (w, order, stats) = wide::WideBvh::build(boxes);
             return (PrimitiveIndex { len: boxes.len() as u32, bvh: Some(w) }, order, stats);
         }

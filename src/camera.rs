@@ -150,9 +150,18 @@ impl Camera {
             };
             Camera::report(position, to, up, dist, w, h)
         } else {
+            p.check_unknown()?;
             return Err(p.error("the camera needs `to` (report form) or `look_at` (look-at form)"));
         };
-        let mut cam = cam.map_err(|e| p.error(e.to_string()))?;
+        // Each error at the parameter that causes it.
+        let view = if p.has("look_at") { "look_at" } else { "to" };
+        let mut cam = cam.map_err(|e| match e {
+            CameraError::BadSize("fov") => p.error_at("fov", "expected a field of view in (0, 180) degrees"),
+            CameraError::BadSize(name) => p.error_at(name, "expected a finite number > 0"),
+            CameraError::UpParallelToView if p.has("up") => p.error_at("up", e),
+            CameraError::NoViewDirection => p.error_at(view, e),
+            e => p.error(e.to_string()),
+        })?;
         cam.aperture = p.non_negative("aperture")?;
         if let Some(f) = p.float_opt("focus_distance")? {
             if !(f > 0.0) {

@@ -92,6 +92,44 @@ pub fn solve_quadratic(a: f64, b: f64, c: f64) -> Option<(f64, f64)> {
     Some(if t0 <= t1 { (t0, t1) } else { (t1, t0) })
 }
 
+/// `a·b − c·d` to about 1.5 ulp (Kahan's algorithm with fused multiply-adds), where the plain
+/// expression can lose every digit to cancellation.
+#[inline]
+pub fn difference_of_products(a: f64, b: f64, c: f64, d: f64) -> f64 {
+    let cd = c * d;
+    let err = (-c).mul_add(d, cd);
+    a.mul_add(b, -cd) + err
+}
+
+/// `u × v` with each component from [`difference_of_products`]: accurate even when `u` and `v`
+/// are nearly parallel.
+#[inline]
+pub fn cross_accurate(u: DVec3, v: DVec3) -> DVec3 {
+    DVec3::new(
+        difference_of_products(u.y, v.z, u.z, v.y),
+        difference_of_products(u.z, v.x, u.x, v.z),
+        difference_of_products(u.x, v.y, u.y, v.x),
+    )
+}
+
+/// The (unnormalised) normal `(p1 − p0) × (p2 − p0)` of a triangle, computed from the two edges at
+/// the vertex opposite its longest edge (the largest angle) with [`cross_accurate`], so that a
+/// sliver's normal is as accurate as a well-shaped triangle's. Also returns the product of those
+/// two edges' lengths: `|n| / product` is the sine of the largest angle.
+#[inline]
+pub fn triangle_normal(p: [DVec3; 3]) -> (DVec3, f64) {
+    let len2 = |i: usize| (p[(i + 2) % 3] - p[(i + 1) % 3]).length_squared();
+    let k = if len2(0) >= len2(1) && len2(0) >= len2(2) {
+        0
+    } else if len2(1) >= len2(2) {
+        1
+    } else {
+        2
+    };
+    let (u, v) = (p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]);
+    (cross_accurate(u, v), u.length() * v.length())
+}
+
 /// Largest absolute coordinate of `v`, used as the "scale" of a position.
 #[inline]
 pub fn max_abs(v: DVec3) -> f64 {
@@ -124,6 +162,19 @@ mod tests {
         let below = offset_ray_origin(p, err, n, DVec3::new(0.3, 0.0, -1.0));
         assert!(above.z > p.z + 1e-9 && below.z < p.z - 1e-9);
         assert_eq!(above.x, p.x);
+    }
+
+    #[test]
+    fn a_slivers_normal_is_accurate() {
+        // 1e-9 wide and 7e5 long: the plain cross product at p0 is off by ~1e-7 rad.
+        let p =
+            [DVec3::new(-52681.62727651227, 3e5, -3e5), DVec3::new(147318.37179216516, 7e5, 2e5), DVec3::new(147318.37272348773, 7e5, 2e5)];
+        let (n, _) = triangle_normal(p);
+        let exact = DVec3::new(0.0, 5e5, -4e5).normalize(); // ∝ (2e5, 4e5, 5e5) × (1, 0, 0): p1 − p0 and p2 − p1
+        assert!((n.normalize() - exact).length() < 1e-15, "{n}");
+        let plain = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
+        assert!((plain - exact).length() > 1e-9, "the plain product is not the accurate one: {plain}");
+        assert_eq!(difference_of_products(1e8 + 1.0, 1e8 - 1.0, 1e8, 1e8), -1.0);
     }
 
     #[test]

@@ -2,6 +2,7 @@
 //! (it has a surface: material, bounds and the direction-aware normal).
 
 use crate::bounds::Aabb;
+use crate::float::{SHADOW_EPSILON, offset_ray_origin};
 use crate::material::Material;
 use crate::ray::Ray;
 use glam::{DVec2, DVec3};
@@ -30,6 +31,25 @@ impl Hit {
     /// A hit at `t` with point and error bound; `uv`, `prim` and `object` zero.
     pub fn new(t: f64, point: DVec3, error: DVec3) -> Self {
         Hit { t, point, error, uv: DVec2::ZERO, prim: 0, object: 0 }
+    }
+
+    /// A secondary ray (reflection, refraction) leaving the hit along unit `dir`: it starts just
+    /// outside the point's error box on `dir`'s side of the geometric normal `n`
+    /// ([`offset_ray_origin`]), so it cannot hit the surface it leaves at `t ≈ 0`.
+    #[inline]
+    pub fn spawn_ray(&self, n: DVec3, dir: DVec3) -> Ray {
+        Ray { origin: offset_ray_origin(self.point, self.error, n, dir), dir }
+    }
+
+    /// A shadow ray toward a light `distance` away from the hit point along unit `dir` (infinite
+    /// for a directional light): the ray of [`Hit::spawn_ray`] and the `t_max` that stops it
+    /// [`SHADOW_EPSILON`] (relative) short of the light.
+    #[inline]
+    pub fn spawn_shadow_ray(&self, n: DVec3, dir: DVec3, distance: f64) -> (Ray, f64) {
+        let ray = self.spawn_ray(n, dir);
+        let t_max =
+            if distance.is_finite() { (distance - (ray.origin - self.point).length()) * (1.0 - SHADOW_EPSILON) } else { f64::INFINITY };
+        (ray, t_max)
     }
 }
 

@@ -43,18 +43,28 @@ pub struct Limits {
     pub max_depth: u32,
     /// Largest file a scene may make raylab read (meshes, included files), bytes.
     pub max_file_bytes: u64,
+    /// Most triangles one mesh object may have (counted before its index and hierarchy are built;
+    /// for glTF, from the accessors before their data is decoded).
+    pub max_triangles: u64,
 }
 
 impl std::default::Default for Limits {
     fn default() -> Self {
-        Limits { max_pixels: 1 << 26, max_side: 1 << 15, max_spp: 1 << 16, max_depth: 64, max_file_bytes: 1 << 31 }
+        Limits { max_pixels: 1 << 26, max_side: 1 << 15, max_spp: 1 << 16, max_depth: 64, max_file_bytes: 1 << 31, max_triangles: 1 << 26 }
     }
 }
 
 impl Limits {
     /// No limits (every bound at its type's maximum).
     pub fn unlimited() -> Self {
-        Limits { max_pixels: u64::MAX, max_side: u32::MAX, max_spp: u32::MAX, max_depth: u32::MAX, max_file_bytes: u64::MAX }
+        Limits {
+            max_pixels: u64::MAX,
+            max_side: u32::MAX,
+            max_spp: u32::MAX,
+            max_depth: u32::MAX,
+            max_file_bytes: u64::MAX,
+            max_triangles: u64::MAX,
+        }
     }
 }
 

@@ -348,7 +348,12 @@ impl<'a> Params<'a> {
         if range.contains(&v) {
             Ok(v)
         } else {
-            Err(self.error_at(name, format_args!("{v} is out of range; expected {} to {}", range.start(), range.end())))
+            let expected = if *range.end() == i64::MAX {
+                format!("an integer ≥ {}", range.start())
+            } else {
+                format!("{} to {}", range.start(), range.end())
+            };
+            Err(self.error_at(name, format_args!("{v} is out of range; expected {expected}")))
         }
     }
 
@@ -488,27 +493,30 @@ impl<'a> Params<'a> {
 
     /// Reports keys the plugin never read (unknown or not applicable), with a suggestion.
     pub fn finish(self) -> Result<()> {
+        self.check_unknown()?;
         for (e, used) in self.table.entries.iter().zip(&self.used) {
-            if *used {
-                continue;
-            }
-            let known = self.specs.iter().any(|s| s.name == e.key);
-            let names: Vec<&str> = self.specs.iter().map(|s| s.name).collect();
-            let err = if known {
-                SceneError::at(&e.key_loc, format!("parameter `{}` does not apply here", e.key))
+            if !*used {
+                return Err(SceneError::at(&e.key_loc, format!("parameter `{}` does not apply here", e.key))
                     .with_help("it is valid for this type, but not in combination with the other parameters given")
-            } else {
-                let mut err = SceneError::at(&e.key_loc, format!("unknown parameter `{}`", e.key));
-                err = err.with_help(match did_you_mean(&e.key, names.iter().copied()) {
-                    Some(m) => format!("did you mean `{m}`?  (parameters: {})", names.join(", ")),
-                    None if names.is_empty() => "this type takes no parameters".into(),
-                    None => format!("parameters: {}", names.join(", ")),
-                });
-                err
-            };
-            return Err(err.context(&self.what));
+                    .context(&self.what));
+            }
         }
         Ok(())
+    }
+
+    /// Reports the first key that is not in the parameter table (a typo), with a suggestion. Call it
+    /// before an error that a typo may explain ("missing `look_at`" when `lookat` was written).
+    pub fn check_unknown(&self) -> Result<()> {
+        let names: Vec<&str> = self.specs.iter().map(|s| s.name).collect();
+        let Some(e) = self.table.entries.iter().find(|e| !names.contains(&e.key.as_str())) else { return Ok(()) };
+        let err = SceneError::at(&e.key_loc, format!("unknown parameter `{}`", e.key)).with_help(
+            match did_you_mean(&e.key, names.iter().copied()) {
+                Some(m) => format!("did you mean `{m}`?  (parameters: {})", names.join(", ")),
+                None if names.is_empty() => "this type takes no parameters".into(),
+                None => format!("parameters: {}", names.join(", ")),
+            },
+        );
+        Err(err.context(&self.what))
     }
 }
 

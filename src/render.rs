@@ -104,7 +104,8 @@ pub const TILE_SIZE: u32 = 16;
 pub struct RenderOptions<'a> {
     /// Worker threads; `None` uses all cores.
     pub threads: Option<usize>,
-    /// Set to stop early; unfinished tiles stay black and [`Rendered::complete`] is false.
+    /// Set to stop early (checked per row of each tile); unfinished pixels keep the samples of
+    /// earlier passes (black without) and [`Rendered::complete`] is false.
     pub cancel: Option<&'a AtomicBool>,
 }
 
@@ -244,11 +245,16 @@ fn render_passes(
                 st.done = false;
                 return;
             }
-            match s.aa {
-                Antialiasing::Stratified => stratified_tile(job, st, begin..end),
-                Antialiasing::Adaptive { threshold, max_depth } => adaptive_tile(job, st, threshold, max_depth),
+            st.done = match s.aa {
+                Antialiasing::Stratified => stratified_tile(job, st, begin..end, options.cancel),
+                Antialiasing::Adaptive { threshold, max_depth } => {
+                    adaptive_tile(job, st, threshold, max_depth);
+                    true
+                }
+            };
+            if !st.done {
+                return;
             }
-            st.done = true;
             let work = st.tile.pixels() * u64::from(end - begin);
             progress(done.fetch_add(work, Ordering::Relaxed) + work, total);
         });
@@ -274,13 +280,19 @@ fn render_passes(
     Rendered { film, stats, elapsed: start.elapsed(), complete }
 }
 
-fn stratified_tile(job: &RenderJob, st: &mut TileState, samples: std::ops::Range<u32>) {
+/// Adds `samples` to every pixel of the tile; false when cancelled part-way (checked once per row
+/// of the tile, so a cancel takes effect within one row of samples, not a whole tile).
+fn stratified_tile(job: &RenderJob, st: &mut TileState, samples: std::ops::Range<u32>, cancel: Option<&AtomicBool>) -> bool {
     let t = st.tile;
     let w = t.x1 - t.x0;
     for (i, acc) in st.pixels.iter_mut().enumerate() {
+        if (i as u32).is_multiple_of(w) && cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+            return false;
+        }
         let (x, y) = (t.x0 + i as u32 % w, t.y0 + i as u32 / w);
         add_samples(job, x, y, samples.clone(), acc, &mut st.stats);
     }
+    true
 }
 
 /// The colour of pixel (`x`, `y`) with stratified sampling: the mean of its `spp` samples

@@ -39,3 +39,13 @@ fn scene_xml_corpus_loads_or_fails_cleanly() {
         }
     }
 }
+
+#[test]
+fn intersect_corpus_keeps_every_geometric_contract() {
+    for f in corpus("intersect") {
+        let data = std::fs::read(&f).unwrap();
+        if let Err(v) = raylab_plugins::shapes::fuzz::check_bytes(&data) {
+            panic!("{}: {v}", f.display());
+        }
+    }
+}

@@ -80,7 +80,7 @@ fn impossible_geometry_is_rejected_at_load_time() {
 fn cameras_must_be_well_formed() {
     fails("[[object]]\ntype = \"sphere\"\n", "the scene has no [camera]", (1, 1));
     fails("[camera]\nposition = [0, 0, 0]\nto = [0, 1, 0]\nscreen_width = 1\nscreen_height = 1\n", "parallel", (1, 1));
-    fails("[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, 0]\n", "viewing direction is zero", (1, 1));
+    fails("[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, 0]\n", "viewing direction is zero", (3, 11));
     fails("[camera]\nto = [0, 0, -1]\n", "needs `screen_width` and `screen_height`", (1, 1));
     let e = fails("[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nscreen_width = 10\n", "does not apply here", (4, 1));
     assert!(e.help.is_some());
@@ -153,4 +153,43 @@ fn every_bundled_scene_loads() {
             raylab::load::load_file(&raylab_plugins::registry(), &p, &LoadOptions::default()).unwrap_or_else(|e| panic!("{}", e.report()));
         }
     }
+}
+
+/// The catalogue of malformed scenes in tests/malformed/: each file's first line,
+/// `# expect WHERE: MESSAGE`, is the error it must fail with. WHERE is `LINE:COL` in the scene file,
+/// or a file under tests/malformed (`assets/nan.obj:2:1`, `assets/cycle.gltf`) for errors inside a
+/// mesh file; paths in the message are relative to tests/malformed. Scenes with meshes are checked
+/// when the `mesh` feature is on.
+#[test]
+fn every_scene_in_the_malformed_catalogue_fails_as_its_first_line_says() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/malformed");
+    let prefix = format!("{}/", dir.display());
+    let registry = raylab_plugins::registry();
+    let mut files: Vec<_> =
+        std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|e| e == "toml")).collect();
+    files.sort();
+    assert!(files.len() >= 80, "the catalogue is missing");
+    let mut wrong = Vec::new();
+    for f in &files {
+        let text = std::fs::read_to_string(f).unwrap();
+        if text.contains("type = \"mesh\"") && registry.geometry("mesh").is_none() {
+            continue;
+        }
+        let expect =
+            text.lines().next().and_then(|l| l.strip_prefix("# expect ")).unwrap_or_else(|| panic!("{}: no `# expect` line", f.display()));
+        let (want_at, want) = expect.split_once(": ").unwrap();
+        let name = f.file_name().unwrap().to_string_lossy();
+        match raylab::load::load_file(&registry, f, &LoadOptions::default()) {
+            Ok(_) => wrong.push(format!("{name}: loaded")),
+            Err(e) => {
+                let at = e.where_().unwrap_or_default().replace(&prefix, "");
+                let at = at.strip_prefix(&format!("{name}:")).unwrap_or(&at).to_string();
+                let message = e.message.replace(&prefix, "");
+                if at != want_at || message != want {
+                    wrong.push(format!("{name}: expected {want_at}: {want}\n    got {at}: {message}"));
+                }
+            }
+        }
+    }
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
 }

@@ -19,7 +19,6 @@
 
 use raylab::color::max_channel;
 use raylab::error::Result;
-use raylab::float::{SHADOW_EPSILON, offset_ray_origin};
 use raylab::geometry::Hit;
 use raylab::glam::{DVec2, DVec3};
 use raylab::params::{Default, ParamKind, ParamSpec, Params};
@@ -378,13 +377,7 @@ impl Phong {
                 continue;
             }
             c.stats.shadow_rays += 1;
-            let origin = offset_ray_origin(hit.point, hit.error, n, ls.dir);
-            let shadow_ray = Ray { origin, dir: ls.dir };
-            let t_max = if ls.distance.is_finite() {
-                (ls.distance - (origin - hit.point).length()) * (1.0 - SHADOW_EPSILON)
-            } else {
-                f64::INFINITY
-            };
+            let (shadow_ray, t_max) = hit.spawn_shadow_ray(n, ls.dir, ls.distance);
             let tr = match (node.as_deref_mut(), rec.as_mut()) {
                 (Some(_), Some(r)) => {
                     let (tr, occ) = scene.transmittance_and_occluder(&shadow_ray, t_max);
@@ -446,7 +439,7 @@ impl Phong {
                 RayKind::Reflection => c.stats.reflection_rays += 1,
                 _ => c.stats.refraction_rays += 1,
             }
-            let ray = Ray { origin: offset_ray_origin(hit.point, hit.error, n, dir), dir };
+            let ray = hit.spawn_ray(n, dir);
             let child_sampler = sampler.fork(fan.tag | if sharp { 0 } else { u64::from(i) });
             let li = match node.as_deref_mut() {
                 None => self.li(c, &ray, &child_sampler, depth + 1, child_weight, None),

@@ -38,10 +38,42 @@ use std::sync::Arc;
 const SUPPORTED: &[&str] = &["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_ior", "KHR_materials_transmission"];
 
 /// A parsed glTF file with its buffers loaded.
+/// The triangles `mesh` declares (its accessors' counts; no data decoded): an upper bound for
+/// strips and fans, exact for triangle lists.
+fn triangle_count(mesh: &gltf::Mesh) -> u64 {
+    mesh.primitives()
+        .map(|p| {
+            let corners = p.indices().or_else(|| p.get(&gltf::Semantic::Positions)).map_or(0, |a| a.count() as u64);
+            corners / 3 + if matches!(p.mode(), gltf::mesh::Mode::Triangles) { 0 } else { corners }
+        })
+        .sum()
+}
+
+/// Refuses a mesh primitive whose attributes or indices name an accessor the file lacks.
+fn check_accessor_references(name: &str, json: &gltf::json::Root) -> Result<()> {
+    let count = json.accessors.len();
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let named = prim.attributes.values().chain(prim.indices.iter()).map(|i| i.value());
+            if let Some(bad) = named.into_iter().find(|&i| i >= count) {
+                let msg = format!("mesh {m} primitive {p} refers to accessor {bad}, but the file has {count} accessors");
+                return Err(SceneError::in_file(name, None, msg));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Deepest node hierarchy read from a glTF file (real files stay far below; a deeper chain is
+/// refused rather than cut off).
+pub const MAX_NODE_DEPTH: usize = 1024;
+
 pub struct GltfFile {
     name: String,
     doc: gltf::Document,
     buffers: Vec<Vec<u8>>,
+    /// The scene's triangle limit ([`raylab::load::Limits::max_triangles`]).
+    max_triangles: u64,
 }
 
 /// The file `path` (as written in the scene), parsed once per scene.
@@ -57,12 +89,28 @@ pub fn open(ctx: &LoadContext, path: &str, loc: &Loc) -> Result<Arc<GltfFile>> {
 /// read relative to `path` through `ctx`.
 pub fn parse(ctx: &LoadContext, path: &str, full: &Path, bytes: Vec<u8>, loc: &Loc) -> Result<GltfFile> {
     let name = full.display().to_string();
-    let parsed = std::panic::catch_unwind(|| gltf::Gltf::from_slice(&bytes));
-    let gltf = match parsed {
+    // The gltf crate panics on a GLB length below its header and on a primitive naming an accessor
+    // that does not exist (mesh_gltf fuzz target); both are checked before it reads them.
+    if bytes.starts_with(b"glTF") && bytes.len() >= 12 {
+        let length = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
+        if length < 12 {
+            return Err(SceneError::in_file(&name, None, format!("its GLB header declares {length} bytes, less than the header itself")));
+        }
+    }
+    let failed = || SceneError::in_file(&name, None, "the glTF reader failed on this file (it is malformed)");
+    let gltf = match std::panic::catch_unwind(|| gltf::Gltf::from_slice_without_validation(&bytes)) {
         Ok(Ok(g)) => g,
         Ok(Err(e)) => return Err(gltf_error(&name, e)),
-        Err(_) => return Err(SceneError::in_file(&name, None, "the glTF reader failed on this file (it is malformed)")),
+        Err(_) => return Err(failed()),
     };
+    check_accessor_references(&name, gltf.document.as_json())?;
+    let blob = gltf.blob;
+    let document = match std::panic::catch_unwind(move || gltf::Document::from_json(gltf.document.into_json())) {
+        Ok(Ok(d)) => d,
+        Ok(Err(e)) => return Err(gltf_error(&name, e)),
+        Err(_) => return Err(failed()),
+    };
+    let gltf = gltf::Gltf { document, blob };
     for ext in gltf.document.extensions_required() {
         if !SUPPORTED.contains(&ext) {
             return Err(SceneError::in_file(&name, None, format!("the file requires the extension {ext}, which raylab does not support"))
@@ -93,7 +141,7 @@ pub fn parse(ctx: &LoadContext, path: &str, full: &Path, bytes: Vec<u8>, loc: &L
         }
         buffers.push(data);
     }
-    Ok(GltfFile { name, doc: gltf.document, buffers })
+    Ok(GltfFile { name, doc: gltf.document, buffers, max_triangles: ctx.options.limits.max_triangles })
 }
 
 fn gltf_error(name: &str, e: gltf::Error) -> SceneError {
@@ -171,14 +219,28 @@ impl GltfFile {
             SceneError::in_file(&self.name, None, format!("there is no mesh {index}: the file has {} meshes", self.mesh_count()))
         })?;
         let mut out = self.empty();
+        self.check_triangles(triangle_count(&mesh))?;
         self.append(&mesh, DMat4::IDENTITY, &mut out)?;
         Ok(out)
+    }
+
+    /// Refuses more than [`raylab::load::Limits::max_triangles`] triangles.
+    fn check_triangles(&self, count: u64) -> Result<()> {
+        if count > self.max_triangles {
+            return Err(SceneError::in_file(&self.name, None, format!("{count} triangles, over the limit of {}", self.max_triangles))
+                .with_help("raise the limit with --max-triangles"));
+        }
+        Ok(())
     }
 
     /// Every mesh of the default scene, placed by its node's world matrix, as one mesh.
     pub fn whole(&self) -> Result<MeshData> {
         let mut out = self.empty();
-        for (node, world) in self.nodes() {
+        let nodes = self.nodes()?;
+        // Counted from the accessors before any data is decoded: nodes may place one mesh many times.
+        let count: u64 = nodes.iter().filter_map(|(n, _)| n.mesh()).map(|m| triangle_count(&m)).sum();
+        self.check_triangles(count)?;
+        for (node, world) in nodes {
             if let Some(mesh) = node.mesh() {
                 self.append(&mesh, world, &mut out)?;
             }
@@ -196,20 +258,30 @@ impl GltfFile {
         MeshData { materials, ..MeshData::default() }
     }
 
-    /// The nodes of the default scene (or the first), with their world matrices.
-    pub fn nodes(&self) -> Vec<(gltf::Node<'_>, DMat4)> {
+    /// The nodes of the default scene (or the first), with their world matrices. The hierarchy
+    /// must be disjoint trees, as glTF requires: a node reached twice (a cycle, or a node with two
+    /// parents, which could multiply the work exponentially) and a hierarchy deeper than
+    /// [`MAX_NODE_DEPTH`] are errors.
+    pub fn nodes(&self) -> Result<Vec<(gltf::Node<'_>, DMat4)>> {
         let mut out = Vec::new();
-        let Some(scene) = self.doc.default_scene().or_else(|| self.doc.scenes().next()) else { return out };
+        let Some(scene) = self.doc.default_scene().or_else(|| self.doc.scenes().next()) else { return Ok(out) };
+        let mut seen = vec![false; self.doc.nodes().len()];
         let mut todo: Vec<(gltf::Node, DMat4, usize)> = scene.nodes().map(|n| (n, DMat4::IDENTITY, 0)).collect();
         while let Some((node, parent, depth)) = todo.pop() {
-            let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix()).as_dmat4();
-            // Validation forbids cycles; the depth bound guards against deep chains anyway.
-            if depth < 256 {
-                todo.extend(node.children().map(|c| (c, world, depth + 1)));
+            let err = |msg: String| Err(SceneError::in_file(&self.name, None, format!("node {}: {msg}", node.index())));
+            if std::mem::replace(&mut seen[node.index()], true) {
+                return err(
+                    "reached twice: the node hierarchy has a cycle or a node with two parents (glTF requires disjoint trees)".into()
+                );
             }
+            if depth > MAX_NODE_DEPTH {
+                return err(format!("the node hierarchy is deeper than {MAX_NODE_DEPTH} levels"));
+            }
+            let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix()).as_dmat4();
+            todo.extend(node.children().map(|c| (c, world, depth + 1)));
             out.push((node, world));
         }
-        out
+        Ok(out)
     }
 
     /// Appends the triangles of every primitive of `mesh`, transformed by `m`.
@@ -220,6 +292,20 @@ impl GltfFile {
         for prim in mesh.primitives() {
             let what = || format!("mesh {} ({}) primitive {}", mesh.index(), mesh.name().unwrap_or("unnamed"), prim.index());
             let err = |msg: String| SceneError::in_file(&self.name, None, format!("{}: {msg}", what()));
+            // The gltf crate's readers assume the types the specification requires (they panic
+            // otherwise, found by the mesh_gltf fuzz target): checked first.
+            use gltf::accessor::{DataType, Dimensions};
+            let typed = |a: Option<gltf::Accessor>, types: &[DataType], dims: Dimensions, what: &str| match a {
+                Some(a) if !(types.contains(&a.data_type()) && a.dimensions() == dims) => Err(err(format!(
+                    "its {what} accessor holds {:?} of {:?}; expected {dims:?} of {types:?}",
+                    a.dimensions(),
+                    a.data_type()
+                ))),
+                _ => Ok(()),
+            };
+            typed(prim.get(&gltf::Semantic::Positions), &[DataType::F32], Dimensions::Vec3, "POSITION")?;
+            typed(prim.get(&gltf::Semantic::Normals), &[DataType::F32], Dimensions::Vec3, "NORMAL")?;
+            typed(prim.indices(), &[DataType::U8, DataType::U16, DataType::U32], Dimensions::Scalar, "index")?;
             let reader = prim.reader(|b| self.buffers.get(b.index()).map(Vec::as_slice));
             let Some(positions) = reader.read_positions() else {
                 return Err(err("its POSITION data is missing or lies outside its buffer".into()));
@@ -276,7 +362,7 @@ impl GltfFile {
     /// The box around the default scene's vertices.
     fn scene_bounds(&self) -> Result<Aabb> {
         let mut b = Aabb::EMPTY;
-        for (node, world) in self.nodes() {
+        for (node, world) in self.nodes()? {
             let Some(mesh) = node.mesh() else { continue };
             for prim in mesh.primitives() {
                 let bb = prim.bounding_box();
@@ -361,7 +447,7 @@ pub fn scene_toml(file: &GltfFile, file_name: &str) -> Result<String> {
     let v = |p: DVec3| format!("[{:?}, {:?}, {:?}]", p.x, p.y, p.z);
     let mut t = String::new();
     let _ = writeln!(t, "# {} as a raylab scene\nbackground = [0.1, 0.1, 0.1]\n", file.name);
-    let nodes = file.nodes();
+    let nodes = file.nodes()?;
     // Camera: the first perspective camera, or one fitted to the bounds.
     let camera = nodes.iter().find_map(|(n, w)| match n.camera()?.projection() {
         gltf::camera::Projection::Perspective(p) => Some((*w, p.yfov(), p.aspect_ratio())),

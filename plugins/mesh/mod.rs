@@ -120,6 +120,11 @@ pub fn load_mesh(
             }
         };
         let name = full.display().to_string();
+        let limit = ctx.options.limits.max_triangles;
+        if data.triangles.len() as u64 > limit {
+            return Err(SceneError::in_file(&name, None, format!("{} triangles, over the limit of {limit}", data.triangles.len()))
+                .with_help("raise the limit with --max-triangles"));
+        }
         let mesh = TriangleMesh::new(data, normals, ctx.options.accel).map_err(|e| match (&e, &obj_bytes) {
             (MeshError::NonFinite { .. }, Some(bytes)) => SceneError::in_file(&name, obj::non_finite_line(bytes), e.to_string()),
             _ => SceneError::in_file(&name, None, e.to_string()),

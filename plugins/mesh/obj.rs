@@ -53,6 +53,9 @@ pub fn read(ctx: &LoadContext, path: &str, full: &Path, bytes: &[u8], need_mater
             }
         }
     };
+    if let Some(e) = scan(&name, text, None) {
+        return Err(e);
+    }
     let parsed = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| tobj::load_obj_buf(&mut text.as_bytes(), &opts, load_mtl)));
     let (models, materials) = match parsed {
         Ok(Ok(r)) => r,
@@ -157,7 +160,24 @@ fn material(m: &tobj::Material) -> Material {
 
 /// A tobj error with the line it is about, found by scanning the file the way tobj reads it.
 fn located(name: &str, text: &str, e: &tobj::LoadError) -> SceneError {
+    scan(name, text, Some(e)).unwrap_or_else(|| SceneError::in_file(name, None, format!("malformed OBJ file: {e}")))
+}
+
+/// The first face corner that is not a number or refers to a vertex, texture coordinate or normal
+/// the file does not define (a relative index: not defined before it), and, when tobj reported a
+/// parse error `e`, the first line of that kind that does not parse. Run before tobj too: it
+/// overflows on such indices.
+fn scan(name: &str, text: &str, e: Option<&tobj::LoadError>) -> Option<SceneError> {
     use tobj::LoadError as E;
+    let mut total = [0i64; 3];
+    for line in text.lines() {
+        match line.split_whitespace().next() {
+            Some("v") => total[0] += 1,
+            Some("vt") => total[1] += 1,
+            Some("vn") => total[2] += 1,
+            _ => {}
+        }
+    }
     let (mut v, mut vt, mut vn) = (0i64, 0i64, 0i64);
     for (i, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
@@ -166,38 +186,48 @@ fn located(name: &str, text: &str, e: &tobj::LoadError) -> SceneError {
         let numbers = |n: usize| words.clone().take(n).all(|w| w.parse::<f32>().is_ok()) && words.clone().count() >= n;
         match key {
             "v" => {
-                if matches!(e, E::PositionParseError) && !numbers(3) {
-                    return at("expected a vertex `v x y z` with three numbers".into());
+                if matches!(e, Some(E::PositionParseError)) && !numbers(3) {
+                    return Some(at("expected a vertex `v x y z` with three numbers".into()));
                 }
                 v += 1;
             }
             "vt" => {
-                if matches!(e, E::TexcoordParseError) && !numbers(1) {
-                    return at("expected a texture coordinate `vt u [v]`".into());
+                if matches!(e, Some(E::TexcoordParseError)) && !numbers(1) {
+                    return Some(at("expected a texture coordinate `vt u [v]`".into()));
                 }
                 vt += 1;
             }
             "vn" => {
-                if matches!(e, E::NormalParseError) && !numbers(3) {
-                    return at("expected a normal `vn x y z` with three numbers".into());
+                if matches!(e, Some(E::NormalParseError)) && !numbers(3) {
+                    return Some(at("expected a normal `vn x y z` with three numbers".into()));
                 }
                 vn += 1;
             }
             "f" => {
                 for corner in words {
                     let mut parts = corner.split('/');
-                    for (slot, count, what) in
+                    for (i_what, (slot, count, what)) in
                         [(parts.next(), v, "vertex"), (parts.next(), vt, "texture coordinate"), (parts.next(), vn, "normal")]
+                            .into_iter()
+                            .enumerate()
                     {
                         let Some(s) = slot.filter(|s| !s.is_empty()) else { continue };
+                        // A file without texture coordinates (or normals) may still name them;
+                        // tobj ignores such references, and so does raylab.
+                        if i_what > 0 && total[i_what] == 0 {
+                            continue;
+                        }
                         let Ok(k) = s.parse::<i64>() else {
-                            return at(format!("malformed face corner \"{corner}\": expected v, v/vt, v//vn or v/vt/vn indices"));
+                            return Some(at(format!("malformed face corner \"{corner}\": expected v, v/vt, v//vn or v/vt/vn indices")));
                         };
-                        let resolved = if k < 0 { count + k + 1 } else { k };
-                        if !(1..=count).contains(&resolved) {
-                            return at(format!(
-                                "face corner \"{corner}\" refers to {what} {k}, but only {count} are defined before this line (indices start at 1)"
-                            ));
+                        // Relative (negative) indices count back from this line; positive ones may
+                        // refer ahead, as tobj resolves them once the whole file is read.
+                        let (resolved, defined, place) =
+                            if k < 0 { (count + k + 1, count, "before this line") } else { (k, total[i_what], "in the file") };
+                        if !(1..=defined).contains(&resolved) {
+                            return Some(at(format!(
+                                "face corner \"{corner}\" refers to {what} {k}, but only {defined} are defined {place} (indices start at 1)"
+                            )));
                         }
                     }
                 }
@@ -205,7 +235,7 @@ fn located(name: &str, text: &str, e: &tobj::LoadError) -> SceneError {
             _ => {}
         }
     }
-    SceneError::in_file(name, None, format!("malformed OBJ file: {e}"))
+    None
 }
 
 /// The first `v` line with a non-finite coordinate, for the error about it.

@@ -221,69 +221,12 @@ impl Geometry for Cylinder {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::shapes::exact::ExactCylinder;
     use crate::shapes::test_support::*;
     use proptest::prelude::*;
     use raylab::float::max_abs;
     use raylab::testing::{ExactSurface, Tolerance, check_closed_crossings, check_hits_ascending};
     use std::f64::consts::TAU;
-
-    /// The exact capped cylinder (or tube, without `height`): positive outside.
-    #[derive(Clone, Copy, Debug)]
-    struct ExactCylinder {
-        base: DVec3,
-        axis: DVec3,
-        radius: f64,
-        height: Option<f64>,
-    }
-
-    impl ExactCylinder {
-        /// Height along the axis, radial vector, and the signed distances to the side (`dx`) and to
-        /// the caps' slab (`dz`).
-        fn parts(&self, p: DVec3) -> (f64, DVec3, f64, f64) {
-            let f = p - self.base;
-            let z = f.dot(self.axis);
-            let radial = f - z * self.axis;
-            let dx = radial.length() - self.radius;
-            let dz = self.height.map_or(f64::NEG_INFINITY, |h| (z - 0.5 * h).abs() - 0.5 * h);
-            (z, radial, dx, dz)
-        }
-        fn mid(&self) -> DVec3 {
-            self.base + 0.5 * self.height.unwrap_or(0.0) * self.axis
-        }
-    }
-
-    impl ExactSurface for ExactCylinder {
-        fn signed_distance(&self, p: DVec3) -> f64 {
-            let (_, _, dx, dz) = self.parts(p);
-            if dx <= 0.0 && dz <= 0.0 { dx.max(dz) } else { dx.max(0.0).hypot(dz.max(0.0)) }
-        }
-        fn outward_normal(&self, p: DVec3) -> DVec3 {
-            let (z, radial, dx, dz) = self.parts(p);
-            if dx >= dz {
-                radial.normalize()
-            } else if z > 0.5 * self.height.unwrap_or(0.0) {
-                self.axis
-            } else {
-                -self.axis
-            }
-        }
-        fn outward_normals_near(&self, p: DVec3, within: f64) -> Vec<DVec3> {
-            let (z, radial, dx, _) = self.parts(p);
-            let mut normals = vec![self.outward_normal(p)];
-            if dx.abs() <= within {
-                normals.push(radial.normalize());
-            }
-            if let Some(h) = self.height {
-                if z.abs() <= within {
-                    normals.push(-self.axis);
-                }
-                if (z - h).abs() <= within {
-                    normals.push(self.axis);
-                }
-            }
-            normals
-        }
-    }
 
     fn shape(capped: bool) -> impl Strategy<Value = (Cylinder, ExactCylinder, f64)> {
         (scale(), cube(), unit(), 0.05..2.0f64, 0.05..3.0f64).prop_map(move |(s, c, axis, r, h)| {

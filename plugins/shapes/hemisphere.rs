@@ -95,43 +95,11 @@ impl Geometry for Hemisphere {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::shapes::exact::ExactBowl;
     use crate::shapes::test_support::*;
     use proptest::prelude::*;
     use raylab::float::max_abs;
-    use raylab::testing::{ExactSurface, Tolerance, check_hits_ascending};
-
-    /// The exact bowl: on the closed side, the sphere; on the open side, the nearest point is on
-    /// the rim circle. Positive outside the full sphere.
-    #[derive(Debug)]
-    struct ExactBowl {
-        center: DVec3,
-        radius: f64,
-        open: DVec3,
-    }
-
-    impl ExactBowl {
-        /// The bowl point nearest to `p`.
-        fn nearest(&self, p: DVec3) -> DVec3 {
-            let f = p - self.center;
-            if f.dot(self.open) <= 0.0 {
-                self.center + self.radius * f.normalize()
-            } else {
-                let flat = f - f.dot(self.open) * self.open;
-                self.center + self.radius * flat.normalize()
-            }
-        }
-    }
-
-    impl ExactSurface for ExactBowl {
-        fn signed_distance(&self, p: DVec3) -> f64 {
-            let f = p - self.center;
-            let d = if f.dot(self.open) <= 0.0 { (f.length() - self.radius).abs() } else { (p - self.nearest(p)).length() };
-            d.copysign(f.length() - self.radius)
-        }
-        fn outward_normal(&self, p: DVec3) -> DVec3 {
-            (self.nearest(p) - self.center).normalize()
-        }
-    }
+    use raylab::testing::{Tolerance, check_hits_ascending};
 
     fn bowl() -> impl Strategy<Value = (Hemisphere, ExactBowl, f64)> {
         (scale(), cube(), 0.05..2.0f64, unit()).prop_map(|(s, c, r, open)| {

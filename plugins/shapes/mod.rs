@@ -2,12 +2,16 @@
 //! finite capped cylinder and infinite tube.
 
 pub mod cylinder;
+pub mod exact;
+pub mod fuzz;
 pub mod hemisphere;
 pub mod plane;
 pub mod polygon;
 pub mod sphere;
 pub mod triangle;
 
+#[cfg(test)]
+mod reintersect;
 #[cfg(test)]
 mod test_support;
 

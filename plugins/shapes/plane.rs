@@ -94,26 +94,11 @@ impl Geometry for Plane {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::shapes::exact::ExactPlane;
     use crate::shapes::test_support::*;
     use proptest::prelude::*;
     use raylab::float::max_abs;
     use raylab::testing::ExactSurface;
-
-    /// The exact plane.
-    #[derive(Debug)]
-    struct ExactPlane {
-        point: DVec3,
-        normal: DVec3,
-    }
-
-    impl ExactSurface for ExactPlane {
-        fn signed_distance(&self, p: DVec3) -> f64 {
-            self.normal.dot(p - self.point)
-        }
-        fn outward_normal(&self, _: DVec3) -> DVec3 {
-            self.normal
-        }
-    }
 
     fn plane() -> impl Strategy<Value = (Plane, ExactPlane, f64)> {
         (scale(), cube(), unit()).prop_map(|(s, c, normal)| {

@@ -40,6 +40,8 @@ pub enum PolygonError {
     NotPlanar(usize),
     /// The outline turns the wrong way, or repeats a vertex, at this vertex.
     NotConvex(usize),
+    /// The outline turns one way throughout but crosses itself (a star: it winds around twice).
+    SelfCrossing,
 }
 
 impl std::fmt::Display for PolygonError {
@@ -53,6 +55,9 @@ impl std::fmt::Display for PolygonError {
                 f,
                 "the outline is not strictly convex at vertex {i} (or repeats it); give the vertices in order around a convex shape"
             ),
+            PolygonError::SelfCrossing => {
+                write!(f, "the outline crosses itself (a star winds around twice); give the vertices in order around a convex shape")
+            }
         }
     }
 }
@@ -93,6 +98,17 @@ impl Polygon {
                 return Err(PolygonError::NotConvex((i + 1) % n));
             }
             edge_normals.push(normal.cross(e));
+        }
+        // Turning the same way at every vertex is not enough: a pentagram does, winding twice.
+        // Every vertex must lie strictly inside every edge's half-plane.
+        for i in 0..n {
+            let e = vertices[(i + 1) % n] - vertices[i];
+            for (j, v) in vertices.iter().enumerate() {
+                let w = *v - vertices[i];
+                if j != i && j != (i + 1) % n && !(normal.dot(e.cross(w)) > 1e-12 * e.length() * w.length()) {
+                    return Err(PolygonError::SelfCrossing);
+                }
+            }
         }
         Ok(Polygon { vertices, edge_normals, normal, material })
     }
@@ -167,47 +183,10 @@ impl Geometry for Polygon {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::shapes::exact::ExactPolygon;
     use crate::shapes::test_support::*;
     use proptest::prelude::*;
-    use raylab::testing::ExactSurface;
     use std::f64::consts::TAU;
-
-    /// The exact convex polygon: signed distance to its closest point, positive on the winding side.
-    #[derive(Debug)]
-    struct ExactPolygon {
-        v: Vec<DVec3>,
-    }
-
-    impl ExactPolygon {
-        /// From two well-spread chords, so it is accurate even where neighbouring vertices are close.
-        fn normal(&self) -> DVec3 {
-            let k = self.v.len();
-            (self.v[k / 2] - self.v[0]).cross(self.v[(3 * k) / 4] - self.v[k / 4]).normalize()
-        }
-        fn centroid(&self) -> DVec3 {
-            self.v.iter().sum::<DVec3>() / self.v.len() as f64
-        }
-        fn edges(&self) -> impl Iterator<Item = (DVec3, DVec3)> + '_ {
-            (0..self.v.len()).map(|i| (self.v[i], self.v[(i + 1) % self.v.len()]))
-        }
-    }
-
-    impl ExactSurface for ExactPolygon {
-        fn signed_distance(&self, p: DVec3) -> f64 {
-            let n = self.normal();
-            let plane = n.dot(p - self.v[0]);
-            let inside = self.edges().all(|(a, b)| n.cross(b - a).dot(p - a) >= 0.0);
-            let dist = if inside {
-                plane.abs()
-            } else {
-                self.edges().map(|(a, b)| (p - closest_on_segment(p, a, b)).length()).fold(f64::INFINITY, f64::min)
-            };
-            dist.copysign(plane)
-        }
-        fn outward_normal(&self, _: DVec3) -> DVec3 {
-            self.normal()
-        }
-    }
 
     /// A random strictly convex polygon of 3 to 8 vertices: points of an ellipse, one per sector,
     /// in a random plane; also its centre, size and magnitude.
@@ -372,6 +351,15 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Found by the `intersect` fuzz target: a star outline turns the same way at every vertex and
+    /// was accepted as convex; only its inner pentagon was hit.
+    #[test]
+    fn bad_case_a_pentagram_was_accepted_as_convex() {
+        let star: Vec<DVec3> =
+            [0.0f64, 144.0, 288.0, 72.0, 216.0].iter().map(|a| DVec3::new(a.to_radians().cos(), a.to_radians().sin(), 0.0)).collect();
+        assert_eq!(Polygon::new(star, Material::default()).err(), Some(PolygonError::SelfCrossing));
     }
 
     #[test]

@@ -113,26 +113,11 @@ impl Geometry for Sphere {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::shapes::exact::ExactSphere;
     use crate::shapes::test_support::*;
     use proptest::prelude::*;
     use raylab::float::max_abs;
     use raylab::testing::{ExactSurface, Tolerance, check_closed_crossings};
-
-    /// The exact sphere.
-    #[derive(Debug)]
-    struct ExactSphere {
-        center: DVec3,
-        radius: f64,
-    }
-
-    impl ExactSurface for ExactSphere {
-        fn signed_distance(&self, p: DVec3) -> f64 {
-            (p - self.center).length() - self.radius
-        }
-        fn outward_normal(&self, p: DVec3) -> DVec3 {
-            (p - self.center).normalize()
-        }
-    }
 
     fn sphere() -> impl Strategy<Value = (Sphere, ExactSphere, f64)> {
         (scale(), cube(), 0.05..2.0f64).prop_map(|(s, c, r)| {

@@ -113,12 +113,6 @@ pub fn windows() -> impl Strategy<Value = Vec<(f64, f64)>> {
     prop::collection::vec((0.0..1.0f64, 0.0..1.0f64), 3)
 }
 
-/// The point of segment `a b` closest to `p`.
-pub fn closest_on_segment(p: DVec3, a: DVec3, b: DVec3) -> DVec3 {
-    let ab = b - a;
-    a + ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0) * ab
-}
-
 /// Asserts `actual` is within `tol` of `expected`, naming `what`.
 pub fn close(what: &str, actual: f64, expected: f64, tol: f64) -> Result<(), TestCaseError> {
     if (actual - expected).abs() <= tol {

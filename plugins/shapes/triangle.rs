@@ -8,7 +8,7 @@
 //! hits, and the test's consistent edge functions then make shared edges watertight.
 
 use raylab::error::Result;
-use raylab::float::{gamma, on_surface_slack};
+use raylab::float::{gamma, on_surface_slack, triangle_normal};
 use raylab::geometry::{Geometry, Hit, Intersectable};
 use raylab::glam::{DVec2, DVec3};
 use raylab::params::{Default, MATERIAL_PARAM, ParamKind, ParamSpec, Params};
@@ -148,8 +148,7 @@ impl Triangle {
 
     /// A triangle with the given edge rule, or `None` when it is degenerate.
     pub fn with_edges(p0: DVec3, p1: DVec3, p2: DVec3, edges: EdgeRule, material: Material) -> Option<Self> {
-        let n = (p1 - p0).cross(p2 - p0);
-        let scale = (p1 - p0).length() * (p2 - p0).length();
+        let (n, scale) = triangle_normal([p0, p1, p2]);
         if !(n.is_finite() && n.length() > 1e-12 * scale && scale > 0.0) {
             return None;
         }
@@ -213,47 +212,10 @@ impl Geometry for Triangle {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::shapes::exact::{ExactTriangle, closest_on_segment};
     use crate::shapes::test_support::*;
     use proptest::prelude::*;
-    use raylab::testing::{ExactSurface, Tolerance, check_hits_ascending};
-
-    /// The exact triangle: signed distance to the closest point, positive on the winding side.
-    #[derive(Debug)]
-    struct ExactTriangle {
-        p: [DVec3; 3],
-    }
-
-    impl ExactTriangle {
-        fn normal(&self) -> DVec3 {
-            let [a, b, c] = self.p;
-            (b - a).cross(c - a).normalize()
-        }
-        /// Barycentric coordinates of `p`'s projection onto the plane.
-        fn barycentric(&self, p: DVec3) -> DVec3 {
-            let [a, b, c] = self.p;
-            let n = (b - a).cross(c - a);
-            let area = |x: DVec3, y: DVec3, z: DVec3| (y - x).cross(z - x).dot(n) / n.length_squared();
-            DVec3::new(area(p, b, c), area(a, p, c), area(a, b, p))
-        }
-    }
-
-    impl ExactSurface for ExactTriangle {
-        fn signed_distance(&self, p: DVec3) -> f64 {
-            let [a, b, c] = self.p;
-            let n = self.normal();
-            let plane = n.dot(p - a);
-            let inside = self.barycentric(p).min_element() >= 0.0;
-            let dist = if inside {
-                plane.abs()
-            } else {
-                [(a, b), (b, c), (c, a)].iter().map(|&(x, y)| (p - closest_on_segment(p, x, y)).length()).fold(f64::INFINITY, f64::min)
-            };
-            dist.copysign(plane)
-        }
-        fn outward_normal(&self, _: DVec3) -> DVec3 {
-            self.normal()
-        }
-    }
+    use raylab::testing::{Tolerance, check_hits_ascending};
 
     /// A random triangle of reasonable shape (no sliver: every angle above ~3°).
     fn triangle() -> impl Strategy<Value = (Triangle, ExactTriangle, DVec3, f64, f64)> {
@@ -450,6 +412,21 @@ mod tests {
         let tol = Tolerance::for_scale(2.0);
         let hits = check_hits_ascending(&g, &ray, &tol, &ExactTriangle { p: [DVec3::ZERO, DVec3::X, DVec3::Y] }, 1).unwrap();
         assert_eq!(hits.len(), 1);
+    }
+
+    /// Found by the `intersect` fuzz target: a sliver 1e-9 as wide as it is long (7e5). Its normal,
+    /// the plain cross product at p0, was off by 1e-7 rad, so a hit at its far vertex lay 0.005 off
+    /// the plane; now from the edges at the largest angle, with compensated products.
+    #[test]
+    fn bad_case_a_slivers_normal_was_off_by_1e_7_rad() {
+        let p =
+            [DVec3::new(-52681.62727651227, 3e5, -3e5), DVec3::new(147318.37179216516, 7e5, 2e5), DVec3::new(147318.37272348773, 7e5, 2e5)];
+        let g = Triangle::with_edges(p[0], p[1], p[2], EdgeRule::Inclusive, Material::default()).unwrap();
+        let ray = Ray::new(DVec3::new(947318.3727234877, 1.5e6, 1e6), -DVec3::ONE);
+        let exact = ExactTriangle { p };
+        let hits = check_hits_ascending(&g, &ray, &Tolerance::for_scale(1.5e6), &exact, 1).unwrap_or_else(|v| panic!("{v}"));
+        assert_eq!(hits.len(), 1);
+        assert!((g.outward_normal(&hits[0]) - DVec3::new(0.0, 5.0, -4.0).normalize()).length() < 1e-15);
     }
 
     // Regressions: literal cases the properties found, kept as pbrt keeps Triangle.BadCases.

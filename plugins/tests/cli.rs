@@ -30,6 +30,7 @@ fn no_arguments_renders_the_default_scene_to_render_png() {
     let stdout = text(&out.stdout);
     assert!(stdout.starts_with("wrote render.png (800×600, 1 spp"), "{stdout}");
     assert!(stdout.contains("rays/s") && stdout.contains("trace "), "{stdout}");
+    assert!(stdout.contains(", 0 non-finite samples"), "the summary states the non-finite count: {stdout}");
     let img = image::open(dir.join("render.png")).unwrap();
     assert_eq!((img.width(), img.height()), (800, 600));
     std::fs::remove_dir_all(dir).unwrap();
@@ -176,5 +177,60 @@ fn integrator_and_parameter_overrides() {
     assert!(text(&out.stderr).contains("integrator \"normals\" has no parameter `max_depth`"));
     let out = raylab(&dir, &["render", s, "--set", "max_depth"]);
     assert!(text(&out.stderr).contains("expected KEY=VALUE"));
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// True once process `pid` catches SIGINT (its handler is installed), from /proc (Linux).
+fn catches_sigint(pid: u32) -> bool {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("SigCgt:"))
+        .and_then(|mask| u64::from_str_radix(mask.trim(), 16).ok())
+        .is_some_and(|mask| mask & (1 << (2 - 1)) != 0)
+}
+
+#[test]
+fn ctrl_c_writes_the_partial_image_beside_the_target_and_keeps_the_old_one() {
+    use std::time::{Duration, Instant};
+    let dir = temp_dir("sigint");
+    let scene = repo().join("scenes/showcase.toml");
+    std::fs::write(dir.join("out.png"), b"a good image from before").unwrap();
+    // Hours of work: it cannot finish before the signal.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args(["render", scene.to_str().unwrap(), "-o", "out.png", "--width", "1200", "--height", "900", "--spp", "4096", "-q"])
+        .current_dir(&dir)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while !catches_sigint(child.id()) {
+        assert!(start.elapsed() < Duration::from_secs(60), "raylab never installed its Ctrl-C handler");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    std::thread::sleep(Duration::from_millis(300));
+    let kill = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    assert!(kill.success());
+    let deadline = Instant::now() + Duration::from_secs(120);
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if Instant::now() > deadline {
+            child.kill().unwrap();
+            panic!("raylab did not stop within 2 minutes of Ctrl-C");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let out = child.wait_with_output().unwrap();
+    let err = text(&out.stderr);
+    assert_eq!(status.code(), Some(130), "exit status after Ctrl-C; stderr: {err}");
+    assert!(err.contains("interrupted") && err.contains("out.partial.png") && err.contains("out.png was not written"), "{err}");
+    assert_eq!(std::fs::read(dir.join("out.png")).unwrap(), b"a good image from before", "the old image is kept");
+    let partial = image::open(dir.join("out.partial.png")).expect("a complete, readable partial image");
+    assert_eq!((partial.width(), partial.height()), (1200, 900));
+    let names: Vec<String> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    assert_eq!(names.len(), 2, "no temporary file left behind: {names:?}");
     std::fs::remove_dir_all(dir).unwrap();
 }

@@ -126,6 +126,9 @@ pub(crate) struct SceneArgs {
     /// Largest file (bytes) the scene may make raylab read.
     #[arg(long, value_name = "N")]
     max_file_bytes: Option<u64>,
+    /// Most triangles one mesh object may have.
+    #[arg(long, value_name = "N")]
+    max_triangles: Option<u64>,
 }
 
 /// Parses `std::env::args` and runs the command.
@@ -134,7 +137,8 @@ pub fn run(app: App) -> ExitCode {
 }
 
 /// Runs the command given by `args` (the first item is the program name). Exit status 0 on
-/// success, 1 when the command fails (the error is printed to stderr), 2 on a usage error.
+/// success, 1 when the command fails (the error is printed to stderr), 2 on a usage error, 130
+/// when a render is interrupted by Ctrl-C (its partial image is written beside the target).
 pub fn run_with_args<I, T>(app: App, args: I) -> ExitCode
 where
     I: IntoIterator<Item = T>,
@@ -158,6 +162,10 @@ where
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(Failure::Interrupted(message)) => {
+            eprintln!("{message}");
+            ExitCode::from(130)
+        }
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::FAILURE
@@ -165,18 +173,20 @@ where
     }
 }
 
-/// A user-facing failure: a located scene error or a plain message.
+/// A user-facing failure: a located scene error, a plain message, or an interrupted render.
 #[derive(Debug)]
 pub(crate) enum Failure {
     Scene(SceneError),
     Other(String),
+    /// Stopped by Ctrl-C; exit status 130 (128 + SIGINT), as shells report it.
+    Interrupted(String),
 }
 
 impl std::fmt::Display for Failure {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Failure::Scene(e) => f.write_str(&e.report()),
-            Failure::Other(s) => f.write_str(s),
+            Failure::Other(s) | Failure::Interrupted(s) => f.write_str(s),
         }
     }
 }
@@ -236,6 +246,9 @@ impl SceneArgs {
         }
         if let Some(v) = self.max_file_bytes {
             limits.max_file_bytes = v;
+        }
+        if let Some(v) = self.max_triangles {
+            limits.max_triangles = v;
         }
         Ok(LoadOptions {
             overrides: Overrides {

@@ -5,7 +5,9 @@ use crate::output::Grid;
 use crate::render::RenderOptions;
 use clap::Args;
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::sync::Once;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
 
 #[derive(Args, Debug)]
@@ -68,7 +70,33 @@ impl RenderArgs {
     }
 }
 
+/// Set by Ctrl-C (SIGINT) while `raylab render` runs; a second Ctrl-C exits at once.
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+/// Installs the Ctrl-C handler once per process. Without one (another handler was installed
+/// first), Ctrl-C keeps its default effect.
+fn catch_ctrl_c() {
+    static INSTALL: Once = Once::new();
+    INSTALL.call_once(|| {
+        let _ = ctrlc::set_handler(|| {
+            if INTERRUPTED.swap(true, Ordering::SeqCst) {
+                eprintln!("\ninterrupted twice: exiting without writing");
+                std::process::exit(130);
+            }
+        });
+    });
+    INTERRUPTED.store(false, Ordering::SeqCst);
+}
+
+/// Where the image of an interrupted render goes: beside the target, `NAME.partial.EXT`.
+pub(crate) fn partial_path(output: &Path) -> PathBuf {
+    let stem = output.file_stem().map_or_else(|| "render".into(), |s| s.to_string_lossy().into_owned());
+    let ext = output.extension().map_or_else(String::new, |e| format!(".{}", e.to_string_lossy()));
+    output.with_file_name(format!("{stem}.partial{ext}"))
+}
+
 pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
+    catch_ctrl_c();
     let t0 = Instant::now();
     let grid = match a.grid {
         None => None,
@@ -81,6 +109,9 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
         return Err("--half and --aov apply to .exr output only".to_string().into());
     }
     let (job, scene_name) = super::load(app, a.scene.as_deref(), &a.scene_args)?;
+    if INTERRUPTED.load(Ordering::SeqCst) {
+        return Err(Failure::Interrupted("interrupted while loading: nothing rendered, nothing written".into()));
+    }
     let s = job.settings;
     let reference = match &a.reference {
         Some(p) => Some(crate::reference::read(p, s.encoding)?),
@@ -98,18 +129,21 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
         b
     };
     bar.set_message(scene_name.clone());
-    let options = RenderOptions { threads: a.threads, cancel: None };
+    let options = RenderOptions { threads: a.threads, cancel: Some(&INTERRUPTED) };
     let mut error_log = match (&a.error_csv, &reference) {
         (Some(path), Some(r)) => Some(ErrorLog::new(path, r, s.encoding)?),
         _ => None,
     };
     let checkpoints: Vec<u32> = if error_log.is_some() { (0..32).map(|k| 1u32 << k).collect() } else { Vec::new() };
     let mut log_failure = None;
+    let work = [AtomicU64::new(0), AtomicU64::new(1)];
     let rendered = crate::render::render_progressive(
         &job,
         &options,
         &checkpoints,
         &|done, total| {
+            work[0].fetch_max(done, Ordering::Relaxed);
+            work[1].store(total.max(1), Ordering::Relaxed);
             bar.set_length(total);
             bar.set_position(done)
         },
@@ -125,10 +159,24 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
     if let Some(e) = log_failure {
         return Err(e.into());
     }
+    if !rendered.complete {
+        // In the target's format; EXR layers (AOVs) would cost another render, so none.
+        let partial = partial_path(&a.output);
+        match kind {
+            None => crate::reference::write_pfm(&partial, &rendered.film)?,
+            Some(kind) => write(&job, &a, &partial, kind, &rendered.film, grid, false)?,
+        }
+        let done = 100.0 * work[0].load(Ordering::Relaxed) as f64 / work[1].load(Ordering::Relaxed) as f64;
+        return Err(Failure::Interrupted(format!(
+            "interrupted: wrote the {done:.1} % rendered so far to {} (pixels not reached are black); {} was not written",
+            partial.display(),
+            a.output.display()
+        )));
+    }
     let t_write = Instant::now();
     match kind {
         None => crate::reference::write_pfm(&a.output, &rendered.film)?,
-        Some(kind) => write(&job, &a, kind, &rendered.film, grid)?,
+        Some(kind) => write(&job, &a, &a.output, kind, &rendered.film, grid, true)?,
     }
     let write_time = t_write.elapsed();
     let st = rendered.stats;
@@ -139,7 +187,7 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
     let build_time = (accel.build.time + accel.object_builds.time).as_secs_f64();
     let memory = crate::stats::peak_memory_bytes().map_or_else(String::new, |b| format!(", peak memory {}B", si(b as f64)));
     println!(
-        "wrote {} ({}×{}, {}, {}{}) from {scene_name}: trace {:.3} s on {threads} thread{}, {} rays, {} rays/s (load {:.3} s, BVH build {:.3} s, write {:.3} s{memory})",
+        "wrote {} ({}×{}, {}, {}{}) from {scene_name}: trace {:.3} s on {threads} thread{}, {} rays, {} rays/s, {} non-finite samples (load {:.3} s, BVH build {:.3} s, write {:.3} s{memory})",
         a.output.display(),
         s.width,
         s.height,
@@ -150,13 +198,14 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
         if threads == 1 { "" } else { "s" },
         si(st.total_rays() as f64),
         si(st.total_rays() as f64 / secs.max(1e-9)),
+        st.nonfinite_samples,
         load_time.as_secs_f64() - build_time,
         build_time,
         write_time.as_secs_f64(),
     );
     println!("  {}", accel_line(&accel));
     if st.nonfinite_samples > 0 {
-        eprintln!("warning: {} samples were NaN or infinite and were dropped", st.nonfinite_samples);
+        eprintln!("warning: {} samples were NaN or infinite and were dropped from their pixels", st.nonfinite_samples);
     }
     if let Some(r) = &reference {
         let e = crate::metrics::compare(&rendered.film, r, s.encoding)?;
@@ -177,22 +226,25 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-/// Writes the image: 8-bit PNG/JPEG, or EXR with the layers asked for.
+/// Writes the image to `path`: 8-bit PNG/JPEG, or EXR with the layers asked for (when `aovs`).
+#[allow(clippy::too_many_arguments)]
 fn write(
     job: &crate::render::RenderJob,
     a: &RenderArgs,
+    path: &Path,
     kind: crate::output::ImageKind,
     film: &crate::film::Film,
     grid: Option<Grid>,
+    aovs: bool,
 ) -> Result<(), Failure> {
     #[cfg(feature = "exr")]
     if kind == crate::output::ImageKind::Exr {
         let which: Vec<crate::aov::Aov> = a.aov.iter().filter_map(|s| crate::aov::Aov::parse(s)).collect();
-        let aovs = if which.is_empty() { crate::aov::Aovs::default() } else { crate::aov::render_aovs(job, &which) };
-        return crate::exr::write_exr(&a.output, film, &aovs, a.half).map_err(|e| e.to_string().into());
+        let layers = if which.is_empty() || !aovs { crate::aov::Aovs::default() } else { crate::aov::render_aovs(job, &which) };
+        return crate::exr::write_exr(path, film, &layers, a.half).map_err(|e| e.to_string().into());
     }
-    let _ = (job, kind);
-    crate::output::write_image(&a.output, film, job.settings.encoding, grid).map_err(|e| e.to_string().into())
+    let _ = (a, kind, aovs);
+    crate::output::write_image(path, film, job.settings.encoding, grid).map_err(|e| e.to_string().into())
 }
 
 /// One line saying how the objects and meshes are indexed for ray queries.

@@ -1,0 +1,105 @@
+//! Limits for untrusted scenes that need meshes: the triangle limit, checked before a mesh's index
+//! and hierarchy are built (for glTF, from its accessors before any data is decoded), and raised
+//! by `--max-triangles`; and meshes whose coordinates are too large for a hierarchy.
+#![cfg(feature = "mesh")]
+
+use raylab::load::{Limits, LoadOptions, load_str};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn assets() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/assets")
+}
+
+fn load(file: &str, max_triangles: u64) -> Result<raylab::RenderJob, raylab::SceneError> {
+    let text = format!("[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\n[[object]]\ntype = \"mesh\"\nfile = \"{file}\"\n");
+    let options = LoadOptions { limits: Limits { max_triangles, ..Limits::default() }, ..LoadOptions::default() };
+    load_str(&raylab_plugins::registry(), "limits.toml", &text, &assets(), &options)
+}
+
+#[test]
+fn meshes_over_the_triangle_limit_are_refused_with_the_flag_to_raise_it() {
+    for file in ["cube.obj", "Box.gltf", "Box.glb"] {
+        assert!(load(file, 12).is_ok(), "{file} has 12 triangles");
+        let e = load(file, 11).err().unwrap_or_else(|| panic!("{file} loaded over the limit"));
+        assert!(e.message.contains("12 triangles, over the limit of 11"), "{file}: {}", e.report());
+        assert!(e.help.as_deref().unwrap_or("").contains("--max-triangles"), "{file}: {}", e.report());
+    }
+}
+
+/// A glTF file placing one mesh from 4096 nodes: counted before the copies are made.
+#[test]
+fn instanced_gltf_meshes_are_counted_before_they_are_copied() {
+    let dir = std::env::temp_dir().join(format!("raylab-limits-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let box_gltf = std::fs::read_to_string(assets().join("Box.gltf")).unwrap();
+    let mut doc: serde_json::Value = serde_json::from_str(&box_gltf).unwrap();
+    let mesh_node = doc["nodes"].as_array().unwrap().iter().position(|n| n.get("mesh").is_some()).unwrap();
+    let nodes: Vec<serde_json::Value> =
+        (0..4096).map(|i| serde_json::json!({ "mesh": doc["nodes"][mesh_node]["mesh"], "translation": [i, 0, 0] })).collect();
+    doc["nodes"] = serde_json::Value::Array(nodes);
+    doc["scenes"] = serde_json::json!([{ "nodes": (0..4096).collect::<Vec<_>>() }]);
+    doc["scene"] = serde_json::json!(0);
+    std::fs::write(dir.join("many.gltf"), doc.to_string()).unwrap();
+    std::fs::copy(assets().join("Box0.bin"), dir.join("Box0.bin")).unwrap();
+    let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\n[[object]]\ntype = \"mesh\"\nfile = \"many.gltf\"\n";
+    let options = LoadOptions { limits: Limits { max_triangles: 10_000, ..Limits::default() }, ..LoadOptions::default() };
+    let e = load_str(&raylab_plugins::registry(), "many.toml", text, &dir, &options).err().expect("over the limit");
+    assert!(e.message.contains("49152 triangles, over the limit of 10000"), "{}", e.report());
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn the_command_line_flag_raises_the_limit() {
+    let scene = std::env::temp_dir().join(format!("raylab-limits-cli-{}.toml", std::process::id()));
+    let cube = assets().join("cube.obj");
+    std::fs::write(
+        &scene,
+        format!("[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\n[[object]]\ntype = \"mesh\"\nfile = \"{}\"\n", cube.display()),
+    )
+    .unwrap();
+    let out_png = scene.with_extension("png");
+    let run = |extra: &[&str]| {
+        let mut args = vec!["render", scene.to_str().unwrap(), "-o", out_png.to_str().unwrap(), "--width", "8", "--height", "8", "-q"];
+        args.extend(["--allow-outside-paths"]);
+        args.extend(extra);
+        Command::new(env!("CARGO_BIN_EXE_raylab")).args(&args).output().unwrap()
+    };
+    let refused = run(&["--max-triangles", "11"]);
+    assert_eq!(refused.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("over the limit of 11"));
+    let allowed = run(&["--max-triangles", "12"]);
+    assert!(allowed.status.success(), "{}", String::from_utf8_lossy(&allowed.stderr));
+    let _ = std::fs::remove_file(&scene);
+    let _ = std::fs::remove_file(&out_png);
+}
+
+/// Found by the `mesh_obj` fuzz target: a vertex at 1e34 made obvhs' single-precision build fail
+/// an assertion (a crash). Boxes beyond `raylab::bvh::MAX_BVH_COORDINATE` are indexed by a list.
+#[test]
+fn a_mesh_reaching_1e34_is_indexed_by_a_list_instead_of_crashing_the_hierarchy() {
+    let text = "[camera]\nposition = [0.5, 0.5, 10]\nlook_at = [0.5, 0.5, 0]\n[[object]]\ntype = \"mesh\"\nfile = \"far-vertex.obj\"\n";
+    let options = LoadOptions { accel: raylab::accel::AccelChoice::Bvh, ..LoadOptions::default() };
+    let job = load_str(&raylab_plugins::registry(), "far.toml", text, &assets(), &options).unwrap_or_else(|e| panic!("{}", e.report()));
+    let hit = job.scene.intersect(&raylab::Ray::new(raylab::glam::DVec3::new(0.5, 0.5, 10.0), -raylab::glam::DVec3::Z), 0.0, f64::INFINITY);
+    assert!(hit.is_some_and(|h| (h.t - 9.0).abs() < 1e-9), "{hit:?}");
+}
+
+/// A symbolic link inside the scene's folder that leads out of it is refused like `..`, unless
+/// the user allows paths outside the folder.
+#[cfg(unix)]
+#[test]
+fn a_symbolic_link_out_of_the_scene_folder_is_refused() {
+    let dir = std::env::temp_dir().join(format!("raylab-symlink-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::os::unix::fs::symlink(assets().join("cube.obj"), dir.join("link.obj")).unwrap();
+    let text =
+        "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\n[[object]]\ntype = \"mesh\"\nfile = \"link.obj\"\nmaterial = { kd = 0.5 }\n";
+    let e = load_str(&raylab_plugins::registry(), "s.toml", text, &dir, &LoadOptions::default()).err().expect("refused");
+    assert!(e.message.contains("resolves outside the scene's folder"), "{}", e.report());
+    assert_eq!(e.where_().as_deref(), Some("s.toml:6:8"));
+    let allowed = LoadOptions { allow_outside_paths: true, ..LoadOptions::default() };
+    assert!(load_str(&raylab_plugins::registry(), "s.toml", text, &dir, &allowed).is_ok());
+    std::fs::remove_dir_all(dir).unwrap();
+}
