@@ -325,34 +325,38 @@ impl Phong {
             }
             // Lit only from the viewer's side of the geometric surface; shaded with `ns`.
             let nl = if n.dot(ls.dir) > 0.0 { sh.ns.dot(ls.dir) } else { 0.0 };
-            let mut rec = node.as_deref_mut().map(|_| TraceLight {
-                light: scene.light_names[sh.li].clone(),
-                dir: ls.dir,
-                distance: ls.distance,
-                intensity: ls.intensity,
-                n_dot_l: nl,
-                transmittance: Color::ZERO,
-                occluder: None,
-                diffuse: Color::ZERO,
-                specular: Color::ZERO,
-                skipped: None,
-            });
-            let skip = |why: String, node: Option<&mut TraceNode>, rec: Option<TraceLight>| {
-                if let (Some(nd), Some(mut r)) = (node, rec) {
-                    r.skipped = Some(why);
-                    nd.lights.push(r);
+            // The explanation record, built only when a trace asks for one.
+            let record = |node: Option<&mut TraceNode>,
+                          skipped: Option<&str>,
+                          transmittance: Color,
+                          occluder: Option<u32>,
+                          terms: (Color, Color)| {
+                if let Some(nd) = node {
+                    nd.lights.push(TraceLight {
+                        light: scene.light_names[sh.li].clone(),
+                        dir: ls.dir,
+                        distance: ls.distance,
+                        intensity: ls.intensity,
+                        n_dot_l: nl,
+                        transmittance,
+                        occluder: occluder.map(|o| scene.object_name(o).to_string()),
+                        diffuse: terms.0,
+                        specular: terms.1,
+                        skipped: skipped.map(str::to_string),
+                    });
                 }
             };
+            let none = (Color::ZERO, Color::ZERO);
             if self.avoid && nl <= 0.0 {
                 c.stats.lights_behind += 1;
                 acc.observe(Outcome::Dark);
-                skip("the light is behind the surface as seen from the ray".into(), node.as_deref_mut(), rec);
+                record(node.as_deref_mut(), Some("the light is behind the surface as seen from the ray"), Color::ZERO, None, none);
                 continue;
             }
             if self.avoid && max_channel(ls.intensity) <= 0.0 {
                 c.stats.lights_unreachable += 1;
                 acc.observe(Outcome::Dark);
-                skip("no light arrives here (outside the cone)".into(), node.as_deref_mut(), rec);
+                record(node.as_deref_mut(), Some("no light arrives here (outside the cone)"), Color::ZERO, None, none);
                 continue;
             }
             let lit = nl > 0.0;
@@ -366,33 +370,36 @@ impl Phong {
             if self.avoid && dark {
                 c.stats.lights_no_response += 1;
                 acc.observe(Outcome::Dark);
-                skip("no diffuse or specular response toward this light".into(), node.as_deref_mut(), rec);
+                record(node.as_deref_mut(), Some("no diffuse or specular response toward this light"), Color::ZERO, None, none);
                 continue;
             }
             let share = max_channel(unshadowed * sh.weight) / f64::from(sh.full);
             if share < self.prune_threshold {
                 c.stats.lights_negligible += 1;
                 acc.observe(if dark { Outcome::Dark } else { Outcome::Negligible });
-                skip(format!("contribution {share:.3e} below the pruning threshold"), node.as_deref_mut(), rec);
+                if node.is_some() {
+                    record(
+                        node.as_deref_mut(),
+                        Some(&format!("contribution {share:.3e} below the pruning threshold")),
+                        Color::ZERO,
+                        None,
+                        none,
+                    );
+                }
                 continue;
             }
             c.stats.shadow_rays += 1;
             let (shadow_ray, t_max) = hit.spawn_shadow_ray(n, ls.dir, ls.distance);
-            let tr = match (node.as_deref_mut(), rec.as_mut()) {
-                (Some(_), Some(r)) => {
-                    let (tr, occ) = scene.transmittance_and_occluder(&shadow_ray, t_max);
-                    r.transmittance = tr;
-                    r.occluder = occ.map(|o| scene.object_name(o).to_string());
-                    tr
-                }
-                _ => scene.transmittance(&shadow_ray, t_max),
-            };
-            acc.sum += unshadowed * tr;
-            acc.observe(if dark { Outcome::Dark } else { Outcome::Lit(tr) });
-            if let (Some(nd), Some(mut r)) = (node.as_deref_mut(), rec) {
-                r.diffuse = diffuse * tr / f64::from(count);
-                r.specular = specular * tr / f64::from(count);
-                nd.lights.push(r);
+            if node.is_some() {
+                let (tr, occ) = scene.transmittance_and_occluder(&shadow_ray, t_max);
+                let terms = (diffuse * tr / f64::from(count), specular * tr / f64::from(count));
+                acc.sum += unshadowed * tr;
+                acc.observe(if dark { Outcome::Dark } else { Outcome::Lit(tr) });
+                record(node.as_deref_mut(), None, tr, occ, terms);
+            } else {
+                let tr = scene.transmittance(&shadow_ray, t_max);
+                acc.sum += unshadowed * tr;
+                acc.observe(if dark { Outcome::Dark } else { Outcome::Lit(tr) });
             }
         }
         true

@@ -93,6 +93,11 @@ impl Intersectable for Sphere {
         let (t, _) = roots.into_iter().find(|&(t, err)| t > t_min && t > err && t < t_max)?;
         Some(self.hit_at(ray, f, t))
     }
+    fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
+        let f = ray.origin - self.center;
+        sphere_roots(f, ray.dir, self.radius, on_surface_slack(ray.origin, self.center))
+            .is_some_and(|roots| roots.into_iter().any(|(t, err)| t > t_min && t > err && t < t_max))
+    }
 }
 
 impl Geometry for Sphere {
