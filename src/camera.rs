@@ -2,6 +2,7 @@
 //! screen at a distance in front of the eye.
 
 use crate::error::Result;
+use crate::float::PARALLEL_TOLERANCE;
 use crate::params::{Default, Node, ParamKind, ParamSpec, Params, Table};
 use crate::ray::Ray;
 use glam::{DVec2, DVec3};
@@ -108,7 +109,7 @@ impl Camera {
         let to = to.try_normalize().filter(|t| t.is_finite()).ok_or(CameraError::NoViewDirection)?;
         // Gram–Schmidt; an `up` within ~1e-6 rad of `to` would orthogonalise to rounding noise.
         let perp = up - up.dot(to) * to;
-        if !(perp.length() > 1e-6 * up.length()) {
+        if !(perp.length() > PARALLEL_TOLERANCE * up.length()) {
             return Err(CameraError::UpParallelToView);
         }
         let up = perp.normalize();

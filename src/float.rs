@@ -23,6 +23,15 @@ pub const fn gamma(n: u32) -> f64 {
 /// surface is not shadowed by that surface. Relative, hence independent of the scene's scale.
 pub const SHADOW_EPSILON: f64 = 1e-9;
 
+/// Relative size below which a cross product or determinant counts as zero, so the shape or
+/// matrix it comes from is refused as degenerate: `|a × b| ≤ DEGENERACY_TOLERANCE · |a|·|b|`
+/// (about 2⁻⁴⁰, far above rounding and far below any shape a scene means to draw).
+pub const DEGENERACY_TOLERANCE: f64 = 1e-12;
+
+/// Sine of the smallest angle a camera's `up` may make with its view direction; nearer to
+/// parallel, "up" no longer defines a roll and the camera is refused.
+pub const PARALLEL_TOLERANCE: f64 = 1e-6;
+
 /// Relative tolerance used by tests and validators when checking that a point lies on a surface:
 /// `|f(p)| ≤ SURFACE_TOLERANCE · scale`, where `scale` is the magnitude of the coordinates.
 pub const SURFACE_TOLERANCE: f64 = 1e-9;

@@ -17,7 +17,7 @@
 
 use crate::bounds::Aabb;
 use crate::error::{Result, SceneError};
-use crate::float::gamma;
+use crate::float::{DEGENERACY_TOLERANCE, gamma};
 use crate::geometry::{Geometry, Hit, Intersectable};
 use crate::material::Material;
 use crate::params::{Node, Value, vec3_of};
@@ -44,7 +44,7 @@ impl Transform {
         let l = m.matrix3;
         let scale = l.x_axis.length().max(l.y_axis.length()).max(l.z_axis.length());
         let det = l.determinant();
-        if !(m.is_finite() && scale > 0.0 && det.abs() > 1e-12 * scale * scale * scale) {
+        if !(m.is_finite() && scale > 0.0 && det.abs() > DEGENERACY_TOLERANCE * scale * scale * scale) {
             return None;
         }
         let to_object = m.inverse();

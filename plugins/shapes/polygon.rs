@@ -7,6 +7,7 @@
 
 use super::plane::intersect_plane;
 use raylab::error::Result;
+use raylab::float::DEGENERACY_TOLERANCE;
 use raylab::geometry::{Geometry, Hit, Intersectable};
 use raylab::glam::{DVec2, DVec3};
 use raylab::params::{Default, MATERIAL_PARAM, ParamKind, ParamSpec, Params};
@@ -80,7 +81,7 @@ impl Polygon {
             normal += DVec3::new((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
         }
         let size = Aabb::from_points(vertices.iter().copied()).extent().max_element();
-        if !(normal.length() > 1e-12 * size * size) || !normal.is_finite() {
+        if !(normal.length() > DEGENERACY_TOLERANCE * size * size) || !normal.is_finite() {
             return Err(PolygonError::Degenerate);
         }
         let normal = normal.normalize();
@@ -94,7 +95,7 @@ impl Polygon {
         for i in 0..n {
             let e = vertices[(i + 1) % n] - vertices[i];
             let next = vertices[(i + 2) % n] - vertices[(i + 1) % n];
-            if !(normal.dot(e.cross(next)) > 1e-12 * e.length() * next.length()) {
+            if !(normal.dot(e.cross(next)) > DEGENERACY_TOLERANCE * e.length() * next.length()) {
                 return Err(PolygonError::NotConvex((i + 1) % n));
             }
             edge_normals.push(normal.cross(e));
@@ -105,7 +106,7 @@ impl Polygon {
             let e = vertices[(i + 1) % n] - vertices[i];
             for (j, v) in vertices.iter().enumerate() {
                 let w = *v - vertices[i];
-                if j != i && j != (i + 1) % n && !(normal.dot(e.cross(w)) > 1e-12 * e.length() * w.length()) {
+                if j != i && j != (i + 1) % n && !(normal.dot(e.cross(w)) > DEGENERACY_TOLERANCE * e.length() * w.length()) {
                     return Err(PolygonError::SelfCrossing);
                 }
             }

@@ -8,7 +8,7 @@
 //! hits, and the test's consistent edge functions then make shared edges watertight.
 
 use raylab::error::Result;
-use raylab::float::{gamma, on_surface_slack, triangle_normal};
+use raylab::float::{DEGENERACY_TOLERANCE, gamma, on_surface_slack, triangle_normal};
 use raylab::geometry::{Geometry, Hit, Intersectable};
 use raylab::glam::{DVec2, DVec3};
 use raylab::params::{Default, MATERIAL_PARAM, ParamKind, ParamSpec, Params};
@@ -149,7 +149,7 @@ impl Triangle {
     /// A triangle with the given edge rule, or `None` when it is degenerate.
     pub fn with_edges(p0: DVec3, p1: DVec3, p2: DVec3, edges: EdgeRule, material: Material) -> Option<Self> {
         let (n, scale) = triangle_normal([p0, p1, p2]);
-        if !(n.is_finite() && n.length() > 1e-12 * scale && scale > 0.0) {
+        if !(n.is_finite() && n.length() > DEGENERACY_TOLERANCE * scale && scale > 0.0) {
             return None;
         }
         Some(Triangle { p: [p0, p1, p2], normal: n.normalize(), edges, material })
