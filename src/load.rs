@@ -359,7 +359,14 @@ fn convert_value(v: &toml::Spanned<toml::de::DeValue<'_>>, src: &Arc<Source>) ->
                 Some(b) => (true, b),
                 None => (false, digits.strip_prefix('+').unwrap_or(&digits)),
             };
-            let body = if i.radix() != 10 { &body[2..] } else { body };
+            // The parser hands over the digits with or without a 0x/0o/0b prefix, and "0x" alone.
+            let body = match body.get(..2) {
+                Some("0x" | "0o" | "0b") if i.radix() != 10 => &body[2..],
+                _ => body,
+            };
+            if body.is_empty() {
+                return Err(SceneError::at(&loc, "expected digits after the 0x, 0o or 0b prefix"));
+            }
             let mag = i128::from_str_radix(body, i.radix()).map_err(|_| SceneError::at(&loc, "integer out of range"))?;
             let val = if neg { -mag } else { mag };
             Value::Int(i64::try_from(val).map_err(|_| SceneError::at(&loc, "integer out of range for 64 bits"))?)

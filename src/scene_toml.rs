@@ -176,6 +176,19 @@ mod tests {
     }
 
     #[test]
+    fn integers_in_every_radix() {
+        let t = parse("a = 0x40\nb = 0o60\nc = 0b101\nd = -1_000\ne = +7\nf = 0xDEAD_beef\n");
+        let ints: Vec<i64> = ["a", "b", "c", "d", "e", "f"]
+            .iter()
+            .map(|k| match t.get(k).map(|n| &n.value) {
+                Some(Value::Int(i)) => *i,
+                other => panic!("{k}: {other:?}"),
+            })
+            .collect();
+        assert_eq!(ints, [64, 48, 5, -1000, 7, 0xDEAD_BEEF]);
+    }
+
+    #[test]
     fn awkward_values_round_trip_exactly() {
         round_trip(
             r#"
