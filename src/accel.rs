@@ -72,18 +72,26 @@ impl ObjectAccel {
                 best = Some(h);
             }
         }
-        let inv = ray.dir.recip();
-        let list = !self.index.is_bvh();
-        self.index.closest(ray, t_min, t_max, |slot, t_max| {
-            let (b, i) = self.bounded[slot as usize];
-            if list && !b.hit(ray, inv, t_min, t_max) {
-                return None;
+        if self.index.is_bvh() {
+            self.index.closest(ray, t_min, t_max, |slot, t_max| {
+                let i = self.bounded[slot as usize].1;
+                let mut h = objects[i as usize].intersect(ray, t_min, t_max)?;
+                h.object = i;
+                best = Some(h);
+                Some(h.t)
+            });
+        } else {
+            let inv = ray.dir.recip();
+            for (b, i) in &self.bounded {
+                if b.hit(ray, inv, t_min, t_max)
+                    && let Some(mut h) = objects[*i as usize].intersect(ray, t_min, t_max)
+                {
+                    h.object = *i;
+                    t_max = h.t;
+                    best = Some(h);
+                }
             }
-            let mut h = objects[i as usize].intersect(ray, t_min, t_max)?;
-            h.object = i;
-            best = Some(h);
-            Some(h.t)
-        });
+        }
         best
     }
 
@@ -93,11 +101,10 @@ impl ObjectAccel {
         if self.unbounded.iter().any(|&i| objects[i as usize].occludes(ray, t_min, t_max)) {
             return true;
         }
+        if self.index.is_bvh() {
+            return self.index.any(ray, t_min, t_max, |slot| objects[self.bounded[slot as usize].1 as usize].occludes(ray, t_min, t_max));
+        }
         let inv = ray.dir.recip();
-        let list = !self.index.is_bvh();
-        self.index.any(ray, t_min, t_max, |slot| {
-            let (b, i) = self.bounded[slot as usize];
-            (!list || b.hit(ray, inv, t_min, t_max)) && objects[i as usize].occludes(ray, t_min, t_max)
-        })
+        self.bounded.iter().any(|(b, i)| b.hit(ray, inv, t_min, t_max) && objects[*i as usize].occludes(ray, t_min, t_max))
     }
 }
