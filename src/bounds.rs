@@ -12,6 +12,15 @@ pub struct Aabb {
     pub max: DVec3,
 }
 
+/// Half-extent along each world axis of a circle of `radius` in the plane perpendicular to the
+/// unit vector `axis`: `radius · sqrt(1 − axis_i²)`, computed as `radius · sqrt(axis_j² + axis_k²)`
+/// (no cancellation when `axis` is nearly a coordinate axis) and rounded up.
+pub fn circle_extent(axis: DVec3, radius: f64) -> DVec3 {
+    let a2 = axis * axis;
+    let sin = DVec3::new(a2.y + a2.z, a2.x + a2.z, a2.x + a2.y).sqrt();
+    (radius * sin * (1.0 + crate::float::gamma(4))).min(DVec3::splat(radius.abs() * (1.0 + crate::float::gamma(2))))
+}
+
 impl Aabb {
     /// The empty box: the identity of [`Aabb::union`].
     pub const EMPTY: Aabb = Aabb { min: DVec3::splat(f64::INFINITY), max: DVec3::splat(f64::NEG_INFINITY) };
@@ -85,6 +94,23 @@ impl Aabb {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every point of circles around nearly axis-aligned axes lies within the extent: `1 − a_z²`
+    /// cancels to 0 for an axis 1e-8 rad off z, where the circle still rises 1e-8·r out of plane.
+    #[test]
+    fn circle_extent_holds_circles_around_nearly_aligned_axes() {
+        for (axis, r) in [(DVec3::new(1e-8, 0.0, -1.0), 4e5), (DVec3::new(3e-9, -2e-9, 1.0), 1.0), (DVec3::new(1.0, 1.0, 0.5), 2.0)] {
+            let a = axis.normalize();
+            let ext = circle_extent(a, r);
+            let (u, v) = (a.any_orthonormal_vector(), a.cross(a.any_orthonormal_vector()));
+            for k in 0..3600 {
+                let phi = f64::from(k) * std::f64::consts::TAU / 3600.0;
+                let p = r * (phi.cos() * u + phi.sin() * v);
+                assert!(p.abs().cmple(ext).all(), "{p} beyond {ext} (axis {a})");
+            }
+            assert!(ext.cmple(DVec3::splat(r * (1.0 + 1e-15))).all());
+        }
+    }
 
     #[test]
     fn slab_test_hits_and_misses() {

@@ -251,20 +251,20 @@ impl Phong {
         let m = g.material_at(hit);
         let no_response = max_channel(m.kd) <= 0.0 && max_channel(m.ks) <= 0.0;
         let ns = g.shading_normal(hit, ray.dir);
+        let streams = sampler.fork(TAG_LIGHTS);
         let mut total = Color::ZERO;
         for (li, light) in scene.lights.iter().enumerate() {
             let full = match light.is_area() && self.shadow_rays > 0 {
                 true => self.shadow_rays,
                 false => light.sample_count().max(1),
             };
-            // Only a light with an extent uses its samples' `u`: no random numbers for the others.
-            let mut stream = light.is_area().then(|| sampler.fork(TAG_LIGHTS).fork(li as u64));
+            let mut stream = streams.fork(li as u64);
             let probes = if light.is_area() && self.shadow_probes > 0 && self.shadow_probes < full { self.shadow_probes } else { 0 };
             let mut acc = LightSum { sum: Color::ZERO, n: 0, first: None, agree: true };
             let shade = Shade { ray, hit, n, ns, weight, full, li, no_response };
             let first_set = if probes > 0 { Samples::Probes(probes) } else { Samples::Stratified(full) };
-            let pattern = stream.as_mut().map_or(0, |s| s.next_pattern());
-            let u0 = stream.as_mut().map_or(DVec2::splat(0.5), |s| s.next_2d());
+            let pattern = stream.next_pattern();
+            let u0 = stream.next_2d();
             if !self.light_samples(c, &shade, light.as_ref(), first_set, pattern, u0, &mut acc, node.as_deref_mut()) {
                 continue;
             }
@@ -275,7 +275,7 @@ impl Phong {
                     if let Some(nd) = node.as_deref_mut() {
                         nd.notes.push(format!("{}: the {probes} probe rays disagree; {full} more samples", scene.light_names[li]));
                     }
-                    let pattern = stream.as_mut().map_or(0, |s| s.next_pattern());
+                    let pattern = stream.next_pattern();
                     self.light_samples(c, &shade, light.as_ref(), Samples::Stratified(full), pattern, u0, &mut acc, node.as_deref_mut());
                 }
             }

@@ -9,6 +9,7 @@
 //! to rounding on both sides of it) and never reports one crossing twice. A crossing is reported
 //! only beyond its own rounding-error bound, so a ray starting on the surface does not hit it again.
 
+use raylab::bounds::circle_extent;
 use raylab::error::Result;
 use raylab::float::{gamma, max_abs, on_surface_slack};
 use raylab::geometry::{Geometry, Hit, Intersectable};
@@ -207,10 +208,9 @@ impl Geometry for Cylinder {
     }
     fn bounds(&self) -> Option<Aabb> {
         let h = self.height?;
-        // Bounding box of the two cap discs: each axis extends by r·sqrt(1 − a_i²).
-        let a = self.axis;
-        let ext = self.radius * (DVec3::ONE - a * a).max(DVec3::ZERO).sqrt();
-        let top = self.base + h * a;
+        // Bounding box of the two cap discs.
+        let ext = circle_extent(self.axis, self.radius);
+        let top = self.base + h * self.axis;
         Some(Aabb::new(self.base.min(top) - ext, self.base.max(top) + ext))
     }
     fn is_closed(&self) -> bool {
@@ -524,6 +524,25 @@ mod tests {
     }
 
     // Regressions: literal cases the properties found.
+
+    /// An axis 1e-8 rad off −z: `1 − a_z²` cancelled to 0 and the box was flat in z, 0.004 short
+    /// of the rim at radius 4e5, so a hit there lay outside the bounds (found by the intersect
+    /// fuzz target; a hierarchy would have missed it).
+    #[test]
+    fn bounds_hold_the_rim_for_a_nearly_axis_aligned_axis() {
+        let axis = DVec3::new(1e-8, 0.0, -1.0).normalize();
+        let c = Cylinder::new(DVec3::new(-252681.6, -2e5, 0.0), axis, 4e5, Some(4e5), Material::default());
+        let b = c.bounds().unwrap();
+        let rim_top = c.base + 4e5 * DVec3::X.reject_from_normalized(axis).normalize();
+        assert!(b.contains(rim_top), "{rim_top} outside {b:?}");
+        let ray = Ray::new(
+            DVec3::new(-652522.9405246212, -200000.00335143087, -0.0033514311716267655),
+            DVec3::new(1.0, 8.381902427972119e-9, 8.381903171539307e-9),
+        );
+        if let Some(h) = c.intersect(&ray, 0.0, f64::INFINITY) {
+            assert!(b.expand(DVec3::splat(1e-9 * 1e6)).contains(h.point), "{} outside {b:?}", h.point);
+        }
+    }
 
     /// A ray entering from a point of the side, away from the origin, re-hit the side at t ≈ 3e-16.
     #[test]

@@ -18,6 +18,7 @@
 //!   a ray leaving the surface never reports it again.
 
 use crate::roots::first_quartic_root;
+use raylab::bounds::circle_extent;
 use raylab::error::Result;
 use raylab::float::gamma;
 use raylab::geometry::{Geometry, Hit, Intersectable};
@@ -209,8 +210,7 @@ impl Geometry for Torus {
     }
     fn bounds(&self) -> Option<Aabb> {
         // Per world axis i: r + R·sin(angle between axis and e_i).
-        let sin = (DVec3::ONE - self.axis * self.axis).max(DVec3::ZERO).sqrt();
-        let ext = sin * self.major + DVec3::splat(self.minor);
+        let ext = circle_extent(self.axis, self.major) + DVec3::splat(self.minor);
         Some(Aabb::new(self.center - ext, self.center + ext))
     }
     fn is_closed(&self) -> bool {
