@@ -78,7 +78,7 @@ impl Registry {
         self.geometries.insert(info.name, Plugin { info, build: Arc::new(build) });
     }
 
-    /// Registers a light type.
+    /// Registers a light type; replaces any earlier one of the same name.
     pub fn add_light(
         &mut self,
         info: PluginInfo,
@@ -87,7 +87,8 @@ impl Registry {
         self.lights.insert(info.name, Plugin { info, build: Arc::new(build) });
     }
 
-    /// Registers an integrator. The first one registered is the default for scenes that name none.
+    /// Registers an integrator; replaces any earlier one of the same name. The first one registered
+    /// is the default for scenes that name none.
     pub fn add_integrator(
         &mut self,
         info: PluginInfo,

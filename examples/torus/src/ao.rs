@@ -62,7 +62,7 @@ impl Integrator for AmbientOcclusion {
                 open += 1;
             }
         }
-        g.material().kd * (f64::from(open) / f64::from(self.rays))
+        g.material_at(&hit).kd * (f64::from(open) / f64::from(self.rays))
     }
 
     fn describe(&self) -> String {

@@ -6,7 +6,7 @@
 //! built-in (`type = "torus"`), and the `raylab-torus` binary renders them with the same CLI.
 //!
 //! It adds a [`torus`] geometry (a quartic, solved robustly by [`roots`]), and the two other
-//! examples of `docs/writing-a-plugin.md`: a [`rect_light`] area light and an [`ao`]
+//! examples of `docs/writing-a-plugin.md`: a [`panel_light`] area light and an [`ao`]
 //! (ambient occlusion) integrator.
 //!
 //! ```no_run
@@ -15,7 +15,7 @@
 //! ```
 
 pub mod ao;
-pub mod rect_light;
+pub mod panel_light;
 pub mod roots;
 pub mod torus;
 
@@ -24,10 +24,10 @@ use raylab::Registry;
 /// The scene the `raylab-torus` binary renders when run without arguments.
 pub const DEFAULT_SCENE: (&str, &str) = ("examples/torus/scenes/torus.toml", include_str!("../scenes/torus.toml"));
 
-/// Adds this crate's plugins to `r`: `torus`, the `rect` light and the `ao` integrator.
+/// Adds this crate's plugins to `r`: `torus`, the `panel` light and the `ao` integrator.
 pub fn register(r: &mut Registry) {
     r.add_geometry(torus::INFO, torus::build);
-    r.add_light(rect_light::INFO, rect_light::build);
+    r.add_light(panel_light::INFO, panel_light::build);
     r.add_integrator(ao::INFO, ao::build);
 }
 

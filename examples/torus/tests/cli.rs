@@ -41,7 +41,7 @@ fn the_documented_command_renders_the_torus_scene() {
 fn plugins_lists_the_crates_types_beside_the_built_ins() {
     let out = run(&["plugins"]);
     let text = String::from_utf8_lossy(&out.stdout);
-    for ty in ["torus", "rect", "ao", "sphere", "phong"] {
+    for ty in ["torus", "panel", "rect", "ao", "sphere", "phong"] {
         assert!(text.contains(&format!("\n  {ty}  — ")), "missing {ty} in:\n{text}");
     }
     assert!(text.contains("major_radius") && text.contains("samples"));

@@ -1,5 +1,5 @@
 //! The example scene, rendered in memory: the torus is where the scene puts it, and the `ao`
-//! integrator and `rect` light work through the same loader as the built-ins.
+//! integrator and `panel` light work through the same loader as the built-ins.
 
 use raylab::load::{LoadOptions, Overrides, load_file};
 use raylab::render::{RenderOptions, render};

@@ -1,4 +1,4 @@
-//! `rect`: a rectangular area light, for soft shadows (the light of `docs/writing-a-plugin.md`).
+//! `panel`: a rectangular area light, for soft shadows (the light of `docs/writing-a-plugin.md`).
 //!
 //! The rectangle `corner + a·edge1 + b·edge2` (a, b ∈ [0, 1]) emits from one side, toward
 //! `edge1 × edge2`. Each of `samples` shadow samples picks a point on it from the integrator's
@@ -11,9 +11,9 @@ use raylab::glam::{DVec2, DVec3};
 use raylab::params::{Default, ParamKind, ParamSpec, Params};
 use raylab::{Color, LightSample, LightSource, LoadContext, PluginInfo};
 
-/// The `rect` plugin's description.
+/// The `panel` plugin's description.
 pub const INFO: PluginInfo = PluginInfo {
-    name: "rect",
+    name: "panel",
     summary: "A one-sided rectangular area light, corner + a·edge1 + b·edge2, emitting toward edge1 × edge2: soft shadows. Each sample: color · cos θ / (kc + kl·d + kq·d²).",
     params: &[
         ParamSpec::new("color", ParamKind::Color, Default::Float(1.0), "intensity, linear RGB"),
@@ -34,7 +34,7 @@ pub const INFO: PluginInfo = PluginInfo {
 
 /// A rectangular area light.
 #[derive(Clone, Debug)]
-pub struct RectLight {
+pub struct PanelLight {
     color: Color,
     corner: DVec3,
     edge1: DVec3,
@@ -62,10 +62,10 @@ pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn LightSource>> {
     if attenuation.iter().sum::<f64>() <= 0.0 {
         return Err(p.error("at least one of kc, kl, kq must be > 0"));
     }
-    Ok(Box::new(RectLight { color, corner, edge1, edge2, normal: normal.normalize(), samples, attenuation }))
+    Ok(Box::new(PanelLight { color, corner, edge1, edge2, normal: normal.normalize(), samples, attenuation }))
 }
 
-impl LightSource for RectLight {
+impl LightSource for PanelLight {
     fn illuminate(&self, p: DVec3, u: DVec2) -> Option<LightSample> {
         let on_light = self.corner + u.x * self.edge1 + u.y * self.edge2;
         let to_light = on_light - p;
@@ -76,7 +76,8 @@ impl LightSource for RectLight {
         let dir = to_light / d;
         let cos = -self.normal.dot(dir);
         if cos <= 0.0 {
-            return None; // behind the emitting side
+            // Behind the emitting side: no light, but a direction.
+            return Some(LightSample { dir, distance: d, intensity: Color::ZERO });
         }
         let [kc, kl, kq] = self.attenuation;
         Some(LightSample { dir, distance: d, intensity: self.color * (cos / (kc + kl * d + kq * d * d)) })
@@ -84,5 +85,9 @@ impl LightSource for RectLight {
 
     fn sample_count(&self) -> u32 {
         self.samples
+    }
+
+    fn is_area(&self) -> bool {
+        true
     }
 }
