@@ -301,6 +301,11 @@ impl GltfFile {
                     a.dimensions(),
                     a.data_type()
                 ))),
+                Some(a) if a.view().and_then(|v| v.stride()).is_some_and(|s| s < a.size()) => Err(err(format!(
+                    "its {what} accessor's buffer view has byteStride {}, less than one element ({} bytes)",
+                    a.view().and_then(|v| v.stride()).unwrap_or(0),
+                    a.size()
+                ))),
                 _ => Ok(()),
             };
             typed(prim.get(&gltf::Semantic::Positions), &[DataType::F32], Dimensions::Vec3, "POSITION")?;
