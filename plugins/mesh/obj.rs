@@ -53,7 +53,9 @@ pub fn read(ctx: &LoadContext, path: &str, full: &Path, bytes: &[u8], need_mater
             }
         }
     };
-    if let Some(e) = scan(&name, text, None) {
+    if !indices_certainly_valid(text.as_bytes())
+        && let Some(e) = scan(&name, text, None)
+    {
         return Err(e);
     }
     let parsed = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| tobj::load_obj_buf(&mut text.as_bytes(), &opts, load_mtl)));
@@ -238,6 +240,81 @@ fn scan(name: &str, text: &str, e: Option<&tobj::LoadError>) -> Option<SceneErro
     None
 }
 
+/// The fast check [`scan`] makes before tobj runs, on bytes: true when every face corner is an
+/// integer naming a vertex, texture coordinate or normal the file defines (relative indices:
+/// before its line), so [`scan`] would find nothing. False when one does not, or when the file
+/// is not ASCII (whose Unicode whitespace only [`scan`] splits like tobj): then [`scan`] decides.
+fn indices_certainly_valid(bytes: &[u8]) -> bool {
+    if !bytes.is_ascii() {
+        return false;
+    }
+    let mut total = [0i64; 3];
+    for line in bytes.split(|&b| b == b'\n') {
+        if let k @ 1..=3 = keyword(line).0 {
+            total[k - 1] += 1;
+        }
+    }
+    let mut count = [0i64; 3];
+    for line in bytes.split(|&b| b == b'\n') {
+        match keyword(line) {
+            (k @ 1..=3, _) => count[k - 1] += 1,
+            (4, rest) => {
+                for corner in rest.split(|b| b.is_ascii_whitespace()).filter(|w| !w.is_empty()) {
+                    for (kind, part) in corner.split(|&b| b == b'/').take(3).enumerate() {
+                        if part.is_empty() || (kind > 0 && total[kind] == 0) {
+                            continue;
+                        }
+                        let Some(k) = parse_i64(part) else { return false };
+                        let (resolved, defined) = if k < 0 { (count[kind] + k + 1, count[kind]) } else { (k, total[kind]) };
+                        if !(1..=defined).contains(&resolved) {
+                            return false;
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    true
+}
+
+/// A line's first word as 1 (`v`), 2 (`vt`), 3 (`vn`), 4 (`f`) or 0 (anything else), and the rest
+/// of the line.
+fn keyword(line: &[u8]) -> (usize, &[u8]) {
+    let start = line.iter().position(|b| !b.is_ascii_whitespace()).unwrap_or(line.len());
+    let line = &line[start..];
+    let end = line.iter().position(|b| b.is_ascii_whitespace()).unwrap_or(line.len());
+    let kind = match &line[..end] {
+        b"v" => 1,
+        b"vt" => 2,
+        b"vn" => 3,
+        b"f" => 4,
+        _ => 0,
+    };
+    (kind, &line[end..])
+}
+
+/// A decimal integer with an optional sign, as `str::parse::<i64>` reads it; `None` otherwise.
+fn parse_i64(s: &[u8]) -> Option<i64> {
+    let (neg, digits) = match s {
+        [b'-', d @ ..] => (true, d),
+        [b'+', d @ ..] => (false, d),
+        d => (false, d),
+    };
+    if digits.is_empty() {
+        return None;
+    }
+    let mut v: i64 = 0;
+    for &b in digits {
+        if !b.is_ascii_digit() {
+            return None;
+        }
+        // Accumulated negatively so that i64::MIN parses, as in `str::parse`.
+        v = v.checked_mul(10)?.checked_sub(i64::from(b - b'0'))?;
+    }
+    if neg { Some(v) } else { v.checked_neg() }
+}
+
 /// The first `v` line with a non-finite coordinate, for the error about it.
 pub fn non_finite_line(bytes: &[u8]) -> Option<(usize, usize)> {
     let text = std::str::from_utf8(bytes).ok()?;
@@ -245,4 +322,49 @@ pub fn non_finite_line(bytes: &[u8]) -> Option<(usize, usize)> {
         let mut w = l.split_whitespace();
         (w.next() == Some("v") && w.take(3).any(|x| x.parse::<f32>().is_ok_and(|f| !f.is_finite()))).then_some((i + 1, 1))
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The fast check never passes a file the exact scan refuses: the fuzz corpus (every OBJ that
+    /// once failed) and hand-made cases.
+    #[test]
+    fn the_fast_index_check_passes_only_what_the_scan_passes() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/corpus/mesh_obj");
+        let mut texts: Vec<String> = std::fs::read_dir(&dir)
+            .unwrap()
+            .filter_map(|e| std::fs::read(e.unwrap().path()).ok())
+            .filter_map(|b| String::from_utf8(b).ok())
+            .collect();
+        assert!(texts.len() >= 20, "corpus too small");
+        let cases = [
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -3\n",
+            "v 0 0 0\nv 1 0 0\nf -1 -2 -3\nv 0 1 0\n",
+            "f 1 2 3\nv 0 0 0\nv 1 0 0\nv 0 1 0\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/2 3/1\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/9 2/9 3/9\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//2\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 +3\r\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99999999999999999999\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\n\u{a0}f 1 2 4\n",
+        ];
+        texts.extend(cases.iter().map(|c| c.to_string()));
+        let mut passed = 0;
+        for t in &texts {
+            if indices_certainly_valid(t.as_bytes()) {
+                passed += 1;
+                assert!(scan("t.obj", t, None).is_none(), "fast check passed what the scan refuses:\n{t}");
+            }
+        }
+        assert!(passed >= 5, "the fast check passed only {passed} files");
+        assert!(indices_certainly_valid(cases[0].as_bytes()) && !indices_certainly_valid(cases[1].as_bytes()));
+        for t in ["0", "-0", "+7", "-9223372036854775808", "9223372036854775807", "9223372036854775808", "-", "+", "", "1x", "--1", " 1"] {
+            assert_eq!(parse_i64(t.as_bytes()), t.parse::<i64>().ok(), "{t:?}");
+        }
+    }
 }
