@@ -18,7 +18,7 @@ pub struct Aabb {
 pub fn circle_extent(axis: DVec3, radius: f64) -> DVec3 {
     let a2 = axis * axis;
     let sin = DVec3::new(a2.y + a2.z, a2.x + a2.z, a2.x + a2.y).sqrt();
-    (radius * sin * (1.0 + crate::float::gamma(4))).min(DVec3::splat(radius.abs() * (1.0 + crate::float::gamma(2))))
+    radius * sin * (1.0 + crate::float::gamma(4))
 }
 
 impl Aabb {

@@ -130,8 +130,8 @@ fn key(k: &str) -> String {
     if !k.is_empty() && k.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-') { k.to_string() } else { string(k) }
 }
 
-/// A TOML basic string with the required escapes.
-fn string(s: &str) -> String {
+/// `s` as a TOML basic string, quoted, with the required escapes.
+pub fn string(s: &str) -> String {
     let mut out = String::with_capacity(s.len() + 2);
     out.push('"');
     for c in s.chars() {

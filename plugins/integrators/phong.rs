@@ -391,17 +391,15 @@ impl Phong {
             }
             c.stats.shadow_rays += 1;
             let (shadow_ray, t_max) = hit.spawn_shadow_ray(n, ls.dir, ls.distance);
-            if node.is_some() {
+            let tr = if node.is_some() {
                 let (tr, occ) = scene.transmittance_and_occluder(&shadow_ray, t_max);
-                let terms = (diffuse * tr / f64::from(count), specular * tr / f64::from(count));
-                acc.sum += unshadowed * tr;
-                acc.observe(if dark { Outcome::Dark } else { Outcome::Lit(tr) });
-                record(node.as_deref_mut(), None, tr, occ, terms);
+                record(node.as_deref_mut(), None, tr, occ, (diffuse * tr / f64::from(count), specular * tr / f64::from(count)));
+                tr
             } else {
-                let tr = scene.transmittance(&shadow_ray, t_max);
-                acc.sum += unshadowed * tr;
-                acc.observe(if dark { Outcome::Dark } else { Outcome::Lit(tr) });
-            }
+                scene.transmittance(&shadow_ray, t_max)
+            };
+            acc.sum += unshadowed * tr;
+            acc.observe(if dark { Outcome::Dark } else { Outcome::Lit(tr) });
         }
         true
     }

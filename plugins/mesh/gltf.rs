@@ -29,6 +29,7 @@ use super::mesh::MeshData;
 use raylab::error::{Loc, Result, SceneError, Source};
 use raylab::glam::{DMat3, DMat4, DVec3, Mat4};
 use raylab::load::SceneDescription;
+use raylab::scene_toml::string as toml_string;
 use raylab::{Aabb, Color, LoadContext, Material};
 use std::fmt::Write;
 use std::path::Path;
@@ -490,8 +491,8 @@ pub fn scene_toml(file: &GltfFile, file_name: &str) -> Result<String> {
         let _ = writeln!(
             t,
             "[[object]]\ntype = \"mesh\"\nname = {}\nfile = {}\nmesh = {}\ntransform = {{ matrix = [{}, [0.0, 0.0, 0.0, 1.0]] }}\n",
-            quote(&name),
-            quote(file_name),
+            toml_string(&name),
+            toml_string(file_name),
             mesh.index(),
             rows.join(", ")
         );
@@ -507,7 +508,7 @@ pub fn scene_toml(file: &GltfFile, file_name: &str) -> Result<String> {
         let color = DVec3::from(light.color().map(f64::from)) * f64::from(light.intensity());
         let pos = w.transform_point3(DVec3::ZERO);
         let dir = w.transform_vector3(-DVec3::Z).try_normalize().unwrap_or(-DVec3::Z);
-        let name = quote(&format!("{} #{}", node.name().or(light.name()).unwrap_or("light"), node.index()));
+        let name = toml_string(&format!("{} #{}", node.name().or(light.name()).unwrap_or("light"), node.index()));
         match light.kind() {
             gltf::khr_lights_punctual::Kind::Directional => {
                 let _ = writeln!(t, "[[light]]\ntype = \"directional\"\nname = {name}\ncolor = {}\ndirection = {}\n", v(color), v(dir));
@@ -538,24 +539,6 @@ pub fn scene_toml(file: &GltfFile, file_name: &str) -> Result<String> {
         t.push_str("[[light]]\ntype = \"ambient\"\nname = \"sky\"\nka = 0.15\n");
     }
     Ok(t)
-}
-
-/// A TOML basic string.
-fn quote(s: &str) -> String {
-    let mut out = String::with_capacity(s.len() + 2);
-    out.push('"');
-    for c in s.chars() {
-        match c {
-            '"' => out.push_str("\\\""),
-            '\\' => out.push_str("\\\\"),
-            c if c.is_control() => {
-                let _ = write!(out, "\\u{:04X}", c as u32);
-            }
-            c => out.push(c),
-        }
-    }
-    out.push('"');
-    out
 }
 
 #[cfg(test)]

@@ -76,6 +76,14 @@ impl Sphere {
         Sphere { center, radius, material }
     }
 
+    /// The nearest root in `(t_min, t_max)` beyond its own error bound (a ray leaving the surface
+    /// does not find it again); `f` is the ray origin relative to the centre.
+    #[inline]
+    fn first_root(&self, ray: &Ray, f: DVec3, t_min: f64, t_max: f64) -> Option<f64> {
+        let roots = sphere_roots(f, ray.dir, self.radius, on_surface_slack(ray.origin, self.center))?;
+        roots.into_iter().find(|&(t, err)| t > t_min && t > err && t < t_max).map(|(t, _)| t)
+    }
+
     fn hit_at(&self, ray: &Ray, f: DVec3, t: f64) -> Hit {
         let mut local = f + t * ray.dir;
         local *= self.radius / local.length();
@@ -89,14 +97,11 @@ impl Intersectable for Sphere {
     #[inline]
     fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<Hit> {
         let f = ray.origin - self.center;
-        let roots = sphere_roots(f, ray.dir, self.radius, on_surface_slack(ray.origin, self.center))?;
-        let (t, _) = roots.into_iter().find(|&(t, err)| t > t_min && t > err && t < t_max)?;
+        let t = self.first_root(ray, f, t_min, t_max)?;
         Some(self.hit_at(ray, f, t))
     }
     fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
-        let f = ray.origin - self.center;
-        sphere_roots(f, ray.dir, self.radius, on_surface_slack(ray.origin, self.center))
-            .is_some_and(|roots| roots.into_iter().any(|(t, err)| t > t_min && t > err && t < t_max))
+        self.first_root(ray, ray.origin - self.center, t_min, t_max).is_some()
     }
 }
 
