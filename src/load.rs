@@ -147,12 +147,25 @@ pub struct LoadContext<'a> {
     pub options: &'a LoadOptions,
     /// Assets decoded once per scene, and the cost of the indices plugins build.
     pub assets: AssetCache,
+    warnings: Mutex<Vec<SceneError>>,
 }
 
 impl<'a> LoadContext<'a> {
     /// The context for a scene in `scene_dir`, with an empty asset cache.
     pub fn new(scene_dir: &'a Path, options: &'a LoadOptions) -> Self {
-        LoadContext { scene_dir, options, assets: AssetCache::default() }
+        LoadContext { scene_dir, options, assets: AssetCache::default(), warnings: Mutex::default() }
+    }
+
+    /// Records something the scene asks for that raylab ignores or approximates (an unsupported
+    /// feature of a file format, a value beyond what is represented): the load goes on, and the
+    /// warning reaches the user with the job ([`RenderJob::warnings`]).
+    pub fn warn(&self, warning: SceneError) {
+        self.warnings.lock().unwrap_or_else(|e| e.into_inner()).push(warning);
+    }
+
+    /// The warnings recorded so far, in order, leaving none behind.
+    pub fn take_warnings(&self) -> Vec<SceneError> {
+        std::mem::take(&mut *self.warnings.lock().unwrap_or_else(|e| e.into_inner()))
     }
 
     /// Resolves a path written in the scene (at `loc`) against the scene's folder, refusing
@@ -565,7 +578,7 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
 
     let mut scene = Scene::with_accel(name, camera, background, objects, lights, opts.accel);
     scene.record_object_builds(ctx.assets.build_stats());
-    Ok(RenderJob { scene, integrator, integrator_name: ty, settings })
+    Ok(RenderJob { scene, integrator, integrator_name: ty, settings, warnings: ctx.take_warnings() })
 }
 
 /// `table` with `overrides` set over it (unknown keys are reported by the table's reader, at the

@@ -94,6 +94,8 @@ pub struct RenderJob {
     pub integrator_name: String,
     /// Image and sampling settings.
     pub settings: RenderSettings,
+    /// What loading ignored or approximated, to show the user (see [`crate::load::LoadContext::warn`]).
+    pub warnings: Vec<crate::error::SceneError>,
 }
 
 /// Edge of the square tiles the image is split into, pixels.

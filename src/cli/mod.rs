@@ -299,15 +299,20 @@ fn key_values(flag: &str, items: &[String]) -> Result<Vec<(String, Node)>, Failu
 
 /// Loads `scene` (or the app's default scene) with the options in `a`; returns the job and a
 /// display name.
+/// Load warnings are printed to standard error.
 pub(crate) fn load(app: &App, scene: Option<&Path>, a: &SceneArgs) -> Result<(RenderJob, String), Failure> {
     let opts = a.load_options()?;
-    match scene {
-        Some(p) => Ok((crate::load::load_file(&app.registry, p, &opts)?, p.display().to_string())),
+    let (job, name) = match scene {
+        Some(p) => (crate::load::load_file(&app.registry, p, &opts)?, p.display().to_string()),
         None => {
             let (name, text) = app.default_scene;
-            Ok((crate::load::load_str(&app.registry, name, text, Path::new("."), &opts)?, format!("{name} (bundled)")))
+            (crate::load::load_str(&app.registry, name, text, Path::new("."), &opts)?, format!("{name} (bundled)"))
         }
+    };
+    for w in &job.warnings {
+        eprintln!("warning: {}", w.report());
     }
+    Ok((job, name))
 }
 
 /// `1234567.0` → `1.23 M`.
