@@ -19,21 +19,31 @@
 //! | `ior` | `KHR_materials_ior` (default 1.5) |
 //! | `emission` | `emissiveFactor × KHR_materials_emissive_strength` |
 //!
-//! Textures are not sampled (their factors are used). As a scene: nodes with meshes become
-//! `mesh` objects placed by their world matrix (a mesh used by several nodes is stored once), the
-//! first perspective camera becomes the camera (else one is fitted to the scene's bounds), and
-//! `KHR_lights_punctual` lights become `directional`, `point` (inverse-square) and `spot` lights,
-//! with intensity × colour as their colour; a file without lights gets a sun and an ambient term.
+//! Textures, animations, skins, morph targets, points and lines, orthographic cameras and
+//! extensions raylab does not implement are ignored with one warning per kind (with a count).
+//! Non-finite numbers (NaN, or beyond f32) in transforms, cameras, lights and materials are
+//! refused. Errors name the element by its JSON pointer (`/nodes/3/matrix`) at its line and
+//! column in the JSON (the JSON chunk, for `.glb`).
+//!
+//! As a scene, the description is built directly from the file (no intermediate text): each node
+//! with a mesh becomes a `mesh` object naming the node (`node = N`, placed by its world matrix;
+//! a mesh used by several nodes is stored once), the first perspective camera becomes the camera
+//! (else one is fitted to the scene's bounds), and `KHR_lights_punctual` lights become
+//! `directional`, `point` (inverse-square) and `spot` lights, with intensity × colour as their
+//! colour; a file without lights gets a sun and an ambient term. The instances' triangles count
+//! against `--max-triangles` before anything is built.
 
 use super::mesh::MeshData;
 use raylab::error::{Loc, Result, SceneError, Source};
-use raylab::glam::{DMat3, DMat4, DVec3, Mat4};
+use raylab::glam::{DAffine3, DMat3, DMat4, DQuat, DVec3, Mat4};
 use raylab::load::SceneDescription;
-use raylab::scene_toml::string as toml_string;
+use raylab::params::{Entry, Node, Table, Value};
+use raylab::transform::Transform;
 use raylab::{Aabb, Color, LoadContext, Material};
-use std::fmt::Write;
+use std::fmt::Display;
+use std::ops::Range;
 use std::path::Path;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 /// Extensions a file may require.
 const SUPPORTED: &[&str] = &["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_ior", "KHR_materials_transmission"];
@@ -69,12 +79,64 @@ fn check_accessor_references(name: &str, json: &gltf::json::Root) -> Result<()> 
 /// refused rather than cut off).
 pub const MAX_NODE_DEPTH: usize = 1024;
 
+/// Shortest rotation quaternion normalised rather than refused (glTF requires unit ones).
+const MIN_QUATERNION_LENGTH: f64 = 1e-6;
+
 pub struct GltfFile {
     name: String,
     doc: gltf::Document,
     buffers: Vec<Vec<u8>>,
     /// The scene's triangle limit ([`raylab::load::Limits::max_triangles`]).
     max_triangles: u64,
+    /// The JSON text (the JSON chunk of a `.glb`), for locating errors.
+    json: Arc<Source>,
+    /// Where the elements errors point at are in [`GltfFile::json`].
+    spans: Spans,
+    /// Where the default scene places its nodes, computed once.
+    placements: OnceLock<Result<Placements>>,
+}
+
+/// Byte ranges of the indexed JSON elements errors point at (empty where the text could not be
+/// followed; errors then point at the document's start, with the pointer in the message).
+#[derive(Default)]
+struct Spans {
+    nodes: Vec<Range<usize>>,
+    cameras: Vec<Range<usize>>,
+    materials: Vec<Range<usize>>,
+    lights: Vec<Range<usize>>,
+}
+
+/// A kind of indexed glTF element.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Element {
+    /// `/nodes/i`.
+    Node,
+    /// `/cameras/i`.
+    Camera,
+    /// `/materials/i`.
+    Material,
+    /// `/extensions/KHR_lights_punctual/lights/i`.
+    Light,
+}
+
+impl Element {
+    /// The JSON pointer of the element array.
+    fn pointer(self) -> &'static str {
+        match self {
+            Element::Node => "/nodes",
+            Element::Camera => "/cameras",
+            Element::Material => "/materials",
+            Element::Light => "/extensions/KHR_lights_punctual/lights",
+        }
+    }
+}
+
+/// Where the default scene places its nodes.
+struct Placements {
+    /// Indices of the placed nodes, depth first.
+    order: Vec<usize>,
+    /// World matrix of each node (by index); `None` for nodes outside the scene.
+    world: Vec<Option<DAffine3>>,
 }
 
 /// The file `path` (as written in the scene), parsed once per scene.
@@ -98,6 +160,7 @@ pub fn parse(ctx: &LoadContext, path: &str, full: &Path, bytes: Vec<u8>, loc: &L
             return Err(SceneError::in_file(&name, None, format!("its GLB header declares {length} bytes, less than the header itself")));
         }
     }
+    let json = json_source(&name, &bytes);
     let failed = || SceneError::in_file(&name, None, "the glTF reader failed on this file (it is malformed)");
     let gltf = match std::panic::catch_unwind(|| gltf::Gltf::from_slice_without_validation(&bytes)) {
         Ok(Ok(g)) => g,
@@ -142,7 +205,163 @@ pub fn parse(ctx: &LoadContext, path: &str, full: &Path, bytes: Vec<u8>, loc: &L
         }
         buffers.push(data);
     }
-    Ok(GltfFile { name, doc: gltf.document, buffers, max_triangles: ctx.options.limits.max_triangles })
+    let text = json.text.as_bytes();
+    let spans = Spans {
+        nodes: element_spans(text, &["nodes"]),
+        cameras: element_spans(text, &["cameras"]),
+        materials: element_spans(text, &["materials"]),
+        lights: element_spans(text, &["extensions", "KHR_lights_punctual", "lights"]),
+    };
+    let file = GltfFile {
+        name,
+        doc: gltf.document,
+        buffers,
+        max_triangles: ctx.options.limits.max_triangles,
+        json,
+        spans,
+        placements: OnceLock::new(),
+    };
+    file.check_materials()?;
+    file.warn_ignored(ctx);
+    Ok(file)
+}
+
+/// The JSON text of glTF `bytes` (the JSON chunk of a GLB), named for messages.
+fn json_source(name: &str, bytes: &[u8]) -> Arc<Source> {
+    match bytes.get(12..16).filter(|_| bytes.starts_with(b"glTF")) {
+        Some(len) => {
+            let len = u32::from_le_bytes([len[0], len[1], len[2], len[3]]) as usize;
+            let chunk = bytes.get(20..).unwrap_or_default();
+            let chunk = &chunk[..len.min(chunk.len())];
+            Source::new(format!("{name} (JSON chunk)"), String::from_utf8_lossy(chunk).into_owned())
+        }
+        None => Source::new(name, String::from_utf8_lossy(bytes).into_owned()),
+    }
+}
+
+/// Byte ranges of the elements of the array at `path` (object keys from the root) in JSON
+/// `text`: empty when the path is absent or the text is not JSON. Linear in the text, without
+/// recursion.
+fn element_spans(text: &[u8], path: &[&str]) -> Vec<Range<usize>> {
+    let mut j = JsonCursor { b: text, i: 0 };
+    let mut out = Vec::new();
+    let found = path.iter().all(|key| j.enter_key(key).is_some());
+    j.ws();
+    if !found || j.peek() != Some(b'[') {
+        return out;
+    }
+    j.i += 1;
+    loop {
+        j.ws();
+        if j.peek() == Some(b']') {
+            return out;
+        }
+        let start = j.i;
+        if j.skip_value().is_none() {
+            return out;
+        }
+        out.push(start..j.i);
+        j.ws();
+        match j.peek() {
+            Some(b',') => j.i += 1,
+            _ => return out,
+        }
+    }
+}
+
+/// A position in a JSON text, for [`element_spans`].
+struct JsonCursor<'a> {
+    b: &'a [u8],
+    i: usize,
+}
+
+impl JsonCursor<'_> {
+    fn peek(&self) -> Option<u8> {
+        self.b.get(self.i).copied()
+    }
+
+    fn ws(&mut self) {
+        while matches!(self.peek(), Some(b' ' | b'\t' | b'\n' | b'\r')) {
+            self.i += 1;
+        }
+    }
+
+    /// Skips a string (at its opening quote); returns the range of its raw contents.
+    fn string(&mut self) -> Option<Range<usize>> {
+        if self.peek() != Some(b'"') {
+            return None;
+        }
+        let start = self.i + 1;
+        let mut k = start;
+        loop {
+            match *self.b.get(k)? {
+                b'"' => break,
+                b'\\' => k += 2,
+                _ => k += 1,
+            }
+        }
+        self.i = k + 1;
+        Some(start..k)
+    }
+
+    /// Skips one value (nested arrays and objects by counting brackets).
+    fn skip_value(&mut self) -> Option<()> {
+        let mut depth = 0usize;
+        loop {
+            self.ws();
+            match self.peek()? {
+                b'"' => {
+                    self.string()?;
+                }
+                b'{' | b'[' => {
+                    depth += 1;
+                    self.i += 1;
+                }
+                b'}' | b']' => {
+                    depth = depth.checked_sub(1)?;
+                    self.i += 1;
+                }
+                b',' | b':' if depth > 0 => self.i += 1,
+                b',' | b':' => return None,
+                _ => {
+                    while !matches!(self.peek(), None | Some(b',' | b'}' | b']' | b' ' | b'\t' | b'\n' | b'\r')) {
+                        self.i += 1;
+                    }
+                }
+            }
+            if depth == 0 {
+                return Some(());
+            }
+        }
+    }
+
+    /// Moves into the object at the cursor, to the value of `key`.
+    fn enter_key(&mut self, key: &str) -> Option<()> {
+        self.ws();
+        if self.peek() != Some(b'{') {
+            return None;
+        }
+        self.i += 1;
+        loop {
+            self.ws();
+            let k = self.string()?;
+            self.ws();
+            if self.peek() != Some(b':') {
+                return None;
+            }
+            self.i += 1;
+            self.ws();
+            if self.b.get(k) == Some(key.as_bytes()) {
+                return Some(());
+            }
+            self.skip_value()?;
+            self.ws();
+            if self.peek() != Some(b',') {
+                return None;
+            }
+            self.i += 1;
+        }
+    }
 }
 
 fn gltf_error(name: &str, e: gltf::Error) -> SceneError {
@@ -237,19 +456,33 @@ impl GltfFile {
     /// Every mesh of the default scene, placed by its node's world matrix, as one mesh.
     pub fn whole(&self) -> Result<MeshData> {
         let mut out = self.empty();
-        let nodes = self.nodes()?;
+        let placed = self.placements()?;
+        let meshes = || placed.order.iter().filter_map(|&i| Some((self.doc.nodes().nth(i)?.mesh()?, placed.world[i]?)));
         // Counted from the accessors before any data is decoded: nodes may place one mesh many times.
-        let count: u64 = nodes.iter().filter_map(|(n, _)| n.mesh()).map(|m| triangle_count(&m)).sum();
+        let count: u64 = meshes().map(|(m, _)| triangle_count(&m)).sum();
         self.check_triangles(count)?;
-        for (node, world) in nodes {
-            if let Some(mesh) = node.mesh() {
-                self.append(&mesh, world, &mut out)?;
-            }
+        for (mesh, world) in meshes() {
+            self.append(&mesh, DMat4::from(world), &mut out)?;
         }
         if out.triangles.is_empty() {
             return Err(SceneError::in_file(&self.name, None, "the file's scene has no triangles"));
         }
         Ok(out)
+    }
+
+    /// The mesh node `index` places and its world matrix: what a `mesh` object with `node = N`
+    /// shows.
+    pub fn node_instance(&self, index: usize) -> Result<(usize, DAffine3)> {
+        let count = self.doc.nodes().len();
+        let node = self
+            .doc
+            .nodes()
+            .nth(index)
+            .ok_or_else(|| SceneError::in_file(&self.name, None, format!("there is no node {index}: the file has {count} nodes")))?;
+        let mesh = node.mesh().ok_or_else(|| self.error(Element::Node, index, "", "the node has no mesh"))?;
+        let world = self.placements()?.world[index]
+            .ok_or_else(|| self.error(Element::Node, index, "", "the node is not in the file's default scene"))?;
+        Ok((mesh.index(), world))
     }
 
     /// Mesh data with the file's materials (and a default one last, for primitives with none).
@@ -259,30 +492,176 @@ impl GltfFile {
         MeshData { materials, ..MeshData::default() }
     }
 
-    /// The nodes of the default scene (or the first), with their world matrices. The hierarchy
-    /// must be disjoint trees, as glTF requires: a node reached twice (a cycle, or a node with two
+    /// The error `message` about element `index` of `kind` (`tail`: the rest of its JSON pointer,
+    /// such as `/matrix`), at the element's line and column in the JSON.
+    fn error(&self, kind: Element, index: usize, tail: &str, message: impl Display) -> SceneError {
+        let spans = match kind {
+            Element::Node => &self.spans.nodes,
+            Element::Camera => &self.spans.cameras,
+            Element::Material => &self.spans.materials,
+            Element::Light => &self.spans.lights,
+        };
+        let at = self.json.line_col(spans.get(index).map_or(0, |r| r.start));
+        SceneError::in_file(&self.json.name, Some(at), format!("{}/{index}{tail}: {message}", kind.pointer()))
+    }
+
+    /// The location of element `index` of `kind` in the JSON (its whole text when not found).
+    pub fn loc(&self, kind: Element, index: usize) -> Loc {
+        let spans = match kind {
+            Element::Node => &self.spans.nodes,
+            Element::Camera => &self.spans.cameras,
+            Element::Material => &self.spans.materials,
+            Element::Light => &self.spans.lights,
+        };
+        Loc::new(&self.json, spans.get(index).cloned().unwrap_or(0..0))
+    }
+
+    /// Where the default scene (or the first) places its nodes, computed once. The hierarchy must
+    /// be disjoint trees, as glTF requires: a node reached twice (a cycle, or a node with two
     /// parents, which could multiply the work exponentially) and a hierarchy deeper than
-    /// [`MAX_NODE_DEPTH`] are errors.
-    pub fn nodes(&self) -> Result<Vec<(gltf::Node<'_>, DMat4)>> {
-        let mut out = Vec::new();
+    /// [`MAX_NODE_DEPTH`] are errors, as are non-finite transforms and a singular world matrix
+    /// on a node that places a mesh, camera or light.
+    fn placements(&self) -> Result<&Placements> {
+        self.placements.get_or_init(|| self.place()).as_ref().map_err(Clone::clone)
+    }
+
+    fn place(&self) -> Result<Placements> {
+        let mut out = Placements { order: Vec::new(), world: vec![None; self.doc.nodes().len()] };
         let Some(scene) = self.doc.default_scene().or_else(|| self.doc.scenes().next()) else { return Ok(out) };
-        let mut seen = vec![false; self.doc.nodes().len()];
-        let mut todo: Vec<(gltf::Node, DMat4, usize)> = scene.nodes().map(|n| (n, DMat4::IDENTITY, 0)).collect();
-        while let Some((node, parent, depth)) = todo.pop() {
-            let err = |msg: String| Err(SceneError::in_file(&self.name, None, format!("node {}: {msg}", node.index())));
-            if std::mem::replace(&mut seen[node.index()], true) {
-                return err(
-                    "reached twice: the node hierarchy has a cycle or a node with two parents (glTF requires disjoint trees)".into()
-                );
+        // (node, its parent's world matrix, depth, the nearest node on its path with a singular transform)
+        let mut todo: Vec<(gltf::Node, DAffine3, usize, Option<usize>)> = scene.nodes().map(|n| (n, DAffine3::IDENTITY, 0, None)).collect();
+        while let Some((node, parent, depth, singular)) = todo.pop() {
+            let i = node.index();
+            if out.world[i].is_some() {
+                return Err(self.error(
+                    Element::Node,
+                    i,
+                    "",
+                    "reached twice: the node hierarchy has a cycle or a node with two parents (glTF requires disjoint trees)",
+                ));
             }
             if depth > MAX_NODE_DEPTH {
-                return err(format!("the node hierarchy is deeper than {MAX_NODE_DEPTH} levels"));
+                return Err(self.error(Element::Node, i, "", format!("the node hierarchy is deeper than {MAX_NODE_DEPTH} levels")));
             }
-            let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix()).as_dmat4();
-            todo.extend(node.children().map(|c| (c, world, depth + 1)));
-            out.push((node, world));
+            let local = self.local_matrix(&node)?;
+            let singular = if Transform::new(local).is_none() { Some(i) } else { singular };
+            let world = parent * local;
+            let places = node.mesh().is_some() || node.camera().is_some() || node.light().is_some();
+            if places && Transform::new(world).is_none() {
+                let at = singular.unwrap_or(i);
+                let what = if at == i { "its transform" } else { "the transform of its ancestor" };
+                return Err(self.error(
+                    Element::Node,
+                    at,
+                    self.transform_key(at),
+                    format!("node {i} places a mesh, camera or light, but {what} is singular (a zero scale or matrix flattens it)"),
+                ));
+            }
+            out.world[i] = Some(world);
+            out.order.push(i);
+            todo.extend(node.children().map(|c| (c, world, depth + 1, singular)));
         }
         Ok(out)
+    }
+
+    /// The key of node `index`'s transform, as a JSON pointer tail.
+    fn transform_key(&self, index: usize) -> &'static str {
+        match self.doc.nodes().nth(index).map(|n| n.transform()) {
+            Some(gltf::scene::Transform::Decomposed { .. }) => "/scale",
+            _ => "/matrix",
+        }
+    }
+
+    /// Node `node`'s own transform; refuses non-finite values and a zero rotation quaternion
+    /// (others are normalised).
+    fn local_matrix(&self, node: &gltf::Node) -> Result<DAffine3> {
+        let bad = |key: &str| self.error(Element::Node, node.index(), key, "a value is NaN or infinite (beyond f32)");
+        let finite = |v: &[f32]| v.iter().all(|c| c.is_finite());
+        match node.transform() {
+            gltf::scene::Transform::Matrix { matrix } => {
+                if !matrix.iter().all(|c| finite(c)) {
+                    return Err(bad("/matrix"));
+                }
+                Ok(DAffine3::from_mat4(Mat4::from_cols_array_2d(&matrix).as_dmat4()))
+            }
+            gltf::scene::Transform::Decomposed { translation: t, rotation: r, scale: s } => {
+                for (key, v) in [("/translation", &t[..]), ("/rotation", &r[..]), ("/scale", &s[..])] {
+                    if !finite(v) {
+                        return Err(bad(key));
+                    }
+                }
+                let q = DQuat::from_array(r.map(f64::from));
+                if q.length() < MIN_QUATERNION_LENGTH {
+                    return Err(self.error(Element::Node, node.index(), "/rotation", "the rotation quaternion is zero"));
+                }
+                let [t, s] = [t, s].map(|v| DVec3::from(v.map(f64::from)));
+                Ok(DAffine3::from_scale_rotation_translation(s, q.normalize(), t))
+            }
+        }
+    }
+
+    /// Refuses materials with non-finite factors (they would become NaN colours).
+    fn check_materials(&self) -> Result<()> {
+        for m in self.doc.materials() {
+            let Some(i) = m.index() else { continue };
+            let pbr = m.pbr_metallic_roughness();
+            let values: [(&str, &[f32]); 7] = [
+                ("/pbrMetallicRoughness/baseColorFactor", &pbr.base_color_factor()),
+                ("/pbrMetallicRoughness/metallicFactor", &[pbr.metallic_factor()]),
+                ("/pbrMetallicRoughness/roughnessFactor", &[pbr.roughness_factor()]),
+                ("/emissiveFactor", &m.emissive_factor()),
+                ("/extensions/KHR_materials_emissive_strength/emissiveStrength", &[m.emissive_strength().unwrap_or(1.0)]),
+                ("/extensions/KHR_materials_ior/ior", &[m.ior().unwrap_or(1.5)]),
+                ("/extensions/KHR_materials_transmission/transmissionFactor", &[m.transmission().map_or(0.0, |t| t.transmission_factor())]),
+            ];
+            for (key, v) in values {
+                if !v.iter().all(|c| c.is_finite()) {
+                    return Err(self.error(Element::Material, i, key, "a value is NaN or infinite (beyond f32)"));
+                }
+            }
+            let emission = m.emissive_factor().map(|e| e * m.emissive_strength().unwrap_or(1.0));
+            if !emission.iter().all(|c| c.is_finite()) {
+                return Err(self.error(Element::Material, i, "/emissiveFactor", "emissiveFactor × emissive strength overflows"));
+            }
+        }
+        Ok(())
+    }
+
+    /// Warns, once per kind and with a count, about what the file holds and raylab ignores.
+    fn warn_ignored(&self, ctx: &LoadContext) {
+        let warn = |count: usize, what: String| {
+            if count > 0 {
+                ctx.warn(SceneError::in_file(&self.name, None, what));
+            }
+        };
+        let materials: Vec<gltf::Material> = self.doc.materials().collect();
+        let textures: [(&str, fn(&gltf::Material) -> bool); 5] = [
+            ("baseColorTexture", |m| m.pbr_metallic_roughness().base_color_texture().is_some()),
+            ("metallicRoughnessTexture", |m| m.pbr_metallic_roughness().metallic_roughness_texture().is_some()),
+            ("normalTexture", |m| m.normal_texture().is_some()),
+            ("occlusionTexture", |m| m.occlusion_texture().is_some()),
+            ("emissiveTexture", |m| m.emissive_texture().is_some()),
+        ];
+        for (name, has) in textures {
+            let n = materials.iter().filter(|m| has(m)).count();
+            warn(n, format!("{n} material(s) use a {name}: textures are not sampled (their factors are used)"));
+        }
+        let n = materials.iter().filter(|m| m.alpha_mode() == gltf::material::AlphaMode::Mask).count();
+        warn(n, format!("{n} material(s) use alphaMode MASK: the cutoff is ignored (they are opaque)"));
+        let unsupported: Vec<&str> = self.doc.extensions_used().filter(|e| !SUPPORTED.contains(e)).collect();
+        warn(unsupported.len(), format!("the file uses extensions raylab ignores: {}", unsupported.join(", ")));
+        let prims = || self.doc.meshes().flat_map(|m| m.primitives().collect::<Vec<_>>());
+        use gltf::mesh::Mode;
+        let n = prims().filter(|p| !matches!(p.mode(), Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan)).count();
+        warn(n, format!("{n} primitive(s) are points or lines, which raylab skips"));
+        let n = prims().filter(|p| p.morph_targets().len() > 0).count();
+        warn(n, format!("{n} primitive(s) have morph targets: the base shape is used"));
+        let n = self.doc.animations().len();
+        warn(n, format!("{n} animation(s) ignored: the file is shown at rest"));
+        let n = self.doc.skins().len();
+        warn(n, format!("{n} skin(s) ignored: skinned meshes are shown in their bind pose"));
+        let n = self.doc.scenes().len();
+        warn(n.saturating_sub(1), format!("the file has {n} scenes: only its default scene is read"));
     }
 
     /// Appends the triangles of every primitive of `mesh`, transformed by `m`.
@@ -365,19 +744,30 @@ impl GltfFile {
         Ok(())
     }
 
-    /// The box around the default scene's vertices.
+    /// The box around the default scene's vertices (from the POSITION accessors' min and max).
     fn scene_bounds(&self) -> Result<Aabb> {
+        let placed = self.placements()?;
         let mut b = Aabb::EMPTY;
-        for (node, world) in self.nodes()? {
-            let Some(mesh) = node.mesh() else { continue };
+        for &i in &placed.order {
+            let (Some(mesh), Some(world)) = (self.doc.nodes().nth(i).and_then(|n| n.mesh()), placed.world[i]) else { continue };
             for prim in mesh.primitives() {
-                let bb = prim.bounding_box();
-                let local = Aabb::new(DVec3::from(bb.min.map(f64::from)), DVec3::from(bb.max.map(f64::from)));
-                for i in 0..8 {
+                let Some(a) = prim.get(&gltf::Semantic::Positions) else { continue };
+                let corner = |v: Option<gltf::json::Value>| -> Option<DVec3> {
+                    let v: Vec<f64> = v?.as_array()?.iter().map(|c| c.as_f64().map(|c| c as f32 as f64)).collect::<Option<_>>()?;
+                    (v.len() == 3 && v.iter().all(|c| c.is_finite())).then(|| DVec3::new(v[0], v[1], v[2]))
+                };
+                let (Some(lo), Some(hi)) = (corner(a.min()), corner(a.max())) else {
+                    return Err(SceneError::in_file(
+                        &self.name,
+                        None,
+                        format!("/accessors/{}: a POSITION accessor needs finite `min` and `max` (3 numbers each)", a.index()),
+                    ));
+                };
+                for k in 0..8 {
                     let c = DVec3::new(
-                        if i & 1 == 0 { local.min.x } else { local.max.x },
-                        if i & 2 == 0 { local.min.y } else { local.max.y },
-                        if i & 4 == 0 { local.min.z } else { local.max.z },
+                        if k & 1 == 0 { lo.x } else { hi.x },
+                        if k & 2 == 0 { lo.y } else { hi.y },
+                        if k & 4 == 0 { lo.z } else { hi.z },
                     );
                     b = b.include(world.transform_point3(c));
                 }
@@ -441,104 +831,194 @@ pub fn pbr_to_phong(
 pub fn read_scene(path: &Path, _bytes: &[u8], ctx: &LoadContext) -> Result<SceneDescription> {
     let file_name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let src = Source::new(path.display().to_string(), String::new());
-    let loc = Loc::new(&src, 0..0);
-    let file = open(ctx, &file_name, &loc)?;
-    let toml = scene_toml(&file, &file_name)?;
+    let file = open(ctx, &file_name, &Loc::new(&src, 0..0))?;
     let stem = path.file_stem().map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
-    raylab::load::parse_toml(&Source::new(format!("{} (as a raylab scene)", path.display()), toml), stem)
+    scene_description(&file, &file_name, stem, ctx)
 }
 
-/// The raylab scene (TOML) a glTF file describes.
-pub fn scene_toml(file: &GltfFile, file_name: &str) -> Result<String> {
-    let v = |p: DVec3| format!("[{:?}, {:?}, {:?}]", p.x, p.y, p.z);
-    let mut t = String::new();
-    let _ = writeln!(t, "# {} as a raylab scene\nbackground = [0.1, 0.1, 0.1]\n", file.name);
-    let nodes = file.nodes()?;
+/// Builds located scene values (each at the glTF element it comes from).
+struct Located<'a>(&'a Loc);
+
+impl Located<'_> {
+    fn node(&self, value: Value) -> Node {
+        Node { value, loc: self.0.clone() }
+    }
+    fn float(&self, v: f64) -> Node {
+        self.node(Value::Float(v))
+    }
+    fn vec3(&self, v: DVec3) -> Node {
+        self.node(Value::Array(v.to_array().into_iter().map(|c| self.float(c)).collect()))
+    }
+    fn str(&self, s: &str) -> Node {
+        self.node(Value::Str(s.to_string()))
+    }
+    fn table(&self, entries: Vec<(&str, Node)>) -> Node {
+        let entries = entries.into_iter().map(|(key, value)| Entry { key: key.to_string(), key_loc: self.0.clone(), value }).collect();
+        self.node(Value::Table(Table { entries }))
+    }
+}
+
+/// The raylab scene `file` (named `file_name` in its folder) describes, built without an
+/// intermediate text: one `mesh` object per node with a mesh (naming the node, so a mesh placed
+/// many times is decoded and indexed once), the camera and the lights. The instances' triangles
+/// (each instance counting at least one) are checked against `--max-triangles` first.
+pub fn scene_description(file: &GltfFile, file_name: &str, name: String, ctx: &LoadContext) -> Result<SceneDescription> {
+    let placed = file.placements()?;
+    let nodes: Vec<gltf::Node> = file.doc.nodes().collect();
+    let mut per_mesh: Vec<Option<u64>> = vec![None; file.doc.meshes().len()];
+    let (mut instances, mut total) = (0u64, 0u64);
+    for &i in &placed.order {
+        if let Some(m) = nodes[i].mesh() {
+            instances += 1;
+            total = total.saturating_add((*per_mesh[m.index()].get_or_insert_with(|| triangle_count(&m))).max(1));
+        }
+    }
+    if instances == 0 {
+        return Err(SceneError::in_file(&file.name, None, "the file's scene has no meshes"));
+    }
+    if total > file.max_triangles {
+        return Err(SceneError::in_file(
+            &file.name,
+            None,
+            format!("its scene places {instances} mesh instances holding {total} triangles, over the limit of {}", file.max_triangles),
+        )
+        .with_help("raise the limit with --max-triangles"));
+    }
+    let doc = Loc::new(&file.json, 0..0);
+    let at = Located(&doc);
+    let mut root: Vec<(&str, Node)> = vec![("background", at.vec3(DVec3::splat(0.1)))];
+
     // Camera: the first perspective camera, or one fitted to the bounds.
-    let camera = nodes.iter().find_map(|(n, w)| match n.camera()?.projection() {
-        gltf::camera::Projection::Perspective(p) => Some((*w, p.yfov(), p.aspect_ratio())),
+    let cameras: Vec<(usize, gltf::Camera)> = placed.order.iter().filter_map(|&i| Some((i, nodes[i].camera()?))).collect();
+    let camera = cameras.iter().find_map(|(i, c)| match c.projection() {
+        gltf::camera::Projection::Perspective(p) => Some((*i, c.index(), p)),
         gltf::camera::Projection::Orthographic(_) => None,
     });
-    let (width, height) = match camera.and_then(|c| c.2).filter(|a| a.is_finite() && *a > 0.01 && *a < 100.0) {
-        Some(a) => (800, ((800.0 / a).round() as u32).max(1)),
-        None => (800, 600),
-    };
-    let _ = writeln!(t, "[render]\nwidth = {width}\nheight = {height}\n");
-    let bounds = file.scene_bounds()?;
-    match camera {
-        Some((w, yfov, _)) => {
+    let ignored = cameras.len() - usize::from(camera.is_some());
+    if ignored > 0 {
+        ctx.warn(SceneError::in_file(
+            &file.name,
+            None,
+            format!("{ignored} camera(s) ignored: the first perspective camera is used (orthographic ones are not supported)"),
+        ));
+    }
+    let (mut width, mut height) = (800, 600);
+    let camera_table = match camera {
+        Some((node, c, p)) => {
+            let yfov = p.yfov();
+            if !(yfov.is_finite() && yfov > 0.0 && f64::from(yfov) < std::f64::consts::PI) {
+                return Err(file.error(Element::Camera, c, "/perspective/yfov", format!("the field of view {yfov} rad is outside (0, π)")));
+            }
+            if let Some(a) = p.aspect_ratio() {
+                if !(a.is_finite() && a > 0.0) {
+                    return Err(file.error(Element::Camera, c, "/perspective/aspectRatio", format!("{a} is not a positive number")));
+                }
+                height = ((800.0 / f64::from(a)).round() as u32).clamp(1, 800 * 100);
+                if !(0.01..=100.0).contains(&a) {
+                    width = 800;
+                    height = 600;
+                    ctx.warn(file.error(
+                        Element::Camera,
+                        c,
+                        "/perspective/aspectRatio",
+                        format!("{a} is out of 0.01..=100: 800×600 is used"),
+                    ));
+                }
+            }
+            let w = placed.world[node].unwrap_or_default();
             let pos = w.transform_point3(DVec3::ZERO);
             let fwd = w.transform_vector3(-DVec3::Z).try_normalize().unwrap_or(-DVec3::Z);
             let up = w.transform_vector3(DVec3::Y).try_normalize().unwrap_or(DVec3::Y);
-            let deg = f64::from(yfov).to_degrees().clamp(1.0, 170.0);
-            let _ = writeln!(t, "[camera]\nposition = {}\nlook_at = {}\nup = {}\nfov = {deg:?}\n", v(pos), v(pos + fwd), v(up));
+            let (node_loc, cam_loc) = (file.loc(Element::Node, node), file.loc(Element::Camera, c));
+            let (n, cl) = (Located(&node_loc), Located(&cam_loc));
+            n.table(vec![
+                ("position", n.vec3(pos)),
+                ("look_at", n.vec3(pos + fwd)),
+                ("up", n.vec3(up)),
+                ("fov", cl.float(f64::from(yfov).to_degrees())),
+            ])
         }
         None => {
+            let bounds = file.scene_bounds()?;
             let (center, radius) = (bounds.center(), (bounds.extent().length() * 0.5).max(1e-6));
             let dir = DVec3::new(0.35, 0.3, 1.0).normalize();
             let dist = radius / (20f64.to_radians()).sin() * 1.1;
-            let _ = writeln!(t, "[camera]\nposition = {}\nlook_at = {}\nfov = 40.0\n", v(center + dir * dist), v(center));
+            at.table(vec![("position", at.vec3(center + dir * dist)), ("look_at", at.vec3(center)), ("fov", at.float(40.0))])
+        }
+    };
+    root.push(("render", at.table(vec![("width", at.node(Value::Int(width))), ("height", at.node(Value::Int(height.into())))])));
+    root.push(("camera", camera_table));
+
+    // Objects: one per node with a mesh.
+    let mut objects = Vec::with_capacity(instances as usize);
+    for &i in &placed.order {
+        if nodes[i].mesh().is_some() {
+            let loc = file.loc(Element::Node, i);
+            let n = Located(&loc);
+            objects.push(n.table(vec![("type", n.str("mesh")), ("file", n.str(file_name)), ("node", n.node(Value::Int(i as i64)))]));
         }
     }
-    // Objects: one per node with a mesh.
-    let mut any = false;
-    for (node, w) in &nodes {
-        let Some(mesh) = node.mesh() else { continue };
-        any = true;
-        let name = format!("{} #{}", node.name().unwrap_or("node"), node.index());
-        let c = w.to_cols_array_2d();
-        let rows: Vec<String> = (0..3).map(|r| format!("[{:?}, {:?}, {:?}, {:?}]", c[0][r], c[1][r], c[2][r], c[3][r])).collect();
-        let _ = writeln!(
-            t,
-            "[[object]]\ntype = \"mesh\"\nname = {}\nfile = {}\nmesh = {}\ntransform = {{ matrix = [{}, [0.0, 0.0, 0.0, 1.0]] }}\n",
-            toml_string(&name),
-            toml_string(file_name),
-            mesh.index(),
-            rows.join(", ")
-        );
-    }
-    if !any {
-        return Err(SceneError::in_file(&file.name, None, "the file's scene has no meshes"));
-    }
+    root.push(("object", at.node(Value::Array(objects))));
+
     // Lights.
-    let mut lights = 0;
-    for (node, w) in &nodes {
-        let Some(light) = node.light() else { continue };
-        lights += 1;
-        let color = DVec3::from(light.color().map(f64::from)) * f64::from(light.intensity());
-        let pos = w.transform_point3(DVec3::ZERO);
-        let dir = w.transform_vector3(-DVec3::Z).try_normalize().unwrap_or(-DVec3::Z);
-        let name = toml_string(&format!("{} #{}", node.name().or(light.name()).unwrap_or("light"), node.index()));
+    let mut lights = Vec::new();
+    for &i in &placed.order {
+        let Some(light) = nodes[i].light() else { continue };
+        let l = light.index();
+        let bad = |key: &str, what: &str| file.error(Element::Light, l, key, what);
+        let (rgb, intensity) = (light.color(), light.intensity());
+        if !rgb.iter().all(|c| c.is_finite() && *c >= 0.0) {
+            return Err(bad("/color", "expected finite numbers ≥ 0"));
+        }
+        if !(intensity.is_finite() && intensity >= 0.0) {
+            return Err(bad("/intensity", "expected a finite number ≥ 0"));
+        }
+        let color = DVec3::from(rgb.map(f64::from)) * f64::from(intensity);
+        let world = placed.world[i].unwrap_or_default();
+        let pos = world.transform_point3(DVec3::ZERO);
+        let dir = world.transform_vector3(-DVec3::Z).try_normalize().unwrap_or(-DVec3::Z);
+        let loc = file.loc(Element::Light, l);
+        let n = Located(&loc);
+        let label = format!("{} #{i}", nodes[i].name().or(light.name()).unwrap_or("light"));
+        let mut t = vec![("name", n.str(&label)), ("color", n.vec3(color))];
         match light.kind() {
             gltf::khr_lights_punctual::Kind::Directional => {
-                let _ = writeln!(t, "[[light]]\ntype = \"directional\"\nname = {name}\ncolor = {}\ndirection = {}\n", v(color), v(dir));
+                t.extend([("type", n.str("directional")), ("direction", n.vec3(dir))]);
             }
             gltf::khr_lights_punctual::Kind::Point => {
-                let _ = writeln!(
-                    t,
-                    "[[light]]\ntype = \"point\"\nname = {name}\ncolor = {}\nposition = {}\nkc = 0.0\nkq = 1.0\n",
-                    v(color),
-                    v(pos)
-                );
+                t.extend([("type", n.str("point")), ("position", n.vec3(pos)), ("kc", n.float(0.0)), ("kq", n.float(1.0))]);
             }
             gltf::khr_lights_punctual::Kind::Spot { outer_cone_angle, .. } => {
+                if !outer_cone_angle.is_finite() {
+                    return Err(bad("/spot/outerConeAngle", "expected a finite angle"));
+                }
                 let cone = f64::from(outer_cone_angle).to_degrees().clamp(0.1, 90.0);
-                let _ = writeln!(
-                    t,
-                    "[[light]]\ntype = \"spot\"\nname = {name}\ncolor = {}\nposition = {}\ndirection = {}\ncone_angle = {cone:?}\nexponent = 1.0\nkc = 0.0\nkq = 1.0\n",
-                    v(color),
-                    v(pos),
-                    v(dir)
-                );
+                t.extend([
+                    ("type", n.str("spot")),
+                    ("position", n.vec3(pos)),
+                    ("direction", n.vec3(dir)),
+                    ("cone_angle", n.float(cone)),
+                    ("exponent", n.float(1.0)),
+                    ("kc", n.float(0.0)),
+                    ("kq", n.float(1.0)),
+                ]);
             }
         }
+        lights.push(n.table(t));
     }
-    if lights == 0 {
-        t.push_str("# the file has no KHR_lights_punctual lights: a sun and an ambient term\n");
-        t.push_str("[[light]]\ntype = \"directional\"\nname = \"sun\"\ndirection = [-0.4, -1.0, -0.6]\ncolor = 1.0\n\n");
-        t.push_str("[[light]]\ntype = \"ambient\"\nname = \"sky\"\nka = 0.15\n");
+    if lights.is_empty() {
+        // The file has no KHR_lights_punctual lights: a sun and an ambient term.
+        lights.push(at.table(vec![
+            ("type", at.str("directional")),
+            ("name", at.str("sun")),
+            ("direction", at.vec3(DVec3::new(-0.4, -1.0, -0.6))),
+            ("color", at.float(1.0)),
+        ]));
+        lights.push(at.table(vec![("type", at.str("ambient")), ("name", at.str("sky")), ("ka", at.float(0.15))]));
     }
-    Ok(t)
+    root.push(("light", at.node(Value::Array(lights))));
+    let Value::Table(root) = at.table(root).value else { unreachable!("built as a table") };
+    Ok(SceneDescription { name, root, loc: doc })
 }
 
 #[cfg(test)]
@@ -564,5 +1044,140 @@ mod tests {
         assert!((plastic.shininess - 7.5).abs() < 1e-9);
         let glass = pbr_to_phong([1.0; 4], 0.0, 0.0, false, Some(1.0), Some(1.33), [0.0; 3]);
         assert_eq!((glass.kt, glass.ior), (Color::ONE, 1.33f32 as f64));
+    }
+
+    /// One triangle as a data URI (vertices (0,0,0), (1,0,0), (0,1,0)).
+    const TRIANGLE: &str = r#""meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],
+"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}],
+"bufferViews":[{"buffer":0,"byteLength":36}],
+"buffers":[{"byteLength":36,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}]"#;
+
+    /// A glTF document with the one-triangle mesh, `nodes` (a JSON list) in scene 0, and `extra`
+    /// top-level members.
+    fn doc(nodes: &str, extra: &str) -> String {
+        let count = element_spans(format!("{{\"n\":{nodes}}}").as_bytes(), &["n"]).len();
+        let roots: Vec<String> = (0..count).map(|i| i.to_string()).collect();
+        format!(
+            "{{\"asset\":{{\"version\":\"2.0\"}},\"scene\":0,\"scenes\":[{{\"nodes\":[{}]}}],\n\"nodes\":{nodes},\n{TRIANGLE}{extra}}}",
+            roots.join(",")
+        )
+    }
+
+    /// Writes `text` as `name` in a fresh temporary folder and loads it as a scene.
+    fn load_scene(name: &str, text: &str, limits: raylab::load::Limits) -> (Result<raylab::RenderJob>, std::path::PathBuf) {
+        let dir = std::env::temp_dir().join(format!("raylab-gltf-{}-{name}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        let options = raylab::LoadOptions { limits, ..raylab::LoadOptions::default() };
+        let job = raylab::load::load_file(&crate::registry(), &path, &options);
+        let _ = std::fs::remove_dir_all(&dir);
+        (job, path)
+    }
+
+    #[test]
+    fn element_spans_follow_the_json() {
+        let text = br#"{"a": {"b": [1, {"c": "x]\"y"}, [2, [3]] ]}, "nodes": []}"#;
+        let spans = element_spans(text, &["a", "b"]);
+        let got: Vec<&str> = spans.iter().map(|r| std::str::from_utf8(&text[r.clone()]).unwrap()).collect();
+        assert_eq!(got, ["1", r#"{"c": "x]\"y"}"#, "[2, [3]]"]);
+        assert!(element_spans(text, &["nodes"]).is_empty());
+        assert!(element_spans(text, &["missing"]).is_empty());
+        assert!(element_spans(b"{\"a\": [1, 2", &["a"]).len() <= 2);
+    }
+
+    /// 3·10⁵ nodes placing one triangle: the scene is built without a text round trip, the mesh
+    /// is decoded and indexed once and shared, and the instances count against --max-triangles.
+    #[test]
+    fn many_nodes_instancing_one_triangle_share_it() {
+        const N: usize = 300_000;
+        let nodes: Vec<String> = (0..N).map(|i| format!("{{\"mesh\":0,\"translation\":[{},{},0]}}", i % 1000, i / 1000)).collect();
+        let text = doc(&format!("[{}]", nodes.join(",")), "");
+        let (job, _) = load_scene("many.gltf", &text, raylab::load::Limits::default());
+        let job = job.unwrap();
+        assert_eq!(job.scene.geometries.len(), N);
+        let builds = job.scene.accel_summary().object_builds;
+        assert!(builds.primitives <= 1, "the triangle was indexed {} times", builds.primitives);
+        let limits = raylab::load::Limits { max_triangles: N as u64 - 1, ..raylab::load::Limits::default() };
+        let e = load_scene("many.gltf", &text, limits).0.err().unwrap();
+        assert!(
+            e.message.contains(&format!("{N} mesh instances")) && e.help.as_deref().is_some_and(|h| h.contains("--max-triangles")),
+            "{e}"
+        );
+    }
+
+    /// Errors in a glTF rendered as a scene name the element (JSON pointer) at its line in the
+    /// glTF, never a generated text; non-finite values are refused.
+    #[test]
+    fn scene_errors_point_into_the_gltf() {
+        let zero = "[{\"mesh\":0},\n{\"mesh\":0,\"matrix\":[0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0]}]";
+        let huge = "[{\"mesh\":0,\"translation\":[0,1e39,0]}]";
+        let lights = r#","extensionsUsed":["KHR_lights_punctual"],"extensions":{"KHR_lights_punctual":{"lights":[{"type":"point","intensity":-1}]}}"#;
+        let cases = [
+            (doc(zero, ""), "/nodes/1/matrix: node 1 places a mesh, camera or light, but its transform is singular", 3),
+            (doc(huge, ""), "/nodes/0/translation: a value is NaN or infinite", 2),
+            (
+                doc(
+                    "[{\"mesh\":0},{\"camera\":0}]",
+                    ",\n\"cameras\":[{\"type\":\"perspective\",\"perspective\":{\"yfov\":0,\"znear\":0.1}}]",
+                ),
+                "/cameras/0/perspective/yfov: the field of view 0 rad is outside (0, π)",
+                7,
+            ),
+            (doc("[{\"mesh\":0},{\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}}]", lights), "lights/0/intensity: expected", 6),
+            (
+                doc("[{\"mesh\":0}]", ",\n\"materials\":[{\"emissiveFactor\":[1e39,0,0]}]"),
+                "/materials/0/emissiveFactor: a value is NaN or infinite",
+                7,
+            ),
+        ];
+        for (i, (text, want, line)) in cases.iter().enumerate() {
+            let (job, path) = load_scene(&format!("bad{i}.gltf"), text, raylab::load::Limits::default());
+            let e = job.err().unwrap_or_else(|| panic!("case {i} loaded"));
+            assert!(e.message.contains(want), "case {i}: {}", e.report());
+            let at = e.where_().unwrap();
+            assert!(at.starts_with(&format!("{}:{line}:", path.display())), "case {i}: {at}: {}", e.report());
+            assert!(!e.report().contains("raylab scene"), "{}", e.report());
+        }
+    }
+
+    /// Textures, lines and unsupported extensions are reported once per kind, with a count.
+    #[test]
+    fn ignored_features_warn_once_per_kind() {
+        let extra = r#",
+"materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}}},{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}}}],
+"textures":[{"source":0}],"images":[{"uri":"missing.png"}],
+"extensionsUsed":["KHR_materials_clearcoat","KHR_lights_punctual"]"#;
+        let text = doc("[{\"mesh\":0},{\"mesh\":1}]", extra).replacen(
+            r#""meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}]"#,
+            r#""meshes":[{"primitives":[{"attributes":{"POSITION":0},"material":0}]},{"primitives":[{"attributes":{"POSITION":0},"mode":1},{"attributes":{"POSITION":0},"mode":0},{"attributes":{"POSITION":0},"material":1}]}]"#,
+            1,
+        );
+        let job = load_scene("textured.gltf", &text, raylab::load::Limits::default()).0.unwrap();
+        let w: Vec<String> = job.warnings.iter().map(|w| w.message.clone()).collect();
+        let has = |s: &str| w.iter().filter(|m| m.contains(s)).count();
+        assert_eq!(has("baseColorTexture"), 1, "{w:?}");
+        assert_eq!(has("2 material(s) use a baseColorTexture"), 1, "{w:?}");
+        assert_eq!(has("2 primitive(s) are points or lines"), 1, "{w:?}");
+        assert_eq!(has("ignores: KHR_materials_clearcoat"), 1, "{w:?}");
+        assert_eq!(has("KHR_lights_punctual"), 0, "{w:?}");
+    }
+
+    /// The textured box of the shared assets warns that its texture is not sampled (skipped
+    /// when the shared assets are absent).
+    #[test]
+    fn the_shared_textured_box_warns_about_its_texture() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let Some(path) = [root.join("../shared"), root.join("../../shared")]
+            .iter()
+            .map(|d| d.join("assets/gltf-boxtextured/BoxTextured.glb"))
+            .find(|p| p.is_file())
+        else {
+            eprintln!("shared assets absent: skipped");
+            return;
+        };
+        let options = raylab::LoadOptions::default();
+        let job = raylab::load::load_file(&crate::registry(), &path, &options).unwrap();
+        assert!(job.warnings.iter().any(|w| w.message.contains("1 material(s) use a baseColorTexture")), "{:?}", job.warnings);
     }
 }

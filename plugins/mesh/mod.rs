@@ -16,6 +16,7 @@ use raylab::geometry::{Geometry, Hit, Intersectable, face_forward};
 use raylab::glam::DVec3;
 use raylab::params::{Default, ParamKind, ParamSpec, Params, Value};
 use raylab::registry::SceneFormat;
+use raylab::transform::{Transform, Transformed};
 use raylab::{Aabb, LoadContext, Material, PluginInfo, Ray, Registry};
 use std::sync::Arc;
 
@@ -30,6 +31,12 @@ pub const INFO: PluginInfo = PluginInfo {
             ParamKind::Int,
             Default::Optional,
             "glTF only: the index of one mesh, in its own frame; default: every mesh of the file's scene, placed by its nodes",
+        ),
+        ParamSpec::new(
+            "node",
+            ParamKind::Int,
+            Default::Optional,
+            "glTF only: the index of one node of the file's scene: its mesh, placed by the node's world matrix (what a glTF rendered as a scene is made of)",
         ),
         ParamSpec::new(
             "normals",
@@ -65,11 +72,32 @@ pub fn build(p: &mut Params, ctx: &LoadContext) -> Result<Box<dyn Geometry>> {
         },
         None => return Err(p.error("missing required parameter `file` (path)")),
     };
-    let selection = match p.node("mesh")? {
+    let mut selection = match p.node("mesh")? {
         Some(n) => match n.value {
             Value::Int(i) if i >= 0 => Some(i as usize),
             _ => return Err(p.error_at("mesh", "expected a mesh index (an integer ≥ 0)")),
         },
+        None => None,
+    };
+    let node = match p.node("node")? {
+        Some(n) => match n.value {
+            Value::Int(i) if i >= 0 => Some(i as usize),
+            _ => return Err(p.error_at("node", "expected a node index (an integer ≥ 0)")),
+        },
+        None => None,
+    };
+    // A node: its mesh (shared by every node that places it), and its world matrix.
+    let placement = match node {
+        Some(_) if selection.is_some() => return Err(p.error_at("node", "give `mesh` or `node`, not both")),
+        Some(i) => {
+            let ext = std::path::Path::new(&file).extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+            if !matches!(ext.as_str(), "gltf" | "glb") {
+                return Err(p.error_at("node", "selects a node of a glTF file (.gltf, .glb)"));
+            }
+            let (mesh, world) = gltf::open(ctx, &file, &loc).and_then(|g| g.node_instance(i)).map_err(|e| e.context(p.what()))?;
+            selection = Some(mesh);
+            Some(Transform::new(world).ok_or_else(|| p.error_at("node", "the node's world matrix is singular"))?)
+        }
         None => None,
     };
     let normals = match p.choice("normals", &["auto", "flat", "smooth"])?.as_str() {
@@ -80,8 +108,13 @@ pub fn build(p: &mut Params, ctx: &LoadContext) -> Result<Box<dyn Geometry>> {
     let given = p.has("material");
     let fallback = p.material("material")?;
     let mesh = load_mesh(ctx, &file, &loc, selection, normals, !given).map_err(|e| e.context(p.what()))?;
-    let materials = if given || mesh.materials().is_empty() { vec![fallback] } else { mesh.materials().to_vec() };
-    Ok(Box::new(MeshObject { mesh, materials }))
+    // The file's materials stay in the shared mesh: an instance copies none.
+    let materials = if given || mesh.materials().is_empty() { vec![fallback] } else { Vec::new() };
+    let object = MeshObject { mesh, materials };
+    Ok(match placement {
+        Some(t) => Box::new(Transformed::new(object, t)),
+        None => Box::new(object),
+    })
 }
 
 /// The mesh in `file` (with `selection` and `normals`), read and indexed once per scene.
@@ -151,7 +184,8 @@ pub fn mesh_from_bytes(ctx: &LoadContext, name: &str, ext: &str, bytes: &[u8]) -
 #[derive(Debug)]
 pub struct MeshObject {
     mesh: Arc<TriangleMesh>,
-    /// One material for the whole mesh, or the file's, indexed by triangle.
+    /// One material for the whole mesh, or the file's, indexed by triangle; empty: the mesh's own
+    /// (shared by every object placing it).
     materials: Vec<Material>,
 }
 
@@ -165,6 +199,11 @@ impl MeshObject {
     /// The shared triangle store.
     pub fn mesh(&self) -> &Arc<TriangleMesh> {
         &self.mesh
+    }
+
+    /// The materials in use: the object's, else the mesh's (never empty).
+    fn materials(&self) -> &[Material] {
+        if self.materials.is_empty() { self.mesh.materials() } else { &self.materials }
     }
 }
 
@@ -191,16 +230,17 @@ impl Geometry for MeshObject {
         }
     }
     fn material(&self) -> &Material {
-        &self.materials[0]
+        &self.materials()[0]
     }
     fn material_at(&self, at: &Hit) -> &Material {
-        if self.materials.len() == 1 {
-            return &self.materials[0];
+        let m = self.materials();
+        if m.len() == 1 {
+            return &m[0];
         }
-        self.materials.get(self.mesh.material_id(at.prim)).unwrap_or(&self.materials[0])
+        m.get(self.mesh.material_id(at.prim)).unwrap_or(&m[0])
     }
     fn may_transmit(&self) -> bool {
-        self.materials.iter().any(Material::is_transmissive)
+        self.materials().iter().any(Material::is_transmissive)
     }
     fn bounds(&self) -> Option<Aabb> {
         Some(self.mesh.bounds())
