@@ -635,7 +635,8 @@ impl GltfFile {
             }
         };
         let materials: Vec<gltf::Material> = self.doc.materials().collect();
-        let textures: [(&str, fn(&gltf::Material) -> bool); 5] = [
+        type Has = fn(&gltf::Material) -> bool;
+        let textures: [(&str, Has); 5] = [
             ("baseColorTexture", |m| m.pbr_metallic_roughness().base_color_texture().is_some()),
             ("metallicRoughnessTexture", |m| m.pbr_metallic_roughness().metallic_roughness_texture().is_some()),
             ("normalTexture", |m| m.normal_texture().is_some()),
