@@ -46,11 +46,26 @@ pub struct Limits {
     /// Most triangles one mesh object may have (counted before its index and hierarchy are built;
     /// for glTF, from the accessors before their data is decoded).
     pub max_triangles: u64,
+    /// Most memory the image may take, bytes: the film, the extra layers and the encoder's
+    /// copies, estimated before rendering ([`crate::output::image_bytes`]).
+    pub max_image_bytes: u64,
 }
+
+/// Default [`Limits::max_image_bytes`]: 2 GiB, so an image with every layer and its encoder's
+/// copies stays well under 4 GB with the scene beside it (4096 × 4096 as EXR with every layer).
+pub const DEFAULT_MAX_IMAGE_BYTES: u64 = 2 << 30;
 
 impl std::default::Default for Limits {
     fn default() -> Self {
-        Limits { max_pixels: 1 << 26, max_side: 1 << 15, max_spp: 1 << 16, max_depth: 64, max_file_bytes: 1 << 31, max_triangles: 1 << 26 }
+        Limits {
+            max_pixels: 1 << 26,
+            max_side: 1 << 15,
+            max_spp: 1 << 16,
+            max_depth: 64,
+            max_file_bytes: 1 << 31,
+            max_triangles: 1 << 26,
+            max_image_bytes: DEFAULT_MAX_IMAGE_BYTES,
+        }
     }
 }
 
@@ -64,6 +79,7 @@ impl Limits {
             max_depth: u32::MAX,
             max_file_bytes: u64::MAX,
             max_triangles: u64::MAX,
+            max_image_bytes: u64::MAX,
         }
     }
 }
@@ -104,6 +120,9 @@ pub struct LoadOptions {
     pub allow_outside_paths: bool,
     /// List or hierarchy, for the scene's objects and for each mesh's triangles.
     pub accel: AccelChoice,
+    /// What will be written, for the image's memory estimate (by default the costliest: EXR with
+    /// every layer).
+    pub image: crate::output::ImagePlan,
 }
 
 /// Things shared by the objects of one scene while it loads: decoded assets (a mesh file placed
@@ -437,6 +456,16 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
         return Err(rp
             .error(format!("image of {width}×{height} = {pixels} pixels exceeds the limit of {} pixels", limits.max_pixels))
             .with_help("raise the limit with --max-pixels"));
+    }
+    let bytes = crate::output::image_bytes(pixels, &opts.image);
+    if bytes > limits.max_image_bytes {
+        return Err(rp
+            .error(format!(
+                "image of {width}×{height} pixels needs about {} MB (film, layers and encoding), over the limit of {} MB",
+                bytes.div_ceil(1 << 20),
+                limits.max_image_bytes >> 20
+            ))
+            .with_help("raise the limit with --max-image-bytes, or render a smaller image"));
     }
     let file_spp = rp.int_in("spp", 1..=i64::MAX)?;
     let spp = ov.spp.map_or(file_spp, i64::from);
