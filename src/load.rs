@@ -342,7 +342,9 @@ pub fn parse_toml(source: &Arc<Source>, name: String) -> Result<SceneDescription
         SceneError::at(&Loc::new(source, span), format!("TOML syntax error: {}", e.message().trim()))
     })?;
     let loc = Loc::new(source, 0..source.text.len());
-    let root = convert_table(doc.get_ref(), source)?;
+    // Consumed as it is converted: each part of the parser's tree is freed once copied, so the
+    // two trees never coexist whole (10⁶ inline objects would need both at once).
+    let root = convert_table(doc.into_inner(), source)?;
     Ok(SceneDescription { name, root, loc })
 }
 
@@ -351,7 +353,7 @@ pub fn parse_toml_value(source: &Arc<Source>, range: std::ops::Range<usize>) -> 
     let text = &source.text[range.clone()];
     let v = toml::de::DeValue::parse(text)
         .map_err(|e| SceneError::at(&Loc::new(source, range.clone()), format!("expected a TOML value: {}", e.message().trim())))?;
-    let mut n = convert_value(&v, source)?;
+    let mut n = convert_value(v, source)?;
     shift_locs(&mut n, range.start);
     Ok(n)
 }
@@ -370,21 +372,21 @@ fn shift_locs(n: &mut Node, by: usize) {
     }
 }
 
-fn convert_table(t: &toml::de::DeTable<'_>, src: &Arc<Source>) -> Result<Table> {
-    let mut out = Table::default();
+fn convert_table(t: toml::de::DeTable<'_>, src: &Arc<Source>) -> Result<Table> {
+    let mut entries = Vec::with_capacity(t.len());
     for (k, v) in t {
         let key_loc = Loc::new(src, k.span());
-        out.entries.push(crate::params::Entry { key: k.get_ref().to_string(), key_loc, value: convert_value(v, src)? });
+        entries.push(crate::params::Entry { key: k.into_inner().into_owned(), key_loc, value: convert_value(v, src)? });
     }
-    Ok(out)
+    Ok(Table { entries })
 }
 
-fn convert_value(v: &toml::Spanned<toml::de::DeValue<'_>>, src: &Arc<Source>) -> Result<Node> {
+fn convert_value(v: toml::Spanned<toml::de::DeValue<'_>>, src: &Arc<Source>) -> Result<Node> {
     use toml::de::DeValue;
     let loc = Loc::new(src, v.span());
-    let value = match v.get_ref() {
-        DeValue::String(s) => Value::Str(s.to_string()),
-        DeValue::Boolean(b) => Value::Bool(*b),
+    let value = match v.into_inner() {
+        DeValue::String(s) => Value::Str(s.into_owned()),
+        DeValue::Boolean(b) => Value::Bool(b),
         DeValue::Integer(i) => {
             let digits = i.as_str().replace('_', "");
             let (neg, body) = match digits.strip_prefix('-') {
@@ -408,7 +410,7 @@ fn convert_value(v: &toml::Spanned<toml::de::DeValue<'_>>, src: &Arc<Source>) ->
             Value::Float(s.parse::<f64>().map_err(|_| SceneError::at(&loc, format!("malformed number {s}")))?)
         }
         DeValue::Datetime(_) => return Err(SceneError::at(&loc, "dates and times are not valid in a scene")),
-        DeValue::Array(items) => Value::Array(items.iter().map(|i| convert_value(i, src)).collect::<Result<_>>()?),
+        DeValue::Array(items) => Value::Array(items.into_iter().map(|i| convert_value(i, src)).collect::<Result<_>>()?),
         DeValue::Table(t) => Value::Table(convert_table(t, src)?),
     };
     Ok(Node { value, loc })
