@@ -24,7 +24,7 @@ impl Film {
 
     /// A black film, or an error if its memory cannot be had (instead of aborting the process).
     pub fn try_new(width: u32, height: u32) -> Result<Self, crate::output::WriteError> {
-        let n = (width as usize).checked_mul(height as usize).unwrap_or(usize::MAX);
+        let n = (width as usize).saturating_mul(height as usize);
         Ok(Film { width, height, pixels: crate::output::try_filled(n, Vec3::ZERO, "film")? })
     }
 

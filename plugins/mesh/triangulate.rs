@@ -48,7 +48,8 @@ pub fn triangulate(points: &[DVec3]) -> Vec<[u32; 3]> {
     let (mut prev, mut next): (Vec<usize>, Vec<usize>) = ((0..n).map(|i| (i + n - 1) % n).collect(), (0..n).map(|i| (i + 1) % n).collect());
     let is_ear = |b: usize, prev: &[usize], next: &[usize]| {
         let (a, c) = (prev[b], next[b]);
-        if !(cross(p[a], p[b], p[c]) > 0.0) {
+        let convex = cross(p[a], p[b], p[c]) > 0.0; // false for NaN
+        if !convex {
             return false;
         }
         let mut k = next[c];

@@ -108,7 +108,8 @@ impl Polygon {
         }
         // Each turn lies in (0, π), so the total is 2πk for a whole k ≥ 1; anything beyond one
         // and a half turns is two or more, whatever the rounding.
-        if !(turning < 3.0 * std::f64::consts::PI) {
+        let once_round = turning < 3.0 * std::f64::consts::PI; // false for NaN
+        if !once_round {
             return Err(PolygonError::SelfCrossing);
         }
         Ok(Polygon { vertices, edge_normals, normal, material })
