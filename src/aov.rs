@@ -13,6 +13,7 @@
 //!   (clamped to 1) for misses.
 
 use crate::color::Color;
+use crate::output::WriteError;
 use crate::render::{RenderJob, camera_ray};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -51,11 +52,19 @@ pub struct Aovs {
     pub albedo: Option<Vec<Vec3>>,
 }
 
-/// Computes the layers in `which` for `job` (in parallel on the current rayon pool).
+/// Computes the layers in `which` for `job` (in parallel on the current rayon pool). The size
+/// was budgeted at load ([`crate::load::Limits::max_image_bytes`]); see [`try_render_aovs`].
 pub fn render_aovs(job: &RenderJob, which: &[Aov]) -> Aovs {
+    try_render_aovs(job, which).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// [`render_aovs`], or an error if the layers' memory cannot be had (instead of aborting).
+pub fn try_render_aovs(job: &RenderJob, which: &[Aov]) -> Result<Aovs, WriteError> {
     let s = job.settings;
     let (w, h) = (s.width as usize, s.height as usize);
-    let pixels: Vec<(f32, Vec3, Vec3)> = (0..w * h)
+    let mut pixels: Vec<(f32, Vec3, Vec3)> = Vec::new();
+    pixels.try_reserve_exact(w * h).map_err(|_| WriteError(format!("out of memory for the extra layers of a {w}×{h} image")))?;
+    (0..w * h)
         .into_par_iter()
         .map(|i| {
             let (x, y) = ((i % w) as u32, (i / w) as u32);
@@ -79,11 +88,24 @@ pub fn render_aovs(job: &RenderJob, which: &[Aov]) -> Aovs {
             let depth = if hits == 0 { f32::INFINITY } else { (depth / f64::from(hits)) as f32 };
             (depth, (normal / n).as_vec3(), (albedo / n).as_vec3())
         })
-        .collect();
+        .collect_into_vec(&mut pixels);
     let has = |a: Aov| which.contains(&a);
-    Aovs {
-        depth: has(Aov::Depth).then(|| pixels.iter().map(|p| p.0).collect()),
-        normal: has(Aov::Normal).then(|| pixels.iter().map(|p| p.1).collect()),
-        albedo: has(Aov::Albedo).then(|| pixels.iter().map(|p| p.2).collect()),
-    }
+    let layer = |a: Aov, name: &str, f: &dyn Fn(&(f32, Vec3, Vec3)) -> Vec3| -> Result<Option<Vec<Vec3>>, WriteError> {
+        if !has(a) {
+            return Ok(None);
+        }
+        let mut v = Vec::new();
+        v.try_reserve_exact(pixels.len()).map_err(|_| WriteError(format!("out of memory for the {name} layer")))?;
+        v.extend(pixels.iter().map(f));
+        Ok(Some(v))
+    };
+    let depth = if has(Aov::Depth) {
+        let mut v = Vec::new();
+        v.try_reserve_exact(pixels.len()).map_err(|_| WriteError("out of memory for the depth layer".into()))?;
+        v.extend(pixels.iter().map(|p| p.0));
+        Some(v)
+    } else {
+        None
+    };
+    Ok(Aovs { depth, normal: layer(Aov::Normal, "normal", &|p| p.1)?, albedo: layer(Aov::Albedo, "albedo", &|p| p.2)? })
 }

@@ -19,26 +19,49 @@ pub fn write_exr(path: &Path, film: &Film, aovs: &Aovs, half: bool) -> Result<()
 
 /// The EXR file's bytes.
 pub fn encode_exr(film: &Film, aovs: &Aovs, half: bool) -> Result<Vec<u8>, String> {
-    let samples = |v: Vec<f32>| if half { FlatSamples::F16(v.into_iter().map(f16::from_f32).collect()) } else { FlatSamples::F32(v) };
-    let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::new();
-    let mut rgb = |prefix: &str, names: [&str; 3], px: &[glam::Vec3]| {
-        for (c, name) in names.iter().enumerate() {
-            channels.push(AnyChannel::new(format!("{prefix}{name}").as_str(), samples(px.iter().map(|p| p[c]).collect())));
+    let n = film.pixels.len();
+    let out_of_memory = |what: &str| format!("out of memory for the {what} of a {}×{} image", film.width, film.height);
+    let samples = |v: &mut dyn Iterator<Item = f32>, what: &str| -> Result<FlatSamples, String> {
+        if half {
+            let mut s = Vec::new();
+            s.try_reserve_exact(n).map_err(|_| out_of_memory(what))?;
+            s.extend(v.map(f16::from_f32));
+            Ok(FlatSamples::F16(s))
+        } else {
+            let mut s = Vec::new();
+            s.try_reserve_exact(n).map_err(|_| out_of_memory(what))?;
+            s.extend(v);
+            Ok(FlatSamples::F32(s))
         }
     };
-    rgb("", ["R", "G", "B"], &film.pixels);
+    let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::new();
+    let mut rgb = |prefix: &str, names: [&str; 3], px: &[glam::Vec3]| -> Result<(), String> {
+        for (c, name) in names.iter().enumerate() {
+            let name = format!("{prefix}{name}");
+            channels.push(AnyChannel::new(name.as_str(), samples(&mut px.iter().map(|p| p[c]), &format!("channel {name}"))?));
+        }
+        Ok(())
+    };
+    rgb("", ["R", "G", "B"], &film.pixels)?;
     if let Some(n) = &aovs.normal {
-        rgb("normal.", ["X", "Y", "Z"], n);
+        rgb("normal.", ["X", "Y", "Z"], n)?;
     }
     if let Some(a) = &aovs.albedo {
-        rgb("albedo.", ["R", "G", "B"], a);
+        rgb("albedo.", ["R", "G", "B"], a)?;
     }
     if let Some(d) = &aovs.depth {
-        channels.push(AnyChannel::new("Z", FlatSamples::F32(d.clone())));
+        let mut z = Vec::new();
+        z.try_reserve_exact(d.len()).map_err(|_| out_of_memory("channel Z"))?;
+        z.extend_from_slice(d);
+        channels.push(AnyChannel::new("Z", FlatSamples::F32(z)));
     }
     let size = Vec2(film.width as usize, film.height as usize);
     let layer = Layer::new(size, LayerAttributes::default(), Encoding::SMALL_LOSSLESS, AnyChannels::sort(SmallVec::from_vec(channels)));
-    let mut out = std::io::Cursor::new(Vec::new());
+    // The file is at most about its raw size: reserved up front, so the encoder never has to grow it.
+    let raw: usize = n.saturating_mul(if half { 2 } else { 4 }).saturating_mul(layer.channel_data.list.len());
+    let mut bytes = Vec::new();
+    bytes.try_reserve_exact(raw.saturating_add(raw / 64)).map_err(|_| out_of_memory("encoded file"))?;
+    let mut out = std::io::Cursor::new(bytes);
     Image::from_layer(layer).write().to_buffered(&mut out).map_err(|e| e.to_string())?;
     Ok(out.into_inner())
 }

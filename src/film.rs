@@ -22,6 +22,12 @@ impl Film {
         Film { width, height, pixels: vec![Vec3::ZERO; width as usize * height as usize] }
     }
 
+    /// A black film, or an error if its memory cannot be had (instead of aborting the process).
+    pub fn try_new(width: u32, height: u32) -> Result<Self, crate::output::WriteError> {
+        let n = (width as usize).saturating_mul(height as usize);
+        Ok(Film { width, height, pixels: crate::output::try_filled(n, Vec3::ZERO, "film")? })
+    }
+
     /// The pixel at column `x`, row `y`.
     pub fn get(&self, x: u32, y: u32) -> Vec3 {
         self.pixels[y as usize * self.width as usize + x as usize]

@@ -46,11 +46,26 @@ pub struct Limits {
     /// Most triangles one mesh object may have (counted before its index and hierarchy are built;
     /// for glTF, from the accessors before their data is decoded).
     pub max_triangles: u64,
+    /// Most memory the image may take, bytes: the film, the extra layers and the encoder's
+    /// copies, estimated before rendering ([`crate::output::image_bytes`]).
+    pub max_image_bytes: u64,
 }
+
+/// Default [`Limits::max_image_bytes`]: 2 GiB, so an image with every layer and its encoder's
+/// copies stays well under 4 GB with the scene beside it (4096 × 4096 as EXR with every layer).
+pub const DEFAULT_MAX_IMAGE_BYTES: u64 = 2 << 30;
 
 impl std::default::Default for Limits {
     fn default() -> Self {
-        Limits { max_pixels: 1 << 26, max_side: 1 << 15, max_spp: 1 << 16, max_depth: 64, max_file_bytes: 1 << 31, max_triangles: 1 << 26 }
+        Limits {
+            max_pixels: 1 << 26,
+            max_side: 1 << 15,
+            max_spp: 1 << 16,
+            max_depth: 64,
+            max_file_bytes: 1 << 31,
+            max_triangles: 1 << 26,
+            max_image_bytes: DEFAULT_MAX_IMAGE_BYTES,
+        }
     }
 }
 
@@ -64,6 +79,7 @@ impl Limits {
             max_depth: u32::MAX,
             max_file_bytes: u64::MAX,
             max_triangles: u64::MAX,
+            max_image_bytes: u64::MAX,
         }
     }
 }
@@ -104,6 +120,9 @@ pub struct LoadOptions {
     pub allow_outside_paths: bool,
     /// List or hierarchy, for the scene's objects and for each mesh's triangles.
     pub accel: AccelChoice,
+    /// What will be written, for the image's memory estimate (by default the costliest: EXR with
+    /// every layer).
+    pub image: crate::output::ImagePlan,
 }
 
 /// Things shared by the objects of one scene while it loads: decoded assets (a mesh file placed
@@ -323,7 +342,9 @@ pub fn parse_toml(source: &Arc<Source>, name: String) -> Result<SceneDescription
         SceneError::at(&Loc::new(source, span), format!("TOML syntax error: {}", e.message().trim()))
     })?;
     let loc = Loc::new(source, 0..source.text.len());
-    let root = convert_table(doc.get_ref(), source)?;
+    // Consumed as it is converted: each part of the parser's tree is freed once copied, so the
+    // two trees never coexist whole (10⁶ inline objects would need both at once).
+    let root = convert_table(doc.into_inner(), source)?;
     Ok(SceneDescription { name, root, loc })
 }
 
@@ -332,7 +353,7 @@ pub fn parse_toml_value(source: &Arc<Source>, range: std::ops::Range<usize>) -> 
     let text = &source.text[range.clone()];
     let v = toml::de::DeValue::parse(text)
         .map_err(|e| SceneError::at(&Loc::new(source, range.clone()), format!("expected a TOML value: {}", e.message().trim())))?;
-    let mut n = convert_value(&v, source)?;
+    let mut n = convert_value(v, source)?;
     shift_locs(&mut n, range.start);
     Ok(n)
 }
@@ -351,21 +372,21 @@ fn shift_locs(n: &mut Node, by: usize) {
     }
 }
 
-fn convert_table(t: &toml::de::DeTable<'_>, src: &Arc<Source>) -> Result<Table> {
-    let mut out = Table::default();
+fn convert_table(t: toml::de::DeTable<'_>, src: &Arc<Source>) -> Result<Table> {
+    let mut entries = Vec::with_capacity(t.len());
     for (k, v) in t {
         let key_loc = Loc::new(src, k.span());
-        out.entries.push(crate::params::Entry { key: k.get_ref().to_string(), key_loc, value: convert_value(v, src)? });
+        entries.push(crate::params::Entry { key: k.into_inner().into_owned(), key_loc, value: convert_value(v, src)? });
     }
-    Ok(out)
+    Ok(Table { entries })
 }
 
-fn convert_value(v: &toml::Spanned<toml::de::DeValue<'_>>, src: &Arc<Source>) -> Result<Node> {
+fn convert_value(v: toml::Spanned<toml::de::DeValue<'_>>, src: &Arc<Source>) -> Result<Node> {
     use toml::de::DeValue;
     let loc = Loc::new(src, v.span());
-    let value = match v.get_ref() {
-        DeValue::String(s) => Value::Str(s.to_string()),
-        DeValue::Boolean(b) => Value::Bool(*b),
+    let value = match v.into_inner() {
+        DeValue::String(s) => Value::Str(s.into_owned()),
+        DeValue::Boolean(b) => Value::Bool(b),
         DeValue::Integer(i) => {
             let digits = i.as_str().replace('_', "");
             let (neg, body) = match digits.strip_prefix('-') {
@@ -389,7 +410,7 @@ fn convert_value(v: &toml::Spanned<toml::de::DeValue<'_>>, src: &Arc<Source>) ->
             Value::Float(s.parse::<f64>().map_err(|_| SceneError::at(&loc, format!("malformed number {s}")))?)
         }
         DeValue::Datetime(_) => return Err(SceneError::at(&loc, "dates and times are not valid in a scene")),
-        DeValue::Array(items) => Value::Array(items.iter().map(|i| convert_value(i, src)).collect::<Result<_>>()?),
+        DeValue::Array(items) => Value::Array(items.into_iter().map(|i| convert_value(i, src)).collect::<Result<_>>()?),
         DeValue::Table(t) => Value::Table(convert_table(t, src)?),
     };
     Ok(Node { value, loc })
@@ -437,6 +458,16 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
         return Err(rp
             .error(format!("image of {width}×{height} = {pixels} pixels exceeds the limit of {} pixels", limits.max_pixels))
             .with_help("raise the limit with --max-pixels"));
+    }
+    let bytes = crate::output::image_bytes(pixels, &opts.image);
+    if bytes > limits.max_image_bytes {
+        return Err(rp
+            .error(format!(
+                "image of {width}×{height} pixels needs about {} MB (film, layers and encoding), over the limit of {} MB",
+                bytes.div_ceil(1 << 20),
+                limits.max_image_bytes >> 20
+            ))
+            .with_help("raise the limit with --max-image-bytes, or render a smaller image"));
     }
     let file_spp = rp.int_in("spp", 1..=i64::MAX)?;
     let spp = ov.spp.map_or(file_spp, i64::from);

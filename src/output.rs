@@ -28,6 +28,69 @@ pub enum ImageKind {
     Exr,
 }
 
+/// What a render will write, for the estimate of the image's memory ([`image_bytes`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ImagePlan {
+    /// OpenEXR (linear floats) rather than 8-bit PNG or JPEG.
+    pub exr: bool,
+    /// The EXR's extra layers: depth, normal, albedo ([`crate::aov`]).
+    pub depth: bool,
+    /// See `depth`.
+    pub normal: bool,
+    /// See `depth`.
+    pub albedo: bool,
+    /// EXR colour, normal and albedo as 16-bit floats.
+    pub half: bool,
+}
+
+impl ImagePlan {
+    /// The costliest output: 32-bit EXR with every layer.
+    pub const COSTLIEST: ImagePlan = ImagePlan { exr: true, depth: true, normal: true, albedo: true, half: false };
+    /// 8-bit PNG or JPEG.
+    pub const EIGHT_BIT: ImagePlan = ImagePlan { exr: false, depth: false, normal: false, albedo: false, half: false };
+}
+
+impl std::default::Default for ImagePlan {
+    fn default() -> Self {
+        ImagePlan::COSTLIEST
+    }
+}
+
+/// Bytes per pixel of the film (linear RGB, `f32`).
+const FILM_BYTES_PER_PIXEL: u64 = 12;
+/// Bytes per pixel of the extra layers' pass before it splits them ([`crate::aov::render_aovs`]:
+/// depth, normal and albedo together).
+const AOV_PASS_BYTES_PER_PIXEL: u64 = 28;
+/// Bytes per pixel of 8-bit output: the RGB copy and the encoder's buffer.
+const EIGHT_BIT_BYTES_PER_PIXEL: u64 = 6;
+
+/// The most memory writing an image of `pixels` pixels as `plan` takes at once, bytes: the film,
+/// the extra layers, and the encoder's copies of them (for EXR, every channel and the encoded
+/// file, at most its raw size).
+pub fn image_bytes(pixels: u64, plan: &ImagePlan) -> u64 {
+    let per_pixel = if plan.exr {
+        let colour = if plan.half { 2 } else { 4 };
+        let layers = 4 * u64::from(plan.depth) + 12 * (u64::from(plan.normal) + u64::from(plan.albedo));
+        let any_layer = plan.depth || plan.normal || plan.albedo;
+        let channels = 3 * colour * (1 + u64::from(plan.normal) + u64::from(plan.albedo)) + 4 * u64::from(plan.depth);
+        let during_pass = if any_layer { AOV_PASS_BYTES_PER_PIXEL + layers } else { 0 };
+        let during_encoding = layers + 2 * channels;
+        FILM_BYTES_PER_PIXEL + during_pass.max(during_encoding)
+    } else {
+        FILM_BYTES_PER_PIXEL + EIGHT_BIT_BYTES_PER_PIXEL
+    };
+    pixels.saturating_mul(per_pixel)
+}
+
+/// A vector of `n` copies of `value`, or an error naming `what` if the memory cannot be had
+/// (instead of aborting the process).
+pub fn try_filled<T: Clone>(n: usize, value: T, what: &str) -> Result<Vec<T>, WriteError> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(n).map_err(|_| WriteError(format!("out of memory for the {what} ({n} values)")))?;
+    v.resize(n, value);
+    Ok(v)
+}
+
 /// Error writing an image.
 #[derive(Debug)]
 pub struct WriteError(pub String);
@@ -61,7 +124,14 @@ pub fn kind_for(path: &Path) -> Result<ImageKind, WriteError> {
 
 /// The film as 8-bit RGB: clamped, encoded, with the grid drawn over it.
 pub fn to_rgb8(film: &Film, encoding: Encoding, grid: Option<Grid>) -> Vec<u8> {
-    let mut out = Vec::with_capacity(film.pixels.len() * 3);
+    try_rgb8(film, encoding, grid).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// [`to_rgb8`], or an error if the memory cannot be had.
+pub fn try_rgb8(film: &Film, encoding: Encoding, grid: Option<Grid>) -> Result<Vec<u8>, WriteError> {
+    let mut out = Vec::new();
+    out.try_reserve_exact(film.pixels.len() * 3)
+        .map_err(|_| WriteError(format!("out of memory for the 8-bit copy of a {}×{} image", film.width, film.height)))?;
     for p in &film.pixels {
         out.extend([encoding.to_u8(p.x), encoding.to_u8(p.y), encoding.to_u8(p.z)]);
     }
@@ -75,13 +145,13 @@ pub fn to_rgb8(film: &Film, encoding: Encoding, grid: Option<Grid>) -> Vec<u8> {
             }
         }
     }
-    out
+    Ok(out)
 }
 
 /// Writes `film` to `path` as PNG or JPEG (by extension), atomically.
 pub fn write_image(path: &Path, film: &Film, encoding: Encoding, grid: Option<Grid>) -> Result<(), WriteError> {
     let kind = kind_for(path)?;
-    let rgb = to_rgb8(film, encoding, grid);
+    let rgb = try_rgb8(film, encoding, grid)?;
     write_atomically(path, |w| encode_rgb8(w, &rgb, film.width, film.height, kind))
 }
 
@@ -123,6 +193,30 @@ fn temp_path(path: &Path) -> PathBuf {
 
 #[cfg(test)]
 mod tests {
+
+    /// The estimate counts the film, the layers and the encoder's copies; the default budget holds
+    /// 4096² with every layer and refuses the next step up, and 8-bit output of the largest
+    /// image the pixel limit allows.
+    #[test]
+    fn image_memory_estimates_fit_the_default_budget() {
+        let budget = crate::load::DEFAULT_MAX_IMAGE_BYTES;
+        assert_eq!(image_bytes(1, &ImagePlan::COSTLIEST), 120);
+        assert_eq!(image_bytes(1, &ImagePlan::EIGHT_BIT), 18);
+        assert!(image_bytes(4096 * 4096, &ImagePlan::COSTLIEST) <= budget);
+        assert!(image_bytes(4608 * 4608, &ImagePlan::COSTLIEST) > budget);
+        assert!(image_bytes(crate::load::Limits::default().max_pixels, &ImagePlan::EIGHT_BIT) <= budget);
+        let half = ImagePlan { half: true, ..ImagePlan::COSTLIEST };
+        assert!(image_bytes(1, &half) < image_bytes(1, &ImagePlan::COSTLIEST));
+        assert_eq!(image_bytes(u64::MAX, &ImagePlan::COSTLIEST), u64::MAX);
+    }
+
+    /// An allocation that cannot succeed is an error, not an abort.
+    #[test]
+    fn an_impossible_buffer_is_an_error() {
+        let e = try_filled(usize::MAX / 2, 0u64, "film").unwrap_err();
+        assert!(e.0.contains("out of memory for the film"), "{e}");
+        assert!(crate::film::Film::try_new(u32::MAX, u32::MAX).is_err() || usize::BITS > 64);
+    }
     use super::*;
     use glam::Vec3;
 

@@ -3,7 +3,8 @@
 //! Faces with more than three corners are triangulated by raylab ([`super::triangulate`]: fans
 //! for convex faces, ear clipping for concave ones); points and lines are ignored. Vertex normals
 //! (`vn`) are used for smooth shading when every face of a group has them. The MTL library is
-//! read relative to the OBJ file, through the scene's folder sandbox and size limit.
+//! read relative to the OBJ file, through the scene's folder sandbox and size limit, once
+//! however often the file names it.
 //!
 //! MTL → raylab material:
 //!
@@ -16,6 +17,7 @@
 //! | `Ni` | `ior` | values ≤ 0 keep the default 1.5 |
 //! | `Ke` | `emission` | |
 //! | `Ka` | — | ignored: exporters write it inconsistently; `ka` keeps its default |
+//! | `map_Kd`, `bump`, … | — | texture maps: ignored with a warning per material |
 //!
 //! tobj reports errors without a line number; raylab then finds the offending line itself, so
 //! every error names `file:line:col`.
@@ -26,6 +28,7 @@ use raylab::error::{Loc, Result, SceneError};
 use raylab::glam::{DVec3, Vec3};
 use raylab::{Color, LoadContext, Material};
 use std::cell::RefCell;
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 /// Reads the OBJ file `bytes` (named `path` in the scene, resolved to `full`), with its MTL
@@ -36,22 +39,48 @@ pub fn read(ctx: &LoadContext, path: &str, full: &Path, bytes: &[u8], need_mater
     let opts = tobj::LoadOptions { triangulate: false, single_index: false, ignore_points: true, ignore_lines: true };
     let mtl_error: RefCell<Option<SceneError>> = RefCell::new(None);
     let base = Path::new(path).parent().map(Path::to_path_buf).unwrap_or_default();
+    // Each distinct library is read once, however often and however spelled the file names it:
+    // by the name as written, then by the file it resolves to. tobj appends what the loader
+    // returns at every `mtllib` line, so a repeat returns nothing (its materials are known).
+    let seen_names: RefCell<HashMap<String, bool>> = RefCell::new(HashMap::new());
+    let seen_files: RefCell<HashMap<PathBuf, bool>> = RefCell::new(HashMap::new());
+    let repeat =
+        |ok: bool| -> tobj::MTLLoadResult { if ok { Ok((Vec::new(), Default::default())) } else { Err(tobj::LoadError::OpenFileFailed) } };
     let load_mtl = |mtl: &Path| -> tobj::MTLLoadResult {
         if !need_materials {
             return Err(tobj::LoadError::GenericFailure);
         }
         let rel: PathBuf = base.join(mtl);
         let rel = rel.to_string_lossy().into_owned();
-        match ctx.read_file(&rel, loc) {
-            Ok((_, data)) => tobj::load_mtl_buf(&mut data.as_slice()).map_err(|e| {
-                mtl_error.borrow_mut().get_or_insert(SceneError::in_file(&rel, None, format!("cannot read the material library: {e}")));
-                e
-            }),
+        if let Some(&ok) = seen_names.borrow().get(&rel) {
+            return repeat(ok);
+        }
+        let file = ctx.resolve_path(&rel, loc).map(|f| f.canonicalize().unwrap_or(f));
+        if let Some(&ok) = file.as_ref().ok().and_then(|f| seen_files.borrow().get(f).copied()).as_ref() {
+            seen_names.borrow_mut().insert(rel, ok);
+            return repeat(ok);
+        }
+        let result = match ctx.read_file(&rel, loc) {
+            Ok((_, data)) => match tobj::load_mtl_buf(&mut data.as_slice()) {
+                Ok(r) => {
+                    warn_ignored_maps(ctx, &rel, &r.0);
+                    Ok(r)
+                }
+                Err(e) => {
+                    mtl_error.borrow_mut().get_or_insert(SceneError::in_file(&rel, None, format!("cannot read the material library: {e}")));
+                    Err(e)
+                }
+            },
             Err(e) => {
                 mtl_error.borrow_mut().get_or_insert(e);
                 Err(tobj::LoadError::OpenFileFailed)
             }
+        };
+        if let Ok(f) = file {
+            seen_files.borrow_mut().insert(f, result.is_ok());
         }
+        seen_names.borrow_mut().insert(rel, result.is_ok());
+        result
     };
     if !indices_certainly_valid(text.as_bytes())
         && let Some(e) = scan(&name, text, None)
@@ -158,6 +187,53 @@ fn material(m: &tobj::Material) -> Material {
         out.emission = ke;
     }
     out
+}
+
+/// Most materials of one MTL library warned about by name for their ignored texture maps; the
+/// rest are counted in one more warning.
+pub const MAX_MAP_WARNINGS: usize = 8;
+
+/// Warns, once per material of the library `file`, about the texture maps it names: raylab has
+/// no textures, so the material's constant colours are used instead.
+fn warn_ignored_maps(ctx: &LoadContext, file: &str, materials: &[tobj::Material]) {
+    let mut warned = 0;
+    for m in materials {
+        let known = [
+            ("map_Ka", &m.ambient_texture),
+            ("map_Kd", &m.diffuse_texture),
+            ("map_Ks", &m.specular_texture),
+            ("map_Ns", &m.shininess_texture),
+            ("bump", &m.normal_texture),
+            ("map_d", &m.dissolve_texture),
+        ];
+        let mut maps: Vec<String> = known.iter().filter_map(|(k, v)| v.as_ref().map(|v| format!("{k} {v}"))).collect();
+        let mut other: Vec<String> = m
+            .unknown_param
+            .iter()
+            .filter(|(k, _)| k.starts_with("map_") || matches!(k.as_str(), "disp" | "decal" | "refl" | "norm"))
+            .map(|(k, v)| format!("{k} {v}"))
+            .collect();
+        other.sort();
+        maps.extend(other);
+        if maps.is_empty() {
+            continue;
+        }
+        warned += 1;
+        if warned <= MAX_MAP_WARNINGS {
+            ctx.warn(SceneError::in_file(
+                file,
+                None,
+                format!(
+                    "material \"{}\": texture maps are not supported, ignored: {}; its constant colours are used",
+                    m.name,
+                    maps.join(", ")
+                ),
+            ));
+        }
+    }
+    if warned > MAX_MAP_WARNINGS {
+        ctx.warn(SceneError::in_file(file, None, format!("{} more materials name texture maps, ignored too", warned - MAX_MAP_WARNINGS)));
+    }
 }
 
 /// A tobj error with the line it is about, found by scanning the file the way tobj reads it.
@@ -327,6 +403,66 @@ pub fn non_finite_line(bytes: &[u8]) -> Option<(usize, usize)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn here() -> Loc {
+        Loc::new(&raylab::error::Source::new("scene.toml", "file = \"m.obj\""), 7..14)
+    }
+
+    /// A fresh folder under the system's temporary one holding `files`.
+    fn folder(name: &str, files: &[(&str, &[u8])]) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("raylab-obj-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        for (f, bytes) in files {
+            std::fs::write(dir.join(f), bytes).unwrap();
+        }
+        dir
+    }
+
+    /// 10⁶ `mtllib` lines (each once took a read and a merge of the library: 20–50 s at 10⁵)
+    /// load the library once: one material, one warning about its texture maps.
+    #[test]
+    fn a_million_mtllib_lines_read_the_library_once() {
+        let mtl = b"newmtl wood\nKd 0.5 0.25 0.125\nmap_Kd wood.png\nbump wood-n.png\nmap_Ke glow.png\nnewmtl plain\nKd 1 1 1\n";
+        let mut obj = String::from("v 0 0 0\nv 1 0 0\nv 0 1 0\n");
+        for i in 0..1_000_000 {
+            obj.push_str(if i % 2 == 0 { "mtllib m.mtl\n" } else { "mtllib ./m.mtl\n" });
+        }
+        obj.push_str("usemtl wood\nf 1 2 3\n");
+        let dir = folder("mtllib", &[("m.mtl", mtl), ("m.obj", obj.as_bytes())]);
+        let options = raylab::load::LoadOptions::default();
+        let ctx = LoadContext::new(&dir, &options);
+        let data = read(&ctx, "m.obj", &dir.join("m.obj"), obj.as_bytes(), true, &here()).unwrap();
+        assert_eq!(data.materials.len(), 2, "each material once");
+        assert_eq!(data.material_ids, vec![0]);
+        assert_eq!(data.materials[0].kd, DVec3::new(0.5, 0.25, 0.125));
+        let warnings = ctx.take_warnings();
+        assert_eq!(warnings.len(), 1, "{warnings:?}");
+        let w = warnings[0].report();
+        for part in ["m.mtl", "\"wood\"", "map_Kd wood.png", "bump wood-n.png", "map_Ke glow.png"] {
+            assert!(w.contains(part), "{part} not in {w}");
+        }
+        // A library that is missing is reported once, however often it is named.
+        let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nmtllib gone.mtl\nmtllib gone.mtl\nf 1 2 3\n";
+        let e = read(&ctx, "m.obj", &dir.join("m.obj"), obj.as_bytes(), true, &here()).unwrap_err();
+        assert!(e.report().contains("gone.mtl"), "{}", e.report());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// Materials with texture maps beyond [`MAX_MAP_WARNINGS`] are counted, not listed.
+    #[test]
+    fn texture_map_warnings_are_bounded_per_library() {
+        let mtl: String = (0..100).map(|i| format!("newmtl m{i}\nmap_Kd t.png\n")).collect();
+        let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m3\nf 1 2 3\n";
+        let dir = folder("maps", &[("m.mtl", mtl.as_bytes())]);
+        let options = raylab::load::LoadOptions::default();
+        let ctx = LoadContext::new(&dir, &options);
+        read(&ctx, "m.obj", &dir.join("m.obj"), obj.as_bytes(), true, &here()).unwrap();
+        let warnings: Vec<String> = ctx.take_warnings().iter().map(|w| w.report()).collect();
+        assert_eq!(warnings.len(), MAX_MAP_WARNINGS + 1, "{warnings:?}");
+        assert!(warnings[MAX_MAP_WARNINGS].contains(&format!("{} more materials", 100 - MAX_MAP_WARNINGS)));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 
     /// The fast check never passes a file the exact scan refuses: the fuzz corpus (every OBJ that
     /// once failed) and hand-made cases.

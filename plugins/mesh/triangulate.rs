@@ -7,8 +7,9 @@
 
 use raylab::glam::{DVec2, DVec3};
 
-/// Most corners a concave face is ear-clipped with (the clipping takes time cubic in them);
-/// larger faces are fanned, so a hostile file cannot stall loading.
+/// Most corners a concave face is ear-clipped with (the clipping takes time quadratic in them,
+/// so at most this many steps per corner); larger faces are fanned, so a hostile file of huge
+/// concave faces loads in time linear in its size.
 pub const MAX_EAR_CLIPPED_CORNERS: usize = 256;
 
 /// Triangles covering the simple polygon `points` (corners in order, possibly concave), as
@@ -41,21 +42,49 @@ pub fn triangulate(points: &[DVec3]) -> Vec<[u32; 3]> {
     if n > MAX_EAR_CLIPPED_CORNERS || (0..n).all(|i| cross(p[i], p[(i + 1) % n], p[(i + 2) % n]) >= 0.0) {
         return fan();
     }
-    // Ear clipping over the remaining corners.
-    let mut left: Vec<usize> = (0..n).collect();
+    // Ear clipping over the remaining corners, a doubly linked ring. Whether a corner is an ear
+    // changes only for the two neighbours of a clipped one, so each clip re-tests two corners:
+    // O(n²) in all.
+    let (mut prev, mut next): (Vec<usize>, Vec<usize>) = ((0..n).map(|i| (i + n - 1) % n).collect(), (0..n).map(|i| (i + 1) % n).collect());
+    let is_ear = |b: usize, prev: &[usize], next: &[usize]| {
+        let (a, c) = (prev[b], next[b]);
+        let convex = cross(p[a], p[b], p[c]) > 0.0; // false for NaN
+        if !convex {
+            return false;
+        }
+        let mut k = next[c];
+        while k != a {
+            if inside(p[k], p[a], p[b], p[c]) {
+                return false;
+            }
+            k = next[k];
+        }
+        true
+    };
+    let mut ear: Vec<bool> = (0..n).map(|b| is_ear(b, &prev, &next)).collect();
     let mut out = Vec::with_capacity(n - 2);
-    while left.len() > 3 {
-        let m = left.len();
-        let ear = (0..m).find(|&i| {
-            let (a, b, c) = (left[(i + m - 1) % m], left[i], left[(i + 1) % m]);
-            cross(p[a], p[b], p[c]) > 0.0 && left.iter().all(|&k| k == a || k == b || k == c || !inside(p[k], p[a], p[b], p[c]))
-        });
-        // A self-intersecting outline has no ear: clip any corner rather than loop forever.
-        let i = ear.unwrap_or(0);
-        out.push([left[(i + m - 1) % m] as u32, left[i] as u32, left[(i + 1) % m] as u32]);
-        left.remove(i);
+    let (mut left, mut at) = (n, 0);
+    while left > 3 {
+        // The next ear going round from the last clip; a self-intersecting outline may have none:
+        // then clip any corner rather than loop forever.
+        let mut b = at;
+        for _ in 0..left {
+            if ear[b] {
+                break;
+            }
+            b = next[b];
+        }
+        let b = if ear[b] { b } else { at };
+        let (a, c) = (prev[b], next[b]);
+        out.push([a as u32, b as u32, c as u32]);
+        next[a] = c;
+        prev[c] = a;
+        left -= 1;
+        ear[a] = is_ear(a, &prev, &next);
+        ear[c] = is_ear(c, &prev, &next);
+        at = c;
     }
-    out.push([left[0] as u32, left[1] as u32, left[2] as u32]);
+    out.push([prev[at] as u32, at as u32, next[at] as u32]);
     out
 }
 
@@ -91,5 +120,26 @@ mod tests {
         // The same L seen from behind (clockwise) keeps its winding.
         let back: Vec<DVec3> = l.iter().rev().copied().collect();
         assert!((area(&back, &triangulate(&back)) + 3.0).abs() < 1e-12);
+    }
+
+    /// A comb of [`MAX_EAR_CLIPPED_CORNERS`] corners (teeth up from a bar): clipped in O(n²), every
+    /// triangle positive and the area exact.
+    #[test]
+    fn a_large_concave_comb_is_clipped_exactly() {
+        let teeth = MAX_EAR_CLIPPED_CORNERS / 4 - 1;
+        let mut comb = vec![DVec3::new(0.0, 0.0, 0.0), DVec3::new(2.0 * teeth as f64, 0.0, 0.0)];
+        for t in (0..teeth).rev() {
+            let x = 2.0 * t as f64;
+            comb.extend([DVec3::new(x + 2.0, 1.0, 0.0), DVec3::new(x + 1.0, 3.0, 0.0), DVec3::new(x + 1.0, 1.0, 0.0)]);
+            comb.push(DVec3::new(x, 1.0, 0.0));
+        }
+        comb.dedup();
+        let tris = triangulate(&comb);
+        assert_eq!(tris.len(), comb.len() - 2);
+        let expected = 2.0 * teeth as f64 + teeth as f64; // bar, and a triangle of area 1 per tooth
+        assert!((area(&comb, &tris) - expected).abs() < 1e-9, "{} vs {expected}", area(&comb, &tris));
+        for t in &tris {
+            assert!(area(&comb, &[*t]) >= 0.0, "triangle {t:?} is wound backwards");
+        }
     }
 }

@@ -129,6 +129,10 @@ pub(crate) struct SceneArgs {
     /// Most triangles one mesh object may have.
     #[arg(long, value_name = "N")]
     max_triangles: Option<u64>,
+    /// Most memory (bytes) the image may take: film, EXR layers and the encoder's copies,
+    /// estimated before rendering for the costliest output (EXR with every layer).
+    #[arg(long, value_name = "BYTES")]
+    max_image_bytes: Option<u64>,
 }
 
 /// Parses `std::env::args` and runs the command.
@@ -250,6 +254,9 @@ impl SceneArgs {
         if let Some(v) = self.max_triangles {
             limits.max_triangles = v;
         }
+        if let Some(v) = self.max_image_bytes {
+            limits.max_image_bytes = v;
+        }
         Ok(LoadOptions {
             overrides: Overrides {
                 width: self.width,
@@ -265,6 +272,7 @@ impl SceneArgs {
             limits,
             allow_outside_paths: self.allow_outside_paths,
             accel: crate::accel::AccelChoice::parse(&self.accel).unwrap_or_default(),
+            image: crate::output::ImagePlan::default(),
         })
     }
 }
