@@ -265,6 +265,7 @@ impl SceneArgs {
             limits,
             allow_outside_paths: self.allow_outside_paths,
             accel: crate::accel::AccelChoice::parse(&self.accel).unwrap_or_default(),
+            open_log: None,
         })
     }
 }
