@@ -20,6 +20,7 @@ pub mod color;
 pub mod error;
 #[cfg(feature = "exr")]
 pub mod exr;
+pub mod files;
 pub mod film;
 pub mod float;
 pub mod geometry;

@@ -8,6 +8,7 @@ use crate::accel::{AccelChoice, BuildStats};
 use crate::camera::{CAMERA_PARAMS, Camera};
 use crate::color::Encoding;
 use crate::error::{Loc, Result, SceneError, Source, did_you_mean};
+use crate::files::{OpenLog, ReadError, read_regular};
 use crate::material::{Material, MaterialLibrary};
 use crate::params::{Default, Node, ParamKind, ParamSpec, Params, Table, Value};
 use crate::registry::Registry;
@@ -123,6 +124,8 @@ pub struct LoadOptions {
     /// What will be written, for the image's memory estimate (by default the costliest: EXR with
     /// every layer).
     pub image: crate::output::ImagePlan,
+    /// Records the real path of every file the load opens (for tests of the folder confinement).
+    pub open_log: Option<OpenLog>,
 }
 
 /// Things shared by the objects of one scene while it loads: decoded assets (a mesh file placed
@@ -160,7 +163,8 @@ impl AssetCache {
 /// What a plugin constructor may use while building: where the scene is, the load options, and
 /// the assets shared by the scene's objects.
 pub struct LoadContext<'a> {
-    /// Folder of the scene file; relative asset paths resolve against it.
+    /// Folder of the scene file; relative asset paths resolve against it (empty: the working
+    /// folder).
     pub scene_dir: &'a Path,
     /// The options the scene is loaded with.
     pub options: &'a LoadOptions,
@@ -187,8 +191,24 @@ impl<'a> LoadContext<'a> {
         std::mem::take(&mut *self.warnings.lock().unwrap_or_else(|e| e.into_inner()))
     }
 
+    /// The scene's folder as a path that names it (`.` for the empty folder of a bare file name).
+    fn dir(&self) -> &Path {
+        if self.scene_dir.as_os_str().is_empty() { Path::new(".") } else { self.scene_dir }
+    }
+
+    /// The scene's folder, canonicalised; an error at `loc` if it cannot be (the confinement
+    /// check then cannot be made, so nothing is read).
+    fn canonical_dir(&self, loc: &Loc) -> Result<PathBuf> {
+        self.dir().canonicalize().map_err(|e| {
+            SceneError::at(loc, format!("cannot resolve the scene's folder \"{}\": {e}", self.dir().display()))
+                .with_help("files the scene names are read only once its folder is known; pass --allow-outside-paths to skip the check")
+        })
+    }
+
     /// Resolves a path written in the scene (at `loc`) against the scene's folder, refusing
-    /// absolute paths and paths that leave the folder unless `allow_outside_paths` is set.
+    /// absolute paths and paths that leave the folder, through `..` or through symbolic links,
+    /// unless `allow_outside_paths` is set. Fails closed: a path whose target or folder cannot be
+    /// resolved is refused.
     pub fn resolve_path(&self, path: &str, loc: &Loc) -> Result<PathBuf> {
         let p = Path::new(path);
         if path.is_empty() {
@@ -201,32 +221,66 @@ impl<'a> LoadContext<'a> {
         }
         let full = self.scene_dir.join(p);
         if !self.options.allow_outside_paths {
-            // A symbolic link inside the folder must not lead out of it either.
-            if let (Ok(dir), Ok(target)) = (self.scene_dir.canonicalize(), full.canonicalize()) {
-                if !target.starts_with(&dir) {
-                    return Err(SceneError::at(loc, format!("path \"{path}\" resolves outside the scene's folder"))
-                        .with_help("pass --allow-outside-paths to permit this"));
-                }
-            }
+            let dir = self.canonical_dir(loc)?;
+            let target =
+                self.dir().join(p).canonicalize().map_err(|e| SceneError::at(loc, format!("cannot read \"{}\": {e}", full.display())))?;
+            self.confined(&target, &dir, path, loc)?;
         }
         Ok(full)
     }
 
-    /// Reads a file the scene names (resolved with [`LoadContext::resolve_path`]), refusing files
-    /// larger than the limit before reading them.
+    /// Refuses `target` (the real path of `path`) unless it is inside the canonical folder `dir`.
+    fn confined(&self, target: &Path, dir: &Path, path: &str, loc: &Loc) -> Result<()> {
+        if target.starts_with(dir) {
+            return Ok(());
+        }
+        Err(SceneError::at(loc, format!("path \"{path}\" resolves outside the scene's folder"))
+            .with_help("a symbolic link must not lead out of the folder; pass --allow-outside-paths to permit this"))
+    }
+
+    /// Reads a file the scene names (resolved with [`LoadContext::resolve_path`]): a regular file
+    /// only (not a FIFO, device or folder), refused once it holds more than
+    /// [`Limits::max_file_bytes`]. Every file a scene makes raylab read (meshes, glTF buffers, MTL
+    /// libraries) is read here.
     pub fn read_file(&self, path: &str, loc: &Loc) -> Result<(PathBuf, Vec<u8>)> {
         let full = self.resolve_path(path, loc)?;
-        let meta = std::fs::metadata(&full).map_err(|e| SceneError::at(loc, format!("cannot read \"{}\": {e}", full.display())))?;
-        if meta.len() > self.options.limits.max_file_bytes {
-            return Err(SceneError::at(
-                loc,
-                format!("\"{}\" is {} bytes, over the limit of {}", full.display(), meta.len(), self.options.limits.max_file_bytes),
-            )
-            .with_help("raise it with --max-file-bytes"));
+        let failed = |e: ReadError| {
+            let err = SceneError::at(loc, e.message(&format!("\"{}\"", full.display())));
+            match e.help() {
+                Some(h) => err.with_help(h),
+                None => err,
+            }
+        };
+        let opened = crate::files::open_regular(&full, self.options.open_log.as_ref()).map_err(failed)?;
+        if !self.options.allow_outside_paths {
+            // The file opened is the one checked, even if a link changed in between.
+            let dir = self.canonical_dir(loc)?;
+            match &opened.real_path {
+                Some(real) => self.confined(real, &dir, path, loc)?,
+                None => return Err(SceneError::at(loc, format!("cannot resolve \"{}\" once opened", full.display()))),
+            }
         }
-        let bytes = std::fs::read(&full).map_err(|e| SceneError::at(loc, format!("cannot read \"{}\": {e}", full.display())))?;
+        let bytes = opened.read_to_end(self.options.limits.max_file_bytes).map_err(failed)?;
         Ok((full, bytes))
     }
+}
+
+/// The folder of the scene file `path`, against which the scene's paths resolve: empty for a bare
+/// file name, which [`LoadContext`] takes as the working folder.
+pub fn scene_dir(path: &Path) -> &Path {
+    path.parent().unwrap_or(Path::new(""))
+}
+
+/// Reads a file the user names on the command line (a scene, a reference image): a regular file
+/// only, at most `limit` bytes; the error message calls it `what`.
+pub fn read_user_file(path: &Path, what: &str, limit: u64, log: Option<&OpenLog>) -> Result<Vec<u8>> {
+    read_regular(path, limit, log).map_err(|e| {
+        let err = SceneError::in_file(path, None, e.message(what));
+        match e.help() {
+            Some(h) => err.with_help(h),
+            None => err,
+        }
+    })
 }
 
 /// The keys of a scene file's root.
@@ -282,7 +336,7 @@ pub const RENDER_PARAMS: &[ParamSpec] = &[
 /// Reads and builds the scene file at `path`, choosing the format by extension (`.toml` is
 /// raylab's own; others must be registered).
 pub fn load_file(registry: &Registry, path: &Path, options: &LoadOptions) -> Result<RenderJob> {
-    let dir = path.parent().unwrap_or(Path::new("."));
+    let dir = scene_dir(path);
     // One context for reading and building, so assets a format reader decoded are reused.
     let ctx = LoadContext::new(dir, options);
     let desc = read_with(registry, path, &ctx)?;
@@ -291,21 +345,12 @@ pub fn load_file(registry: &Registry, path: &Path, options: &LoadOptions) -> Res
 
 /// Reads the scene file at `path` into a description without building it.
 pub fn read_file(registry: &Registry, path: &Path, options: &LoadOptions) -> Result<SceneDescription> {
-    let dir = path.parent().unwrap_or(Path::new("."));
-    read_with(registry, path, &LoadContext::new(dir, options))
+    read_with(registry, path, &LoadContext::new(scene_dir(path), options))
 }
 
 fn read_with(registry: &Registry, path: &Path, ctx: &LoadContext) -> Result<SceneDescription> {
     let options = ctx.options;
-    let meta = std::fs::metadata(path).map_err(|e| SceneError::in_file(path, None, format!("cannot read scene: {e}")))?;
-    if meta.len() > options.limits.max_file_bytes {
-        return Err(SceneError::in_file(
-            path,
-            None,
-            format!("scene file is {} bytes, over the limit of {}", meta.len(), options.limits.max_file_bytes),
-        ));
-    }
-    let bytes = std::fs::read(path).map_err(|e| SceneError::in_file(path, None, format!("cannot read scene: {e}")))?;
+    let bytes = read_user_file(path, "scene file", options.limits.max_file_bytes, options.open_log.as_ref())?;
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     if ext == "toml" {
         let text = String::from_utf8(bytes).map_err(|e| {

@@ -14,10 +14,15 @@ use std::path::Path;
 /// Largest reference image read, pixels (the same default as the largest render).
 pub const MAX_REFERENCE_PIXELS: u64 = 1 << 26;
 
+/// Largest reference file read, bytes: the largest image at 16 bytes a pixel (above a PFM's 12
+/// and a 16-bit RGBA PNG's 8 with its compression overhead), plus headers.
+pub const MAX_REFERENCE_BYTES: u64 = MAX_REFERENCE_PIXELS * 16 + (1 << 20);
+
 /// Reads a reference image (`.pfm` or `.png`) as linear RGB; PNG values are decoded with `encoding`.
 pub fn read(path: &Path, encoding: Encoding) -> Result<Film, String> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read reference \"{}\": {e}", path.display()))?;
+    let bytes =
+        crate::files::read_regular(path, MAX_REFERENCE_BYTES, None).map_err(|e| e.message(&format!("reference \"{}\"", path.display())))?;
     let film = match ext.as_str() {
         "pfm" => decode_pfm(&bytes),
         "png" => decode_png(&bytes, encoding),

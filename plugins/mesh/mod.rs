@@ -126,8 +126,13 @@ pub fn load_mesh(
     normals: Normals,
     with_materials: bool,
 ) -> Result<Arc<TriangleMesh>> {
+    // The format is told by the name alone, before the file is looked for.
+    let ext = std::path::Path::new(file).extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let unknown = || SceneError::at(loc, format!("unknown mesh format \".{ext}\"; expected .obj, .gltf or .glb"));
+    if !matches!(ext.as_str(), "obj" | "gltf" | "glb") {
+        return Err(unknown());
+    }
     let full = ctx.resolve_path(file, loc)?;
-    let ext = full.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let key = format!("mesh:{}:{selection:?}:{normals:?}:{with_materials}", full.display());
     ctx.assets.get_or_load(&key, || {
         let (data, obj_bytes) = match ext.as_str() {
@@ -148,9 +153,7 @@ pub fn load_mesh(
                     None,
                 )
             }
-            _ => {
-                return Err(SceneError::at(loc, format!("unknown mesh format \".{ext}\"; expected .obj, .gltf or .glb")));
-            }
+            _ => return Err(unknown()),
         };
         let name = full.display().to_string();
         let limit = ctx.options.limits.max_triangles;

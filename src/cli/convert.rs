@@ -5,7 +5,7 @@
 use super::{App, Failure};
 use crate::load::{LoadContext, LoadOptions};
 use clap::Args;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 #[derive(Args, Debug)]
 pub(crate) struct ConvertArgs {
@@ -25,8 +25,7 @@ pub(crate) fn run(app: &App, a: ConvertArgs) -> Result<(), Failure> {
     }
     let options = LoadOptions { allow_outside_paths: a.allow_outside_paths, ..LoadOptions::default() };
     let desc = crate::load::read_file(&app.registry, &a.scene, &options)?;
-    let dir = a.scene.parent().unwrap_or(Path::new("."));
-    let job = crate::load::build(&app.registry, &desc, &LoadContext::new(dir, &options))?;
+    let job = crate::load::build(&app.registry, &desc, &LoadContext::new(crate::load::scene_dir(&a.scene), &options))?;
     let source_name = a.scene.file_name().map_or_else(|| a.scene.display().to_string(), |n| n.to_string_lossy().into_owned());
     let header = format!("Converted by `raylab convert` from {source_name}.");
     let text = crate::scene_toml::to_toml(&desc, &header);

@@ -273,6 +273,7 @@ impl SceneArgs {
             allow_outside_paths: self.allow_outside_paths,
             accel: crate::accel::AccelChoice::parse(&self.accel).unwrap_or_default(),
             image: crate::output::ImagePlan::default(),
+            open_log: None,
         })
     }
 }

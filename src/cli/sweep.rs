@@ -390,7 +390,7 @@ fn reference(
     }
     let job = load_with(app, a.scene.as_deref(), &o)?;
     let scene_text = match a.scene.as_deref() {
-        Some(p) => std::fs::read(p).map_err(|e| format!("cannot read \"{}\": {e}", p.display()))?,
+        Some(p) => crate::load::read_user_file(p, "scene file", base.limits.max_file_bytes, None)?,
         None => app.default_scene.1.as_bytes().to_vec(),
     };
     let key = hash(&[&scene_text, format!("{:?}|{:?}|{}", job.settings, job.integrator.describe(), env!("CARGO_PKG_VERSION")).as_bytes()]);
