@@ -750,11 +750,9 @@ mod tests {
     }
 
     /// Levels of the index's hierarchy (0 for a list).
+    #[cfg(feature = "bvh")]
     fn depth(index: &PrimitiveIndex) -> usize {
-        #[cfg(feature = "bvh")]
-        return index.bvh.as_ref().map_or(0, |b| b.depth());
-        #[cfg(not(feature = "bvh"))]
-        0
+        index.bvh.as_ref().map_or(0, |b| b.depth())
     }
 
     /// Builds a hierarchy over `bx`, checks its depth bound, and that the closest box along each
