@@ -2,7 +2,8 @@
 //! `bvh` feature) or a flat list, behind one interface, [`PrimitiveIndex`].
 //!
 //! The hierarchy is obvhs' compressed wide BVH (CWBVH: eight children per node, child boxes
-//! quantised to 8 bits, 80 bytes per node), built by PLOC with reinsertion. Traversal is
+//! quantised to 8 bits, 80 bytes per node), converted by obvhs from a binary tree raylab builds
+//! itself (binned SAH, of bounded depth for any input: module `binned`). Traversal is
 //! raylab's own, because it must be **conservative**: a ray that hits a primitive exactly (in
 //! `f64`) must never be culled by a box test done in `f32`. Three things make it so:
 //!
@@ -212,9 +213,154 @@ impl PrimitiveIndex {
 }
 
 #[cfg(feature = "bvh")]
+mod binned {
+    //! raylab's binary-tree builder, for obvhs to convert to its wide BVH: top-down binned SAH
+    //! over primitive centroids, iterative, O(n log n) and of bounded depth for any input.
+    //! (obvhs' own PLOC builder merges one pair per pass over coincident, nested or chained
+    //! primitives: quadratic time, a chain as deep as the input, and a recursive conversion of
+    //! that chain that overflows the stack.)
+
+    use glam::Vec3A;
+    use obvhs::aabb::Aabb;
+    use obvhs::bvh2::Bvh2;
+    use obvhs::bvh2::node::Bvh2Node;
+
+    /// Centroid bins per axis in a split search.
+    const BINS: usize = 16;
+
+    /// Deepest level split by the surface-area heuristic; deeper ranges are halved by count
+    /// (object median), as are ranges whose centroids coincide.
+    const SAH_DEPTH: usize = 40;
+
+    /// Most levels of a built tree: [`SAH_DEPTH`] plus the ⌈log₂ n⌉ of the median halving
+    /// (n < 2³²), plus the leaf.
+    pub(super) const MAX_BINARY_DEPTH: usize = SAH_DEPTH + 33;
+
+    /// A binary tree over `boxes` (at least one), one primitive per leaf; children of a node are
+    /// adjacent, the root is node 0, as obvhs' conversion expects.
+    pub(super) fn build(boxes: &[Aabb]) -> Bvh2 {
+        let n = boxes.len();
+        let centers: Vec<Vec3A> = boxes.iter().map(Aabb::center).collect();
+        let mut prims: Vec<u32> = (0..n as u32).collect();
+        let mut nodes = vec![Bvh2Node::default(); 2 * n - 1];
+        let mut next = 1;
+        let root = boxes.iter().fold(Aabb::empty(), |a, b| a.union(b));
+        // (node, its box, first primitive, end, depth)
+        let mut todo = vec![(0usize, root, 0usize, n, 0usize)];
+        while let Some((node, bounds, start, end, depth)) = todo.pop() {
+            if end - start == 1 {
+                nodes[node] = Bvh2Node::new(bounds, 1, start as u32);
+                continue;
+            }
+            let (mid, left, right) = split(&mut prims[start..end], boxes, &centers, depth);
+            nodes[node] = Bvh2Node::new(bounds, 0, next as u32);
+            todo.push((next, left, start, start + mid, depth + 1));
+            todo.push((next + 1, right, start + mid, end, depth + 1));
+            next += 2;
+        }
+        debug_assert_eq!(next, nodes.len());
+        Bvh2 { nodes, primitive_indices: prims, ..Bvh2::default() }
+    }
+
+    /// Reorders `range` (two or more primitives) into two non-empty parts; returns the length of
+    /// the first and the boxes of both.
+    fn split(range: &mut [u32], boxes: &[Aabb], centers: &[Vec3A], depth: usize) -> (usize, Aabb, Aabb) {
+        let (lo, hi) = range.iter().fold((Vec3A::INFINITY, Vec3A::NEG_INFINITY), |(lo, hi), &p| {
+            let c = centers[p as usize];
+            (lo.min(c), hi.max(c))
+        });
+        let extent = hi - lo;
+        if depth < SAH_DEPTH && extent.max_element() > 0.0 {
+            let bins = Bins::new(lo, extent);
+            if let Some((axis, bin, left, right)) = bins.best_split(range, boxes, centers) {
+                let mut first = 0;
+                for i in 0..range.len() {
+                    if bins.bin(centers[range[i] as usize], axis) < bin {
+                        range.swap(first, i);
+                        first += 1;
+                    }
+                }
+                return (first, left, right);
+            }
+        }
+        let axis = if extent.x >= extent.y && extent.x >= extent.z {
+            0
+        } else if extent.y >= extent.z {
+            1
+        } else {
+            2
+        };
+        let half = range.len() / 2;
+        range.select_nth_unstable_by(half, |&a, &b| centers[a as usize][axis].total_cmp(&centers[b as usize][axis]));
+        let bounds = |part: &[u32]| part.iter().fold(Aabb::empty(), |a, &p| a.union(&boxes[p as usize]));
+        (half, bounds(&range[..half]), bounds(&range[half..]))
+    }
+
+    /// The centroid binning of one range: bin `i` of an axis covers `lo + [i, i + 1) · extent / BINS`.
+    struct Bins {
+        lo: Vec3A,
+        /// BINS / extent per axis, in `f64` so that it is finite for the smallest extent; 0 for
+        /// an axis of zero extent (every centroid in bin 0).
+        scale: [f64; 3],
+    }
+
+    impl Bins {
+        fn new(lo: Vec3A, extent: Vec3A) -> Self {
+            let scale = |e: f32| if e > 0.0 { BINS as f64 / f64::from(e) } else { 0.0 };
+            Bins { lo, scale: [scale(extent.x), scale(extent.y), scale(extent.z)] }
+        }
+
+        /// The bin of centroid `c` on `axis`.
+        #[inline]
+        fn bin(&self, c: Vec3A, axis: usize) -> usize {
+            (((f64::from(c[axis]) - f64::from(self.lo[axis])) * self.scale[axis]) as usize).min(BINS - 1)
+        }
+
+        /// The axis, first right-hand bin and the two boxes of the cheapest split by the
+        /// surface-area heuristic, or `None` when no axis has two non-empty sides.
+        fn best_split(&self, range: &[u32], boxes: &[Aabb], centers: &[Vec3A]) -> Option<(usize, usize, Aabb, Aabb)> {
+            let mut count = [[0u32; BINS]; 3];
+            let mut bounds = [[Aabb::empty(); BINS]; 3];
+            for &p in range {
+                let (c, b) = (centers[p as usize], &boxes[p as usize]);
+                for axis in 0..3 {
+                    let i = self.bin(c, axis);
+                    count[axis][i] += 1;
+                    bounds[axis][i] = bounds[axis][i].union(b);
+                }
+            }
+            let mut best: Option<(f64, usize, usize, Aabb, Aabb)> = None;
+            for axis in 0..3 {
+                // Box and primitive count of the right-hand side from each bin on.
+                let mut right = [(Aabb::empty(), 0u32); BINS];
+                let mut acc = (Aabb::empty(), 0u32);
+                for i in (1..BINS).rev() {
+                    acc = (acc.0.union(&bounds[axis][i]), acc.1 + count[axis][i]);
+                    right[i] = acc;
+                }
+                let mut left = (Aabb::empty(), 0u32);
+                for i in 1..BINS {
+                    left = (left.0.union(&bounds[axis][i - 1]), left.1 + count[axis][i - 1]);
+                    if left.1 == 0 || right[i].1 == 0 {
+                        continue;
+                    }
+                    let cost =
+                        f64::from(left.0.half_area()) * f64::from(left.1) + f64::from(right[i].0.half_area()) * f64::from(right[i].1);
+                    if best.is_none_or(|b| cost < b.0) {
+                        best = Some((cost, axis, i, left.0, right[i].0));
+                    }
+                }
+            }
+            best.map(|(_, axis, i, l, r)| (axis, i, l, r))
+        }
+    }
+}
+
+#[cfg(feature = "bvh")]
 mod wide {
     //! The CWBVH and its conservative traversal.
 
+    use super::binned;
     use super::{BOX_PADDING, BuildStats, MAX_INV_DIR};
     use crate::bounds::Aabb;
     use crate::ray::Ray;
@@ -225,6 +371,9 @@ mod wide {
     const GAMMA3: f64 = crate::float::gamma(3);
     use obvhs::cwbvh::node::CwBvhNode;
     use std::time::Instant;
+
+    /// Most primitives in a CWBVH leaf (obvhs' limit).
+    const CWBVH_LEAF_PRIMITIVES: u32 = 3;
 
     /// Deepest traversal stack kept on the machine stack; deeper hierarchies (pathological
     /// inputs only) traverse with a heap stack.
@@ -273,21 +422,13 @@ mod wide {
                     obvhs::aabb::Aabb::new(Vec3A::new(down(lo.x), down(lo.y), down(lo.z)), Vec3A::new(up(hi.x), up(hi.y), up(hi.z)))
                 })
                 .collect();
-            // obvhs' `very_fast_build` preset: PLOC with the shortest search radius and 1 %
-            // reinsertion. The slower presets built meshes up to twice as slowly for no measurable
-            // gain in ray throughput (README, "Speed of meshes and BVHs").
-            let params = obvhs::BvhBuildParams::very_fast_build();
-            let mut bvh2 = obvhs::ploc::PlocBuilder::with_capacity(aabbs.len()).build(
-                params.ploc_search_distance,
-                &aabbs,
-                (0..aabbs.len() as u32).collect(),
-                params.sort_precision,
-                params.search_depth_threshold,
-            );
-            obvhs::bvh2::reinsertion::ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
-            let cw = obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh(&bvh2, params.max_prims_per_leaf.clamp(1, 3), true, false);
+            let bvh2 = binned::build(&aabbs);
+            // obvhs converts the binary tree recursively, one frame per level: `binned` bounds
+            // the levels by MAX_BINARY_DEPTH.
+            let cw = obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh(&bvh2, CWBVH_LEAF_PRIMITIVES, true, false);
             drop(bvh2);
             let depth = stack_depth(&cw.nodes);
+            debug_assert!(depth <= binned::MAX_BINARY_DEPTH);
             let order = cw.primitive_indices;
             let w = WideBvh { nodes: cw.nodes, root: total.expand(pad * 2.0), depth };
             let stats = BuildStats {
@@ -298,6 +439,12 @@ mod wide {
                 time: start.elapsed(),
             };
             (w, order, stats)
+        }
+
+        /// Levels of the hierarchy (what the traversal stack must hold).
+        #[cfg(test)]
+        pub(super) fn depth(&self) -> usize {
+            self.depth
         }
 
         pub(super) fn memory_bytes(&self) -> usize {
@@ -600,5 +747,87 @@ mod tests {
             });
             assert!(seen.contains(&i), "box {i} culled");
         }
+    }
+
+    /// Levels of the index's hierarchy (0 for a list).
+    #[cfg(feature = "bvh")]
+    fn depth(index: &PrimitiveIndex) -> usize {
+        index.bvh.as_ref().map_or(0, |b| b.depth())
+    }
+
+    /// Builds a hierarchy over `bx`, checks its depth bound, and that the closest box along each
+    /// ray and whether any is met agree with the list.
+    fn agrees_with_list(bx: &[Aabb], rays: &[Ray]) {
+        let (index, order, _) = PrimitiveIndex::build(bx, true);
+        assert_eq!(index.is_bvh(), BVH_AVAILABLE);
+        #[cfg(feature = "bvh")]
+        assert!(depth(&index) <= binned::MAX_BINARY_DEPTH, "depth {}", depth(&index));
+        let stored: Vec<Aabb> = order.iter().map(|&i| bx[i as usize]).collect();
+        for ray in rays {
+            let hit = index.closest(ray, 0.0, f64::INFINITY, |s, tm| enter(&stored[s as usize], ray, 0.0, tm));
+            let expect = bx.iter().filter_map(|b| enter(b, ray, 0.0, f64::INFINITY)).min_by(f64::total_cmp);
+            assert_eq!(hit.map(|(_, t)| t), expect, "{ray:?}");
+            let any = index.any(ray, 0.0, f64::INFINITY, |s| enter(&stored[s as usize], ray, 0.0, f64::INFINITY).is_some());
+            assert_eq!(any, expect.is_some(), "{ray:?}");
+        }
+    }
+
+    #[test]
+    fn a_million_coincident_boxes_build_shallow_and_traverse() {
+        // Once a stack overflow (abort) in the conversion of a chain as deep as the input, after
+        // a build quadratic in it.
+        let n = 1_000_000;
+        let mut bx = vec![Aabb::new(DVec3::ZERO, DVec3::ONE); n];
+        bx.push(Aabb::new(DVec3::new(0.25, 0.25, -1.0), DVec3::new(0.75, 0.75, -0.5)));
+        let (index, order, _) = PrimitiveIndex::build(&bx, true);
+        assert_eq!(index.is_bvh(), BVH_AVAILABLE);
+        #[cfg(feature = "bvh")]
+        assert!(depth(&index) <= binned::MAX_BINARY_DEPTH, "depth {}", depth(&index));
+        let stored: Vec<Aabb> = order.iter().map(|&i| bx[i as usize]).collect();
+        // Through the small box in front: it is the closest.
+        let ray = Ray::new(DVec3::new(0.5, 0.5, -3.0), DVec3::Z);
+        let hit = index.closest(&ray, 0.0, f64::INFINITY, |s, tm| enter(&stored[s as usize], &ray, 0.0, tm));
+        assert_eq!(hit.map(|(s, t)| (order[s as usize] as usize, t)), Some((n, 2.0)));
+        // Beside it: one of the coincident boxes, at the list's distance; every one is seen.
+        let ray = Ray::new(DVec3::new(0.9, 0.9, -3.0), DVec3::Z);
+        let hit = index.closest(&ray, 0.0, f64::INFINITY, |s, tm| enter(&stored[s as usize], &ray, 0.0, tm));
+        assert!(hit.is_some_and(|(s, t)| (order[s as usize] as usize) < n && t == 3.0), "{hit:?}");
+        let mut seen = 0;
+        index.any(&ray, 0.0, f64::INFINITY, |s| {
+            seen += usize::from(enter(&stored[s as usize], &ray, 0.0, f64::INFINITY).is_some());
+            false
+        });
+        assert_eq!(seen, n);
+    }
+
+    #[test]
+    fn nested_boxes_growing_geometrically_build_shallow() {
+        // Each box contains the previous one (radius ×1.00025, 1 to 7e10): an agglomerative
+        // builder chains them.
+        let bx: Vec<Aabb> = (0..100_000).map(|i| Aabb::new(DVec3::splat(-1.00025f64.powi(i)), DVec3::splat(1.00025f64.powi(i)))).collect();
+        let rays = [
+            Ray::new(DVec3::new(0.1, 0.2, -1e11), DVec3::Z),
+            Ray::new(DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.0, 2.0, 3.0).normalize()),
+            Ray::new(DVec3::new(5e10, 0.0, -1e11), DVec3::Z),
+        ];
+        agrees_with_list(&bx, &rays);
+    }
+
+    #[test]
+    fn collinear_tiny_boxes_at_growing_spacing_build_shallow() {
+        // Tiny boxes on the x axis at k² (gaps growing: each box's nearest neighbour is the one
+        // before it, so merging nearest pairs makes a chain).
+        let bx: Vec<Aabb> = (0..100_000u64)
+            .map(|k| {
+                let x = (k * k) as f64;
+                Aabb::new(DVec3::new(x, 0.0, 0.0), DVec3::new(x + 1e-3, 1e-3, 1e-3))
+            })
+            .collect();
+        let rays = [
+            Ray::new(DVec3::new(-5.0, 5e-4, 5e-4), DVec3::X),
+            Ray::new(DVec3::new(2e10, 5e-4, 5e-4), -DVec3::X),
+            Ray::new(DVec3::new(12345.0 * 12345.0 + 5e-4, 5e-4, -1.0), DVec3::Z),
+        ];
+        agrees_with_list(&bx, &rays);
     }
 }

@@ -425,3 +425,49 @@ fn bench_never_deletes_the_meshes_it_is_given() {
     assert_eq!(std::fs::read(&mesh).expect("the input mesh still exists"), before);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Regression: a mesh of one triangle repeated 10⁶ times once overflowed the stack (an abort)
+/// while building its hierarchy. Every mode indexes it, and finds the list's closest hit.
+#[test]
+fn a_million_coincident_triangles_index_in_every_mode() {
+    let n = 1_000_000;
+    let mut triangles = vec![[0u32, 1, 2]; n];
+    // One triangle in front of the others, the only closest hit at its centre.
+    triangles.push([3, 4, 5]);
+    let data = MeshData {
+        positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0], [0.5, 0.0, -1.0], [0.0, 0.5, -1.0]],
+        triangles,
+        ..MeshData::default()
+    };
+    let list = TriangleMesh::new(data.clone(), Normals::Flat, AccelChoice::List).unwrap();
+    let l = MeshObject::new(Arc::new(list), vec![raylab::Material::default()]);
+    for accel in [AccelChoice::Auto, AccelChoice::Bvh] {
+        let mesh = TriangleMesh::new(data.clone(), Normals::Flat, accel).unwrap();
+        assert_eq!(mesh.is_bvh(), raylab::bvh::BVH_AVAILABLE);
+        let g = MeshObject::new(Arc::new(mesh), vec![raylab::Material::default()]);
+        for (origin, t) in [(DVec3::new(0.1, 0.1, -5.0), 4.0), (DVec3::new(0.6, 0.2, -5.0), 5.0)] {
+            let ray = Ray::new(origin, DVec3::Z);
+            let (a, b) = (g.intersect(&ray, 0.0, f64::INFINITY), l.intersect(&ray, 0.0, f64::INFINITY));
+            assert_eq!(a.map(|h| h.t), Some(t), "{accel:?} {origin}");
+            assert_eq!(a.map(|h| h.t), b.map(|h| h.t));
+        }
+    }
+}
+
+/// The same through the OBJ loader: one triangle on 10⁵ face lines.
+#[test]
+fn an_obj_repeating_one_triangle_loads_with_a_hierarchy() {
+    let n = 100_000;
+    let mut obj = String::from("v 0 0 0\nv 1 0 0\nv 0 1 0\n");
+    obj.push_str(&"f 1 2 3\n".repeat(n));
+    for accel in [AccelChoice::Auto, AccelChoice::Bvh] {
+        let options = options(accel);
+        let dir = assets();
+        let ctx = raylab::LoadContext::new(&dir, &options);
+        let mesh = raylab_plugins::mesh::mesh_from_bytes(&ctx, "repeat.obj", "obj", obj.as_bytes()).unwrap();
+        assert_eq!((mesh.triangle_count(), mesh.is_bvh()), (n, raylab::bvh::BVH_AVAILABLE));
+        let g = MeshObject::new(Arc::new(mesh), vec![raylab::Material::default()]);
+        let hit = g.intersect(&Ray::new(DVec3::new(0.25, 0.25, -2.0), DVec3::Z), 0.0, f64::INFINITY);
+        assert_eq!(hit.map(|h| h.t), Some(2.0), "{accel:?}");
+    }
+}
