@@ -46,11 +46,26 @@ pub struct Limits {
     /// Most triangles one mesh object may have (counted before its index and hierarchy are built;
     /// for glTF, from the accessors before their data is decoded).
     pub max_triangles: u64,
+    /// Most rays a render may trace in the worst case (pixels × camera samples × lens samples ×
+    /// the integrator's [`crate::Integrator::worst_case_rays`]), checked before rendering.
+    pub max_rays: u64,
 }
+
+/// Default work budget, rays: at the few million rays a second a contended two-core machine
+/// traces, a render at the budget finishes in well under an hour (the estimate is a worst case).
+pub const DEFAULT_MAX_RAYS: u64 = 10_000_000_000;
 
 impl std::default::Default for Limits {
     fn default() -> Self {
-        Limits { max_pixels: 1 << 26, max_side: 1 << 15, max_spp: 1 << 16, max_depth: 64, max_file_bytes: 1 << 31, max_triangles: 1 << 26 }
+        Limits {
+            max_pixels: 1 << 26,
+            max_side: 1 << 15,
+            max_spp: 1 << 16,
+            max_depth: 64,
+            max_file_bytes: 1 << 31,
+            max_triangles: 1 << 26,
+            max_rays: DEFAULT_MAX_RAYS,
+        }
     }
 }
 
@@ -64,6 +79,7 @@ impl Limits {
             max_depth: u32::MAX,
             max_file_bytes: u64::MAX,
             max_triangles: u64::MAX,
+            max_rays: u64::MAX,
         }
     }
 }
@@ -510,6 +526,16 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
         if let Some(t) = transform.filter(|t| !t.is_identity()) {
             g = Box::new(Transformed::new(g, t));
         }
+        if let Some(b) = g.bounds().filter(|b| !b.is_empty()) {
+            let reach = b.min.abs().max(b.max.abs()).max_element();
+            if !(reach <= crate::bounds::MAX_COORDINATE) {
+                return Err(SceneError::at(
+                    &node.loc,
+                    format!("{what} reaches {reach:.3e} from the origin, beyond the {:e} raylab represents", crate::bounds::MAX_COORDINATE),
+                )
+                .with_help("scale the scene down, or move it toward the origin"));
+            }
+        }
         objects.push((names.claim(node, &label, &ty, i)?, g));
     }
 
@@ -572,13 +598,44 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
             }
         }
     }
-    let mut ip = Params::new(format!("integrator \"{ty}\""), plugin.info.params, &integ_table, integ_loc, None);
+    let mut ip = Params::new(format!("integrator \"{ty}\""), plugin.info.params, &integ_table, integ_loc.clone(), None);
     let integrator = (plugin.build)(&mut ip, ctx)?;
     ip.finish()?;
 
     let mut scene = Scene::with_accel(name, camera, background, objects, lights, opts.accel);
     scene.record_object_builds(ctx.assets.build_stats());
+    check_work(&settings, &scene, integrator.as_ref(), &ty, &integ_loc, limits.max_rays)?;
     Ok(RenderJob { scene, integrator, integrator_name: ty, settings, warnings: ctx.take_warnings() })
+}
+
+/// Refuses a render whose worst-case ray count exceeds `max_rays`, naming each factor.
+fn check_work(s: &RenderSettings, scene: &Scene, integrator: &dyn crate::Integrator, ty: &str, loc: &Loc, max_rays: u64) -> Result<()> {
+    let pixels = f64::from(s.width) * f64::from(s.height);
+    let (samples, what) = match s.aa {
+        Antialiasing::Stratified => (f64::from(s.spp), "spp"),
+        // Every point of the 2^depth lattice in each pixel, corners included.
+        Antialiasing::Adaptive { max_depth, .. } => {
+            ((f64::from(1u32 << max_depth.min(MAX_ADAPTIVE_DEPTH)) + 1.0).powi(2), "adaptive lattice points per pixel")
+        }
+    };
+    let lens = if scene.camera.aperture > 0.0 { f64::from(s.lens_samples.max(1)) } else { 1.0 };
+    let per_ray = integrator.worst_case_rays(scene);
+    let total = pixels * samples * lens * per_ray;
+    if total.is_nan() || total > max_rays as f64 {
+        let e = SceneError::at(
+            loc,
+            format!(
+                "the render may trace {total:.3e} rays, over the budget of {max_rays}: {}×{} pixels × {samples} {what} × {lens} lens samples × {per_ray:.3e} rays per camera ray (integrator \"{ty}\": {})",
+                s.width,
+                s.height,
+                integrator.describe()
+            ),
+        );
+        return Err(
+            e.with_help("lower the knobs (spp, lens_samples, max_depth, glossy_rays, shadow_rays), or raise the budget with --max-rays")
+        );
+    }
+    Ok(())
 }
 
 /// `table` with `overrides` set over it (unknown keys are reported by the table's reader, at the

@@ -522,6 +522,23 @@ impl Integrator for Phong {
         Some(root)
     }
 
+    /// Every hit of a path tree up to `max_depth` bounces branches into a reflection and a
+    /// refraction fan of up to `glossy_rays` each, and takes every light's probes and samples.
+    fn worst_case_rays(&self, scene: &Scene) -> f64 {
+        let per_hit: f64 = scene
+            .lights
+            .iter()
+            .map(|l| {
+                let full = if l.is_area() && self.shadow_rays > 0 { self.shadow_rays } else { l.sample_count().max(1) };
+                let probes = if l.is_area() && self.shadow_probes < full { self.shadow_probes } else { 0 };
+                f64::from(full) + f64::from(probes)
+            })
+            .sum();
+        let branching = 2.0 * f64::from(self.glossy_rays);
+        let hits: f64 = (0..=self.max_depth).map(|d| branching.powi(d as i32)).sum();
+        hits * (1.0 + per_hit)
+    }
+
     fn describe(&self) -> String {
         let mut s = format!("max_depth {}, prune {}, glossy {}", self.max_depth, self.prune_threshold, self.glossy_rays);
         if self.shadow_rays > 0 {
