@@ -198,7 +198,21 @@ fn ctrl_c_writes_the_partial_image_beside_the_target_and_keeps_the_old_one() {
     std::fs::write(dir.join("out.png"), b"a good image from before").unwrap();
     // Hours of work: it cannot finish before the signal.
     let mut child = Command::new(env!("CARGO_BIN_EXE_raylab"))
-        .args(["render", scene.to_str().unwrap(), "-o", "out.png", "--width", "1200", "--height", "900", "--spp", "4096", "-q"])
+        .args([
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            "out.png",
+            "--width",
+            "1200",
+            "--height",
+            "900",
+            "--spp",
+            "4096",
+            "--max-rays",
+            "1000000000000000",
+            "-q",
+        ])
         .current_dir(&dir)
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
