@@ -529,7 +529,7 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
         }
         if let Some(b) = g.bounds().filter(|b| !b.is_empty()) {
             let reach = b.min.abs().max(b.max.abs()).max_element();
-            if !(reach <= crate::bounds::MAX_COORDINATE) {
+            if reach.is_nan() || reach > crate::bounds::MAX_COORDINATE {
                 return Err(SceneError::at(
                     &node.loc,
                     format!("{what} reaches {reach:.3e} from the origin, beyond the {:e} raylab represents", crate::bounds::MAX_COORDINATE),
