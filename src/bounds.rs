@@ -3,6 +3,12 @@
 use crate::ray::Ray;
 use glam::DVec3;
 
+/// Largest coordinate magnitude of a bounded object, scene units. The hierarchy stores bounds as
+/// f32 (finite below 3.4e38), and the f64 intersection math squares and multiplies coordinates
+/// (a quartic's coefficients reach |x|⁴, 1e120 here, far from f64's 1.8e308); beyond this an
+/// object would vanish silently, so the scene is refused instead.
+pub const MAX_COORDINATE: f64 = 1e30;
+
 /// An axis-aligned box `[min, max]`. The empty box has `min > max` on every axis.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Aabb {

@@ -23,6 +23,15 @@ pub trait Integrator: Send + Sync {
         None
     }
 
+    /// Most rays (the camera ray, its shadow rays and every secondary ray) one camera ray can
+    /// cost in `scene`: the factor of the work budget checked before rendering
+    /// ([`crate::load::Limits::max_rays`]); may be infinite. The default counts the camera ray and
+    /// every light's shadow samples at one hit; an integrator that branches or recurses must
+    /// give its own bound.
+    fn worst_case_rays(&self, scene: &Scene) -> f64 {
+        1.0 + scene.lights.iter().map(|l| f64::from(l.sample_count().max(1))).sum::<f64>()
+    }
+
     /// One line describing the settings, for the render summary (e.g. `max_depth 3, prune 0.001`).
     fn describe(&self) -> String {
         String::new()

@@ -50,11 +50,19 @@ pub struct Limits {
     /// Most memory the image may take, bytes: the film, the extra layers and the encoder's
     /// copies, estimated before rendering ([`crate::output::image_bytes`]).
     pub max_image_bytes: u64,
+    /// Most rays a render may trace in the worst case (pixels × camera samples × lens samples ×
+    /// the integrator's [`crate::Integrator::worst_case_rays`]), checked before rendering.
+    pub max_rays: u64,
 }
 
 /// Default [`Limits::max_image_bytes`]: 2 GiB, so an image with every layer and its encoder's
 /// copies stays well under 4 GB with the scene beside it (4096 × 4096 as EXR with every layer).
 pub const DEFAULT_MAX_IMAGE_BYTES: u64 = 2 << 30;
+
+/// Default work budget, rays. The estimate is an upper bound (every fan full, every light
+/// sampled at every hit); the bundled scenes estimate at most 3.4e10 (quality.toml) and render in
+/// minutes, while the catalogue's knobs multiplied (2.3e14) would run for days.
+pub const DEFAULT_MAX_RAYS: u64 = 100_000_000_000;
 
 impl std::default::Default for Limits {
     fn default() -> Self {
@@ -66,6 +74,7 @@ impl std::default::Default for Limits {
             max_file_bytes: 1 << 31,
             max_triangles: 1 << 26,
             max_image_bytes: DEFAULT_MAX_IMAGE_BYTES,
+            max_rays: DEFAULT_MAX_RAYS,
         }
     }
 }
@@ -81,6 +90,7 @@ impl Limits {
             max_file_bytes: u64::MAX,
             max_triangles: u64::MAX,
             max_image_bytes: u64::MAX,
+            max_rays: u64::MAX,
         }
     }
 }
@@ -210,6 +220,22 @@ impl<'a> LoadContext<'a> {
     /// unless `allow_outside_paths` is set. Fails closed: a path whose target or folder cannot be
     /// resolved is refused.
     pub fn resolve_path(&self, path: &str, loc: &Loc) -> Result<PathBuf> {
+        self.check_written_path(path, loc)?;
+        let p = Path::new(path);
+        let full = self.scene_dir.join(p);
+        if !self.options.allow_outside_paths {
+            let dir = self.canonical_dir(loc)?;
+            let target =
+                self.dir().join(p).canonicalize().map_err(|e| SceneError::at(loc, format!("cannot read \"{}\": {e}", full.display())))?;
+            self.confined(&target, &dir, path, loc)?;
+        }
+        Ok(full)
+    }
+
+    /// Refuses a path as written (at `loc`) that is empty, absolute or climbs out with `..`,
+    /// unless `allow_outside_paths` is set. Looks at no file: [`LoadContext::resolve_path`] also
+    /// checks where links lead.
+    pub fn check_written_path(&self, path: &str, loc: &Loc) -> Result<()> {
         let p = Path::new(path);
         if path.is_empty() {
             return Err(SceneError::at(loc, "expected a file path, found an empty string"));
@@ -219,14 +245,7 @@ impl<'a> LoadContext<'a> {
             return Err(SceneError::at(loc, format!("path \"{path}\" leaves the scene's folder"))
                 .with_help("scenes may only read files in their own folder; pass --allow-outside-paths to permit this"));
         }
-        let full = self.scene_dir.join(p);
-        if !self.options.allow_outside_paths {
-            let dir = self.canonical_dir(loc)?;
-            let target =
-                self.dir().join(p).canonicalize().map_err(|e| SceneError::at(loc, format!("cannot read \"{}\": {e}", full.display())))?;
-            self.confined(&target, &dir, path, loc)?;
-        }
-        Ok(full)
+        Ok(())
     }
 
     /// Refuses `target` (the real path of `path`) unless it is inside the canonical folder `dir`.
@@ -586,6 +605,16 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
         if let Some(t) = transform.filter(|t| !t.is_identity()) {
             g = Box::new(Transformed::new(g, t));
         }
+        if let Some(b) = g.bounds().filter(|b| !b.is_empty()) {
+            let reach = b.min.abs().max(b.max.abs()).max_element();
+            if reach.is_nan() || reach > crate::bounds::MAX_COORDINATE {
+                return Err(SceneError::at(
+                    &node.loc,
+                    format!("{what} reaches {reach:.3e} from the origin, beyond the {:e} raylab represents", crate::bounds::MAX_COORDINATE),
+                )
+                .with_help("scale the scene down, or move it toward the origin"));
+            }
+        }
         objects.push((names.claim(node, &label, &ty, i)?, g));
     }
 
@@ -648,13 +677,44 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
             }
         }
     }
-    let mut ip = Params::new(format!("integrator \"{ty}\""), plugin.info.params, &integ_table, integ_loc, None);
+    let mut ip = Params::new(format!("integrator \"{ty}\""), plugin.info.params, &integ_table, integ_loc.clone(), None);
     let integrator = (plugin.build)(&mut ip, ctx)?;
     ip.finish()?;
 
     let mut scene = Scene::with_accel(name, camera, background, objects, lights, opts.accel);
     scene.record_object_builds(ctx.assets.build_stats());
+    check_work(&settings, &scene, integrator.as_ref(), &ty, &integ_loc, limits.max_rays)?;
     Ok(RenderJob { scene, integrator, integrator_name: ty, settings, warnings: ctx.take_warnings() })
+}
+
+/// Refuses a render whose worst-case ray count exceeds `max_rays`, naming each factor.
+fn check_work(s: &RenderSettings, scene: &Scene, integrator: &dyn crate::Integrator, ty: &str, loc: &Loc, max_rays: u64) -> Result<()> {
+    let pixels = f64::from(s.width) * f64::from(s.height);
+    let (samples, what) = match s.aa {
+        Antialiasing::Stratified => (f64::from(s.spp), "spp"),
+        // Every point of the 2^depth lattice in each pixel, corners included.
+        Antialiasing::Adaptive { max_depth, .. } => {
+            ((f64::from(1u32 << max_depth.min(MAX_ADAPTIVE_DEPTH)) + 1.0).powi(2), "adaptive lattice points per pixel")
+        }
+    };
+    let lens = if scene.camera.aperture > 0.0 { f64::from(s.lens_samples.max(1)) } else { 1.0 };
+    let per_ray = integrator.worst_case_rays(scene);
+    let total = pixels * samples * lens * per_ray;
+    if total.is_nan() || total > max_rays as f64 {
+        let e = SceneError::at(
+            loc,
+            format!(
+                "the render may trace {total:.3e} rays, over the budget of {max_rays}: {}×{} pixels × {samples} {what} × {lens} lens samples × {per_ray:.3e} rays per camera ray (integrator \"{ty}\": {})",
+                s.width,
+                s.height,
+                integrator.describe()
+            ),
+        );
+        return Err(
+            e.with_help("lower the knobs (spp, lens_samples, max_depth, glossy_rays, shadow_rays), or raise the budget with --max-rays")
+        );
+    }
+    Ok(())
 }
 
 /// `table` with `overrides` set over it (unknown keys are reported by the table's reader, at the

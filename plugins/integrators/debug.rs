@@ -68,6 +68,9 @@ impl Integrator for Normals {
     fn explain(&self, scene: &Scene, ray: &Ray, _: &mut Sampler) -> Option<TraceNode> {
         Some(explain_one(scene, ray, |_, _, n| (n + Color::ONE) * 0.5))
     }
+    fn worst_case_rays(&self, _: &Scene) -> f64 {
+        1.0
+    }
 }
 
 impl Depth {
@@ -105,6 +108,9 @@ impl Integrator for Depth {
     }
     fn explain(&self, scene: &Scene, ray: &Ray, _: &mut Sampler) -> Option<TraceNode> {
         Some(explain_one(scene, ray, |s, t, _| self.shade(s, t)))
+    }
+    fn worst_case_rays(&self, _: &Scene) -> f64 {
+        1.0
     }
     fn describe(&self) -> String {
         self.far.map_or_else(|| "far auto".into(), |f| format!("far {f}"))

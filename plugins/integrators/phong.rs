@@ -522,6 +522,31 @@ impl Integrator for Phong {
         Some(root)
     }
 
+    /// Every hit of a path tree up to `max_depth` has a reflection and a refraction fan and
+    /// takes every light's probes and samples. A fan has at most `ceil(glossy_rays × w)` rays for
+    /// its weight `w`, and its rays share `w` (coefficients ≤ 1), so the weights at one depth sum
+    /// to at most 2^depth; with `avoid` off, every fan has `glossy_rays` rays at full weight.
+    fn worst_case_rays(&self, scene: &Scene) -> f64 {
+        let per_hit: f64 = scene
+            .lights
+            .iter()
+            .map(|l| {
+                let full = if l.is_area() && self.shadow_rays > 0 { self.shadow_rays } else { l.sample_count().max(1) };
+                let probes = if l.is_area() && self.shadow_probes < full { self.shadow_probes } else { 0 };
+                f64::from(full) + f64::from(probes)
+            })
+            .sum();
+        let g = f64::from(self.glossy_rays);
+        let (mut hits, mut level, mut weight) = (1.0, 1.0, 1.0);
+        for _ in 0..self.max_depth {
+            let full = 2.0 * g * level;
+            level = if self.avoid { full.min(2.0 * g * weight + 2.0 * level) } else { full };
+            weight *= 2.0;
+            hits += level;
+        }
+        hits * (1.0 + per_hit)
+    }
+
     fn describe(&self) -> String {
         let mut s = format!("max_depth {}, prune {}, glossy {}", self.max_depth, self.prune_threshold, self.glossy_rays);
         if self.shadow_rays > 0 {

@@ -126,7 +126,9 @@ pub fn load_mesh(
     normals: Normals,
     with_materials: bool,
 ) -> Result<Arc<TriangleMesh>> {
-    // The format is told by the name alone, before the file is looked for.
+    // The format is told by the name alone, before the file is looked for (but not before a
+    // name that leaves the folder is refused).
+    ctx.check_written_path(file, loc)?;
     let ext = std::path::Path::new(file).extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let unknown = || SceneError::at(loc, format!("unknown mesh format \".{ext}\"; expected .obj, .gltf or .glb"));
     if !matches!(ext.as_str(), "obj" | "gltf" | "glb") {

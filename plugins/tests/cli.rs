@@ -198,7 +198,21 @@ fn ctrl_c_writes_the_partial_image_beside_the_target_and_keeps_the_old_one() {
     std::fs::write(dir.join("out.png"), b"a good image from before").unwrap();
     // Hours of work: it cannot finish before the signal.
     let mut child = Command::new(env!("CARGO_BIN_EXE_raylab"))
-        .args(["render", scene.to_str().unwrap(), "-o", "out.png", "--width", "1200", "--height", "900", "--spp", "4096", "-q"])
+        .args([
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            "out.png",
+            "--width",
+            "1200",
+            "--height",
+            "900",
+            "--spp",
+            "4096",
+            "--max-rays",
+            "1000000000000000",
+            "-q",
+        ])
         .current_dir(&dir)
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
@@ -232,5 +246,85 @@ fn ctrl_c_writes_the_partial_image_beside_the_target_and_keeps_the_old_one() {
     assert_eq!((partial.width(), partial.height()), (1200, 900));
     let names: Vec<String> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
     assert_eq!(names.len(), 2, "no temporary file left behind: {names:?}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+const TINY: &str = "# a comment convert would drop\n[render]\nwidth = 8\nheight = 6\n[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n[[object]]\ntype = \"sphere\"\n";
+
+#[test]
+fn convert_refuses_to_overwrite_its_input_under_any_name() {
+    let dir = temp_dir("convert-self");
+    std::fs::create_dir_all(dir.join("sub")).unwrap();
+    std::fs::write(dir.join("scene.toml"), TINY).unwrap();
+    std::os::unix::fs::symlink(dir.join("scene.toml"), dir.join("link.toml")).unwrap();
+    std::fs::hard_link(dir.join("scene.toml"), dir.join("hard.toml")).unwrap();
+    for out in ["scene.toml", "./scene.toml", "sub/../scene.toml", "link.toml", "hard.toml"] {
+        let o = raylab(&dir, &["convert", "scene.toml", "-o", out]);
+        assert_eq!(o.status.code(), Some(1), "-o {out}: {}", text(&o.stdout));
+        assert!(text(&o.stderr).contains("would overwrite its input"), "-o {out}: {}", text(&o.stderr));
+        assert_eq!(std::fs::read_to_string(dir.join("scene.toml")).unwrap(), TINY, "-o {out} changed the input");
+    }
+    let abs = dir.join("scene.toml");
+    let o = raylab(&dir.join("sub"), &["convert", "../scene.toml", "-o", abs.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o.stderr));
+    let o = raylab(&dir, &["convert", "scene.toml", "-o", "copy.toml"]);
+    assert!(o.status.success(), "a different output is written: {}", text(&o.stderr));
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn negative_numbers_get_range_errors_naming_the_option() {
+    let dir = temp_dir("negative");
+    std::fs::write(dir.join("scene.toml"), TINY).unwrap();
+    let cases: &[(&[&str], &str)] = &[
+        (&["render", "scene.toml", "--seed", "-1"], "'--seed <SEED>': -1 is out of range; expected an integer in 0..="),
+        (&["render", "scene.toml", "--width", "-3"], "'--width <WIDTH>': -3 is out of range; expected an integer in 1..="),
+        (&["render", "scene.toml", "--spp", "-1"], "'--spp <SPP>'"),
+        (&["render", "scene.toml", "--max-rays", "-1"], "'--max-rays <N>'"),
+        (&["render", "scene.toml", "--threads", "-2"], "'--threads <THREADS>': -2 is out of range; expected an integer in 1..=4096"),
+        (&["render", "scene.toml", "--grid", "-2"], "'--grid <N>'"),
+        (&["render", "scene.toml", "--seed", "1e3"], "expected an integer in 0..="),
+        (&["bench", "--width", "-1"], "'--width <WIDTH>': -1 is out of range; expected an integer in 1..=32768"),
+        (&["sweep", "scene.toml", "--vary", "spp=1", "--repeat", "-1"], "'--repeat <N>'"),
+    ];
+    for (args, needle) in cases {
+        let o = raylab(&dir, args);
+        let err = text(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(needle) && !err.contains("unexpected argument"), "{args:?}: {err}");
+    }
+    // Signed and real values reach the scene's own checks, which name the flag and the range.
+    let located: &[(&[&str], &str)] = &[
+        (&["render", "scene.toml", "--focus-distance", "-2"], "--focus-distance"),
+        (&["render", "scene.toml", "--aperture", "-0.5"], "--aperture"),
+        (&["render", "scene.toml", "--depth", "-1"], "--depth"),
+        (&["render", "scene.toml", "--lens-samples", "-4"], "--lens-samples"),
+        (&["render", "scene.toml", "--aa", "adaptive", "--aa-depth", "-1"], "--aa-depth"),
+        (&["render", "scene.toml", "--aa", "adaptive", "--aa-threshold", "-1"], "--aa-threshold"),
+        (&["trace", "scene.toml", "--pixel", "-1,3"], "--pixel: expected X,Y inside the 8×6 image"),
+        (&["trace", "scene.toml", "--ray", "-1,0,5:0,0,0"], "--ray"),
+    ];
+    for (args, needle) in located {
+        let o = raylab(&dir, args);
+        let err = text(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+        assert!(err.contains(needle) && !err.contains("unexpected argument"), "{args:?}: {err}");
+    }
+    let o = raylab(&dir, &["trace", "scene.toml", "--ray", "-1,0,5:0,0,-1"]);
+    assert!(o.status.success(), "a ray from a negative origin is traced: {}", text(&o.stderr));
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn the_work_budget_refuses_a_render_and_names_the_flag_that_raises_it() {
+    let dir = temp_dir("max-rays");
+    std::fs::write(dir.join("scene.toml"), TINY).unwrap();
+    let o = raylab(&dir, &["render", "scene.toml", "--spp", "4", "--max-rays", "100"]);
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("over the budget of 100: 8×6 pixels × 4 spp") && err.contains("--max-rays"), "{err}");
+    assert!(!dir.join("render.png").exists());
+    let o = raylab(&dir, &["render", "scene.toml", "--spp", "4", "--max-rays", "100000000", "-q"]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
     std::fs::remove_dir_all(dir).unwrap();
 }

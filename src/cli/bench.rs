@@ -19,21 +19,24 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+/// Largest image side `bench` renders, pixels (the scenes' default `--max-side`).
+const MAX_SIDE: i128 = 1 << 15;
+
 #[derive(Args, Debug)]
 pub(crate) struct BenchArgs {
     /// Mesh files to benchmark (.obj, .gltf, .glb), besides the generated ones.
     meshes: Vec<PathBuf>,
     /// Triangle counts of the generated bumpy spheres (k and M suffixes allowed; none: `--sizes ""`).
-    #[arg(long, value_delimiter = ',', default_value = "1k,10k,100k,1M")]
+    #[arg(long, value_delimiter = ',', default_value = "1k,10k,100k,1M", allow_hyphen_values = true)]
     sizes: Vec<String>,
     /// Image width (one primary ray per pixel).
-    #[arg(long, default_value_t = 800)]
+    #[arg(long, default_value_t = 800, allow_hyphen_values = true, value_parser = super::int_in::<u32>(1, MAX_SIDE))]
     width: u32,
     /// Image height.
-    #[arg(long, default_value_t = 600)]
+    #[arg(long, default_value_t = 600, allow_hyphen_values = true, value_parser = super::int_in::<u32>(1, MAX_SIDE))]
     height: u32,
     /// Worker threads (default: all cores).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true, value_parser = super::int_in::<usize>(1, super::MAX_THREADS))]
     threads: Option<usize>,
     /// Spatial index for the triangles: `bvh`, `list` or `auto`.
     #[arg(long, value_parser = ["auto", "bvh", "list"], default_value = "auto")]

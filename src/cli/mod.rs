@@ -58,19 +58,19 @@ enum Command {
 #[derive(Args, Debug, Default, Clone)]
 pub(crate) struct SceneArgs {
     /// Image width in pixels (overrides the scene).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true, value_parser = int_in::<u32>(1, u32::MAX.into()))]
     width: Option<u32>,
     /// Image height in pixels (overrides the scene).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true, value_parser = int_in::<u32>(1, u32::MAX.into()))]
     height: Option<u32>,
     /// Samples per pixel (overrides the scene).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true, value_parser = int_in::<u32>(1, u32::MAX.into()))]
     spp: Option<u32>,
     /// Maximum recursion depth (sets the integrator's `max_depth`).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     depth: Option<i64>,
     /// Random seed (overrides the scene).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true, value_parser = int_in::<u64>(0, u64::MAX.into()))]
     seed: Option<u64>,
     /// Integrator type, replacing the scene's (e.g. `normals`, `depth`).
     #[arg(long)]
@@ -83,19 +83,19 @@ pub(crate) struct SceneArgs {
     #[arg(long, value_parser = ["stratified", "adaptive"])]
     aa: Option<String>,
     /// Adaptive anti-aliasing: split where corner values (displayed, 0..1) differ by more than this.
-    #[arg(long, value_name = "T")]
+    #[arg(long, value_name = "T", allow_hyphen_values = true)]
     aa_threshold: Option<f64>,
     /// Adaptive anti-aliasing: most subdivision levels per pixel (0–8).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_hyphen_values = true)]
     aa_depth: Option<i64>,
     /// Rays through distinct lens points per image sample (depth of field).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_hyphen_values = true)]
     lens_samples: Option<i64>,
     /// Lens radius for depth of field, scene units (overrides the camera's `aperture`).
-    #[arg(long, value_name = "R")]
+    #[arg(long, value_name = "R", allow_hyphen_values = true)]
     aperture: Option<f64>,
     /// Distance of the plane in focus, scene units (overrides the camera's `focus_distance`).
-    #[arg(long, value_name = "D")]
+    #[arg(long, value_name = "D", allow_hyphen_values = true)]
     focus_distance: Option<f64>,
     /// Set a camera parameter: `--camera position=[0,0,10]` (value in TOML syntax; repeatable).
     /// Supplies the camera of a scene that has none (e.g. a report XML scene without <camera>).
@@ -112,27 +112,30 @@ pub(crate) struct SceneArgs {
     #[arg(long)]
     allow_outside_paths: bool,
     /// Largest image in pixels (width × height) the scene may ask for.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = int_in::<u64>(0, u64::MAX.into()))]
     max_pixels: Option<u64>,
     /// Largest image side in pixels.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = int_in::<u32>(0, u32::MAX.into()))]
     max_side: Option<u32>,
     /// Most samples per pixel the scene may ask for.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = int_in::<u32>(0, u32::MAX.into()))]
     max_spp: Option<u32>,
     /// Deepest recursion the scene may ask for.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = int_in::<u32>(0, u32::MAX.into()))]
     max_depth_limit: Option<u32>,
     /// Largest file (bytes) the scene may make raylab read.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = int_in::<u64>(0, u64::MAX.into()))]
     max_file_bytes: Option<u64>,
     /// Most triangles one mesh object may have.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = int_in::<u64>(0, u64::MAX.into()))]
     max_triangles: Option<u64>,
     /// Most memory (bytes) the image may take: film, EXR layers and the encoder's copies,
     /// estimated before rendering for the costliest output (EXR with every layer).
-    #[arg(long, value_name = "BYTES")]
+    #[arg(long, value_name = "BYTES", allow_hyphen_values = true, value_parser = int_in::<u64>(0, u64::MAX.into()))]
     max_image_bytes: Option<u64>,
+    /// Most rays the render may trace in the worst case (the knobs multiplied), checked before it starts.
+    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = int_in::<u64>(0, u64::MAX.into()))]
+    max_rays: Option<u64>,
 }
 
 /// Parses `std::env::args` and runs the command.
@@ -257,6 +260,9 @@ impl SceneArgs {
         if let Some(v) = self.max_image_bytes {
             limits.max_image_bytes = v;
         }
+        if let Some(v) = self.max_rays {
+            limits.max_rays = v;
+        }
         Ok(LoadOptions {
             overrides: Overrides {
                 width: self.width,
@@ -275,6 +281,23 @@ impl SceneArgs {
             image: crate::output::ImagePlan::default(),
             open_log: None,
         })
+    }
+}
+
+/// Most worker threads `--threads` may ask for.
+pub(crate) const MAX_THREADS: i128 = 4096;
+
+/// Value parser of an integer option in `lo..=hi`. Options take it with `allow_hyphen_values`, so
+/// a negative number reaches it and gets a range error naming the option (clap's message names
+/// it: "invalid value '-1' for '--seed <SEED>': …"), instead of "unexpected argument '-1'".
+pub(crate) fn int_in<T: TryFrom<i128>>(lo: i128, hi: i128) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync + 'static {
+    move |text| {
+        let range = || format!("expected an integer in {lo}..={hi}");
+        let v: i128 = text.trim().parse().map_err(|_| range())?;
+        if v < lo || v > hi {
+            return Err(format!("{v} is out of range; {}", range()));
+        }
+        T::try_from(v).map_err(|_| range())
     }
 }
 

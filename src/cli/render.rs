@@ -25,13 +25,13 @@ pub(crate) struct RenderArgs {
     #[arg(long, value_delimiter = ',', value_parser = ["depth", "normal", "albedo"])]
     aov: Vec<String>,
     /// Worker threads (default: all cores). The image does not depend on it.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true, value_parser = super::int_in::<usize>(1, super::MAX_THREADS))]
     threads: Option<usize>,
     /// Draw grid lines every N pixels over the image (the report's printGrid).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = super::int_in::<u32>(1, u32::MAX.into()))]
     grid: Option<u32>,
     /// Grid line colour as R,G,B (0–255).
-    #[arg(long, value_name = "R,G,B", default_value = "255,255,255")]
+    #[arg(long, value_name = "R,G,B", allow_hyphen_values = true, default_value = "255,255,255")]
     grid_color: String,
     /// Print the counters of traced and avoided work after the summary.
     #[arg(long)]
@@ -123,7 +123,7 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
     } else {
         let total = u64::from(s.width) * u64::from(s.height);
         let b = indicatif::ProgressBar::with_draw_target(Some(total), indicatif::ProgressDrawTarget::stderr());
-        if let Ok(style) = indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {percent:>3}% {msg}") {
+        if let Ok(style) = indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {percent:>3}% ETA {eta} {msg}") {
             b.set_style(style.progress_chars("=> "));
         }
         b

@@ -32,7 +32,7 @@ pub(crate) struct SweepArgs {
     #[arg(long, value_name = "REF|auto", default_value = "auto")]
     reference: String,
     /// Samples per pixel of the `auto` reference (at least the largest swept `spp`).
-    #[arg(long, value_name = "N", default_value_t = 256)]
+    #[arg(long, value_name = "N", default_value_t = 256, allow_hyphen_values = true, value_parser = super::int_in::<u32>(1, u32::MAX.into()))]
     reference_spp: u32,
     /// Folder for results.csv, results.json, plot.png, plot.svg and the cached reference.
     #[arg(long, value_name = "DIR", default_value = "sweep")]
@@ -41,13 +41,13 @@ pub(crate) struct SweepArgs {
     #[arg(long, default_value = "dssim", value_parser = ["dssim", "rmse", "psnr"])]
     metric: String,
     /// Print, per curve, the time needed to reach this error (in --metric's units).
-    #[arg(long, value_name = "ERROR")]
+    #[arg(long, value_name = "ERROR", allow_hyphen_values = true)]
     target: Option<f64>,
     /// Renders per setting; the fastest counts (machines are noisy).
-    #[arg(long, value_name = "N", default_value_t = 1)]
+    #[arg(long, value_name = "N", default_value_t = 1, allow_hyphen_values = true, value_parser = super::int_in::<u32>(1, u32::MAX.into()))]
     repeat: u32,
     /// Worker threads (default: all cores).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true, value_parser = super::int_in::<usize>(1, super::MAX_THREADS))]
     threads: Option<usize>,
     /// Also write each setting's image (PNG) into the output folder.
     #[arg(long)]

@@ -12,10 +12,10 @@ pub(crate) struct TraceArgs {
     /// Scene file.
     scene: PathBuf,
     /// The pixel to explain, as X,Y (column, row from the top-left, from 0).
-    #[arg(long, value_name = "X,Y", conflicts_with = "ray", required_unless_present = "ray")]
+    #[arg(long, value_name = "X,Y", allow_hyphen_values = true, conflicts_with = "ray", required_unless_present = "ray")]
     pixel: Option<String>,
     /// A ray to explain, as OX,OY,OZ:DX,DY,DZ (origin and direction).
-    #[arg(long, value_name = "OX,OY,OZ:DX,DY,DZ")]
+    #[arg(long, value_name = "OX,OY,OZ:DX,DY,DZ", allow_hyphen_values = true)]
     ray: Option<String>,
     /// Print JSON instead of text.
     #[arg(long)]

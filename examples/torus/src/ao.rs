@@ -65,6 +65,10 @@ impl Integrator for AmbientOcclusion {
         g.material_at(&hit).kd * (f64::from(open) / f64::from(self.rays))
     }
 
+    fn worst_case_rays(&self, _: &Scene) -> f64 {
+        1.0 + f64::from(self.rays)
+    }
+
     fn describe(&self) -> String {
         format!("rays {}, distance {}", self.rays, self.distance)
     }
