@@ -5,7 +5,7 @@
 use super::{App, Failure};
 use crate::load::{LoadContext, LoadOptions};
 use clap::Args;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(Args, Debug)]
 pub(crate) struct ConvertArgs {
