@@ -332,8 +332,14 @@ fn key_values(flag: &str, items: &[String]) -> Result<Vec<(String, Node)>, Failu
 /// Loads `scene` (or the app's default scene) with the options in `a`; returns the job and a
 /// display name.
 /// Load warnings are printed to standard error.
-pub(crate) fn load(app: &App, scene: Option<&Path>, a: &SceneArgs) -> Result<(RenderJob, String), Failure> {
-    let opts = a.load_options()?;
+/// `image` is what the command will write, for the image's memory budget.
+pub(crate) fn load(
+    app: &App,
+    scene: Option<&Path>,
+    a: &SceneArgs,
+    image: crate::output::ImagePlan,
+) -> Result<(RenderJob, String), Failure> {
+    let opts = LoadOptions { image, ..a.load_options()? };
     let (job, name) = match scene {
         Some(p) => (crate::load::load_file(&app.registry, p, &opts)?, p.display().to_string()),
         None => {

@@ -108,7 +108,10 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
     if kind != Some(crate::output::ImageKind::Exr) && (a.half || !a.aov.is_empty()) {
         return Err("--half and --aov apply to .exr output only".to_string().into());
     }
-    let (job, scene_name) = super::load(app, a.scene.as_deref(), &a.scene_args)?;
+    let exr = kind == Some(crate::output::ImageKind::Exr);
+    let layer = |name: &str| a.aov.iter().any(|s| s == name);
+    let plan = crate::output::ImagePlan { exr, depth: layer("depth"), normal: layer("normal"), albedo: layer("albedo"), half: a.half };
+    let (job, scene_name) = super::load(app, a.scene.as_deref(), &a.scene_args, plan)?;
     if INTERRUPTED.load(Ordering::SeqCst) {
         return Err(Failure::Interrupted("interrupted while loading: nothing rendered, nothing written".into()));
     }

@@ -93,7 +93,7 @@ pub(crate) fn run(app: &App, a: SweepArgs) -> Result<(), Failure> {
     }
     let base = a.scene_args.load_options()?;
     let scene = a.scene.as_deref();
-    let (base_job, scene_name) = super::load(app, scene, &a.scene_args)?;
+    let (base_job, scene_name) = super::load(app, scene, &a.scene_args, crate::output::ImagePlan::EIGHT_BIT)?;
     let encoding = base_job.settings.encoding;
     std::fs::create_dir_all(&a.out).map_err(|e| format!("cannot create \"{}\": {e}", a.out.display()))?;
     let options = RenderOptions { threads: a.threads, cancel: None };

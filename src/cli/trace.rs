@@ -25,7 +25,7 @@ pub(crate) struct TraceArgs {
 }
 
 pub(crate) fn run(app: &App, a: TraceArgs) -> Result<(), Failure> {
-    let (job, _) = super::load(app, Some(&a.scene), &a.scene_args)?;
+    let (job, _) = super::load(app, Some(&a.scene), &a.scene_args, crate::output::ImagePlan::EIGHT_BIT)?;
     let s = job.settings;
     let (ray, pixel) = if let Some(p) = &a.pixel {
         let bad = || Failure::Other(format!("--pixel: expected X,Y inside the {}×{} image, found \"{p}\"", s.width, s.height));
