@@ -11,7 +11,7 @@ use raylab::geometry::{Geometry, Intersectable};
 use raylab::glam::DVec3;
 use raylab::{Material, Ray};
 use raylab_plugins::mesh::MeshObject;
-use raylab_plugins::mesh::mesh::{MeshData, Normals, TriangleMesh};
+use raylab_plugins::mesh::triangle_mesh::{MeshData, Normals, TriangleMesh};
 use std::hint::black_box;
 use std::sync::Arc;
 

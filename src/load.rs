@@ -669,13 +669,12 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
         }
         integ_table.set(k, v.loc.clone(), v.clone());
     }
-    if let Some(n) = integ_table.get("max_depth") {
-        if let Value::Int(d) = n.value {
-            if d > i64::from(limits.max_depth) {
-                return Err(SceneError::at(&n.loc, format!("max_depth {d} exceeds the limit of {}", limits.max_depth))
-                    .with_help("raise it with --max-depth-limit"));
-            }
-        }
+    if let Some(n) = integ_table.get("max_depth")
+        && let Value::Int(d) = n.value
+        && d > i64::from(limits.max_depth)
+    {
+        return Err(SceneError::at(&n.loc, format!("max_depth {d} exceeds the limit of {}", limits.max_depth))
+            .with_help("raise it with --max-depth-limit"));
     }
     let mut ip = Params::new(format!("integrator \"{ty}\""), plugin.info.params, &integ_table, integ_loc.clone(), None);
     let integrator = (plugin.build)(&mut ip, ctx)?;

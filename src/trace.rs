@@ -158,7 +158,7 @@ impl TraceNode {
                     }
                     let shadow = match (&l.occluder, l.transmittance.max_element()) {
                         (None, _) => "unshadowed".to_string(),
-                        (Some(o), t) if t == 0.0 => format!("shadowed by {o}"),
+                        (Some(o), 0.0) => format!("shadowed by {o}"),
                         (Some(o), _) => format!("partly shadowed by {o}, transmittance {}", v(l.transmittance)),
                     };
                     writeln!(

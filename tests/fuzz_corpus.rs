@@ -17,10 +17,10 @@ fn scene_toml_corpus_loads_or_fails_cleanly() {
     let registry = raylab_plugins::registry();
     for f in corpus("scene_toml") {
         let data = std::fs::read(&f).unwrap();
-        if let Ok(text) = std::str::from_utf8(&data) {
-            if let Err(e) = raylab::load::load_str(&registry, "fuzz.toml", text, Path::new("."), &Default::default()) {
-                assert!(e.where_().is_some(), "{}: error without a location: {e}", f.display());
-            }
+        if let Ok(text) = std::str::from_utf8(&data)
+            && let Err(e) = raylab::load::load_str(&registry, "fuzz.toml", text, Path::new("."), &Default::default())
+        {
+            assert!(e.where_().is_some(), "{}: error without a location: {e}", f.display());
         }
     }
 }

@@ -33,7 +33,7 @@
 //! colour; a file without lights gets a sun and an ambient term. The instances' triangles count
 //! against `--max-triangles` before anything is built.
 
-use super::mesh::MeshData;
+use super::triangle_mesh::MeshData;
 use raylab::error::{Loc, Result, SceneError, Source};
 use raylab::glam::{DAffine3, DMat3, DMat4, DQuat, DVec3, Mat4};
 use raylab::load::SceneDescription;
@@ -409,12 +409,13 @@ fn percent_decode(s: &str) -> String {
     let mut i = 0;
     while i < b.len() {
         let hex = |c: u8| (c as char).to_digit(16);
-        if b[i] == b'%' && i + 2 < b.len() {
-            if let (Some(h), Some(l)) = (hex(b[i + 1]), hex(b[i + 2])) {
-                out.push((h * 16 + l) as u8);
-                i += 3;
-                continue;
-            }
+        if b[i] == b'%'
+            && i + 2 < b.len()
+            && let (Some(h), Some(l)) = (hex(b[i + 1]), hex(b[i + 2]))
+        {
+            out.push((h * 16 + l) as u8);
+            i += 3;
+            continue;
         }
         out.push(b[i]);
         i += 1;

@@ -6,11 +6,10 @@
 //! `material`, the file's materials are used (MTL and glTF mappings: [`obj`], [`gltf`]).
 
 pub mod gltf;
-pub mod mesh;
 pub mod obj;
+pub mod triangle_mesh;
 pub mod triangulate;
 
-use mesh::{MeshError, Normals, TriangleMesh};
 use raylab::error::{Loc, Result, SceneError};
 use raylab::geometry::{Geometry, Hit, Intersectable, face_forward};
 use raylab::glam::DVec3;
@@ -19,6 +18,7 @@ use raylab::registry::SceneFormat;
 use raylab::transform::{Transform, Transformed};
 use raylab::{Aabb, LoadContext, Material, PluginInfo, Ray, Registry};
 use std::sync::Arc;
+use triangle_mesh::{MeshError, Normals, TriangleMesh};
 
 /// The `mesh` plugin's description.
 pub const INFO: PluginInfo = PluginInfo {

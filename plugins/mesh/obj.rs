@@ -22,7 +22,7 @@
 //! tobj reports errors without a line number; raylab then finds the offending line itself, so
 //! every error names `file:line:col`.
 
-use super::mesh::MeshData;
+use super::triangle_mesh::MeshData;
 use super::triangulate::triangulate;
 use raylab::error::{Loc, Result, SceneError};
 use raylab::glam::{DVec3, Vec3};

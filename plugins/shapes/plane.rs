@@ -53,7 +53,7 @@ pub fn intersect_plane(ray: &Ray, q: DVec3, n: DVec3, t_min: f64, t_max: f64) ->
         return None;
     }
     let t = num / denom;
-    if !(t > t_min && t < t_max) || !t.is_finite() {
+    if !(t > t_min && t < t_max && t.is_finite()) {
         return None;
     }
     let p = ray.at(t);

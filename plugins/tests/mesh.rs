@@ -11,7 +11,7 @@ use raylab::load::{LoadOptions, load_file, load_str};
 use raylab::render::RenderJob;
 use raylab::{Color, Ray};
 use raylab_plugins::mesh::MeshObject;
-use raylab_plugins::mesh::mesh::{MeshData, Normals, TriangleMesh};
+use raylab_plugins::mesh::triangle_mesh::{MeshData, Normals, TriangleMesh};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 

@@ -11,7 +11,7 @@ use raylab::glam::DVec3;
 use raylab::sampler::mix64;
 use raylab::{Material, Ray};
 use raylab_plugins::mesh::MeshObject;
-use raylab_plugins::mesh::mesh::{MeshData, Normals, TriangleMesh};
+use raylab_plugins::mesh::triangle_mesh::{MeshData, Normals, TriangleMesh};
 use std::f64::consts::TAU;
 use std::sync::Arc;
 

@@ -256,7 +256,7 @@ fn parse_count(s: &str) -> Option<u64> {
         _ => (s, 1.0),
     };
     let v = num.parse::<f64>().ok()? * mul;
-    (v >= 8.0 && v <= 1e8).then_some(v.round() as u64)
+    (8.0..=1e8).contains(&v).then_some(v.round() as u64)
 }
 
 /// Writes a sphere with bumps (so triangles vary in size and orientation) of about `n`

@@ -151,10 +151,10 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
             bar.set_position(done)
         },
         &mut |pass| {
-            if let Some(log) = error_log.as_mut() {
-                if let Err(e) = log.record(pass) {
-                    log_failure.get_or_insert(e);
-                }
+            if let Some(log) = error_log.as_mut()
+                && let Err(e) = log.record(pass)
+            {
+                log_failure.get_or_insert(e);
             }
         },
     )?;
