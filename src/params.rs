@@ -212,6 +212,8 @@ pub struct Params<'a> {
     loc: Loc,
     used: Vec<bool>,
     materials: Option<&'a MaterialLibrary>,
+    /// Keys the caller reads itself (an object's `type`, `name`, `transform`): never reported.
+    reserved: &'static [&'static str],
 }
 
 impl<'a> Params<'a> {
@@ -224,7 +226,19 @@ impl<'a> Params<'a> {
         loc: Loc,
         materials: Option<&'a MaterialLibrary>,
     ) -> Self {
-        Params { what: what.into(), specs, table, loc, used: vec![false; table.entries.len()], materials }
+        Params { what: what.into(), specs, table, loc, used: vec![false; table.entries.len()], materials, reserved: &[] }
+    }
+
+    /// These parameters, with `keys` left to the caller: neither read nor reported as unknown
+    /// (so a plugin's table need not be copied without them).
+    pub fn reserving(mut self, keys: &'static [&'static str]) -> Self {
+        for (e, used) in self.table.entries.iter().zip(&mut self.used) {
+            if keys.contains(&e.key.as_str()) {
+                *used = true;
+            }
+        }
+        self.reserved = keys;
+        self
     }
 
     /// What these parameters belong to, for messages.
@@ -508,7 +522,10 @@ impl<'a> Params<'a> {
     /// before an error that a typo may explain ("missing `look_at`" when `lookat` was written).
     pub fn check_unknown(&self) -> Result<()> {
         let names: Vec<&str> = self.specs.iter().map(|s| s.name).collect();
-        let Some(e) = self.table.entries.iter().find(|e| !names.contains(&e.key.as_str())) else { return Ok(()) };
+        let Some(e) = self.table.entries.iter().find(|e| !names.contains(&e.key.as_str()) && !self.reserved.contains(&e.key.as_str()))
+        else {
+            return Ok(());
+        };
         let err = SceneError::at(&e.key_loc, format!("unknown parameter `{}`", e.key)).with_help(
             match did_you_mean(&e.key, names.iter().copied()) {
                 Some(m) => format!("did you mean `{m}`?  (parameters: {})", names.join(", ")),

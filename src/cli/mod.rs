@@ -133,6 +133,10 @@ pub(crate) struct SceneArgs {
     /// estimated before rendering for the costliest output (EXR with every layer).
     #[arg(long, value_name = "BYTES")]
     max_image_bytes: Option<u64>,
+    /// Most memory (bytes) the whole job may take, as estimated before each large allocation:
+    /// the parsed scene, objects, meshes with their hierarchies, glTF instances and the image.
+    #[arg(long, value_name = "BYTES")]
+    max_memory: Option<u64>,
 }
 
 /// Parses `std::env::args` and runs the command.
@@ -256,6 +260,9 @@ impl SceneArgs {
         }
         if let Some(v) = self.max_image_bytes {
             limits.max_image_bytes = v;
+        }
+        if let Some(v) = self.max_memory {
+            limits.max_memory = v;
         }
         Ok(LoadOptions {
             overrides: Overrides {
