@@ -616,4 +616,17 @@ mod tests {
         assert!(p.vec3("center").unwrap_err().message.contains("missing required parameter `center`"));
         assert!(p.float("nope").unwrap_err().message.contains("plugin bug"));
     }
+
+    /// Reserved keys are left to the caller; every other key is still checked.
+    #[test]
+    fn reserved_keys_are_neither_unknown_nor_unused() {
+        let src = Source::new("t", "x");
+        let t = table(&src, &[("type", Value::Str("sphere".into())), ("radius", Value::Float(2.0))]);
+        let mut p = Params::new("sphere", SPECS, &t, Loc::new(&src, 0..1), None).reserving(&["type"]);
+        assert_eq!(p.float("radius").unwrap(), 2.0);
+        p.finish().unwrap();
+        let t = table(&src, &[("type", Value::Str("sphere".into())), ("radus", Value::Float(2.0))]);
+        let p = Params::new("sphere", SPECS, &t, Loc::new(&src, 0..1), None).reserving(&["type"]);
+        assert!(p.finish().unwrap_err().message.contains("unknown parameter `radus`"));
+    }
 }
