@@ -53,6 +53,10 @@ pub struct Limits {
     /// Most rays a render may trace in the worst case (pixels × camera samples × lens samples ×
     /// the integrator's [`crate::Integrator::worst_case_rays`]), checked before rendering.
     pub max_rays: u64,
+    /// Most memory the whole job may take, bytes, as estimated before each large allocation
+    /// ([`LoadContext::charge`]): the parsed scene description, every object, every mesh with
+    /// its hierarchy, glTF instances, and the image.
+    pub max_memory: u64,
 }
 
 /// Default [`Limits::max_image_bytes`]: 2 GiB, so an image with every layer and its encoder's
@@ -64,6 +68,42 @@ pub const DEFAULT_MAX_IMAGE_BYTES: u64 = 2 << 30;
 /// minutes, while the catalogue's knobs multiplied (2.3e14) would run for days.
 pub const DEFAULT_MAX_RAYS: u64 = 100_000_000_000;
 
+/// Default [`Limits::max_memory`]: 3.25 GiB of estimated memory, so that with one file read
+/// whole beside it ([`DEFAULT_MAX_FILE_BYTES`]) a job stays under 4 GB.
+pub const DEFAULT_MAX_MEMORY: u64 = 13 << 28;
+
+/// Default [`Limits::max_file_bytes`]: 256 MiB, the largest single read, which is not part of
+/// the memory estimate while it happens ([`DEFAULT_MAX_MEMORY`] + this < 4 GB).
+pub const DEFAULT_MAX_FILE_BYTES: u64 = 1 << 28;
+
+/// Estimated peak bytes of parsing TOML `text` into a description (the parser's tree and the
+/// located [`Table`] it becomes), from one linear scan: per `=` (a key and its value) or `{`
+/// [`TOML_BYTES_PER_KEY`], per `,` or `[` (an array element or a table header)
+/// [`TOML_BYTES_PER_ITEM`], and [`TOML_BYTES_PER_BYTE`] per byte for the text and string copies.
+pub fn toml_memory_estimate(text: &[u8]) -> u64 {
+    let (mut keys, mut items) = (0u64, 0u64);
+    for &b in text {
+        match b {
+            b'=' | b'{' => keys += 1,
+            b',' | b'[' => items += 1,
+            _ => {}
+        }
+    }
+    keys * TOML_BYTES_PER_KEY + items * TOML_BYTES_PER_ITEM + text.len() as u64 * TOML_BYTES_PER_BYTE
+}
+
+/// Estimated bytes per TOML key while parsed (measured peak: about 370 for 2·10⁶ keys of one table).
+pub const TOML_BYTES_PER_KEY: u64 = 512;
+/// Estimated bytes per TOML array element or table header while parsed (measured peak: about 190
+/// per element of an array of 10⁷ integers, 340 per empty `[[a]]` table).
+pub const TOML_BYTES_PER_ITEM: u64 = 256;
+/// Estimated bytes per byte of TOML text beyond its values: the text itself and string copies.
+pub const TOML_BYTES_PER_BYTE: u64 = 3;
+
+/// Estimated bytes one scene object takes once built, beyond what its plugin charges itself: its
+/// geometry box, an optional transform wrapper, its name and its share of the scenes' hierarchies.
+pub const OBJECT_BYTES: u64 = 400;
+
 impl std::default::Default for Limits {
     fn default() -> Self {
         Limits {
@@ -71,10 +111,11 @@ impl std::default::Default for Limits {
             max_side: 1 << 15,
             max_spp: 1 << 16,
             max_depth: 64,
-            max_file_bytes: 1 << 31,
+            max_file_bytes: DEFAULT_MAX_FILE_BYTES,
             max_triangles: 1 << 26,
             max_image_bytes: DEFAULT_MAX_IMAGE_BYTES,
             max_rays: DEFAULT_MAX_RAYS,
+            max_memory: DEFAULT_MAX_MEMORY,
         }
     }
 }
@@ -91,6 +132,7 @@ impl Limits {
             max_triangles: u64::MAX,
             max_image_bytes: u64::MAX,
             max_rays: u64::MAX,
+            max_memory: u64::MAX,
         }
     }
 }
@@ -181,12 +223,53 @@ pub struct LoadContext<'a> {
     /// Assets decoded once per scene, and the cost of the indices plugins build.
     pub assets: AssetCache,
     warnings: Mutex<Vec<SceneError>>,
+    charged: std::sync::atomic::AtomicU64,
 }
 
 impl<'a> LoadContext<'a> {
     /// The context for a scene in `scene_dir`, with an empty asset cache.
     pub fn new(scene_dir: &'a Path, options: &'a LoadOptions) -> Self {
-        LoadContext { scene_dir, options, assets: AssetCache::default(), warnings: Mutex::default() }
+        LoadContext {
+            scene_dir,
+            options,
+            assets: AssetCache::default(),
+            warnings: Mutex::default(),
+            charged: std::sync::atomic::AtomicU64::new(0),
+        }
+    }
+
+    /// Counts `bytes` (an estimate of what is about to be allocated for `what`) against
+    /// [`Limits::max_memory`], before allocating: an error naming `what`, the estimate and the
+    /// flag when the job's running total would exceed it (then nothing is counted).
+    pub fn charge(&self, bytes: u64, what: &str, loc: Option<&Loc>) -> Result<()> {
+        use std::sync::atomic::Ordering;
+        let limit = self.options.limits.max_memory;
+        let mut total = self.charged.load(Ordering::Relaxed);
+        loop {
+            let next = total.saturating_add(bytes);
+            if next > limit {
+                let message = format!(
+                    "{what} needs about {} MB, which brings the job's estimated memory to {} MB, over the limit of {} MB",
+                    bytes.div_ceil(1 << 20),
+                    next.div_ceil(1 << 20),
+                    limit >> 20
+                );
+                let e = match loc {
+                    Some(l) => SceneError::at(l, message),
+                    None => SceneError::msg(message),
+                };
+                return Err(e.with_help("raise the limit with --max-memory (bytes)"));
+            }
+            match self.charged.compare_exchange_weak(total, next, Ordering::Relaxed, Ordering::Relaxed) {
+                Ok(_) => return Ok(()),
+                Err(t) => total = t,
+            }
+        }
+    }
+
+    /// The memory counted so far by [`LoadContext::charge`], bytes.
+    pub fn charged(&self) -> u64 {
+        self.charged.load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// Records something the scene asks for that raylab ignores or approximates (an unsupported
@@ -359,7 +442,10 @@ pub fn load_file(registry: &Registry, path: &Path, options: &LoadOptions) -> Res
     // One context for reading and building, so assets a format reader decoded are reused.
     let ctx = LoadContext::new(dir, options);
     let desc = read_with(registry, path, &ctx)?;
-    build(registry, &desc, &ctx)
+    let parts = build_parts(registry, &desc, &ctx)?;
+    // The description is freed before the scene's hierarchy is built.
+    drop(desc);
+    parts.assemble(&ctx)
 }
 
 /// Reads the scene file at `path` into a description without building it.
@@ -371,6 +457,11 @@ fn read_with(registry: &Registry, path: &Path, ctx: &LoadContext) -> Result<Scen
     let options = ctx.options;
     let bytes = read_user_file(path, "scene file", options.limits.max_file_bytes, options.open_log.as_ref())?;
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let estimate = if ext == "toml" { toml_memory_estimate(&bytes) } else { bytes.len() as u64 };
+    ctx.charge(estimate, "the scene description", None).map_err(|mut e| {
+        e.location = crate::error::Location::File { path: path.display().to_string(), line_col: None };
+        e
+    })?;
     if ext == "toml" {
         let text = String::from_utf8(bytes).map_err(|e| {
             SceneError::in_file(path, None, format!("scene file is not UTF-8 text (byte {})", e.utf8_error().valid_up_to()))
@@ -391,8 +482,12 @@ fn read_with(registry: &Registry, path: &Path, ctx: &LoadContext) -> Result<Scen
 /// Builds a TOML scene given as text. `name` names it in messages; relative paths resolve
 /// against `scene_dir`.
 pub fn load_str(registry: &Registry, name: &str, text: &str, scene_dir: &Path, options: &LoadOptions) -> Result<RenderJob> {
+    let ctx = LoadContext::new(scene_dir, options);
+    ctx.charge(toml_memory_estimate(text.as_bytes()), "the scene description", None)?;
     let desc = parse_toml(&Source::new(name, text), stem(Path::new(name)))?;
-    build(registry, &desc, &LoadContext::new(scene_dir, options))
+    let parts = build_parts(registry, &desc, &ctx)?;
+    drop(desc);
+    parts.assemble(&ctx)
 }
 
 fn stem(p: &Path) -> String {
@@ -483,6 +578,35 @@ fn convert_value(v: toml::Spanned<toml::de::DeValue<'_>>, src: &Arc<Source>) -> 
 /// Builds a scene description into a render job: validates every table against its plugin's
 /// parameter table, applies command-line overrides and limits, and constructs every plugin.
 pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) -> Result<RenderJob> {
+    build_parts(registry, desc, ctx)?.assemble(ctx)
+}
+
+/// A scene's parts, built from its description, before the scene's hierarchy is built (so the
+/// description can be freed first).
+struct Parts {
+    name: String,
+    camera: Camera,
+    background: crate::color::Color,
+    objects: Vec<(String, Box<dyn crate::geometry::Geometry>)>,
+    lights: Vec<(String, Box<dyn crate::light::LightSource>)>,
+    integrator: Box<dyn crate::integrator::Integrator>,
+    integrator_name: String,
+    settings: RenderSettings,
+    /// Where the integrator is set, for the work budget's error.
+    integrator_loc: Loc,
+}
+
+impl Parts {
+    fn assemble(self, ctx: &LoadContext) -> Result<RenderJob> {
+        let mut scene = Scene::with_accel(self.name, self.camera, self.background, self.objects, self.lights, ctx.options.accel);
+        scene.record_object_builds(ctx.assets.build_stats());
+        let (integrator, ty) = (self.integrator, self.integrator_name);
+        check_work(&self.settings, &scene, integrator.as_ref(), &ty, &self.integrator_loc, ctx.options.limits.max_rays)?;
+        Ok(RenderJob { scene, integrator, integrator_name: ty, settings: self.settings, warnings: ctx.take_warnings() })
+    }
+}
+
+fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) -> Result<Parts> {
     let opts = ctx.options;
     let ov = &opts.overrides;
     if opts.accel == AccelChoice::Bvh && !crate::bvh::BVH_AVAILABLE {
@@ -533,6 +657,7 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
             ))
             .with_help("raise the limit with --max-image-bytes, or render a smaller image"));
     }
+    ctx.charge(bytes, &format!("the image of {width}×{height} pixels"), Some(rp.loc()))?;
     let file_spp = rp.int_in("spp", 1..=i64::MAX)?;
     let spp = ov.spp.map_or(file_spp, i64::from);
     if spp < 1 || spp > i64::from(limits.max_spp) {
@@ -594,12 +719,13 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
     let mut objects = Vec::new();
     let mut names = NameSet::default();
     for (i, node) in array_of_tables(root.node("object")?, "object")?.into_iter().enumerate() {
-        let (ty, label, mut params) =
+        let (ty, label, params) =
             plugin_header(node, i, "object", |n| registry.geometry(n).is_some(), || registry.geometries().map(|p| p.name).collect())?;
         let plugin = registry.geometry(&ty).expect("checked by plugin_header");
         let what = format!("object #{i} {label}({ty})");
-        let transform = params.remove("transform").map(|e| parse_transform(&e.value).map_err(|e| e.context(&what))).transpose()?;
-        let mut p = Params::new(&what, plugin.info.params, &params, node.loc.clone(), Some(&materials));
+        ctx.charge(OBJECT_BYTES, &what, Some(&node.loc))?;
+        let transform = params.get("transform").map(|n| parse_transform(n).map_err(|e| e.context(&what))).transpose()?;
+        let mut p = Params::new(&what, plugin.info.params, params, node.loc.clone(), Some(&materials)).reserving(OBJECT_KEYS);
         let mut g = (plugin.build)(&mut p, ctx)?;
         p.finish()?;
         if let Some(t) = transform.filter(|t| !t.is_identity()) {
@@ -626,7 +752,7 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
             plugin_header(node, i, "light", |n| registry.light(n).is_some(), || registry.lights().map(|p| p.name).collect())?;
         let plugin = registry.light(&ty).expect("checked by plugin_header");
         let what = format!("light #{i} {label}({ty})");
-        let mut p = Params::new(&what, plugin.info.params, &params, node.loc.clone(), None);
+        let mut p = Params::new(&what, plugin.info.params, params, node.loc.clone(), None).reserving(LIGHT_KEYS);
         let l = (plugin.build)(&mut p, ctx)?;
         p.finish()?;
         lights.push((light_names.claim(node, &label, &ty, i)?, l));
@@ -680,10 +806,7 @@ pub fn build(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) ->
     let integrator = (plugin.build)(&mut ip, ctx)?;
     ip.finish()?;
 
-    let mut scene = Scene::with_accel(name, camera, background, objects, lights, opts.accel);
-    scene.record_object_builds(ctx.assets.build_stats());
-    check_work(&settings, &scene, integrator.as_ref(), &ty, &integ_loc, limits.max_rays)?;
-    Ok(RenderJob { scene, integrator, integrator_name: ty, settings, warnings: ctx.take_warnings() })
+    Ok(Parts { name, camera, background, objects, lights, integrator, integrator_name: ty, settings, integrator_loc: integ_loc })
 }
 
 /// Refuses a render whose worst-case ray count exceeds `max_rays`, naming each factor.
@@ -749,37 +872,43 @@ fn array_of_tables<'a>(node: Option<&'a Node>, what: &str) -> Result<Vec<&'a Nod
     Ok(items.iter().collect())
 }
 
-/// Splits `type` and `name` off a plugin table; returns (type, "\"name\" " or "", the rest).
-fn plugin_header(
-    node: &Node,
+/// The keys of an `[[object]]` table that are not its plugin's parameters.
+const OBJECT_KEYS: &[&str] = &["type", "name", "transform"];
+
+/// The keys of a `[[light]]` table that are not its plugin's parameters.
+const LIGHT_KEYS: &[&str] = &["type", "name"];
+
+/// Reads `type` and `name` of a plugin table (without copying it); returns (type, "\"name\" "
+/// or "", the table).
+fn plugin_header<'a>(
+    node: &'a Node,
     i: usize,
     what: &str,
     known: impl Fn(&str) -> bool,
     names: impl Fn() -> Vec<&'static str>,
-) -> Result<(String, String, Table)> {
+) -> Result<(String, String, &'a Table)> {
     let Value::Table(t) = &node.value else { unreachable!("array_of_tables checked this") };
-    let mut rest = t.clone();
-    let ty = match rest.remove("type") {
+    let ty = match t.get("type") {
         None => {
             return Err(SceneError::at(&node.loc, format!("{what} #{i} has no `type`"))
                 .with_help(format!("known {what} types: {}", names().join(", "))));
         }
-        Some(e) => match e.value.value {
-            Value::Str(s) if known(&s) => s,
+        Some(n) => match &n.value {
+            Value::Str(s) if known(s) => s.clone(),
             Value::Str(s) => {
-                return Err(SceneError::at(&e.value.loc, format!("unknown {what} type \"{s}\"")).with_help(suggest(&s, &names())));
+                return Err(SceneError::at(&n.loc, format!("unknown {what} type \"{s}\"")).with_help(suggest(s, &names())));
             }
-            other => return Err(SceneError::at(&e.value.loc, format!("`type` must be a string, found {}", other.type_name()))),
+            other => return Err(SceneError::at(&n.loc, format!("`type` must be a string, found {}", other.type_name()))),
         },
     };
-    let label = match rest.remove("name") {
+    let label = match t.get("name") {
         None => String::new(),
-        Some(e) => match e.value.value {
+        Some(n) => match &n.value {
             Value::Str(s) => format!("\"{s}\" "),
-            other => return Err(SceneError::at(&e.value.loc, format!("`name` must be a string, found {}", other.type_name()))),
+            other => return Err(SceneError::at(&n.loc, format!("`name` must be a string, found {}", other.type_name()))),
         },
     };
-    Ok((ty, label, rest))
+    Ok((ty, label, t))
 }
 
 fn suggest(word: &str, names: &[&str]) -> String {

@@ -212,6 +212,8 @@ pub struct Params<'a> {
     loc: Loc,
     used: Vec<bool>,
     materials: Option<&'a MaterialLibrary>,
+    /// Keys the caller reads itself (an object's `type`, `name`, `transform`): never reported.
+    reserved: &'static [&'static str],
 }
 
 impl<'a> Params<'a> {
@@ -224,7 +226,19 @@ impl<'a> Params<'a> {
         loc: Loc,
         materials: Option<&'a MaterialLibrary>,
     ) -> Self {
-        Params { what: what.into(), specs, table, loc, used: vec![false; table.entries.len()], materials }
+        Params { what: what.into(), specs, table, loc, used: vec![false; table.entries.len()], materials, reserved: &[] }
+    }
+
+    /// These parameters, with `keys` left to the caller: neither read nor reported as unknown
+    /// (so a plugin's table need not be copied without them).
+    pub fn reserving(mut self, keys: &'static [&'static str]) -> Self {
+        for (e, used) in self.table.entries.iter().zip(&mut self.used) {
+            if keys.contains(&e.key.as_str()) {
+                *used = true;
+            }
+        }
+        self.reserved = keys;
+        self
     }
 
     /// What these parameters belong to, for messages.
@@ -508,7 +522,10 @@ impl<'a> Params<'a> {
     /// before an error that a typo may explain ("missing `look_at`" when `lookat` was written).
     pub fn check_unknown(&self) -> Result<()> {
         let names: Vec<&str> = self.specs.iter().map(|s| s.name).collect();
-        let Some(e) = self.table.entries.iter().find(|e| !names.contains(&e.key.as_str())) else { return Ok(()) };
+        let Some(e) = self.table.entries.iter().find(|e| !names.contains(&e.key.as_str()) && !self.reserved.contains(&e.key.as_str()))
+        else {
+            return Ok(());
+        };
         let err = SceneError::at(&e.key_loc, format!("unknown parameter `{}`", e.key)).with_help(
             match did_you_mean(&e.key, names.iter().copied()) {
                 Some(m) => format!("did you mean `{m}`?  (parameters: {})", names.join(", ")),
@@ -598,5 +615,18 @@ mod tests {
         assert!(p.float("radius").unwrap_err().message.contains("finite"));
         assert!(p.vec3("center").unwrap_err().message.contains("missing required parameter `center`"));
         assert!(p.float("nope").unwrap_err().message.contains("plugin bug"));
+    }
+
+    /// Reserved keys are left to the caller; every other key is still checked.
+    #[test]
+    fn reserved_keys_are_neither_unknown_nor_unused() {
+        let src = Source::new("t", "x");
+        let t = table(&src, &[("type", Value::Str("sphere".into())), ("radius", Value::Float(2.0))]);
+        let mut p = Params::new("sphere", SPECS, &t, Loc::new(&src, 0..1), None).reserving(&["type"]);
+        assert_eq!(p.float("radius").unwrap(), 2.0);
+        p.finish().unwrap();
+        let t = table(&src, &[("type", Value::Str("sphere".into())), ("radus", Value::Float(2.0))]);
+        let p = Params::new("sphere", SPECS, &t, Loc::new(&src, 0..1), None).reserving(&["type"]);
+        assert!(p.finish().unwrap_err().message.contains("unknown parameter `radus`"));
     }
 }

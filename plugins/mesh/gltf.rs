@@ -860,6 +860,11 @@ impl Located<'_> {
     }
 }
 
+/// Estimated bytes of one mesh instance's table in a glTF scene's description (its located
+/// `type`, `file` and `node` entries), charged to [`raylab::load::Limits::max_memory`] before
+/// the description is built; each instance is charged again as an object when it is built.
+pub const INSTANCE_DESCRIPTION_BYTES: u64 = 1536;
+
 /// The raylab scene `file` (named `file_name` in its folder) describes, built without an
 /// intermediate text: one `mesh` object per node with a mesh (naming the node, so a mesh placed
 /// many times is decoded and indexed once), the camera and the lights. The instances' triangles
@@ -886,6 +891,15 @@ pub fn scene_description(file: &GltfFile, file_name: &str, name: String, ctx: &L
         )
         .with_help("raise the limit with --max-triangles"));
     }
+    ctx.charge(
+        instances.saturating_mul(INSTANCE_DESCRIPTION_BYTES),
+        &format!("the description of the {instances} mesh instances of its scene"),
+        None,
+    )
+    .map_err(|mut e| {
+        e.location = raylab::error::Location::File { path: file.name.clone(), line_col: None };
+        e
+    })?;
     let doc = Loc::new(&file.json, 0..0);
     let at = Located(&doc);
     let mut root: Vec<(&str, Node)> = vec![("background", at.vec3(DVec3::splat(0.1)))];

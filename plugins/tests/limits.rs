@@ -49,6 +49,70 @@ fn instanced_gltf_meshes_are_counted_before_they_are_copied() {
     std::fs::remove_dir_all(dir).unwrap();
 }
 
+/// The same file rendered as a scene: its instances are charged to the memory budget before its
+/// description is built.
+#[test]
+fn a_gltf_scene_with_many_instances_is_refused_by_the_memory_budget() {
+    let dir = std::env::temp_dir().join(format!("raylab-limits-mem-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let box_gltf = std::fs::read_to_string(assets().join("Box.gltf")).unwrap();
+    let mut doc: serde_json::Value = serde_json::from_str(&box_gltf).unwrap();
+    let mesh_node = doc["nodes"].as_array().unwrap().iter().position(|n| n.get("mesh").is_some()).unwrap();
+    let nodes: Vec<serde_json::Value> =
+        (0..4096).map(|i| serde_json::json!({ "mesh": doc["nodes"][mesh_node]["mesh"], "translation": [i, 0, 0] })).collect();
+    doc["nodes"] = serde_json::Value::Array(nodes);
+    doc["scenes"] = serde_json::json!([{ "nodes": (0..4096).collect::<Vec<_>>() }]);
+    doc["scene"] = serde_json::json!(0);
+    std::fs::write(dir.join("many.gltf"), doc.to_string()).unwrap();
+    std::fs::copy(assets().join("Box0.bin"), dir.join("Box0.bin")).unwrap();
+    let registry = raylab_plugins::registry();
+    let load = |max_memory| {
+        let options = LoadOptions { limits: Limits { max_memory, ..Limits::default() }, ..LoadOptions::default() };
+        raylab::load::load_file(&registry, &dir.join("many.gltf"), &options)
+    };
+    let e = load(4 << 20).err().expect("4096 instances over a 4 MiB budget");
+    assert!(e.message.contains("4096 mesh instances") && e.message.contains("over the limit of 4 MB"), "{}", e.report());
+    assert!(e.help.as_deref().unwrap_or("").contains("--max-memory"), "{}", e.report());
+    assert!(e.report().contains("many.gltf"), "{}", e.report());
+    assert!(load(Limits::default().max_memory).is_ok());
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// 10⁶ inline spheres: refused by a small budget before the text is parsed, naming the flag.
+#[test]
+fn a_million_spheres_are_refused_by_a_small_memory_budget() {
+    let mut text = String::from("[camera]\nposition = [0, 0, -10]\nlook_at = [0, 0, 0]\n");
+    for i in 0..1_000_000 {
+        text.push_str(&format!("[[object]]\ntype=\"sphere\"\ncenter=[{},{},0]\nradius=0.3\n", i % 1000, i / 1000));
+    }
+    let estimate = raylab::load::toml_memory_estimate(text.as_bytes());
+    assert!(estimate > 2_000_000_000, "a million spheres take about 2.3 GB while parsed, estimated {estimate}");
+    let options = LoadOptions { limits: Limits { max_memory: 1 << 30, ..Limits::default() }, ..LoadOptions::default() };
+    let e = load_str(&raylab_plugins::registry(), "spheres.toml", &text, Path::new("."), &options).err().expect("over 1 GiB");
+    assert!(e.message.contains("the scene description") && e.message.contains("over the limit of 1024 MB"), "{}", e.report());
+    assert!(e.help.as_deref().unwrap_or("").contains("--max-memory"), "{}", e.report());
+}
+
+/// Every object is charged as it is built: a budget the description fits in but its objects do
+/// not is refused at the object that crosses it.
+#[test]
+fn objects_are_charged_as_they_are_built() {
+    let mut text = String::from("[render]\nwidth = 8\nheight = 8\n[camera]\nposition = [0, 0, -10]\nlook_at = [0, 0, 0]\n");
+    for i in 0..1000 {
+        text.push_str(&format!("[[object]]\ntype=\"sphere\"\ncenter=[{i},0,0]\nradius=0.3\n"));
+    }
+    let registry = raylab_plugins::registry();
+    let image = raylab::output::image_bytes(64, &raylab::output::ImagePlan::default());
+    let fits = raylab::load::toml_memory_estimate(text.as_bytes()) + image;
+    let load = |max_memory| {
+        let options = LoadOptions { limits: Limits { max_memory, ..Limits::default() }, ..LoadOptions::default() };
+        load_str(&registry, "spheres.toml", &text, Path::new("."), &options)
+    };
+    let e = load(fits + 500 * raylab::load::OBJECT_BYTES).err().expect("1000 objects over the budget");
+    assert!(e.message.contains("object #500 (sphere)"), "{}", e.report());
+    assert!(load(fits + 1000 * raylab::load::OBJECT_BYTES).is_ok());
+}
+
 #[test]
 fn the_command_line_flag_raises_the_limit() {
     let scene = std::env::temp_dir().join(format!("raylab-limits-cli-{}.toml", std::process::id()));

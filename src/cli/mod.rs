@@ -136,6 +136,10 @@ pub(crate) struct SceneArgs {
     /// Most rays the render may trace in the worst case (the knobs multiplied), checked before it starts.
     #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = int_in::<u64>(0, u64::MAX.into()))]
     max_rays: Option<u64>,
+    /// Most memory (bytes) the whole job may take, as estimated before each large allocation:
+    /// the parsed scene, objects, meshes with their hierarchies, glTF instances and the image.
+    #[arg(long, value_name = "BYTES", allow_hyphen_values = true, value_parser = int_in::<u64>(0, u64::MAX.into()))]
+    max_memory: Option<u64>,
 }
 
 /// Parses `std::env::args` and runs the command.
@@ -262,6 +266,9 @@ impl SceneArgs {
         }
         if let Some(v) = self.max_rays {
             limits.max_rays = v;
+        }
+        if let Some(v) = self.max_memory {
+            limits.max_memory = v;
         }
         Ok(LoadOptions {
             overrides: Overrides {
