@@ -132,10 +132,14 @@ fn decode(b: &mut Bytes) -> Option<(Case, DVec3, f64)> {
             let g = Box::new(Polygon::new(v.clone(), m()).ok()?);
             let magnitude = v.iter().map(|p| max_abs(*p)).fold(0.0, f64::max);
             // The loader accepts vertices 1e-9 of the size off one plane; the exact surface of such
-            // an outline is ambiguous to that degree, so only outlines planar to rounding are checked.
+            // an outline is ambiguous to that degree, and its normal to that distance over the
+            // outline's width (a sliver's normal turns with any vertex off its plane), so only
+            // outlines planar to rounding relative to their width are checked.
             let exact = ExactPolygon { v: v.clone() };
             let size = v.iter().map(|p| (*p - v[0]).length()).fold(0.0, f64::max);
-            if v.iter().any(|p| exact.normal().dot(*p - v[0]).abs() > 1e-12 * size) {
+            let twice_area = (1..n - 1).map(|i| (v[i] - v[0]).cross(v[i + 1] - v[0])).sum::<DVec3>().length();
+            let width = twice_area / size;
+            if v.iter().any(|p| exact.normal().dot(*p - v[0]).abs() > 1e-12 * width) {
                 return None;
             }
             Case {

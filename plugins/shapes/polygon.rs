@@ -112,6 +112,19 @@ impl Polygon {
         if !once_round {
             return Err(PolygonError::SelfCrossing);
         }
+        // Every vertex strictly inside every edge's half-plane, with the tolerance relative to
+        // its distance. Seen from an edge's start, the vertices of an outline that turns once one
+        // way follow in angular order, so the smallest angle to an edge's line is at the vertex
+        // after its end or the one before its start: two tests per edge, not n.
+        for i in 0..n {
+            let e = vertices[(i + 1) % n] - vertices[i];
+            for j in [(i + 2) % n, (i + n - 1) % n] {
+                let w = vertices[j] - vertices[i];
+                if !(normal.dot(e.cross(w)) > DEGENERACY_TOLERANCE * e.length() * w.length()) {
+                    return Err(PolygonError::SelfCrossing);
+                }
+            }
+        }
         Ok(Polygon { vertices, edge_normals, normal, material })
     }
 }
