@@ -27,11 +27,9 @@ fn meshes_over_the_triangle_limit_are_refused_with_the_flag_to_raise_it() {
     }
 }
 
-/// A glTF file placing one mesh from 4096 nodes: counted before the copies are made.
-#[test]
-fn instanced_gltf_meshes_are_counted_before_they_are_copied() {
-    let dir = std::env::temp_dir().join(format!("raylab-limits-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+/// Writes `many.gltf` (and its buffer) into `dir`: the test box's mesh placed by 4096 nodes.
+fn write_box_placed_4096_times(dir: &std::path::Path) {
+    std::fs::create_dir_all(dir).unwrap();
     let box_gltf = std::fs::read_to_string(assets().join("Box.gltf")).unwrap();
     let mut doc: serde_json::Value = serde_json::from_str(&box_gltf).unwrap();
     let mesh_node = doc["nodes"].as_array().unwrap().iter().position(|n| n.get("mesh").is_some()).unwrap();
@@ -42,6 +40,13 @@ fn instanced_gltf_meshes_are_counted_before_they_are_copied() {
     doc["scene"] = serde_json::json!(0);
     std::fs::write(dir.join("many.gltf"), doc.to_string()).unwrap();
     std::fs::copy(assets().join("Box0.bin"), dir.join("Box0.bin")).unwrap();
+}
+
+/// A glTF file placing one mesh from 4096 nodes: counted before the copies are made.
+#[test]
+fn instanced_gltf_meshes_are_counted_before_they_are_copied() {
+    let dir = std::env::temp_dir().join(format!("raylab-limits-{}", std::process::id()));
+    write_box_placed_4096_times(&dir);
     let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\n[[object]]\ntype = \"mesh\"\nfile = \"many.gltf\"\n";
     let options = LoadOptions { limits: Limits { max_triangles: 10_000, ..Limits::default() }, ..LoadOptions::default() };
     let e = load_str(&raylab_plugins::registry(), "many.toml", text, &dir, &options).err().expect("over the limit");
@@ -54,17 +59,7 @@ fn instanced_gltf_meshes_are_counted_before_they_are_copied() {
 #[test]
 fn a_gltf_scene_with_many_instances_is_refused_by_the_memory_budget() {
     let dir = std::env::temp_dir().join(format!("raylab-limits-mem-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let box_gltf = std::fs::read_to_string(assets().join("Box.gltf")).unwrap();
-    let mut doc: serde_json::Value = serde_json::from_str(&box_gltf).unwrap();
-    let mesh_node = doc["nodes"].as_array().unwrap().iter().position(|n| n.get("mesh").is_some()).unwrap();
-    let nodes: Vec<serde_json::Value> =
-        (0..4096).map(|i| serde_json::json!({ "mesh": doc["nodes"][mesh_node]["mesh"], "translation": [i, 0, 0] })).collect();
-    doc["nodes"] = serde_json::Value::Array(nodes);
-    doc["scenes"] = serde_json::json!([{ "nodes": (0..4096).collect::<Vec<_>>() }]);
-    doc["scene"] = serde_json::json!(0);
-    std::fs::write(dir.join("many.gltf"), doc.to_string()).unwrap();
-    std::fs::copy(assets().join("Box0.bin"), dir.join("Box0.bin")).unwrap();
+    write_box_placed_4096_times(&dir);
     let registry = raylab_plugins::registry();
     let load = |max_memory| {
         let options = LoadOptions { limits: Limits { max_memory, ..Limits::default() }, ..LoadOptions::default() };
