@@ -1,0 +1,130 @@
+"""Prints run.sh's tables from its results file (workload, threads, run, renderer, metric, value).
+
+Ratios are formed per run (raylab and the peer ran one after the other) and summarised as the
+median with the range over runs: `0.28 (0.27–0.29)`. Rate ratios are raylab ÷ peer (> 1: raylab
+is faster); for times of equal work the ratio is peer time ÷ raylab time, the same thing.
+"""
+
+import statistics
+import sys
+from collections import defaultdict
+
+
+def main():
+    results, equal, runs, seconds, load_end = sys.argv[1:6]
+    v = defaultdict(dict)  # (workload, threads, renderer, metric) -> {run: value}
+    for line in open(results):
+        w, t, i, r, m, x = line.rstrip("\n").split("\t")
+        if x == "":
+            continue
+        v[(w, int(t), r, m)][int(i)] = float(x)
+
+    def med(key):
+        xs = list(v.get(key, {}).values())
+        return statistics.median(xs) if xs else None
+
+    def ratio(a, b, invert=False):
+        """Per-run a/b (or b/a), as 'median (min–max)'."""
+        A, B = v.get(a, {}), v.get(b, {})
+        rs = [(B[i] / A[i]) if invert else (A[i] / B[i]) for i in A if i in B and A[i] > 0 and B[i] > 0]
+        if not rs:
+            return "–"
+        m = statistics.median(rs)
+        return f"**{m:.2f}** ({min(rs):.2f}–{max(rs):.2f})" if len(rs) > 1 else f"**{m:.2f}**"
+
+    def fmt(x, unit=""):
+        if x is None:
+            return "–"
+        if unit == "M":
+            return f"{x / 1e6:.2f} M"
+        if unit == "s":
+            return f"{x:.3f}"
+        return f"{x:.1f}"
+
+    threads = sorted({k[1] for k in v if k[0] == "bunny"})
+    out = []
+    p = out.append
+    p(f"{runs} runs per row, alternating; whole run {int(seconds) // 60} min {int(seconds) % 60} s; load average at the end {load_end}.")
+    p("")
+    p(open(equal).read().rstrip())
+    p("")
+    p("### Bunny shot: a real render (camera ray + shadow ray per hit pixel, shading included), rays/s from wall-clock trace time")
+    p("")
+    p("| threads | peer | raylab rays/s | peer rays/s (or render s) | raylab ÷ peer (rate) |")
+    p("|---:|---|---:|---:|---:|")
+    peers = [
+        ("embree3", "Embree 3.13 C++, rtcIntersect1/rtcOccluded1, default build (medium quality, not robust)"),
+        ("embree3-robust", "Embree 3.13 C++, same, RTC_SCENE_FLAG_ROBUST (watertight like raylab)"),
+        ("embreex4", "Embree 4 via embreex (single rays in Cython, numpy glue; wall)"),
+    ]
+    for t in threads:
+        rl = ("bunny", t, "raylab", "rays_per_s")
+        for key, name in peers:
+            pk = ("bunny", t, key, "rays_per_s")
+            if pk in v:
+                p(f"| {t} | {name} | {fmt(med(rl), 'M')} | {fmt(med(pk), 'M')} | {ratio(rl, pk)} |")
+        for var in ("scalar_rgb", "llvm_ad_rgb"):
+            pk = ("bunny", t, f"mitsuba-{var}", "render_s")
+            if pk in v:
+                p(
+                    f"| {t} | Mitsuba 3 `direct`, {var} (render s vs raylab trace s {fmt(med(('bunny', t, 'raylab', 'trace_s')), 's')}) | "
+                    f"{fmt(med(rl), 'M')} | {fmt(med(pk), 's')} s | {ratio(('bunny', t, 'raylab', 'trace_s'), pk, invert=True)} |"
+                )
+    for t in threads:
+        pk = ("bunny", t, "embreex4-run-calls", "rays_per_s")
+        if pk in v:
+            p(f"| {t} | (embreex's `run` calls alone, without the numpy glue, from CPU time: {fmt(med(pk), 'M')} rays/s) | | | |")
+    p("")
+    p("### `raylab bench` on the bunny (no ground plane) against the Embree harness on the same shot, rays/s from the threads' CPU time")
+    p("")
+    p("| threads | rays | raylab bench | Embree 3 | raylab ÷ Embree | raylab shadow ÷ camera | Embree shadow ÷ camera |")
+    p("|---:|---|---:|---:|---:|---:|---:|")
+    for t in threads:
+        for m, name in (("camera_per_s", "camera"), ("shadow_per_s", "shadow"), ("all_per_s", "all")):
+            a, b = ("bench", t, "raylab", m), ("bench", t, "embree3", m)
+            extra = ""
+            if m == "camera_per_s":
+                extra = " | " + ratio(("bench", t, "raylab", "shadow_per_s"), a) + " | " + ratio(("bench", t, "embree3", "shadow_per_s"), b)
+            else:
+                extra = " | | "
+            p(f"| {t} | {name} | {fmt(med(a), 'M')} | {fmt(med(b), 'M')} | {ratio(a, b)}{extra} |")
+    p("")
+    p("### Whitted scenes against POV-Ray 3.7 (trace time; prune_threshold 0 / adc_bailout 0: every ray to depth 5)")
+    p("")
+    p("| scene | threads | raylab trace s | POV-Ray trace s | raylab ÷ POV-Ray (rate) |")
+    p("|---|---:|---:|---:|---:|")
+    for sc in ("dozen", "whitted"):
+        for t in threads:
+            a, b = (sc, t, "raylab", "trace_s"), (sc, t, "povray", "trace_s")
+            if a in v:
+                p(f"| {sc} | {t} | {fmt(med(a), 's')} | {fmt(med(b), 's')} | {ratio(a, b, invert=True)} |")
+    p("")
+    if len(threads) > 1:
+        t1, t2 = threads[0], threads[-1]
+        p(f"### Threads: {t1} → {t2} speed-up (median times or rates)")
+        p("")
+        p("| work | raylab | peer |")
+        p("|---|---:|---:|")
+
+        def speed(key_base, metric, rate):
+            a, b = med(key_base(t1) + (metric,)), med(key_base(t2) + (metric,))
+            if a is None or b is None:
+                return "–"
+            return f"{(b / a) if rate else (a / b):.2f}×"
+
+        p(f"| bunny (Embree 3) | {speed(lambda t: ('bunny', t, 'raylab'), 'rays_per_s', True)} | {speed(lambda t: ('bunny', t, 'embree3'), 'rays_per_s', True)} |")
+        for sc in ("dozen", "whitted"):
+            p(f"| {sc} (POV-Ray) | {speed(lambda t: (sc, t, 'raylab'), 'trace_s', False)} | {speed(lambda t: (sc, t, 'povray'), 'trace_s', False)} |")
+        p("")
+    p("### Load + build of the 1.1M-triangle OBJ (`bunny_loop2.obj`, whole process under /usr/bin/time -v)")
+    p("")
+    p("| | raylab | Embree 3 | raylab ÷ Embree (time or memory: > 1 is worse) |")
+    p("|---|---:|---:|---:|")
+    for m, name, unit in (("total_s", "wall time s", "s"), ("load_s", "parse s (own report)", "s"), ("build_s", "BVH build s (own report)", "s"), ("peak_mib", "peak RSS MiB", "")):
+        a, b = ("load", 2, "raylab", m), ("load", 2, "embree3", m)
+        p(f"| {name} | {fmt(med(a), unit)} | {fmt(med(b), unit)} | {ratio(a, b)} |")
+    print("\n".join(out))
+
+
+if __name__ == "__main__":
+    main()
