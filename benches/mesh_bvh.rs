@@ -6,9 +6,9 @@
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use raylab::accel::AccelChoice;
-use raylab::float::offset_ray_origin;
 use raylab::geometry::{Geometry, Intersectable};
 use raylab::glam::DVec3;
+use raylab::math::float::offset_ray_origin;
 use raylab::{Material, Ray};
 use raylab_plugins::mesh::MeshObject;
 use raylab_plugins::mesh::triangle_mesh::{MeshData, Normals, TriangleMesh};

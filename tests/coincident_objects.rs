@@ -5,7 +5,8 @@
 use raylab::accel::{AccelChoice, ObjectAccel};
 use raylab::geometry::Geometry;
 use raylab::glam::DVec3;
-use raylab::load::{LoadOptions, load_str};
+use raylab::input::context::LoadOptions;
+use raylab::input::load::load_str;
 use raylab::{Material, Ray};
 use raylab_plugins::shapes::sphere::Sphere;
 use std::path::Path;
@@ -25,7 +26,7 @@ fn a_million_identical_spheres_index_in_every_mode() {
     let (list, _) = ObjectAccel::build(&refs, |_| true, AccelChoice::List);
     for choice in [AccelChoice::Auto, AccelChoice::Bvh] {
         let (accel, _) = ObjectAccel::build(&refs, |_| true, choice);
-        assert_eq!(accel.is_bvh(), raylab::bvh::BVH_AVAILABLE, "{choice:?}");
+        assert_eq!(accel.is_bvh(), raylab::accel::bvh::BVH_AVAILABLE, "{choice:?}");
         let [axis, beside] = rays();
         let hit = accel.intersect(&spheres, &axis, 0.0, f64::INFINITY).expect("the front sphere");
         assert_eq!((hit.object, hit.t), (n, 7.5), "{choice:?}");
@@ -52,7 +53,7 @@ fn a_scene_of_identical_spheres_loads_and_renders_the_same_hits() {
     let list = load(AccelChoice::List);
     for choice in [AccelChoice::Auto, AccelChoice::Bvh] {
         let job = load(choice);
-        assert_eq!(job.scene.accel_summary().bvh, raylab::bvh::BVH_AVAILABLE, "{choice:?}");
+        assert_eq!(job.scene.accel_summary().bvh, raylab::accel::bvh::BVH_AVAILABLE, "{choice:?}");
         for ray in rays() {
             let (a, b) = (job.scene.intersect(&ray, 0.0, f64::INFINITY), list.scene.intersect(&ray, 0.0, f64::INFINITY));
             assert_eq!(a.map(|h| h.t), b.map(|h| h.t), "{choice:?} {ray:?}");

@@ -1,6 +1,6 @@
 //! The same scene, settings and seed give the same image, bit for bit, whatever the thread count.
 
-use raylab::load::{LoadOptions, Overrides};
+use raylab::input::context::{LoadOptions, Overrides};
 use raylab::render::{RenderOptions, render};
 use std::path::Path;
 
@@ -11,7 +11,7 @@ fn render_with(scene: &str, threads: usize, seed: u64) -> raylab::Film {
         overrides: Overrides { width: Some(96), height: Some(72), spp: Some(16), seed: Some(seed), ..Default::default() },
         ..Default::default()
     };
-    let job = raylab::load::load_file(&registry, &path, &opts).unwrap_or_else(|e| panic!("{}", e.report()));
+    let job = raylab::input::load::load_file(&registry, &path, &opts).unwrap_or_else(|e| panic!("{}", e.report()));
     render(&job, &RenderOptions { threads: Some(threads), cancel: None }, &|_, _| {}).expect("render").film
 }
 

@@ -2,8 +2,9 @@
 //! encoding, optional half floats, and the depth/normal/albedo layers.
 #![cfg(feature = "exr")]
 
-use raylab::aov::{Aov, render_aovs};
-use raylab::load::{LoadOptions, Overrides, load_str};
+use raylab::input::context::{LoadOptions, Overrides};
+use raylab::input::load::load_str;
+use raylab::render::aov::{Aov, render_aovs};
 use raylab::render::{RenderOptions, render};
 use std::path::Path;
 
@@ -25,12 +26,12 @@ fn exr_and_png_of_one_render_agree_after_clamping_and_encoding() {
     let dir = std::env::temp_dir().join(format!("raylab-exr-test-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let (png, exr, half) = (dir.join("a.png"), dir.join("a.exr"), dir.join("h.exr"));
-    raylab::output::write_image(&png, &film, job.settings.encoding, None).unwrap();
-    raylab::exr::write_exr(&exr, &film, &Default::default(), false).unwrap();
-    raylab::exr::write_exr(&half, &film, &Default::default(), true).unwrap();
+    raylab::image::output::write_image(&png, &film, job.settings.encoding, None).unwrap();
+    raylab::image::exr::write_exr(&exr, &film, &Default::default(), false).unwrap();
+    raylab::image::exr::write_exr(&half, &film, &Default::default(), true).unwrap();
     let png = image::open(&png).unwrap().to_rgb8();
     for (path, tolerance) in [(&exr, 0), (&half, 1)] {
-        let (w, h, px) = raylab::exr::read_exr_rgb(&std::fs::read(path).unwrap()).unwrap();
+        let (w, h, px) = raylab::image::exr::read_exr_rgb(&std::fs::read(path).unwrap()).unwrap();
         assert_eq!((w as u32, h as u32), (film.width, film.height));
         for (i, (p, q)) in px.iter().zip(png.pixels()).enumerate() {
             if tolerance == 0 {
@@ -56,7 +57,7 @@ fn layers_hold_depth_normal_and_albedo() {
     assert_eq!((depth.len(), normal.len(), albedo.len()), (n, n, n));
     assert!(depth.iter().any(|d| d.is_finite() && *d > 0.0) && albedo.iter().all(|a| a.max_element() <= 1.0 && a.min_element() >= 0.0));
     assert!(normal.iter().filter(|v| v.length() > 0.0).all(|v| v.length() <= 1.0 + 1e-5));
-    let bytes = raylab::exr::encode_exr(&film, &aovs, false).unwrap();
+    let bytes = raylab::image::exr::encode_exr(&film, &aovs, false).unwrap();
     use exr::prelude::*;
     let image = read().no_deep_data().largest_resolution_level().all_channels().first_valid_layer().all_attributes();
     let image = image.from_buffered(std::io::Cursor::new(bytes)).unwrap();

@@ -5,7 +5,8 @@
 
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
-use raylab::load::{LoadOptions, load_str};
+use raylab::input::context::LoadOptions;
+use raylab::input::load::load_str;
 use raylab::render::{RenderOptions, render};
 use std::fmt::Write;
 use std::path::Path;

@@ -6,7 +6,7 @@
 //! `target/golden-diff/<scene>.png` beside the new render. After an intended change in shading,
 //! look at the new images and re-bless with `RAYLAB_BLESS=1 cargo test --test golden`.
 
-use raylab::load::{LoadOptions, Overrides};
+use raylab::input::context::{LoadOptions, Overrides};
 use std::path::{Path, PathBuf};
 
 /// Largest per-channel difference (8-bit) tolerated on any pixel.
@@ -33,18 +33,21 @@ fn scenes() -> Vec<PathBuf> {
 /// Renders a scene at 1/SCALE_DIVISOR of its resolution, as 8-bit RGB.
 fn render_small(path: &Path) -> (u32, u32, Vec<u8>) {
     let registry = raylab_plugins::registry();
-    let full = raylab::load::load_file(&registry, path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{}", e.report()));
+    let full = raylab::input::load::load_file(&registry, path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{}", e.report()));
     let (w, h) = ((full.settings.width / SCALE_DIVISOR).max(8), (full.settings.height / SCALE_DIVISOR).max(8));
     let opts = LoadOptions { overrides: Overrides { width: Some(w), height: Some(h), ..Default::default() }, ..Default::default() };
-    let job = raylab::load::load_file(&registry, path, &opts).unwrap_or_else(|e| panic!("{}", e.report()));
+    let job = raylab::input::load::load_file(&registry, path, &opts).unwrap_or_else(|e| panic!("{}", e.report()));
     let out = raylab::render::render(&job, &Default::default(), &|_, _| {}).expect("render");
     assert_eq!(out.stats.nonfinite_samples, 0, "{}: NaN or infinite samples", path.display());
-    (w, h, raylab::output::to_rgb8(&out.film, job.settings.encoding, None))
+    (w, h, raylab::image::output::to_rgb8(&out.film, job.settings.encoding, None))
 }
 
 fn write_png(path: &Path, w: u32, h: u32, rgb: &[u8]) {
     std::fs::create_dir_all(path.parent().unwrap()).unwrap();
-    raylab::output::write_atomically(path, |out| raylab::output::encode_rgb8(out, rgb, w, h, raylab::output::ImageKind::Png)).unwrap();
+    raylab::image::output::write_atomically(path, |out| {
+        raylab::image::output::encode_rgb8(out, rgb, w, h, raylab::image::output::ImageKind::Png)
+    })
+    .unwrap();
 }
 
 #[test]

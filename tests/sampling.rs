@@ -2,11 +2,13 @@
 //! supersampling beats uniform on rays, progressive passes match a single pass, renders do not
 //! depend on the thread count, and an analytic scene matches its closed form.
 
-use raylab::film::Film;
+use raylab::Encoding;
 use raylab::glam::DVec3;
-use raylab::load::{LoadOptions, load_str};
+use raylab::image::film::Film;
+use raylab::image::metrics;
+use raylab::input::context::LoadOptions;
+use raylab::input::load::load_str;
 use raylab::render::{Antialiasing, RenderJob, RenderOptions, Rendered, render, render_progressive};
-use raylab::{Encoding, metrics};
 use std::path::Path;
 
 fn job(text: &str) -> RenderJob {

@@ -18,8 +18,10 @@
 //! render there.
 
 use raylab::glam::DVec3;
-use raylab::load::{LoadOptions, SceneDescription, parse_toml};
-use raylab::params::{Node, Table, Value};
+use raylab::input::context::LoadOptions;
+use raylab::input::description::SceneDescription;
+use raylab::input::toml::parse_toml;
+use raylab::input::value::{Node, Table, Value};
 use raylab::render::{RenderOptions, render};
 use raylab::{LoadContext, Source};
 use std::path::Path;
@@ -142,14 +144,14 @@ fn render_transformed(path: &str, s: f64, offset: DVec3, faulty: bool, width: u3
     options.overrides.width = Some(width);
     options.overrides.height = Some(height);
     let ctx = LoadContext::new(full.parent().unwrap(), &options);
-    let job = raylab::load::build(&raylab_plugins::registry(), &desc, &ctx).unwrap_or_else(|e| panic!("{}", e.report()));
+    let job = raylab::input::load::build(&raylab_plugins::registry(), &desc, &ctx).unwrap_or_else(|e| panic!("{}", e.report()));
     let rendered = render(&job, &RenderOptions::default(), &|_, _| {}).unwrap();
     assert_eq!(rendered.stats.nonfinite_samples, 0, "scale {s:e}, offset {offset}: NaN or infinite samples");
     if let Ok(dir) = std::env::var("RAYLAB_SCALE_PNG") {
         let name = format!("{dir}/{}-{s:e}-{}.png", Path::new(path).file_stem().unwrap().to_string_lossy(), offset.x);
-        raylab::output::write_image(Path::new(&name), &rendered.film, job.settings.encoding, None).unwrap();
+        raylab::image::output::write_image(Path::new(&name), &rendered.film, job.settings.encoding, None).unwrap();
     }
-    raylab::output::to_rgb8(&rendered.film, job.settings.encoding, None)
+    raylab::image::output::to_rgb8(&rendered.film, job.settings.encoding, None)
 }
 
 /// (pixels differing by more than 2 levels, mean absolute difference in levels).

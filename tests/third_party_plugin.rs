@@ -2,11 +2,13 @@
 //! name beside the built-in plugins, used from a scene file, rendered, and checked like any
 //! built-in (parameter table, typo errors with locations, the reusable property checks).
 
-use raylab::error::Result;
-use raylab::float::gamma;
 use raylab::glam::{DVec2, DVec3};
-use raylab::load::{LoadOptions, load_str};
-use raylab::params::{Default, MATERIAL_PARAM, ParamKind, ParamSpec, Params};
+use raylab::input::context::LoadOptions;
+use raylab::input::error::Result;
+use raylab::input::load::load_str;
+use raylab::input::params::Params;
+use raylab::input::spec::{Default, MATERIAL_PARAM, ParamKind, ParamSpec};
+use raylab::math::float::gamma;
 use raylab::render::{RenderOptions, render};
 use raylab::{Aabb, Geometry, Hit, Intersectable, LoadContext, Material, PluginInfo, Ray, Registry};
 use std::path::Path;
@@ -132,7 +134,7 @@ fn the_plugin_gets_the_same_checks_and_listing_as_built_ins() {
 /// The disc of the test below, from its definition: radius 2 around (1, 2, 3) in the plane z = 3.
 struct ExactDisc;
 
-impl raylab::testing::ExactSurface for ExactDisc {
+impl raylab::geometry::testing::ExactSurface for ExactDisc {
     fn signed_distance(&self, p: DVec3) -> f64 {
         let radial = (p.truncate() - DVec3::new(1.0, 2.0, 3.0).truncate()).length();
         (p.z - 3.0).hypot((radial - 2.0).max(0.0)).copysign(p.z - 3.0)
@@ -150,10 +152,10 @@ fn the_reusable_property_checks_apply() {
         let target = disc.center + 1.9 * f64::from(i % 7) / 6.0 * DVec3::new(a.cos(), a.sin(), 0.0);
         let dir = DVec3::new(0.3 * a.sin(), 0.2, -1.0).normalize();
         let ray = Ray::new(target - 10.0 * dir, dir);
-        let tol = raylab::testing::Tolerance::for_scale(20.0);
-        let h = raylab::testing::check_hit(&disc, &ray, 0.0, f64::INFINITY, &tol, &ExactDisc).unwrap();
+        let tol = raylab::geometry::testing::Tolerance::for_scale(20.0);
+        let h = raylab::geometry::testing::check_hit(&disc, &ray, 0.0, f64::INFINITY, &tol, &ExactDisc).unwrap();
         assert!(h.is_some(), "ray {i} should hit");
-        let hits = raylab::testing::check_hits_ascending(&disc, &ray, &tol, &ExactDisc, 1).unwrap();
+        let hits = raylab::geometry::testing::check_hits_ascending(&disc, &ray, &tol, &ExactDisc, 1).unwrap();
         assert_eq!(hits.len(), 1);
     }
 }

@@ -1,5 +1,5 @@
 //! Arbitrary rays against arbitrary built-in shapes: no panic, and every hit passes
-//! `raylab::testing::check_hit` against the shape's exact surface (`raylab_plugins::shapes::exact`):
+//! `raylab::geometry::testing::check_hit` against the shape's exact surface (`raylab_plugins::shapes::exact`):
 //! on the surface, on the ray, closest first, normals right. The decoding lives in
 //! `raylab_plugins::shapes::fuzz` so that tests/fuzz_corpus.rs replays the corpus the same way.
 #![no_main]

@@ -1,8 +1,9 @@
 //! Debug views: `normals` (the shading normal as a colour) and `depth` (distance as grey).
 
-use raylab::error::Result;
-use raylab::params::{Default, ParamKind, ParamSpec, Params};
-use raylab::trace::TraceHit;
+use raylab::input::error::Result;
+use raylab::input::params::Params;
+use raylab::input::spec::{Default, ParamKind, ParamSpec};
+use raylab::render::trace::TraceHit;
 use raylab::{Color, Integrator, LoadContext, PluginInfo, Ray, RayKind, RayStats, Sampler, Scene, TraceNode};
 
 /// Shows the direction-aware normal: `(n + 1) / 2` as RGB (x → red, y → green, z → blue).

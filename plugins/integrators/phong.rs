@@ -17,13 +17,14 @@
 //! `prune_threshold`. With `blur > 0` a material spreads `glossy_rays` jittered rays in a disc
 //! around the ideal direction (the report's stage-D blurring).
 
-use raylab::color::max_channel;
-use raylab::error::Result;
 use raylab::geometry::Hit;
 use raylab::glam::{DVec2, DVec3};
-use raylab::params::{Default, ParamKind, ParamSpec, Params};
-use raylab::sampler::{concentric_disc, orthonormal_basis, stratified_2d};
-use raylab::trace::{TraceHit, TraceLight};
+use raylab::input::error::Result;
+use raylab::input::params::Params;
+use raylab::input::spec::{Default, ParamKind, ParamSpec};
+use raylab::math::color::max_channel;
+use raylab::render::sampler::{concentric_disc, orthonormal_basis, stratified_2d};
+use raylab::render::trace::{TraceHit, TraceLight};
 use raylab::{Color, Integrator, LightSource, LoadContext, PluginInfo, Ray, RayKind, RayStats, Sampler, Scene, TraceNode};
 
 /// The recursive Phong integrator.

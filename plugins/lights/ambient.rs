@@ -1,8 +1,9 @@
 //! `ambient`: the report's AmbientLight, constant light everywhere: `color × ka`.
 
-use raylab::error::Result;
 use raylab::glam::{DVec2, DVec3};
-use raylab::params::{Default, ParamKind, ParamSpec, Params};
+use raylab::input::error::Result;
+use raylab::input::params::Params;
+use raylab::input::spec::{Default, ParamKind, ParamSpec};
 use raylab::{Color, LightSample, LightSource, LoadContext, PluginInfo};
 
 /// Ambient light of intensity `color × ka`.

@@ -6,10 +6,11 @@
 //! shadows get penumbrae. The spot's cone and exponent use the light's centre, so the cone's edge
 //! stays where it is written.
 
-use raylab::error::Result;
 use raylab::glam::{DVec2, DVec3};
-use raylab::params::{Default, ParamKind, ParamSpec, Params};
-use raylab::sampler::{concentric_disc, orthonormal_basis};
+use raylab::input::error::Result;
+use raylab::input::params::Params;
+use raylab::input::spec::{Default, ParamKind, ParamSpec};
+use raylab::render::sampler::{concentric_disc, orthonormal_basis};
 use raylab::{Color, LightSample, LightSource, LoadContext, PluginInfo};
 
 /// A light at a point with distance attenuation, optionally a spot.

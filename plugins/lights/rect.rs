@@ -4,9 +4,10 @@
 //! shines to both sides and, like every light, is invisible to camera rays.
 
 use super::point::{ATTENUATION, attenuation, samples};
-use raylab::error::Result;
 use raylab::glam::{DVec2, DVec3};
-use raylab::params::{Default, ParamKind, ParamSpec, Params};
+use raylab::input::error::Result;
+use raylab::input::params::Params;
+use raylab::input::spec::{Default, ParamKind, ParamSpec};
 use raylab::{Color, LightSample, LightSource, LoadContext, PluginInfo};
 
 /// A rectangle `center + s·edge1 + t·edge2`, `s, t ∈ [−½, ½]`, of uniform intensity.

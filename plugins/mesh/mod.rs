@@ -10,12 +10,14 @@ pub mod obj;
 pub mod triangle_mesh;
 pub mod triangulate;
 
-use raylab::error::{Loc, Result, SceneError};
+use raylab::geometry::transform::{Transform, Transformed};
 use raylab::geometry::{Geometry, Hit, Intersectable, face_forward};
 use raylab::glam::DVec3;
-use raylab::params::{Default, ParamKind, ParamSpec, Params, Value};
-use raylab::registry::SceneFormat;
-use raylab::transform::{Transform, Transformed};
+use raylab::input::error::{Loc, Result, SceneError};
+use raylab::input::params::Params;
+use raylab::input::registry::SceneFormat;
+use raylab::input::spec::{Default, ParamKind, ParamSpec};
+use raylab::input::value::Value;
 use raylab::{Aabb, LoadContext, Material, PluginInfo, Ray, Registry};
 use std::sync::Arc;
 use triangle_mesh::{MeshError, Normals, TriangleMesh};
@@ -119,7 +121,7 @@ pub fn build(p: &mut Params, ctx: &LoadContext) -> Result<Box<dyn Geometry>> {
 
 /// Estimated peak bytes per triangle of a mesh while it is indexed and once built: the decoded
 /// data, the stored triangles, shading normals, material ids and the hierarchy with its build's
-/// scratch space (charged to [`raylab::load::Limits::max_memory`] before the index is built;
+/// scratch space (charged to [`raylab::input::limits::Limits::max_memory`] before the index is built;
 /// measured: about 360 for the 1.1 M-triangle bunny).
 pub const MESH_BYTES_PER_TRIANGLE: u64 = 384;
 

@@ -24,8 +24,8 @@
 
 use super::triangle_mesh::MeshData;
 use super::triangulate::triangulate;
-use raylab::error::{Loc, Result, SceneError};
 use raylab::glam::{DVec3, Vec3};
+use raylab::input::error::{Loc, Result, SceneError};
 use raylab::{Color, LoadContext, Material};
 use std::cell::RefCell;
 use std::collections::HashMap;
@@ -405,7 +405,7 @@ mod tests {
     use super::*;
 
     fn here() -> Loc {
-        Loc::new(&raylab::error::Source::new("scene.toml", "file = \"m.obj\""), 7..14)
+        Loc::new(&raylab::input::error::Source::new("scene.toml", "file = \"m.obj\""), 7..14)
     }
 
     /// A fresh folder under the system's temporary one holding `files`.
@@ -430,7 +430,7 @@ mod tests {
         }
         obj.push_str("usemtl wood\nf 1 2 3\n");
         let dir = folder("mtllib", &[("m.mtl", mtl), ("m.obj", obj.as_bytes())]);
-        let options = raylab::load::LoadOptions::default();
+        let options = raylab::input::context::LoadOptions::default();
         let ctx = LoadContext::new(&dir, &options);
         let data = read(&ctx, "m.obj", &dir.join("m.obj"), obj.as_bytes(), true, &here()).unwrap();
         assert_eq!(data.materials.len(), 2, "each material once");
@@ -455,7 +455,7 @@ mod tests {
         let mtl: String = (0..100).map(|i| format!("newmtl m{i}\nmap_Kd t.png\n")).collect();
         let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m3\nf 1 2 3\n";
         let dir = folder("maps", &[("m.mtl", mtl.as_bytes())]);
-        let options = raylab::load::LoadOptions::default();
+        let options = raylab::input::context::LoadOptions::default();
         let ctx = LoadContext::new(&dir, &options);
         read(&ctx, "m.obj", &dir.join("m.obj"), obj.as_bytes(), true, &here()).unwrap();
         let warnings: Vec<String> = ctx.take_warnings().iter().map(|w| w.report()).collect();

@@ -11,11 +11,11 @@
 
 use crate::shapes::triangle::{EdgeRule, TriangleRay, barycentric_point};
 use raylab::Material;
+use raylab::accel::bvh::PrimitiveIndex;
 use raylab::accel::{AccelChoice, BuildStats, MESH_BVH_THRESHOLD};
-use raylab::bvh::PrimitiveIndex;
-use raylab::float::on_surface_slack;
 use raylab::geometry::Hit;
 use raylab::glam::{DVec2, DVec3, Vec3};
+use raylab::math::float::on_surface_slack;
 use raylab::{Aabb, Ray};
 use std::sync::OnceLock;
 

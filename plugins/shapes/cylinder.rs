@@ -9,12 +9,13 @@
 //! to rounding on both sides of it) and never reports one crossing twice. A crossing is reported
 //! only beyond its own rounding-error bound, so a ray starting on the surface does not hit it again.
 
-use raylab::bounds::circle_extent;
-use raylab::error::Result;
-use raylab::float::{gamma, max_abs, on_surface_slack};
 use raylab::geometry::{Geometry, Hit, Intersectable};
 use raylab::glam::{DVec2, DVec3};
-use raylab::params::{Default, MATERIAL_PARAM, ParamKind, ParamSpec, Params};
+use raylab::input::error::Result;
+use raylab::input::params::Params;
+use raylab::input::spec::{Default, MATERIAL_PARAM, ParamKind, ParamSpec};
+use raylab::math::bounds::circle_extent;
+use raylab::math::float::{gamma, max_abs, on_surface_slack};
 use raylab::{Aabb, LoadContext, Material, PluginInfo, Ray};
 
 /// `Hit::prim` of a hit on the side.
@@ -224,8 +225,8 @@ mod tests {
     use crate::shapes::exact::ExactCylinder;
     use crate::shapes::test_support::*;
     use proptest::prelude::*;
-    use raylab::float::max_abs;
-    use raylab::testing::{ExactSurface, Tolerance, check_closed_crossings, check_hits_ascending};
+    use raylab::geometry::testing::{ExactSurface, Tolerance, check_closed_crossings, check_hits_ascending};
+    use raylab::math::float::max_abs;
     use std::f64::consts::TAU;
 
     fn shape(capped: bool) -> impl Strategy<Value = (Cylinder, ExactCylinder, f64)> {

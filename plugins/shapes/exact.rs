@@ -1,11 +1,11 @@
 //! Exact descriptions of the built-in shapes ([`ExactSurface`]: signed distance and outward
 //! normal, written from each shape's definition, independently of its intersection code): the
 //! oracles that the shapes' property tests, the reintersection campaign and the `intersect` fuzz
-//! target check every hit against with [`raylab::testing::check_hit`].
+//! target check every hit against with [`raylab::geometry::testing::check_hit`].
 
-use raylab::float::triangle_normal;
+use raylab::geometry::testing::ExactSurface;
 use raylab::glam::DVec3;
-use raylab::testing::ExactSurface;
+use raylab::math::float::triangle_normal;
 
 /// The point of segment `a b` closest to `p`.
 pub fn closest_on_segment(p: DVec3, a: DVec3, b: DVec3) -> DVec3 {

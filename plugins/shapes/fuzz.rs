@@ -20,9 +20,9 @@ use super::plane::Plane;
 use super::polygon::Polygon;
 use super::sphere::Sphere;
 use super::triangle::{EdgeRule, Triangle};
-use raylab::float::{MACHINE_EPSILON, NORMAL_TOLERANCE, SURFACE_TOLERANCE, max_abs, triangle_normal};
+use raylab::geometry::testing::{ExactSurface, Tolerance, Violation, check_hits_ascending};
 use raylab::glam::DVec3;
-use raylab::testing::{ExactSurface, Tolerance, Violation, check_hits_ascending};
+use raylab::math::float::{MACHINE_EPSILON, NORMAL_TOLERANCE, SURFACE_TOLERANCE, max_abs, triangle_normal};
 use raylab::{Geometry, Hit, Material, Ray};
 
 /// Reads the input a byte at a time; zeros once it is used up.
@@ -172,7 +172,7 @@ fn decode(b: &mut Bytes) -> Option<(Case, DVec3, f64)> {
 }
 
 /// Decodes `data` into a shape and up to four rays and checks every hit of every ray with
-/// [`check_hits_ascending`] (hence [`raylab::testing::check_hit`]). Inputs that decode to a shape
+/// [`check_hits_ascending`] (hence [`raylab::geometry::testing::check_hit`]). Inputs that decode to a shape
 /// the loader would refuse pass trivially.
 pub fn check_bytes(data: &[u8]) -> Result<(), Violation> {
     let mut b = Bytes(data);

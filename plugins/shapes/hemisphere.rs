@@ -7,11 +7,12 @@
 //! Points exactly on the rim belong to the bowl.
 
 use super::sphere::sphere_roots;
-use raylab::error::Result;
-use raylab::float::{gamma, on_surface_slack};
 use raylab::geometry::{Geometry, Hit, Intersectable};
 use raylab::glam::{DVec2, DVec3};
-use raylab::params::{Default, MATERIAL_PARAM, ParamKind, ParamSpec, Params};
+use raylab::input::error::Result;
+use raylab::input::params::Params;
+use raylab::input::spec::{Default, MATERIAL_PARAM, ParamKind, ParamSpec};
+use raylab::math::float::{gamma, on_surface_slack};
 use raylab::{Aabb, LoadContext, Material, PluginInfo, Ray};
 
 /// Half of the sphere (`center`, `radius`): the points `p` with `(p − center) · open ≤ 0`.
@@ -98,8 +99,8 @@ mod tests {
     use crate::shapes::exact::ExactBowl;
     use crate::shapes::test_support::*;
     use proptest::prelude::*;
-    use raylab::float::max_abs;
-    use raylab::testing::{Tolerance, check_hits_ascending};
+    use raylab::geometry::testing::{Tolerance, check_hits_ascending};
+    use raylab::math::float::max_abs;
 
     fn bowl() -> impl Strategy<Value = (Hemisphere, ExactBowl, f64)> {
         (scale(), cube(), 0.05..2.0f64, unit()).prop_map(|(s, c, r, open)| {

@@ -3,11 +3,12 @@
 //! `t = n·(q − o) / (n·d)`. The hit point is projected back onto the plane, and a ray whose
 //! origin is within [`on_surface_slack`] of the plane (it starts on the plane) does not hit it.
 
-use raylab::error::Result;
-use raylab::float::{gamma, on_surface_slack};
 use raylab::geometry::{Geometry, Hit, Intersectable};
 use raylab::glam::{DVec2, DVec3};
-use raylab::params::{Default, MATERIAL_PARAM, ParamKind, ParamSpec, Params};
+use raylab::input::error::Result;
+use raylab::input::params::Params;
+use raylab::input::spec::{Default, MATERIAL_PARAM, ParamKind, ParamSpec};
+use raylab::math::float::{gamma, on_surface_slack};
 use raylab::{Aabb, LoadContext, Material, PluginInfo, Ray};
 
 /// The plane through `point` with unit `normal` (its outward side).
@@ -97,8 +98,8 @@ mod tests {
     use crate::shapes::exact::ExactPlane;
     use crate::shapes::test_support::*;
     use proptest::prelude::*;
-    use raylab::float::max_abs;
-    use raylab::testing::ExactSurface;
+    use raylab::geometry::testing::ExactSurface;
+    use raylab::math::float::max_abs;
 
     fn plane() -> impl Strategy<Value = (Plane, ExactPlane, f64)> {
         (scale(), cube(), unit()).prop_map(|(s, c, normal)| {
@@ -134,7 +135,7 @@ mod tests {
             // Parallel to within the rounding of n·d: which side it heads to is unknowable.
             let along = perpendicular(exact.normal, d.x * 3.0);
             let along = along - along.dot(exact.normal) * exact.normal;
-            prop_assume!(along.dot(exact.normal).abs() <= raylab::float::gamma(3) * exact.normal.abs().dot(along.abs()));
+            prop_assume!(along.dot(exact.normal).abs() <= raylab::math::float::gamma(3) * exact.normal.abs().dot(along.abs()));
             for dir in [away, along] {
                 let ray = Ray { origin, dir };
                 prop_assert!(g.intersect(&ray, 0.0, f64::INFINITY).is_none(), "{:?}", ray);

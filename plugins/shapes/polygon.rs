@@ -6,11 +6,12 @@
 //! edge, so no crack; like a lone triangle, a ray exactly on the outline misses.
 
 use super::plane::intersect_plane;
-use raylab::error::Result;
-use raylab::float::DEGENERACY_TOLERANCE;
 use raylab::geometry::{Geometry, Hit, Intersectable};
 use raylab::glam::{DVec2, DVec3};
-use raylab::params::{Default, MATERIAL_PARAM, ParamKind, ParamSpec, Params};
+use raylab::input::error::Result;
+use raylab::input::params::Params;
+use raylab::input::spec::{Default, MATERIAL_PARAM, ParamKind, ParamSpec};
+use raylab::math::float::DEGENERACY_TOLERANCE;
 use raylab::{Aabb, LoadContext, Material, PluginInfo, Ray};
 
 /// Relative tolerance of the coplanarity check: every vertex must lie within this fraction of

@@ -23,7 +23,7 @@ use super::test_support::perpendicular;
 use super::triangle::{EdgeRule, Triangle};
 use raylab::geometry::{Geometry, Hit};
 use raylab::glam::DVec3;
-use raylab::sampler::mix64;
+use raylab::render::sampler::mix64;
 use raylab::{Material, Ray};
 use std::f64::consts::TAU;
 

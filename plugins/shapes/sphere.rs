@@ -6,11 +6,12 @@
 //! point is re-projected onto the sphere, and a root whose own error bound straddles zero is
 //! rejected, so a ray leaving the surface never reports it again.
 
-use raylab::error::Result;
-use raylab::float::{gamma, max_abs, on_surface_slack};
 use raylab::geometry::{Geometry, Hit, Intersectable};
 use raylab::glam::{DVec2, DVec3};
-use raylab::params::{Default, MATERIAL_PARAM, ParamKind, ParamSpec, Params};
+use raylab::input::error::Result;
+use raylab::input::params::Params;
+use raylab::input::spec::{Default, MATERIAL_PARAM, ParamKind, ParamSpec};
+use raylab::math::float::{gamma, max_abs, on_surface_slack};
 use raylab::{Aabb, LoadContext, Material, PluginInfo, Ray};
 
 /// A sphere of `radius` (> 0) around `center`.
@@ -42,7 +43,7 @@ pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Geometry>> {
 /// The two roots of the ray–sphere quadratic, ascending, each with a conservative absolute error
 /// bound, for a ray with origin `f` relative to the centre and unit direction `d`. `None` on a miss.
 /// `slack` is the distance within which the origin counts as on the sphere
-/// ([`raylab::float::on_surface_slack`]): the near-zero root's bound includes its effect on `t`.
+/// ([`raylab::math::float::on_surface_slack`]): the near-zero root's bound includes its effect on `t`.
 #[inline]
 pub fn sphere_roots(f: DVec3, d: DVec3, radius: f64, slack: f64) -> Option<[(f64, f64); 2]> {
     let r2 = radius * radius;
@@ -126,8 +127,8 @@ mod tests {
     use crate::shapes::exact::ExactSphere;
     use crate::shapes::test_support::*;
     use proptest::prelude::*;
-    use raylab::float::max_abs;
-    use raylab::testing::{ExactSurface, Tolerance, check_closed_crossings};
+    use raylab::geometry::testing::{ExactSurface, Tolerance, check_closed_crossings};
+    use raylab::math::float::max_abs;
 
     fn sphere() -> impl Strategy<Value = (Sphere, ExactSphere, f64)> {
         (scale(), cube(), 0.05..2.0f64).prop_map(|(s, c, r)| {
@@ -257,7 +258,7 @@ mod tests {
 
     fn check_hits_ascending_ok(g: &Sphere, ray: &Ray, exact: &ExactSphere) -> Vec<Hit> {
         let tol = Tolerance::for_scale(10.0);
-        raylab::testing::check_hits_ascending(g, ray, &tol, exact, 2).unwrap_or_else(|v| panic!("{v}"))
+        raylab::geometry::testing::check_hits_ascending(g, ray, &tol, exact, 2).unwrap_or_else(|v| panic!("{v}"))
     }
 
     // Regressions: literal cases the properties found.

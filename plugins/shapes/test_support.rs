@@ -5,9 +5,9 @@
 
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed, TestCaseError};
-use raylab::float::max_abs;
+use raylab::geometry::testing::{ExactSurface, Tolerance, Violation, check_hits_ascending, check_t_window};
 use raylab::glam::DVec3;
-use raylab::testing::{ExactSurface, Tolerance, Violation, check_hits_ascending, check_t_window};
+use raylab::math::float::max_abs;
 use raylab::{Aabb, Geometry, Hit, Ray};
 
 /// Seed of every shape property.

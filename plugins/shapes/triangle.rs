@@ -7,11 +7,12 @@
 //! along the edge. `edges = "inclusive"` ([`EdgeRule::Inclusive`], what meshes use) counts edge
 //! hits, and the test's consistent edge functions then make shared edges watertight.
 
-use raylab::error::Result;
-use raylab::float::{DEGENERACY_TOLERANCE, gamma, on_surface_slack, triangle_normal};
 use raylab::geometry::{Geometry, Hit, Intersectable};
 use raylab::glam::{DVec2, DVec3};
-use raylab::params::{Default, MATERIAL_PARAM, ParamKind, ParamSpec, Params};
+use raylab::input::error::Result;
+use raylab::input::params::Params;
+use raylab::input::spec::{Default, MATERIAL_PARAM, ParamKind, ParamSpec};
+use raylab::math::float::{DEGENERACY_TOLERANCE, gamma, on_surface_slack, triangle_normal};
 use raylab::{Aabb, LoadContext, Material, PluginInfo, Ray};
 
 /// Whether a ray exactly through an edge or vertex counts as a hit.
@@ -215,7 +216,7 @@ mod tests {
     use crate::shapes::exact::{ExactTriangle, closest_on_segment};
     use crate::shapes::test_support::*;
     use proptest::prelude::*;
-    use raylab::testing::{Tolerance, check_hits_ascending};
+    use raylab::geometry::testing::{Tolerance, check_hits_ascending};
 
     /// A random triangle of reasonable shape (no sliver: every angle above ~3°).
     fn triangle() -> impl Strategy<Value = (Triangle, ExactTriangle, DVec3, f64, f64)> {

@@ -3,7 +3,9 @@
 //! by `--max-triangles`; and meshes whose coordinates are too large for a hierarchy.
 #![cfg(feature = "mesh")]
 
-use raylab::load::{Limits, LoadOptions, load_str};
+use raylab::input::context::LoadOptions;
+use raylab::input::limits::Limits;
+use raylab::input::load::load_str;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -63,7 +65,7 @@ fn a_gltf_scene_with_many_instances_is_refused_by_the_memory_budget() {
     let registry = raylab_plugins::registry();
     let load = |max_memory| {
         let options = LoadOptions { limits: Limits { max_memory, ..Limits::default() }, ..LoadOptions::default() };
-        raylab::load::load_file(&registry, &dir.join("many.gltf"), &options)
+        raylab::input::load::load_file(&registry, &dir.join("many.gltf"), &options)
     };
     let e = load(4 << 20).err().expect("4096 instances over a 4 MiB budget");
     assert!(e.message.contains("4096 mesh instances") && e.message.contains("over the limit of 4 MB"), "{}", e.report());
@@ -80,7 +82,7 @@ fn a_million_spheres_are_refused_by_a_small_memory_budget() {
     for i in 0..1_000_000 {
         text.push_str(&format!("[[object]]\ntype=\"sphere\"\ncenter=[{},{},0]\nradius=0.3\n", i % 1000, i / 1000));
     }
-    let estimate = raylab::load::toml_memory_estimate(text.as_bytes());
+    let estimate = raylab::input::limits::toml_memory_estimate(text.as_bytes());
     assert!(estimate > 2_000_000_000, "a million spheres take about 2.3 GB while parsed, estimated {estimate}");
     let options = LoadOptions { limits: Limits { max_memory: 1 << 30, ..Limits::default() }, ..LoadOptions::default() };
     let e = load_str(&raylab_plugins::registry(), "spheres.toml", &text, Path::new("."), &options).err().expect("over 1 GiB");
@@ -97,15 +99,15 @@ fn objects_are_charged_as_they_are_built() {
         text.push_str(&format!("[[object]]\ntype=\"sphere\"\ncenter=[{i},0,0]\nradius=0.3\n"));
     }
     let registry = raylab_plugins::registry();
-    let image = raylab::output::image_bytes(64, &raylab::output::ImagePlan::default());
-    let fits = raylab::load::toml_memory_estimate(text.as_bytes()) + image;
+    let image = raylab::image::output::image_bytes(64, &raylab::image::output::ImagePlan::default());
+    let fits = raylab::input::limits::toml_memory_estimate(text.as_bytes()) + image;
     let load = |max_memory| {
         let options = LoadOptions { limits: Limits { max_memory, ..Limits::default() }, ..LoadOptions::default() };
         load_str(&registry, "spheres.toml", &text, Path::new("."), &options)
     };
-    let e = load(fits + 500 * raylab::load::OBJECT_BYTES).err().expect("1000 objects over the budget");
+    let e = load(fits + 500 * raylab::input::limits::OBJECT_BYTES).err().expect("1000 objects over the budget");
     assert!(e.message.contains("object #500 (sphere)"), "{}", e.report());
-    assert!(load(fits + 1000 * raylab::load::OBJECT_BYTES).is_ok());
+    assert!(load(fits + 1000 * raylab::input::limits::OBJECT_BYTES).is_ok());
 }
 
 #[test]
@@ -135,8 +137,8 @@ fn the_command_line_flag_raises_the_limit() {
 
 /// Found by the `mesh_obj` fuzz target: a vertex at 1e34 made obvhs' single-precision build fail
 /// an assertion (a crash). The mesh's index is built without crashing (boxes beyond
-/// `raylab::bvh::MAX_BVH_COORDINATE` go to a list), and the object is then refused as reaching
-/// beyond `raylab::bounds::MAX_COORDINATE`, where it would silently vanish.
+/// `raylab::accel::bvh::MAX_BVH_COORDINATE` go to a list), and the object is then refused as reaching
+/// beyond `raylab::math::bounds::MAX_COORDINATE`, where it would silently vanish.
 #[test]
 fn a_mesh_reaching_1e34_is_built_without_crashing_and_refused_as_out_of_range() {
     let text = "[camera]\nposition = [0.5, 0.5, 10]\nlook_at = [0.5, 0.5, 0]\n[[object]]\ntype = \"mesh\"\nfile = \"far-vertex.obj\"\n";

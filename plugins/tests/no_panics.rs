@@ -13,7 +13,7 @@ static PANICS: Mutex<Vec<String>> = Mutex::new(Vec::new());
 #[test]
 fn no_mesh_file_in_the_fuzz_corpora_panics_even_when_caught() {
     std::panic::set_hook(Box::new(|info| PANICS.lock().unwrap().push(info.to_string())));
-    let options = raylab::load::LoadOptions::default();
+    let options = raylab::input::context::LoadOptions::default();
     let ctx = raylab::LoadContext::new(Path::new("."), &options);
     let mut report = Vec::new();
     let mut count = 0;

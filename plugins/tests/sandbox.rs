@@ -4,8 +4,9 @@
 #![cfg(all(feature = "mesh", unix))]
 
 use proptest::prelude::*;
-use raylab::files::OpenLog;
-use raylab::load::{LoadOptions, load_file};
+use raylab::input::context::LoadOptions;
+use raylab::input::files::OpenLog;
+use raylab::input::load::load_file;
 use std::os::unix::fs::symlink;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};

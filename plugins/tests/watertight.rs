@@ -8,7 +8,7 @@
 use raylab::accel::AccelChoice;
 use raylab::geometry::{Geometry, Intersectable};
 use raylab::glam::DVec3;
-use raylab::sampler::mix64;
+use raylab::render::sampler::mix64;
 use raylab::{Material, Ray};
 use raylab_plugins::mesh::MeshObject;
 use raylab_plugins::mesh::triangle_mesh::{MeshData, Normals, TriangleMesh};

@@ -9,9 +9,10 @@
 
 use super::{App, Failure, si};
 use crate::accel::AccelChoice;
-use crate::float::offset_ray_origin;
-use crate::load::{LoadOptions, load_str};
-use crate::ray::Ray;
+use crate::input::context::LoadOptions;
+use crate::input::load::load_str;
+use crate::math::float::offset_ray_origin;
+use crate::math::ray::Ray;
 use clap::Args;
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
@@ -67,7 +68,7 @@ struct Row {
 /// CPU time of the calling thread (wall time where the platform does not tell).
 fn thread_time() -> std::time::Duration {
     static START: std::sync::OnceLock<Instant> = std::sync::OnceLock::new();
-    crate::stats::thread_cpu_time().unwrap_or_else(|| START.get_or_init(Instant::now).elapsed())
+    crate::render::stats::thread_cpu_time().unwrap_or_else(|| START.get_or_init(Instant::now).elapsed())
 }
 
 pub(crate) fn run(app: &App, a: BenchArgs) -> Result<(), Failure> {
@@ -75,7 +76,7 @@ pub(crate) fn run(app: &App, a: BenchArgs) -> Result<(), Failure> {
         return Err(Failure::Other("`raylab bench` needs the `mesh` geometry: build with `--features mesh` (and `bvh`)".into()));
     }
     let accel = AccelChoice::parse(&a.accel).unwrap_or_default();
-    if accel == AccelChoice::Bvh && !crate::bvh::BVH_AVAILABLE {
+    if accel == AccelChoice::Bvh && !crate::accel::bvh::BVH_AVAILABLE {
         return Err(Failure::Other("--accel bvh needs raylab built with the `bvh` feature".into()));
     }
     let pool = rayon::ThreadPoolBuilder::new()
@@ -119,24 +120,24 @@ fn bench_one(app: &App, name: &str, path: &Path, accel: AccelChoice, width: u32,
     );
     let opts = LoadOptions { allow_outside_paths: true, accel, ..LoadOptions::default() };
     let t0 = Instant::now();
-    let c0 = crate::stats::process_cpu_time();
+    let c0 = crate::render::stats::process_cpu_time();
     let mut job = load_str(&app.registry, name, &scene, Path::new("."), &opts)?;
     let load = t0.elapsed().as_secs_f64();
-    let load_cpu = c0.zip(crate::stats::process_cpu_time()).map(|(a, b)| (b - a).as_secs_f64());
+    let load_cpu = c0.zip(crate::render::stats::process_cpu_time()).map(|(a, b)| (b - a).as_secs_f64());
     let summary = job.scene.accel_summary();
     let built = summary.object_builds;
     // A camera fitted to the mesh: its bounding sphere fills most of the frame.
     let b = job.scene.bounds();
     let (center, radius) = (b.center(), (b.extent().length() * 0.5).max(1e-9));
     let dir = DVec3::new(0.3, 0.25, 1.0).normalize();
-    job.scene.camera = crate::camera::Camera::look_at(center + dir * radius * 2.6, center, DVec3::Y, 45.0, width, height)
+    job.scene.camera = crate::scene::camera::Camera::look_at(center + dir * radius * 2.6, center, DVec3::Y, 45.0, width, height)
         .map_err(|e| Failure::Other(e.to_string()))?;
     let scene = &job.scene;
     let to_light = DVec3::new(0.3, 1.0, 0.5).normalize();
     // Bands of rows: primary rays (closest hit), then one shadow ray (any hit) toward the light
     // from each hit. Each phase is timed by the CPU time of its thread, so other processes on a
     // busy machine do not count; the wall-clock total is reported beside it.
-    let cpu0 = crate::stats::process_cpu_time();
+    let cpu0 = crate::render::stats::process_cpu_time();
     let t0 = Instant::now();
     let band = 8;
     let (primary_ns, shadow_ns, shadow_rays) = (0..height.div_ceil(band))
@@ -167,7 +168,7 @@ fn bench_one(app: &App, name: &str, path: &Path, accel: AccelChoice, width: u32,
         })
         .reduce(|| (0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
     let wall = t0.elapsed().as_secs_f64();
-    let cpu = cpu0.zip(crate::stats::process_cpu_time()).map(|(a, b)| (b - a).as_secs_f64());
+    let cpu = cpu0.zip(crate::render::stats::process_cpu_time()).map(|(a, b)| (b - a).as_secs_f64());
     let threads = rayon::current_num_threads() as f64;
     // Per-phase times summed over threads, as seconds of `threads` threads running at once.
     let primary = (u64::from(width) * u64::from(height), primary_ns as f64 * 1e-9 / threads);

@@ -3,7 +3,7 @@
 //! written file renders the same image as the original.
 
 use super::{App, Failure};
-use crate::load::{LoadContext, LoadOptions};
+use crate::input::context::{LoadContext, LoadOptions};
 use clap::Args;
 use std::path::{Path, PathBuf};
 
@@ -32,12 +32,13 @@ pub(crate) fn run(app: &App, a: ConvertArgs) -> Result<(), Failure> {
         .into());
     }
     let options = LoadOptions { allow_outside_paths: a.allow_outside_paths, ..LoadOptions::default() };
-    let desc = crate::load::read_file(&app.registry, &a.scene, &options)?;
-    let job = crate::load::build(&app.registry, &desc, &LoadContext::new(crate::load::scene_dir(&a.scene), &options))?;
+    let desc = crate::input::load::read_file(&app.registry, &a.scene, &options)?;
+    let job = crate::input::load::build(&app.registry, &desc, &LoadContext::new(crate::input::context::scene_dir(&a.scene), &options))?;
     let source_name = a.scene.file_name().map_or_else(|| a.scene.display().to_string(), |n| n.to_string_lossy().into_owned());
     let header = format!("Converted by `raylab convert` from {source_name}.");
-    let text = crate::scene_toml::to_toml(&desc, &header);
-    crate::output::write_atomically(&a.output, |w| w.write_all(text.as_bytes()).map_err(|e| e.to_string())).map_err(|e| e.to_string())?;
+    let text = crate::input::toml::to_toml(&desc, &header);
+    crate::image::output::write_atomically(&a.output, |w| w.write_all(text.as_bytes()).map_err(|e| e.to_string()))
+        .map_err(|e| e.to_string())?;
     println!(
         "wrote {} ({} objects, {} lights) from {}",
         a.output.display(),

@@ -10,10 +10,10 @@ mod render;
 mod sweep;
 mod trace;
 
-use crate::error::{Loc, SceneError, Source};
-use crate::load::{LoadOptions, Overrides};
-use crate::params::{Node, Value};
-use crate::registry::Registry;
+use crate::input::context::{LoadOptions, Overrides};
+use crate::input::error::{Loc, SceneError, Source};
+use crate::input::registry::Registry;
+use crate::input::value::{Node, Value};
 use crate::render::RenderJob;
 use clap::{Args, Parser, Subcommand};
 use std::path::Path;
@@ -242,7 +242,7 @@ impl SceneArgs {
         if let Some(v) = self.focus_distance {
             camera_params.push(flag_node("--focus-distance", "focus_distance", Value::Float(v)));
         }
-        let mut limits = crate::load::Limits::default();
+        let mut limits = crate::input::limits::Limits::default();
         if let Some(v) = self.max_pixels {
             limits.max_pixels = v;
         }
@@ -276,7 +276,7 @@ impl SceneArgs {
                 height: self.height,
                 spp: self.spp,
                 seed: self.seed,
-                encoding: self.encoding.as_deref().and_then(crate::color::Encoding::parse),
+                encoding: self.encoding.as_deref().and_then(crate::math::color::Encoding::parse),
                 integrator: self.integrator.clone(),
                 integrator_params: params,
                 render_params,
@@ -285,7 +285,7 @@ impl SceneArgs {
             limits,
             allow_outside_paths: self.allow_outside_paths,
             accel: crate::accel::AccelChoice::parse(&self.accel).unwrap_or_default(),
-            image: crate::output::ImagePlan::default(),
+            image: crate::image::output::ImagePlan::default(),
             open_log: None,
         })
     }
@@ -331,7 +331,7 @@ fn key_values(flag: &str, items: &[String]) -> Result<Vec<(String, Node)>, Failu
             return Err(SceneError::at(&Loc::new(&src, 0..s.len()), "expected KEY=VALUE").into());
         };
         let key = s[..eq].trim().to_string();
-        out.push((key, crate::load::parse_toml_value(&src, eq + 1..s.len())?));
+        out.push((key, crate::input::toml::parse_toml_value(&src, eq + 1..s.len())?));
     }
     Ok(out)
 }
@@ -344,14 +344,14 @@ pub(crate) fn load(
     app: &App,
     scene: Option<&Path>,
     a: &SceneArgs,
-    image: crate::output::ImagePlan,
+    image: crate::image::output::ImagePlan,
 ) -> Result<(RenderJob, String), Failure> {
     let opts = LoadOptions { image, ..a.load_options()? };
     let (job, name) = match scene {
-        Some(p) => (crate::load::load_file(&app.registry, p, &opts)?, p.display().to_string()),
+        Some(p) => (crate::input::load::load_file(&app.registry, p, &opts)?, p.display().to_string()),
         None => {
             let (name, text) = app.default_scene;
-            (crate::load::load_str(&app.registry, name, text, Path::new("."), &opts)?, format!("{name} (bundled)"))
+            (crate::input::load::load_str(&app.registry, name, text, Path::new("."), &opts)?, format!("{name} (bundled)"))
         }
     };
     for w in &job.warnings {

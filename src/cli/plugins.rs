@@ -1,7 +1,7 @@
 //! `raylab plugins`: every registered type with its parameter table (name, type, default, meaning).
 
 use super::{App, Failure};
-use crate::registry::{PluginInfo, Registry};
+use crate::input::registry::{PluginInfo, Registry};
 use clap::Args;
 
 #[derive(Args, Debug)]
@@ -54,10 +54,10 @@ pub fn markdown(reg: &Registry) -> String {
     );
     out.push_str("## Scene file\n\nThe tables of a TOML scene around the plugins.\n\n");
     for (title, specs) in [
-        ("The root", crate::load::SCENE_PARAMS),
-        ("`[render]`", crate::load::RENDER_PARAMS),
-        ("`[camera]`", crate::camera::CAMERA_PARAMS),
-        ("`[materials.NAME]` and inline materials", crate::material::MATERIAL_PARAMS),
+        ("The root", crate::input::load::SCENE_PARAMS),
+        ("`[render]`", crate::input::load::RENDER_PARAMS),
+        ("`[camera]`", crate::scene::camera::CAMERA_PARAMS),
+        ("`[materials.NAME]` and inline materials", crate::scene::material::MATERIAL_PARAMS),
     ] {
         out.push_str(&format!("### {title}\n\n"));
         param_table(&mut out, specs);
@@ -86,7 +86,7 @@ pub fn markdown(reg: &Registry) -> String {
 }
 
 /// A parameter table as Markdown.
-fn param_table(out: &mut String, specs: &[crate::params::ParamSpec]) {
+fn param_table(out: &mut String, specs: &[crate::input::spec::ParamSpec]) {
     out.push_str("| parameter | type | default | meaning |\n|---|---|---|---|\n");
     for s in specs {
         out.push_str(&format!("| `{}` | {} | {} | {} |\n", s.name, s.kind.name(), s.default, s.doc));

@@ -1,7 +1,7 @@
 //! `raylab render`: render a scene to an image, with a progress bar and a one-line summary.
 
 use super::{App, Failure, SceneArgs, si};
-use crate::output::Grid;
+use crate::image::output::Grid;
 use crate::render::RenderOptions;
 use clap::Args;
 use std::io::Write;
@@ -104,20 +104,21 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
         Some(interval) => Some(Grid { interval, color: parse_rgb8(&a.grid_color)? }),
     };
     let pfm = a.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("pfm"));
-    let kind = if pfm { None } else { Some(crate::output::kind_for(&a.output).map_err(|e| e.to_string())?) };
-    if kind != Some(crate::output::ImageKind::Exr) && (a.half || !a.aov.is_empty()) {
+    let kind = if pfm { None } else { Some(crate::image::output::kind_for(&a.output).map_err(|e| e.to_string())?) };
+    if kind != Some(crate::image::output::ImageKind::Exr) && (a.half || !a.aov.is_empty()) {
         return Err("--half and --aov apply to .exr output only".to_string().into());
     }
-    let exr = kind == Some(crate::output::ImageKind::Exr);
+    let exr = kind == Some(crate::image::output::ImageKind::Exr);
     let layer = |name: &str| a.aov.iter().any(|s| s == name);
-    let plan = crate::output::ImagePlan { exr, depth: layer("depth"), normal: layer("normal"), albedo: layer("albedo"), half: a.half };
+    let plan =
+        crate::image::output::ImagePlan { exr, depth: layer("depth"), normal: layer("normal"), albedo: layer("albedo"), half: a.half };
     let (job, scene_name) = super::load(app, a.scene.as_deref(), &a.scene_args, plan)?;
     if INTERRUPTED.load(Ordering::SeqCst) {
         return Err(Failure::Interrupted("interrupted while loading: nothing rendered, nothing written".into()));
     }
     let s = job.settings;
     let reference = match &a.reference {
-        Some(p) => Some(crate::reference::read(p, s.encoding)?),
+        Some(p) => Some(crate::image::reference::read(p, s.encoding)?),
         None => None,
     };
     let load_time = t0.elapsed();
@@ -166,7 +167,7 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
         // In the target's format; EXR layers (AOVs) would cost another render, so none.
         let partial = partial_path(&a.output);
         match kind {
-            None => crate::reference::write_pfm(&partial, &rendered.film)?,
+            None => crate::image::reference::write_pfm(&partial, &rendered.film)?,
             Some(kind) => write(&job, &a, &partial, kind, &rendered.film, grid, false)?,
         }
         let done = 100.0 * work[0].load(Ordering::Relaxed) as f64 / work[1].load(Ordering::Relaxed) as f64;
@@ -178,7 +179,7 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
     }
     let t_write = Instant::now();
     match kind {
-        None => crate::reference::write_pfm(&a.output, &rendered.film)?,
+        None => crate::image::reference::write_pfm(&a.output, &rendered.film)?,
         Some(kind) => write(&job, &a, &a.output, kind, &rendered.film, grid, true)?,
     }
     let write_time = t_write.elapsed();
@@ -188,7 +189,7 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
     let describe = job.integrator.describe();
     let accel = job.scene.accel_summary();
     let build_time = (accel.build.time + accel.object_builds.time).as_secs_f64();
-    let memory = crate::stats::peak_memory_bytes().map_or_else(String::new, |b| format!(", peak memory {}B", si(b as f64)));
+    let memory = crate::render::stats::peak_memory_bytes().map_or_else(String::new, |b| format!(", peak memory {}B", si(b as f64)));
     println!(
         "wrote {} ({}×{}, {}, {}{}) from {scene_name}: trace {:.3} s on {threads} thread{}, {} rays, {} rays/s, {} non-finite samples (load {:.3} s, BVH build {:.3} s, write {:.3} s{memory})",
         a.output.display(),
@@ -211,7 +212,7 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
         eprintln!("warning: {} samples were NaN or infinite and were dropped from their pixels", st.nonfinite_samples);
     }
     if let Some(r) = &reference {
-        let e = crate::metrics::compare(&rendered.film, r, s.encoding)?;
+        let e = crate::image::metrics::compare(&rendered.film, r, s.encoding)?;
         println!(
             "error against {}: RMSE {:.5}, PSNR {:.2} dB, SSIM {:.5}",
             a.reference.as_ref().map_or(String::new(), |p| p.display().to_string()),
@@ -235,19 +236,20 @@ fn write(
     job: &crate::render::RenderJob,
     a: &RenderArgs,
     path: &Path,
-    kind: crate::output::ImageKind,
-    film: &crate::film::Film,
+    kind: crate::image::output::ImageKind,
+    film: &crate::image::film::Film,
     grid: Option<Grid>,
     aovs: bool,
 ) -> Result<(), Failure> {
     #[cfg(feature = "exr")]
-    if kind == crate::output::ImageKind::Exr {
-        let which: Vec<crate::aov::Aov> = a.aov.iter().filter_map(|s| crate::aov::Aov::parse(s)).collect();
-        let layers = if which.is_empty() || !aovs { crate::aov::Aovs::default() } else { crate::aov::render_aovs(job, &which) };
-        return crate::exr::write_exr(path, film, &layers, a.half).map_err(|e| e.to_string().into());
+    if kind == crate::image::output::ImageKind::Exr {
+        let which: Vec<crate::render::aov::Aov> = a.aov.iter().filter_map(|s| crate::render::aov::Aov::parse(s)).collect();
+        let layers =
+            if which.is_empty() || !aovs { crate::render::aov::Aovs::default() } else { crate::render::aov::render_aovs(job, &which) };
+        return crate::image::exr::write_exr(path, film, &layers, a.half).map_err(|e| e.to_string().into());
     }
     let _ = (a, kind, aovs);
-    crate::output::write_image(path, film, job.settings.encoding, grid).map_err(|e| e.to_string().into())
+    crate::image::output::write_image(path, film, job.settings.encoding, grid).map_err(|e| e.to_string().into())
 }
 
 /// One line saying how the objects and meshes are indexed for ray queries.
@@ -274,12 +276,16 @@ pub fn accel_line(s: &crate::scene::AccelSummary) -> String {
 /// they come (flushed, so the file can be watched).
 struct ErrorLog<'a> {
     file: std::io::BufWriter<std::fs::File>,
-    reference: &'a crate::film::Film,
-    encoding: crate::color::Encoding,
+    reference: &'a crate::image::film::Film,
+    encoding: crate::math::color::Encoding,
 }
 
 impl<'a> ErrorLog<'a> {
-    fn new(path: &std::path::Path, reference: &'a crate::film::Film, encoding: crate::color::Encoding) -> Result<Self, Failure> {
+    fn new(
+        path: &std::path::Path,
+        reference: &'a crate::image::film::Film,
+        encoding: crate::math::color::Encoding,
+    ) -> Result<Self, Failure> {
         let f = std::fs::File::create(path).map_err(|e| Failure::Other(format!("cannot create \"{}\": {e}", path.display())))?;
         let mut file = std::io::BufWriter::new(f);
         writeln!(file, "spp,seconds,rays,rmse,psnr_db,ssim").map_err(|e| e.to_string())?;
@@ -287,7 +293,7 @@ impl<'a> ErrorLog<'a> {
     }
 
     fn record(&mut self, pass: &crate::render::Pass) -> Result<(), String> {
-        let e = crate::metrics::compare(pass.film, self.reference, self.encoding)?;
+        let e = crate::image::metrics::compare(pass.film, self.reference, self.encoding)?;
         writeln!(
             self.file,
             "{},{:.6},{},{:.6e},{:.4},{:.6}",
@@ -304,7 +310,7 @@ impl<'a> ErrorLog<'a> {
 }
 
 /// The counters of a render as an aligned table.
-pub fn stats_table(st: &crate::stats::RayStats) -> String {
+pub fn stats_table(st: &crate::render::stats::RayStats) -> String {
     let rows = [
         ("camera rays", st.camera_rays),
         ("shadow rays", st.shadow_rays),

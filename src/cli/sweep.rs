@@ -4,11 +4,11 @@
 
 use super::plot::{Plot, Series};
 use super::{App, Failure, SceneArgs, si};
-use crate::error::{Loc, SceneError, Source};
-use crate::film::Film;
-use crate::load::LoadOptions;
-use crate::metrics::ImageError;
-use crate::params::{Node, Value};
+use crate::image::film::Film;
+use crate::image::metrics::ImageError;
+use crate::input::context::LoadOptions;
+use crate::input::error::{Loc, SceneError, Source};
+use crate::input::value::{Node, Value};
 use crate::render::{RenderJob, RenderOptions};
 use clap::Args;
 use serde::Serialize;
@@ -93,7 +93,7 @@ pub(crate) fn run(app: &App, a: SweepArgs) -> Result<(), Failure> {
     }
     let base = a.scene_args.load_options()?;
     let scene = a.scene.as_deref();
-    let (base_job, scene_name) = super::load(app, scene, &a.scene_args, crate::output::ImagePlan::EIGHT_BIT)?;
+    let (base_job, scene_name) = super::load(app, scene, &a.scene_args, crate::image::output::ImagePlan::EIGHT_BIT)?;
     let encoding = base_job.settings.encoding;
     std::fs::create_dir_all(&a.out).map_err(|e| format!("cannot create \"{}\": {e}", a.out.display()))?;
     let options = RenderOptions { threads: a.threads, cancel: None };
@@ -131,10 +131,10 @@ pub(crate) fn run(app: &App, a: SweepArgs) -> Result<(), Failure> {
             }
         }
         let r = best.expect("repeat ≥ 1");
-        let error = crate::metrics::compare(&r.film, &reference, encoding)?;
+        let error = crate::image::metrics::compare(&r.film, &reference, encoding)?;
         if a.save_images {
             let name = format!("{}.png", file_safe(&label));
-            crate::output::write_image(&a.out.join(name), &r.film, encoding, None).map_err(|e| e.to_string())?;
+            crate::image::output::write_image(&a.out.join(name), &r.film, encoding, None).map_err(|e| e.to_string())?;
         }
         let seconds = r.elapsed.as_secs_f64();
         if !a.quiet {
@@ -166,7 +166,7 @@ pub(crate) fn run(app: &App, a: SweepArgs) -> Result<(), Failure> {
         "results": outcomes,
     });
     let text = serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?;
-    crate::output::write_atomically(&a.out.join("results.json"), |f| f.write_all(text.as_bytes()).map_err(|e| e.to_string()))
+    crate::image::output::write_atomically(&a.out.join("results.json"), |f| f.write_all(text.as_bytes()).map_err(|e| e.to_string()))
         .map_err(|e| e.to_string())?;
 
     let series = curves(&knobs, &outcomes, metric, a.one_at_a_time);
@@ -254,7 +254,7 @@ fn parse_vary(s: &str) -> Result<Knob, Failure> {
                 if text.is_empty() {
                     return Err(SceneError::at(&Loc::new(&src, range), format!("--vary {name}: empty value")).into());
                 }
-                let node = match crate::load::parse_toml_value(&src, range.clone()) {
+                let node = match crate::input::toml::parse_toml_value(&src, range.clone()) {
                     Ok(n) => n,
                     Err(_) if text.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') => {
                         Node { value: Value::Str(text.to_string()), loc: Loc::new(&src, range) }
@@ -327,10 +327,10 @@ fn apply(o: &mut LoadOptions, name: &str, value: &Node) -> Result<(), Failure> {
 
 fn load_with(app: &App, scene: Option<&Path>, opts: &LoadOptions) -> Result<RenderJob, Failure> {
     match scene {
-        Some(p) => Ok(crate::load::load_file(&app.registry, p, opts)?),
+        Some(p) => Ok(crate::input::load::load_file(&app.registry, p, opts)?),
         None => {
             let (name, text) = app.default_scene;
-            Ok(crate::load::load_str(&app.registry, name, text, Path::new("."), opts)?)
+            Ok(crate::input::load::load_str(&app.registry, name, text, Path::new("."), opts)?)
         }
     }
 }
@@ -350,7 +350,7 @@ fn reference(
     options: &RenderOptions,
 ) -> Result<Film, Failure> {
     if a.reference != "auto" {
-        return Ok(crate::reference::read(Path::new(&a.reference), base_job.settings.encoding)?);
+        return Ok(crate::image::reference::read(Path::new(&a.reference), base_job.settings.encoding)?);
     }
     let mut o = base.clone();
     let ov = &mut o.overrides;
@@ -390,12 +390,12 @@ fn reference(
     }
     let job = load_with(app, a.scene.as_deref(), &o)?;
     let scene_text = match a.scene.as_deref() {
-        Some(p) => crate::load::read_user_file(p, "scene file", base.limits.max_file_bytes, None)?,
+        Some(p) => crate::input::context::read_user_file(p, "scene file", base.limits.max_file_bytes, None)?,
         None => app.default_scene.1.as_bytes().to_vec(),
     };
     let key = hash(&[&scene_text, format!("{:?}|{:?}|{}", job.settings, job.integrator.describe(), env!("CARGO_PKG_VERSION")).as_bytes()]);
     let path = a.out.join(format!("reference-{key:016x}.pfm"));
-    if let Ok(film) = crate::reference::read(&path, job.settings.encoding) {
+    if let Ok(film) = crate::image::reference::read(&path, job.settings.encoding) {
         if !a.quiet {
             eprintln!("reference: cached {} ({})", path.display(), job.settings.describe_sampling());
         }
@@ -408,7 +408,7 @@ fn reference(
     if !a.quiet {
         eprintln!("{:.1} s, {} rays", r.elapsed.as_secs_f64(), si(r.stats.total_rays() as f64));
     }
-    crate::reference::write_pfm(&path, &r.film)?;
+    crate::image::reference::write_pfm(&path, &r.film)?;
     Ok(r.film)
 }
 
@@ -419,7 +419,7 @@ fn hash(parts: &[&[u8]]) -> u64 {
         for &b in *p {
             h = (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
         }
-        h = crate::sampler::mix64(h);
+        h = crate::render::sampler::mix64(h);
     }
     h
 }
@@ -525,7 +525,8 @@ fn write_csv(path: &Path, knobs: &[Knob], outcomes: &[Outcome]) -> Result<(), Fa
             o.seconds, o.rays, o.error.rmse, o.error.psnr, o.error.ssim, o.dssim, o.pareto
         );
     }
-    crate::output::write_atomically(path, |f| f.write_all(text.as_bytes()).map_err(|e| e.to_string())).map_err(|e| e.to_string().into())
+    crate::image::output::write_atomically(path, |f| f.write_all(text.as_bytes()).map_err(|e| e.to_string()))
+        .map_err(|e| e.to_string().into())
 }
 
 fn csv_field(v: &str) -> String {

@@ -1,8 +1,8 @@
 //! `raylab trace`: explain one pixel or one ray as a tree of hits, light tests and child rays.
 
 use super::{App, Failure, SceneArgs};
-use crate::ray::Ray;
-use crate::sampler::Sampler;
+use crate::math::ray::Ray;
+use crate::render::sampler::Sampler;
 use clap::Args;
 use glam::DVec3;
 use std::path::PathBuf;
@@ -25,7 +25,7 @@ pub(crate) struct TraceArgs {
 }
 
 pub(crate) fn run(app: &App, a: TraceArgs) -> Result<(), Failure> {
-    let (job, _) = super::load(app, Some(&a.scene), &a.scene_args, crate::output::ImagePlan::EIGHT_BIT)?;
+    let (job, _) = super::load(app, Some(&a.scene), &a.scene_args, crate::image::output::ImagePlan::EIGHT_BIT)?;
     let s = job.settings;
     let (ray, pixel) = if let Some(p) = &a.pixel {
         let bad = || Failure::Other(format!("--pixel: expected X,Y inside the {}×{} image, found \"{p}\"", s.width, s.height));

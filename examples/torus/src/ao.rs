@@ -6,10 +6,11 @@
 //! `distance`. Sample directions come from the pixel's [`Sampler`], stratified, so the image is
 //! deterministic and independent of the thread count. No allocation per ray.
 
-use raylab::error::Result;
-use raylab::float::offset_ray_origin;
-use raylab::params::{Default, ParamKind, ParamSpec, Params};
-use raylab::sampler::{concentric_disc, stratified_2d};
+use raylab::input::error::Result;
+use raylab::input::params::Params;
+use raylab::input::spec::{Default, ParamKind, ParamSpec};
+use raylab::math::float::offset_ray_origin;
+use raylab::render::sampler::{concentric_disc, stratified_2d};
 use raylab::{Color, Integrator, LoadContext, PluginInfo, Ray, RayStats, Sampler, Scene};
 
 /// The `ao` plugin's description.

@@ -6,9 +6,10 @@
 //! angle from the rectangle's normal; the integrator averages the samples, so points that see only
 //! part of the rectangle lie in a penumbra.
 
-use raylab::error::Result;
 use raylab::glam::{DVec2, DVec3};
-use raylab::params::{Default, ParamKind, ParamSpec, Params};
+use raylab::input::error::Result;
+use raylab::input::params::Params;
+use raylab::input::spec::{Default, ParamKind, ParamSpec};
 use raylab::{Color, LightSample, LightSource, LoadContext, PluginInfo};
 
 /// The `panel` plugin's description.

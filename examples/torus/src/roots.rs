@@ -111,7 +111,7 @@ impl<'a, const N: usize> Pieces<'a, N> {
 /// the cancellation-free closed form (a double root counts once).
 pub fn quadratic_roots(c: &Poly<3>, lo: f64, hi: f64, out: &mut [f64; 2]) -> usize {
     let mut n = 0;
-    if let Some((x0, x1)) = raylab::float::solve_quadratic(c[2], c[1], c[0]) {
+    if let Some((x0, x1)) = raylab::math::float::solve_quadratic(c[2], c[1], c[0]) {
         for x in [x0, x1] {
             if x > lo && x < hi && (n == 0 || out[n - 1] != x) {
                 out[n] = x;

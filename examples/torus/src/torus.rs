@@ -18,12 +18,13 @@
 //!   a ray leaving the surface never reports it again.
 
 use crate::roots::first_quartic_root;
-use raylab::bounds::circle_extent;
-use raylab::error::Result;
-use raylab::float::gamma;
 use raylab::geometry::{Geometry, Hit, Intersectable};
 use raylab::glam::{DVec2, DVec3};
-use raylab::params::{Default, MATERIAL_PARAM, ParamKind, ParamSpec, Params};
+use raylab::input::error::Result;
+use raylab::input::params::Params;
+use raylab::input::spec::{Default, MATERIAL_PARAM, ParamKind, ParamSpec};
+use raylab::math::bounds::circle_extent;
+use raylab::math::float::gamma;
 use raylab::{Aabb, LoadContext, Material, PluginInfo, Ray};
 use std::f64::consts::TAU;
 
@@ -229,7 +230,7 @@ mod tests {
     /// The exact torus, from its definition: the points at `minor` from the core circle.
     struct ExactTorus<'a>(&'a Torus);
 
-    impl raylab::testing::ExactSurface for ExactTorus<'_> {
+    impl raylab::geometry::testing::ExactSurface for ExactTorus<'_> {
         fn signed_distance(&self, p: DVec3) -> f64 {
             let (t, q) = (self.0, p - self.0.center);
             let z = q.dot(t.axis);
@@ -242,10 +243,10 @@ mod tests {
         }
     }
 
-    /// The `t` of every hit, each checked by `raylab::testing`.
+    /// The `t` of every hit, each checked by `raylab::geometry::testing`.
     fn hit_ts(t: &Torus, ray: &Ray) -> Vec<f64> {
-        let tol = raylab::testing::Tolerance::for_scale(20.0);
-        let hits = raylab::testing::check_hits_ascending(t, ray, &tol, &ExactTorus(t), 8).unwrap_or_else(|v| panic!("{v}"));
+        let tol = raylab::geometry::testing::Tolerance::for_scale(20.0);
+        let hits = raylab::geometry::testing::check_hits_ascending(t, ray, &tol, &ExactTorus(t), 8).unwrap_or_else(|v| panic!("{v}"));
         hits.iter().map(|h| h.t).collect()
     }
 

@@ -1,7 +1,8 @@
 //! The example scene, rendered in memory: the torus is where the scene puts it, and the `ao`
 //! integrator and `panel` light work through the same loader as the built-ins.
 
-use raylab::load::{LoadOptions, Overrides, load_file};
+use raylab::input::context::{LoadOptions, Overrides};
+use raylab::input::load::load_file;
 use raylab::render::{RenderOptions, render};
 use std::path::Path;
 

@@ -1,10 +1,10 @@
 //! Property tests of the torus at scales from 1e-4 to 1e4 and distances up to 1e8 times its size,
-//! with raylab's reusable geometry checks (`raylab::testing`), as for the built-in shapes.
+//! with raylab's reusable geometry checks (`raylab::geometry::testing`), as for the built-in shapes.
 
 use proptest::prelude::*;
-use raylab::float::offset_ray_origin;
+use raylab::geometry::testing::{ExactSurface, Tolerance, check_hits_ascending};
 use raylab::glam::DVec3;
-use raylab::testing::{ExactSurface, Tolerance, check_hits_ascending};
+use raylab::math::float::offset_ray_origin;
 use raylab::{Geometry, Intersectable, Material, Ray};
 use raylab_torus::torus::Torus;
 
@@ -68,7 +68,7 @@ impl ExactSurface for ExactTorus<'_> {
     }
 }
 
-fn fail(v: raylab::testing::Violation) -> TestCaseError {
+fn fail(v: raylab::geometry::testing::Violation) -> TestCaseError {
     TestCaseError::fail(v.to_string())
 }
 

@@ -6,8 +6,8 @@
 //!   decoded with the render's encoding, so comparing a render with its own PNG measures only the
 //!   quantisation.
 
-use crate::color::{Encoding, srgb_decode};
-use crate::film::Film;
+use crate::image::film::Film;
+use crate::math::color::{Encoding, srgb_decode};
 use glam::Vec3;
 use std::path::Path;
 
@@ -21,8 +21,8 @@ pub const MAX_REFERENCE_BYTES: u64 = MAX_REFERENCE_PIXELS * 16 + (1 << 20);
 /// Reads a reference image (`.pfm` or `.png`) as linear RGB; PNG values are decoded with `encoding`.
 pub fn read(path: &Path, encoding: Encoding) -> Result<Film, String> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-    let bytes =
-        crate::files::read_regular(path, MAX_REFERENCE_BYTES, None).map_err(|e| e.message(&format!("reference \"{}\"", path.display())))?;
+    let bytes = crate::input::files::read_regular(path, MAX_REFERENCE_BYTES, None)
+        .map_err(|e| e.message(&format!("reference \"{}\"", path.display())))?;
     let film = match ext.as_str() {
         "pfm" => decode_pfm(&bytes),
         "png" => decode_png(&bytes, encoding),
@@ -33,7 +33,7 @@ pub fn read(path: &Path, encoding: Encoding) -> Result<Film, String> {
 
 /// Writes `film` to `path` as PFM, atomically.
 pub fn write_pfm(path: &Path, film: &Film) -> Result<(), String> {
-    crate::output::write_atomically(path, |w| w.write_all(&encode_pfm(film)).map_err(|e| e.to_string())).map_err(|e| e.to_string())
+    crate::image::output::write_atomically(path, |w| w.write_all(&encode_pfm(film)).map_err(|e| e.to_string())).map_err(|e| e.to_string())
 }
 
 /// `film` as a PFM file: header `PF`, size, scale −1 (little-endian), rows bottom to top.
@@ -148,9 +148,9 @@ mod tests {
     fn png_reference_decodes_to_the_rendered_values() {
         let mut film = Film::new(2, 1);
         film.set(0, 0, Vec3::new(0.2, 0.5, 1.0));
-        let rgb = crate::output::to_rgb8(&film, Encoding::Srgb, None);
+        let rgb = crate::image::output::to_rgb8(&film, Encoding::Srgb, None);
         let mut png = Vec::new();
-        crate::output::encode_rgb8(&mut png, &rgb, 2, 1, crate::output::ImageKind::Png).unwrap();
+        crate::image::output::encode_rgb8(&mut png, &rgb, 2, 1, crate::image::output::ImageKind::Png).unwrap();
         let back = decode_png(&png, Encoding::Srgb).unwrap();
         assert!((back.get(0, 0) - film.get(0, 0)).abs().max_element() < 0.01);
         assert_eq!(back.get(1, 0), Vec3::ZERO);

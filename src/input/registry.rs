@@ -3,12 +3,14 @@
 //! Built-in plugins register themselves through exactly this API; a crate outside raylab adds a
 //! geometry the same way (see docs/writing-a-plugin.md).
 
-use crate::error::Result;
 use crate::geometry::Geometry;
-use crate::integrator::Integrator;
-use crate::light::LightSource;
-use crate::load::{LoadContext, SceneDescription};
-use crate::params::{ParamSpec, Params};
+use crate::input::context::LoadContext;
+use crate::input::description::SceneDescription;
+use crate::input::error::Result;
+use crate::input::params::Params;
+use crate::input::spec::ParamSpec;
+use crate::render::integrator::Integrator;
+use crate::scene::light::LightSource;
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::Arc;

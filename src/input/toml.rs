@@ -5,9 +5,12 @@
 //! original. Layout: the root's plain values first, then `[table]` sections (nested tables as
 //! `[a.b]`), then `[[array]]` tables, whose nested tables are written inline.
 
-use crate::load::SceneDescription;
-use crate::params::{Table, Value};
+use crate::input::description::SceneDescription;
+use crate::input::error::{Loc, Result, SceneError, Source};
+use crate::input::value::Node;
+use crate::input::value::{Table, Value};
 use std::fmt::Write;
+use std::sync::Arc;
 
 /// The scene's root table as TOML text, preceded by `header` lines written as `#` comments.
 pub fn to_toml(desc: &SceneDescription, header: &str) -> String {
@@ -151,11 +154,92 @@ pub fn string(s: &str) -> String {
     out
 }
 
+/// Parses raylab's TOML scene format into a description.
+pub fn parse_toml(source: &Arc<Source>, name: String) -> Result<SceneDescription> {
+    let doc = toml::de::DeTable::parse(&source.text).map_err(|e| {
+        let span = e.span().unwrap_or(0..0);
+        SceneError::at(&Loc::new(source, span), format!("TOML syntax error: {}", e.message().trim()))
+    })?;
+    let loc = Loc::new(source, 0..source.text.len());
+    // Consumed as it is converted: each part of the parser's tree is freed once copied, so the
+    // two trees never coexist whole (10⁶ inline objects would need both at once).
+    let root = convert_table(doc.into_inner(), source)?;
+    Ok(SceneDescription { name, root, loc })
+}
+
+/// Parses one TOML value written on the command line (`--set key=VALUE`).
+pub fn parse_toml_value(source: &Arc<Source>, range: std::ops::Range<usize>) -> Result<Node> {
+    let text = &source.text[range.clone()];
+    let v = toml::de::DeValue::parse(text)
+        .map_err(|e| SceneError::at(&Loc::new(source, range.clone()), format!("expected a TOML value: {}", e.message().trim())))?;
+    let mut n = convert_value(v, source)?;
+    shift_locs(&mut n, range.start);
+    Ok(n)
+}
+
+fn shift_locs(n: &mut Node, by: usize) {
+    n.loc.start += by;
+    n.loc.end += by;
+    match &mut n.value {
+        Value::Array(items) => items.iter_mut().for_each(|i| shift_locs(i, by)),
+        Value::Table(t) => t.entries.iter_mut().for_each(|e| {
+            e.key_loc.start += by;
+            e.key_loc.end += by;
+            shift_locs(&mut e.value, by);
+        }),
+        _ => {}
+    }
+}
+
+fn convert_table(t: toml::de::DeTable<'_>, src: &Arc<Source>) -> Result<Table> {
+    let mut entries = Vec::with_capacity(t.len());
+    for (k, v) in t {
+        let key_loc = Loc::new(src, k.span());
+        entries.push(crate::input::value::Entry { key: k.into_inner().into_owned(), key_loc, value: convert_value(v, src)? });
+    }
+    Ok(Table { entries })
+}
+
+fn convert_value(v: toml::Spanned<toml::de::DeValue<'_>>, src: &Arc<Source>) -> Result<Node> {
+    use toml::de::DeValue;
+    let loc = Loc::new(src, v.span());
+    let value = match v.into_inner() {
+        DeValue::String(s) => Value::Str(s.into_owned()),
+        DeValue::Boolean(b) => Value::Bool(b),
+        DeValue::Integer(i) => {
+            let digits = i.as_str().replace('_', "");
+            let (neg, body) = match digits.strip_prefix('-') {
+                Some(b) => (true, b),
+                None => (false, digits.strip_prefix('+').unwrap_or(&digits)),
+            };
+            // The parser hands over the digits with or without a 0x/0o/0b prefix, and "0x" alone.
+            let body = match body.get(..2) {
+                Some("0x" | "0o" | "0b") if i.radix() != 10 => &body[2..],
+                _ => body,
+            };
+            if body.is_empty() {
+                return Err(SceneError::at(&loc, "expected digits after the 0x, 0o or 0b prefix"));
+            }
+            let mag = i128::from_str_radix(body, i.radix()).map_err(|_| SceneError::at(&loc, "integer out of range"))?;
+            let val = if neg { -mag } else { mag };
+            Value::Int(i64::try_from(val).map_err(|_| SceneError::at(&loc, "integer out of range for 64 bits"))?)
+        }
+        DeValue::Float(f) => {
+            let s = f.as_str().replace('_', "");
+            Value::Float(s.parse::<f64>().map_err(|_| SceneError::at(&loc, format!("malformed number {s}")))?)
+        }
+        DeValue::Datetime(_) => return Err(SceneError::at(&loc, "dates and times are not valid in a scene")),
+        DeValue::Array(items) => Value::Array(items.into_iter().map(|i| convert_value(i, src)).collect::<Result<_>>()?),
+        DeValue::Table(t) => Value::Table(convert_table(t, src)?),
+    };
+    Ok(Node { value, loc })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::error::Source;
-    use crate::load::parse_toml;
+    use crate::input::error::Source;
+    use crate::input::toml::parse_toml;
 
     fn parse(text: &str) -> Table {
         parse_toml(&Source::new("t.toml", text), "t".into()).unwrap_or_else(|e| panic!("{}\n---\n{text}", e.report())).root
@@ -171,8 +255,8 @@ mod tests {
 
     #[test]
     fn the_bundled_scenes_round_trip() {
-        round_trip(include_str!("../scenes/showcase.toml"));
-        round_trip(include_str!("../scenes/dozen.toml"));
+        round_trip(include_str!("../../scenes/showcase.toml"));
+        round_trip(include_str!("../../scenes/dozen.toml"));
     }
 
     #[test]

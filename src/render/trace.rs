@@ -1,8 +1,8 @@
 //! The explanation of one ray: the tree of hits, light tests and child rays an integrator
 //! followed, as printed by `raylab trace` (as text, or as JSON).
 
-use crate::color::Color;
-use crate::ray::{Ray, RayKind};
+use crate::math::color::Color;
+use crate::math::ray::{Ray, RayKind};
 use glam::DVec3;
 use serde::Serialize;
 use std::fmt::{self, Write};

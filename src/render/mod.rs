@@ -16,12 +16,18 @@
 //! Every sample is a pure function of (pixel or lattice point, sample, dimension, seed): the image
 //! is bit-identical for any thread count and tile order.
 
-use crate::color::{Color, Encoding};
-use crate::film::Film;
-use crate::integrator::Integrator;
-use crate::sampler::{Sampler, mix64, stratified_2d};
+pub mod aov;
+pub mod integrator;
+pub mod sampler;
+pub mod stats;
+pub mod trace;
+
+use crate::image::film::Film;
+use crate::math::color::{Color, Encoding};
+use crate::render::integrator::Integrator;
+use crate::render::sampler::{Sampler, mix64, stratified_2d};
+use crate::render::stats::RayStats;
 use crate::scene::Scene;
-use crate::stats::RayStats;
 use glam::{DVec2, DVec3, Vec3};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -94,8 +100,8 @@ pub struct RenderJob {
     pub integrator_name: String,
     /// Image and sampling settings.
     pub settings: RenderSettings,
-    /// What loading ignored or approximated, to show the user (see [`crate::load::LoadContext::warn`]).
-    pub warnings: Vec<crate::error::SceneError>,
+    /// What loading ignored or approximated, to show the user (see [`crate::input::context::LoadContext::warn`]).
+    pub warnings: Vec<crate::input::error::SceneError>,
 }
 
 /// Edge of the square tiles the image is split into, pixels.
@@ -329,8 +335,8 @@ fn add_samples(job: &RenderJob, x: u32, y: u32, samples: std::ops::Range<u32>, a
 
 /// The (first) camera ray of stratified sample `i` of pixel (`x`, `y`): the same ray the render
 /// traces for that sample, so other passes (the depth, normal and albedo layers of
-/// [`crate::aov`]) see what the image shows.
-pub fn camera_ray(job: &RenderJob, x: u32, y: u32, i: u32) -> crate::ray::Ray {
+/// [`crate::render::aov`]) see what the image shows.
+pub fn camera_ray(job: &RenderJob, x: u32, y: u32, i: u32) -> crate::math::ray::Ray {
     let s = &job.settings;
     let pixel = u64::from(y) * u64::from(s.width) + u64::from(x);
     let pattern = (mix64(pixel ^ s.seed.rotate_left(17)) >> 32) as u32;

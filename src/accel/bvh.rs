@@ -21,8 +21,8 @@
 //! allocation per ray. The caller stores its primitives in the index's slot order
 //! ([`PrimitiveIndex::order`]), so a leaf reads them contiguously.
 
-use crate::bounds::Aabb;
-use crate::ray::Ray;
+use crate::math::bounds::Aabb;
+use crate::math::ray::Ray;
 use std::time::Duration;
 
 /// Which spatial index to use: chosen per scene and per mesh by [`AccelChoice::use_bvh`].
@@ -362,13 +362,13 @@ mod wide {
 
     use super::binned;
     use super::{BOX_PADDING, BuildStats, MAX_INV_DIR};
-    use crate::bounds::Aabb;
-    use crate::ray::Ray;
+    use crate::math::bounds::Aabb;
+    use crate::math::ray::Ray;
     use glam::{DVec3, UVec2, Vec3A, Vec4};
     use std::mem::MaybeUninit;
 
     /// γ(3), for the far bound of the root box test.
-    const GAMMA3: f64 = crate::float::gamma(3);
+    const GAMMA3: f64 = crate::math::float::gamma(3);
     use obvhs::cwbvh::node::CwBvhNode;
     use std::time::Instant;
 

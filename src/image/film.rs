@@ -17,15 +17,15 @@ pub struct Film {
 }
 
 impl Film {
-    /// A black film. The caller has checked the size against [`crate::load::Limits`].
+    /// A black film. The caller has checked the size against [`crate::input::limits::Limits`].
     pub fn new(width: u32, height: u32) -> Self {
         Film { width, height, pixels: vec![Vec3::ZERO; width as usize * height as usize] }
     }
 
     /// A black film, or an error if its memory cannot be had (instead of aborting the process).
-    pub fn try_new(width: u32, height: u32) -> Result<Self, crate::output::WriteError> {
+    pub fn try_new(width: u32, height: u32) -> Result<Self, crate::image::output::WriteError> {
         let n = (width as usize).saturating_mul(height as usize);
-        Ok(Film { width, height, pixels: crate::output::try_filled(n, Vec3::ZERO, "film")? })
+        Ok(Film { width, height, pixels: crate::image::output::try_filled(n, Vec3::ZERO, "film")? })
     }
 
     /// The pixel at column `x`, row `y`.

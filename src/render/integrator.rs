@@ -1,11 +1,11 @@
 //! The [`Integrator`] trait: turns a camera ray into a colour.
 
-use crate::color::Color;
-use crate::ray::Ray;
-use crate::sampler::Sampler;
+use crate::math::color::Color;
+use crate::math::ray::Ray;
+use crate::render::sampler::Sampler;
+use crate::render::stats::RayStats;
+use crate::render::trace::TraceNode;
 use crate::scene::Scene;
-use crate::stats::RayStats;
-use crate::trace::TraceNode;
 
 /// A light-transport algorithm: the recursive Phong model, a debug view, a path tracer…
 ///
@@ -25,7 +25,7 @@ pub trait Integrator: Send + Sync {
 
     /// Most rays (the camera ray, its shadow rays and every secondary ray) one camera ray can
     /// cost in `scene`: the factor of the work budget checked before rendering
-    /// ([`crate::load::Limits::max_rays`]); may be infinite. The default counts the camera ray and
+    /// ([`crate::input::limits::Limits::max_rays`]); may be infinite. The default counts the camera ray and
     /// every light's shadow samples at one hit; an integrator that branches or recurses must
     /// give its own bound.
     fn worst_case_rays(&self, scene: &Scene) -> f64 {

@@ -1,6 +1,6 @@
 //! The [`LightSource`] trait: how much light arrives at a point, from where.
 
-use crate::color::Color;
+use crate::math::color::Color;
 use glam::{DVec2, DVec3};
 
 /// Light arriving at a point from one light (or one sample point of an area light).

@@ -1,10 +1,13 @@
 //! The traits every shape implements: [`Intersectable`] (a ray can hit it) and [`Geometry`]
 //! (it has a surface: material, bounds and the direction-aware normal).
 
-use crate::bounds::Aabb;
-use crate::float::{SHADOW_EPSILON, offset_ray_origin};
-use crate::material::Material;
-use crate::ray::Ray;
+pub mod testing;
+pub mod transform;
+
+use crate::math::bounds::Aabb;
+use crate::math::float::{SHADOW_EPSILON, offset_ray_origin};
+use crate::math::ray::Ray;
+use crate::scene::material::Material;
 use glam::{DVec2, DVec3};
 use std::sync::Arc;
 
@@ -17,7 +20,7 @@ pub struct Hit {
     /// `ray.at(t)`).
     pub point: DVec3,
     /// Conservative absolute rounding-error bound of `point`, per axis. Secondary rays start
-    /// outside this box ([`crate::float::offset_ray_origin`]).
+    /// outside this box ([`crate::math::float::offset_ray_origin`]).
     pub error: DVec3,
     /// Shape-defined surface coordinates (barycentrics for triangles, angles for a sphere, …).
     pub uv: DVec2,

@@ -1,13 +1,17 @@
 //! The scene model: camera, background, objects, lights; and the ray queries integrators use.
 
+pub mod camera;
+pub mod light;
+pub mod material;
+
 use crate::accel::{AccelChoice, BuildStats, ObjectAccel};
-use crate::bounds::Aabb;
-use crate::camera::Camera;
-use crate::color::Color;
-use crate::float::offset_ray_origin;
 use crate::geometry::{Geometry, Hit};
-use crate::light::LightSource;
-use crate::ray::Ray;
+use crate::math::bounds::Aabb;
+use crate::math::color::Color;
+use crate::math::float::offset_ray_origin;
+use crate::math::ray::Ray;
+use crate::scene::camera::Camera;
+use crate::scene::light::LightSource;
 
 /// Most surfaces a shadow ray passes through before it is treated as blocked (guards against
 /// pathological stacks of transparent sheets).
@@ -111,7 +115,7 @@ impl Scene {
     }
 
     /// Records the cost of the hierarchies the objects built over their own parts (reported by
-    /// the loader from [`crate::load::AssetCache::build_stats`]).
+    /// the loader from [`crate::input::context::AssetCache::build_stats`]).
     pub fn record_object_builds(&mut self, stats: BuildStats) {
         self.object_builds += stats;
     }

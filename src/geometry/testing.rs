@@ -4,9 +4,9 @@
 //! definition, generate rays, and call [`check_hits_ascending`] (which runs [`check_hit`] on every
 //! hit), [`check_closed_crossings`] for solids, and [`check_t_window`] for `t_min`/`t_max`.
 
-use crate::float::{NORMAL_TOLERANCE, SURFACE_TOLERANCE, gamma};
 use crate::geometry::{Geometry, Hit};
-use crate::ray::Ray;
+use crate::math::float::{NORMAL_TOLERANCE, SURFACE_TOLERANCE, gamma};
+use crate::math::ray::Ray;
 use glam::DVec3;
 
 /// The exact surface a geometry stands for: the oracle its hits are checked against. Write it from
@@ -221,9 +221,9 @@ pub fn check_t_window(g: &dyn Geometry, ray: &Ray, hits: &[Hit], t_min: f64, t_m
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bounds::Aabb;
     use crate::geometry::Intersectable;
-    use crate::material::Material;
+    use crate::math::bounds::Aabb;
+    use crate::scene::material::Material;
 
     /// The unit sphere at the origin, with one deliberate fault.
     #[derive(Default)]

@@ -3,8 +3,8 @@
 //! file beside the target, then renamed, so a crash never leaves a truncated image where a good
 //! one was.
 
-use crate::color::Encoding;
-use crate::film::Film;
+use crate::image::film::Film;
+use crate::math::color::Encoding;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -24,7 +24,7 @@ pub enum ImageKind {
     Png,
     /// JPEG, 8 bits per channel, quality 95.
     Jpeg,
-    /// OpenEXR: linear, unclamped floating point (feature `exr`; see [`crate::exr`]).
+    /// OpenEXR: linear, unclamped floating point (feature `exr`; see [`crate::image::exr`]).
     Exr,
 }
 
@@ -33,7 +33,7 @@ pub enum ImageKind {
 pub struct ImagePlan {
     /// OpenEXR (linear floats) rather than 8-bit PNG or JPEG.
     pub exr: bool,
-    /// The EXR's extra layers: depth, normal, albedo ([`crate::aov`]).
+    /// The EXR's extra layers: depth, normal, albedo ([`crate::render::aov`]).
     pub depth: bool,
     /// See `depth`.
     pub normal: bool,
@@ -58,7 +58,7 @@ impl std::default::Default for ImagePlan {
 
 /// Bytes per pixel of the film (linear RGB, `f32`).
 const FILM_BYTES_PER_PIXEL: u64 = 12;
-/// Bytes per pixel of the extra layers' pass before it splits them ([`crate::aov::render_aovs`]:
+/// Bytes per pixel of the extra layers' pass before it splits them ([`crate::render::aov::render_aovs`]:
 /// depth, normal and albedo together).
 const AOV_PASS_BYTES_PER_PIXEL: u64 = 28;
 /// Bytes per pixel of 8-bit output: the RGB copy and the encoder's buffer.
@@ -163,7 +163,7 @@ pub fn encode_rgb8(w: &mut dyn Write, rgb: &[u8], width: u32, height: u32, kind:
         ImageKind::Jpeg => {
             image::codecs::jpeg::JpegEncoder::new_with_quality(w, 95).write_image(rgb, width, height, image::ExtendedColorType::Rgb8)
         }
-        ImageKind::Exr => return Err("EXR is not an 8-bit format; write it with crate::exr".into()),
+        ImageKind::Exr => return Err("EXR is not an 8-bit format; write it with crate::image::exr".into()),
     };
     r.map_err(|e| e.to_string())
 }
@@ -199,12 +199,12 @@ mod tests {
     /// image the pixel limit allows.
     #[test]
     fn image_memory_estimates_fit_the_default_budget() {
-        let budget = crate::load::DEFAULT_MAX_IMAGE_BYTES;
+        let budget = crate::input::limits::DEFAULT_MAX_IMAGE_BYTES;
         assert_eq!(image_bytes(1, &ImagePlan::COSTLIEST), 120);
         assert_eq!(image_bytes(1, &ImagePlan::EIGHT_BIT), 18);
         assert!(image_bytes(4096 * 4096, &ImagePlan::COSTLIEST) <= budget);
         assert!(image_bytes(4608 * 4608, &ImagePlan::COSTLIEST) > budget);
-        assert!(image_bytes(crate::load::Limits::default().max_pixels, &ImagePlan::EIGHT_BIT) <= budget);
+        assert!(image_bytes(crate::input::limits::Limits::default().max_pixels, &ImagePlan::EIGHT_BIT) <= budget);
         let half = ImagePlan { half: true, ..ImagePlan::COSTLIEST };
         assert!(image_bytes(1, &half) < image_bytes(1, &ImagePlan::COSTLIEST));
         assert_eq!(image_bytes(u64::MAX, &ImagePlan::COSTLIEST), u64::MAX);
@@ -215,7 +215,7 @@ mod tests {
     fn an_impossible_buffer_is_an_error() {
         let e = try_filled(usize::MAX / 2, 0u64, "film").unwrap_err();
         assert!(e.0.contains("out of memory for the film"), "{e}");
-        assert!(crate::film::Film::try_new(u32::MAX, u32::MAX).is_err() || usize::BITS > 64);
+        assert!(crate::image::film::Film::try_new(u32::MAX, u32::MAX).is_err() || usize::BITS > 64);
     }
     use super::*;
     use glam::Vec3;

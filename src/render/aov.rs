@@ -12,8 +12,8 @@
 //!   matte surfaces and about 1 for mirrors and glass, as the denoisers ask; the background colour
 //!   (clamped to 1) for misses.
 
-use crate::color::Color;
-use crate::output::WriteError;
+use crate::image::output::WriteError;
+use crate::math::color::Color;
 use crate::render::{RenderJob, camera_ray};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -41,7 +41,7 @@ impl Aov {
     }
 }
 
-/// The extra layers of an image, row-major like [`crate::film::Film`]; each present if asked for.
+/// The extra layers of an image, row-major like [`crate::image::film::Film`]; each present if asked for.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Aovs {
     /// Distance per pixel (+∞: nothing hit).
@@ -53,7 +53,7 @@ pub struct Aovs {
 }
 
 /// Computes the layers in `which` for `job` (in parallel on the current rayon pool). The size
-/// was budgeted at load ([`crate::load::Limits::max_image_bytes`]); see [`try_render_aovs`].
+/// was budgeted at load ([`crate::input::limits::Limits::max_image_bytes`]); see [`try_render_aovs`].
 pub fn render_aovs(job: &RenderJob, which: &[Aov]) -> Aovs {
     try_render_aovs(job, which).unwrap_or_else(|e| panic!("{e}"))
 }

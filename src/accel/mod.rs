@@ -7,11 +7,13 @@
 //! triangles, so a scene of meshes is a two-level hierarchy, and a mesh placed several times is
 //! stored once.
 
-use crate::bounds::Aabb;
-use crate::bvh::PrimitiveIndex;
-pub use crate::bvh::{AccelChoice, BuildStats, MESH_BVH_THRESHOLD, SCENE_BVH_THRESHOLD};
+pub mod bvh;
+
+use crate::accel::bvh::PrimitiveIndex;
+pub use crate::accel::bvh::{AccelChoice, BuildStats, MESH_BVH_THRESHOLD, SCENE_BVH_THRESHOLD};
 use crate::geometry::{Geometry, Hit};
-use crate::ray::Ray;
+use crate::math::bounds::Aabb;
+use crate::math::ray::Ray;
 
 /// The objects of a scene (or a subset of them) arranged for ray queries.
 #[derive(Debug)]

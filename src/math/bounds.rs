@@ -1,6 +1,6 @@
 //! Axis-aligned bounding boxes.
 
-use crate::ray::Ray;
+use crate::math::ray::Ray;
 use glam::DVec3;
 
 /// Largest coordinate magnitude of a bounded object, scene units. The hierarchy stores bounds as
@@ -24,7 +24,7 @@ pub struct Aabb {
 pub fn circle_extent(axis: DVec3, radius: f64) -> DVec3 {
     let a2 = axis * axis;
     let sin = DVec3::new(a2.y + a2.z, a2.x + a2.z, a2.x + a2.y).sqrt();
-    radius * sin * (1.0 + crate::float::gamma(4))
+    radius * sin * (1.0 + crate::math::float::gamma(4))
 }
 
 impl Aabb {
@@ -89,7 +89,7 @@ impl Aabb {
         let t0 = (self.min - ray.origin) * inv_dir;
         let t1 = (self.max - ray.origin) * inv_dir;
         let near = t0.min(t1);
-        let far = t0.max(t1) * (1.0 + 2.0 * crate::float::gamma(3));
+        let far = t0.max(t1) * (1.0 + 2.0 * crate::math::float::gamma(3));
         // NaN (0 · ∞, a ray in the plane of a face) compares false and is treated as "no limit".
         let t_near = near.max_element().max(t_min);
         let t_far = far.min_element().min(t_max);

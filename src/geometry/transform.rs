@@ -15,13 +15,13 @@
 //! with a conservative error bound, and the ray origin is moved past its own transformation
 //! error, so secondary rays still never re-hit the surface they leave.
 
-use crate::bounds::Aabb;
-use crate::error::{Result, SceneError};
-use crate::float::{DEGENERACY_TOLERANCE, gamma};
 use crate::geometry::{Geometry, Hit, Intersectable};
-use crate::material::Material;
-use crate::params::{Node, Value, vec3_of};
-use crate::ray::Ray;
+use crate::input::error::{Result, SceneError};
+use crate::input::value::{Node, Value, vec3_of};
+use crate::math::bounds::Aabb;
+use crate::math::float::{DEGENERACY_TOLERANCE, gamma};
+use crate::math::ray::Ray;
+use crate::scene::material::Material;
 use glam::{DAffine3, DMat3, DVec3};
 
 /// An invertible affine map from an object's own frame to the world.
@@ -247,7 +247,7 @@ fn parse_step(node: &Node) -> Result<DAffine3> {
     };
     for e in &t.entries {
         if !STEP_KEYS.contains(&e.key.as_str()) {
-            let hint = crate::error::did_you_mean(&e.key, STEP_KEYS.iter().copied())
+            let hint = crate::input::error::did_you_mean(&e.key, STEP_KEYS.iter().copied())
                 .map_or_else(|| format!("transform keys: {}", STEP_KEYS.join(", ")), |m| format!("did you mean `{m}`?"));
             return Err(SceneError::at(&e.key_loc, format!("unknown transform key `{}`", e.key)).with_help(hint));
         }
@@ -348,7 +348,7 @@ mod tests {
     struct Ball;
     impl Intersectable for Ball {
         fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<Hit> {
-            let (t0, t1) = crate::float::solve_quadratic(1.0, 2.0 * ray.origin.dot(ray.dir), ray.origin.length_squared() - 1.0)?;
+            let (t0, t1) = crate::math::float::solve_quadratic(1.0, 2.0 * ray.origin.dot(ray.dir), ray.origin.length_squared() - 1.0)?;
             let t = [t0, t1].into_iter().find(|&t| t > t_min && t < t_max)?;
             let p = ray.at(t).normalize();
             Some(Hit::new(t, p, DVec3::splat(1e-12)))
@@ -386,8 +386,8 @@ mod tests {
     #[test]
     fn parsing_covers_every_form_and_rejects_nonsense() {
         let parse = |text: &str| {
-            let src = crate::error::Source::new("t.toml", format!("t = {text}"));
-            let node = crate::load::parse_toml_value(&src, 4..src.text.len()).unwrap();
+            let src = crate::input::error::Source::new("t.toml", format!("t = {text}"));
+            let node = crate::input::toml::parse_toml_value(&src, 4..src.text.len()).unwrap();
             parse_transform(&node)
         };
         let t = parse("{ scale = 2, rotate = [0, 90, 0], translate = [1, 0, 0] }").unwrap();

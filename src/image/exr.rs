@@ -1,11 +1,11 @@
 //! OpenEXR output (feature `exr`): the film's linear, unclamped RGB as 32-bit floats (or half
 //! floats), with optional extra layers for denoisers: depth `Z`, `normal.X/Y/Z`, `albedo.R/G/B`
-//! ([`crate::aov`]). One part, channels by name, lossless ZIP compression; depth is always 32-bit.
+//! ([`crate::render::aov`]). One part, channels by name, lossless ZIP compression; depth is always 32-bit.
 //! Written atomically, like every raylab image.
 
-use crate::aov::Aovs;
-use crate::film::Film;
-use crate::output::{WriteError, write_atomically};
+use crate::image::film::Film;
+use crate::image::output::{WriteError, write_atomically};
+use crate::render::aov::Aovs;
 use exr::prelude::*;
 use std::path::Path;
 use std::result::Result;

@@ -1,9 +1,11 @@
 //! The surface material of the report's Phong model, extended with colour, ambient response,
 //! shininess, emission and a glossiness (blur) parameter.
 
-use crate::color::Color;
-use crate::error::{Loc, Result};
-use crate::params::{Default, ParamKind, ParamSpec, Params, Table};
+use crate::input::error::{Loc, Result};
+use crate::input::params::Params;
+use crate::input::spec::{Default, ParamKind, ParamSpec};
+use crate::input::value::Table;
+use crate::math::color::Color;
 use glam::DVec3;
 use std::collections::BTreeMap;
 

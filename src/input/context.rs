@@ -1,0 +1,262 @@
+//! What loading is told (command-line overrides, limits, the path policy) and what a plugin's
+//! constructor gets while it builds ([`LoadContext`]): the scene's folder, the sandbox every file
+//! read goes through, the memory budget, shared assets and warnings.
+
+use crate::accel::{AccelChoice, BuildStats};
+use crate::input::error::{Loc, Result, SceneError};
+use crate::input::files::{OpenLog, ReadError, read_regular};
+use crate::input::limits::Limits;
+use crate::input::value::Node;
+use crate::math::color::Encoding;
+use std::any::Any;
+use std::collections::HashMap;
+use std::path::{Component, Path, PathBuf};
+use std::sync::{Arc, Mutex};
+
+/// Settings given outside the scene file (command line), which take precedence over it.
+#[derive(Clone, Debug, std::default::Default)]
+pub struct Overrides {
+    /// Image width, pixels.
+    pub width: Option<u32>,
+    /// Image height, pixels.
+    pub height: Option<u32>,
+    /// Samples per pixel.
+    pub spp: Option<u32>,
+    /// Random seed.
+    pub seed: Option<u64>,
+    /// 8-bit encoding.
+    pub encoding: Option<Encoding>,
+    /// Integrator type; replaces the scene's integrator and its parameters.
+    pub integrator: Option<String>,
+    /// Integrator parameters, `(name, value)`, applied over the scene's.
+    pub integrator_params: Vec<(String, Node)>,
+    /// `[render]` keys, `(name, value)`, applied over the scene's (e.g. `aa`, `lens_samples`).
+    pub render_params: Vec<(String, Node)>,
+    /// Camera parameters, `(name, value)`, applied over the scene's `[camera]` (see
+    /// [`crate::scene::camera::apply_overrides`]); they also supply a camera to a scene that has none.
+    pub camera_params: Vec<(String, Node)>,
+}
+
+/// How to load a scene.
+#[derive(Clone, Debug, std::default::Default)]
+pub struct LoadOptions {
+    /// Command-line settings over the file's.
+    pub overrides: Overrides,
+    /// Size limits.
+    pub limits: Limits,
+    /// Let the scene read files outside its own folder (absolute paths, `..`). Off by default, so
+    /// untrusted scenes can be rendered safely.
+    pub allow_outside_paths: bool,
+    /// List or hierarchy, for the scene's objects and for each mesh's triangles.
+    pub accel: AccelChoice,
+    /// What will be written, for the image's memory estimate (by default the costliest: EXR with
+    /// every layer).
+    pub image: crate::image::output::ImagePlan,
+    /// Records the real path of every file the load opens (for tests of the folder confinement).
+    pub open_log: Option<OpenLog>,
+}
+
+/// Things shared by the objects of one scene while it loads: decoded assets (a mesh file placed
+/// several times is read and indexed once) and the cost of the spatial indices plugins build.
+#[derive(Default)]
+pub struct AssetCache {
+    items: Mutex<HashMap<String, Arc<dyn Any + Send + Sync>>>,
+    builds: Mutex<BuildStats>,
+}
+
+impl AssetCache {
+    /// The asset stored under `key`, or the result of `load`, stored under `key` when it
+    /// succeeds. Keys should name the resolved file and whatever else selects the asset.
+    pub fn get_or_load<T: Any + Send + Sync>(&self, key: &str, load: impl FnOnce() -> Result<T>) -> Result<Arc<T>> {
+        let found = self.items.lock().unwrap_or_else(|e| e.into_inner()).get(key).cloned();
+        if let Some(a) = found.and_then(|a| a.downcast::<T>().ok()) {
+            return Ok(a);
+        }
+        let a = Arc::new(load()?);
+        self.items.lock().unwrap_or_else(|e| e.into_inner()).insert(key.to_string(), a.clone());
+        Ok(a)
+    }
+
+    /// Records the cost of a spatial index a plugin built (for the render summary).
+    pub fn record_build(&self, stats: BuildStats) {
+        *self.builds.lock().unwrap_or_else(|e| e.into_inner()) += stats;
+    }
+
+    /// Total cost of the indices recorded so far.
+    pub fn build_stats(&self) -> BuildStats {
+        *self.builds.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+/// What a plugin constructor may use while building: where the scene is, the load options, and
+/// the assets shared by the scene's objects.
+pub struct LoadContext<'a> {
+    /// Folder of the scene file; relative asset paths resolve against it (empty: the working
+    /// folder).
+    pub scene_dir: &'a Path,
+    /// The options the scene is loaded with.
+    pub options: &'a LoadOptions,
+    /// Assets decoded once per scene, and the cost of the indices plugins build.
+    pub assets: AssetCache,
+    warnings: Mutex<Vec<SceneError>>,
+    charged: std::sync::atomic::AtomicU64,
+}
+
+impl<'a> LoadContext<'a> {
+    /// The context for a scene in `scene_dir`, with an empty asset cache.
+    pub fn new(scene_dir: &'a Path, options: &'a LoadOptions) -> Self {
+        LoadContext {
+            scene_dir,
+            options,
+            assets: AssetCache::default(),
+            warnings: Mutex::default(),
+            charged: std::sync::atomic::AtomicU64::new(0),
+        }
+    }
+
+    /// Counts `bytes` (an estimate of what is about to be allocated for `what`) against
+    /// [`Limits::max_memory`], before allocating: an error naming `what`, the estimate and the
+    /// flag when the job's running total would exceed it (then nothing is counted).
+    pub fn charge(&self, bytes: u64, what: &str, loc: Option<&Loc>) -> Result<()> {
+        use std::sync::atomic::Ordering;
+        let limit = self.options.limits.max_memory;
+        let mut total = self.charged.load(Ordering::Relaxed);
+        loop {
+            let next = total.saturating_add(bytes);
+            if next > limit {
+                let message = format!(
+                    "{what} needs about {} MB, which brings the job's estimated memory to {} MB, over the limit of {} MB",
+                    bytes.div_ceil(1 << 20),
+                    next.div_ceil(1 << 20),
+                    limit >> 20
+                );
+                let e = match loc {
+                    Some(l) => SceneError::at(l, message),
+                    None => SceneError::msg(message),
+                };
+                return Err(e.with_help("raise the limit with --max-memory (bytes)"));
+            }
+            match self.charged.compare_exchange_weak(total, next, Ordering::Relaxed, Ordering::Relaxed) {
+                Ok(_) => return Ok(()),
+                Err(t) => total = t,
+            }
+        }
+    }
+
+    /// The memory counted so far by [`LoadContext::charge`], bytes.
+    pub fn charged(&self) -> u64 {
+        self.charged.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    /// Records something the scene asks for that raylab ignores or approximates (an unsupported
+    /// feature of a file format, a value beyond what is represented): the load goes on, and the
+    /// warning reaches the user with the job ([`RenderJob::warnings`]).
+    pub fn warn(&self, warning: SceneError) {
+        self.warnings.lock().unwrap_or_else(|e| e.into_inner()).push(warning);
+    }
+
+    /// The warnings recorded so far, in order, leaving none behind.
+    pub fn take_warnings(&self) -> Vec<SceneError> {
+        std::mem::take(&mut *self.warnings.lock().unwrap_or_else(|e| e.into_inner()))
+    }
+
+    /// The scene's folder as a path that names it (`.` for the empty folder of a bare file name).
+    fn dir(&self) -> &Path {
+        if self.scene_dir.as_os_str().is_empty() { Path::new(".") } else { self.scene_dir }
+    }
+
+    /// The scene's folder, canonicalised; an error at `loc` if it cannot be (the confinement
+    /// check then cannot be made, so nothing is read).
+    fn canonical_dir(&self, loc: &Loc) -> Result<PathBuf> {
+        self.dir().canonicalize().map_err(|e| {
+            SceneError::at(loc, format!("cannot resolve the scene's folder \"{}\": {e}", self.dir().display()))
+                .with_help("files the scene names are read only once its folder is known; pass --allow-outside-paths to skip the check")
+        })
+    }
+
+    /// Resolves a path written in the scene (at `loc`) against the scene's folder, refusing
+    /// absolute paths and paths that leave the folder, through `..` or through symbolic links,
+    /// unless `allow_outside_paths` is set. Fails closed: a path whose target or folder cannot be
+    /// resolved is refused.
+    pub fn resolve_path(&self, path: &str, loc: &Loc) -> Result<PathBuf> {
+        self.check_written_path(path, loc)?;
+        let p = Path::new(path);
+        let full = self.scene_dir.join(p);
+        if !self.options.allow_outside_paths {
+            let dir = self.canonical_dir(loc)?;
+            let target =
+                self.dir().join(p).canonicalize().map_err(|e| SceneError::at(loc, format!("cannot read \"{}\": {e}", full.display())))?;
+            self.confined(&target, &dir, path, loc)?;
+        }
+        Ok(full)
+    }
+
+    /// Refuses a path as written (at `loc`) that is empty, absolute or climbs out with `..`,
+    /// unless `allow_outside_paths` is set. Looks at no file: [`LoadContext::resolve_path`] also
+    /// checks where links lead.
+    pub fn check_written_path(&self, path: &str, loc: &Loc) -> Result<()> {
+        let p = Path::new(path);
+        if path.is_empty() {
+            return Err(SceneError::at(loc, "expected a file path, found an empty string"));
+        }
+        let escapes = p.is_absolute() || p.components().any(|c| matches!(c, Component::ParentDir | Component::Prefix(_)));
+        if escapes && !self.options.allow_outside_paths {
+            return Err(SceneError::at(loc, format!("path \"{path}\" leaves the scene's folder"))
+                .with_help("scenes may only read files in their own folder; pass --allow-outside-paths to permit this"));
+        }
+        Ok(())
+    }
+
+    /// Refuses `target` (the real path of `path`) unless it is inside the canonical folder `dir`.
+    fn confined(&self, target: &Path, dir: &Path, path: &str, loc: &Loc) -> Result<()> {
+        if target.starts_with(dir) {
+            return Ok(());
+        }
+        Err(SceneError::at(loc, format!("path \"{path}\" resolves outside the scene's folder"))
+            .with_help("a symbolic link must not lead out of the folder; pass --allow-outside-paths to permit this"))
+    }
+
+    /// Reads a file the scene names (resolved with [`LoadContext::resolve_path`]): a regular file
+    /// only (not a FIFO, device or folder), refused once it holds more than
+    /// [`Limits::max_file_bytes`]. Every file a scene makes raylab read (meshes, glTF buffers, MTL
+    /// libraries) is read here.
+    pub fn read_file(&self, path: &str, loc: &Loc) -> Result<(PathBuf, Vec<u8>)> {
+        let full = self.resolve_path(path, loc)?;
+        let failed = |e: ReadError| {
+            let err = SceneError::at(loc, e.message(&format!("\"{}\"", full.display())));
+            match e.help() {
+                Some(h) => err.with_help(h),
+                None => err,
+            }
+        };
+        let opened = crate::input::files::open_regular(&full, self.options.open_log.as_ref()).map_err(failed)?;
+        if !self.options.allow_outside_paths {
+            // The file opened is the one checked, even if a link changed in between.
+            let dir = self.canonical_dir(loc)?;
+            match &opened.real_path {
+                Some(real) => self.confined(real, &dir, path, loc)?,
+                None => return Err(SceneError::at(loc, format!("cannot resolve \"{}\" once opened", full.display()))),
+            }
+        }
+        let bytes = opened.read_to_end(self.options.limits.max_file_bytes).map_err(failed)?;
+        Ok((full, bytes))
+    }
+}
+
+/// The folder of the scene file `path`, against which the scene's paths resolve: empty for a bare
+/// file name, which [`LoadContext`] takes as the working folder.
+pub fn scene_dir(path: &Path) -> &Path {
+    path.parent().unwrap_or(Path::new(""))
+}
+
+/// Reads a file the user names on the command line (a scene, a reference image): a regular file
+/// only, at most `limit` bytes; the error message calls it `what`.
+pub fn read_user_file(path: &Path, what: &str, limit: u64, log: Option<&OpenLog>) -> Result<Vec<u8>> {
+    read_regular(path, limit, log).map_err(|e| {
+        let err = SceneError::in_file(path, None, e.message(what));
+        match e.help() {
+            Some(h) => err.with_help(h),
+            None => err,
+        }
+    })
+}

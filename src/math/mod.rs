@@ -1,0 +1,6 @@
+//! Numbers, rays, boxes and colours: the vocabulary every other part speaks.
+
+pub mod bounds;
+pub mod color;
+pub mod float;
+pub mod ray;
