@@ -115,6 +115,8 @@ bunny_round() { # RUN THREADS
     "$EMBREE" render "$WORK/bunny/stanford-bunny.obj" "${SHOT[@]}" --threads "$t" --ppm "$WORK/embree-bunny.ppm" >"$log"
     record bunny "$t" "$i" embree3 rays_per_s "$(kv "$log" rays_per_s_wall)"
     record bunny "$t" "$i" embree3 trace_s "$(kv "$log" trace_s)"
+    record bunny "$t" "$i" embree3 camera_per_s "$(kv "$log" camera_rays_per_s_cpu)"
+    record bunny "$t" "$i" embree3 shadow_per_s "$(kv "$log" shadow_rays_per_s_cpu)"
     "$EMBREE" render "$WORK/bunny/stanford-bunny.obj" "${SHOT[@]}" --threads "$t" --robust >"$log"
     record bunny "$t" "$i" embree3-robust rays_per_s "$(kv "$log" rays_per_s_wall)"
     if [ "$HAVE_EMBREEX" = 1 ]; then
@@ -211,14 +213,38 @@ say "== equal work (one render each)"
 } >"$WORK/equal.md"
 if [ -n "${KEEP_IMAGES:-}" ]; then mkdir -p "$KEEP_IMAGES" && cp "$WORK"/*.png "$KEEP_IMAGES"/ && say "images kept in $KEEP_IMAGES"; fi
 
+# CPU time of the whole machine and of this script with its children, in clock ticks: their
+# difference is what other processes took (processes of other sandboxes on the same VM too, which
+# `top` does not show). Before each round the script waits (up to QUIET_WAIT s, default 120) for
+# a second in which others took < 2 % of one core, and it records what they took during the round.
+machine_ticks() { awk '/^cpu / {print $2 + $3 + $4 + $7 + $8 + $9}' /proc/stat; }
+own_ticks() { awk '{print $14 + $15 + $16 + $17}' "/proc/$$/stat"; }
+HZ=$(getconf CLK_TCK)
+QUIET_WAIT=${QUIET_WAIT:-120}
+wait_quiet() {
+    local start=$SECONDS m
+    while :; do
+        m=$(machine_ticks); sleep 1
+        (( $(machine_ticks) - m < HZ / 50 + 1 )) && return 0
+        if (( SECONDS - start > QUIET_WAIT )); then say "   (no quiet second within ${QUIET_WAIT} s: measuring anyway)"; return 0; fi
+    done
+}
+# measured WORKLOAD THREADS RUN COMMAND…: a round after a quiet second, recording others' CPU-s.
+measured() {
+    local w=$1 t=$2 i=$3 m0 o0; shift 3
+    wait_quiet
+    m0=$(machine_ticks) o0=$(own_ticks)
+    "$@"
+    record "$w" "$t" "$i" others cpu_s "$(awk -v x="$(( $(machine_ticks) - m0 - ($(own_ticks) - o0) ))" -v hz="$HZ" 'BEGIN {print (x < 0 ? 0 : x) / hz}')"
+}
 say "== $RUNS alternating runs (load: $(cut -d' ' -f1-3 /proc/loadavg))"
 for i in $(seq 1 "$RUNS"); do
     for t in $THREADS; do
-        say "   run $i, $t thread(s): bunny"; bunny_round "$i" "$t"
-        say "   run $i, $t thread(s): raylab bench vs Embree (no plane)"; bench_round "$i" "$t"
-        for sc in dozen whitted; do say "   run $i, $t thread(s): $sc"; whitted_round "$sc" "$i" "$t"; done
+        say "   run $i, $t thread(s): bunny"; measured bunny "$t" "$i" bunny_round "$i" "$t"
+        say "   run $i, $t thread(s): raylab bench vs Embree (no plane)"; measured bench "$t" "$i" bench_round "$i" "$t"
+        for sc in dozen whitted; do say "   run $i, $t thread(s): $sc"; measured "$sc" "$t" "$i" whitted_round "$sc" "$i" "$t"; done
     done
-    say "   run $i: load + build of the 1.1M-triangle OBJ"; load_round "$i"
+    say "   run $i: load + build of the 1.1M-triangle OBJ"; measured load 2 "$i" load_round "$i"
 done
 LOAD_END=$(cut -d' ' -f1-3 /proc/loadavg)
 

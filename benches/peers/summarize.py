@@ -44,7 +44,15 @@ def main():
     threads = sorted({k[1] for k in v if k[0] == "bunny"})
     out = []
     p = out.append
+    others = {k: d for k, d in v.items() if k[2] == "others"}
+    total = sum(x for d in others.values() for x in d.values())
+    worst = max(((x, k[0], k[1], i) for k, d in others.items() for i, x in d.items()), default=None)
     p(f"{runs} runs per row, alternating; whole run {int(seconds) // 60} min {int(seconds) % 60} s; load average at the end {load_end}.")
+    if worst:
+        p(
+            f"Other processes on the machine took {total:.1f} CPU-s during the rounds in all; the most in one round "
+            f"{worst[0]:.2f} CPU-s ({worst[1]}, {worst[2]} thread(s), run {worst[3]}). Each round waited for a quiet second first."
+        )
     p("")
     p(open(equal).read().rstrip())
     p("")
@@ -74,6 +82,10 @@ def main():
         pk = ("bunny", t, "embreex4-run-calls", "rays_per_s")
         if pk in v:
             p(f"| {t} | (embreex's `run` calls alone, without the numpy glue, from CPU time: {fmt(med(pk), 'M')} rays/s) | | | |")
+    for t in threads:
+        a, b = ("bunny", t, "embree3", "camera_per_s"), ("bunny", t, "embree3", "shadow_per_s")
+        if a in v:
+            p(f"| {t} | (Embree 3 per phase, CPU time: camera {fmt(med(a), 'M')}, shadow {fmt(med(b), 'M')} rays/s; shadow ÷ camera {ratio(b, a)}) | | | |")
     p("")
     p("### `raylab bench` on the bunny (no ground plane) against the Embree harness on the same shot, rays/s from the threads' CPU time")
     p("")
