@@ -9,6 +9,9 @@ import statistics
 import sys
 from collections import defaultdict
 
+# Rounds in which other processes took at most this much CPU time count as quiet.
+QUIET_CPU_S = 0.1
+
 
 def main():
     results, equal, runs, seconds, load_end = sys.argv[1:6]
@@ -23,14 +26,24 @@ def main():
         xs = list(v.get(key, {}).values())
         return statistics.median(xs) if xs else None
 
+    def quiet(key, i):
+        return v.get((key[0], key[1], "others", "cpu_s"), {}).get(i, 0.0) <= QUIET_CPU_S
+
     def ratio(a, b, invert=False):
-        """Per-run a/b (or b/a), as 'median (min–max)'."""
+        """Per-run a/b (or b/a), as 'median (min–max)'; when some rounds were disturbed by other
+        processes, also the median over the quiet rounds alone."""
         A, B = v.get(a, {}), v.get(b, {})
-        rs = [(B[i] / A[i]) if invert else (A[i] / B[i]) for i in A if i in B and A[i] > 0 and B[i] > 0]
+        runs_ = [i for i in A if i in B and A[i] > 0 and B[i] > 0]
+        rs = {i: (B[i] / A[i]) if invert else (A[i] / B[i]) for i in runs_}
         if not rs:
             return "–"
-        m = statistics.median(rs)
-        return f"**{m:.2f}** ({min(rs):.2f}–{max(rs):.2f})" if len(rs) > 1 else f"**{m:.2f}**"
+        xs = list(rs.values())
+        m = statistics.median(xs)
+        text = f"**{m:.2f}** ({min(xs):.2f}–{max(xs):.2f})" if len(xs) > 1 else f"**{m:.2f}**"
+        calm = [rs[i] for i in runs_ if quiet(a, i)]
+        if 0 < len(calm) < len(xs):
+            text += f"; quiet rounds {statistics.median(calm):.2f} [{len(calm)}/{len(xs)}]"
+        return text
 
     def fmt(x, unit=""):
         if x is None:
@@ -51,7 +64,8 @@ def main():
     if worst:
         p(
             f"Other processes on the machine took {total:.1f} CPU-s during the rounds in all; the most in one round "
-            f"{worst[0]:.2f} CPU-s ({worst[1]}, {worst[2]} thread(s), run {worst[3]}). Each round waited for a quiet second first."
+            f"{worst[0]:.2f} CPU-s ({worst[1]}, {worst[2]} thread(s), run {worst[3]}). Each round waited for a quiet second first; "
+            f"where some rounds of a row were disturbed (others > {QUIET_CPU_S} CPU-s), the median of the quiet ones follows as `quiet rounds R [n/N]`."
         )
     p("")
     p(open(equal).read().rstrip())
