@@ -42,7 +42,7 @@ pub(crate) fn run(app: &App, a: ConvertArgs) -> Result<(), Failure> {
     println!(
         "wrote {} ({} objects, {} lights) from {}",
         a.output.display(),
-        job.scene.geometries.len(),
+        job.scene.objects.len(),
         job.scene.lights.len(),
         a.scene.display()
     );
