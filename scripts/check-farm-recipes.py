@@ -142,7 +142,8 @@ def check_openjd():
     tiles = 5
     with tempfile.TemporaryDirectory() as out:
         command = [openjd, "run", str(OPENJD), "--step", "Merge", "--run-dependencies"]
-        command += ["-p", f"Tiles={tiles}", "-p", f"OutputDir={out}"]
+        scene = FARM.parent.parent / "scenes" / "cornell.toml"
+        command += ["-p", f"Tiles={tiles}", "-p", f"Scene={scene}", "-p", f"OutputDir={out}"]
         run = subprocess.run(command, capture_output=True, text=True)
         if run.returncode != 0:
             fail(f"openjd run exited {run.returncode}:\n{run.stdout[-3000:]}{run.stderr[-2000:]}")

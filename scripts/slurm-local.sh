@@ -80,6 +80,8 @@ check_settings() {
     raylab)
       [ -x "$RAYLAB" ] || die "RAYLAB=$RAYLAB is not an executable (build it: cargo build --release --features mesh,bvh,exr)"
       [ -f "$SCENE" ] || die "SCENE=$SCENE is not a file"
+      # The jobs run in FARM_OUT, so relative paths would point elsewhere there.
+      RAYLAB=$(realpath -e "$RAYLAB") SCENE=$(realpath -e "$SCENE")
       "$RAYLAB" render --help | grep -q -- '--tile' ||
         die "$RAYLAB has no 'render --tile' (issue 13): only FARM_JOB=stand-in works with it"
       ;;
