@@ -26,6 +26,7 @@
 #                  must hold no part-* files from an earlier run
 #   KEEP_STATE     1: keep SLURM_LOCAL_DIR after a successful run (it is always kept on failure)
 #   SLURMCTLD_PORT, SLURMD_PORT  TCP ports on 127.0.0.1 (default 6817, 6818)
+#   FARM_FAIL_TILE this tile exits 1, to see the failure path (the merge is cancelled, exit 1)
 #
 # As root (a container, CI) nothing else is needed. As another user: slurm-wlm and munge must be
 # installed already (or sudo work without a password), and the jobs run as that same user (slurmd
