@@ -7,8 +7,8 @@ use raylab::glam::DVec3;
 use raylab::input::context::{LoadOptions, Overrides};
 use raylab::input::load::load_file;
 use raylab::input::value::{Node, Value};
-use raylab::render::sample::{explain_sample, pixel_samples};
 use raylab::render::{RenderOptions, render};
+use raylab::render::{explain_sample, pixel_samples};
 use std::path::Path;
 
 fn quality(aa: &str) -> raylab::RenderJob {

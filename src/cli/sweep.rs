@@ -167,7 +167,7 @@ pub(crate) fn run(app: &App, a: SweepArgs) -> Result<(), Failure> {
         "results": outcomes,
     });
     let text = serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?;
-    crate::image::output::write_atomically(&a.out.join("results.json"), |f| f.write_all(text.as_bytes()).map_err(|e| e.to_string()))
+    crate::image::write::write_atomically(&a.out.join("results.json"), |f| f.write_all(text.as_bytes()).map_err(|e| e.to_string()))
         .map_err(|e| e.to_string())?;
 
     let series = curves(&knobs, &outcomes, metric, a.one_at_a_time);
@@ -531,7 +531,7 @@ fn write_csv(path: &Path, knobs: &[Knob], outcomes: &[Outcome]) -> Result<(), Fa
             o.seconds, o.rays, o.error.rmse, o.error.psnr, o.error.ssim, o.dssim, o.pareto
         );
     }
-    crate::image::output::write_atomically(path, |f| f.write_all(text.as_bytes()).map_err(|e| e.to_string()))
+    crate::image::write::write_atomically(path, |f| f.write_all(text.as_bytes()).map_err(|e| e.to_string()))
         .map_err(|e| e.to_string().into())
 }
 

@@ -2,8 +2,9 @@
 
 use super::{App, Failure, SceneArgs};
 use crate::math::ray::Ray;
-use crate::render::sample::{SampleId, explain_sample, pixel_samples};
+use crate::render::sample::SampleId;
 use crate::render::sampler::Sampler;
+use crate::render::{explain_sample, pixel_samples};
 use clap::Args;
 use glam::DVec3;
 use std::path::PathBuf;

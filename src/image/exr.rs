@@ -5,7 +5,7 @@
 
 use crate::image::film::Film;
 use crate::image::layers::Aovs;
-use crate::image::output::{WriteError, write_atomically};
+use crate::image::write::{WriteError, write_atomically};
 use exr::prelude::*;
 use std::path::Path;
 use std::result::Result;

@@ -8,3 +8,4 @@ pub mod layers;
 pub mod metrics;
 pub mod output;
 pub mod reference;
+pub mod write;

@@ -9,9 +9,9 @@
 //! global ([`SampleId::Lattice`]), so a point's value does not depend on the tile that traces it.
 
 use crate::math::color::Color;
+use crate::render::job::{MAX_ADAPTIVE_DEPTH, RenderJob};
 use crate::render::sample::{LayerSum, SampleId, SampleSum, trace_sample};
 use crate::render::stats::RayStats;
-use crate::render::{MAX_ADAPTIVE_DEPTH, RenderJob};
 use glam::DVec3;
 use std::collections::HashMap;
 
@@ -127,10 +127,9 @@ impl<'a> Adaptive<'a> {
         if let Some(v) = self.cache.get(&key) {
             return *v;
         }
-        let mut acc = SampleSum::default();
-        trace_sample(self.job, SampleId::Lattice { x, y, depth: self.depth }, &mut acc, stats, self.layers);
-        let rays = acc.layers.weight;
-        let layers = if rays > 0.0 { acc.layers.scaled(1.0 / rays) } else { LayerSum::default() };
+        let (mut acc, mut sums) = (SampleSum::default(), LayerSum::default());
+        trace_sample(self.job, SampleId::Lattice { x, y, depth: self.depth }, &mut acc, self.layers.then_some(&mut sums), stats);
+        let layers = if sums.weight > 0.0 { sums.scaled(1.0 / sums.weight) } else { LayerSum::default() };
         let v = Value { color: acc.mean(), layers };
         self.cache.insert(key, v);
         v

@@ -16,96 +16,23 @@
 pub mod adaptive;
 pub mod aov;
 pub mod integrator;
+pub mod job;
 pub mod sample;
 pub mod sampler;
 pub mod stats;
 pub mod trace;
 
+pub use job::{Antialiasing, MAX_ADAPTIVE_DEPTH, RenderJob, RenderSettings, TILE_SIZE};
+
 use crate::image::film::Film;
 use crate::image::layers::Aovs;
-use crate::math::color::Encoding;
 use crate::render::adaptive::Adaptive;
-use crate::render::integrator::Integrator;
-use crate::render::sample::{SampleId, SampleSum, trace_sample};
+use crate::render::sample::{LayerSum, SampleId, SampleSum, camera_rays, trace_sample};
 use crate::render::stats::RayStats;
-use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
-
-/// How pixels are sampled.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-#[serde(tag = "mode", rename_all = "lowercase")]
-pub enum Antialiasing {
-    /// `spp` samples per pixel: the centre for 1, stratified (correlated multi-jitter) for more.
-    Stratified,
-    /// Recursive corner subdivision where neighbouring samples disagree (see the module docs).
-    Adaptive {
-        /// Split a square when its corners' displayed values (clamped, encoded, 0..1) differ by
-        /// more than this in any channel.
-        threshold: f64,
-        /// Most subdivision levels per pixel (0 = the four corners only).
-        max_depth: u32,
-    },
-}
-
-/// Most adaptive subdivision levels (a 256 × 256 sub-grid per pixel).
-pub const MAX_ADAPTIVE_DEPTH: u32 = 8;
-
-/// Image and sampling settings of a render.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RenderSettings {
-    /// Image width, pixels (≥ 1).
-    pub width: u32,
-    /// Image height, pixels (≥ 1).
-    pub height: u32,
-    /// Samples per pixel (≥ 1) for stratified anti-aliasing. One sample goes through the pixel
-    /// centre; more are stratified. Unused by adaptive anti-aliasing.
-    pub spp: u32,
-    /// Random seed: same seed, same image.
-    pub seed: u64,
-    /// How 8-bit output encodes linear values (adaptive anti-aliasing compares encoded values).
-    pub encoding: Encoding,
-    /// Anti-aliasing scheme.
-    pub aa: Antialiasing,
-    /// Rays through distinct lens points per image sample (≥ 1), stratified over the lens; only
-    /// used when the camera has an aperture.
-    pub lens_samples: u32,
-}
-
-impl RenderSettings {
-    /// Settings with stratified sampling at `spp`, seed 0, sRGB output and one lens sample.
-    pub fn new(width: u32, height: u32, spp: u32) -> Self {
-        RenderSettings { width, height, spp, seed: 0, encoding: Encoding::Srgb, aa: Antialiasing::Stratified, lens_samples: 1 }
-    }
-
-    /// A short description: `16 spp` or `adaptive (threshold 0.05, depth 3)`, plus lens samples.
-    pub fn describe_sampling(&self) -> String {
-        let aa = match self.aa {
-            Antialiasing::Stratified => format!("{} spp", self.spp),
-            Antialiasing::Adaptive { threshold, max_depth } => format!("adaptive AA (threshold {threshold}, depth {max_depth})"),
-        };
-        if self.lens_samples > 1 { format!("{aa}, {} lens samples", self.lens_samples) } else { aa }
-    }
-}
-
-/// A scene ready to render: the scene, its integrator and its settings.
-pub struct RenderJob {
-    /// The scene.
-    pub scene: Scene,
-    /// The integrator.
-    pub integrator: Box<dyn Integrator>,
-    /// The integrator's type name.
-    pub integrator_name: String,
-    /// Image and sampling settings.
-    pub settings: RenderSettings,
-    /// What loading ignored or approximated, to show the user (see [`crate::input::context::LoadContext::warn`]).
-    pub warnings: Vec<crate::input::error::SceneError>,
-}
-
-/// Edge of the square tiles the image is split into, pixels.
-pub const TILE_SIZE: u32 = 16;
 
 /// How to run a render (not part of the scene: results do not depend on these).
 #[derive(Clone, Copy, Debug, Default)]
@@ -199,6 +126,8 @@ impl Tile {
 struct TileState {
     tile: Tile,
     pixels: Vec<SampleSum>,
+    /// Per pixel, the layers' sums (empty unless asked for).
+    layers: Vec<LayerSum>,
     stats: RayStats,
     done: bool,
 }
@@ -237,11 +166,10 @@ fn render_passes(
     let counters = job.integrator.counters();
     let mut states: Vec<TileState> = tiles(s.width, s.height)
         .into_iter()
-        .map(|tile| TileState {
-            tile,
-            pixels: vec![SampleSum::default(); tile.pixels() as usize],
-            stats: RayStats::new(counters),
-            done: false,
+        .map(|tile| {
+            let n = tile.pixels() as usize;
+            let layers = if options.layers { vec![LayerSum::default(); n] } else { Vec::new() };
+            TileState { tile, pixels: vec![SampleSum::default(); n], layers, stats: RayStats::new(counters), done: false }
         })
         .collect();
     let pixels = u64::from(s.width) * u64::from(s.height);
@@ -294,16 +222,16 @@ fn render_passes(
 }
 
 /// The mean layers of every pixel, row-major.
-fn layers_of(states: &[TileState], width: u32, height: u32) -> Result<Aovs, crate::image::output::WriteError> {
+fn layers_of(states: &[TileState], width: u32, height: u32) -> Result<Aovs, crate::image::write::WriteError> {
     let n = width as usize * height as usize;
-    let mut depth = crate::image::output::try_filled(n, f32::INFINITY, "depth layer")?;
-    let mut normal = crate::image::output::try_filled(n, Vec3::ZERO, "normal layer")?;
-    let mut albedo = crate::image::output::try_filled(n, Vec3::ZERO, "albedo layer")?;
+    let mut depth = crate::image::write::try_filled(n, f32::INFINITY, "depth layer")?;
+    let mut normal = crate::image::write::try_filled(n, Vec3::ZERO, "normal layer")?;
+    let mut albedo = crate::image::write::try_filled(n, Vec3::ZERO, "albedo layer")?;
     for st in states {
-        for (i, p) in st.pixels.iter().enumerate() {
+        for (i, p) in st.layers.iter().enumerate() {
             let (x, y) = st.tile.pixel(i);
             let k = y as usize * width as usize + x as usize;
-            (depth[k], normal[k], albedo[k]) = p.layers.mean();
+            (depth[k], normal[k], albedo[k]) = p.mean();
         }
     }
     Ok(Aovs { depth: Some(depth), normal: Some(normal), albedo: Some(albedo) })
@@ -319,7 +247,7 @@ fn stratified_tile(job: &RenderJob, st: &mut TileState, samples: std::ops::Range
         }
         let (x, y) = st.tile.pixel(i);
         for index in samples.clone() {
-            trace_sample(job, SampleId::Pixel { x, y, index }, acc, &mut st.stats, options.layers);
+            trace_sample(job, SampleId::Pixel { x, y, index }, acc, st.layers.get_mut(i), &mut st.stats);
         }
     }
     true
@@ -332,7 +260,10 @@ fn adaptive_tile(job: &RenderJob, st: &mut TileState, threshold: f64, max_depth:
     for (i, acc) in st.pixels.iter_mut().enumerate() {
         let (x, y) = t.pixel(i);
         let v = scheme.pixel(x, y, &mut st.stats);
-        *acc = SampleSum { sum: v.color, n: 1, layers: v.layers };
+        *acc = SampleSum { sum: v.color, n: 1 };
+        if let Some(l) = st.layers.get_mut(i) {
+            *l = v.layers;
+        }
     }
 }
 
@@ -341,9 +272,32 @@ fn adaptive_tile(job: &RenderJob, st: &mut TileState, threshold: f64, max_depth:
 pub fn render_pixel(job: &RenderJob, x: u32, y: u32, stats: &mut RayStats) -> Vec3 {
     let mut acc = SampleSum::default();
     for index in 0..job.settings.spp {
-        trace_sample(job, SampleId::Pixel { x, y, index }, &mut acc, stats, false);
+        trace_sample(job, SampleId::Pixel { x, y, index }, &mut acc, None, stats);
     }
     acc.mean().as_vec3()
+}
+
+/// The samples pixel (`x`, `y`) of `job` is made of, each with its weight in the pixel's colour
+/// (the weights sum to 1): its `spp` stratified samples, or the adaptive lattice points the
+/// scheme traced for it (which this traces to decide).
+pub fn pixel_samples(job: &RenderJob, x: u32, y: u32) -> Vec<(SampleId, f64)> {
+    match job.settings.aa {
+        Antialiasing::Stratified => {
+            let spp = job.settings.spp.max(1);
+            (0..spp).map(|index| (SampleId::Pixel { x, y, index }, 1.0 / f64::from(spp))).collect()
+        }
+        Antialiasing::Adaptive { threshold, max_depth } => {
+            let mut stats = RayStats::new(job.integrator.counters());
+            Adaptive::new(job, threshold, max_depth, 9, false).pixel_samples(x, y, &mut stats)
+        }
+    }
+}
+
+/// The explanation of sample `id` of `job`: one ray tree per camera ray (per lens point), each
+/// computed with the camera ray and random stream the render used; `None` when the integrator
+/// cannot explain itself.
+pub fn explain_sample(job: &RenderJob, id: SampleId) -> Option<Vec<crate::render::trace::TraceNode>> {
+    camera_rays(job, id).map(|(ray, mut sampler)| job.integrator.explain(&job.scene, &ray, &mut sampler)).collect()
 }
 
 #[cfg(test)]

@@ -4,11 +4,11 @@
 
 use crate::math::color::Color;
 use crate::math::ray::Ray;
-use crate::render::RenderJob;
 use crate::render::aov::Layers;
+use crate::render::job::RenderJob;
 use crate::render::sampler::{Sampler, mix64, stratified_2d};
 use crate::render::stats::RayStats;
-use glam::{DVec2, DVec3, Vec3};
+use glam::{DVec2, Vec3};
 use serde::Serialize;
 
 /// One image sample.
@@ -118,19 +118,20 @@ pub fn camera_rays(job: &RenderJob, id: SampleId) -> CameraRays<'_> {
 }
 
 /// The depth, normal and albedo of what camera rays saw first, summed with weights (every field
-/// is linear, so sums of sums and weighted means combine exactly as colours do).
+/// is linear, so sums of sums and weighted means combine exactly as colours do). `f32`, like the
+/// layers written: the sums of a pixel's samples lose nothing an EXR keeps.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct LayerSum {
     /// Σ weight × depth over the rays that hit something.
-    pub depth: f64,
+    pub depth: f32,
     /// Σ weight over the rays that hit something.
-    pub hits: f64,
+    pub hits: f32,
     /// Σ weight × shading normal (zero for misses).
-    pub normal: DVec3,
+    pub normal: Vec3,
     /// Σ weight × albedo.
-    pub albedo: DVec3,
+    pub albedo: Vec3,
     /// Σ weight.
-    pub weight: f64,
+    pub weight: f32,
 }
 
 impl LayerSum {
@@ -139,28 +140,24 @@ impl LayerSum {
     pub fn of(l: &Layers) -> Self {
         let hit = l.depth.is_finite();
         LayerSum {
-            depth: if hit { l.depth } else { 0.0 },
+            depth: if hit { l.depth as f32 } else { 0.0 },
             hits: if hit { 1.0 } else { 0.0 },
-            normal: l.normal,
-            albedo: l.albedo,
+            normal: l.normal.as_vec3(),
+            albedo: l.albedo.as_vec3(),
             weight: 1.0,
         }
     }
 
     /// These sums scaled by `w`.
     #[inline]
-    pub fn scaled(&self, w: f64) -> Self {
+    pub fn scaled(&self, w: f32) -> Self {
         LayerSum { depth: self.depth * w, hits: self.hits * w, normal: self.normal * w, albedo: self.albedo * w, weight: self.weight * w }
     }
 
     /// The mean layers: depth over the rays that hit (+∞ when none did), normal and albedo over all.
     pub fn mean(&self) -> (f32, Vec3, Vec3) {
-        let depth = if self.hits > 0.0 { (self.depth / self.hits) as f32 } else { f32::INFINITY };
-        if self.weight > 0.0 {
-            (depth, (self.normal / self.weight).as_vec3(), (self.albedo / self.weight).as_vec3())
-        } else {
-            (depth, Vec3::ZERO, Vec3::ZERO)
-        }
+        let depth = if self.hits > 0.0 { self.depth / self.hits } else { f32::INFINITY };
+        if self.weight > 0.0 { (depth, self.normal / self.weight, self.albedo / self.weight) } else { (depth, Vec3::ZERO, Vec3::ZERO) }
     }
 }
 
@@ -185,16 +182,13 @@ impl std::ops::AddAssign for LayerSum {
     }
 }
 
-/// The finite radiance values of some camera rays, summed, with their count; and their layers
-/// when asked for.
+/// The finite radiance values of some camera rays, summed, with their count.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SampleSum {
     /// Σ radiance of the rays whose radiance was finite.
     pub sum: Color,
     /// How many that was.
     pub n: u32,
-    /// The rays' layers (zero unless asked for).
-    pub layers: LayerSum,
 }
 
 impl SampleSum {
@@ -207,9 +201,9 @@ impl SampleSum {
 
 /// Traces sample `id` of `job` (every camera ray of it) and adds the result to `acc`; non-finite
 /// radiance is counted in `stats` and dropped. With `layers`, each ray's first surface is added
-/// too.
+/// to it too.
 #[inline]
-pub fn trace_sample(job: &RenderJob, id: SampleId, acc: &mut SampleSum, stats: &mut RayStats, layers: bool) {
+pub fn trace_sample(job: &RenderJob, id: SampleId, acc: &mut SampleSum, mut layers: Option<&mut LayerSum>, stats: &mut RayStats) {
     for (ray, mut sampler) in camera_rays(job, id) {
         let mut first = Layers::miss(job.scene.background);
         stats.camera_rays += 1;
@@ -220,31 +214,8 @@ pub fn trace_sample(job: &RenderJob, id: SampleId, acc: &mut SampleSum, stats: &
         } else {
             stats.nonfinite_samples += 1;
         }
-        if layers {
-            acc.layers += LayerSum::of(&first);
+        if let Some(l) = layers.as_deref_mut() {
+            *l += LayerSum::of(&first);
         }
     }
-}
-
-/// The samples pixel (`x`, `y`) of `job` is made of, each with its weight in the pixel's colour
-/// (the weights sum to 1): its `spp` stratified samples, or the adaptive lattice points the
-/// scheme traced for it (which this traces to decide).
-pub fn pixel_samples(job: &RenderJob, x: u32, y: u32) -> Vec<(SampleId, f64)> {
-    match job.settings.aa {
-        crate::render::Antialiasing::Stratified => {
-            let spp = job.settings.spp.max(1);
-            (0..spp).map(|index| (SampleId::Pixel { x, y, index }, 1.0 / f64::from(spp))).collect()
-        }
-        crate::render::Antialiasing::Adaptive { threshold, max_depth } => {
-            let mut stats = RayStats::new(job.integrator.counters());
-            crate::render::adaptive::Adaptive::new(job, threshold, max_depth, 9, false).pixel_samples(x, y, &mut stats)
-        }
-    }
-}
-
-/// The explanation of sample `id` of `job`: one ray tree per camera ray (per lens point), each
-/// computed with the camera ray and random stream the render used; `None` when the integrator
-/// cannot explain itself.
-pub fn explain_sample(job: &RenderJob, id: SampleId) -> Option<Vec<crate::render::trace::TraceNode>> {
-    camera_rays(job, id).map(|(ray, mut sampler)| job.integrator.explain(&job.scene, &ray, &mut sampler)).collect()
 }
