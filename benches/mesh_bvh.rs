@@ -5,11 +5,11 @@
 //! `cargo bench -p raylab-plugins --features mesh,bvh`
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use raylab::Ray;
 use raylab::accel::AccelChoice;
 use raylab::geometry::{Geometry, Intersectable};
 use raylab::glam::DVec3;
 use raylab::math::float::offset_ray_origin;
-use raylab::{Material, Ray};
 use raylab_plugins::mesh::MeshObject;
 use raylab_plugins::mesh::triangle_mesh::{MeshData, Normals, TriangleMesh};
 use std::hint::black_box;
@@ -66,7 +66,7 @@ fn meshes(c: &mut Criterion) {
             b.iter(|| TriangleMesh::new(black_box(d.clone()), Normals::Flat, AccelChoice::Bvh).unwrap())
         });
         build.finish();
-        let mesh = MeshObject::new(Arc::new(TriangleMesh::new(data, Normals::Flat, AccelChoice::Bvh).unwrap()), vec![Material::default()]);
+        let mesh = MeshObject::new(Arc::new(TriangleMesh::new(data, Normals::Flat, AccelChoice::Bvh).unwrap()));
         let shadow: Vec<Ray> = rays
             .iter()
             .filter_map(|r| mesh.intersect(r, 0.0, f64::INFINITY).map(|h| (h, r)))

@@ -4,7 +4,7 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use raylab::glam::DVec3;
 use raylab::input::context::{LoadOptions, Overrides};
-use raylab::{Intersectable, Material, Ray};
+use raylab::{Intersectable, Ray};
 use std::hint::black_box;
 use std::path::Path;
 
@@ -23,15 +23,11 @@ fn frames(c: &mut Criterion) {
 
 fn intersections(c: &mut Criterion) {
     use raylab_plugins::shapes::{cylinder::Cylinder, plane::Plane, sphere::Sphere, triangle::Triangle};
-    let m = Material::default();
     let shapes: Vec<(&str, Box<dyn Intersectable>)> = vec![
-        ("sphere", Box::new(Sphere::new(DVec3::ZERO, 1.0, m.clone()))),
-        ("plane", Box::new(Plane::new(DVec3::ZERO, DVec3::Z, m.clone()))),
-        (
-            "triangle",
-            Box::new(Triangle::new(DVec3::new(-1.0, -1.0, 0.0), DVec3::new(1.0, -1.0, 0.0), DVec3::new(0.0, 1.0, 0.0), m.clone()).unwrap()),
-        ),
-        ("cylinder", Box::new(Cylinder::new(DVec3::new(0.0, -1.0, 0.0), DVec3::Y, 1.0, Some(2.0), m))),
+        ("sphere", Box::new(Sphere::new(DVec3::ZERO, 1.0))),
+        ("plane", Box::new(Plane::new(DVec3::ZERO, DVec3::Z))),
+        ("triangle", Box::new(Triangle::new(DVec3::new(-1.0, -1.0, 0.0), DVec3::new(1.0, -1.0, 0.0), DVec3::new(0.0, 1.0, 0.0)).unwrap())),
+        ("cylinder", Box::new(Cylinder::new(DVec3::new(0.0, -1.0, 0.0), DVec3::Y, 1.0, Some(2.0)))),
     ];
     // 1024 rays from z = 5 toward a 3×3 square at z = 0: about half hit each shape.
     let rays: Vec<Ray> = (0..1024)

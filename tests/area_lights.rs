@@ -68,19 +68,24 @@ fn a_zero_radius_ball_is_the_point_light() {
     let a = render(&scene(true, point, (16, 12), ""), &RenderOptions::default(), &|_, _| {}).unwrap();
     let b = render(&scene(true, ball, (16, 12), ""), &RenderOptions::default(), &|_, _| {}).unwrap();
     assert_eq!(a.film, b.film);
-    assert_eq!(a.stats.shadow_rays, b.stats.shadow_rays, "a point light takes one shadow ray");
+    assert_eq!(a.stats.get("shadow_rays"), b.stats.get("shadow_rays"), "a point light takes one shadow ray");
 }
 
 #[test]
 fn adaptive_shadow_rays_save_work_outside_penumbrae() {
     let full = render(&scene(true, RECT, (32, 24), ""), &RenderOptions::default(), &|_, _| {}).unwrap();
     let adaptive = render(&scene(true, RECT, (32, 24), "shadow_probes = 4"), &RenderOptions::default(), &|_, _| {}).unwrap();
-    assert!(adaptive.stats.shadow_rays_saved > 0);
-    assert!(adaptive.stats.shadow_rays * 4 < full.stats.shadow_rays * 3, "{} vs {}", adaptive.stats.shadow_rays, full.stats.shadow_rays);
+    assert!(adaptive.stats.get("shadow_rays_saved") > 0);
+    assert!(
+        adaptive.stats.get("shadow_rays") * 4 < full.stats.get("shadow_rays") * 3,
+        "{} vs {}",
+        adaptive.stats.get("shadow_rays"),
+        full.stats.get("shadow_rays")
+    );
     let worst = full.film.pixels.iter().zip(&adaptive.film.pixels).map(|(a, b)| (*a - *b).abs().max_element()).fold(0f32, f32::max);
     let brightest = full.film.pixels.iter().map(|p| p.max_element()).fold(0f32, f32::max);
     assert!(worst < 0.1 * brightest, "adaptive shadows differ by {worst} (brightest {brightest})");
     // The override of each light's own count.
     let overridden = render(&scene(true, RECT, (32, 24), "shadow_rays = 8"), &RenderOptions::default(), &|_, _| {}).unwrap();
-    assert!(overridden.stats.shadow_rays * 4 < full.stats.shadow_rays);
+    assert!(overridden.stats.get("shadow_rays") * 4 < full.stats.get("shadow_rays"));
 }

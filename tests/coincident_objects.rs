@@ -2,12 +2,13 @@
 //! and by the hundred thousand through scene text, build a hierarchy of bounded depth (once a
 //! stack overflow, an abort) that finds the same closest hit as the list.
 
+use raylab::Intersectable;
+use raylab::Ray;
 use raylab::accel::{AccelChoice, ObjectAccel};
 use raylab::geometry::Geometry;
 use raylab::glam::DVec3;
 use raylab::input::context::LoadOptions;
 use raylab::input::load::load_str;
-use raylab::{Material, Ray};
 use raylab_plugins::shapes::sphere::Sphere;
 use std::path::Path;
 
@@ -19,24 +20,26 @@ fn rays() -> [Ray; 2] {
 #[test]
 fn a_million_identical_spheres_index_in_every_mode() {
     let n = 1_000_000;
-    let mut spheres: Vec<Box<dyn Geometry>> = (0..n).map(|_| Box::new(Sphere::new(DVec3::ZERO, 1.0, Material::default())) as _).collect();
+    let mut spheres: Vec<Box<dyn Geometry>> = (0..n).map(|_| Box::new(Sphere::new(DVec3::ZERO, 1.0)) as _).collect();
     // One smaller sphere in front of them, the only closest hit along the axis.
-    spheres.push(Box::new(Sphere::new(DVec3::new(0.0, 0.0, -2.0), 0.5, Material::default())));
-    let refs: Vec<&dyn Geometry> = spheres.iter().map(|b| b.as_ref()).collect();
-    let (list, _) = ObjectAccel::build(&refs, |_| true, AccelChoice::List);
+    spheres.push(Box::new(Sphere::new(DVec3::new(0.0, 0.0, -2.0), 0.5)));
+    let boxes: Vec<_> = spheres.iter().map(|g| g.bounds()).collect();
+    let (list, _) = ObjectAccel::build(&boxes, |_| true, AccelChoice::List);
+    let list = list.over(&spheres);
     for choice in [AccelChoice::Auto, AccelChoice::Bvh] {
-        let (accel, _) = ObjectAccel::build(&refs, |_| true, choice);
-        assert_eq!(accel.is_bvh(), raylab::accel::bvh::BVH_AVAILABLE, "{choice:?}");
+        let (built, _) = ObjectAccel::build(&boxes, |_| true, choice);
+        let accel = built.over(&spheres);
+        assert_eq!(built.is_bvh(), raylab::accel::bvh::BVH_AVAILABLE, "{choice:?}");
         let [axis, beside] = rays();
-        let hit = accel.intersect(&spheres, &axis, 0.0, f64::INFINITY).expect("the front sphere");
+        let hit = accel.intersect(&axis, 0.0, f64::INFINITY).expect("the front sphere");
         assert_eq!((hit.object, hit.t), (n, 7.5), "{choice:?}");
-        assert!(accel.intersect(&spheres, &beside, 0.0, f64::INFINITY).is_none(), "{choice:?}");
+        assert!(accel.intersect(&beside, 0.0, f64::INFINITY).is_none(), "{choice:?}");
         // Off-axis, through the identical spheres only: the list's distance.
         let ray = Ray::new(DVec3::new(0.7, 0.0, -10.0), DVec3::Z);
-        let (a, b) = (accel.intersect(&spheres, &ray, 0.0, f64::INFINITY), list.intersect(&spheres, &ray, 0.0, f64::INFINITY));
+        let (a, b) = (accel.intersect(&ray, 0.0, f64::INFINITY), list.intersect(&ray, 0.0, f64::INFINITY));
         assert_eq!(a.map(|h| h.t), b.map(|h| h.t), "{choice:?}");
         assert!(a.is_some_and(|h| h.object < n), "{choice:?}");
-        assert!(accel.occluded(&spheres, &ray, 0.0, f64::INFINITY), "{choice:?}");
+        assert!(accel.occludes(&ray, 0.0, f64::INFINITY), "{choice:?}");
     }
 }
 

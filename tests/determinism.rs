@@ -12,7 +12,7 @@ fn render_with(scene: &str, threads: usize, seed: u64) -> raylab::Film {
         ..Default::default()
     };
     let job = raylab::input::load::load_file(&registry, &path, &opts).unwrap_or_else(|e| panic!("{}", e.report()));
-    render(&job, &RenderOptions { threads: Some(threads), cancel: None }, &|_, _| {}).expect("render").film
+    render(&job, &RenderOptions { threads: Some(threads), ..RenderOptions::default() }, &|_, _| {}).expect("render").film
 }
 
 #[test]

@@ -4,7 +4,6 @@
 
 use raylab::input::context::{LoadOptions, Overrides};
 use raylab::input::load::load_str;
-use raylab::render::aov::{Aov, render_aovs};
 use raylab::render::{RenderOptions, render};
 use std::path::Path;
 
@@ -51,7 +50,9 @@ fn exr_and_png_of_one_render_agree_after_clamping_and_encoding() {
 fn layers_hold_depth_normal_and_albedo() {
     let job = showcase();
     let film = render(&job, &RenderOptions::default(), &|_, _| {}).unwrap().film;
-    let aovs = render_aovs(&job, &[Aov::Depth, Aov::Normal, Aov::Albedo]);
+    let with_layers = render(&job, &RenderOptions { layers: true, ..RenderOptions::default() }, &|_, _| {}).unwrap();
+    assert_eq!(with_layers.film, film, "the layers come from the same samples and do not change the image");
+    let aovs = with_layers.layers.expect("layers were asked for");
     let (depth, normal, albedo) = (aovs.depth.as_ref().unwrap(), aovs.normal.as_ref().unwrap(), aovs.albedo.as_ref().unwrap());
     let n = film.pixels.len();
     assert_eq!((depth.len(), normal.len(), albedo.len()), (n, n, n));

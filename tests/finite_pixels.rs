@@ -159,7 +159,7 @@ proptest! {
                 return Ok(());
             }
         };
-        let rendered = render(&job, &RenderOptions { threads: Some(1), cancel: None }, &|_, _| {}).unwrap();
+        let rendered = render(&job, &RenderOptions { threads: Some(1), ..RenderOptions::default() }, &|_, _| {}).unwrap();
         prop_assert_eq!(rendered.stats.nonfinite_samples, 0, "non-finite samples in:\n{}", text);
         prop_assert!(rendered.film.pixels.iter().all(|p| p.is_finite()), "non-finite pixel in:\n{}", text);
     }

@@ -44,7 +44,7 @@ fn render_small(path: &Path) -> (u32, u32, Vec<u8>) {
 
 fn write_png(path: &Path, w: u32, h: u32, rgb: &[u8]) {
     std::fs::create_dir_all(path.parent().unwrap()).unwrap();
-    raylab::image::output::write_atomically(path, |out| {
+    raylab::image::write::write_atomically(path, |out| {
         raylab::image::output::encode_rgb8(out, rgb, w, h, raylab::image::output::ImageKind::Png)
     })
     .unwrap();

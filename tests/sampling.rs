@@ -16,7 +16,7 @@ fn job(text: &str) -> RenderJob {
 }
 
 fn run(job: &RenderJob, threads: Option<usize>) -> Rendered {
-    render(job, &RenderOptions { threads, cancel: None }, &|_, _| {}).unwrap()
+    render(job, &RenderOptions { threads, ..RenderOptions::default() }, &|_, _| {}).unwrap()
 }
 
 /// Hard edges at many angles: spheres, a tilted triangle and a plane's horizon, in contrasting

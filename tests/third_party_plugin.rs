@@ -7,10 +7,10 @@ use raylab::input::context::LoadOptions;
 use raylab::input::error::Result;
 use raylab::input::load::load_str;
 use raylab::input::params::Params;
-use raylab::input::spec::{Default, MATERIAL_PARAM, ParamKind, ParamSpec};
+use raylab::input::spec::{Default, ParamKind, ParamSpec};
 use raylab::math::float::gamma;
 use raylab::render::{RenderOptions, render};
-use raylab::{Aabb, Geometry, Hit, Intersectable, LoadContext, Material, PluginInfo, Ray, Registry};
+use raylab::{Aabb, Geometry, Hit, Intersectable, LoadContext, PluginInfo, Ray, Registry};
 use std::path::Path;
 
 /// A flat round disc: the tiny third-party geometry.
@@ -18,7 +18,6 @@ struct Disc {
     center: DVec3,
     normal: DVec3,
     radius: f64,
-    material: Material,
 }
 
 const DISC: PluginInfo = PluginInfo {
@@ -28,17 +27,11 @@ const DISC: PluginInfo = PluginInfo {
         ParamSpec::new("center", ParamKind::Vec3, Default::Vec3([0.0, 0.0, 0.0]), "centre"),
         ParamSpec::new("normal", ParamKind::Vec3, Default::Vec3([0.0, 0.0, 1.0]), "the side it faces"),
         ParamSpec::new("radius", ParamKind::Float, Default::Float(1.0), "radius, > 0"),
-        MATERIAL_PARAM,
     ],
 };
 
 fn build_disc(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Geometry>> {
-    Ok(Box::new(Disc {
-        center: p.vec3("center")?,
-        normal: p.direction("normal")?,
-        radius: p.positive("radius")?,
-        material: p.material("material")?,
-    }))
+    Ok(Box::new(Disc { center: p.vec3("center")?, normal: p.direction("normal")?, radius: p.positive("radius")? }))
 }
 
 impl Intersectable for Disc {
@@ -69,9 +62,6 @@ impl Intersectable for Disc {
 impl Geometry for Disc {
     fn outward_normal(&self, _: &Hit) -> DVec3 {
         self.normal
-    }
-    fn material(&self) -> &Material {
-        &self.material
     }
     fn bounds(&self) -> Option<Aabb> {
         Some(Aabb::new(self.center - DVec3::splat(self.radius), self.center + DVec3::splat(self.radius)))
@@ -121,7 +111,7 @@ fn a_geometry_defined_outside_raylab_renders_from_a_scene_file() {
 #[test]
 fn the_plugin_gets_the_same_checks_and_listing_as_built_ins() {
     let reg = registry();
-    assert!(reg.geometries().any(|p| p.name == "disc" && p.params.len() == 4));
+    assert!(reg.geometries().any(|p| p.name == "disc" && p.params.len() == 3));
     let typo = SCENE.replace("radius = 1", "radus = 1");
     let e = load_str(&reg, "disc.toml", &typo, Path::new("."), &LoadOptions::default()).err().expect("a typo is an error");
     assert_eq!(e.where_().as_deref(), Some("disc.toml:16:1"), "{}", e.report());
@@ -146,7 +136,7 @@ impl raylab::geometry::testing::ExactSurface for ExactDisc {
 
 #[test]
 fn the_reusable_property_checks_apply() {
-    let disc = Disc { center: DVec3::new(1.0, 2.0, 3.0), normal: DVec3::Z, radius: 2.0, material: Material::default() };
+    let disc = Disc { center: DVec3::new(1.0, 2.0, 3.0), normal: DVec3::Z, radius: 2.0 };
     for i in 0..200 {
         let a = f64::from(i) * 0.1;
         let target = disc.center + 1.9 * f64::from(i % 7) / 6.0 * DVec3::new(a.cos(), a.sin(), 0.0);

@@ -3,7 +3,9 @@
 use raylab::input::error::Result;
 use raylab::input::params::Params;
 use raylab::input::spec::{Default, ParamKind, ParamSpec};
-use raylab::render::trace::TraceHit;
+use raylab::render::aov::Layers;
+use raylab::render::trace::{NoRecord, Recorder};
+use raylab::scene::interaction::Interaction;
 use raylab::{Color, Integrator, LoadContext, PluginInfo, Ray, RayKind, RayStats, Sampler, Scene, TraceNode};
 
 /// Shows the direction-aware normal: `(n + 1) / 2` as RGB (x → red, y → green, z → blue).
@@ -49,25 +51,32 @@ pub fn build_depth(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Integrator
     Ok(Box::new(Depth { far }))
 }
 
-fn explain_one(scene: &Scene, ray: &Ray, color: impl Fn(&Scene, f64, raylab::glam::DVec3) -> Color) -> TraceNode {
+/// One hit, coloured by `color(scene, interaction)`: the whole of both views, for rendering and
+/// explaining alike.
+fn first_hit<R: Recorder>(scene: &Scene, ray: &Ray, layers: &mut Layers, rec: &mut R, color: impl Fn(&Interaction) -> Color) -> Color {
+    let Some(si) = scene.trace(ray) else {
+        rec.color(Color::ZERO);
+        return Color::ZERO;
+    };
+    let c = color(&si);
+    *layers = Layers::surface(&si, c);
+    rec.hit(&si);
+    rec.color(c);
+    c
+}
+
+fn explain_one(scene: &Scene, ray: &Ray, color: impl Fn(&Interaction) -> Color) -> TraceNode {
     let mut node = TraceNode::new(RayKind::Camera, *ray, 0, Color::ONE);
-    if let Some(h) = scene.intersect(ray, 0.0, f64::INFINITY) {
-        let hit = TraceHit::new(scene, &h, ray.dir);
-        node.color = color(scene, h.t, scene.geometries[h.object as usize].shading_normal(&h, ray.dir));
-        node.hit = Some(hit);
-    }
+    first_hit(scene, ray, &mut Layers::miss(scene.background), &mut node, color);
     node
 }
 
 impl Integrator for Normals {
-    fn radiance(&self, scene: &Scene, ray: &Ray, _: &mut Sampler, _: &mut RayStats) -> Color {
-        match scene.intersect(ray, 0.0, f64::INFINITY) {
-            Some(h) => (scene.geometries[h.object as usize].shading_normal(&h, ray.dir) + Color::ONE) * 0.5,
-            None => Color::ZERO,
-        }
+    fn radiance(&self, scene: &Scene, ray: &Ray, _: &mut Sampler, _: &mut RayStats, layers: &mut Layers) -> Color {
+        first_hit(scene, ray, layers, &mut NoRecord, |si| (si.ns + Color::ONE) * 0.5)
     }
     fn explain(&self, scene: &Scene, ray: &Ray, _: &mut Sampler) -> Option<TraceNode> {
-        Some(explain_one(scene, ray, |_, _, n| (n + Color::ONE) * 0.5))
+        Some(explain_one(scene, ray, |si| (si.ns + Color::ONE) * 0.5))
     }
     fn worst_case_rays(&self, _: &Scene) -> f64 {
         1.0
@@ -101,14 +110,11 @@ impl Depth {
 }
 
 impl Integrator for Depth {
-    fn radiance(&self, scene: &Scene, ray: &Ray, _: &mut Sampler, _: &mut RayStats) -> Color {
-        match scene.intersect(ray, 0.0, f64::INFINITY) {
-            Some(h) => self.shade(scene, h.t),
-            None => Color::ZERO,
-        }
+    fn radiance(&self, scene: &Scene, ray: &Ray, _: &mut Sampler, _: &mut RayStats, layers: &mut Layers) -> Color {
+        first_hit(scene, ray, layers, &mut NoRecord, |si| self.shade(scene, si.hit.t))
     }
     fn explain(&self, scene: &Scene, ray: &Ray, _: &mut Sampler) -> Option<TraceNode> {
-        Some(explain_one(scene, ray, |s, t, _| self.shade(s, t)))
+        Some(explain_one(scene, ray, |si| self.shade(scene, si.hit.t)))
     }
     fn worst_case_rays(&self, _: &Scene) -> f64 {
         1.0

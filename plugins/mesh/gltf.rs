@@ -1111,7 +1111,7 @@ mod tests {
         let text = doc(&format!("[{}]", nodes.join(",")), "");
         let (job, _) = load_scene("many.gltf", &text, raylab::input::limits::Limits::default());
         let job = job.unwrap();
-        assert_eq!(job.scene.geometries.len(), N);
+        assert_eq!(job.scene.objects.len(), N);
         let builds = job.scene.accel_summary().object_builds;
         assert!(builds.primitives <= 1, "the triangle was indexed {} times", builds.primitives);
         let limits = raylab::input::limits::Limits { max_triangles: N as u64 - 1, ..raylab::input::limits::Limits::default() };

@@ -11,7 +11,7 @@ pub mod triangle_mesh;
 pub mod triangulate;
 
 use raylab::geometry::transform::{Transform, Transformed};
-use raylab::geometry::{Geometry, Hit, Intersectable, face_forward};
+use raylab::geometry::{Geometry, Hit, Intersectable, Surface, face_forward};
 use raylab::glam::DVec3;
 use raylab::input::error::{Loc, Result, SceneError};
 use raylab::input::params::Params;
@@ -45,12 +45,6 @@ pub const INFO: PluginInfo = PluginInfo {
             ParamKind::Str,
             Default::Str("auto"),
             "\"auto\" (the file's vertex normals if any, else flat), \"flat\", or \"smooth\" (the file's, else computed)",
-        ),
-        ParamSpec::new(
-            "material",
-            ParamKind::Material,
-            Default::Optional,
-            "replaces the file's materials; default: the file's (MTL, glTF), else the scene's `default`",
         ),
     ],
 };
@@ -107,12 +101,11 @@ pub fn build(p: &mut Params, ctx: &LoadContext) -> Result<Box<dyn Geometry>> {
         "smooth" => Normals::Smooth,
         _ => Normals::Auto,
     };
-    let given = p.has("material");
-    let fallback = p.material("material")?;
-    let mesh = load_mesh(ctx, &file, &loc, selection, normals, !given).map_err(|e| e.context(p.what()))?;
-    // The file's materials stay in the shared mesh: an instance copies none.
-    let materials = if given || mesh.materials().is_empty() { vec![fallback] } else { Vec::new() };
-    let object = MeshObject { mesh, materials };
+    // An object's `material` replaces the file's (the loader attaches it): then the file's
+    // material libraries are not read.
+    let file_materials = !p.has("material");
+    let mesh = load_mesh(ctx, &file, &loc, selection, normals, file_materials).map_err(|e| e.context(p.what()))?;
+    let object = MeshObject::new(mesh);
     Ok(match placement {
         Some(t) => Box::new(Transformed::new(object, t)),
         None => Box::new(object),
@@ -196,30 +189,21 @@ pub fn mesh_from_bytes(ctx: &LoadContext, name: &str, ext: &str, bytes: &[u8]) -
     TriangleMesh::new(data, Normals::Smooth, ctx.options.accel).map_err(|e| SceneError::in_file(name, None, e.to_string()))
 }
 
-/// A mesh placed in a scene, with its materials.
+/// A mesh as a scene object's shape (the triangle store is shared by every object placing it).
 #[derive(Debug)]
 pub struct MeshObject {
     mesh: Arc<TriangleMesh>,
-    /// One material for the whole mesh, or the file's, indexed by triangle; empty: the mesh's own
-    /// (shared by every object placing it).
-    materials: Vec<Material>,
 }
 
 impl MeshObject {
-    /// A placed mesh: `materials` has one entry for the whole mesh, or one per file material.
-    pub fn new(mesh: Arc<TriangleMesh>, materials: Vec<Material>) -> Self {
-        let materials = if materials.is_empty() { vec![Material::default()] } else { materials };
-        MeshObject { mesh, materials }
+    /// The mesh as a shape.
+    pub fn new(mesh: Arc<TriangleMesh>) -> Self {
+        MeshObject { mesh }
     }
 
     /// The shared triangle store.
     pub fn mesh(&self) -> &Arc<TriangleMesh> {
         &self.mesh
-    }
-
-    /// The materials in use: the object's, else the mesh's (never empty).
-    fn materials(&self) -> &[Material] {
-        if self.materials.is_empty() { self.mesh.materials() } else { &self.materials }
     }
 }
 
@@ -238,25 +222,21 @@ impl Geometry for MeshObject {
     fn outward_normal(&self, at: &Hit) -> DVec3 {
         self.mesh.geometric_normal(at.prim)
     }
-    fn shading_normal(&self, at: &Hit, dir: DVec3) -> DVec3 {
-        let ng = self.normal(at, dir);
-        match self.mesh.interpolated_normal(at) {
-            Some(ns) => face_forward(ns, -ng),
-            None => ng,
-        }
+    /// The interpolated vertex normal as shading normal (on the side the ray came from), and
+    /// the triangle's material slot.
+    #[inline]
+    fn surface(&self, at: &Hit, dir: DVec3) -> Surface {
+        let outward = self.mesh.geometric_normal(at.prim);
+        let front_face = outward.dot(dir) < 0.0;
+        let n = if front_face { outward } else { -outward };
+        let ns = match self.mesh.interpolated_normal(at) {
+            Some(ns) => face_forward(ns, -n),
+            None => n,
+        };
+        Surface { n, ns, front_face, uv: at.uv, local: at.point, material: self.mesh.material_id(at.prim) as u32 }
     }
-    fn material(&self) -> &Material {
-        &self.materials()[0]
-    }
-    fn material_at(&self, at: &Hit) -> &Material {
-        let m = self.materials();
-        if m.len() == 1 {
-            return &m[0];
-        }
-        m.get(self.mesh.material_id(at.prim)).unwrap_or(&m[0])
-    }
-    fn may_transmit(&self) -> bool {
-        self.materials().iter().any(Material::is_transmissive)
+    fn materials(&self) -> Option<Arc<[Material]>> {
+        self.mesh.materials().cloned()
     }
     fn bounds(&self) -> Option<Aabb> {
         Some(self.mesh.bounds())

@@ -17,7 +17,7 @@ use raylab::geometry::Hit;
 use raylab::glam::{DVec2, DVec3, Vec3};
 use raylab::math::float::on_surface_slack;
 use raylab::{Aabb, Ray};
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock};
 
 /// A mesh as a loader produces it: indexed triangles with optional vertex normals and materials.
 #[derive(Clone, Debug, Default)]
@@ -97,8 +97,8 @@ pub struct TriangleMesh {
     shading: Option<Shading>,
     /// Per stored triangle, its material index (empty when the mesh has one material).
     material_ids: Vec<u32>,
-    /// The file's materials.
-    materials: Vec<Material>,
+    /// The file's materials (empty: none), shared by every object placing the mesh.
+    materials: Option<Arc<[Material]>>,
     /// Input triangles that were dropped as degenerate.
     degenerate: usize,
     bounds: Aabb,
@@ -168,6 +168,7 @@ impl TriangleMesh {
             (Vec::new(), materials)
         };
         let bounds = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(*b));
+        let materials = (!materials.is_empty()).then(|| Arc::from(materials));
         let mut mesh = TriangleMesh { tris, index, shading, material_ids, materials, degenerate, bounds, closed: OnceLock::new(), build };
         // Reported per triangle: the whole store, not only the hierarchy's nodes.
         mesh.build.primitives = mesh.tris.len() as u64;
@@ -200,9 +201,9 @@ impl TriangleMesh {
         self.build
     }
 
-    /// The file's materials.
-    pub fn materials(&self) -> &[Material] {
-        &self.materials
+    /// The file's materials (`None`: the file defines none).
+    pub fn materials(&self) -> Option<&Arc<[Material]>> {
+        self.materials.as_ref()
     }
 
     /// True when the mesh has vertex normals for shading.

@@ -13,10 +13,10 @@ use raylab::geometry::{Geometry, Hit, Intersectable};
 use raylab::glam::{DVec2, DVec3};
 use raylab::input::error::Result;
 use raylab::input::params::Params;
-use raylab::input::spec::{Default, MATERIAL_PARAM, ParamKind, ParamSpec};
+use raylab::input::spec::{Default, ParamKind, ParamSpec};
 use raylab::math::bounds::circle_extent;
 use raylab::math::float::{gamma, max_abs, on_surface_slack};
-use raylab::{Aabb, LoadContext, Material, PluginInfo, Ray};
+use raylab::{Aabb, LoadContext, PluginInfo, Ray};
 
 /// `Hit::prim` of a hit on the side.
 pub const SIDE: u32 = 0;
@@ -36,7 +36,6 @@ pub struct Cylinder {
     /// Largest `|d − (d·a)a|` that is rounding noise (the axis is unit only to rounding): a ray
     /// within it is parallel to the axis.
     parallel_noise: f64,
-    material: Material,
 }
 
 /// The `cylinder` plugin's description.
@@ -53,7 +52,6 @@ pub const INFO: PluginInfo = PluginInfo {
         ),
         ParamSpec::new("height", ParamKind::Float, Default::Float(1.0), "distance between the caps, scene units, > 0"),
         ParamSpec::new("radius", ParamKind::Float, Default::Float(1.0), "radius, scene units, > 0"),
-        MATERIAL_PARAM,
     ],
 };
 
@@ -65,7 +63,6 @@ pub const TUBE_INFO: PluginInfo = PluginInfo {
         ParamSpec::new("point", ParamKind::Vec3, Default::Vec3([0.0, 0.0, 0.0]), "a point on the axis"),
         ParamSpec::new("axis", ParamKind::Vec3, Default::Vec3([0.0, 1.0, 0.0]), "axis direction (any length > 0)"),
         ParamSpec::new("radius", ParamKind::Float, Default::Float(1.0), "radius, scene units, > 0"),
-        MATERIAL_PARAM,
     ],
 };
 
@@ -75,7 +72,7 @@ pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Geometry>> {
     let axis = p.direction("axis")?;
     let height = p.positive("height")?;
     let radius = p.positive("radius")?;
-    Ok(Box::new(Cylinder::new(base, axis, radius, Some(height), p.material("material")?)))
+    Ok(Box::new(Cylinder::new(base, axis, radius, Some(height))))
 }
 
 /// Builds an infinite tube from its parameters.
@@ -83,14 +80,14 @@ pub fn build_tube(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Geometry>> 
     let point = p.vec3("point")?;
     let axis = p.direction("axis")?;
     let radius = p.positive("radius")?;
-    Ok(Box::new(Cylinder::new(point, axis, radius, None, p.material("material")?)))
+    Ok(Box::new(Cylinder::new(point, axis, radius, None)))
 }
 
 impl Cylinder {
     /// A cylinder; `axis` must be unit length, `radius` and `height` finite and > 0.
-    pub fn new(base: DVec3, axis: DVec3, radius: f64, height: Option<f64>, material: Material) -> Self {
+    pub fn new(base: DVec3, axis: DVec3, radius: f64, height: Option<f64>) -> Self {
         let parallel_noise = gamma(6) + 2.0 * (axis.length_squared() - 1.0).abs();
-        Cylinder { base, axis, radius, height, parallel_noise, material }
+        Cylinder { base, axis, radius, height, parallel_noise }
     }
 
     fn side_hit(&self, ray: &Ray, f: DVec3, t: f64) -> Hit {
@@ -204,9 +201,6 @@ impl Geometry for Cylinder {
             }
         }
     }
-    fn material(&self) -> &Material {
-        &self.material
-    }
     fn bounds(&self) -> Option<Aabb> {
         let h = self.height?;
         // Bounding box of the two cap discs.
@@ -232,7 +226,7 @@ mod tests {
     fn shape(capped: bool) -> impl Strategy<Value = (Cylinder, ExactCylinder, f64)> {
         (scale(), cube(), unit(), 0.05..2.0f64, 0.05..3.0f64).prop_map(move |(s, c, axis, r, h)| {
             let e = ExactCylinder { base: 5.0 * s * c, axis, radius: s * r, height: capped.then_some(s * h) };
-            let g = Cylinder::new(e.base, e.axis, e.radius, e.height, Material::default());
+            let g = Cylinder::new(e.base, e.axis, e.radius, e.height);
             (g, e, max_abs(e.base) + e.radius + e.height.unwrap_or(0.0))
         })
     }
@@ -356,7 +350,7 @@ mod tests {
                 prop_assert!(hits.is_empty());
             }
             // A tube has no caps: the same ray misses it.
-            let tube = Cylinder::new(e.base, e.axis, e.radius, None, Material::default());
+            let tube = Cylinder::new(e.base, e.axis, e.radius, None);
             prop_assert!(tube.intersect(&ray, 0.0, f64::INFINITY).is_none());
         }
 
@@ -441,7 +435,7 @@ mod tests {
 
     fn unit_cylinder() -> (Cylinder, ExactCylinder) {
         let e = ExactCylinder { base: DVec3::ZERO, axis: DVec3::Y, radius: 1.0, height: Some(2.0) };
-        (Cylinder::new(e.base, e.axis, e.radius, e.height, Material::default()), e)
+        (Cylinder::new(e.base, e.axis, e.radius, e.height), e)
     }
 
     fn hits(g: &Cylinder, e: &ExactCylinder, ray: &Ray) -> Vec<Hit> {
@@ -476,7 +470,7 @@ mod tests {
         let (lo, hi) = (DVec3::new(-1.0, 0.0, -1.0), DVec3::new(1.0, 2.0, 1.0));
         assert!(b.min.cmple(lo).all() && b.max.cmpge(hi).all(), "{b:?}");
         assert!((b.min - lo).abs().max_element() < 1e-15 && (b.max - hi).abs().max_element() < 1e-15, "{b:?}");
-        let tube = Cylinder::new(DVec3::ZERO, DVec3::Y, 1.0, None, Material::default());
+        let tube = Cylinder::new(DVec3::ZERO, DVec3::Y, 1.0, None);
         assert!(!tube.is_closed() && tube.bounds().is_none());
         // Far along the axis, the tube is still there.
         let far = Ray::new(DVec3::new(5.0, 1e6, 0.0), -DVec3::X);
@@ -518,7 +512,7 @@ mod tests {
     #[test]
     fn a_ray_starting_on_a_tube_hits_only_the_far_side() {
         let e = ExactCylinder { base: DVec3::ZERO, axis: DVec3::Y, radius: 1.0, height: None };
-        let tube = Cylinder::new(e.base, e.axis, e.radius, None, Material::default());
+        let tube = Cylinder::new(e.base, e.axis, e.radius, None);
         let inward = Ray::new(DVec3::new(-1.0, 7.0, 0.0), DVec3::new(1.0, 0.5, 0.0));
         let found = hits(&tube, &e, &inward);
         assert_eq!(found.len(), 1);
@@ -536,7 +530,7 @@ mod tests {
     #[test]
     fn bounds_hold_the_rim_for_a_nearly_axis_aligned_axis() {
         let axis = DVec3::new(1e-8, 0.0, -1.0).normalize();
-        let c = Cylinder::new(DVec3::new(-252681.6, -2e5, 0.0), axis, 4e5, Some(4e5), Material::default());
+        let c = Cylinder::new(DVec3::new(-252681.6, -2e5, 0.0), axis, 4e5, Some(4e5));
         let b = c.bounds().unwrap();
         let rim_top = c.base + 4e5 * DVec3::X.reject_from_normalized(axis).normalize();
         assert!(b.contains(rim_top), "{rim_top} outside {b:?}");
@@ -554,7 +548,7 @@ mod tests {
     fn bad_case_a_ray_from_the_side_hit_it_again() {
         let axis = DVec3::new(0.3000282715879019, -0.8800120058287808, 0.3681873243950449);
         let e = ExactCylinder { base: DVec3::new(0.0, 0.0, -4.441711640535202), axis, radius: 0.05, height: Some(0.39880737980527237) };
-        let g = Cylinder::new(e.base, e.axis, e.radius, e.height, Material::default());
+        let g = Cylinder::new(e.base, e.axis, e.radius, e.height);
         let start = e.base + 0.16090993414494115 * e.height.unwrap() * axis + e.radius * perpendicular(axis, 2.0853621691237145);
         let found = hits(&g, &e, &Ray::new(start, DVec3::X));
         assert_eq!(found.len(), 1, "{found:?}");
@@ -569,10 +563,10 @@ mod tests {
             DVec3::new(0.9224005862007832, 0.0, 0.3862345900828302),
             DVec3::new(0.807691151622583, 0.45161682161361233, 0.37904782023671485),
         ] {
-            let tube = Cylinder::new(DVec3::ZERO, axis, 5e-5, None, Material::default());
+            let tube = Cylinder::new(DVec3::ZERO, axis, 5e-5, None);
             let ray = Ray { origin: 1.001 * 5e-5 * axis, dir: -axis };
             assert_eq!(tube.intersect(&ray, 0.0, f64::INFINITY), None);
-            let capped = Cylinder::new(DVec3::ZERO, axis, 5e-5, Some(5e-5), Material::default());
+            let capped = Cylinder::new(DVec3::ZERO, axis, 5e-5, Some(5e-5));
             assert_eq!(capped.intersect(&ray, 0.0, f64::INFINITY).map(|h| h.prim), Some(TOP_CAP));
         }
     }
@@ -584,7 +578,7 @@ mod tests {
     fn bad_case_a_ray_entering_at_the_rim_slipped_through() {
         let axis = DVec3::new(0.7888914169617218, 0.0, 0.6145326128401382);
         let e = ExactCylinder { base: DVec3::ZERO, axis, radius: 0.05, height: Some(2.635690655089092) };
-        let g = Cylinder::new(e.base, e.axis, e.radius, e.height, Material::default());
+        let g = Cylinder::new(e.base, e.axis, e.radius, e.height);
         let rim = e.height.unwrap() * axis + e.radius * perpendicular(axis, 4.21603005964019);
         let origin = rim + 0.2 * e.height.unwrap() * DVec3::new(-0.27466060064896114, -0.7935698964667327, 0.5429625897545165);
         let ray = Ray::new(origin, rim - origin);

@@ -23,7 +23,7 @@ use super::triangle::{EdgeRule, Triangle};
 use raylab::geometry::testing::{ExactSurface, Tolerance, Violation, check_hits_ascending};
 use raylab::glam::DVec3;
 use raylab::math::float::{MACHINE_EPSILON, NORMAL_TOLERANCE, SURFACE_TOLERANCE, max_abs, triangle_normal};
-use raylab::{Geometry, Hit, Material, Ray};
+use raylab::{Geometry, Hit, Ray};
 
 /// Reads the input a byte at a time; zeros once it is used up.
 struct Bytes<'a>(&'a [u8]);
@@ -68,7 +68,6 @@ fn decode(b: &mut Bytes) -> Option<(Case, DVec3, f64)> {
     let s = 10f64.powi(i32::from(b.u8() % 13) - 6);
     let far = if b.u8() & 1 == 1 { b.vec3(1e3 * s) } else { DVec3::ZERO };
     let center = far + b.vec3(s);
-    let m = Material::default;
     let size = |b: &mut Bytes| Some(b.number(s).abs()).filter(|r| *r > 0.0);
     let case = match b.u8() % 9 {
         0 => {
@@ -76,7 +75,7 @@ fn decode(b: &mut Bytes) -> Option<(Case, DVec3, f64)> {
             Case {
                 name: "plane",
                 curvature_radius: f64::INFINITY,
-                g: Box::new(Plane::new(center, normal, m())),
+                g: Box::new(Plane::new(center, normal)),
                 exact: Box::new(ExactPlane { point: center, normal }),
                 magnitude: max_abs(center) + s,
                 max_hits: 1,
@@ -88,7 +87,7 @@ fn decode(b: &mut Bytes) -> Option<(Case, DVec3, f64)> {
             Case {
                 name: "sphere",
                 curvature_radius: radius,
-                g: Box::new(Sphere::new(center, radius, m())),
+                g: Box::new(Sphere::new(center, radius)),
                 exact: Box::new(ExactSphere { center, radius }),
                 magnitude: max_abs(center) + radius,
                 max_hits: 2,
@@ -97,7 +96,7 @@ fn decode(b: &mut Bytes) -> Option<(Case, DVec3, f64)> {
         }
         2 => {
             let (radius, open) = (size(b)?, b.direction()?);
-            let g = Box::new(Hemisphere::new(center, radius, open, m()));
+            let g = Box::new(Hemisphere::new(center, radius, open));
             Case {
                 name: "hemisphere",
                 curvature_radius: radius,
@@ -111,7 +110,7 @@ fn decode(b: &mut Bytes) -> Option<(Case, DVec3, f64)> {
         k @ (3 | 4) => {
             let p = [center + b.vec3(s), center + b.vec3(s), center + b.vec3(s)];
             let rule = if k == 3 { EdgeRule::Exclusive } else { EdgeRule::Inclusive };
-            let g = Box::new(Triangle::with_edges(p[0], p[1], p[2], rule, m())?);
+            let g = Box::new(Triangle::with_edges(p[0], p[1], p[2], rule)?);
             // A sliver's hits are only as accurate as its shape allows: the edge functions' rounding
             // over its tiny area, ε / aspect (aspect = 2·area / longest edge²).
             let longest = (0..3).map(|i| (p[(i + 1) % 3] - p[i]).length_squared()).fold(0.0, f64::max);
@@ -129,7 +128,7 @@ fn decode(b: &mut Bytes) -> Option<(Case, DVec3, f64)> {
         k @ (5 | 6) => {
             let n = if k == 5 { 4 } else { 3 + usize::from(b.u8() % 6) };
             let v: Vec<DVec3> = (0..n).map(|_| center + b.vec3(s)).collect();
-            let g = Box::new(Polygon::new(v.clone(), m()).ok()?);
+            let g = Box::new(Polygon::new(v.clone()).ok()?);
             let magnitude = v.iter().map(|p| max_abs(*p)).fold(0.0, f64::max);
             // The loader accepts vertices 1e-9 of the size off one plane; the exact surface of such
             // an outline is ambiguous to that degree, and its normal to that distance over the
@@ -155,7 +154,7 @@ fn decode(b: &mut Bytes) -> Option<(Case, DVec3, f64)> {
         k => {
             let (axis, radius) = (b.direction()?, size(b)?);
             let height = if k == 7 { Some(size(b)?) } else { None };
-            let g = Box::new(Cylinder::new(center, axis, radius, height, m()));
+            let g = Box::new(Cylinder::new(center, axis, radius, height));
             let exact = Box::new(ExactCylinder { base: center, axis, radius, height });
             Case {
                 name: if k == 7 { "cylinder" } else { "tube" },

@@ -11,9 +11,9 @@ use raylab::geometry::{Geometry, Hit, Intersectable};
 use raylab::glam::{DVec2, DVec3};
 use raylab::input::error::Result;
 use raylab::input::params::Params;
-use raylab::input::spec::{Default, MATERIAL_PARAM, ParamKind, ParamSpec};
+use raylab::input::spec::{Default, ParamKind, ParamSpec};
 use raylab::math::float::{gamma, on_surface_slack};
-use raylab::{Aabb, LoadContext, Material, PluginInfo, Ray};
+use raylab::{Aabb, LoadContext, PluginInfo, Ray};
 
 /// Half of the sphere (`center`, `radius`): the points `p` with `(p − center) · open ≤ 0`.
 #[derive(Clone, Debug)]
@@ -21,7 +21,6 @@ pub struct Hemisphere {
     center: DVec3,
     radius: f64,
     open: DVec3,
-    material: Material,
 }
 
 /// The `hemisphere` plugin's description.
@@ -37,7 +36,6 @@ pub const INFO: PluginInfo = PluginInfo {
             Default::Vec3([0.0, 1.0, 0.0]),
             "direction from the centre toward the open side; the bottom of the bowl is at center − radius·open",
         ),
-        MATERIAL_PARAM,
     ],
 };
 
@@ -46,13 +44,13 @@ pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Geometry>> {
     let center = p.vec3("center")?;
     let radius = p.positive("radius")?;
     let open = p.direction("open")?;
-    Ok(Box::new(Hemisphere { center, radius, open, material: p.material("material")? }))
+    Ok(Box::new(Hemisphere { center, radius, open }))
 }
 
 impl Hemisphere {
     /// A bowl; `open` must be unit length and `radius` > 0.
-    pub fn new(center: DVec3, radius: f64, open: DVec3, material: Material) -> Self {
-        Hemisphere { center, radius, open, material }
+    pub fn new(center: DVec3, radius: f64, open: DVec3) -> Self {
+        Hemisphere { center, radius, open }
     }
 
     /// The lowest point of the bowl (the report's `bottom`).
@@ -85,9 +83,6 @@ impl Geometry for Hemisphere {
     fn outward_normal(&self, at: &Hit) -> DVec3 {
         (at.point - self.center).normalize()
     }
-    fn material(&self) -> &Material {
-        &self.material
-    }
     fn bounds(&self) -> Option<Aabb> {
         Some(Aabb::new(self.center - DVec3::splat(self.radius), self.center + DVec3::splat(self.radius)))
     }
@@ -105,7 +100,7 @@ mod tests {
     fn bowl() -> impl Strategy<Value = (Hemisphere, ExactBowl, f64)> {
         (scale(), cube(), 0.05..2.0f64, unit()).prop_map(|(s, c, r, open)| {
             let (center, radius) = (5.0 * s * c, s * r);
-            (Hemisphere::new(center, radius, open, Material::default()), ExactBowl { center, radius, open }, max_abs(center) + radius)
+            (Hemisphere::new(center, radius, open), ExactBowl { center, radius, open }, max_abs(center) + radius)
         })
     }
 
@@ -224,7 +219,7 @@ mod tests {
     }
 
     fn unit_bowl() -> (Hemisphere, ExactBowl) {
-        (Hemisphere::new(DVec3::ZERO, 1.0, DVec3::Y, Material::default()), ExactBowl { center: DVec3::ZERO, radius: 1.0, open: DVec3::Y })
+        (Hemisphere::new(DVec3::ZERO, 1.0, DVec3::Y), ExactBowl { center: DVec3::ZERO, radius: 1.0, open: DVec3::Y })
     }
 
     fn hits(g: &Hemisphere, exact: &ExactBowl, ray: &Ray) -> Vec<Hit> {
@@ -294,7 +289,7 @@ mod tests {
     fn bad_case_a_ray_from_a_far_bowl_hit_it_again() {
         let (center, radius, open) =
             (DVec3::new(-34417.1139580764, -38967.203278238885, 0.0), 500.0, DVec3::new(-0.7042642209588147, 0.7099379600199399, 0.0));
-        let g = Hemisphere::new(center, radius, open, Material::default());
+        let g = Hemisphere::new(center, radius, open);
         let u = DVec3::new(-0.6191611402231467, 0.7852639571746387, 0.0);
         let u = if u.dot(open) > 0.0 { -u } else { u };
         let ray = Ray::new(center + radius * u, DVec3::new(-0.9223807222973924, 0.3862820253831915, 0.0));

@@ -7,16 +7,15 @@ use raylab::geometry::{Geometry, Hit, Intersectable};
 use raylab::glam::{DVec2, DVec3};
 use raylab::input::error::Result;
 use raylab::input::params::Params;
-use raylab::input::spec::{Default, MATERIAL_PARAM, ParamKind, ParamSpec};
+use raylab::input::spec::{Default, ParamKind, ParamSpec};
 use raylab::math::float::{gamma, on_surface_slack};
-use raylab::{Aabb, LoadContext, Material, PluginInfo, Ray};
+use raylab::{Aabb, LoadContext, PluginInfo, Ray};
 
 /// The plane through `point` with unit `normal` (its outward side).
 #[derive(Clone, Debug)]
 pub struct Plane {
     point: DVec3,
     normal: DVec3,
-    material: Material,
 }
 
 /// The `plane` plugin's description.
@@ -26,7 +25,6 @@ pub const INFO: PluginInfo = PluginInfo {
     params: &[
         ParamSpec::new("point", ParamKind::Vec3, Default::Vec3([0.0, 0.0, 0.0]), "a point on the plane (the report's Q)"),
         ParamSpec::new("normal", ParamKind::Vec3, Default::Vec3([0.0, 1.0, 0.0]), "normal (any length > 0): the plane's outward side"),
-        MATERIAL_PARAM,
     ],
 };
 
@@ -34,7 +32,7 @@ pub const INFO: PluginInfo = PluginInfo {
 pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Geometry>> {
     let point = p.vec3("point")?;
     let normal = p.direction("normal")?;
-    Ok(Box::new(Plane::new(point, normal, p.material("material")?)))
+    Ok(Box::new(Plane::new(point, normal)))
 }
 
 /// Intersects a ray with the plane through `q` with unit normal `n`: returns `t`, the point
@@ -67,8 +65,8 @@ pub fn intersect_plane(ray: &Ray, q: DVec3, n: DVec3, t_min: f64, t_max: f64) ->
 
 impl Plane {
     /// A plane; `normal` must be unit length.
-    pub fn new(point: DVec3, normal: DVec3, material: Material) -> Self {
-        Plane { point, normal, material }
+    pub fn new(point: DVec3, normal: DVec3) -> Self {
+        Plane { point, normal }
     }
 }
 
@@ -83,9 +81,6 @@ impl Intersectable for Plane {
 impl Geometry for Plane {
     fn outward_normal(&self, _: &Hit) -> DVec3 {
         self.normal
-    }
-    fn material(&self) -> &Material {
-        &self.material
     }
     fn bounds(&self) -> Option<Aabb> {
         None
@@ -104,7 +99,7 @@ mod tests {
     fn plane() -> impl Strategy<Value = (Plane, ExactPlane, f64)> {
         (scale(), cube(), unit()).prop_map(|(s, c, normal)| {
             let point = 5.0 * s * c;
-            (Plane::new(point, normal, Material::default()), ExactPlane { point, normal }, max_abs(point) + s)
+            (Plane::new(point, normal), ExactPlane { point, normal }, max_abs(point) + s)
         })
     }
 
@@ -165,7 +160,7 @@ mod tests {
 
     #[test]
     fn is_unbounded_and_shaded_on_both_sides() {
-        let g = Plane::new(DVec3::ZERO, DVec3::Y, Material::default());
+        let g = Plane::new(DVec3::ZERO, DVec3::Y);
         assert!(g.bounds().is_none() && !g.is_closed());
         for (y, n) in [(2.0, DVec3::Y), (-2.0, -DVec3::Y)] {
             let ray = Ray::new(DVec3::new(0.5, y, 0.0), DVec3::new(0.0, -y, 0.0));
@@ -176,7 +171,7 @@ mod tests {
 
     #[test]
     fn a_ray_in_the_plane_misses() {
-        let g = Plane::new(DVec3::new(0.0, 1.0, 0.0), DVec3::Y, Material::default());
+        let g = Plane::new(DVec3::new(0.0, 1.0, 0.0), DVec3::Y);
         for dir in [DVec3::X, DVec3::new(1.0, 0.0, -1.0)] {
             assert!(g.intersect(&Ray::new(DVec3::new(3.0, 1.0, 0.0), dir), 0.0, f64::INFINITY).is_none());
         }
@@ -189,7 +184,7 @@ mod tests {
     #[test]
     fn bad_case_a_parallel_ray_hit_far_away() {
         let normal = DVec3::new(-0.9224963529793111, 0.3860058014329192, 0.0);
-        let g = Plane::new(DVec3::ZERO, normal, Material::default());
+        let g = Plane::new(DVec3::ZERO, normal);
         let ray = Ray { origin: 1e-6 * normal, dir: DVec3::new(-0.09725808128787794, -0.2324323234334201, -0.9677376094001632) };
         assert_eq!(g.intersect(&ray, 0.0, f64::INFINITY), None);
     }

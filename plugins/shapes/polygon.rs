@@ -10,9 +10,9 @@ use raylab::geometry::{Geometry, Hit, Intersectable};
 use raylab::glam::{DVec2, DVec3};
 use raylab::input::error::Result;
 use raylab::input::params::Params;
-use raylab::input::spec::{Default, MATERIAL_PARAM, ParamKind, ParamSpec};
+use raylab::input::spec::{Default, ParamKind, ParamSpec};
 use raylab::math::float::DEGENERACY_TOLERANCE;
-use raylab::{Aabb, LoadContext, Material, PluginInfo, Ray};
+use raylab::{Aabb, LoadContext, PluginInfo, Ray};
 
 /// Relative tolerance of the coplanarity check: every vertex must lie within this fraction of
 /// the polygon's size from its plane.
@@ -26,7 +26,6 @@ pub struct Polygon {
     /// Edge i's inward-pointing normal within the plane: `normal × (v[i+1] − v[i])`.
     edge_normals: Vec<DVec3>,
     normal: DVec3,
-    material: Material,
 }
 
 /// Why vertices do not make a valid polygon.
@@ -66,7 +65,7 @@ impl std::fmt::Display for PolygonError {
 
 impl Polygon {
     /// A polygon through `vertices` in order, validated: planar, strictly convex, non-degenerate.
-    pub fn new(vertices: Vec<DVec3>, material: Material) -> Result<Self, PolygonError> {
+    pub fn new(vertices: Vec<DVec3>) -> Result<Self, PolygonError> {
         let n = vertices.len();
         if n < 3 {
             return Err(PolygonError::TooFew(n));
@@ -126,7 +125,7 @@ impl Polygon {
                 }
             }
         }
-        Ok(Polygon { vertices, edge_normals, normal, material })
+        Ok(Polygon { vertices, edge_normals, normal })
     }
 }
 
@@ -134,15 +133,12 @@ impl Polygon {
 pub const INFO: PluginInfo = PluginInfo {
     name: "polygon",
     summary: "A flat, strictly convex polygon through `vertices` in order (counter-clockwise seen from its outward side). Tested as one region: no internal edges, no cracks. A ray exactly on the outline misses.",
-    params: &[
-        ParamSpec::new(
-            "vertices",
-            ParamKind::Vec3List,
-            Default::Required,
-            "the corners, in order around the outline, at least 3, coplanar",
-        ),
-        MATERIAL_PARAM,
-    ],
+    params: &[ParamSpec::new(
+        "vertices",
+        ParamKind::Vec3List,
+        Default::Required,
+        "the corners, in order around the outline, at least 3, coplanar",
+    )],
 };
 
 /// The `quadrangle` plugin's description.
@@ -154,22 +150,19 @@ pub const QUADRANGLE_INFO: PluginInfo = PluginInfo {
         ParamSpec::new("p1", ParamKind::Vec3, Default::Required, "second corner"),
         ParamSpec::new("p2", ParamKind::Vec3, Default::Required, "third corner (opposite p0)"),
         ParamSpec::new("p3", ParamKind::Vec3, Default::Required, "fourth corner"),
-        MATERIAL_PARAM,
     ],
 };
 
 /// Builds a polygon from its parameters.
 pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Geometry>> {
     let vertices = p.vec3_list("vertices")?;
-    let m = p.material("material")?;
-    Polygon::new(vertices, m).map(|g| Box::new(g) as Box<dyn Geometry>).map_err(|e| p.error_at("vertices", e))
+    Polygon::new(vertices).map(|g| Box::new(g) as Box<dyn Geometry>).map_err(|e| p.error_at("vertices", e))
 }
 
 /// Builds a quadrangle from its parameters.
 pub fn build_quadrangle(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Geometry>> {
     let vertices = vec![p.vec3("p0")?, p.vec3("p1")?, p.vec3("p2")?, p.vec3("p3")?];
-    let m = p.material("material")?;
-    Polygon::new(vertices, m).map(|g| Box::new(g) as Box<dyn Geometry>).map_err(|e| p.error(e.to_string()))
+    Polygon::new(vertices).map(|g| Box::new(g) as Box<dyn Geometry>).map_err(|e| p.error(e.to_string()))
 }
 
 impl Intersectable for Polygon {
@@ -187,9 +180,6 @@ impl Intersectable for Polygon {
 impl Geometry for Polygon {
     fn outward_normal(&self, _: &Hit) -> DVec3 {
         self.normal
-    }
-    fn material(&self) -> &Material {
-        &self.material
     }
     fn bounds(&self) -> Option<Aabb> {
         Some(Aabb::from_points(self.vertices.iter().copied()))
@@ -221,7 +211,7 @@ mod tests {
                     })
                     .collect();
                 let mag = v.iter().map(|p| p.abs().max_element()).fold(0.0, f64::max);
-                let g = Polygon::new(v.clone(), Material::default()).expect("a strictly convex polygon");
+                let g = Polygon::new(v.clone()).expect("a strictly convex polygon");
                 (g, ExactPolygon { v }, center, s * size, mag)
             },
         )
@@ -295,13 +285,13 @@ mod tests {
     }
 
     fn unit_square() -> Polygon {
-        Polygon::new(vec![DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0), DVec3::Y], Material::default()).unwrap()
+        Polygon::new(vec![DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0), DVec3::Y]).unwrap()
     }
 
     /// A dyadic convex pentagon in the plane z = 0.
     fn pentagon() -> Polygon {
         let v = [(0.0, 0.0), (2.0, 0.0), (3.0, 1.0), (1.5, 2.5), (-1.0, 1.5)];
-        Polygon::new(v.iter().map(|&(x, y)| DVec3::new(x, y, 0.0)).collect(), Material::default()).unwrap()
+        Polygon::new(v.iter().map(|&(x, y)| DVec3::new(x, y, 0.0)).collect()).unwrap()
     }
 
     fn down(x: f64, y: f64) -> [Ray; 2] {
@@ -375,23 +365,19 @@ mod tests {
     fn bad_case_a_pentagram_was_accepted_as_convex() {
         let star: Vec<DVec3> =
             [0.0f64, 144.0, 288.0, 72.0, 216.0].iter().map(|a| DVec3::new(a.to_radians().cos(), a.to_radians().sin(), 0.0)).collect();
-        assert_eq!(Polygon::new(star, Material::default()).err(), Some(PolygonError::SelfCrossing));
+        assert_eq!(Polygon::new(star).err(), Some(PolygonError::SelfCrossing));
     }
 
     #[test]
     fn invalid_outlines_are_refused() {
         let p = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
-        let m = Material::default;
-        assert_eq!(Polygon::new(vec![p(0.0, 0.0, 0.0), p(1.0, 0.0, 0.0)], m()).unwrap_err(), PolygonError::TooFew(2));
-        assert_eq!(
-            Polygon::new(vec![p(0.0, 0.0, 0.0), p(1.0, 0.0, 0.0), p(f64::NAN, 0.0, 0.0)], m()).unwrap_err(),
-            PolygonError::NotFinite
-        );
-        assert_eq!(Polygon::new(vec![p(0.0, 0.0, 0.0), p(1.0, 0.0, 0.0), p(2.0, 0.0, 0.0)], m()).unwrap_err(), PolygonError::Degenerate);
+        assert_eq!(Polygon::new(vec![p(0.0, 0.0, 0.0), p(1.0, 0.0, 0.0)]).unwrap_err(), PolygonError::TooFew(2));
+        assert_eq!(Polygon::new(vec![p(0.0, 0.0, 0.0), p(1.0, 0.0, 0.0), p(f64::NAN, 0.0, 0.0)]).unwrap_err(), PolygonError::NotFinite);
+        assert_eq!(Polygon::new(vec![p(0.0, 0.0, 0.0), p(1.0, 0.0, 0.0), p(2.0, 0.0, 0.0)]).unwrap_err(), PolygonError::Degenerate);
         let skew = vec![p(0.0, 0.0, 0.0), p(1.0, 0.0, 0.0), p(1.0, 1.0, 0.5), p(0.0, 1.0, 0.0)];
-        assert!(matches!(Polygon::new(skew, m()).unwrap_err(), PolygonError::NotPlanar(_)));
+        assert!(matches!(Polygon::new(skew).unwrap_err(), PolygonError::NotPlanar(_)));
         let dart = vec![p(0.0, 0.0, 0.0), p(2.0, 0.0, 0.0), p(1.0, 0.5, 0.0), p(1.0, 2.0, 0.0)];
-        assert!(matches!(Polygon::new(dart, m()).unwrap_err(), PolygonError::NotConvex(_)));
+        assert!(matches!(Polygon::new(dart).unwrap_err(), PolygonError::NotConvex(_)));
     }
 
     /// The validity check is linear in the vertex count (it was quadratic: 38 s at 10⁵ vertices):
@@ -405,14 +391,14 @@ mod tests {
                 DVec3::new(a.cos(), a.sin(), 0.0)
             })
         };
-        let g = Polygon::new(ring(n, 1).collect(), Material::default()).unwrap();
+        let g = Polygon::new(ring(n, 1).collect()).unwrap();
         assert_eq!(g.vertices.len(), n);
         assert!(g.intersect(&Ray::new(DVec3::new(0.5, 0.5, 1.0), -DVec3::Z), 0.0, f64::INFINITY).is_some());
         // Every vertex twice, in order: each turn is convex, the total is two full turns.
         let twice: Vec<DVec3> = ring(n / 2, 1).chain(ring(n / 2, 1)).collect();
-        assert_eq!(Polygon::new(twice, Material::default()).err(), Some(PolygonError::SelfCrossing));
+        assert_eq!(Polygon::new(twice).err(), Some(PolygonError::SelfCrossing));
         // A heptagram {7/3}: turning the same way, three times around.
-        assert_eq!(Polygon::new(ring(7, 3).collect(), Material::default()).err(), Some(PolygonError::SelfCrossing));
+        assert_eq!(Polygon::new(ring(7, 3).collect()).err(), Some(PolygonError::SelfCrossing));
     }
 
     // Regressions: literal cases the properties found.
@@ -426,7 +412,7 @@ mod tests {
             DVec3::new(3.797871597017973, -4.011467856951285, -1.2472884473455568),
             DVec3::new(5.457948279667441, -5.614629969938661, 1.2399140012659242),
         ];
-        let g = Polygon::new(v.clone(), Material::default()).unwrap();
+        let g = Polygon::new(v.clone()).unwrap();
         let exact = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
         assert!((g.normal - exact).length() < 1e-15, "{} vs {exact}", g.normal);
         let w = [0.02, 0.8375766139301917, 0.02];

@@ -21,10 +21,10 @@ use super::polygon::Polygon;
 use super::sphere::Sphere;
 use super::test_support::perpendicular;
 use super::triangle::{EdgeRule, Triangle};
+use raylab::Ray;
 use raylab::geometry::{Geometry, Hit};
 use raylab::glam::DVec3;
 use raylab::render::sampler::mix64;
-use raylab::{Material, Ray};
 use std::f64::consts::TAU;
 
 /// What the geometry of a shape allows a ray leaving it to do.
@@ -108,7 +108,6 @@ impl Rng {
 /// A random shape of `kind`: size `s`, centre `s · far · cube`, other parameters from `r`.
 fn subject(shape: Shape, s: f64, far: f64, r: &mut Rng) -> Subject {
     let center = s * far * r.cube();
-    let m = Material::default;
     let flat = |g: Box<dyn Geometry>, size: f64| Subject { g, kind: Kind::Flat, center, size, interior: Box::new(|_| DVec3::NAN) };
     // A strictly convex outline of `k` vertices on an ellipse in a random plane.
     let outline = |r: &mut Rng, k: usize| -> Vec<DVec3> {
@@ -124,14 +123,14 @@ fn subject(shape: Shape, s: f64, far: f64, r: &mut Rng) -> Subject {
             .collect()
     };
     match shape {
-        Shape::Plane => flat(Box::new(Plane::new(center, r.unit(), m())), s),
+        Shape::Plane => flat(Box::new(Plane::new(center, r.unit())), s),
         Shape::Triangle | Shape::InclusiveTriangle => loop {
             let p = [center + s * r.cube(), center + s * r.cube(), center + s * r.cube()];
             let rule = if matches!(shape, Shape::Triangle) { EdgeRule::Exclusive } else { EdgeRule::Inclusive };
             let area = (p[1] - p[0]).cross(p[2] - p[0]).length();
             let longest = (p[1] - p[0]).length().max((p[2] - p[1]).length()).max((p[0] - p[2]).length());
             if area > 0.05 * longest * longest
-                && let Some(t) = Triangle::with_edges(p[0], p[1], p[2], rule, m())
+                && let Some(t) = Triangle::with_edges(p[0], p[1], p[2], rule)
             {
                 break flat(Box::new(t), s);
             }
@@ -139,7 +138,7 @@ fn subject(shape: Shape, s: f64, far: f64, r: &mut Rng) -> Subject {
         Shape::Quadrangle | Shape::Polygon => {
             let k = if matches!(shape, Shape::Quadrangle) { 4 } else { 3 + (r.next() * 6.0) as usize };
             loop {
-                if let Ok(p) = Polygon::new(outline(r, k), m()) {
+                if let Ok(p) = Polygon::new(outline(r, k)) {
                     break flat(Box::new(p), s);
                 }
             }
@@ -148,9 +147,9 @@ fn subject(shape: Shape, s: f64, far: f64, r: &mut Rng) -> Subject {
             let radius = s * (0.05 + r.next());
             Subject {
                 g: if matches!(shape, Shape::Sphere) {
-                    Box::new(Sphere::new(center, radius, m()))
+                    Box::new(Sphere::new(center, radius))
                 } else {
-                    Box::new(NaiveSphere(center, radius, m()))
+                    Box::new(NaiveSphere(center, radius))
                 },
                 kind: Kind::Convex,
                 center,
@@ -161,7 +160,7 @@ fn subject(shape: Shape, s: f64, far: f64, r: &mut Rng) -> Subject {
         Shape::Bowl => {
             let radius = s * (0.05 + r.next());
             Subject {
-                g: Box::new(Hemisphere::new(center, radius, r.unit(), m())),
+                g: Box::new(Hemisphere::new(center, radius, r.unit())),
                 kind: Kind::Convex,
                 center,
                 size: radius,
@@ -180,7 +179,7 @@ fn subject(shape: Shape, s: f64, far: f64, r: &mut Rng) -> Subject {
                 center + along * axis + 0.5 * radius * radial
             };
             Subject {
-                g: Box::new(Cylinder::new(center, axis, radius, height, m())),
+                g: Box::new(Cylinder::new(center, axis, radius, height)),
                 kind: Kind::Convex,
                 center: center + 0.5 * height.unwrap_or(0.0) * axis,
                 size: radius.max(height.unwrap_or(0.0)),
@@ -303,7 +302,7 @@ fn spawned_rays_never_meet_their_own_surface_million_rays_per_shape() {
 
 /// A sphere as textbooks write it: the nearest root above `t_min`, `ray.at(t)` as the point, no
 /// error bound.
-struct NaiveSphere(DVec3, f64, Material);
+struct NaiveSphere(DVec3, f64);
 
 impl raylab::Intersectable for NaiveSphere {
     fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<Hit> {
@@ -321,9 +320,6 @@ impl raylab::Intersectable for NaiveSphere {
 impl Geometry for NaiveSphere {
     fn outward_normal(&self, at: &Hit) -> DVec3 {
         (at.point - self.0).normalize()
-    }
-    fn material(&self) -> &Material {
-        &self.2
     }
     fn bounds(&self) -> Option<raylab::Aabb> {
         None

@@ -10,16 +10,15 @@ use raylab::geometry::{Geometry, Hit, Intersectable};
 use raylab::glam::{DVec2, DVec3};
 use raylab::input::error::Result;
 use raylab::input::params::Params;
-use raylab::input::spec::{Default, MATERIAL_PARAM, ParamKind, ParamSpec};
+use raylab::input::spec::{Default, ParamKind, ParamSpec};
 use raylab::math::float::{gamma, max_abs, on_surface_slack};
-use raylab::{Aabb, LoadContext, Material, PluginInfo, Ray};
+use raylab::{Aabb, LoadContext, PluginInfo, Ray};
 
 /// A sphere of `radius` (> 0) around `center`.
 #[derive(Clone, Debug)]
 pub struct Sphere {
     center: DVec3,
     radius: f64,
-    material: Material,
 }
 
 /// The `sphere` plugin's description.
@@ -29,7 +28,6 @@ pub const INFO: PluginInfo = PluginInfo {
     params: &[
         ParamSpec::new("center", ParamKind::Vec3, Default::Vec3([0.0, 0.0, 0.0]), "centre, scene units"),
         ParamSpec::new("radius", ParamKind::Float, Default::Float(1.0), "radius, scene units, > 0"),
-        MATERIAL_PARAM,
     ],
 };
 
@@ -37,7 +35,7 @@ pub const INFO: PluginInfo = PluginInfo {
 pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Geometry>> {
     let center = p.vec3("center")?;
     let radius = p.positive("radius")?;
-    Ok(Box::new(Sphere::new(center, radius, p.material("material")?)))
+    Ok(Box::new(Sphere::new(center, radius)))
 }
 
 /// The two roots of the ray–sphere quadratic, ascending, each with a conservative absolute error
@@ -73,8 +71,8 @@ pub fn sphere_roots(f: DVec3, d: DVec3, radius: f64, slack: f64) -> Option<[(f64
 
 impl Sphere {
     /// A sphere; `radius` must be finite and > 0.
-    pub fn new(center: DVec3, radius: f64, material: Material) -> Self {
-        Sphere { center, radius, material }
+    pub fn new(center: DVec3, radius: f64) -> Self {
+        Sphere { center, radius }
     }
 
     /// The nearest root in `(t_min, t_max)` beyond its own error bound (a ray leaving the surface
@@ -110,9 +108,6 @@ impl Geometry for Sphere {
     fn outward_normal(&self, at: &Hit) -> DVec3 {
         (at.point - self.center).normalize()
     }
-    fn material(&self) -> &Material {
-        &self.material
-    }
     fn bounds(&self) -> Option<Aabb> {
         Some(Aabb::new(self.center - DVec3::splat(self.radius), self.center + DVec3::splat(self.radius)))
     }
@@ -133,7 +128,7 @@ mod tests {
     fn sphere() -> impl Strategy<Value = (Sphere, ExactSphere, f64)> {
         (scale(), cube(), 0.05..2.0f64).prop_map(|(s, c, r)| {
             let (center, radius) = (5.0 * s * c, s * r);
-            (Sphere::new(center, radius, Material::default()), ExactSphere { center, radius }, max_abs(center) + radius)
+            (Sphere::new(center, radius), ExactSphere { center, radius }, max_abs(center) + radius)
         })
     }
 
@@ -213,7 +208,7 @@ mod tests {
     }
 
     fn unit_sphere() -> (Sphere, ExactSphere) {
-        (Sphere::new(DVec3::ZERO, 1.0, Material::default()), ExactSphere { center: DVec3::ZERO, radius: 1.0 })
+        (Sphere::new(DVec3::ZERO, 1.0), ExactSphere { center: DVec3::ZERO, radius: 1.0 })
     }
 
     #[test]
@@ -268,7 +263,7 @@ mod tests {
     #[test]
     fn bad_case_a_ray_from_a_small_offset_sphere_hit_it_again() {
         let (center, radius) = (DVec3::new(0.0, 0.004066781978006635, 0.0), 0.00025531711221155127);
-        let g = Sphere::new(center, radius, Material::default());
+        let g = Sphere::new(center, radius);
         let ray = Ray::new(center + radius * DVec3::new(-0.7222485624026194, 0.6916335837040807, 0.0), DVec3::X);
         let hits = check_hits_ascending_ok(&g, &ray, &ExactSphere { center, radius });
         assert_eq!(hits.len(), 1, "{hits:?}");

@@ -11,9 +11,9 @@ use raylab::geometry::{Geometry, Hit, Intersectable};
 use raylab::glam::{DVec2, DVec3};
 use raylab::input::error::Result;
 use raylab::input::params::Params;
-use raylab::input::spec::{Default, MATERIAL_PARAM, ParamKind, ParamSpec};
+use raylab::input::spec::{Default, ParamKind, ParamSpec};
 use raylab::math::float::{DEGENERACY_TOLERANCE, gamma, on_surface_slack, triangle_normal};
-use raylab::{Aabb, LoadContext, Material, PluginInfo, Ray};
+use raylab::{Aabb, LoadContext, PluginInfo, Ray};
 
 /// Whether a ray exactly through an edge or vertex counts as a hit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -137,23 +137,22 @@ pub struct Triangle {
     p: [DVec3; 3],
     normal: DVec3,
     edges: EdgeRule,
-    material: Material,
 }
 
 impl Triangle {
     /// A triangle, or `None` when it is degenerate (zero area, collinear or repeated vertices,
     /// non-finite coordinates).
-    pub fn new(p0: DVec3, p1: DVec3, p2: DVec3, material: Material) -> Option<Self> {
-        Self::with_edges(p0, p1, p2, EdgeRule::Exclusive, material)
+    pub fn new(p0: DVec3, p1: DVec3, p2: DVec3) -> Option<Self> {
+        Self::with_edges(p0, p1, p2, EdgeRule::Exclusive)
     }
 
     /// A triangle with the given edge rule, or `None` when it is degenerate.
-    pub fn with_edges(p0: DVec3, p1: DVec3, p2: DVec3, edges: EdgeRule, material: Material) -> Option<Self> {
+    pub fn with_edges(p0: DVec3, p1: DVec3, p2: DVec3, edges: EdgeRule) -> Option<Self> {
         let (n, scale) = triangle_normal([p0, p1, p2]);
         if !(n.is_finite() && n.length() > DEGENERACY_TOLERANCE * scale && scale > 0.0) {
             return None;
         }
-        Some(Triangle { p: [p0, p1, p2], normal: n.normalize(), edges, material })
+        Some(Triangle { p: [p0, p1, p2], normal: n.normalize(), edges })
     }
 }
 
@@ -171,7 +170,6 @@ pub const INFO: PluginInfo = PluginInfo {
             Default::Str("exclusive"),
             "\"exclusive\": an edge or vertex hit is a miss (the report); \"inclusive\": it is a hit (watertight between triangles)",
         ),
-        MATERIAL_PARAM,
     ],
 };
 
@@ -179,8 +177,7 @@ pub const INFO: PluginInfo = PluginInfo {
 pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Geometry>> {
     let (p0, p1, p2) = (p.vec3("p0")?, p.vec3("p1")?, p.vec3("p2")?);
     let edges = if p.choice("edges", &["exclusive", "inclusive"])? == "inclusive" { EdgeRule::Inclusive } else { EdgeRule::Exclusive };
-    let m = p.material("material")?;
-    Triangle::with_edges(p0, p1, p2, edges, m)
+    Triangle::with_edges(p0, p1, p2, edges)
         .map(|t| Box::new(t) as Box<dyn Geometry>)
         .ok_or_else(|| p.error("degenerate triangle: the vertices are collinear or repeated (zero area)"))
 }
@@ -201,9 +198,6 @@ impl Intersectable for Triangle {
 impl Geometry for Triangle {
     fn outward_normal(&self, _: &Hit) -> DVec3 {
         self.normal
-    }
-    fn material(&self) -> &Material {
-        &self.material
     }
     fn bounds(&self) -> Option<Aabb> {
         Some(Aabb::from_points(self.p))
@@ -233,7 +227,7 @@ mod tests {
                 n > 0.05 * longest * longest
             })
             .prop_map(|(p, center, size)| {
-                let g = Triangle::new(p[0], p[1], p[2], Material::default()).expect("a well-shaped triangle");
+                let g = Triangle::new(p[0], p[1], p[2]).expect("a well-shaped triangle");
                 let mag = p.iter().map(|v| v.abs().max_element()).fold(0.0, f64::max);
                 (g, ExactTriangle { p }, center, size, mag)
             })
@@ -324,7 +318,7 @@ mod tests {
     }
 
     fn unit_triangle() -> Triangle {
-        Triangle::new(DVec3::ZERO, DVec3::X, DVec3::Y, Material::default()).unwrap()
+        Triangle::new(DVec3::ZERO, DVec3::X, DVec3::Y).unwrap()
     }
 
     /// Rays along each axis, both ways, onto the points `(x, y)` of the triangle (0,0,0) (1,0,0)
@@ -349,7 +343,7 @@ mod tests {
     fn a_lone_triangle_misses_rays_through_its_edges_and_vertices() {
         for &(x, y) in VERTICES.iter().chain(&EDGE_POINTS) {
             for (ray, [a, b, c]) in axis_rays(x, y) {
-                let g = Triangle::new(a, b, c, Material::default()).unwrap();
+                let g = Triangle::new(a, b, c).unwrap();
                 assert!(g.intersect(&ray, 0.0, f64::INFINITY).is_none(), "({x}, {y}) hit by {ray:?}");
                 assert!(!g.occludes(&ray, 0.0, f64::INFINITY));
             }
@@ -362,7 +356,7 @@ mod tests {
             for (ray, [a, b, c]) in axis_rays(x, y) {
                 let h = intersect_triangle(&ray, a, b, c, 0.0, f64::INFINITY, EdgeRule::Inclusive);
                 assert_eq!(h.map(|h| h.t), Some(4.0), "({x}, {y}) missed by {ray:?}");
-                let g = Triangle::with_edges(a, b, c, EdgeRule::Inclusive, Material::default()).unwrap();
+                let g = Triangle::with_edges(a, b, c, EdgeRule::Inclusive).unwrap();
                 assert_eq!(g.intersect(&ray, 0.0, f64::INFINITY).map(|h| h.t), Some(4.0));
             }
         }
@@ -422,7 +416,7 @@ mod tests {
     fn bad_case_a_slivers_normal_was_off_by_1e_7_rad() {
         let p =
             [DVec3::new(-52681.62727651227, 3e5, -3e5), DVec3::new(147318.37179216516, 7e5, 2e5), DVec3::new(147318.37272348773, 7e5, 2e5)];
-        let g = Triangle::with_edges(p[0], p[1], p[2], EdgeRule::Inclusive, Material::default()).unwrap();
+        let g = Triangle::with_edges(p[0], p[1], p[2], EdgeRule::Inclusive).unwrap();
         let ray = Ray::new(DVec3::new(947318.3727234877, 1.5e6, 1e6), -DVec3::ONE);
         let exact = ExactTriangle { p };
         let hits = check_hits_ascending(&g, &ray, &Tolerance::for_scale(1.5e6), &exact, 1).unwrap_or_else(|v| panic!("{v}"));
@@ -459,7 +453,7 @@ mod tests {
             ),
         ];
         for ([a, b, c], ray, t) in cases {
-            let g = Triangle::new(a, b, c, Material::default()).unwrap();
+            let g = Triangle::new(a, b, c).unwrap();
             assert_eq!(g.intersect(&ray, 0.0, f64::INFINITY).map(|h| h.t), Some(t));
             assert_eq!(g.intersect(&ray, 0.0, t), None);
             assert!(!g.occludes(&ray, 0.0, t));
@@ -474,7 +468,7 @@ mod tests {
             DVec3::new(-3.972869336081107, 0.0, 4.5730530956043225),
             DVec3::new(-3.934438784016334, 0.1754464572213331, 4.415710549976163),
         ];
-        let g = Triangle::new(p[0], p[1], p[2], Material::default()).unwrap();
+        let g = Triangle::new(p[0], p[1], p[2]).unwrap();
         let on = at(p, DVec3::new(0.2978277008887222, 0.3051222605710677, 0.5209323715473884));
         let ray = Ray::new(on, DVec3::new(-0.7712068822766014, 0.6365845935374216, 0.0));
         assert_eq!(g.intersect(&ray, 0.0, f64::INFINITY), None);

@@ -99,7 +99,7 @@ fn trace_explains_a_pixel_as_text_and_json() {
     let out = raylab(&repo(), &["trace", scene.to_str().unwrap(), "--pixel", "330,280"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let t = text(&out.stdout);
-    for needle in ["camera ray", "hit glass ball", "refraction ray", "light key", "diffuse", "final colour"] {
+    for needle in ["camera ray", "hit glass ball", "refraction ray", "light key", "diffuse", "sample colour"] {
         assert!(t.contains(needle), "missing {needle:?} in:\n{t}");
     }
     let out = raylab(&repo(), &["trace", scene.to_str().unwrap(), "--pixel", "330,280", "--json"]);
@@ -174,7 +174,7 @@ fn integrator_and_parameter_overrides() {
     assert!(text(&out.stdout).contains("max_depth 1, prune 0.01"));
     let out = raylab(&dir, &["render", s, "--integrator", "normals", "--depth", "2"]);
     assert_eq!(out.status.code(), Some(1));
-    assert!(text(&out.stderr).contains("integrator \"normals\" has no parameter `max_depth`"));
+    assert!(text(&out.stderr).contains("integrator \"normals\" has no recursion depth to set"));
     let out = raylab(&dir, &["render", s, "--set", "max_depth"]);
     assert!(text(&out.stderr).contains("expected KEY=VALUE"));
     std::fs::remove_dir_all(dir).unwrap();
@@ -327,4 +327,28 @@ fn the_work_budget_refuses_a_render_and_names_the_flag_that_raises_it() {
     let o = raylab(&dir, &["render", "scene.toml", "--spp", "4", "--max-rays", "100000000", "-q"]);
     assert!(o.status.success(), "{}", text(&o.stderr));
     std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// `trace --sample K` explains the K-th of the pixel's samples, and says how many there are.
+#[test]
+fn the_cli_prints_the_sample_it_was_asked_for() {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/dozen.toml");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args(["trace"])
+        .arg(&scene)
+        .args(["--pixel", "10,10", "--sample", "3", "--spp", "4", "--json", "--width", "40", "--height", "30"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["sample"]["index"], 3);
+    assert_eq!(v["sample"]["of"], 4);
+    assert_eq!(v["sample"]["id"]["kind"], "pixel");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args(["trace"])
+        .arg(&scene)
+        .args(["--pixel", "10,10", "--sample", "4", "--spp", "4"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("has 4 samples"));
 }

@@ -42,20 +42,24 @@ fn down(job: &RenderJob, origin: DVec3, dir: DVec3) -> Option<raylab::Hit> {
     job.scene.intersect(&Ray::new(origin, dir), 0.0, f64::INFINITY)
 }
 
+/// The interaction of a ray from `origin` along `dir`.
+fn look(job: &RenderJob, origin: DVec3, dir: DVec3) -> Option<raylab::scene::interaction::Interaction<'_>> {
+    job.scene.trace(&Ray::new(origin, dir))
+}
+
 #[test]
 fn obj_quads_are_triangulated_and_mtl_materials_mapped() {
     let job = scene("[[object]]\ntype = \"mesh\"\nfile = \"cube.obj\"\n", AccelChoice::Auto).unwrap();
-    let g = &job.scene.geometries[0];
-    let h = down(&job, DVec3::new(0.3, 5.0, 0.6), -DVec3::Y).expect("top face");
-    assert!((h.t - 4.0).abs() < 1e-12 && (g.outward_normal(&h) - DVec3::Y).length() < 1e-12);
-    let glass = g.material_at(&h);
+    let o = &job.scene.objects[0];
+    let si = look(&job, DVec3::new(0.3, 5.0, 0.6), -DVec3::Y).expect("top face");
+    assert!((si.hit.t - 4.0).abs() < 1e-12 && (o.geometry().outward_normal(&si.hit) - DVec3::Y).length() < 1e-12);
+    let glass = si.material;
     assert_eq!((glass.kt, glass.ior), (Color::splat(0.75), 1.45f32 as f64), "d 0.25 → kt 0.75; Ni → ior");
     assert_eq!(glass.kr, glass.ks, "illum 7 mirrors with Ks");
     assert!((glass.kd - Color::splat(0.25)).length() < 1e-6, "Kd scaled by d");
-    let h = down(&job, DVec3::new(0.3, 0.6, -5.0), DVec3::Z).expect("back face");
-    let red = g.material_at(&h);
+    let red = look(&job, DVec3::new(0.3, 0.6, -5.0), DVec3::Z).expect("back face").material;
     assert_eq!((red.kd.x as f32, red.shininess, red.emission.x as f32), (0.8, 40.0, 0.1));
-    assert!(g.may_transmit() && g.is_closed(), "a cube of consistently wound quads is closed");
+    assert!(o.may_transmit() && o.is_closed(), "a cube of consistently wound quads is closed");
 }
 
 #[test]
@@ -64,9 +68,8 @@ fn concave_faces_stay_inside_their_outline_and_vertex_normals_shade() {
     // The notch of the L (x, z in (1, 2)) is empty; a fan from the first corner would cover it.
     assert!(down(&job, DVec3::new(1.5, 1.0, 1.5), -DVec3::Y).is_none());
     for (x, z) in [(0.5, 0.5), (1.5, 0.5), (0.5, 1.5)] {
-        let h = down(&job, DVec3::new(x, 1.0, z), -DVec3::Y).expect("inside the L");
-        let g = &job.scene.geometries[0];
-        assert!((g.shading_normal(&h, -DVec3::Y) - DVec3::Y).length() < 1e-6);
+        let si = look(&job, DVec3::new(x, 1.0, z), -DVec3::Y).expect("inside the L");
+        assert!((si.ns - DVec3::Y).length() < 1e-6);
     }
 }
 
@@ -83,7 +86,7 @@ fn transforms_place_meshes_and_one_file_is_stored_once() {
     let h = down(&job, DVec3::new(0.5, 5.0, -1.9), -DVec3::Y).unwrap();
     assert_eq!(h.object, 1);
     assert!(down(&job, DVec3::new(0.5, 5.0, 0.5), -DVec3::Y).is_none());
-    let g = &job.scene.geometries[1];
+    let g = job.scene.objects[1].geometry();
     let side = down(&job, DVec3::new(0.5, 0.5, -9.0), DVec3::Z).unwrap();
     assert!((g.outward_normal(&side) + DVec3::Z).length() < 1e-9, "normals follow the transform");
 }
@@ -94,20 +97,19 @@ fn gltf_and_glb_give_the_same_scene_with_camera_light_and_instances() {
     let a = load_file(&reg, &assets().join("pyramids.gltf"), &LoadOptions::default()).unwrap();
     let b = load_file(&reg, &assets().join("pyramids.glb"), &LoadOptions::default()).unwrap();
     for job in [&a, &b] {
-        assert_eq!(job.scene.geometries.len(), 2);
+        assert_eq!(job.scene.objects.len(), 2);
         assert_eq!(job.scene.accel_summary().object_builds.primitives, 6, "one pyramid, placed twice");
         assert_eq!((job.settings.width, job.settings.height), (800, 533));
         assert!((job.scene.camera.position - DVec3::new(0.0, 1.5, 8.0)).length() < 1e-9);
         assert_eq!(job.scene.light_names.len(), 1);
         // The parent's scale (×2 in y) reaches the child: its apex is at y = 3.
-        let h = down(job, DVec3::new(1.5, 10.0, 0.0), -DVec3::Y).unwrap();
-        assert!((h.point.y - 3.0).abs() < 1e-6, "{}", h.point);
-        let gold = job.scene.geometries[h.object as usize].material_at(&h);
-        assert_eq!(gold.kd, Color::ZERO, "a metal has no diffuse term");
-        assert!(job.scene.geometries[0].is_closed());
+        let si = look(job, DVec3::new(1.5, 10.0, 0.0), -DVec3::Y).unwrap();
+        assert!((si.hit.point.y - 3.0).abs() < 1e-6, "{}", si.hit.point);
+        assert_eq!(si.material.kd, Color::ZERO, "a metal has no diffuse term");
+        assert!(job.scene.objects[0].is_closed());
     }
-    for (ga, gb) in a.scene.geometries.iter().zip(&b.scene.geometries) {
-        assert_eq!(ga.bounds(), gb.bounds());
+    for (ga, gb) in a.scene.objects.iter().zip(&b.scene.objects) {
+        assert_eq!(ga.geometry().bounds(), gb.geometry().bounds());
     }
 }
 
@@ -115,11 +117,11 @@ fn gltf_and_glb_give_the_same_scene_with_camera_light_and_instances() {
 fn a_gltf_file_is_also_one_object_in_a_raylab_scene() {
     let job = scene("[[object]]\ntype = \"mesh\"\nfile = \"pyramids.glb\"\ntransform = { translate = [0, -10, 0] }\n", AccelChoice::Auto)
         .unwrap();
-    assert_eq!(job.scene.geometries.len(), 1);
+    assert_eq!(job.scene.objects.len(), 1);
     let h = down(&job, DVec3::new(1.5, 0.0, 0.0), -DVec3::Y).unwrap();
     assert!((h.point.y + 7.0).abs() < 1e-6);
     let job = scene("[[object]]\ntype = \"mesh\"\nfile = \"Box.gltf\"\nmesh = 0\nmaterial = { kd = 0.5 }\n", AccelChoice::Auto).unwrap();
-    assert_eq!(job.scene.geometries[0].material().kd, Color::splat(0.5));
+    assert_eq!(job.scene.objects[0].materials()[0].kd, Color::splat(0.5));
     let e = fails(scene("[[object]]\ntype = \"mesh\"\nfile = \"Box.gltf\"\nmesh = 7\n", AccelChoice::Auto));
     assert!(e.message.contains("no mesh 7"), "{e}");
 }
@@ -298,7 +300,7 @@ fn perturbed_sphere(levels: u32, seed: u64) -> MeshData {
 fn sphere_mesh(levels: u32, seed: u64, accel: AccelChoice) -> (Arc<MeshObject>, MeshData) {
     let data = perturbed_sphere(levels, seed);
     let mesh = TriangleMesh::new(data.clone(), Normals::Flat, accel).unwrap();
-    (Arc::new(MeshObject::new(Arc::new(mesh), vec![raylab::Material::default()])), data)
+    (Arc::new(MeshObject::new(Arc::new(mesh))), data)
 }
 
 proptest! {
@@ -402,7 +404,7 @@ proptest! {
             let (a, b) = (bvh.scene.intersect(&ray, 0.0, f64::INFINITY), list.scene.intersect(&ray, 0.0, f64::INFINITY));
             prop_assert_eq!(a.map(|h| (h.t, h.object)), b.map(|h| (h.t, h.object)), "ray {:?}", ray);
             for t_max in [1.0, 5.0, f64::INFINITY] {
-                prop_assert_eq!(bvh.scene.occluded(&ray, t_max), list.scene.occluded(&ray, t_max));
+                prop_assert_eq!(bvh.scene.occludes(&ray, 0.0, t_max), list.scene.occludes(&ray, 0.0, t_max));
             }
         }
     }
@@ -441,11 +443,11 @@ fn a_million_coincident_triangles_index_in_every_mode() {
         ..MeshData::default()
     };
     let list = TriangleMesh::new(data.clone(), Normals::Flat, AccelChoice::List).unwrap();
-    let l = MeshObject::new(Arc::new(list), vec![raylab::Material::default()]);
+    let l = MeshObject::new(Arc::new(list));
     for accel in [AccelChoice::Auto, AccelChoice::Bvh] {
         let mesh = TriangleMesh::new(data.clone(), Normals::Flat, accel).unwrap();
         assert_eq!(mesh.is_bvh(), raylab::accel::bvh::BVH_AVAILABLE);
-        let g = MeshObject::new(Arc::new(mesh), vec![raylab::Material::default()]);
+        let g = MeshObject::new(Arc::new(mesh));
         for (origin, t) in [(DVec3::new(0.1, 0.1, -5.0), 4.0), (DVec3::new(0.6, 0.2, -5.0), 5.0)] {
             let ray = Ray::new(origin, DVec3::Z);
             let (a, b) = (g.intersect(&ray, 0.0, f64::INFINITY), l.intersect(&ray, 0.0, f64::INFINITY));
@@ -467,7 +469,7 @@ fn an_obj_repeating_one_triangle_loads_with_a_hierarchy() {
         let ctx = raylab::LoadContext::new(&dir, &options);
         let mesh = raylab_plugins::mesh::mesh_from_bytes(&ctx, "repeat.obj", "obj", obj.as_bytes()).unwrap();
         assert_eq!((mesh.triangle_count(), mesh.is_bvh()), (n, raylab::accel::bvh::BVH_AVAILABLE));
-        let g = MeshObject::new(Arc::new(mesh), vec![raylab::Material::default()]);
+        let g = MeshObject::new(Arc::new(mesh));
         let hit = g.intersect(&Ray::new(DVec3::new(0.25, 0.25, -2.0), DVec3::Z), 0.0, f64::INFINITY);
         assert_eq!(hit.map(|h| h.t), Some(2.0), "{accel:?}");
     }

@@ -172,7 +172,7 @@ fn colours_are_0_to_255_and_become_linear_over_255() {
     .unwrap();
     assert_eq!(job.scene.background, DVec3::new(1.0, 0.0, 0.2));
     assert!((job.scene.ambient - DVec3::splat(0.1)).abs().max_element() < 1e-15, "the report's Ka = 0.1");
-    let m = job.scene.geometries[0].material();
+    let m = &job.scene.objects[0].materials()[0];
     assert_eq!(m.emission, DVec3::new(0.2, 0.4, 1.0));
     assert_eq!(m.kd, DVec3::new(0.5, 0.25, 1.0), "coefficients are taken as they are");
     assert_eq!(m.ks, DVec3::ONE, "the report's default ks");
@@ -186,8 +186,8 @@ fn geometries_default_to_the_report_material_and_the_spec_says_so() {
     )
     .unwrap();
     let report = Material::report_default();
-    assert_eq!(job.scene.geometries[0].material(), &report);
-    assert_eq!(job.scene.geometries[1].material(), &Material { kr: DVec3::splat(0.5), ..report });
+    assert_eq!(&job.scene.objects[0].materials()[0], &report);
+    assert_eq!(&job.scene.objects[1].materials()[0], &Material { kr: DVec3::splat(0.5), ..report });
     for a in MATERIAL_ATTRS {
         assert!(matches!(a.default, AttrDefault::Value(_)), "material attribute {} needs a default", a.names[0]);
     }
@@ -208,7 +208,7 @@ fn spellings_and_case_vary_as_the_style_did() {
     assert_eq!((c.screen_distance, c.screen_width, c.screen_height), (50.0, 300.0, 200.0));
     assert_eq!(c.position, DVec3::new(1.0, 2.0, 3.0));
     assert_eq!((job.settings.width, job.settings.height), (30, 20));
-    let m = job.scene.geometries[0].material();
+    let m = &job.scene.objects[0].materials()[0];
     assert_eq!((m.shininess, m.blur), (7.0, 0.25));
 }
 

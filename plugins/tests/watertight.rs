@@ -5,11 +5,11 @@
 //! a flat list. pbrt-v4 has this test but keeps it switched off; here it runs on every test run.
 #![cfg(feature = "mesh")]
 
+use raylab::Ray;
 use raylab::accel::AccelChoice;
 use raylab::geometry::{Geometry, Intersectable};
 use raylab::glam::DVec3;
 use raylab::render::sampler::mix64;
-use raylab::{Material, Ray};
 use raylab_plugins::mesh::MeshObject;
 use raylab_plugins::mesh::triangle_mesh::{MeshData, Normals, TriangleMesh};
 use std::f64::consts::TAU;
@@ -137,7 +137,7 @@ fn campaign(
         let center = if r.next() < 0.5 { DVec3::ZERO } else { 1e3 * scale * DVec3::new(r.signed(), r.signed(), r.signed()) };
         let shape = make(scale, center, &mut r);
         let mesh = TriangleMesh::new(shape.data.clone(), Normals::Flat, accel).expect("a valid mesh");
-        let g = MeshObject::new(Arc::new(mesh), vec![Material::default()]);
+        let g = MeshObject::new(Arc::new(mesh));
         assert_eq!(g.is_closed(), closed, "the test mesh's closedness");
         let targets = targets(&shape.data, &mut r);
         for _ in 0..4 {

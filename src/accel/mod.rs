@@ -11,7 +11,7 @@ pub mod bvh;
 
 use crate::accel::bvh::PrimitiveIndex;
 pub use crate::accel::bvh::{AccelChoice, BuildStats, MESH_BVH_THRESHOLD, SCENE_BVH_THRESHOLD};
-use crate::geometry::{Geometry, Hit};
+use crate::geometry::{Hit, Intersectable};
 use crate::math::bounds::Aabb;
 use crate::math::ray::Ray;
 
@@ -31,13 +31,14 @@ impl Default for ObjectAccel {
 }
 
 impl ObjectAccel {
-    /// The structure over the objects for which `keep(index)` holds (indices into `objects` are
-    /// stored); a hierarchy when `choice` asks for one for this many bounded objects.
-    pub fn build<G: Geometry + ?Sized>(objects: &[&G], keep: impl Fn(usize) -> bool, choice: AccelChoice) -> (Self, BuildStats) {
+    /// The structure over the objects for which `keep(index)` holds, given each object's box
+    /// (`None`: unbounded); indices into `bounds` are stored. A hierarchy when `choice` asks for
+    /// one for this many bounded objects.
+    pub fn build(bounds: &[Option<Aabb>], keep: impl Fn(usize) -> bool, choice: AccelChoice) -> (Self, BuildStats) {
         let mut bounded = Vec::new();
         let mut unbounded = Vec::new();
-        for (i, g) in objects.iter().enumerate().filter(|(i, _)| keep(*i)) {
-            match g.bounds().filter(|b| !b.is_empty() && b.min.is_finite() && b.max.is_finite()) {
+        for (i, b) in bounds.iter().enumerate().filter(|(i, _)| keep(*i)) {
+            match b.filter(|b| !b.is_empty() && b.min.is_finite() && b.max.is_finite()) {
                 Some(b) => bounded.push((b, i as u32)),
                 None => unbounded.push(i as u32),
             }
@@ -46,6 +47,12 @@ impl ObjectAccel {
         let (index, order, stats) = PrimitiveIndex::build(&boxes, choice.use_bvh(boxes.len(), SCENE_BVH_THRESHOLD));
         let bounded = order.iter().map(|&i| bounded[i as usize]).collect();
         (ObjectAccel { index, bounded, unbounded }, stats)
+    }
+
+    /// The structure over `objects` (the slice it was built for), answering ray queries.
+    #[inline]
+    pub fn over<'a, O>(&'a self, objects: &'a [O]) -> Accelerated<'a, O> {
+        Accelerated { accel: self, objects }
     }
 
     /// True when the structure holds no object.
@@ -62,21 +69,31 @@ impl ObjectAccel {
     pub fn counts(&self) -> (usize, usize) {
         (self.bounded.len(), self.unbounded.len())
     }
+}
 
-    /// Closest hit among `objects` with `t_min < t < t_max`; `Hit::object` is set.
+/// An [`ObjectAccel`] over the objects it indexes: closest and any hit among them, with
+/// [`Hit::object`] set to the object's index.
+#[derive(Clone, Copy)]
+pub struct Accelerated<'a, O> {
+    accel: &'a ObjectAccel,
+    objects: &'a [O],
+}
+
+impl<O: Intersectable> Intersectable for Accelerated<'_, O> {
     #[inline]
-    pub fn intersect<G: Geometry + ?Sized>(&self, objects: &[Box<G>], ray: &Ray, t_min: f64, mut t_max: f64) -> Option<Hit> {
+    fn intersect(&self, ray: &Ray, t_min: f64, mut t_max: f64) -> Option<Hit> {
+        let (accel, objects) = (self.accel, self.objects);
         let mut best: Option<Hit> = None;
-        for &i in &self.unbounded {
+        for &i in &accel.unbounded {
             if let Some(mut h) = objects[i as usize].intersect(ray, t_min, t_max) {
                 h.object = i;
                 t_max = h.t;
                 best = Some(h);
             }
         }
-        if self.index.is_bvh() {
-            self.index.closest(ray, t_min, t_max, |slot, t_max| {
-                let i = self.bounded[slot as usize].1;
+        if accel.index.is_bvh() {
+            accel.index.closest(ray, t_min, t_max, |slot, t_max| {
+                let i = accel.bounded[slot as usize].1;
                 let mut h = objects[i as usize].intersect(ray, t_min, t_max)?;
                 h.object = i;
                 best = Some(h);
@@ -84,7 +101,7 @@ impl ObjectAccel {
             });
         } else {
             let inv = ray.dir.recip();
-            for (b, i) in &self.bounded {
+            for (b, i) in &accel.bounded {
                 if b.hit(ray, inv, t_min, t_max)
                     && let Some(mut h) = objects[*i as usize].intersect(ray, t_min, t_max)
                 {
@@ -97,16 +114,17 @@ impl ObjectAccel {
         best
     }
 
-    /// Whether any object is hit with `t_min < t < t_max`; stops at the first.
+    /// Stops at the first object hit.
     #[inline]
-    pub fn occluded<G: Geometry + ?Sized>(&self, objects: &[Box<G>], ray: &Ray, t_min: f64, t_max: f64) -> bool {
-        if self.unbounded.iter().any(|&i| objects[i as usize].occludes(ray, t_min, t_max)) {
+    fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
+        let (accel, objects) = (self.accel, self.objects);
+        if accel.unbounded.iter().any(|&i| objects[i as usize].occludes(ray, t_min, t_max)) {
             return true;
         }
-        if self.index.is_bvh() {
-            return self.index.any(ray, t_min, t_max, |slot| objects[self.bounded[slot as usize].1 as usize].occludes(ray, t_min, t_max));
+        if accel.index.is_bvh() {
+            return accel.index.any(ray, t_min, t_max, |slot| objects[accel.bounded[slot as usize].1 as usize].occludes(ray, t_min, t_max));
         }
         let inv = ray.dir.recip();
-        self.bounded.iter().any(|(b, i)| b.hit(ray, inv, t_min, t_max) && objects[*i as usize].occludes(ray, t_min, t_max))
+        accel.bounded.iter().any(|(b, i)| b.hit(ray, inv, t_min, t_max) && objects[*i as usize].occludes(ray, t_min, t_max))
     }
 }

@@ -9,6 +9,7 @@
 
 use super::{App, Failure, si};
 use crate::accel::AccelChoice;
+use crate::geometry::Intersectable;
 use crate::input::context::LoadOptions;
 use crate::input::load::load_str;
 use crate::math::float::offset_ray_origin;
@@ -150,7 +151,7 @@ fn bench_one(app: &App, name: &str, path: &Path, accel: AccelChoice, width: u32,
                     let film = DVec2::new(f64::from(x) + 0.5, f64::from(y) + 0.5);
                     let ray = scene.camera.ray_through(width, height, film, DVec2::ZERO);
                     if let Some(h) = scene.intersect(&ray, 0.0, f64::INFINITY) {
-                        let n = scene.geometries[h.object as usize].normal(&h, ray.dir);
+                        let n = scene.objects[h.object as usize].geometry().normal(&h, ray.dir);
                         hits.push((h.point, h.error, n));
                     }
                 }
@@ -159,7 +160,7 @@ fn bench_one(app: &App, name: &str, path: &Path, accel: AccelChoice, width: u32,
             let mut blocked = 0u32;
             for &(p, err, n) in hits.iter() {
                 let ray = Ray { origin: offset_ray_origin(p, err, n, to_light), dir: to_light };
-                blocked += u32::from(scene.occluded(&ray, f64::INFINITY));
+                blocked += u32::from(scene.occludes(&ray, 0.0, f64::INFINITY));
             }
             std::hint::black_box(blocked);
             let tc = thread_time();

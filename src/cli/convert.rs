@@ -37,12 +37,12 @@ pub(crate) fn run(app: &App, a: ConvertArgs) -> Result<(), Failure> {
     let source_name = a.scene.file_name().map_or_else(|| a.scene.display().to_string(), |n| n.to_string_lossy().into_owned());
     let header = format!("Converted by `raylab convert` from {source_name}.");
     let text = crate::input::toml::to_toml(&desc, &header);
-    crate::image::output::write_atomically(&a.output, |w| w.write_all(text.as_bytes()).map_err(|e| e.to_string()))
+    crate::image::write::write_atomically(&a.output, |w| w.write_all(text.as_bytes()).map_err(|e| e.to_string()))
         .map_err(|e| e.to_string())?;
     println!(
         "wrote {} ({} objects, {} lights) from {}",
         a.output.display(),
-        job.scene.geometries.len(),
+        job.scene.objects.len(),
         job.scene.lights.len(),
         a.scene.display()
     );

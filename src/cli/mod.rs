@@ -66,7 +66,8 @@ pub(crate) struct SceneArgs {
     /// Samples per pixel (overrides the scene).
     #[arg(long, allow_hyphen_values = true, value_parser = int_in::<u32>(1, u32::MAX.into()))]
     spp: Option<u32>,
-    /// Maximum recursion depth (sets the integrator's `max_depth`).
+    /// Maximum recursion depth (sets the integrator's depth parameter, whatever its name:
+    /// `max_depth` for phong, `max_bounces` for path).
     #[arg(long, allow_hyphen_values = true)]
     depth: Option<i64>,
     /// Random seed (overrides the scene).
@@ -218,9 +219,6 @@ impl SceneArgs {
     /// The load options these arguments ask for.
     pub(crate) fn load_options(&self) -> Result<LoadOptions, Failure> {
         let mut params = Vec::new();
-        if let Some(d) = self.depth {
-            params.push(flag_node("--depth", "max_depth", Value::Int(d)));
-        }
         params.extend(key_values("--set", &self.set)?);
         let mut render_params = Vec::new();
         if let Some(v) = &self.aa {
@@ -279,6 +277,7 @@ impl SceneArgs {
                 encoding: self.encoding.as_deref().and_then(crate::math::color::Encoding::parse),
                 integrator: self.integrator.clone(),
                 integrator_params: params,
+                depth: self.depth.map(|d| flag_node("--depth", "depth", Value::Int(d)).1),
                 render_params,
                 camera_params,
             },

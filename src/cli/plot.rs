@@ -46,7 +46,7 @@ pub(crate) fn write_svg(path: &Path, plot: &Plot) -> Result<(), String> {
         draw(&root, plot)?;
         root.present().map_err(|e| e.to_string())?;
     }
-    crate::image::output::write_atomically(path, |w| w.write_all(svg.as_bytes()).map_err(|e| e.to_string())).map_err(|e| e.to_string())
+    crate::image::write::write_atomically(path, |w| w.write_all(svg.as_bytes()).map_err(|e| e.to_string())).map_err(|e| e.to_string())
 }
 
 /// Writes the plot as PNG to `path`, atomically.
@@ -58,7 +58,7 @@ pub(crate) fn write_png(path: &Path, plot: &Plot) -> Result<(), String> {
         draw(&root, plot)?;
         root.present().map_err(|e| e.to_string())?;
     }
-    crate::image::output::write_atomically(path, |w| {
+    crate::image::write::write_atomically(path, |w| {
         crate::image::output::encode_rgb8(w, &rgb, SIZE.0, SIZE.1, crate::image::output::ImageKind::Png)
     })
     .map_err(|e| e.to_string())

@@ -32,7 +32,14 @@ pub fn text(reg: &Registry) -> String {
         for p in items {
             out.push_str(&format!("\n  {}  — {}\n", p.name, p.summary));
             for s in p.params {
-                out.push_str(&format!("    {:<16} {:<9} {:<18} {}\n", s.name, s.kind.name(), s.default.to_string(), s.doc));
+                out.push_str(&format!(
+                    "    {:<16} {:<9} {:<18} {}{}\n",
+                    s.name,
+                    s.kind.name(),
+                    s.default.to_string(),
+                    s.doc,
+                    role(&s.role)
+                ));
             }
         }
         out.push('\n');
@@ -57,6 +64,7 @@ pub fn markdown(reg: &Registry) -> String {
         ("The root", crate::input::load::SCENE_PARAMS),
         ("`[render]`", crate::input::load::RENDER_PARAMS),
         ("`[camera]`", crate::scene::camera::CAMERA_PARAMS),
+        ("Every `[[object]]`", crate::input::load::OBJECT_PARAMS),
         ("`[materials.NAME]` and inline materials", crate::scene::material::MATERIAL_PARAMS),
     ] {
         out.push_str(&format!("### {title}\n\n"));
@@ -89,6 +97,22 @@ pub fn markdown(reg: &Registry) -> String {
 fn param_table(out: &mut String, specs: &[crate::input::spec::ParamSpec]) {
     out.push_str("| parameter | type | default | meaning |\n|---|---|---|---|\n");
     for s in specs {
-        out.push_str(&format!("| `{}` | {} | {} | {} |\n", s.name, s.kind.name(), s.default, s.doc));
+        out.push_str(&format!("| `{}` | {} | {} | {}{} |\n", s.name, s.kind.name(), s.default, s.doc, role(&s.role)));
+    }
+}
+
+/// What a parameter's role adds to its description.
+fn role(r: &crate::input::spec::Role) -> String {
+    use crate::input::spec::{Reference, Role};
+    let reference = |r: &Reference| match r {
+        Reference::Keep => String::new(),
+        Reference::AtLeast(v) => format!("; reference renders use ≥ {v}"),
+        Reference::AtMost(v) => format!("; reference renders use ≤ {v}"),
+        Reference::Exactly(v) => format!("; reference renders use {v}"),
+    };
+    match r {
+        Role::Setting => String::new(),
+        Role::Depth(r) => format!(" *(the depth: `--depth`{})*", reference(r)),
+        Role::Quality(r) => format!(" *(quality knob{})*", reference(r)),
     }
 }

@@ -133,7 +133,7 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
         b
     };
     bar.set_message(scene_name.clone());
-    let options = RenderOptions { threads: a.threads, cancel: Some(&INTERRUPTED) };
+    let options = RenderOptions { threads: a.threads, cancel: Some(&INTERRUPTED), layers: !a.aov.is_empty() };
     let mut error_log = match (&a.error_csv, &reference) {
         (Some(path), Some(r)) => Some(ErrorLog::new(path, r, s.encoding)?),
         _ => None,
@@ -164,11 +164,11 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
         return Err(e.into());
     }
     if !rendered.complete {
-        // In the target's format; EXR layers (AOVs) would cost another render, so none.
+        // In the target's format, without the layers (they are complete only at the end).
         let partial = partial_path(&a.output);
         match kind {
             None => crate::image::reference::write_pfm(&partial, &rendered.film)?,
-            Some(kind) => write(&job, &a, &partial, kind, &rendered.film, grid, false)?,
+            Some(kind) => write(&job, &a, &partial, kind, &rendered.film, None, grid)?,
         }
         let done = 100.0 * work[0].load(Ordering::Relaxed) as f64 / work[1].load(Ordering::Relaxed) as f64;
         return Err(Failure::Interrupted(format!(
@@ -180,7 +180,7 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
     let t_write = Instant::now();
     match kind {
         None => crate::image::reference::write_pfm(&a.output, &rendered.film)?,
-        Some(kind) => write(&job, &a, &a.output, kind, &rendered.film, grid, true)?,
+        Some(kind) => write(&job, &a, &a.output, kind, &rendered.film, rendered.layers.as_ref(), grid)?,
     }
     let write_time = t_write.elapsed();
     let st = rendered.stats;
@@ -230,7 +230,7 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-/// Writes the image to `path`: 8-bit PNG/JPEG, or EXR with the layers asked for (when `aovs`).
+/// Writes the image to `path`: 8-bit PNG/JPEG, or EXR with the layers asked for (of `layers`).
 #[allow(clippy::too_many_arguments)]
 fn write(
     job: &crate::render::RenderJob,
@@ -238,17 +238,24 @@ fn write(
     path: &Path,
     kind: crate::image::output::ImageKind,
     film: &crate::image::film::Film,
+    layers: Option<&crate::image::layers::Aovs>,
     grid: Option<Grid>,
-    aovs: bool,
 ) -> Result<(), Failure> {
     #[cfg(feature = "exr")]
     if kind == crate::image::output::ImageKind::Exr {
-        let which: Vec<crate::render::aov::Aov> = a.aov.iter().filter_map(|s| crate::render::aov::Aov::parse(s)).collect();
-        let layers =
-            if which.is_empty() || !aovs { crate::render::aov::Aovs::default() } else { crate::render::aov::render_aovs(job, &which) };
-        return crate::image::exr::write_exr(path, film, &layers, a.half).map_err(|e| e.to_string().into());
+        use crate::image::layers::{Aov, Aovs};
+        let asked = |l: Aov| a.aov.iter().any(|s| Aov::parse(s) == Some(l));
+        let chosen = match layers {
+            Some(l) => Aovs {
+                depth: l.depth.clone().filter(|_| asked(Aov::Depth)),
+                normal: l.normal.clone().filter(|_| asked(Aov::Normal)),
+                albedo: l.albedo.clone().filter(|_| asked(Aov::Albedo)),
+            },
+            None => Aovs::default(),
+        };
+        return crate::image::exr::write_exr(path, film, &chosen, a.half).map_err(|e| e.to_string().into());
     }
-    let _ = (a, kind, aovs);
+    let _ = (a, kind, layers);
     crate::image::output::write_image(path, film, job.settings.encoding, grid).map_err(|e| e.to_string().into())
 }
 
@@ -311,22 +318,9 @@ impl<'a> ErrorLog<'a> {
 
 /// The counters of a render as an aligned table.
 pub fn stats_table(st: &crate::render::stats::RayStats) -> String {
-    let rows = [
-        ("camera rays", st.camera_rays),
-        ("shadow rays", st.shadow_rays),
-        ("reflection rays", st.reflection_rays),
-        ("refraction rays", st.refraction_rays),
-        ("avoided: light behind surface", st.lights_behind),
-        ("avoided: light outside its cone", st.lights_unreachable),
-        ("avoided: surface has no response", st.lights_no_response),
-        ("avoided: zero kr/kt rays", st.zero_coefficient_rays),
-        ("avoided: glossy fans at sharp", st.glossy_rays_saved),
-        ("pruned: light negligible", st.lights_negligible),
-        ("pruned: rays below threshold", st.pruned_rays),
-        ("saved: adaptive shadow rays", st.shadow_rays_saved),
-        ("limited: max depth", st.depth_limited),
-        ("non-finite samples", st.nonfinite_samples),
-    ];
+    let mut rows = vec![("camera rays", st.camera_rays)];
+    rows.extend(st.counters().map(|(c, n)| (c.doc, n)));
+    rows.push(("non-finite samples", st.nonfinite_samples));
     rows.iter().map(|(k, v)| format!("  {k:<32}{v:>14}\n")).collect()
 }
 

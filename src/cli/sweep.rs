@@ -8,6 +8,7 @@ use crate::image::film::Film;
 use crate::image::metrics::ImageError;
 use crate::input::context::LoadOptions;
 use crate::input::error::{Loc, SceneError, Source};
+use crate::input::spec::{Reference, Role};
 use crate::input::value::{Node, Value};
 use crate::render::{RenderJob, RenderOptions};
 use clap::Args;
@@ -96,7 +97,7 @@ pub(crate) fn run(app: &App, a: SweepArgs) -> Result<(), Failure> {
     let (base_job, scene_name) = super::load(app, scene, &a.scene_args, crate::image::output::ImagePlan::EIGHT_BIT)?;
     let encoding = base_job.settings.encoding;
     std::fs::create_dir_all(&a.out).map_err(|e| format!("cannot create \"{}\": {e}", a.out.display()))?;
-    let options = RenderOptions { threads: a.threads, cancel: None };
+    let options = RenderOptions { threads: a.threads, cancel: None, layers: false };
 
     // Every setting, checked (loaded) before anything is rendered.
     let choices = if a.one_at_a_time { one_at_a_time(&knobs) } else { grid(&knobs) };
@@ -166,7 +167,7 @@ pub(crate) fn run(app: &App, a: SweepArgs) -> Result<(), Failure> {
         "results": outcomes,
     });
     let text = serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?;
-    crate::image::output::write_atomically(&a.out.join("results.json"), |f| f.write_all(text.as_bytes()).map_err(|e| e.to_string()))
+    crate::image::write::write_atomically(&a.out.join("results.json"), |f| f.write_all(text.as_bytes()).map_err(|e| e.to_string()))
         .map_err(|e| e.to_string())?;
 
     let series = curves(&knobs, &outcomes, metric, a.one_at_a_time);
@@ -239,7 +240,6 @@ fn parse_vary(s: &str) -> Result<Knob, Failure> {
         return Err(SceneError::at(&Loc::new(&src, 0..s.len()), "expected KNOB=V1,V2,…").into());
     };
     let name = s[..eq].trim().to_string();
-    let name = if name == "max_depth" { "depth".to_string() } else { name };
     let mut values = Vec::new();
     let mut start = eq + 1;
     let mut depth = 0i32;
@@ -319,7 +319,7 @@ fn apply(o: &mut LoadOptions, name: &str, value: &Node) -> Result<(), Failure> {
         }
         "aa" | "lens_samples" => set(&mut ov.render_params, name, value),
         "aperture" | "focus_distance" => set(&mut ov.camera_params, name, value),
-        "depth" => set(&mut ov.integrator_params, "max_depth", value),
+        "depth" => ov.depth = Some(value.clone()),
         _ => set(&mut ov.integrator_params, name, value),
     }
     Ok(())
@@ -334,10 +334,6 @@ fn load_with(app: &App, scene: Option<&Path>, opts: &LoadOptions) -> Result<Rend
         }
     }
 }
-
-/// Depth and pruning threshold of the `auto` reference (or the swept extreme, if beyond).
-const REFERENCE_DEPTH: i64 = 12;
-const REFERENCE_PRUNE: f64 = 1e-4;
 
 /// The reference image: read from a file, or rendered at high settings (cached by a hash of the
 /// scene, its settings and raylab's version).
@@ -362,19 +358,13 @@ fn reference(
     ov.render_params.retain(|(k, _)| !k.starts_with("aa"));
     ov.render_params.push(super::flag_node("--reference", "aa", Value::Str("stratified".into())));
     ov.render_params.push(super::flag_node("--reference", "lens_samples", Value::Int(1)));
+    // Every depth and quality knob of the integrator at its reference value (by role, whatever
+    // the parameter is called), and at least as accurate as any value swept.
     let params = app.registry.integrator(&base_job.integrator_name).map(|p| p.info.params).unwrap_or(&[]);
-    let has = |n: &str| params.iter().any(|s| s.name == n);
-    if has("max_depth") {
-        let deepest = swept("depth")
-            .unwrap_or_default()
-            .iter()
-            .filter_map(|v| if let Value::Int(i) = v { Some(*i) } else { None })
-            .max()
-            .unwrap_or(0);
-        ov.integrator_params.push(super::flag_node("--reference", "max_depth", Value::Int(deepest.max(REFERENCE_DEPTH))));
-    }
-    if has("prune_threshold") {
-        let finest = swept("prune_threshold")
+    for spec in params {
+        let Some(reference) = spec.role.reference() else { continue };
+        let is_depth = matches!(spec.role, Role::Depth(_));
+        let numbers: Vec<f64> = swept(if is_depth { "depth" } else { spec.name })
             .unwrap_or_default()
             .iter()
             .filter_map(|v| match v {
@@ -382,11 +372,27 @@ fn reference(
                 Value::Int(i) => Some(*i as f64),
                 _ => None,
             })
-            .fold(REFERENCE_PRUNE, f64::min);
-        ov.integrator_params.push(super::flag_node("--reference", "prune_threshold", Value::Float(finest)));
-    }
-    if has("shadow_probes") {
-        ov.integrator_params.push(super::flag_node("--reference", "shadow_probes", Value::Int(0)));
+            .collect();
+        let value = match reference {
+            Reference::Keep => continue,
+            Reference::AtLeast(r) => numbers.iter().copied().fold(r, f64::max),
+            Reference::AtMost(r) => numbers.iter().copied().fold(r, f64::min),
+            Reference::Exactly(d) => match d {
+                crate::input::spec::Default::Int(i) => i as f64,
+                crate::input::spec::Default::Float(f) => f,
+                crate::input::spec::Default::Bool(b) => {
+                    ov.integrator_params.push(super::flag_node("--reference", spec.name, Value::Bool(b)));
+                    continue;
+                }
+                _ => continue,
+            },
+        };
+        let value = if spec.kind == crate::input::spec::ParamKind::Int { Value::Int(value.round() as i64) } else { Value::Float(value) };
+        if is_depth {
+            ov.depth = Some(super::flag_node("--reference", "depth", value).1);
+        } else {
+            ov.integrator_params.push(super::flag_node("--reference", spec.name, value));
+        }
     }
     let job = load_with(app, a.scene.as_deref(), &o)?;
     let scene_text = match a.scene.as_deref() {
@@ -525,7 +531,7 @@ fn write_csv(path: &Path, knobs: &[Knob], outcomes: &[Outcome]) -> Result<(), Fa
             o.seconds, o.rays, o.error.rmse, o.error.psnr, o.error.ssim, o.dssim, o.pareto
         );
     }
-    crate::image::output::write_atomically(path, |f| f.write_all(text.as_bytes()).map_err(|e| e.to_string()))
+    crate::image::write::write_atomically(path, |f| f.write_all(text.as_bytes()).map_err(|e| e.to_string()))
         .map_err(|e| e.to_string().into())
 }
 

@@ -2,7 +2,9 @@
 
 use super::{App, Failure, SceneArgs};
 use crate::math::ray::Ray;
+use crate::render::sample::SampleId;
 use crate::render::sampler::Sampler;
+use crate::render::{explain_sample, pixel_samples};
 use clap::Args;
 use glam::DVec3;
 use std::path::PathBuf;
@@ -14,6 +16,11 @@ pub(crate) struct TraceArgs {
     /// The pixel to explain, as X,Y (column, row from the top-left, from 0).
     #[arg(long, value_name = "X,Y", allow_hyphen_values = true, conflicts_with = "ray", required_unless_present = "ray")]
     pixel: Option<String>,
+    /// Which of the pixel's samples to explain (0-based): a stratified sample under `--aa
+    /// stratified` (0..spp), or the K-th lattice point the adaptive scheme traced for the pixel.
+    /// The explanation is the computation the render did for that sample, bit for bit.
+    #[arg(long, value_name = "K", default_value_t = 0, allow_hyphen_values = true, value_parser = super::int_in::<u32>(0, u32::MAX.into()))]
+    sample: u32,
     /// A ray to explain, as OX,OY,OZ:DX,DY,DZ (origin and direction).
     #[arg(long, value_name = "OX,OY,OZ:DX,DY,DZ", allow_hyphen_values = true)]
     ray: Option<String>,
@@ -27,46 +34,70 @@ pub(crate) struct TraceArgs {
 pub(crate) fn run(app: &App, a: TraceArgs) -> Result<(), Failure> {
     let (job, _) = super::load(app, Some(&a.scene), &a.scene_args, crate::image::output::ImagePlan::EIGHT_BIT)?;
     let s = job.settings;
-    let (ray, pixel) = if let Some(p) = &a.pixel {
+    let cannot = || Failure::Other(format!("the integrator \"{}\" cannot explain rays", job.integrator_name));
+    // A pixel: the sample's camera rays (one per lens point), exactly as the render traced them.
+    let (trees, pixel, sample) = if let Some(p) = &a.pixel {
         let bad = || Failure::Other(format!("--pixel: expected X,Y inside the {}×{} image, found \"{p}\"", s.width, s.height));
         let (x, y) = p.split_once(',').ok_or_else(bad)?;
         let (x, y): (u32, u32) = (x.trim().parse().map_err(|_| bad())?, y.trim().parse().map_err(|_| bad())?);
         if x >= s.width || y >= s.height {
             return Err(bad());
         }
-        (job.scene.camera.construct_ray_through_pixel(s.width, s.height, f64::from(x), f64::from(y)), Some((x, y)))
+        let samples = pixel_samples(&job, x, y);
+        let &(id, weight) = samples.get(a.sample as usize).ok_or_else(|| {
+            Failure::Other(format!("--sample {}: pixel ({x}, {y}) has {} samples (0..{})", a.sample, samples.len(), samples.len()))
+        })?;
+        let trees = explain_sample(&job, id).ok_or_else(cannot)?;
+        (trees, Some((x, y)), Some((id, weight, samples.len())))
     } else {
         let r = a.ray.as_deref().unwrap_or_default();
         let (o, d) = r.split_once(':').ok_or_else(|| Failure::Other(format!("--ray: expected OX,OY,OZ:DX,DY,DZ, found \"{r}\"")))?;
         let (o, d) = (parse_vec3(o, "--ray origin")?, parse_vec3(d, "--ray direction")?);
         let dir = d.try_normalize().ok_or_else(|| Failure::Other("--ray: the direction must not be zero".into()))?;
-        (Ray { origin: o, dir }, None)
+        let tree = job.integrator.explain(&job.scene, &Ray { origin: o, dir }, &mut Sampler::new(0, 0, s.seed)).ok_or_else(cannot)?;
+        (vec![tree], None, None)
     };
-    let index = pixel.map_or(0, |(x, y)| u64::from(y) * u64::from(s.width) + u64::from(x));
-    let mut sampler = Sampler::new(index, 0, s.seed);
-    let tree = job
-        .integrator
-        .explain(&job.scene, &ray, &mut sampler)
-        .ok_or_else(|| Failure::Other(format!("the integrator \"{}\" cannot explain rays", job.integrator_name)))?;
-    let c = tree.color;
+    // The sample's radiance: the mean of its finite rays, as the render averages them.
+    let finite: Vec<_> = trees.iter().map(|t| t.color).filter(|c| c.is_finite()).collect();
+    let c = if finite.is_empty() { glam::DVec3::ZERO } else { finite.iter().sum::<glam::DVec3>() / finite.len() as f64 };
     let rgb8 = [c.x, c.y, c.z].map(|v| s.encoding.to_u8(v as f32));
     if a.json {
         let out = serde_json::json!({
             "scene": a.scene.display().to_string(),
             "pixel": pixel,
+            "sample": sample.map(|(id, weight, count)| serde_json::json!({ "index": a.sample, "of": count, "id": id, "weight": weight })),
+            "sampling": s.describe_sampling(),
             "integrator": job.integrator_name,
             "color": c,
             "rgb8": rgb8,
             "encoding": s.encoding,
-            "tree": tree,
+            "tree": trees[0],
+            "lens_rays": if trees.len() > 1 { serde_json::to_value(&trees).map_err(|e| e.to_string())? } else { serde_json::Value::Null },
         });
         println!("{}", serde_json::to_string_pretty(&out).map_err(|e| e.to_string())?);
     } else {
-        if let Some((x, y)) = pixel {
-            println!("pixel ({x}, {y}) of {}×{}, integrator {}", s.width, s.height, job.integrator_name);
+        if let (Some((x, y)), Some((id, weight, count))) = (pixel, sample) {
+            let which = match id {
+                SampleId::Pixel { .. } => format!("sample {} of {count}", a.sample),
+                SampleId::Lattice { x, y, depth } => {
+                    format!("adaptive lattice point {} of {count} at ({x}, {y})/{}, weight {weight:.4}", a.sample, 1u64 << depth)
+                }
+            };
+            println!(
+                "pixel ({x}, {y}) of {}×{}, {which} ({}), integrator {}",
+                s.width,
+                s.height,
+                s.describe_sampling(),
+                job.integrator_name
+            );
         }
-        print!("{}", tree.to_text());
-        println!("final colour ({:.6}, {:.6}, {:.6})  → {} 8-bit {:?}", c.x, c.y, c.z, s.encoding.name(), rgb8);
+        for (l, tree) in trees.iter().enumerate() {
+            if trees.len() > 1 {
+                println!("lens ray {l} of {}:", trees.len());
+            }
+            print!("{}", tree.to_text());
+        }
+        println!("sample colour ({:.6}, {:.6}, {:.6})  → {} 8-bit {:?}", c.x, c.y, c.z, s.encoding.name(), rgb8);
     }
     Ok(())
 }

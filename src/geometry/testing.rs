@@ -223,13 +223,11 @@ mod tests {
     use super::*;
     use crate::geometry::Intersectable;
     use crate::math::bounds::Aabb;
-    use crate::scene::material::Material;
 
     /// The unit sphere at the origin, with one deliberate fault.
     #[derive(Default)]
     struct Faulty {
         fault: Option<Fault>,
-        material: Material,
     }
 
     #[derive(Clone, Copy, PartialEq)]
@@ -291,9 +289,6 @@ mod tests {
             let n = crate::geometry::face_forward(self.outward_normal(at), dir);
             if self.fault == Some(Fault::FacesAway) { -n } else { n }
         }
-        fn material(&self) -> &Material {
-            &self.material
-        }
         fn bounds(&self) -> Option<Aabb> {
             let r = if self.fault == Some(Fault::TinyBounds) { 0.5 } else { 1.0 };
             Some(Aabb::new(DVec3::splat(-r), DVec3::splat(r)))
@@ -324,14 +319,14 @@ mod tests {
         use Fault::*;
         let tol = Tolerance::for_scale(5.0);
         for fault in [PointOffSurface, TOffPoint, InwardNormal, FacesAway, OccludesLies, TinyBounds] {
-            let g = Faulty { fault: Some(fault), ..Faulty::default() };
+            let g = Faulty { fault: Some(fault) };
             assert!(check_hit(&g, &ray(), 0.0, f64::INFINITY, &tol, &UnitSphere).is_err());
         }
         // t_max itself returned: the closest-hit query up to the hit's own t finds it again.
-        let g = Faulty { fault: Some(ReturnsTMax), ..Faulty::default() };
+        let g = Faulty { fault: Some(ReturnsTMax) };
         assert!(check_hit(&g, &ray(), 0.0, f64::INFINITY, &tol, &UnitSphere).is_err());
         // The far hit first: the walk sees a hit closer than the one reported.
-        let g = Faulty { fault: Some(FarHitFirst), ..Faulty::default() };
+        let g = Faulty { fault: Some(FarHitFirst) };
         assert!(check_hits_ascending(&g, &ray(), &tol, &UnitSphere, 2).is_err());
     }
 

@@ -15,7 +15,7 @@
 //! with a conservative error bound, and the ray origin is moved past its own transformation
 //! error, so secondary rays still never re-hit the surface they leave.
 
-use crate::geometry::{Geometry, Hit, Intersectable};
+use crate::geometry::{Geometry, Hit, Intersectable, Surface, face_forward};
 use crate::input::error::{Result, SceneError};
 use crate::input::value::{Node, Value, vec3_of};
 use crate::math::bounds::Aabb;
@@ -23,6 +23,7 @@ use crate::math::float::{DEGENERACY_TOLERANCE, gamma};
 use crate::math::ray::Ray;
 use crate::scene::material::Material;
 use glam::{DAffine3, DMat3, DVec3};
+use std::sync::Arc;
 
 /// An invertible affine map from an object's own frame to the world.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -194,20 +195,19 @@ impl<G: Geometry> Geometry for Transformed<G> {
     fn outward_normal(&self, at: &Hit) -> DVec3 {
         self.transform.normal(self.inner.outward_normal(&self.object_hit(at)))
     }
-    fn shading_normal(&self, at: &Hit, dir: DVec3) -> DVec3 {
-        let local = self.object_hit(at);
-        let n = self.transform.normal(self.inner.shading_normal(&local, self.transform.to_object.transform_vector3(dir)));
-        // The inner shape faced its normal against the object-frame direction; the map keeps sides.
-        crate::geometry::face_forward(n, dir)
+    /// The inner shape's surface, with the point carried into its frame once and the normals
+    /// carried out once.
+    #[inline]
+    fn surface(&self, at: &Hit, dir: DVec3) -> Surface {
+        let s = self.inner.surface(&self.object_hit(at), self.transform.to_object.transform_vector3(dir));
+        // The inner shape faced its normals against the object-frame direction; the map keeps
+        // sides, and `face_forward` keeps them exact under rounding.
+        let n = face_forward(self.transform.normal(s.n), dir);
+        let ns = if s.ns == s.n { n } else { face_forward(self.transform.normal(s.ns), dir) };
+        Surface { n, ns, ..s }
     }
-    fn material(&self) -> &Material {
-        self.inner.material()
-    }
-    fn material_at(&self, at: &Hit) -> &Material {
-        self.inner.material_at(at)
-    }
-    fn may_transmit(&self) -> bool {
-        self.inner.may_transmit()
+    fn materials(&self) -> Option<Arc<[Material]>> {
+        self.inner.materials()
     }
     fn bounds(&self) -> Option<Aabb> {
         self.bounds
@@ -357,10 +357,6 @@ mod tests {
     impl Geometry for Ball {
         fn outward_normal(&self, at: &Hit) -> DVec3 {
             at.point.normalize()
-        }
-        fn material(&self) -> &Material {
-            static M: std::sync::OnceLock<Material> = std::sync::OnceLock::new();
-            M.get_or_init(Material::default)
         }
         fn bounds(&self) -> Option<Aabb> {
             Some(Aabb::new(-DVec3::ONE, DVec3::ONE))

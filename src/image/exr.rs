@@ -4,8 +4,8 @@
 //! Written atomically, like every raylab image.
 
 use crate::image::film::Film;
-use crate::image::output::{WriteError, write_atomically};
-use crate::render::aov::Aovs;
+use crate::image::layers::Aovs;
+use crate::image::write::{WriteError, write_atomically};
 use exr::prelude::*;
 use std::path::Path;
 use std::result::Result;

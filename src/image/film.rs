@@ -23,9 +23,9 @@ impl Film {
     }
 
     /// A black film, or an error if its memory cannot be had (instead of aborting the process).
-    pub fn try_new(width: u32, height: u32) -> Result<Self, crate::image::output::WriteError> {
+    pub fn try_new(width: u32, height: u32) -> Result<Self, crate::image::write::WriteError> {
         let n = (width as usize).saturating_mul(height as usize);
-        Ok(Film { width, height, pixels: crate::image::output::try_filled(n, Vec3::ZERO, "film")? })
+        Ok(Film { width, height, pixels: crate::image::write::try_filled(n, Vec3::ZERO, "film")? })
     }
 
     /// The pixel at column `x`, row `y`.

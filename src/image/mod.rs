@@ -4,6 +4,8 @@
 #[cfg(feature = "exr")]
 pub mod exr;
 pub mod film;
+pub mod layers;
 pub mod metrics;
 pub mod output;
 pub mod reference;
+pub mod write;

@@ -4,9 +4,10 @@
 //! one was.
 
 use crate::image::film::Film;
+use crate::image::write::{WriteError, write_atomically};
 use crate::math::color::Encoding;
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Grid lines drawn over an 8-bit image every `interval` pixels (rows and columns 0, interval, …).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -58,50 +59,32 @@ impl std::default::Default for ImagePlan {
 
 /// Bytes per pixel of the film (linear RGB, `f32`).
 const FILM_BYTES_PER_PIXEL: u64 = 12;
-/// Bytes per pixel of the extra layers' pass before it splits them ([`crate::render::aov::render_aovs`]:
-/// depth, normal and albedo together).
-const AOV_PASS_BYTES_PER_PIXEL: u64 = 28;
+/// Bytes per pixel of the render's running sums ([`crate::render::sample::SampleSum`]).
+const SUM_BYTES_PER_PIXEL: u64 = 32;
+/// Bytes per pixel of the layers' running sums ([`crate::render::sample::LayerSum`]).
+const LAYER_SUM_BYTES_PER_PIXEL: u64 = 36;
 /// Bytes per pixel of 8-bit output: the RGB copy and the encoder's buffer.
 const EIGHT_BIT_BYTES_PER_PIXEL: u64 = 6;
 
-/// The most memory writing an image of `pixels` pixels as `plan` takes at once, bytes: the film,
-/// the extra layers, and the encoder's copies of them (for EXR, every channel and the encoded
-/// file, at most its raw size).
+/// The most memory rendering and writing an image of `pixels` pixels as `plan` takes at once,
+/// bytes: the film, the render's running sums (and the layers' when asked for, with the layers
+/// they become), then the encoder's copies (for EXR, every channel and the encoded file, at most
+/// its raw size).
 pub fn image_bytes(pixels: u64, plan: &ImagePlan) -> u64 {
-    let per_pixel = if plan.exr {
+    let any_layer = plan.exr && (plan.depth || plan.normal || plan.albedo);
+    // The render makes every layer when any is asked for.
+    let during_render = SUM_BYTES_PER_PIXEL + if any_layer { LAYER_SUM_BYTES_PER_PIXEL + 28 } else { 0 };
+    let during_writing = if plan.exr {
         let colour = if plan.half { 2 } else { 4 };
-        let layers = 4 * u64::from(plan.depth) + 12 * (u64::from(plan.normal) + u64::from(plan.albedo));
-        let any_layer = plan.depth || plan.normal || plan.albedo;
+        let layers = if any_layer { 28 } else { 0 };
         let channels = 3 * colour * (1 + u64::from(plan.normal) + u64::from(plan.albedo)) + 4 * u64::from(plan.depth);
-        let during_pass = if any_layer { AOV_PASS_BYTES_PER_PIXEL + layers } else { 0 };
-        let during_encoding = layers + 2 * channels;
-        FILM_BYTES_PER_PIXEL + during_pass.max(during_encoding)
+        layers + 2 * channels
     } else {
-        FILM_BYTES_PER_PIXEL + EIGHT_BIT_BYTES_PER_PIXEL
+        EIGHT_BIT_BYTES_PER_PIXEL
     };
+    let per_pixel = FILM_BYTES_PER_PIXEL + during_render.max(during_writing);
     pixels.saturating_mul(per_pixel)
 }
-
-/// A vector of `n` copies of `value`, or an error naming `what` if the memory cannot be had
-/// (instead of aborting the process).
-pub fn try_filled<T: Clone>(n: usize, value: T, what: &str) -> Result<Vec<T>, WriteError> {
-    let mut v = Vec::new();
-    v.try_reserve_exact(n).map_err(|_| WriteError(format!("out of memory for the {what} ({n} values)")))?;
-    v.resize(n, value);
-    Ok(v)
-}
-
-/// Error writing an image.
-#[derive(Debug)]
-pub struct WriteError(pub String);
-
-impl std::fmt::Display for WriteError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for WriteError {}
 
 /// The kind for a path's extension (`png`, `jpg`, `jpeg`, `exr`; case-insensitive).
 pub fn kind_for(path: &Path) -> Result<ImageKind, WriteError> {
@@ -168,43 +151,22 @@ pub fn encode_rgb8(w: &mut dyn Write, rgb: &[u8], width: u32, height: u32, kind:
     r.map_err(|e| e.to_string())
 }
 
-/// Runs `write` into a temporary file beside `path`, flushes it to disk and renames it over
-/// `path`. On any failure the temporary file is removed and `path` is untouched.
-pub fn write_atomically(path: &Path, write: impl FnOnce(&mut dyn Write) -> Result<(), String>) -> Result<(), WriteError> {
-    let tmp = temp_path(path);
-    let result = (|| {
-        let file = std::fs::File::create(&tmp).map_err(|e| format!("cannot create \"{}\": {e}", tmp.display()))?;
-        let mut buf = std::io::BufWriter::new(file);
-        write(&mut buf)?;
-        let file = buf.into_inner().map_err(|e| e.to_string())?;
-        file.sync_all().map_err(|e| e.to_string())?;
-        std::fs::rename(&tmp, path).map_err(|e| format!("cannot rename to \"{}\": {e}", path.display()))
-    })();
-    result.map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        WriteError(format!("writing \"{}\" failed: {e}", path.display()))
-    })
-}
-
-fn temp_path(path: &Path) -> PathBuf {
-    let name = path.file_name().map_or_else(|| "image".into(), |n| n.to_string_lossy().into_owned());
-    path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
-}
-
 #[cfg(test)]
 mod tests {
 
-    /// The estimate counts the film, the layers and the encoder's copies; the default budget holds
-    /// 4096² with every layer and refuses the next step up, and 8-bit output of the largest
-    /// image the pixel limit allows.
+    /// The estimate counts the film, the render's running sums, the layers and the encoder's
+    /// copies; the default budget holds 4096² with every layer and refuses the next step up, and
+    /// holds 8-bit output of an 8K UHD frame (7680 × 4320) but not of the largest image the pixel
+    /// limit allows (8192², 2.9 GB: raise --max-image-bytes).
     #[test]
     fn image_memory_estimates_fit_the_default_budget() {
         let budget = crate::input::limits::DEFAULT_MAX_IMAGE_BYTES;
         assert_eq!(image_bytes(1, &ImagePlan::COSTLIEST), 120);
-        assert_eq!(image_bytes(1, &ImagePlan::EIGHT_BIT), 18);
+        assert_eq!(image_bytes(1, &ImagePlan::EIGHT_BIT), 44);
         assert!(image_bytes(4096 * 4096, &ImagePlan::COSTLIEST) <= budget);
         assert!(image_bytes(4608 * 4608, &ImagePlan::COSTLIEST) > budget);
-        assert!(image_bytes(crate::input::limits::Limits::default().max_pixels, &ImagePlan::EIGHT_BIT) <= budget);
+        assert!(image_bytes(7680 * 4320, &ImagePlan::EIGHT_BIT) <= budget);
+        assert!(image_bytes(crate::input::limits::Limits::default().max_pixels, &ImagePlan::EIGHT_BIT) > budget);
         let half = ImagePlan { half: true, ..ImagePlan::COSTLIEST };
         assert!(image_bytes(1, &half) < image_bytes(1, &ImagePlan::COSTLIEST));
         assert_eq!(image_bytes(u64::MAX, &ImagePlan::COSTLIEST), u64::MAX);
@@ -213,7 +175,7 @@ mod tests {
     /// An allocation that cannot succeed is an error, not an abort.
     #[test]
     fn an_impossible_buffer_is_an_error() {
-        let e = try_filled(usize::MAX / 2, 0u64, "film").unwrap_err();
+        let e = crate::image::write::try_filled(usize::MAX / 2, 0u64, "film").unwrap_err();
         assert!(e.0.contains("out of memory for the film"), "{e}");
         assert!(crate::image::film::Film::try_new(u32::MAX, u32::MAX).is_err() || usize::BITS > 64);
     }

@@ -33,7 +33,7 @@ pub fn read(path: &Path, encoding: Encoding) -> Result<Film, String> {
 
 /// Writes `film` to `path` as PFM, atomically.
 pub fn write_pfm(path: &Path, film: &Film) -> Result<(), String> {
-    crate::image::output::write_atomically(path, |w| w.write_all(&encode_pfm(film)).map_err(|e| e.to_string())).map_err(|e| e.to_string())
+    crate::image::write::write_atomically(path, |w| w.write_all(&encode_pfm(film)).map_err(|e| e.to_string())).map_err(|e| e.to_string())
 }
 
 /// `film` as a PFM file: header `PF`, size, scale −1 (little-endian), rows bottom to top.

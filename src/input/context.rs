@@ -30,6 +30,9 @@ pub struct Overrides {
     pub integrator: Option<String>,
     /// Integrator parameters, `(name, value)`, applied over the scene's.
     pub integrator_params: Vec<(String, Node)>,
+    /// The integrator's recursion depth (its parameter with [`crate::input::spec::Role::Depth`],
+    /// whatever its name), applied before `integrator_params`.
+    pub depth: Option<Node>,
     /// `[render]` keys, `(name, value)`, applied over the scene's (e.g. `aa`, `lens_samples`).
     pub render_params: Vec<(String, Node)>,
     /// Camera parameters, `(name, value)`, applied over the scene's `[camera]` (see

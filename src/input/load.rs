@@ -12,7 +12,7 @@ use crate::input::error::{Loc, Result, SceneError, Source, did_you_mean};
 use crate::input::limits::{OBJECT_BYTES, toml_memory_estimate};
 use crate::input::params::Params;
 use crate::input::registry::Registry;
-use crate::input::spec::{Default, ParamKind, ParamSpec};
+use crate::input::spec::{Default, ParamKind, ParamSpec, Role};
 use crate::input::toml::parse_toml;
 use crate::input::value::{Node, Table, Value};
 use crate::math::color::Encoding;
@@ -20,7 +20,9 @@ use crate::render::{Antialiasing, MAX_ADAPTIVE_DEPTH, RenderJob, RenderSettings}
 use crate::scene::Scene;
 use crate::scene::camera::{CAMERA_PARAMS, Camera};
 use crate::scene::material::{Material, MaterialLibrary};
+use crate::scene::object::Object;
 use std::path::Path;
+use std::sync::Arc;
 
 /// The keys of a scene file's root.
 pub const SCENE_PARAMS: &[ParamSpec] = &[
@@ -143,7 +145,7 @@ struct Parts {
     name: String,
     camera: Camera,
     background: crate::math::color::Color,
-    objects: Vec<(String, Box<dyn crate::geometry::Geometry>)>,
+    objects: Vec<Object>,
     lights: Vec<(String, Box<dyn crate::scene::light::LightSource>)>,
     integrator: Box<dyn crate::render::integrator::Integrator>,
     integrator_name: String,
@@ -169,7 +171,7 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         return Err(SceneError::msg("a BVH was asked for, but raylab was built without the `bvh` feature")
             .with_help("rebuild with `--features bvh`, or use --accel auto/list"));
     }
-    let mut root = Params::new(format!("scene {}", desc.name), SCENE_PARAMS, &desc.root, desc.loc.clone(), None);
+    let mut root = Params::new(format!("scene {}", desc.name), SCENE_PARAMS, &desc.root, desc.loc.clone());
     let name = match root.node("name")? {
         Some(n) => match &n.value {
             Value::Str(s) => s.clone(),
@@ -183,7 +185,7 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
     let empty = Table::default();
     let (render_table, render_loc) = sub_table(root.node("render")?, &desc.loc, &empty, "render")?;
     let render_table = with_overrides(render_table, &ov.render_params);
-    let mut rp = Params::new("[render]", RENDER_PARAMS, &render_table, render_loc, None);
+    let mut rp = Params::new("[render]", RENDER_PARAMS, &render_table, render_loc);
     let limits = &opts.limits;
     let max_side = i64::from(limits.max_side.min(i32::MAX as u32));
     // The file's values are read (and validated) even when the command line overrides them.
@@ -253,7 +255,7 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
     }
     let (cam_table, cam_loc) = sub_table(cam_node, &desc.loc, &empty, "camera")?;
     let cam_table = crate::scene::camera::apply_overrides(cam_table, &ov.camera_params);
-    let mut cp = Params::new("[camera]", CAMERA_PARAMS, &cam_table, cam_loc, None);
+    let mut cp = Params::new("[camera]", CAMERA_PARAMS, &cam_table, cam_loc);
     let camera = Camera::from_params(&mut cp, settings.width, settings.height)?;
     cp.finish()?;
 
@@ -273,6 +275,7 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
 
     // [[object]]
     let mut objects = Vec::new();
+    let default_material: Arc<[Material]> = Arc::from([materials.default_material()]);
     let mut names = NameSet::default();
     for (i, node) in array_of_tables(root.node("object")?, "object")?.into_iter().enumerate() {
         let (ty, label, params) =
@@ -281,7 +284,7 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         let what = format!("object #{i} {label}({ty})");
         ctx.charge(OBJECT_BYTES, &what, Some(&node.loc))?;
         let transform = params.get("transform").map(|n| parse_transform(n).map_err(|e| e.context(&what))).transpose()?;
-        let mut p = Params::new(&what, plugin.info.params, params, node.loc.clone(), Some(&materials)).reserving(OBJECT_KEYS);
+        let mut p = Params::new(&what, plugin.info.params, params, node.loc.clone()).reserving(OBJECT_KEYS);
         let mut g = (plugin.build)(&mut p, ctx)?;
         p.finish()?;
         if let Some(t) = transform.filter(|t| !t.is_identity()) {
@@ -300,7 +303,13 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
                 .with_help("scale the scene down, or move it toward the origin"));
             }
         }
-        objects.push((names.claim(node, &label, &ty, i)?, g));
+        // The object's `material` replaces what the shape's file defines; without either, the
+        // scene's default.
+        let materials = match params.get("material") {
+            Some(n) => Arc::from([materials.resolve(n, &what)?]),
+            None => g.materials().unwrap_or_else(|| default_material.clone()),
+        };
+        objects.push(Object::new(names.claim(node, &label, &ty, i)?, g, materials));
     }
 
     // [[light]]
@@ -311,7 +320,7 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
             plugin_header(node, i, "light", |n| registry.light(n).is_some(), || registry.lights().map(|p| p.name).collect())?;
         let plugin = registry.light(&ty).expect("checked by plugin_header");
         let what = format!("light #{i} {label}({ty})");
-        let mut p = Params::new(&what, plugin.info.params, params, node.loc.clone(), None).reserving(LIGHT_KEYS);
+        let mut p = Params::new(&what, plugin.info.params, params, node.loc.clone()).reserving(LIGHT_KEYS);
         let l = (plugin.build)(&mut p, ctx)?;
         p.finish()?;
         lights.push((light_names.claim(node, &label, &ty, i)?, l));
@@ -346,6 +355,17 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         };
         return Err(e.with_help(suggest(&ty, &names)));
     };
+    // The depth, whatever the integrator calls it.
+    let depth_param = plugin.info.params.iter().find(|s| matches!(s.role, Role::Depth(_))).map(|s| s.name);
+    if let Some(d) = &ov.depth {
+        match depth_param {
+            Some(name) => integ_table.set(name, d.loc.clone(), d.clone()),
+            None => {
+                return Err(SceneError::at(&d.loc, format!("integrator \"{ty}\" has no recursion depth to set"))
+                    .with_help("its parameters are listed by `raylab plugins`"));
+            }
+        }
+    }
     for (k, v) in &ov.integrator_params {
         if !plugin.info.params.iter().any(|s| s.name == k) {
             let names: Vec<&str> = plugin.info.params.iter().map(|s| s.name).collect();
@@ -354,14 +374,15 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         }
         integ_table.set(k, v.loc.clone(), v.clone());
     }
-    if let Some(n) = integ_table.get("max_depth")
+    if let Some(name) = depth_param
+        && let Some(n) = integ_table.get(name)
         && let Value::Int(d) = n.value
         && d > i64::from(limits.max_depth)
     {
-        return Err(SceneError::at(&n.loc, format!("max_depth {d} exceeds the limit of {}", limits.max_depth))
+        return Err(SceneError::at(&n.loc, format!("{name} {d} exceeds the limit of {}", limits.max_depth))
             .with_help("raise it with --max-depth-limit"));
     }
-    let mut ip = Params::new(format!("integrator \"{ty}\""), plugin.info.params, &integ_table, integ_loc.clone(), None);
+    let mut ip = Params::new(format!("integrator \"{ty}\""), plugin.info.params, &integ_table, integ_loc.clone());
     let integrator = (plugin.build)(&mut ip, ctx)?;
     ip.finish()?;
 
@@ -431,8 +452,26 @@ fn array_of_tables<'a>(node: Option<&'a Node>, what: &str) -> Result<Vec<&'a Nod
     Ok(items.iter().collect())
 }
 
+/// The keys every `[[object]]` takes besides its type's parameters.
+pub const OBJECT_PARAMS: &[ParamSpec] = &[
+    ParamSpec::new("type", ParamKind::Str, Default::Required, "the geometry type (see Geometries below)"),
+    ParamSpec::new("name", ParamKind::Str, Default::Optional, "a name for messages and `raylab trace` (default: the type and index)"),
+    ParamSpec::new(
+        "transform",
+        ParamKind::Any,
+        Default::Optional,
+        "placement: { scale, rotate, translate }, a list of them, or { matrix = 4×4 } (README, \"Placing objects\")",
+    ),
+    ParamSpec::new(
+        "material",
+        ParamKind::Material,
+        Default::Str("default"),
+        "name of a material in [materials], or an inline table such as { kd = [0.8, 0.2, 0.2] }; replaces the materials a mesh file defines",
+    ),
+];
+
 /// The keys of an `[[object]]` table that are not its plugin's parameters.
-const OBJECT_KEYS: &[&str] = &["type", "name", "transform"];
+const OBJECT_KEYS: &[&str] = &["type", "name", "transform", "material"];
 
 /// The keys of a `[[light]]` table that are not its plugin's parameters.
 const LIGHT_KEYS: &[&str] = &["type", "name"];

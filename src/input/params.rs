@@ -10,7 +10,6 @@ use crate::input::error::{Loc, Result, SceneError, did_you_mean};
 use crate::input::spec::{Default, ParamKind, ParamSpec};
 use crate::input::value::{Node, Table, Value, color_of, vec3_of};
 use crate::math::color::Color;
-use crate::scene::material::{Material, MaterialLibrary};
 use glam::DVec3;
 use std::fmt;
 
@@ -24,22 +23,14 @@ pub struct Params<'a> {
     table: &'a Table,
     loc: Loc,
     used: Vec<bool>,
-    materials: Option<&'a MaterialLibrary>,
     /// Keys the caller reads itself (an object's `type`, `name`, `transform`): never reported.
     reserved: &'static [&'static str],
 }
 
 impl<'a> Params<'a> {
     /// Parameters of `what` (e.g. `sphere "ball"`) read from `table` (written at `loc`) against `specs`.
-    /// `materials` resolves material names; without it, only inline materials are accepted.
-    pub fn new(
-        what: impl Into<String>,
-        specs: &'a [ParamSpec],
-        table: &'a Table,
-        loc: Loc,
-        materials: Option<&'a MaterialLibrary>,
-    ) -> Self {
-        Params { what: what.into(), specs, table, loc, used: vec![false; table.entries.len()], materials, reserved: &[] }
+    pub fn new(what: impl Into<String>, specs: &'a [ParamSpec], table: &'a Table, loc: Loc) -> Self {
+        Params { what: what.into(), specs, table, loc, used: vec![false; table.entries.len()], reserved: &[] }
     }
 
     /// These parameters, with `keys` left to the caller: neither read nor reported as unknown
@@ -290,34 +281,6 @@ impl<'a> Params<'a> {
             .collect()
     }
 
-    /// The material: a name from `[materials]` or an inline table. Defaults to the library's
-    /// `default` material.
-    pub fn material(&mut self, name: &str) -> Result<Material> {
-        self.spec(name)?;
-        let lib = self.materials;
-        match self.take(name) {
-            None => Ok(lib.map(|l| l.default_material()).unwrap_or_default()),
-            Some(n) => match &n.value {
-                Value::Str(s) => match lib.and_then(|l| l.get(s)) {
-                    Some(m) => Ok(m.clone()),
-                    None if s == "default" => Ok(Material::default()),
-                    None => {
-                        let names: Vec<&str> = lib.map(|l| l.names().collect()).unwrap_or_default();
-                        let mut e = self.error_at(name, format_args!("no material named \"{s}\" in [materials]"));
-                        e = e.with_help(match did_you_mean(s, names.iter().copied()) {
-                            Some(m) => format!("did you mean \"{m}\"?"),
-                            None if names.is_empty() => "no materials are defined; add a [materials.NAME] table".into(),
-                            None => format!("defined materials: {}", names.join(", ")),
-                        });
-                        Err(e)
-                    }
-                },
-                Value::Table(t) => Material::from_table(t, &n.loc, &format!("{} material", self.what)),
-                _ => Err(self.wrong_type(name, n, "a material name or an inline table")),
-            },
-        }
-    }
-
     /// Reports keys the plugin never read (unknown or not applicable), with a suggestion.
     pub fn finish(self) -> Result<()> {
         self.check_unknown()?;
@@ -372,7 +335,7 @@ mod tests {
     fn defaults_come_from_the_table_and_unknown_keys_fail() {
         let src = Source::new("t", "x");
         let t = table(&src, &[("center", Value::Array(vec![])), ("radus", Value::Float(2.0))]);
-        let mut p = Params::new("sphere", SPECS, &t, Loc::new(&src, 0..1), None);
+        let mut p = Params::new("sphere", SPECS, &t, Loc::new(&src, 0..1));
         assert_eq!(p.float("radius").unwrap(), 1.0);
         let e = p.vec3("center").unwrap_err();
         assert!(e.message.contains("expected 3 numbers"), "{e}");
@@ -385,7 +348,7 @@ mod tests {
     fn missing_required_and_non_finite_are_errors() {
         let src = Source::new("t", "x");
         let t = table(&src, &[("radius", Value::Float(f64::NAN))]);
-        let mut p = Params::new("sphere", SPECS, &t, Loc::new(&src, 0..1), None);
+        let mut p = Params::new("sphere", SPECS, &t, Loc::new(&src, 0..1));
         assert!(p.float("radius").unwrap_err().message.contains("finite"));
         assert!(p.vec3("center").unwrap_err().message.contains("missing required parameter `center`"));
         assert!(p.float("nope").unwrap_err().message.contains("plugin bug"));
@@ -396,11 +359,11 @@ mod tests {
     fn reserved_keys_are_neither_unknown_nor_unused() {
         let src = Source::new("t", "x");
         let t = table(&src, &[("type", Value::Str("sphere".into())), ("radius", Value::Float(2.0))]);
-        let mut p = Params::new("sphere", SPECS, &t, Loc::new(&src, 0..1), None).reserving(&["type"]);
+        let mut p = Params::new("sphere", SPECS, &t, Loc::new(&src, 0..1)).reserving(&["type"]);
         assert_eq!(p.float("radius").unwrap(), 2.0);
         p.finish().unwrap();
         let t = table(&src, &[("type", Value::Str("sphere".into())), ("radus", Value::Float(2.0))]);
-        let p = Params::new("sphere", SPECS, &t, Loc::new(&src, 0..1), None).reserving(&["type"]);
+        let p = Params::new("sphere", SPECS, &t, Loc::new(&src, 0..1)).reserving(&["type"]);
         assert!(p.finish().unwrap_err().message.contains("unknown parameter `radus`"));
     }
 }

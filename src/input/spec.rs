@@ -89,19 +89,64 @@ pub struct ParamSpec {
     pub default: Default,
     /// What it means, its units and its valid range.
     pub doc: &'static str,
+    /// What the rest of raylab may do with it (`--depth`, the limits, `sweep`, the live view).
+    pub role: Role,
 }
 
 impl ParamSpec {
-    /// A row of a parameter table.
+    /// A row of a parameter table (an ordinary setting).
     pub const fn new(name: &'static str, kind: ParamKind, default: Default, doc: &'static str) -> Self {
-        ParamSpec { name, kind, default, doc }
+        ParamSpec { name, kind, default, doc, role: Role::Setting }
+    }
+
+    /// This row as the plugin's recursion depth (an integer), whose value in a reference render
+    /// is `reference`.
+    pub const fn depth(mut self, reference: Reference) -> Self {
+        self.role = Role::Depth(reference);
+        self
+    }
+
+    /// This row as a quality knob (speed traded for accuracy), whose value in a reference render
+    /// is `reference`.
+    pub const fn quality(mut self, reference: Reference) -> Self {
+        self.role = Role::Quality(reference);
+        self
     }
 }
 
-/// The `material` parameter every geometry takes.
-pub const MATERIAL_PARAM: ParamSpec = ParamSpec::new(
-    "material",
-    ParamKind::Material,
-    Default::Str("default"),
-    "name of a material in [materials], or an inline table such as { kd = [0.8, 0.2, 0.2] }",
-);
+/// What a parameter is to the rest of raylab, so that every command works for any plugin by
+/// role, not by parameter name.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Role {
+    /// A setting of the scene or the model.
+    Setting,
+    /// The recursion depth: `--depth` sets it, `--max-depth-limit` bounds it, `sweep --vary depth=…`
+    /// varies it. At most one per plugin.
+    Depth(Reference),
+    /// A quality knob: speed traded for accuracy (`sweep` varies it, the live view shows it).
+    Quality(Reference),
+}
+
+impl Role {
+    /// The value a reference render uses, for a depth or a quality knob.
+    pub fn reference(&self) -> Option<Reference> {
+        match *self {
+            Role::Setting => None,
+            Role::Depth(r) | Role::Quality(r) => Some(r),
+        }
+    }
+}
+
+/// A knob's value in a reference render (`sweep`'s `auto` reference: as accurate as is
+/// affordable).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Reference {
+    /// The scene's value, or what was asked for.
+    Keep,
+    /// At least this, and at least every value swept (larger is more accurate).
+    AtLeast(f64),
+    /// At most this, and at most every value swept (smaller is more accurate).
+    AtMost(f64),
+    /// Exactly this value (e.g. an approximation switched off).
+    Exactly(Default),
+}

@@ -2,32 +2,43 @@
 
 use crate::math::color::Color;
 use crate::math::ray::Ray;
+use crate::render::aov::Layers;
 use crate::render::sampler::Sampler;
-use crate::render::stats::RayStats;
+use crate::render::stats::{Counter, RayStats};
 use crate::render::trace::TraceNode;
 use crate::scene::Scene;
 
-/// A light-transport algorithm: the recursive Phong model, a debug view, a path tracer…
+/// A light-transport algorithm: the recursive Phong model, a path tracer, a debug view…
 ///
 /// Implementations must be deterministic given the sampler (draw every random number from it)
-/// and must not allocate per ray in [`Integrator::radiance`].
+/// and must not allocate per ray in [`Integrator::radiance`]. The usual shape is one recursion
+/// generic over a [`crate::render::trace::Recorder`], called with
+/// [`crate::render::trace::NoRecord`] by `radiance` and with a [`TraceNode`] by `explain`, so the
+/// explanation is exactly what the render computed.
 pub trait Integrator: Send + Sync {
-    /// The colour seen along the camera ray `ray` (linear RGB). Counts traced and avoided rays in
-    /// `stats`.
-    fn radiance(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler, stats: &mut RayStats) -> Color;
+    /// The colour seen along the camera ray `ray` (linear RGB). Counts work in `stats` (with the
+    /// indices of [`Integrator::counters`]) and describes the first surface met in `layers`
+    /// (left as [`Layers::miss`] when nothing is hit).
+    fn radiance(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler, stats: &mut RayStats, layers: &mut Layers) -> Color;
 
-    /// The same computation as [`Integrator::radiance`], recorded as a ray tree for
-    /// `raylab trace`. `None` when the integrator cannot explain itself.
+    /// The same computation as [`Integrator::radiance`] with the same sampler, recorded as a ray
+    /// tree for `raylab trace`; `None` when the integrator cannot explain itself.
     fn explain(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler) -> Option<TraceNode> {
         let _ = (scene, ray, sampler);
         None
     }
 
+    /// The counters this integrator keeps, in the order of the indices it counts with; printed by
+    /// `--stats` and summed across threads. Camera rays are counted by the render loop.
+    fn counters(&self) -> &'static [Counter] {
+        &[]
+    }
+
     /// Most rays (the camera ray, its shadow rays and every secondary ray) one camera ray can
     /// cost in `scene`: the factor of the work budget checked before rendering
-    /// ([`crate::input::limits::Limits::max_rays`]); may be infinite. The default counts the camera ray and
-    /// every light's shadow samples at one hit; an integrator that branches or recurses must
-    /// give its own bound.
+    /// ([`crate::input::limits::Limits::max_rays`]); may be infinite. The default counts the camera
+    /// ray and every light's shadow samples at one hit; an integrator that branches or recurses
+    /// must give its own bound.
     fn worst_case_rays(&self, scene: &Scene) -> f64 {
         1.0 + scene.lights.iter().map(|l| f64::from(l.sample_count().max(1))).sum::<f64>()
     }

@@ -4,66 +4,121 @@ use serde::Serialize;
 use std::ops::AddAssign;
 use std::time::Duration;
 
-/// Rays traced by kind, and work skipped because it could not change the image. Counted per
-/// tile and summed, so counting costs no synchronisation.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+/// Most counters one integrator may declare.
+pub const MAX_COUNTERS: usize = 24;
+
+/// What a counter counts: its kind decides where `--stats` prints it and whether it adds to the
+/// rays traced (rays per second).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CounterKind {
+    /// Rays traced (shadow, reflection, refraction, bounce, …): part of [`RayStats::total_rays`].
+    Rays,
+    /// Work skipped because it could not change the image (or changes it below a threshold).
+    Avoided,
+    /// Anything else the integrator wants to report.
+    Other,
+}
+
+/// A counter an integrator declares ([`crate::Integrator::counters`]): its index in the table is
+/// the index it counts with ([`RayStats::add`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct Counter {
+    /// Short name, as printed (`shadow_rays`).
+    pub name: &'static str,
+    /// What it counts, in a few words.
+    pub doc: &'static str,
+    /// Its kind.
+    pub kind: CounterKind,
+}
+
+impl Counter {
+    /// A counter row.
+    pub const fn new(name: &'static str, kind: CounterKind, doc: &'static str) -> Self {
+        Counter { name, doc, kind }
+    }
+}
+
+/// The work of a render: camera rays and non-finite samples (counted by the render loop) and the
+/// counters the integrator declared (counted by it). Kept per tile and summed, so counting costs
+/// no synchronisation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RayStats {
+    /// The integrator's counter table.
+    pub table: &'static [Counter],
     /// Rays from the camera.
     pub camera_rays: u64,
-    /// Shadow rays toward lights.
-    pub shadow_rays: u64,
-    /// Reflection rays (mirror and glossy).
-    pub reflection_rays: u64,
-    /// Transmission rays (refracted or passed through thin sheets).
-    pub refraction_rays: u64,
-    /// Light samples skipped without a shadow ray: the light lies on the other side of the
-    /// surface from the viewer.
-    pub lights_behind: u64,
-    /// Light samples skipped without a shadow ray: no light arrives (outside a spot's cone).
-    pub lights_unreachable: u64,
-    /// Light samples skipped without a shadow ray: the surface has no response to them (no
-    /// diffuse and no specular term).
-    pub lights_no_response: u64,
-    /// Light samples skipped without a shadow ray: their largest possible contribution to the
-    /// pixel is below the pruning threshold (changes the image by less than the threshold).
-    pub lights_negligible: u64,
-    /// Shadow rays not traced because an area light's probe rays agreed (adaptive soft shadows).
-    pub shadow_rays_saved: u64,
-    /// Reflection or refraction rays not traced because the coefficient (kr or kt) is zero.
-    pub zero_coefficient_rays: u64,
-    /// Rays a glossy fan would have added at sharp surfaces (blur = 0): one ray does.
-    pub glossy_rays_saved: u64,
-    /// Secondary rays not traced because their accumulated weight fell below the pruning threshold.
-    pub pruned_rays: u64,
-    /// Secondary rays not traced because the maximum recursion depth was reached.
-    pub depth_limited: u64,
     /// Samples whose radiance was NaN or infinite; they are dropped from the pixel average.
     pub nonfinite_samples: u64,
+    counts: [u64; MAX_COUNTERS],
+}
+
+impl Default for RayStats {
+    fn default() -> Self {
+        RayStats::new(&[])
+    }
 }
 
 impl RayStats {
-    /// All rays traced.
+    /// Zero counts for an integrator with counters `table` (at most [`MAX_COUNTERS`]; more are
+    /// not counted).
+    pub fn new(table: &'static [Counter]) -> Self {
+        RayStats { table, camera_rays: 0, nonfinite_samples: 0, counts: [0; MAX_COUNTERS] }
+    }
+
+    /// Adds `n` to counter `i` of the table.
+    #[inline]
+    pub fn add(&mut self, i: usize, n: u64) {
+        if let Some(c) = self.counts.get_mut(i) {
+            *c += n;
+        }
+    }
+
+    /// Counter `i` of the table.
+    pub fn count(&self, i: usize) -> u64 {
+        self.counts.get(i).copied().unwrap_or(0)
+    }
+
+    /// The counter called `name` (0 when the table has none).
+    pub fn get(&self, name: &str) -> u64 {
+        self.table.iter().position(|c| c.name == name).map_or(0, |i| self.count(i))
+    }
+
+    /// Each counter of the table with its count.
+    pub fn counters(&self) -> impl Iterator<Item = (&'static Counter, u64)> + '_ {
+        self.table.iter().take(MAX_COUNTERS).enumerate().map(|(i, c)| (c, self.counts[i]))
+    }
+
+    /// All rays traced: camera rays and every counter of kind [`CounterKind::Rays`].
     pub fn total_rays(&self) -> u64 {
-        self.camera_rays + self.shadow_rays + self.reflection_rays + self.refraction_rays
+        self.camera_rays + self.counters().filter(|(c, _)| c.kind == CounterKind::Rays).map(|(_, n)| n).sum::<u64>()
     }
 }
 
 impl AddAssign for RayStats {
     fn add_assign(&mut self, o: RayStats) {
+        if self.table.is_empty() {
+            self.table = o.table;
+        }
         self.camera_rays += o.camera_rays;
-        self.shadow_rays += o.shadow_rays;
-        self.reflection_rays += o.reflection_rays;
-        self.refraction_rays += o.refraction_rays;
-        self.lights_behind += o.lights_behind;
-        self.lights_unreachable += o.lights_unreachable;
-        self.lights_no_response += o.lights_no_response;
-        self.lights_negligible += o.lights_negligible;
-        self.shadow_rays_saved += o.shadow_rays_saved;
-        self.zero_coefficient_rays += o.zero_coefficient_rays;
-        self.glossy_rays_saved += o.glossy_rays_saved;
-        self.pruned_rays += o.pruned_rays;
-        self.depth_limited += o.depth_limited;
         self.nonfinite_samples += o.nonfinite_samples;
+        for (a, b) in self.counts.iter_mut().zip(o.counts) {
+            *a += b;
+        }
+    }
+}
+
+impl Serialize for RayStats {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let mut m = s.serialize_map(None)?;
+        m.serialize_entry("camera_rays", &self.camera_rays)?;
+        for (c, n) in self.counters() {
+            m.serialize_entry(c.name, &n)?;
+        }
+        m.serialize_entry("nonfinite_samples", &self.nonfinite_samples)?;
+        m.serialize_entry("total_rays", &self.total_rays())?;
+        m.end()
     }
 }
 

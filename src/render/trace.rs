@@ -1,11 +1,49 @@
-//! The explanation of one ray: the tree of hits, light tests and child rays an integrator
-//! followed, as printed by `raylab trace` (as text, or as JSON).
+//! Explanations: the tree of hits, light tests and child rays an integrator followed for one
+//! ray, as `raylab trace` prints it (text or JSON) and the live view draws it.
+//!
+//! Integrators record through a [`Recorder`]: [`TraceNode`] builds the tree, [`NoRecord`] does
+//! nothing and costs nothing (its methods are empty and inlined; closures that build records are
+//! never called). An integrator writes its recursion once, generic over the recorder, and calls
+//! it with [`NoRecord`] to render and with a [`TraceNode`] to explain.
 
 use crate::math::color::Color;
 use crate::math::ray::{Ray, RayKind};
+use crate::scene::interaction::Interaction;
 use glam::DVec3;
 use serde::Serialize;
 use std::fmt::{self, Write};
+
+/// A named value in an explanation: a colour (a term of the result) or a number (a cosine, a
+/// probability density, a weight). The integrator chooses the names.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Term {
+    /// What it is (`emission`, `diffuse`, `pdf`, …).
+    pub name: &'static str,
+    /// Its value.
+    pub value: TermValue,
+}
+
+/// The value of a [`Term`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum TermValue {
+    /// Linear RGB.
+    Color(Color),
+    /// A number.
+    Number(f64),
+}
+
+impl Term {
+    /// A colour term.
+    pub fn color(name: &'static str, value: Color) -> Self {
+        Term { name, value: TermValue::Color(value) }
+    }
+
+    /// A number term.
+    pub fn number(name: &'static str, value: f64) -> Self {
+        Term { name, value: TermValue::Number(value) }
+    }
+}
 
 /// One traced ray and everything computed from it.
 #[derive(Clone, Debug, Serialize)]
@@ -16,19 +54,17 @@ pub struct TraceNode {
     pub ray: Ray,
     /// Recursion depth (0 for the camera ray).
     pub depth: u32,
-    /// The product of coefficients along the path to this ray: how much its colour counts in the pixel.
+    /// How much this ray's colour counts in the pixel (the product of weights along its path).
     pub weight: Color,
     /// What the ray hit, or `None` (the background).
     pub hit: Option<TraceHit>,
+    /// Terms at the hit that do not depend on a light (emission, ambient, …).
+    pub terms: Vec<Term>,
     /// Light tests at the hit point, one per light sample.
     pub lights: Vec<TraceLight>,
-    /// Emission of the hit surface.
-    pub emission: Color,
-    /// Ambient term at the hit point.
-    pub ambient: Color,
-    /// Child rays (reflection, refraction), each with its own subtree.
+    /// Child rays (reflection, refraction, bounces), each with its own subtree.
     pub children: Vec<TraceNode>,
-    /// The colour this ray returns (before its parent multiplies it by its coefficient).
+    /// The colour this ray returns (before its parent weights it).
     pub color: Color,
     /// Remarks: pruning, depth limit, total internal reflection, …
     pub notes: Vec<String>,
@@ -43,9 +79,8 @@ impl TraceNode {
             depth,
             weight,
             hit: None,
+            terms: Vec::new(),
             lights: Vec::new(),
-            emission: Color::ZERO,
-            ambient: Color::ZERO,
             children: Vec::new(),
             color: Color::ZERO,
             notes: Vec::new(),
@@ -64,28 +99,30 @@ pub struct TraceHit {
     pub t: f64,
     /// The hit point.
     pub point: DVec3,
-    /// The direction-aware normal used for shading (faces the incoming ray).
+    /// The geometric normal, facing the incoming ray.
     pub normal: DVec3,
+    /// The shading normal, facing the incoming ray.
+    pub shading_normal: DVec3,
     /// True when the ray hit the surface's outside.
     pub front_face: bool,
 }
 
 impl TraceHit {
-    /// The explanation of `hit` in `scene` as seen along direction `dir`.
-    pub fn new(scene: &crate::scene::Scene, hit: &crate::geometry::Hit, dir: DVec3) -> Self {
-        let g = &scene.geometries[hit.object as usize];
+    /// The explanation of the interaction `si`.
+    pub fn new(si: &Interaction) -> Self {
         TraceHit {
-            object: hit.object as usize,
-            name: scene.object_name(hit.object).to_string(),
-            t: hit.t,
-            point: hit.point,
-            normal: g.normal(hit, dir),
-            front_face: g.outward_normal(hit).dot(dir) < 0.0,
+            object: si.hit.object as usize,
+            name: si.object.name.clone(),
+            t: si.hit.t,
+            point: si.hit.point,
+            normal: si.n,
+            shading_normal: si.ns,
+            front_face: si.front_face,
         }
     }
 }
 
-/// One light's contribution at a hit point.
+/// One light sample's test at a hit point.
 #[derive(Clone, Debug, Serialize)]
 pub struct TraceLight {
     /// The light's name.
@@ -96,18 +133,88 @@ pub struct TraceLight {
     pub distance: f64,
     /// Intensity arriving at the point before shadowing.
     pub intensity: Color,
-    /// `n · l` with the shading normal.
+    /// Cosine between the shading normal and the direction to the light (0 when the light is
+    /// behind the surface as seen from the ray).
     pub n_dot_l: f64,
     /// Fraction of the light that passes occluders (0 = fully shadowed, 1 = unshadowed).
     pub transmittance: Color,
     /// Name of the first occluder, if any.
     pub occluder: Option<String>,
-    /// Diffuse term `kd · (n·l) · I_L · shadow`.
-    pub diffuse: Color,
-    /// Specular term `ks · max(0, −v·r)^shininess · I_L · shadow`.
-    pub specular: Color,
+    /// The integrator's terms for this sample (`diffuse`, `specular`; `bsdf`, `pdf`, `mis`, …).
+    pub terms: Vec<Term>,
     /// Why no shadow ray was traced, when none was.
     pub skipped: Option<String>,
+}
+
+/// Where an integrator records what it does, for explanations. [`NoRecord`] records nothing;
+/// [`TraceNode`] builds the tree. Closures passed in are called only when recording.
+pub trait Recorder: Sized {
+    /// False for [`NoRecord`]: work done only for the explanation can be skipped with
+    /// `if R::ON { … }`, and the compiler removes it.
+    const ON: bool;
+    /// A recorder for a child ray of this one.
+    fn child(&self, kind: RayKind, ray: &Ray, depth: u32, weight: Color) -> Self;
+    /// Adds a finished child's record under this one.
+    fn adopt(&mut self, child: Self);
+    /// The ray hit `si`.
+    fn hit(&mut self, si: &Interaction);
+    /// A term of the result at the hit (`emission`, `ambient`, …).
+    fn term(&mut self, term: impl FnOnce() -> Term);
+    /// A light sample's test.
+    fn light(&mut self, light: impl FnOnce() -> TraceLight);
+    /// A remark (pruning, depth limit, …).
+    fn note(&mut self, note: impl FnOnce() -> String);
+    /// The colour the ray returns.
+    fn color(&mut self, c: Color);
+}
+
+/// The recorder that records nothing, at no cost.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct NoRecord;
+
+impl Recorder for NoRecord {
+    const ON: bool = false;
+    #[inline(always)]
+    fn child(&self, _: RayKind, _: &Ray, _: u32, _: Color) -> Self {
+        NoRecord
+    }
+    #[inline(always)]
+    fn adopt(&mut self, _: Self) {}
+    #[inline(always)]
+    fn hit(&mut self, _: &Interaction) {}
+    #[inline(always)]
+    fn term(&mut self, _: impl FnOnce() -> Term) {}
+    #[inline(always)]
+    fn light(&mut self, _: impl FnOnce() -> TraceLight) {}
+    #[inline(always)]
+    fn note(&mut self, _: impl FnOnce() -> String) {}
+    #[inline(always)]
+    fn color(&mut self, _: Color) {}
+}
+
+impl Recorder for TraceNode {
+    const ON: bool = true;
+    fn child(&self, kind: RayKind, ray: &Ray, depth: u32, weight: Color) -> Self {
+        TraceNode::new(kind, *ray, depth, weight)
+    }
+    fn adopt(&mut self, child: Self) {
+        self.children.push(child);
+    }
+    fn hit(&mut self, si: &Interaction) {
+        self.hit = Some(TraceHit::new(si));
+    }
+    fn term(&mut self, term: impl FnOnce() -> Term) {
+        self.terms.push(term());
+    }
+    fn light(&mut self, light: impl FnOnce() -> TraceLight) {
+        self.lights.push(light());
+    }
+    fn note(&mut self, note: impl FnOnce() -> String) {
+        self.notes.push(note());
+    }
+    fn color(&mut self, c: Color) {
+        self.color = c;
+    }
 }
 
 fn v(c: DVec3) -> String {
@@ -125,6 +232,18 @@ fn g(x: f64) -> String {
     } else {
         format!("{x:.4e}")
     }
+}
+
+/// Terms as `name value  name value`.
+fn terms(ts: &[Term]) -> String {
+    let parts: Vec<String> = ts
+        .iter()
+        .map(|t| match t.value {
+            TermValue::Color(c) => format!("{} {}", t.name, v(c)),
+            TermValue::Number(x) => format!("{} {}", t.name, g(x)),
+        })
+        .collect();
+    parts.join("  ")
 }
 
 impl TraceNode {
@@ -149,7 +268,9 @@ impl TraceNode {
                     if h.front_face { "front" } else { "back" }
                 )?;
                 writeln!(out, "{indent}    point {}  normal {}", v(h.point), v(h.normal))?;
-                writeln!(out, "{indent}    emission {}  ambient {}", v(self.emission), v(self.ambient))?;
+                if !self.terms.is_empty() {
+                    writeln!(out, "{indent}    {}", terms(&self.terms))?;
+                }
                 for l in &self.lights {
                     write!(out, "{indent}    light {}: ", l.light)?;
                     if let Some(why) = &l.skipped {
@@ -163,12 +284,11 @@ impl TraceNode {
                     };
                     writeln!(
                         out,
-                        "n·l = {}, distance {}, I = {}, {shadow}\n{indent}      diffuse {}  specular {}",
+                        "n·l = {}, distance {}, I = {}, {shadow}\n{indent}      {}",
                         g(l.n_dot_l),
                         g(l.distance),
                         v(l.intensity),
-                        v(l.diffuse),
-                        v(l.specular)
+                        terms(&l.terms)
                     )?;
                 }
             }

@@ -1,12 +1,16 @@
-//! The surface material of the report's Phong model, extended with colour, ambient response,
-//! shininess, emission and a glossiness (blur) parameter.
+//! Surface materials: the report's coefficients (kd, ks, kr, kt, n), extended with colour,
+//! ambient response, shininess, emission and a glossiness (blur) parameter.
+//!
+//! A [`Material`] describes a surface; [`Material::at`] gives its [`Coefficients`] at one point
+//! of it, which is what integrators read. Every integrator interprets the same coefficients in
+//! its own way (the report's Phong model, a path tracer's normalised Phong BRDF).
 
-use crate::input::error::{Loc, Result};
+use crate::input::error::{Loc, Result, SceneError, did_you_mean};
 use crate::input::params::Params;
 use crate::input::spec::{Default, ParamKind, ParamSpec};
-use crate::input::value::Table;
+use crate::input::value::{Node, Table, Value};
 use crate::math::color::Color;
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use std::collections::BTreeMap;
 
 /// How a surface responds to light. All coefficients are linear RGB in [0, ∞) (a single number in
@@ -53,6 +57,29 @@ impl std::default::Default for Material {
     }
 }
 
+/// A material's coefficients at one point of a surface (see [`Material`] for their meaning).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Coefficients {
+    /// Response to ambient light.
+    pub ka: Color,
+    /// Diffuse coefficient.
+    pub kd: Color,
+    /// Specular coefficient.
+    pub ks: Color,
+    /// Mirror reflection coefficient.
+    pub kr: Color,
+    /// Transmission coefficient.
+    pub kt: Color,
+    /// Phong exponent (≥ 0).
+    pub shininess: f64,
+    /// Index of refraction of a closed solid's inside (> 0).
+    pub ior: f64,
+    /// Emitted light, linear RGB.
+    pub emission: Color,
+    /// Glossiness: jitter-disc radius at unit distance (0 = sharp).
+    pub blur: f64,
+}
+
 /// The material parameter table (the keys of `[materials.NAME]` and of inline materials).
 pub const MATERIAL_PARAMS: &[ParamSpec] = &[
     ParamSpec::new("ka", ParamKind::Color, Default::Float(1.0), "response to ambient light (1 = the report: ambient added unfiltered)"),
@@ -85,13 +112,31 @@ impl Material {
 
     /// Reads a material from a table written at `loc`, checking for unknown keys.
     pub fn from_table(t: &Table, loc: &Loc, what: &str) -> Result<Material> {
-        let mut p = Params::new(what, MATERIAL_PARAMS, t, loc.clone(), None);
+        let mut p = Params::new(what, MATERIAL_PARAMS, t, loc.clone());
         let m = Material::from_params(&mut p)?;
         p.finish()?;
         Ok(m)
     }
 
-    /// True when the surface transmits any light.
+    /// The coefficients at a surface point with texture coordinates `uv` and position `local` in
+    /// the shape's own frame.
+    #[inline]
+    pub fn at(&self, uv: DVec2, local: DVec3) -> Coefficients {
+        let _ = (uv, local);
+        Coefficients {
+            ka: self.ka,
+            kd: self.kd,
+            ks: self.ks,
+            kr: self.kr,
+            kt: self.kt,
+            shininess: self.shininess,
+            ior: self.ior,
+            emission: self.emission,
+            blur: self.blur,
+        }
+    }
+
+    /// True when the surface may transmit light somewhere.
     pub fn is_transmissive(&self) -> bool {
         self.kt.max_element() > 0.0
     }
@@ -139,5 +184,32 @@ impl MaterialLibrary {
     /// The material for objects that name none.
     pub fn default_material(&self) -> Material {
         self.by_name.get("default").cloned().unwrap_or_default()
+    }
+
+    /// The material a scene value names: the name of one of these materials, or an inline table
+    /// of coefficients (`what` names the value's owner in messages).
+    pub fn resolve(&self, node: &Node, what: &str) -> Result<Material> {
+        match &node.value {
+            Value::Str(s) => match self.get(s) {
+                Some(m) => Ok(m.clone()),
+                None if s == "default" => Ok(Material::default()),
+                None => {
+                    let names: Vec<&str> = self.names().collect();
+                    let e =
+                        SceneError::at(&node.loc, format!("parameter `material`: no material named \"{s}\" in [materials]")).context(what);
+                    Err(e.with_help(match did_you_mean(s, names.iter().copied()) {
+                        Some(m) => format!("did you mean \"{m}\"?"),
+                        None if names.is_empty() => "no materials are defined; add a [materials.NAME] table".into(),
+                        None => format!("defined materials: {}", names.join(", ")),
+                    }))
+                }
+            },
+            Value::Table(t) => Material::from_table(t, &node.loc, &format!("{what} material")),
+            v => Err(SceneError::at(
+                &node.loc,
+                format!("parameter `material`: expected a material name or an inline table, found {}", v.type_name()),
+            )
+            .context(what)),
+        }
     }
 }

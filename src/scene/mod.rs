@@ -1,17 +1,21 @@
 //! The scene model: camera, background, objects, lights; and the ray queries integrators use.
 
 pub mod camera;
+pub mod interaction;
 pub mod light;
 pub mod material;
+pub mod object;
 
 use crate::accel::{AccelChoice, BuildStats, ObjectAccel};
-use crate::geometry::{Geometry, Hit};
+use crate::geometry::{Hit, Intersectable};
 use crate::math::bounds::Aabb;
 use crate::math::color::Color;
 use crate::math::float::offset_ray_origin;
 use crate::math::ray::Ray;
 use crate::scene::camera::Camera;
+use crate::scene::interaction::Interaction;
 use crate::scene::light::LightSource;
+use crate::scene::object::Object;
 
 /// Most surfaces a shadow ray passes through before it is treated as blocked (guards against
 /// pathological stacks of transparent sheets).
@@ -27,10 +31,8 @@ pub struct Scene {
     pub background: Color,
     /// Sum of the ambient terms of all lights (`colour × ka` of each ambient light).
     pub ambient: Color,
-    /// Names of the objects, parallel to `geometries` (the type and index when unnamed).
-    pub object_names: Vec<String>,
-    /// The objects' shapes.
-    pub geometries: Vec<Box<dyn Geometry>>,
+    /// The objects; [`Hit::object`] indexes them.
+    pub objects: Vec<Object>,
     /// Names of the lights, parallel to `lights`.
     pub light_names: Vec<String>,
     /// The lights (ambient lights included; they return no samples).
@@ -59,13 +61,13 @@ pub struct AccelSummary {
 }
 
 impl Scene {
-    /// A scene from its parts. `objects` and `lights` are (name, value) pairs. The objects are
-    /// arranged for ray queries as [`AccelChoice::Auto`] decides.
+    /// A scene from its parts; `lights` are (name, light) pairs. The objects are arranged for
+    /// ray queries as [`AccelChoice::Auto`] decides.
     pub fn new(
         name: impl Into<String>,
         camera: Camera,
         background: Color,
-        objects: Vec<(String, Box<dyn Geometry>)>,
+        objects: Vec<Object>,
         lights: Vec<(String, Box<dyn LightSource>)>,
     ) -> Scene {
         Scene::with_accel(name, camera, background, objects, lights, AccelChoice::Auto)
@@ -76,33 +78,31 @@ impl Scene {
         name: impl Into<String>,
         camera: Camera,
         background: Color,
-        objects: Vec<(String, Box<dyn Geometry>)>,
+        objects: Vec<Object>,
         lights: Vec<(String, Box<dyn LightSource>)>,
         choice: AccelChoice,
     ) -> Scene {
-        let (object_names, geometries): (Vec<_>, Vec<_>) = objects.into_iter().unzip();
         let (light_names, lights): (Vec<_>, Vec<_>) = lights.into_iter().unzip();
-        let refs: Vec<&dyn Geometry> = geometries.iter().map(|g| g.as_ref()).collect();
-        let transmits: Vec<bool> = refs.iter().map(|g| g.may_transmit()).collect();
-        let (accel, mut build_stats) = ObjectAccel::build(&refs, |_| true, choice);
+        let boxes: Vec<Option<Aabb>> = objects.iter().map(|o| o.geometry().bounds()).collect();
+        let transmits: Vec<bool> = objects.iter().map(Object::may_transmit).collect();
+        let (accel, mut build_stats) = ObjectAccel::build(&boxes, |_| true, choice);
         let (opaque, transmissive) = if transmits.iter().any(|&t| t) {
-            let (o, so) = ObjectAccel::build(&refs, |i| !transmits[i], choice);
-            let (t, st) = ObjectAccel::build(&refs, |i| transmits[i], choice);
+            let (o, so) = ObjectAccel::build(&boxes, |i| !transmits[i], choice);
+            let (t, st) = ObjectAccel::build(&boxes, |i| transmits[i], choice);
             build_stats += so;
             build_stats += st;
             (o, t)
         } else {
             (ObjectAccel::default(), ObjectAccel::default())
         };
-        let bounds = geometries.iter().filter_map(|g| g.bounds()).fold(Aabb::EMPTY, Aabb::union);
+        let bounds = boxes.iter().flatten().fold(Aabb::EMPTY, |a, b| a.union(*b));
         let ambient = lights.iter().map(|l| l.ambient()).sum();
         Scene {
             name: name.into(),
             camera,
             background,
             ambient,
-            object_names,
-            geometries,
+            objects,
             light_names,
             lights,
             accel,
@@ -131,16 +131,17 @@ impl Scene {
         self.bounds
     }
 
-    /// The closest hit with `t_min < t < t_max`. `Hit::object` indexes `geometries`.
+    /// The closest surface along `ray` (`0 < t`), with everything shading needs, computed once.
     #[inline]
-    pub fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<Hit> {
-        self.accel.intersect(&self.geometries, ray, t_min, t_max)
+    pub fn trace(&self, ray: &Ray) -> Option<Interaction<'_>> {
+        let hit = self.intersect(ray, 0.0, f64::INFINITY)?;
+        Some(self.interaction(ray, hit))
     }
 
-    /// Whether anything at all lies on the ray with `0 < t < t_max`.
+    /// The interaction of `ray` at `hit` (a hit of this scene: [`Hit::object`] indexes `objects`).
     #[inline]
-    pub fn occluded(&self, ray: &Ray, t_max: f64) -> bool {
-        self.accel.occluded(&self.geometries, ray, 0.0, t_max)
+    pub fn interaction(&self, ray: &Ray, hit: Hit) -> Interaction<'_> {
+        Interaction::new(ray, hit, &self.objects[hit.object as usize])
     }
 
     /// The fraction of light that travels along `ray` for `0 < t < t_max`: the product of the
@@ -149,9 +150,9 @@ impl Scene {
     #[inline]
     pub fn transmittance(&self, ray: &Ray, t_max: f64) -> Color {
         if self.transmissive.is_empty() {
-            return if self.accel.occluded(&self.geometries, ray, 0.0, t_max) { Color::ZERO } else { Color::ONE };
+            return if self.accel.over(&self.objects).occludes(ray, 0.0, t_max) { Color::ZERO } else { Color::ONE };
         }
-        if self.opaque.occluded(&self.geometries, ray, 0.0, t_max) {
+        if self.opaque.over(&self.objects).occludes(ray, 0.0, t_max) {
             return Color::ZERO;
         }
         self.walk(&self.transmissive, ray, t_max).0
@@ -170,14 +171,14 @@ impl Scene {
         let target = t_max.is_finite().then(|| ray.at(t_max));
         let mut t_max = t_max;
         for _ in 0..MAX_TRANSPARENT_LAYERS {
-            let Some(h) = list.intersect(&self.geometries, &r, 0.0, t_max) else { return (tr, first) };
+            let Some(h) = list.over(&self.objects).intersect(&r, 0.0, t_max) else { return (tr, first) };
             first.get_or_insert(h.object);
-            let g = &self.geometries[h.object as usize];
-            tr *= g.material_at(&h).kt;
+            let si = self.interaction(&r, h);
+            tr *= si.material.kt;
             if tr.max_element() <= 0.0 {
                 return (Color::ZERO, first);
             }
-            r.origin = offset_ray_origin(h.point, h.error, g.outward_normal(&h), r.dir);
+            r.origin = offset_ray_origin(h.point, h.error, si.n, r.dir);
             if let Some(target) = target {
                 t_max = (target - r.origin).dot(r.dir);
                 if t_max <= 0.0 {
@@ -190,6 +191,19 @@ impl Scene {
 
     /// The display name of object `i`.
     pub fn object_name(&self, i: u32) -> &str {
-        self.object_names.get(i as usize).map_or("?", String::as_str)
+        self.objects.get(i as usize).map_or("?", |o| o.name.as_str())
+    }
+}
+
+/// The scene answers the same ray queries as its objects and their hierarchies:
+/// [`Hit::object`] indexes [`Scene::objects`].
+impl Intersectable for Scene {
+    #[inline]
+    fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<Hit> {
+        self.accel.over(&self.objects).intersect(ray, t_min, t_max)
+    }
+    #[inline]
+    fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
+        self.accel.over(&self.objects).occludes(ray, t_min, t_max)
     }
 }

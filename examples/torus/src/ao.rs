@@ -9,9 +9,10 @@
 use raylab::input::error::Result;
 use raylab::input::params::Params;
 use raylab::input::spec::{Default, ParamKind, ParamSpec};
-use raylab::math::float::offset_ray_origin;
+use raylab::render::aov::Layers;
 use raylab::render::sampler::{concentric_disc, stratified_2d};
-use raylab::{Color, Integrator, LoadContext, PluginInfo, Ray, RayStats, Sampler, Scene};
+use raylab::render::stats::{Counter, CounterKind};
+use raylab::{Color, Integrator, Intersectable, LoadContext, PluginInfo, Ray, RayStats, Sampler, Scene};
 
 /// The `ao` plugin's description.
 pub const INFO: PluginInfo = PluginInfo {
@@ -27,6 +28,12 @@ pub const INFO: PluginInfo = PluginInfo {
         ),
     ],
 };
+
+/// Index of the occlusion-ray counter in [`COUNTERS`].
+const OCCLUSION_RAYS: usize = 0;
+
+/// What `ao` counts (printed by `--stats`).
+const COUNTERS: &[Counter] = &[Counter::new("occlusion_rays", CounterKind::Rays, "occlusion rays")];
 
 /// Ambient occlusion.
 #[derive(Clone, Debug)]
@@ -46,10 +53,9 @@ pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Integrator>> {
 }
 
 impl Integrator for AmbientOcclusion {
-    fn radiance(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler, stats: &mut RayStats) -> Color {
-        let Some(hit) = scene.intersect(ray, 0.0, f64::INFINITY) else { return scene.background };
-        let g = &scene.geometries[hit.object as usize];
-        let n = g.normal(&hit, ray.dir);
+    fn radiance(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler, stats: &mut RayStats, layers: &mut Layers) -> Color {
+        let Some(si) = scene.trace(ray) else { return scene.background };
+        let n = si.n;
         let (t, b) = n.any_orthonormal_pair();
         let pattern = sampler.next_pattern();
         let mut open = 0;
@@ -57,13 +63,17 @@ impl Integrator for AmbientOcclusion {
             // Cosine-weighted direction: a uniform disc point lifted onto the hemisphere.
             let d = concentric_disc(stratified_2d(i, self.rays, pattern));
             let dir = d.x * t + d.y * b + (1.0 - d.length_squared()).max(0.0).sqrt() * n;
-            let origin = offset_ray_origin(hit.point, hit.error, n, dir);
-            stats.shadow_rays += 1;
-            if !scene.occluded(&Ray { origin, dir }, self.distance) {
+            stats.add(OCCLUSION_RAYS, 1);
+            if !scene.occludes(&si.spawn_ray(dir), 0.0, self.distance) {
                 open += 1;
             }
         }
-        g.material_at(&hit).kd * (f64::from(open) / f64::from(self.rays))
+        *layers = Layers::surface(&si, si.material.kd);
+        si.material.kd * (f64::from(open) / f64::from(self.rays))
+    }
+
+    fn counters(&self) -> &'static [Counter] {
+        COUNTERS
     }
 
     fn worst_case_rays(&self, _: &Scene) -> f64 {

@@ -22,10 +22,10 @@ use raylab::geometry::{Geometry, Hit, Intersectable};
 use raylab::glam::{DVec2, DVec3};
 use raylab::input::error::Result;
 use raylab::input::params::Params;
-use raylab::input::spec::{Default, MATERIAL_PARAM, ParamKind, ParamSpec};
+use raylab::input::spec::{Default, ParamKind, ParamSpec};
 use raylab::math::bounds::circle_extent;
 use raylab::math::float::gamma;
-use raylab::{Aabb, LoadContext, Material, PluginInfo, Ray};
+use raylab::{Aabb, LoadContext, PluginInfo, Ray};
 use std::f64::consts::TAU;
 
 /// The `torus` plugin's description: its type name, summary and parameter table.
@@ -37,7 +37,6 @@ pub const INFO: PluginInfo = PluginInfo {
         ParamSpec::new("axis", ParamKind::Vec3, Default::Vec3([0.0, 1.0, 0.0]), "axis of symmetry through the hole (any length > 0)"),
         ParamSpec::new("major_radius", ParamKind::Float, Default::Float(1.0), "radius R of the tube's centre circle, scene units, > 0"),
         ParamSpec::new("minor_radius", ParamKind::Float, Default::Float(0.25), "radius r of the tube, scene units, 0 < r < R"),
-        MATERIAL_PARAM,
     ],
 };
 
@@ -50,7 +49,7 @@ pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Geometry>> {
     if minor >= major {
         return Err(p.error_at("minor_radius", format_args!("{minor} must be smaller than major_radius {major} (a ring torus)")));
     }
-    Ok(Box::new(Torus::new(center, axis, major, minor, p.material("material")?)))
+    Ok(Box::new(Torus::new(center, axis, major, minor)))
 }
 
 /// A ring torus. Invariants: `axis` unit, `0 < minor < major`, all finite.
@@ -63,14 +62,13 @@ pub struct Torus {
     v: DVec3,
     major: f64,
     minor: f64,
-    material: Material,
 }
 
 impl Torus {
     /// A torus; `axis` must be unit length and `0 < minor < major`.
-    pub fn new(center: DVec3, axis: DVec3, major: f64, minor: f64, material: Material) -> Self {
+    pub fn new(center: DVec3, axis: DVec3, major: f64, minor: f64) -> Self {
         let (u, v) = axis.any_orthonormal_pair();
-        Torus { center, axis, u, v, major, minor, material }
+        Torus { center, axis, u, v, major, minor }
     }
 
     /// Signed distance from `p` to the surface (negative inside the tube).
@@ -206,9 +204,6 @@ impl Geometry for Torus {
     fn outward_normal(&self, at: &Hit) -> DVec3 {
         self.project(at.point - self.center).map_or(self.axis, |(_, n)| n)
     }
-    fn material(&self) -> &Material {
-        &self.material
-    }
     fn bounds(&self) -> Option<Aabb> {
         // Per world axis i: r + R·sin(angle between axis and e_i).
         let ext = circle_extent(self.axis, self.major) + DVec3::splat(self.minor);
@@ -224,7 +219,7 @@ mod tests {
     use super::*;
 
     fn torus() -> Torus {
-        Torus::new(DVec3::ZERO, DVec3::Y, 2.0, 0.5, Material::default())
+        Torus::new(DVec3::ZERO, DVec3::Y, 2.0, 0.5)
     }
 
     /// The exact torus, from its definition: the points at `minor` from the core circle.
@@ -289,7 +284,7 @@ mod tests {
     #[test]
     fn bounds_are_tight_for_a_tilted_axis() {
         let axis = DVec3::new(1.0, 1.0, 0.0).normalize();
-        let t = Torus::new(DVec3::new(1.0, 2.0, 3.0), axis, 2.0, 0.5, Material::default());
+        let t = Torus::new(DVec3::new(1.0, 2.0, 3.0), axis, 2.0, 0.5);
         let b = t.bounds().unwrap();
         let mut seen = Aabb::EMPTY;
         for i in 0..360 {

@@ -1,6 +1,7 @@
 //! The example scene, rendered in memory: the torus is where the scene puts it, and the `ao`
 //! integrator and `panel` light work through the same loader as the built-ins.
 
+use raylab::Intersectable;
 use raylab::input::context::{LoadOptions, Overrides};
 use raylab::input::load::load_file;
 use raylab::render::{RenderOptions, render};
@@ -19,7 +20,7 @@ fn options(integrator: Option<&str>) -> LoadOptions {
 #[test]
 fn the_scene_loads_every_plugin_of_the_crate() {
     let job = load_file(&raylab_torus::registry(), &scene(), &options(None)).unwrap_or_else(|e| panic!("{}", e.report()));
-    let names: Vec<&str> = (0..job.scene.geometries.len() as u32).map(|i| job.scene.object_name(i)).collect();
+    let names: Vec<&str> = (0..job.scene.objects.len() as u32).map(|i| job.scene.object_name(i)).collect();
     assert!(names.contains(&"gold ring") && names.contains(&"glass ring"), "{names:?}");
     assert!(job.scene.light_names.iter().any(|n| n == "softbox"));
     assert!(job.scene.lights.iter().any(|l| l.sample_count() == 16), "the rect light asks for its samples");

@@ -5,7 +5,7 @@ use proptest::prelude::*;
 use raylab::geometry::testing::{ExactSurface, Tolerance, check_hits_ascending};
 use raylab::glam::DVec3;
 use raylab::math::float::offset_ray_origin;
-use raylab::{Geometry, Intersectable, Material, Ray};
+use raylab::{Geometry, Intersectable, Ray};
 use raylab_torus::torus::Torus;
 
 /// A unit vector from two uniform numbers.
@@ -35,7 +35,7 @@ struct Case {
 
 impl Case {
     fn torus(&self) -> Torus {
-        Torus::new(self.center, self.axis, self.major, self.minor, Material::default())
+        Torus::new(self.center, self.axis, self.major, self.minor)
     }
 
     /// The point at angles (around the axis, around the tube) and its outward normal.

@@ -1,0 +1,226 @@
+//! Direct light at a hit: the diffuse and specular terms of every light sample, shadowed, with
+//! the work that cannot change the image skipped and counted, and adaptive soft shadows (probe
+//! an area light first; take its full sample set only where the probes disagree).
+
+use super::fan::reflect;
+use super::{Ctx, Phong, TAG_LIGHTS, counter};
+use raylab::glam::DVec2;
+use raylab::math::color::max_channel;
+use raylab::render::sampler::stratified_2d;
+use raylab::render::trace::{Recorder, Term, TraceLight};
+use raylab::scene::interaction::Interaction;
+use raylab::{Color, LightSample, LightSource, Sampler};
+
+/// How one light sample turned out, for the agreement test of adaptive soft shadows. Independent
+/// of `avoid`, so the decision is the same whether or not exact skips happen.
+#[derive(Clone, Copy, PartialEq)]
+enum Outcome {
+    /// Contributes exactly nothing (behind the surface, outside a cone, no response).
+    Dark,
+    /// Below the pruning threshold.
+    Negligible,
+    /// Lit, with this transmittance toward the light.
+    Lit(Color),
+}
+
+/// The running result of one light's samples at a point.
+struct LightSum {
+    /// Sum of the samples' shadowed contributions at full intensity.
+    sum: Color,
+    /// Samples drawn (the divisor).
+    n: u32,
+    /// The first sample's outcome, and whether every later one matched it.
+    first: Option<Outcome>,
+    agree: bool,
+}
+
+impl LightSum {
+    fn observe(&mut self, o: Outcome) {
+        match self.first {
+            None => self.first = Some(o),
+            Some(f) => self.agree &= f == o,
+        }
+    }
+}
+
+/// Which samples of a light to take.
+#[derive(Clone, Copy)]
+enum Samples {
+    /// `n` stratified over the light.
+    Stratified(u32),
+    /// Probes for adaptive soft shadows: the light's corners (the sample square's corners, which
+    /// lights map to their extreme points: a rectangle's corners, a ball's rim), then `n − 4`
+    /// stratified points. A straight occluder edge across the light separates its corners.
+    Probes(u32),
+}
+
+/// The sample square's corners, diagonal pairs first.
+const PROBE_CORNERS: [DVec2; 4] = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 1.0), DVec2::new(1.0, 0.0), DVec2::new(0.0, 1.0)];
+
+/// What one light's samples at a shading point share.
+struct Shade<'a> {
+    si: &'a Interaction<'a>,
+    /// The ray's weight in the pixel.
+    weight: Color,
+    /// The light's full sample count (the pruning share divides by it).
+    full: u32,
+    /// The light's index.
+    light: usize,
+    /// The surface has neither a diffuse nor a specular term.
+    no_response: bool,
+}
+
+impl Phong {
+    /// Direct light at `si`: diffuse and specular from every light, shadowed.
+    pub(super) fn direct<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, sampler: &Sampler, weight: Color, rec: &mut R) -> Color {
+        let scene = c.scene;
+        let m = &si.material;
+        let no_response = max_channel(m.kd) <= 0.0 && max_channel(m.ks) <= 0.0;
+        let streams = sampler.fork(TAG_LIGHTS);
+        let mut total = Color::ZERO;
+        for (li, light) in scene.lights.iter().enumerate() {
+            let full = match light.is_area() && self.shadow_rays > 0 {
+                true => self.shadow_rays,
+                false => light.sample_count().max(1),
+            };
+            let mut stream = streams.fork(li as u64);
+            let probes = if light.is_area() && self.shadow_probes > 0 && self.shadow_probes < full { self.shadow_probes } else { 0 };
+            let mut acc = LightSum { sum: Color::ZERO, n: 0, first: None, agree: true };
+            let shade = Shade { si, weight, full, light: li, no_response };
+            let first_set = if probes > 0 { Samples::Probes(probes) } else { Samples::Stratified(full) };
+            let pattern = stream.next_pattern();
+            let u0 = stream.next_2d();
+            if !self.light_samples(c, &shade, light.as_ref(), first_set, pattern, u0, &mut acc, rec) {
+                continue;
+            }
+            if probes > 0 {
+                if acc.agree {
+                    c.stats.add(counter::SHADOW_RAYS_SAVED, u64::from(full - probes));
+                } else {
+                    rec.note(|| format!("{}: the {probes} probe rays disagree; {full} more samples", scene.light_names[li]));
+                    let pattern = stream.next_pattern();
+                    self.light_samples(c, &shade, light.as_ref(), Samples::Stratified(full), pattern, u0, &mut acc, rec);
+                }
+            }
+            if acc.n > 0 {
+                total += acc.sum / f64::from(acc.n);
+            }
+        }
+        total
+    }
+
+    /// Takes the samples `set` of `light` (stratified with `pattern`; `u0` for a single sample)
+    /// and adds them to `acc`. False when the light has no direction here (ambient).
+    #[allow(clippy::too_many_arguments)]
+    fn light_samples<R: Recorder>(
+        &self,
+        c: &mut Ctx,
+        sh: &Shade,
+        light: &dyn LightSource,
+        set: Samples,
+        pattern: u32,
+        u0: DVec2,
+        acc: &mut LightSum,
+        rec: &mut R,
+    ) -> bool {
+        let scene = c.scene;
+        let si = sh.si;
+        let m = &si.material;
+        let count = match set {
+            Samples::Stratified(n) | Samples::Probes(n) => n,
+        };
+        for s in 0..count {
+            let u = match set {
+                Samples::Probes(_) if s < 4 => PROBE_CORNERS[s as usize],
+                Samples::Probes(n) => stratified_2d(s - 4, n - 4, pattern),
+                Samples::Stratified(1) => u0,
+                Samples::Stratified(n) => stratified_2d(s, n, pattern),
+            };
+            let Some(ls) = light.illuminate(si.hit.point, u) else { return false };
+            acc.n += 1;
+            if self.avoid && sh.no_response {
+                c.stats.add(counter::LIGHTS_NO_RESPONSE, u64::from(count - s));
+                acc.n += count - s - 1;
+                acc.first.get_or_insert(Outcome::Dark);
+                rec.note(|| format!("{}: the surface has no diffuse or specular term; no shadow rays", scene.light_names[sh.light]));
+                return true;
+            }
+            // Lit only from the viewer's side of the geometric surface; shaded with `ns`.
+            let nl = if si.n.dot(ls.dir) > 0.0 { si.ns.dot(ls.dir) } else { 0.0 };
+            let skipped = |why: &str| self.record(scene, sh.light, &ls, nl, Some(why), Color::ZERO, None, &[]);
+            if self.avoid && nl <= 0.0 {
+                c.stats.add(counter::LIGHTS_BEHIND, 1);
+                acc.observe(Outcome::Dark);
+                rec.light(|| skipped("the light is behind the surface as seen from the ray"));
+                continue;
+            }
+            if self.avoid && max_channel(ls.intensity) <= 0.0 {
+                c.stats.add(counter::LIGHTS_UNREACHABLE, 1);
+                acc.observe(Outcome::Dark);
+                rec.light(|| skipped("no light arrives here (outside the cone)"));
+                continue;
+            }
+            let lit = nl > 0.0;
+            let r = reflect(-ls.dir, si.ns);
+            let vr = -si.dir.dot(r);
+            let spec = if lit && vr > 0.0 && max_channel(m.ks) > 0.0 { vr.powf(m.shininess) } else { 0.0 };
+            let diffuse = m.kd * nl.max(0.0) * ls.intensity;
+            let specular = m.ks * spec * ls.intensity;
+            let unshadowed = diffuse + specular;
+            let dark = max_channel(unshadowed) <= 0.0;
+            if self.avoid && dark {
+                c.stats.add(counter::LIGHTS_NO_RESPONSE, 1);
+                acc.observe(Outcome::Dark);
+                rec.light(|| skipped("no diffuse or specular response toward this light"));
+                continue;
+            }
+            let share = max_channel(unshadowed * sh.weight) / f64::from(sh.full);
+            if share < self.prune_threshold {
+                c.stats.add(counter::LIGHTS_NEGLIGIBLE, 1);
+                acc.observe(if dark { Outcome::Dark } else { Outcome::Negligible });
+                rec.light(|| skipped(&format!("contribution {share:.3e} below the pruning threshold")));
+                continue;
+            }
+            c.stats.add(counter::SHADOW_RAYS, 1);
+            let (shadow_ray, t_max) = si.spawn_shadow_ray(ls.dir, ls.distance);
+            let tr = if R::ON {
+                let (tr, occ) = scene.transmittance_and_occluder(&shadow_ray, t_max);
+                let k = f64::from(count);
+                let terms = [Term::color("diffuse", diffuse * tr / k), Term::color("specular", specular * tr / k)];
+                rec.light(|| self.record(scene, sh.light, &ls, nl, None, tr, occ, &terms));
+                tr
+            } else {
+                scene.transmittance(&shadow_ray, t_max)
+            };
+            acc.sum += unshadowed * tr;
+            acc.observe(if dark { Outcome::Dark } else { Outcome::Lit(tr) });
+        }
+        true
+    }
+
+    /// The explanation of one light sample.
+    #[allow(clippy::too_many_arguments)]
+    fn record(
+        &self,
+        scene: &raylab::Scene,
+        light: usize,
+        ls: &LightSample,
+        nl: f64,
+        skipped: Option<&str>,
+        transmittance: Color,
+        occluder: Option<u32>,
+        terms: &[Term],
+    ) -> TraceLight {
+        TraceLight {
+            light: scene.light_names[light].clone(),
+            dir: ls.dir,
+            distance: ls.distance,
+            intensity: ls.intensity,
+            n_dot_l: nl,
+            transmittance,
+            occluder: occluder.map(|o| scene.object_name(o).to_string()),
+            terms: terms.to_vec(),
+            skipped: skipped.map(str::to_string),
+        }
+    }
+}

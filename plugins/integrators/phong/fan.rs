@@ -1,0 +1,116 @@
+//! Reflection and refraction: the ideal direction at a hit, and the fan of child rays around it
+//! (one ray at a sharp surface; `glossy_rays` jittered in a disc of radius `blur` otherwise).
+
+use super::{Ctx, Phong, TAG_REFLECTION, TAG_REFRACTION, counter};
+use raylab::glam::DVec3;
+use raylab::math::color::max_channel;
+use raylab::render::sampler::{concentric_disc, orthonormal_basis, stratified_2d};
+use raylab::render::trace::Recorder;
+use raylab::scene::interaction::Interaction;
+use raylab::{Color, RayKind, Sampler};
+
+/// Mirror reflection of direction `d` about unit normal `n`: `d − 2(d·n)n`.
+#[inline]
+pub fn reflect(d: DVec3, n: DVec3) -> DVec3 {
+    d - 2.0 * d.dot(n) * n
+}
+
+/// Refraction of unit direction `d` through a surface with unit normal `n` facing against `d`,
+/// with `eta` = n_incident / n_transmitted. `None` on total internal reflection.
+#[inline]
+pub fn refract(d: DVec3, n: DVec3, eta: f64) -> Option<DVec3> {
+    let cos_i = -n.dot(d);
+    let sin2_t = eta * eta * (1.0 - cos_i * cos_i).max(0.0);
+    if sin2_t > 1.0 {
+        return None;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    Some((eta * d + (eta * cos_i - cos_t) * n).normalize())
+}
+
+/// Offset (within a ray kind's tags) of the stream a glossy fan's pattern comes from.
+const FAN_PATTERN: u64 = 0xFFFF_FFFF;
+
+/// A reflection or refraction fan: the ideal direction, the side it must stay on, the blur.
+pub(super) struct Fan {
+    ideal: DVec3,
+    side: DVec3,
+    blur: f64,
+    kind: RayKind,
+    tag: u64,
+}
+
+impl Fan {
+    /// The fan of `kind` at `si`: mirror reflection about the normal facing the ray; refraction
+    /// by Snell's law at closed solids (total internal reflection reflects instead), straight
+    /// through at open surfaces (thin sheets).
+    pub(super) fn new<R: Recorder>(si: &Interaction, kind: RayKind, rec: &mut R) -> Fan {
+        let (d, n, m) = (si.dir, si.n, &si.material);
+        let (ideal, side, tag) = if kind == RayKind::Reflection {
+            (reflect(d, n), n, TAG_REFLECTION)
+        } else if si.object.is_closed() {
+            let eta = if si.front_face { 1.0 / m.ior } else { m.ior };
+            match refract(d, n, eta) {
+                Some(t) => (t, -n, TAG_REFRACTION),
+                None => {
+                    rec.note(|| "total internal reflection: the transmitted ray reflects".into());
+                    (reflect(d, n), n, TAG_REFRACTION)
+                }
+            }
+        } else {
+            (d, -n, TAG_REFRACTION)
+        };
+        Fan { ideal, side, blur: m.blur, kind, tag }
+    }
+}
+
+impl Phong {
+    /// Traces the child ray(s) around `fan.ideal`: one ray, or `glossy_rays` jittered in a disc
+    /// of radius `blur`, each flipped onto the `side` hemisphere if jitter pushed it through the
+    /// surface. Returns their mean radiance. At a sharp surface with `avoid` off, the fan is
+    /// `glossy_rays` copies of the one ideal ray (same stream, same weight).
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn spread<R: Recorder>(
+        &self,
+        c: &mut Ctx,
+        si: &Interaction,
+        fan: &Fan,
+        sampler: &Sampler,
+        depth: u32,
+        weight: Color,
+        rec: &mut R,
+    ) -> Color {
+        let sharp = fan.blur <= 0.0;
+        // A fan gets rays in proportion to its weight in the pixel (at least one), so nested
+        // glossy bounces cost about `glossy_rays` per sample instead of `glossy_rays^depth`.
+        let fan_size = ((f64::from(self.glossy_rays) * max_channel(weight)).ceil() as u32).clamp(1, self.glossy_rays);
+        let count = if sharp && self.avoid { 1 } else { fan_size };
+        if sharp && self.avoid {
+            c.stats.add(counter::GLOSSY_RAYS_SAVED, u64::from(fan_size - 1));
+        }
+        let pattern = if sharp { 0 } else { sampler.fork(fan.tag | FAN_PATTERN).next_pattern() };
+        let (b1, b2) = orthonormal_basis(fan.ideal);
+        let child_weight = if sharp { weight } else { weight / f64::from(count) };
+        let counter = if fan.kind == RayKind::Reflection { counter::REFLECTION_RAYS } else { counter::REFRACTION_RAYS };
+        let mut mean = Color::ZERO;
+        for i in 0..count {
+            let mut dir = fan.ideal;
+            if !sharp {
+                let d = concentric_disc(stratified_2d(i, count, pattern)) * fan.blur;
+                dir = (fan.ideal + d.x * b1 + d.y * b2).normalize();
+                if dir.dot(fan.side) < 0.0 {
+                    dir = reflect(dir, fan.side);
+                }
+            }
+            c.stats.add(counter, 1);
+            let ray = si.spawn_ray(dir);
+            let child_sampler = sampler.fork(fan.tag | if sharp { 0 } else { u64::from(i) });
+            let mut child = rec.child(fan.kind, &ray, depth + 1, child_weight);
+            let li = self.li(c, &ray, &child_sampler, depth + 1, child_weight, &mut child);
+            rec.adopt(child);
+            // Running mean: copies of one ray average to exactly that ray's value.
+            mean += (li - mean) / f64::from(i + 1);
+        }
+        mean
+    }
+}

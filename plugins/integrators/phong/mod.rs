@@ -1,0 +1,301 @@
+//! `phong`: the report's recursive Phong/Whitted model.
+//!
+//! At each hit, with `n` the normal facing the viewer, `v` the ray direction and, per light,
+//! `l` the direction to the light and `r` the reflection of the light's ray about `n`:
+//!
+//! ```text
+//! I = emission + ka·ambient
+//!   + Σ_lights (kd·(n·l) + ks·max(0, −v·r)^shininess) · I_L · shadow
+//!   + kr · I(reflected) + kt · I(refracted)
+//! ```
+//!
+//! A light counts only from the viewer's side of the surface (`n·l > 0` with `n` facing the
+//! viewer), so no light shines through an opaque wall. `shadow` is the product of the `kt` of
+//! the surfaces between the point and the light. Refraction follows Snell's law at closed solids
+//! (with total internal reflection); open surfaces transmit as thin sheets. Recursion stops at
+//! `max_depth` or when a ray's accumulated weight (product of coefficients) falls below
+//! `prune_threshold`. With `blur > 0` a material spreads `glossy_rays` jittered rays in a disc
+//! around the ideal direction (the report's stage-D blurring).
+//!
+//! The recursion lives here ([`Phong::shade`]); the light terms in [`direct`], the reflection and
+//! refraction fans in [`fan`]. Every function is generic over a [`Recorder`]: rendering passes
+//! [`NoRecord`] and pays nothing for `raylab trace`.
+
+mod direct;
+mod fan;
+
+use raylab::input::error::Result;
+use raylab::input::params::Params;
+use raylab::input::spec::{Default, ParamKind, ParamSpec, Reference};
+use raylab::math::color::max_channel;
+use raylab::render::aov::Layers;
+use raylab::render::stats::{Counter, CounterKind};
+use raylab::render::trace::{NoRecord, Recorder, Term};
+use raylab::scene::interaction::Interaction;
+use raylab::{Color, Integrator, LoadContext, PluginInfo, Ray, RayKind, RayStats, Sampler, Scene, TraceNode};
+
+pub use fan::{reflect, refract};
+
+/// The recursive Phong integrator.
+#[derive(Clone, Debug)]
+pub struct Phong {
+    /// Most reflection/refraction bounces along a path (0 = direct light only).
+    pub max_depth: u32,
+    /// A secondary ray, or a light sample, whose weight in the pixel is below this is skipped.
+    pub prune_threshold: f64,
+    /// Rays per glossy reflection or blurry refraction (materials with `blur > 0`).
+    pub glossy_rays: u32,
+    /// Shadow rays per area light and shading point; 0 uses each light's own `samples`.
+    pub shadow_rays: u32,
+    /// Adaptive soft shadows: trace this many probe rays to an area light first, and its full
+    /// set of shadow rays only when the probes disagree (a penumbra). 0 = off.
+    pub shadow_probes: u32,
+    /// Skip work that cannot change the image (see the module docs). `false` does it anyway, for
+    /// measuring what the skipping saves: the image stays bit-identical.
+    pub avoid: bool,
+}
+
+/// The `phong` plugin's description.
+pub const INFO: PluginInfo = PluginInfo {
+    name: "phong",
+    summary: "The report's recursive Phong model: emission, ambient, diffuse and specular per light with shadows (attenuated by transparent occluders), mirror reflection and Snell refraction with total internal reflection, glossy/blurry rays, soft shadows from area lights, recursion pruning.",
+    params: &[
+        ParamSpec::new("max_depth", ParamKind::Int, Default::Int(3), "most reflection/refraction bounces along a path (the report: 3), ≥ 0")
+            .depth(Reference::AtLeast(12.0)),
+        ParamSpec::new(
+            "prune_threshold",
+            ParamKind::Float,
+            Default::Float(0.001),
+            "skip rays and light samples whose weight in the pixel is below this (0 = never), 0..1",
+        )
+        .quality(Reference::AtMost(1e-4)),
+        ParamSpec::new(
+            "glossy_rays",
+            ParamKind::Int,
+            Default::Int(16),
+            "rays per glossy reflection / blurry refraction (materials with blur > 0), scaled by the fan's weight in the pixel (at least 1), ≥ 1",
+        )
+        .quality(Reference::Keep),
+        ParamSpec::new(
+            "shadow_rays",
+            ParamKind::Int,
+            Default::Int(0),
+            "shadow rays per area light and shading point (0 = each light's own `samples`), ≥ 0",
+        )
+        .quality(Reference::Keep),
+        ParamSpec::new(
+            "shadow_probes",
+            ParamKind::Int,
+            Default::Int(0),
+            "adaptive soft shadows: probe rays per area light (its corners or rim first); the full set only where they disagree (0 = off), ≥ 0",
+        )
+        .quality(Reference::Exactly(Default::Int(0))),
+        ParamSpec::new(
+            "avoid",
+            ParamKind::Bool,
+            Default::Bool(true),
+            "skip work that cannot change the image; false traces it anyway (same image, for measuring the saving)",
+        ),
+    ],
+};
+
+/// Builds the integrator from its parameters.
+pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Integrator>> {
+    Ok(Box::new(Phong {
+        max_depth: p.int_in("max_depth", 0..=1024)? as u32,
+        prune_threshold: p.float_in("prune_threshold", 0.0..=1.0)?,
+        glossy_rays: p.int_in("glossy_rays", 1..=65536)? as u32,
+        shadow_rays: p.int_in("shadow_rays", 0..=65536)? as u32,
+        shadow_probes: p.int_in("shadow_probes", 0..=65536)? as u32,
+        avoid: p.bool("avoid")?,
+    }))
+}
+
+impl std::default::Default for Phong {
+    fn default() -> Self {
+        Phong { max_depth: 3, prune_threshold: 0.001, glossy_rays: 16, shadow_rays: 0, shadow_probes: 0, avoid: true }
+    }
+}
+
+/// The counters of [`COUNTERS`], by index.
+pub mod counter {
+    /// Shadow rays toward lights.
+    pub const SHADOW_RAYS: usize = 0;
+    /// Reflection rays (mirror and glossy).
+    pub const REFLECTION_RAYS: usize = 1;
+    /// Transmission rays (refracted, or through thin sheets).
+    pub const REFRACTION_RAYS: usize = 2;
+    /// Light samples skipped: the light is behind the surface as seen from the ray.
+    pub const LIGHTS_BEHIND: usize = 3;
+    /// Light samples skipped: no light arrives (outside a spot's cone).
+    pub const LIGHTS_UNREACHABLE: usize = 4;
+    /// Light samples skipped: no diffuse or specular response.
+    pub const LIGHTS_NO_RESPONSE: usize = 5;
+    /// Reflection or refraction rays skipped: the coefficient is zero.
+    pub const ZERO_COEFFICIENT_RAYS: usize = 6;
+    /// Rays a glossy fan would have added at sharp surfaces (blur = 0).
+    pub const GLOSSY_RAYS_SAVED: usize = 7;
+    /// Light samples below the pruning threshold.
+    pub const LIGHTS_NEGLIGIBLE: usize = 8;
+    /// Secondary rays below the pruning threshold.
+    pub const PRUNED_RAYS: usize = 9;
+    /// Shadow rays not traced because an area light's probes agreed.
+    pub const SHADOW_RAYS_SAVED: usize = 10;
+    /// Secondary rays not traced at the depth limit.
+    pub const DEPTH_LIMITED: usize = 11;
+}
+
+/// What `phong` counts (printed by `--stats`).
+pub const COUNTERS: &[Counter] = &[
+    Counter::new("shadow_rays", CounterKind::Rays, "shadow rays"),
+    Counter::new("reflection_rays", CounterKind::Rays, "reflection rays"),
+    Counter::new("refraction_rays", CounterKind::Rays, "refraction rays"),
+    Counter::new("lights_behind", CounterKind::Avoided, "avoided: light behind surface"),
+    Counter::new("lights_unreachable", CounterKind::Avoided, "avoided: light outside its cone"),
+    Counter::new("lights_no_response", CounterKind::Avoided, "avoided: surface has no response"),
+    Counter::new("zero_coefficient_rays", CounterKind::Avoided, "avoided: zero kr/kt rays"),
+    Counter::new("glossy_rays_saved", CounterKind::Avoided, "avoided: glossy fans at sharp"),
+    Counter::new("lights_negligible", CounterKind::Avoided, "pruned: light negligible"),
+    Counter::new("pruned_rays", CounterKind::Avoided, "pruned: rays below threshold"),
+    Counter::new("shadow_rays_saved", CounterKind::Avoided, "saved: adaptive shadow rays"),
+    Counter::new("depth_limited", CounterKind::Other, "limited: max depth"),
+];
+
+/// Sampler tags: each part of a hit's work draws from its own stream, so skipping one part never
+/// changes the numbers another sees.
+const TAG_LIGHTS: u64 = 1;
+const TAG_REFLECTION: u64 = 2 << 32;
+const TAG_REFRACTION: u64 = 3 << 32;
+
+/// What one camera ray's recursion shares: the scene and the counters.
+struct Ctx<'a> {
+    scene: &'a Scene,
+    stats: &'a mut RayStats,
+}
+
+impl Phong {
+    /// Radiance along `ray` (with its own random stream `sampler`) and accumulated `weight`.
+    fn li<R: Recorder>(&self, c: &mut Ctx, ray: &Ray, sampler: &Sampler, depth: u32, weight: Color, rec: &mut R) -> Color {
+        match c.scene.trace(ray) {
+            Some(si) => self.shade(c, &si, sampler, depth, weight, rec),
+            None => {
+                rec.color(c.scene.background);
+                c.scene.background
+            }
+        }
+    }
+
+    /// Radiance leaving the hit `si` back along its ray: emission, ambient, direct light, and the
+    /// reflected and refracted rays.
+    fn shade<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, sampler: &Sampler, depth: u32, weight: Color, rec: &mut R) -> Color {
+        let m = &si.material;
+        let ambient = m.ka * c.scene.ambient;
+        rec.hit(si);
+        rec.term(|| Term::color("emission", m.emission));
+        rec.term(|| Term::color("ambient", ambient));
+        let mut color = m.emission + ambient;
+        color += self.direct(c, si, sampler, weight, rec);
+        for kind in [RayKind::Reflection, RayKind::Refraction] {
+            let (coef, what) = if kind == RayKind::Reflection { (m.kr, "reflection") } else { (m.kt, "refraction") };
+            if self.avoid && max_channel(coef) <= 0.0 {
+                c.stats.add(counter::ZERO_COEFFICIENT_RAYS, 1);
+                continue;
+            }
+            if depth >= self.max_depth {
+                c.stats.add(counter::DEPTH_LIMITED, 1);
+                rec.note(|| format!("max depth {} reached: no {what} ray", self.max_depth));
+                continue;
+            }
+            let w = weight * coef;
+            if max_channel(w) < self.prune_threshold {
+                c.stats.add(counter::PRUNED_RAYS, 1);
+                rec.note(|| format!("{what} pruned: weight {:.3e} < threshold {}", max_channel(w), self.prune_threshold));
+                continue;
+            }
+            let fan = fan::Fan::new(si, kind, rec);
+            color += coef * self.spread(c, si, &fan, sampler, depth, w, rec);
+        }
+        rec.color(color);
+        color
+    }
+
+    /// The whole recursion for a camera ray, recorded into `rec`; `layers` gets the first surface.
+    fn camera<R: Recorder>(
+        &self,
+        scene: &Scene,
+        ray: &Ray,
+        sampler: &Sampler,
+        stats: &mut RayStats,
+        layers: &mut Layers,
+        rec: &mut R,
+    ) -> Color {
+        let c = &mut Ctx { scene, stats };
+        let Some(si) = scene.trace(ray) else {
+            rec.color(scene.background);
+            return scene.background;
+        };
+        let m = &si.material;
+        *layers = Layers::surface(&si, m.kd + m.kr + m.kt);
+        self.shade(c, &si, sampler, 0, Color::ONE, rec)
+    }
+}
+
+impl Integrator for Phong {
+    fn radiance(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler, stats: &mut RayStats, layers: &mut Layers) -> Color {
+        self.camera(scene, ray, sampler, stats, layers, &mut NoRecord)
+    }
+
+    fn explain(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler) -> Option<TraceNode> {
+        let mut stats = RayStats::new(COUNTERS);
+        let mut layers = Layers::miss(scene.background);
+        let mut root = TraceNode::new(RayKind::Camera, *ray, 0, Color::ONE);
+        self.camera(scene, ray, sampler, &mut stats, &mut layers, &mut root);
+        Some(root)
+    }
+
+    fn counters(&self) -> &'static [Counter] {
+        COUNTERS
+    }
+
+    /// Every hit of a path tree up to `max_depth` has a reflection and a refraction fan and
+    /// takes every light's probes and samples. A fan has at most `ceil(glossy_rays × w)` rays for
+    /// its weight `w`, and its rays share `w` (coefficients ≤ 1), so the weights at one depth sum
+    /// to at most 2^depth; with `avoid` off, every fan has `glossy_rays` rays at full weight.
+    fn worst_case_rays(&self, scene: &Scene) -> f64 {
+        let per_hit: f64 = scene
+            .lights
+            .iter()
+            .map(|l| {
+                let full = if l.is_area() && self.shadow_rays > 0 { self.shadow_rays } else { l.sample_count().max(1) };
+                let probes = if l.is_area() && self.shadow_probes < full { self.shadow_probes } else { 0 };
+                f64::from(full) + f64::from(probes)
+            })
+            .sum();
+        let g = f64::from(self.glossy_rays);
+        let (mut hits, mut level, mut weight) = (1.0, 1.0, 1.0);
+        for _ in 0..self.max_depth {
+            let full = 2.0 * g * level;
+            level = if self.avoid { full.min(2.0 * g * weight + 2.0 * level) } else { full };
+            weight *= 2.0;
+            hits += level;
+        }
+        hits * (1.0 + per_hit)
+    }
+
+    fn describe(&self) -> String {
+        let mut s = format!("max_depth {}, prune {}, glossy {}", self.max_depth, self.prune_threshold, self.glossy_rays);
+        if self.shadow_rays > 0 {
+            s += &format!(", shadow rays {}", self.shadow_rays);
+        }
+        if self.shadow_probes > 0 {
+            s += &format!(", shadow probes {}", self.shadow_probes);
+        }
+        if !self.avoid {
+            s += ", avoid off";
+        }
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests;

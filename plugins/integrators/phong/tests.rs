@@ -1,0 +1,204 @@
+//! The Phong integrator against closed-form expectations.
+
+use super::*;
+use crate::lights::{ambient::Ambient, directional::Directional, point::PointLight, point::Spot};
+use crate::shapes::{plane::Plane, sphere::Sphere};
+use raylab::glam::DVec3;
+use raylab::scene::object::Object;
+use raylab::{Camera, Geometry, LightSource, Material};
+
+const EPS: f64 = 1e-12;
+
+/// A shape with its material.
+type Thing = (Box<dyn Geometry>, Material);
+
+fn scene(objects: Vec<Thing>, lights: Vec<Box<dyn LightSource>>, background: Color) -> Scene {
+    let cam = Camera::look_at(DVec3::new(0.0, 5.0, 5.0), DVec3::ZERO, DVec3::Y, 45.0, 4, 4).unwrap();
+    let objects = objects.into_iter().enumerate().map(|(i, (g, m))| Object::with_material(format!("object {i}"), g, m)).collect();
+    let lights = lights.into_iter().enumerate().map(|(i, l)| (format!("light {i}"), l)).collect();
+    Scene::new("test", cam, background, objects, lights)
+}
+
+fn floor(m: Material) -> Thing {
+    (Box::new(Plane::new(DVec3::ZERO, DVec3::Y)), m)
+}
+
+fn shade(s: &Scene, integrator: &Phong, ray: &Ray) -> (Color, RayStats) {
+    let mut stats = RayStats::new(COUNTERS);
+    let c = integrator.radiance(s, ray, &mut Sampler::new(0, 0, 0), &mut stats, &mut Layers::miss(s.background));
+    (c, stats)
+}
+
+/// The camera ray of every light test: from (0, 5, 5) to the origin on the floor.
+fn down_ray() -> Ray {
+    Ray::new(DVec3::new(0.0, 5.0, 5.0), DVec3::new(0.0, -5.0, -5.0))
+}
+
+fn lambert_phong() -> Material {
+    Material {
+        ka: DVec3::new(0.5, 0.4, 0.3),
+        kd: DVec3::new(0.5, 0.25, 0.125),
+        ks: DVec3::splat(0.3),
+        shininess: 10.0,
+        emission: DVec3::new(0.01, 0.02, 0.03),
+        ..Material::default()
+    }
+}
+
+/// `emission + ka·ambient + (kd·(n·l) + ks·(−v·r)^n)·I` written out for the floor at the origin,
+/// seen along `down_ray`, with `l` the unit direction to the light.
+fn expected(m: &Material, ambient: Color, l: DVec3, intensity: Color) -> Color {
+    let n = DVec3::Y;
+    let v = DVec3::new(0.0, -1.0, -1.0) / 2f64.sqrt();
+    let nl = n.dot(l);
+    let r = -l + 2.0 * nl * n;
+    let spec = (-v.dot(r)).max(0.0).powf(m.shininess);
+    m.emission + m.ka * ambient + (m.kd * nl + m.ks * spec) * intensity
+}
+
+fn assert_close(a: Color, b: Color) {
+    assert!((a - b).abs().max_element() < EPS, "{a} vs {b}");
+}
+
+#[test]
+fn ambient_and_emission_alone() {
+    let m = lambert_phong();
+    let s = scene(vec![floor(m.clone())], vec![Box::new(Ambient::new(DVec3::new(1.0, 0.5, 0.25), 0.1))], Color::ZERO);
+    let (c, _) = shade(&s, &Phong::default(), &down_ray());
+    assert_close(c, m.emission + m.ka * DVec3::new(0.1, 0.05, 0.025));
+}
+
+#[test]
+fn directional_light_terms() {
+    let m = lambert_phong();
+    let travel = DVec3::new(1.0, -2.0, 0.0).normalize();
+    let i = DVec3::new(0.9, 0.8, 0.7);
+    let s =
+        scene(vec![floor(m.clone())], vec![Box::new(Directional::new(i, travel)), Box::new(Ambient::new(DVec3::ONE, 0.1))], Color::ZERO);
+    let (c, stats) = shade(&s, &Phong::default(), &down_ray());
+    // l = (−1, 2, 0)/√5: n·l = 2/√5; r = (1, 2, 0)/√5; −v·r = 2/√10.
+    let spec = (2.0 / 10f64.sqrt()).powi(10);
+    let by_hand = m.emission + m.ka * 0.1 + (m.kd * (2.0 / 5f64.sqrt()) + m.ks * spec) * i;
+    assert_close(c, by_hand);
+    assert_close(c, expected(&m, DVec3::splat(0.1), -travel, i));
+    assert_eq!(stats.get("shadow_rays"), 1);
+}
+
+#[test]
+fn point_light_attenuates_with_distance() {
+    let m = lambert_phong();
+    let pos = DVec3::new(1.0, 3.0, 0.0);
+    let (kc, kl, kq) = (1.0, 0.1, 0.01);
+    let i0 = DVec3::new(2.0, 1.5, 1.0);
+    let s = scene(vec![floor(m.clone())], vec![Box::new(PointLight::new(i0, pos, kc, kl, kq))], Color::ZERO);
+    let (c, _) = shade(&s, &Phong::default(), &down_ray());
+    let d = 10f64.sqrt();
+    let by_hand = expected(&m, Color::ZERO, pos / d, i0 / (kc + kl * d + kq * d * d));
+    assert_close(c, by_hand);
+}
+
+#[test]
+fn spot_light_narrows_by_its_exponent() {
+    let m = lambert_phong();
+    let pos = DVec3::new(2.0, 4.0, 0.0);
+    let axis = DVec3::new(-1.0, -1.0, 0.0).normalize();
+    let i0 = DVec3::splat(3.0);
+    let spot = Spot { direction: axis, exponent: 2.0, cos_cutoff: 0.0 };
+    let s = scene(vec![floor(m.clone())], vec![Box::new(PointLight::spot(i0, pos, 1.0, 0.0, 0.05, spot))], Color::ZERO);
+    let (c, _) = shade(&s, &Phong::default(), &down_ray());
+    let d = 20f64.sqrt();
+    let l_from_light = -pos / d;
+    // D·L = (1/√2)(2/√20 + 4/√20) = 6/√40
+    let dl: f64 = 6.0 / 40f64.sqrt();
+    assert!((axis.dot(l_from_light) - dl).abs() < EPS);
+    let by_hand = expected(&m, Color::ZERO, pos / d, i0 * dl.powi(2) / (1.0 + 0.05 * d * d));
+    assert_close(c, by_hand);
+    // Outside the cone (the spot points away): no light and no shadow ray.
+    let away = Spot { direction: -axis, exponent: 2.0, cos_cutoff: 0.0 };
+    let s = scene(vec![floor(m.clone())], vec![Box::new(PointLight::spot(i0, pos, 1.0, 0.0, 0.05, away))], Color::ZERO);
+    let (c, stats) = shade(&s, &Phong::default(), &down_ray());
+    assert_close(c, m.emission);
+    assert_eq!(stats.get("shadow_rays"), 0);
+}
+
+#[test]
+fn no_light_through_an_opaque_wall() {
+    // Light under the floor, viewer above: n·l and n·v disagree, so no contribution.
+    let m = lambert_phong();
+    let s =
+        scene(vec![floor(m.clone())], vec![Box::new(PointLight::new(DVec3::ONE, DVec3::new(0.0, -3.0, 0.0), 1.0, 0.0, 0.0))], Color::ZERO);
+    let (c, stats) = shade(&s, &Phong::default(), &down_ray());
+    assert_close(c, m.emission);
+    assert_eq!((stats.get("lights_behind"), stats.get("shadow_rays")), (1, 0));
+}
+
+#[test]
+fn shadows_block_and_transparent_occluders_attenuate() {
+    let m = lambert_phong();
+    let light = || -> Box<dyn LightSource> { Box::new(PointLight::new(DVec3::ONE, DVec3::new(0.0, 6.0, 0.0), 1.0, 0.0, 0.0)) };
+    let blocker = |kt: f64| -> Thing {
+        (Box::new(Sphere::new(DVec3::new(0.0, 3.0, 0.0), 1.0)), Material { kt: DVec3::splat(kt), ..Material::default() })
+    };
+    let lit = expected(&m, Color::ZERO, DVec3::Y, DVec3::ONE);
+    let open = scene(vec![floor(m.clone())], vec![light()], Color::ZERO);
+    assert_close(shade(&open, &Phong::default(), &down_ray()).0, lit);
+    let opaque = scene(vec![floor(m.clone()), blocker(0.0)], vec![light()], Color::ZERO);
+    assert_close(shade(&opaque, &Phong::default(), &down_ray()).0, m.emission);
+    // A shadow ray crosses the glass sphere twice: kt².
+    let glass = scene(vec![floor(m.clone()), blocker(0.5)], vec![light()], Color::ZERO);
+    let (c, _) = shade(&glass, &Phong::default(), &down_ray());
+    assert_close(c, m.emission + (lit - m.emission) * 0.25);
+}
+
+#[test]
+fn mirror_reflects_the_background() {
+    let mirror = Material { ka: DVec3::ZERO, kd: DVec3::ZERO, kr: DVec3::new(0.9, 0.8, 0.7), ..Material::default() };
+    let bg = DVec3::new(0.2, 0.4, 0.6);
+    let s = scene(vec![floor(mirror)], vec![], bg);
+    let (c, stats) = shade(&s, &Phong::default(), &down_ray());
+    assert_close(c, DVec3::new(0.9, 0.8, 0.7) * bg);
+    assert_eq!(stats.get("reflection_rays"), 1);
+    let tree = Phong::default().explain(&s, &down_ray(), &mut Sampler::new(0, 0, 0)).unwrap();
+    let child = &tree.children[0];
+    assert!((child.ray.dir - DVec3::new(0.0, 1.0, -1.0).normalize()).length() < EPS);
+}
+
+#[test]
+fn refraction_follows_snell_and_total_internal_reflection() {
+    let glass = Material { ka: DVec3::ZERO, kd: DVec3::ZERO, kt: DVec3::ONE, ior: 1.5, ..Material::default() };
+    let s = scene(vec![(Box::new(Sphere::new(DVec3::ZERO, 1.0)), glass)], vec![], DVec3::new(0.3, 0.3, 0.3));
+    // Enter at 30° from the normal at the top of the sphere.
+    let hit = DVec3::new(0.0, 1.0, 0.0);
+    let incoming = DVec3::new(30f64.to_radians().sin(), -30f64.to_radians().cos(), 0.0);
+    let ray = Ray::new(hit - 3.0 * incoming, incoming);
+    let tree = Phong::default().explain(&s, &ray, &mut Sampler::new(0, 0, 0)).unwrap();
+    let inside = &tree.children[0];
+    let sin_t = inside.ray.dir.cross(-DVec3::Y).length();
+    assert!((sin_t - 0.5 / 1.5).abs() < 1e-9, "Snell: sin θt = sin θi / n, got {sin_t}");
+    assert!(tree.hit.as_ref().unwrap().front_face && !inside.hit.as_ref().unwrap().front_face);
+    // Inside, beyond the critical angle (sin θ > 1/1.5): total internal reflection.
+    let inside_ray = Ray::new(DVec3::new(0.0, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0));
+    let grazing = Ray::new(DVec3::new(0.9, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0));
+    let t = Phong::default().explain(&s, &grazing, &mut Sampler::new(0, 0, 0)).unwrap();
+    assert!(t.notes.iter().any(|n| n.contains("total internal reflection")), "{}", t.to_text());
+    let t = Phong::default().explain(&s, &inside_ray, &mut Sampler::new(0, 0, 0)).unwrap();
+    assert!(t.notes.iter().all(|n| !n.contains("total internal")));
+}
+
+#[test]
+fn pruning_and_depth_limit_skip_rays() {
+    let mirror = Material { kd: DVec3::ZERO, kr: DVec3::splat(0.5), ..Material::default() };
+    // Two parallel mirrors: the ray bounces until depth or pruning stops it.
+    let planes: Vec<Thing> = vec![floor(mirror.clone()), (Box::new(Plane::new(DVec3::new(0.0, 10.0, 0.0), -DVec3::Y)), mirror)];
+    let s = scene(planes, vec![], DVec3::ONE);
+    let ray = Ray::new(DVec3::new(0.0, 5.0, 0.0), DVec3::new(0.0, -1.0, 0.01));
+    let deep = Phong { max_depth: 100, prune_threshold: 0.01, glossy_rays: 1, ..Phong::default() };
+    let (c, st) = shade(&s, &deep, &ray);
+    // 0.5^7 = 0.0078 < 0.01: the 7th reflection is pruned.
+    assert_eq!((st.get("reflection_rays"), st.get("pruned_rays"), st.get("depth_limited")), (6, 1, 0));
+    // Between two infinite mirrors no ray ever escapes to the background.
+    assert_eq!(c, Color::ZERO);
+    let shallow = Phong { max_depth: 2, prune_threshold: 0.0, glossy_rays: 1, ..Phong::default() };
+    let (_, st) = shade(&s, &shallow, &ray);
+    assert_eq!((st.get("reflection_rays"), st.get("pruned_rays"), st.get("depth_limited")), (2, 0, 1));
+}

@@ -1,0 +1,78 @@
+//! A render job: the scene, its integrator, and the image and sampling settings.
+
+use crate::math::color::Encoding;
+use crate::render::integrator::Integrator;
+use crate::scene::Scene;
+
+/// How pixels are sampled.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[serde(tag = "mode", rename_all = "lowercase")]
+pub enum Antialiasing {
+    /// `spp` samples per pixel: the centre for 1, stratified (correlated multi-jitter) for more.
+    Stratified,
+    /// Recursive corner subdivision where neighbouring samples disagree (see the module docs).
+    Adaptive {
+        /// Split a square when its corners' displayed values (clamped, encoded, 0..1) differ by
+        /// more than this in any channel.
+        threshold: f64,
+        /// Most subdivision levels per pixel (0 = the four corners only).
+        max_depth: u32,
+    },
+}
+
+/// Most adaptive subdivision levels (a 256 × 256 sub-grid per pixel).
+pub const MAX_ADAPTIVE_DEPTH: u32 = 8;
+
+/// Image and sampling settings of a render.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderSettings {
+    /// Image width, pixels (≥ 1).
+    pub width: u32,
+    /// Image height, pixels (≥ 1).
+    pub height: u32,
+    /// Samples per pixel (≥ 1) for stratified anti-aliasing. One sample goes through the pixel
+    /// centre; more are stratified. Unused by adaptive anti-aliasing.
+    pub spp: u32,
+    /// Random seed: same seed, same image.
+    pub seed: u64,
+    /// How 8-bit output encodes linear values (adaptive anti-aliasing compares encoded values).
+    pub encoding: Encoding,
+    /// Anti-aliasing scheme.
+    pub aa: Antialiasing,
+    /// Rays through distinct lens points per image sample (≥ 1), stratified over the lens; only
+    /// used when the camera has an aperture.
+    pub lens_samples: u32,
+}
+
+impl RenderSettings {
+    /// Settings with stratified sampling at `spp`, seed 0, sRGB output and one lens sample.
+    pub fn new(width: u32, height: u32, spp: u32) -> Self {
+        RenderSettings { width, height, spp, seed: 0, encoding: Encoding::Srgb, aa: Antialiasing::Stratified, lens_samples: 1 }
+    }
+
+    /// A short description: `16 spp` or `adaptive (threshold 0.05, depth 3)`, plus lens samples.
+    pub fn describe_sampling(&self) -> String {
+        let aa = match self.aa {
+            Antialiasing::Stratified => format!("{} spp", self.spp),
+            Antialiasing::Adaptive { threshold, max_depth } => format!("adaptive AA (threshold {threshold}, depth {max_depth})"),
+        };
+        if self.lens_samples > 1 { format!("{aa}, {} lens samples", self.lens_samples) } else { aa }
+    }
+}
+
+/// A scene ready to render: the scene, its integrator and its settings.
+pub struct RenderJob {
+    /// The scene.
+    pub scene: Scene,
+    /// The integrator.
+    pub integrator: Box<dyn Integrator>,
+    /// The integrator's type name.
+    pub integrator_name: String,
+    /// Image and sampling settings.
+    pub settings: RenderSettings,
+    /// What loading ignored or approximated, to show the user (see [`crate::input::context::LoadContext::warn`]).
+    pub warnings: Vec<crate::input::error::SceneError>,
+}
+
+/// Edge of the square tiles the image is split into, pixels.
+pub const TILE_SIZE: u32 = 16;

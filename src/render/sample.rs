@@ -1,0 +1,221 @@
+//! The one camera-sample path: which camera rays an image sample traces and with which random
+//! streams. The render, its depth/normal/albedo layers and `raylab trace` all go through
+//! [`camera_rays`], so an explained sample is exactly the sample the render computed.
+
+use crate::math::color::Color;
+use crate::math::ray::Ray;
+use crate::render::aov::Layers;
+use crate::render::job::RenderJob;
+use crate::render::sampler::{Sampler, mix64, stratified_2d};
+use crate::render::stats::RayStats;
+use glam::{DVec2, Vec3};
+use serde::Serialize;
+
+/// One image sample.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(tag = "kind", rename_all = "lowercase")]
+pub enum SampleId {
+    /// Sample `index` of the `spp` stratified samples of pixel (`x`, `y`): the pixel centre when
+    /// `spp = 1`, correlated multi-jittered points otherwise.
+    Pixel {
+        /// Column.
+        x: u32,
+        /// Row.
+        y: u32,
+        /// Sample number, `0..spp`.
+        index: u32,
+    },
+    /// Point (`x`, `y`) of the adaptive lattice, in units of `1 / 2^depth` pixel from the image's
+    /// top-left corner (shared by the squares and pixels around it).
+    Lattice {
+        /// Column of the lattice.
+        x: u64,
+        /// Row of the lattice.
+        y: u64,
+        /// Subdivision levels per pixel (the lattice has `2^depth` points per pixel side).
+        depth: u32,
+    },
+}
+
+/// Lens-pattern key offset, so lens and film patterns of a pixel are independent.
+const LENS_PATTERN: u32 = 0x5bd1_e995;
+
+/// Sample index that marks adaptive lattice samples in [`Sampler::new`] (stratified samples
+/// never reach it: `spp` is far smaller).
+const LATTICE_SAMPLE: u32 = u32::MAX;
+
+/// The camera rays of one image sample, one per lens point (one for a pinhole camera), each with
+/// its random stream.
+pub struct CameraRays<'a> {
+    job: &'a RenderJob,
+    film: DVec2,
+    sampler: Sampler,
+    /// Lens points `first .. first + count` of a stratified set of `total`.
+    first: u32,
+    count: u32,
+    total: u32,
+    pattern: u32,
+    next: u32,
+}
+
+impl Iterator for CameraRays<'_> {
+    type Item = (Ray, Sampler);
+
+    #[inline]
+    fn next(&mut self) -> Option<(Ray, Sampler)> {
+        if self.next >= self.count {
+            return None;
+        }
+        let l = self.next;
+        self.next += 1;
+        let s = &self.job.settings;
+        let camera = &self.job.scene.camera;
+        let lens = if camera.aperture > 0.0 { stratified_2d(self.first + l, self.total.max(1), self.pattern) } else { DVec2::ZERO };
+        let ray = camera.ray_through(s.width, s.height, self.film, lens);
+        let sampler = if l == 0 { self.sampler.clone() } else { self.sampler.fork(u64::from(l)) };
+        Some((ray, sampler))
+    }
+}
+
+/// The camera rays of sample `id` of `job`: where it lies on the film, and for each lens point
+/// the ray and the random stream its integrator draws from.
+pub fn camera_rays(job: &RenderJob, id: SampleId) -> CameraRays<'_> {
+    let s = &job.settings;
+    let per_sample = if job.scene.camera.aperture > 0.0 { s.lens_samples.max(1) } else { 1 };
+    match id {
+        SampleId::Pixel { x, y, index } => {
+            let pixel = u64::from(y) * u64::from(s.width) + u64::from(x);
+            let pattern = (mix64(pixel ^ s.seed.rotate_left(17)) >> 32) as u32;
+            let jitter = if s.spp == 1 { DVec2::splat(0.5) } else { stratified_2d(index, s.spp, pattern) };
+            CameraRays {
+                job,
+                film: DVec2::new(f64::from(x), f64::from(y)) + jitter,
+                sampler: Sampler::new(pixel, index, s.seed),
+                first: index * s.lens_samples,
+                count: per_sample,
+                total: s.spp * s.lens_samples,
+                pattern: pattern ^ LENS_PATTERN,
+                next: 0,
+            }
+        }
+        SampleId::Lattice { x, y, depth } => {
+            let res = 1u64 << depth;
+            let key = y * (u64::from(s.width) * res + 1) + x;
+            let mut sampler = Sampler::new(key, LATTICE_SAMPLE, s.seed);
+            let pattern = sampler.next_pattern();
+            CameraRays {
+                job,
+                film: DVec2::new(x as f64 / res as f64, y as f64 / res as f64),
+                sampler: sampler.fork(0),
+                first: 0,
+                count: per_sample,
+                total: s.lens_samples,
+                pattern,
+                next: 0,
+            }
+        }
+    }
+}
+
+/// The depth, normal and albedo of what camera rays saw first, summed with weights (every field
+/// is linear, so sums of sums and weighted means combine exactly as colours do). `f32`, like the
+/// layers written: the sums of a pixel's samples lose nothing an EXR keeps.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LayerSum {
+    /// Σ weight × depth over the rays that hit something.
+    pub depth: f32,
+    /// Σ weight over the rays that hit something.
+    pub hits: f32,
+    /// Σ weight × shading normal (zero for misses).
+    pub normal: Vec3,
+    /// Σ weight × albedo.
+    pub albedo: Vec3,
+    /// Σ weight.
+    pub weight: f32,
+}
+
+impl LayerSum {
+    /// One ray's layers with weight 1.
+    #[inline]
+    pub fn of(l: &Layers) -> Self {
+        let hit = l.depth.is_finite();
+        LayerSum {
+            depth: if hit { l.depth as f32 } else { 0.0 },
+            hits: if hit { 1.0 } else { 0.0 },
+            normal: l.normal.as_vec3(),
+            albedo: l.albedo.as_vec3(),
+            weight: 1.0,
+        }
+    }
+
+    /// These sums scaled by `w`.
+    #[inline]
+    pub fn scaled(&self, w: f32) -> Self {
+        LayerSum { depth: self.depth * w, hits: self.hits * w, normal: self.normal * w, albedo: self.albedo * w, weight: self.weight * w }
+    }
+
+    /// The mean layers: depth over the rays that hit (+∞ when none did), normal and albedo over all.
+    pub fn mean(&self) -> (f32, Vec3, Vec3) {
+        let depth = if self.hits > 0.0 { self.depth / self.hits } else { f32::INFINITY };
+        if self.weight > 0.0 { (depth, self.normal / self.weight, self.albedo / self.weight) } else { (depth, Vec3::ZERO, Vec3::ZERO) }
+    }
+}
+
+impl std::ops::Add for LayerSum {
+    type Output = LayerSum;
+    #[inline]
+    fn add(self, o: LayerSum) -> LayerSum {
+        LayerSum {
+            depth: self.depth + o.depth,
+            hits: self.hits + o.hits,
+            normal: self.normal + o.normal,
+            albedo: self.albedo + o.albedo,
+            weight: self.weight + o.weight,
+        }
+    }
+}
+
+impl std::ops::AddAssign for LayerSum {
+    #[inline]
+    fn add_assign(&mut self, o: LayerSum) {
+        *self = *self + o;
+    }
+}
+
+/// The finite radiance values of some camera rays, summed, with their count.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SampleSum {
+    /// Σ radiance of the rays whose radiance was finite.
+    pub sum: Color,
+    /// How many that was.
+    pub n: u32,
+}
+
+impl SampleSum {
+    /// The mean radiance (black when no ray counted).
+    #[inline]
+    pub fn mean(&self) -> Color {
+        if self.n == 0 { Color::ZERO } else { self.sum / f64::from(self.n) }
+    }
+}
+
+/// Traces sample `id` of `job` (every camera ray of it) and adds the result to `acc`; non-finite
+/// radiance is counted in `stats` and dropped. With `layers`, each ray's first surface is added
+/// to it too.
+#[inline]
+pub fn trace_sample(job: &RenderJob, id: SampleId, acc: &mut SampleSum, mut layers: Option<&mut LayerSum>, stats: &mut RayStats) {
+    for (ray, mut sampler) in camera_rays(job, id) {
+        let mut first = Layers::miss(job.scene.background);
+        stats.camera_rays += 1;
+        let c = job.integrator.radiance(&job.scene, &ray, &mut sampler, stats, &mut first);
+        if c.is_finite() {
+            acc.sum += c;
+            acc.n += 1;
+        } else {
+            stats.nonfinite_samples += 1;
+        }
+        if let Some(l) = layers.as_deref_mut() {
+            *l += LayerSum::of(&first);
+        }
+    }
+}

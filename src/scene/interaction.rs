@@ -1,0 +1,61 @@
+//! [`Interaction`]: what an integrator needs at a hit, computed once: the object, the point and
+//! its error bound, both normals facing the incoming ray, texture coordinates and the material
+//! evaluated there.
+
+use crate::geometry::{Hit, Surface};
+use crate::math::ray::Ray;
+use crate::scene::material::Coefficients;
+use crate::scene::object::Object;
+use glam::{DVec2, DVec3};
+
+/// A ray's hit on a scene object, with everything shading reads (see [`crate::Scene::trace`]).
+#[derive(Clone, Copy)]
+pub struct Interaction<'s> {
+    /// Distance, point and its rounding-error bound, primitive and object index.
+    pub hit: Hit,
+    /// The object hit.
+    pub object: &'s Object,
+    /// Unit direction of the incoming ray.
+    pub dir: DVec3,
+    /// Unit geometric normal facing the incoming ray (`n · dir ≤ 0`): sides and ray offsets.
+    pub n: DVec3,
+    /// Unit shading normal facing the incoming ray: lighting.
+    pub ns: DVec3,
+    /// True when the ray arrived on the surface's outward side.
+    pub front_face: bool,
+    /// Texture coordinates.
+    pub uv: DVec2,
+    /// The material at the hit.
+    pub material: Coefficients,
+}
+
+impl<'s> Interaction<'s> {
+    /// The interaction of `ray` with `object` at `hit`: the shape's surface answered once, the
+    /// material evaluated once.
+    #[inline]
+    pub fn new(ray: &Ray, hit: Hit, object: &'s Object) -> Self {
+        let s: Surface = object.geometry().surface(&hit, ray.dir);
+        let material = object.material(s.material).at(s.uv, s.local);
+        Interaction { hit, object, dir: ray.dir, n: s.n, ns: s.ns, front_face: s.front_face, uv: s.uv, material }
+    }
+
+    /// The hit point.
+    #[inline]
+    pub fn point(&self) -> DVec3 {
+        self.hit.point
+    }
+
+    /// A secondary ray leaving the hit along unit `dir`, starting outside the point's error box
+    /// on `dir`'s side of the surface ([`Hit::spawn_ray`]).
+    #[inline]
+    pub fn spawn_ray(&self, dir: DVec3) -> Ray {
+        self.hit.spawn_ray(self.n, dir)
+    }
+
+    /// A shadow ray toward a light `distance` away along unit `dir`, and its `t_max`
+    /// ([`Hit::spawn_shadow_ray`]).
+    #[inline]
+    pub fn spawn_shadow_ray(&self, dir: DVec3, distance: f64) -> (Ray, f64) {
+        self.hit.spawn_shadow_ray(self.n, dir, distance)
+    }
+}

@@ -1,0 +1,73 @@
+//! [`Object`]: a shape placed in a scene with its materials, as the loader assembles it.
+
+use crate::geometry::{Geometry, Hit, Intersectable};
+use crate::math::ray::Ray;
+use crate::scene::material::Material;
+use std::sync::Arc;
+
+/// A scene object: a shape (already placed by its transform) and the materials its surface uses.
+pub struct Object {
+    /// Display name (the scene's `name`, or the type and index when unnamed).
+    pub name: String,
+    geometry: Box<dyn Geometry>,
+    materials: Arc<[Material]>,
+    transmissive: bool,
+    closed: bool,
+}
+
+impl Object {
+    /// `geometry` with `materials` (an empty list means the default material).
+    pub fn new(name: impl Into<String>, geometry: Box<dyn Geometry>, materials: Arc<[Material]>) -> Object {
+        let materials = if materials.is_empty() { Arc::from([Material::default()]) } else { materials };
+        let transmissive = materials.iter().any(Material::is_transmissive);
+        let closed = geometry.is_closed();
+        Object { name: name.into(), geometry, materials, transmissive, closed }
+    }
+
+    /// `geometry` with one material.
+    pub fn with_material(name: impl Into<String>, geometry: Box<dyn Geometry>, material: Material) -> Object {
+        Object::new(name, geometry, Arc::from([material]))
+    }
+
+    /// The shape.
+    #[inline]
+    pub fn geometry(&self) -> &dyn Geometry {
+        self.geometry.as_ref()
+    }
+
+    /// The materials, indexed by the shape's [`crate::geometry::Surface::material`] slot (a slot
+    /// beyond the list uses the first). Never empty.
+    pub fn materials(&self) -> &[Material] {
+        &self.materials
+    }
+
+    /// Whether some material may transmit light (shadow rays then walk through the object).
+    #[inline]
+    pub fn may_transmit(&self) -> bool {
+        self.transmissive
+    }
+
+    /// Whether the shape encloses a volume ([`Geometry::is_closed`]): refraction bends rays only
+    /// at closed surfaces.
+    #[inline]
+    pub fn is_closed(&self) -> bool {
+        self.closed
+    }
+
+    /// The material in slot `slot`.
+    #[inline]
+    pub fn material(&self, slot: u32) -> &Material {
+        self.materials.get(slot as usize).unwrap_or(&self.materials[0])
+    }
+}
+
+impl Intersectable for Object {
+    #[inline]
+    fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<Hit> {
+        self.geometry.intersect(ray, t_min, t_max)
+    }
+    #[inline]
+    fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
+        self.geometry.occludes(ray, t_min, t_max)
+    }
+}
