@@ -133,7 +133,7 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
         b
     };
     bar.set_message(scene_name.clone());
-    let options = RenderOptions { threads: a.threads, cancel: Some(&INTERRUPTED), layers: !a.aov.is_empty() };
+    let options = RenderOptions { threads: a.threads, cancel: Some(&INTERRUPTED), layers: !a.aov.is_empty(), ..RenderOptions::default() };
     let mut error_log = match (&a.error_csv, &reference) {
         (Some(path), Some(r)) => Some(ErrorLog::new(path, r, s.encoding)?),
         _ => None,
