@@ -23,6 +23,7 @@ pub mod job;
 pub mod sample;
 pub mod sampler;
 pub mod share;
+pub mod split;
 pub mod stats;
 pub mod trace;
 
@@ -33,7 +34,7 @@ use crate::image::layers::Aovs;
 use crate::render::accum::{LayerSum, PixelSum};
 use crate::render::adaptive::Adaptive;
 use crate::render::sample::{SampleId, camera_rays, trace_sample};
-use crate::render::share::{FrameSums, Rect, Share};
+use crate::render::share::{FrameSums, Rect, Sampling, Share};
 use crate::render::stats::RayStats;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -191,13 +192,8 @@ fn render_passes(
     };
     let counters = job.integrator.counters();
     let tiles = tiles(share.bounds);
-    let total: u64 = sums
-        .pixels
-        .iter()
-        .enumerate()
-        .map(|(i, _)| u64::from(share.samples_of(&s, sums.share.bounds.pixel(i).0, sums.share.bounds.pixel(i).1)))
-        .sum();
     let already: u64 = sums.pixels.iter().map(|p| u64::from(p.samples)).sum();
+    let total: u64 = already + (0..sums.pixels.len()).map(|i| u64::from(sums.missing(i))).sum::<u64>();
     let done = AtomicU64::new(already);
     let state = Mutex::new(State { sums, stats: RayStats::new(counters), last_snapshot: Instant::now() });
     let lock = || state.lock().unwrap_or_else(|e| e.into_inner());
@@ -227,7 +223,7 @@ fn render_passes(
         });
         let st = lock();
         if options.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
-            complete = st.sums.complete(&s);
+            complete = st.sums.complete();
             break;
         }
         if end != *ends.last().unwrap_or(&end) {
@@ -298,7 +294,7 @@ impl TileWork {
                 return;
             }
             let (x, y) = t.pixel(i);
-            let want = self.share.samples_of(s, x, y);
+            let want = self.share.samples_of(Sampling::of(s), s.width, x, y);
             let acc = &mut self.pixels[i];
             let mut layers = self.layers.as_mut().map(|l| &mut l[i]);
             match scheme.as_mut() {

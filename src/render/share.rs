@@ -84,6 +84,23 @@ impl Rect {
     }
 }
 
+/// How many samples each pixel of a whole render has: `spp` stratified samples, or one adaptive
+/// value (whose lattice samples are not counted).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+pub struct Sampling {
+    /// Samples per pixel (stratified).
+    pub spp: u32,
+    /// Adaptive anti-aliasing: one value per pixel.
+    pub adaptive: bool,
+}
+
+impl Sampling {
+    /// The sampling of `settings`.
+    pub fn of(settings: &RenderSettings) -> Self {
+        Sampling { spp: settings.spp.max(1), adaptive: matches!(settings.aa, Antialiasing::Adaptive { .. }) }
+    }
+}
+
 /// The share of a frame's work one render does: the pixels in `bounds`, and of those, sample
 /// pass `pass` of `passes`. Under stratified anti-aliasing a pass takes every pixel's samples
 /// `pass, pass + passes, …`; under adaptive anti-aliasing, whose samples depend on each other, it
@@ -105,21 +122,19 @@ impl Share {
         Share { bounds: Rect::frame(width, height), pass: 0, passes: 1 }
     }
 
-    /// How many samples of pixel (`x`, `y`) the share takes: its stratified sample indices, or
-    /// 1 for an adaptive pixel it owns; 0 outside it.
-    pub fn samples_of(&self, s: &RenderSettings, x: u32, y: u32) -> u32 {
+    /// How many samples of pixel (`x`, `y`) of a frame `width` pixels wide the share takes: its
+    /// stratified sample indices, or 1 for an adaptive pixel it owns; 0 outside it.
+    pub fn samples_of(&self, sampling: Sampling, width: u32, x: u32, y: u32) -> u32 {
         if !self.bounds.contains(x, y) {
             return 0;
         }
-        match s.aa {
-            Antialiasing::Stratified => {
-                let spp = s.spp.max(1);
-                if self.pass >= spp { 0 } else { (spp - self.pass).div_ceil(self.passes.max(1)) }
-            }
-            Antialiasing::Adaptive { .. } => {
-                let index = u64::from(y) * u64::from(s.width) + u64::from(x);
-                u32::from(index % u64::from(self.passes.max(1)) == u64::from(self.pass))
-            }
+        if sampling.adaptive {
+            let index = u64::from(y) * u64::from(width) + u64::from(x);
+            u32::from(index % u64::from(self.passes.max(1)) == u64::from(self.pass))
+        } else if self.pass >= sampling.spp {
+            0
+        } else {
+            (sampling.spp - self.pass).div_ceil(self.passes.max(1))
         }
     }
 
@@ -145,6 +160,8 @@ pub struct FrameSums {
     pub width: u32,
     /// The frame's height, pixels.
     pub height: u32,
+    /// How many samples a pixel has in the whole render.
+    pub sampling: Sampling,
     /// The share.
     pub share: Share,
     /// Per pixel of `share.bounds`, row by row.
@@ -160,18 +177,22 @@ impl FrameSums {
         Ok(FrameSums {
             width: settings.width,
             height: settings.height,
+            sampling: Sampling::of(settings),
             share,
             pixels: try_filled(n, PixelSum::default(), "per-pixel sums")?,
             layers: if layers { Some(try_filled(n, LayerSum::default(), "per-pixel layer sums")?) } else { None },
         })
     }
 
+    /// How many samples pixel `i` (of the bounds) lacks to complete its share.
+    pub fn missing(&self, i: usize) -> u32 {
+        let (x, y) = self.share.bounds.pixel(i);
+        self.share.samples_of(self.sampling, self.width, x, y).saturating_sub(self.pixels[i].samples)
+    }
+
     /// Whether every pixel has all the samples of its share.
-    pub fn complete(&self, settings: &RenderSettings) -> bool {
-        self.pixels.iter().enumerate().all(|(i, p)| {
-            let (x, y) = self.share.bounds.pixel(i);
-            p.samples >= self.share.samples_of(settings, x, y)
-        })
+    pub fn complete(&self) -> bool {
+        (0..self.pixels.len()).all(|i| self.missing(i) == 0)
     }
 
     /// The image: the mean of each pixel's samples so far, black outside the bounds (or where
@@ -199,4 +220,102 @@ impl FrameSums {
         }
         Ok(Some(Aovs { depth: Some(depth), normal: Some(normal), albedo: Some(albedo) }))
     }
+}
+
+/// One part of a frame to merge, named for messages.
+pub struct Part {
+    /// The file name (or another name for messages).
+    pub name: String,
+    /// Its state.
+    pub sums: FrameSums,
+    /// Its fingerprint.
+    pub fingerprint: String,
+}
+
+/// Merges `parts` of one frame into the state of the whole frame: every part must have the same
+/// fingerprint, frame and sampling, no two may share samples of a pixel, and together they must
+/// give every pixel all its samples (unless `allow_partial`). The sums add exactly, so the result
+/// has the bits of one whole render.
+pub fn merge(parts: &[Part], allow_partial: bool) -> Result<FrameSums, String> {
+    let Some(first) = parts.first() else { return Err("no parts to merge".into()) };
+    let f = &first.sums;
+    for p in &parts[1..] {
+        let s = &p.sums;
+        if p.fingerprint != first.fingerprint {
+            return Err(format!(
+                "{} is from another render (fingerprint {}) than {} ({}): a different scene, file it reads, or setting",
+                p.name, p.fingerprint, first.name, first.fingerprint
+            ));
+        }
+        if (s.width, s.height, s.sampling) != (f.width, f.height, f.sampling) {
+            return Err(format!(
+                "{} is of a {}×{} frame ({:?}), {} of a {}×{} frame ({:?})",
+                p.name, s.width, s.height, s.sampling, first.name, f.width, f.height, f.sampling
+            ));
+        }
+        if s.layers.is_some() != f.layers.is_some() {
+            return Err(format!("{} and {} differ in having the depth, normal and albedo layers", p.name, first.name));
+        }
+    }
+    for (i, a) in parts.iter().enumerate() {
+        for b in &parts[i + 1..] {
+            let Some(r) = a.sums.share.bounds.intersect(&b.sums.share.bounds) else { continue };
+            let (sa, sb) = (a.sums.share, b.sums.share);
+            if sa.passes != sb.passes {
+                return Err(format!(
+                    "{} (sample pass {}/{}) and {} (pass {}/{}) overlap in pixels [{}, {}) × [{}, {}) with different pass counts",
+                    a.name, sa.pass, sa.passes, b.name, sb.pass, sb.passes, r.x0, r.x1, r.y0, r.y1
+                ));
+            }
+            if sa.pass == sb.pass {
+                return Err(format!(
+                    "{} and {} overlap: both hold pixels [{}, {}) × [{}, {}) of sample pass {}/{}",
+                    a.name, b.name, r.x0, r.x1, r.y0, r.y1, sa.pass, sa.passes
+                ));
+            }
+        }
+    }
+    let mut whole = FrameSums {
+        width: f.width,
+        height: f.height,
+        sampling: f.sampling,
+        share: Share::whole(f.width, f.height),
+        pixels: try_filled(f.width as usize * f.height as usize, PixelSum::default(), "merged image's sums").map_err(|e| e.to_string())?,
+        layers: match f.layers {
+            Some(_) => {
+                Some(try_filled(f.width as usize * f.height as usize, LayerSum::default(), "merged layers").map_err(|e| e.to_string())?)
+            }
+            None => None,
+        },
+    };
+    for p in parts {
+        let b = p.sums.share.bounds;
+        for (i, px) in p.sums.pixels.iter().enumerate() {
+            let (x, y) = b.pixel(i);
+            let k = whole.share.bounds.index(x, y);
+            whole.pixels[k].merge(px);
+            if let (Some(dst), Some(src)) = (whole.layers.as_mut(), p.sums.layers.as_ref()) {
+                dst[k].merge(&src[i]);
+            }
+        }
+    }
+    if !allow_partial {
+        let mut hole: Option<Rect> = None;
+        let mut count = 0u64;
+        for i in 0..whole.pixels.len() {
+            if whole.missing(i) > 0 {
+                let (x, y) = whole.share.bounds.pixel(i);
+                count += 1;
+                let h = hole.get_or_insert(Rect { x0: x, y0: y, x1: x + 1, y1: y + 1 });
+                *h = Rect { x0: h.x0.min(x), y0: h.y0.min(y), x1: h.x1.max(x + 1), y1: h.y1.max(y + 1) };
+            }
+        }
+        if let Some(h) = hole {
+            return Err(format!(
+                "the parts leave {count} pixel(s) without all their samples, within [{}, {}) × [{}, {}): a tile or pass is missing or unfinished (--allow-partial merges anyway)",
+                h.x0, h.x1, h.y0, h.y1
+            ));
+        }
+    }
+    Ok(whole)
 }
