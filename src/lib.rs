@@ -18,6 +18,8 @@ pub mod input;
 pub mod math;
 pub mod render;
 pub mod scene;
+#[cfg(feature = "view")]
+pub mod view;
 
 pub use glam;
 

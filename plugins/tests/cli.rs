@@ -28,7 +28,7 @@ fn no_arguments_renders_the_default_scene_to_render_png() {
     let out = raylab(&dir, &[]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let stdout = text(&out.stdout);
-    assert!(stdout.starts_with("wrote render.png (800×600, 1 spp"), "{stdout}");
+    assert!(stdout.starts_with("wrote render.png (800×600, adaptive AA (threshold 0.05, depth 3)"), "{stdout}");
     assert!(stdout.contains("rays/s") && stdout.contains("trace "), "{stdout}");
     assert!(stdout.contains(", 0 non-finite samples"), "the summary states the non-finite count: {stdout}");
     let img = image::open(dir.join("render.png")).unwrap();
@@ -119,11 +119,13 @@ fn trace_explains_a_pixel_as_text_and_json() {
 fn the_pixel_trace_agrees_with_the_rendered_pixel() {
     let dir = temp_dir("agree");
     let scene = repo().join("scenes/showcase.toml");
-    let out = raylab(&dir, &["render", scene.to_str().unwrap(), "-o", "a.png", "-q"]);
+    // One sample per pixel: the sample is the pixel (tests/trace_matches_render.rs recombines
+    // adaptive and stratified samples).
+    let out = raylab(&dir, &["render", scene.to_str().unwrap(), "-o", "a.png", "-q", "--aa", "stratified"]);
     assert!(out.status.success());
     let img = image::open(dir.join("a.png")).unwrap().to_rgb8();
     for (x, y) in [(330, 280), (100, 500), (600, 200), (10, 10)] {
-        let out = raylab(&dir, &["trace", scene.to_str().unwrap(), "--pixel", &format!("{x},{y}"), "--json"]);
+        let out = raylab(&dir, &["trace", scene.to_str().unwrap(), "--pixel", &format!("{x},{y}"), "--json", "--aa", "stratified"]);
         let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
         let traced: Vec<u8> = v["rgb8"].as_array().unwrap().iter().map(|c| c.as_u64().unwrap() as u8).collect();
         assert_eq!(traced, img.get_pixel(x, y).0.to_vec(), "pixel ({x}, {y})");
@@ -207,6 +209,8 @@ fn ctrl_c_writes_the_partial_image_beside_the_target_and_keeps_the_old_one() {
             "1200",
             "--height",
             "900",
+            "--aa",
+            "stratified",
             "--spp",
             "4096",
             "--max-rays",

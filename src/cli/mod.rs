@@ -10,7 +10,10 @@ mod plot;
 mod plugins;
 mod render;
 mod sweep;
+mod tonemap;
 mod trace;
+#[cfg(feature = "view")]
+mod view;
 
 use crate::input::context::{LoadOptions, Overrides};
 use crate::input::error::{Loc, SceneError, Source};
@@ -56,6 +59,13 @@ enum Command {
     Convert(convert::ConvertArgs),
     /// Measure mesh loading, BVH building and ray throughput, from 1k to 1M triangles.
     Bench(bench::BenchArgs),
+    /// Turn an HDR image (OpenEXR, PFM) or one of its layers (depth, normal, albedo) into a
+    /// viewable PNG or JPEG.
+    Tonemap(tonemap::TonemapArgs),
+    /// Watch a scene render live in the browser: quality knobs as controls, and any pixel's ray
+    /// tree on a click (serves a page on 127.0.0.1).
+    #[cfg(feature = "view")]
+    View(Box<view::ViewArgs>),
 }
 
 /// Options shared by every command that loads a scene: overrides of the scene's settings, and
@@ -184,6 +194,9 @@ where
         Some(Command::Sweep(a)) => sweep::run(&app, *a),
         Some(Command::Convert(a)) => convert::run(&app, a),
         Some(Command::Bench(a)) => bench::run(&app, a),
+        Some(Command::Tonemap(a)) => tonemap::run(a),
+        #[cfg(feature = "view")]
+        Some(Command::View(a)) => view::run(&app, *a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -322,16 +335,7 @@ pub(crate) fn int_in<T: TryFrom<i128>>(lo: i128, hi: i128) -> impl Fn(&str) -> R
 
 /// A setting given by command-line flag `flag`, as the scene key `key` with a location naming the flag.
 pub(crate) fn flag_node(flag: &str, key: &str, value: Value) -> (String, Node) {
-    let text = match &value {
-        Value::Str(s) => s.clone(),
-        Value::Int(i) => i.to_string(),
-        Value::Float(f) => f.to_string(),
-        Value::Bool(b) => b.to_string(),
-        other => other.type_name().to_string(),
-    };
-    let src = Source::new(flag, text);
-    let loc = Loc::new(&src, 0..src.text.len());
-    (key.to_string(), Node { value, loc })
+    (key.to_string(), Node::given(flag, value))
 }
 
 /// Parses repeated `KEY=VALUE` options (value in TOML syntax) of option `flag`.

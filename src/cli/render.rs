@@ -46,6 +46,10 @@ pub(crate) struct RenderArgs {
     /// No progress bar.
     #[arg(short, long)]
     quiet: bool,
+    /// Show the render live in the tev image viewer listening at HOST:PORT (tev's default is
+    /// 127.0.0.1:14158): tiles as they finish, refined pass by pass (1, 2, 4, … spp).
+    #[arg(long, value_name = "HOST:PORT")]
+    display_server: Option<String>,
     /// Render only the pixel bounds [X0, X1) × [Y0, Y1) of the frame (pbrt's --pixelbounds), to a
     /// partial image (`-o NAME.exr`) that `raylab merge` combines with others.
     #[arg(long, value_name = "X0,X1,Y0,Y1")]
@@ -90,6 +94,7 @@ impl RenderArgs {
             reference: None,
             error_csv: None,
             quiet: false,
+            display_server: None,
             half: false,
             aov: Vec::new(),
             crop: None,
@@ -258,6 +263,25 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
             checkpoint_failure.lock().unwrap_or_else(|e| e.into_inner()).get_or_insert(e);
         }
     };
+    let display = match &a.display_server {
+        Some(addr) => {
+            let name = a.output.file_name().map_or_else(|| "raylab".into(), |n| n.to_string_lossy().into_owned());
+            Some(crate::image::tev::Display::start(addr, &name, s.width, s.height)?)
+        }
+        None => None,
+    };
+    let show_tile = |t: &crate::render::TileDone| {
+        if let Some(d) = &display {
+            let b = t.sums.share.bounds;
+            let mut rgb = Vec::with_capacity(3 * t.tile.pixels() as usize);
+            for y in t.tile.y0..t.tile.y1 {
+                for x in t.tile.x0..t.tile.x1 {
+                    rgb.extend_from_slice(&t.sums.pixels[b.index(x, y)].mean().as_vec3().to_array());
+                }
+            }
+            d.send((t.tile, rgb));
+        }
+    };
     let snapshots = a
         .checkpoint
         .as_ref()
@@ -269,12 +293,14 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
         share,
         resume: resumed.as_ref().map(|(sums, _)| sums),
         snapshots,
+        on_tile: display.as_ref().map(|_| &show_tile as &(dyn Fn(&crate::render::TileDone) + Sync)),
     };
     let mut error_log = match (&a.error_csv, &reference) {
         (Some(path), Some(r)) => Some(ErrorLog::new(path, r, s.encoding)?),
         _ => None,
     };
-    let checkpoints: Vec<u32> = if error_log.is_some() { (0..32).map(|k| 1u32 << k).collect() } else { Vec::new() };
+    // Passes at 1, 2, 4, … spp (the same final bits) for the error log and for a live display.
+    let checkpoints: Vec<u32> = if error_log.is_some() || display.is_some() { (0..32).map(|k| 1u32 << k).collect() } else { Vec::new() };
     let mut log_failure = None;
     let work = [AtomicU64::new(0), AtomicU64::new(1)];
     let rendered = crate::render::render_progressive(
@@ -296,6 +322,14 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
         },
     )?;
     bar.finish_and_clear();
+    if let (Some(d), Some(addr)) = (display, &a.display_server) {
+        let report = d.finish();
+        match (report.connected, report.error) {
+            (true, None) => {}
+            (true, Some(e)) => eprintln!("warning: the display server at {addr} missed part of the image: {e}"),
+            (false, e) => eprintln!("warning: no display server (tev) reached at {addr}: {}", e.unwrap_or_default()),
+        }
+    }
     if let Some(e) = log_failure {
         return Err(e.into());
     }

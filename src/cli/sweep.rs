@@ -107,7 +107,34 @@ pub(crate) fn run(app: &App, a: SweepArgs) -> Result<(), Failure> {
         jobs.push(load_with(app, scene, &opts)?);
     }
 
-    let reference = reference(app, &a, &base, &knobs, &base_job, &options)?;
+    // What it will cost, before it costs it.
+    let mut plan = reference_plan(app, &a, &base, &knobs, &base_job)?;
+    if !a.quiet {
+        let mut settings = 0.0;
+        for job in &mut jobs {
+            settings += estimate_seconds(job, &options)? * f64::from(a.repeat);
+        }
+        let reference = match &mut plan {
+            ReferencePlan::Render(job, _) => estimate_seconds(job, &options)?,
+            ReferencePlan::Ready(_) => 0.0,
+        };
+        let what = match &plan {
+            ReferencePlan::Render(job, _) => format!("reference ({}) ≈ {}, ", job.settings.describe_sampling(), duration(reference)),
+            ReferencePlan::Ready(_) => String::new(),
+        };
+        eprintln!(
+            "estimate: {what}{} setting{} ≈ {}; total ≈ {} (from probe renders at 1/{} size; Ctrl-C stops)",
+            jobs.len(),
+            if jobs.len() == 1 { "" } else { "s" },
+            duration(settings),
+            duration(settings + reference),
+            PROBE_SCALE * PROBE_SCALE
+        );
+    }
+    let reference = match plan {
+        ReferencePlan::Ready(film) => film,
+        ReferencePlan::Render(job, path) => render_reference(&a, &job, &path, &options)?,
+    };
     let (w, h) = (base_job.settings.width, base_job.settings.height);
     if (reference.width, reference.height) != (w, h) {
         return Err(format!("the reference is {}×{} but the scene renders {w}×{h}", reference.width, reference.height).into());
@@ -308,7 +335,13 @@ fn apply(o: &mut LoadOptions, name: &str, value: &Node) -> Result<(), Failure> {
     let set = |list: &mut Vec<(String, Node)>, key: &str, v: &Node| list.push((key.to_string(), v.clone()));
     match name {
         "spp" => match value.value {
-            Value::Int(n) if n >= 1 && n <= i64::from(u32::MAX) => ov.spp = Some(n as u32),
+            Value::Int(n) if n >= 1 && n <= i64::from(u32::MAX) => {
+                // Samples per pixel are stratified anti-aliasing's knob (adaptive ignores them).
+                if !ov.render_params.iter().any(|(k, _)| k == "aa") {
+                    ov.render_params.push(super::flag_node("--vary", "aa", Value::Str("stratified".into())));
+                }
+                ov.spp = Some(n as u32)
+            }
             _ => return Err(SceneError::at(&value.loc, "spp must be a whole number ≥ 1").into()),
         },
         "aa_threshold" | "aa_depth" => {
@@ -335,18 +368,19 @@ fn load_with(app: &App, scene: Option<&Path>, opts: &LoadOptions) -> Result<Rend
     }
 }
 
-/// The reference image: read from a file, or rendered at high settings (cached by a hash of the
-/// scene, its settings and raylab's version).
-fn reference(
-    app: &App,
-    a: &SweepArgs,
-    base: &LoadOptions,
-    knobs: &[Knob],
-    base_job: &RenderJob,
-    options: &RenderOptions,
-) -> Result<Film, Failure> {
+/// Where the reference image comes from.
+enum ReferencePlan {
+    /// Read (a file given, or cached by an earlier sweep).
+    Ready(Film),
+    /// To be rendered with this job and cached at this path.
+    Render(Box<RenderJob>, PathBuf),
+}
+
+/// The reference image: read from a file, or to be rendered at high settings (cached by a hash of
+/// the scene, its settings and raylab's version).
+fn reference_plan(app: &App, a: &SweepArgs, base: &LoadOptions, knobs: &[Knob], base_job: &RenderJob) -> Result<ReferencePlan, Failure> {
     if a.reference != "auto" {
-        return Ok(crate::image::reference::read(Path::new(&a.reference), base_job.settings.encoding)?);
+        return Ok(ReferencePlan::Ready(crate::image::reference::read(Path::new(&a.reference), base_job.settings.encoding)?));
     }
     let mut o = base.clone();
     let ov = &mut o.overrides;
@@ -405,8 +439,13 @@ fn reference(
         if !a.quiet {
             eprintln!("reference: cached {} ({})", path.display(), job.settings.describe_sampling());
         }
-        return Ok(film);
+        return Ok(ReferencePlan::Ready(film));
     }
+    Ok(ReferencePlan::Render(Box::new(job), path))
+}
+
+/// Renders the reference `job` and caches it at `path`.
+fn render_reference(a: &SweepArgs, job: &RenderJob, path: &Path, options: &RenderOptions) -> Result<Film, Failure> {
     if !a.quiet {
         eprint!("reference: rendering {} with {}, {} … ", job.settings.describe_sampling(), job.integrator_name, job.integrator.describe());
     }
@@ -414,8 +453,45 @@ fn reference(
     if !a.quiet {
         eprintln!("{:.1} s, {} rays", r.elapsed.as_secs_f64(), si(r.stats.total_rays() as f64));
     }
-    crate::image::reference::write_pfm(&path, &r.film)?;
+    crate::image::reference::write_pfm(path, &r.film)?;
     Ok(r.film)
+}
+
+/// Linear size of the estimate's probe: 1/PROBE_SCALE of the width and height.
+const PROBE_SCALE: u32 = 4;
+
+/// Most samples per pixel the probe traces (its time is scaled to the job's).
+const PROBE_SPP: u32 = 4;
+
+/// The expected seconds of rendering `job`: the time of a probe render at 1/[`PROBE_SCALE`] of the
+/// size and at most [`PROBE_SPP`] samples per pixel, scaled by the pixels and samples it skipped.
+/// Adaptive anti-aliasing is probed as it is; the smaller image has more edges per pixel, so its
+/// estimate errs high.
+fn estimate_seconds(job: &mut RenderJob, options: &RenderOptions) -> Result<f64, Failure> {
+    let full = job.settings;
+    let (w, h) = (full.width.div_ceil(PROBE_SCALE), full.height.div_ceil(PROBE_SCALE));
+    let spp = full.spp.min(PROBE_SPP);
+    job.settings = crate::render::RenderSettings { width: w, height: h, spp, ..full };
+    let probe = crate::render::render(job, options, &|_, _| {});
+    job.settings = full;
+    let probe = probe?;
+    let pixels = f64::from(full.width) * f64::from(full.height) / (f64::from(w) * f64::from(h));
+    let samples = match full.aa {
+        crate::render::Antialiasing::Stratified => f64::from(full.spp) / f64::from(spp),
+        crate::render::Antialiasing::Adaptive { .. } => 1.0,
+    };
+    Ok(probe.elapsed.as_secs_f64() * pixels * samples)
+}
+
+/// `93.4` → `1 min 33 s`.
+fn duration(seconds: f64) -> String {
+    if seconds < 60.0 {
+        format!("{seconds:.1} s")
+    } else if seconds < 3600.0 {
+        format!("{} min {:02} s", (seconds / 60.0) as u64, seconds as u64 % 60)
+    } else {
+        format!("{} h {:02} min", (seconds / 3600.0) as u64, (seconds as u64 % 3600) / 60)
+    }
 }
 
 /// A 64-bit hash of byte strings (for cache names, not security).

@@ -1,5 +1,5 @@
 //! Images: the film a render accumulates into, the formats it is written in, reference images
-//! and the error metrics that compare two images.
+//! the error metrics that compare two images, and live display in the tev viewer.
 
 #[cfg(feature = "exr")]
 pub mod exr;
@@ -10,4 +10,6 @@ pub mod output;
 #[cfg(feature = "exr")]
 pub mod partial;
 pub mod reference;
+pub mod tev;
+pub mod tonemap;
 pub mod write;

@@ -152,6 +152,7 @@ struct Parts {
     lights: Vec<(String, Box<dyn crate::scene::light::LightSource>)>,
     integrator: Box<dyn crate::render::integrator::Integrator>,
     integrator_name: String,
+    integrator_params: Table,
     settings: RenderSettings,
     /// Where the integrator is set, for the work budget's error.
     integrator_loc: Loc,
@@ -172,6 +173,7 @@ impl Parts {
             scene,
             integrator,
             integrator_name: ty,
+            integrator_params: self.integrator_params,
             settings: self.settings,
             warnings: ctx.take_warnings(),
             fingerprint: fingerprint.hex(),
@@ -417,6 +419,7 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         lights,
         integrator,
         integrator_name: ty,
+        integrator_params: integ_table,
         settings,
         integrator_loc: integ_loc,
         fingerprint,

@@ -68,6 +68,9 @@ pub struct RenderJob {
     pub integrator: Box<dyn Integrator>,
     /// The integrator's type name.
     pub integrator_name: String,
+    /// The integrator's parameters as the scene and the overrides gave them (absent ones took
+    /// their defaults).
+    pub integrator_params: crate::input::value::Table,
     /// Image and sampling settings.
     pub settings: RenderSettings,
     /// What loading ignored or approximated, to show the user (see [`crate::input::context::LoadContext::warn`]).

@@ -59,6 +59,23 @@ pub struct RenderOptions<'a> {
     pub resume: Option<&'a FrameSums>,
     /// Hand the state to `write` every `every` while rendering (checkpoints).
     pub snapshots: Option<Snapshots<'a>>,
+    /// Called as each tile finishes (from a worker thread, while the state is locked): live
+    /// displays show the tile at once.
+    pub on_tile: Option<&'a (dyn Fn(&TileDone) + Sync)>,
+}
+
+/// A tile that has just finished, with the render's state at that moment.
+pub struct TileDone<'a> {
+    /// The tile's pixels.
+    pub tile: Rect,
+    /// The state of the whole share (the tile's pixels hold their new sums).
+    pub sums: &'a FrameSums,
+    /// Counters so far.
+    pub stats: &'a RayStats,
+    /// The stratified sample index the current pass ends at (1 under adaptive anti-aliasing).
+    pub pass_end: u32,
+    /// Wall time of tracing so far.
+    pub elapsed: Duration,
 }
 
 /// Periodic copies of a render's state.
@@ -212,6 +229,9 @@ fn render_passes(
             let mut st = lock();
             work.put(&mut st.sums);
             st.stats += stats;
+            if let Some(f) = options.on_tile {
+                f(&TileDone { tile, sums: &st.sums, stats: &st.stats, pass_end: end, elapsed: start.elapsed() });
+            }
             if let Some(snap) = options.snapshots
                 && st.last_snapshot.elapsed() >= snap.every
             {

@@ -117,6 +117,12 @@ pub fn camera_rays(job: &RenderJob, id: SampleId) -> CameraRays<'_> {
     }
 }
 
+/// Where sample `id` of `job` lies on the film, in continuous pixel coordinates (pixel (x, y)
+/// covers [x, x+1) × [y, y+1)): the point its camera rays pass through.
+pub fn film_position(job: &RenderJob, id: SampleId) -> DVec2 {
+    camera_rays(job, id).film
+}
+
 /// Traces sample `id` of `job` (every camera ray of it) and adds the result to `acc`; non-finite
 /// radiance is counted in `stats` and dropped. With `layers`, each ray's first surface is added
 /// to it too.
