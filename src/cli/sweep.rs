@@ -449,7 +449,7 @@ fn render_reference(a: &SweepArgs, job: &RenderJob, path: &Path, options: &Rende
     if !a.quiet {
         eprint!("reference: rendering {} with {}, {} … ", job.settings.describe_sampling(), job.integrator_name, job.integrator.describe());
     }
-    let r = crate::render::render(&job, options, &|_, _| {})?;
+    let r = crate::render::render(job, options, &|_, _| {})?;
     if !a.quiet {
         eprintln!("{:.1} s, {} rays", r.elapsed.as_secs_f64(), si(r.stats.total_rays() as f64));
     }

@@ -235,7 +235,7 @@ mod tests {
         ));
         let m = marks(&cam, 200, 100, &[root]);
         let kinds: Vec<(&str, &str, &str)> = m.iter().map(|m| (m.kind, m.state, m.node.as_str())).collect();
-        assert_eq!(kinds, vec![("light", "blocked", "0"), ("hit", "hit", "0"), ("reflection", "miss", "0.1")]);
+        assert_eq!(kinds, vec![("light", "blocked", "0"), ("hit", "hit", "0"), ("reflection", "miss", "0.0")]);
         assert!((DVec2::from(m[1].from) - DVec2::new(100.0, 50.0)).length() < 1e-9, "the hit is at the image centre");
     }
 }
