@@ -362,3 +362,29 @@ fn the_cli_prints_the_sample_it_was_asked_for() {
         .unwrap();
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("has 4 samples"));
 }
+
+#[test]
+fn tonemap_of_a_float_render_is_the_render_s_png_and_refuses_bad_files() {
+    let dir = temp_dir("tonemap");
+    let scene = repo().join("scenes/showcase.toml");
+    let s = scene.to_str().unwrap();
+    for out in ["a.pfm", "a.png"] {
+        let r = raylab(&dir, &["render", s, "-o", out, "--width", "40", "--height", "30", "-q"]);
+        assert!(r.status.success(), "{}", text(&r.stderr));
+    }
+    let r = raylab(&dir, &["tonemap", "a.pfm", "-o", "b.png"]);
+    assert!(r.status.success(), "{}", text(&r.stderr));
+    let (a, b) = (image::open(dir.join("a.png")).unwrap().to_rgb8(), image::open(dir.join("b.png")).unwrap().to_rgb8());
+    assert_eq!(a, b, "exposure 0 gives the bits raylab render writes");
+    let r = raylab(&dir, &["tonemap", "a.pfm", "-o", "c.png", "--exposure", "1"]);
+    assert!(r.status.success());
+    let c = image::open(dir.join("c.png")).unwrap().to_rgb8();
+    assert!(c.pixels().zip(a.pixels()).all(|(c, a)| (0..3).all(|i| c[i] >= a[i])) && c != a, "a stop brighter");
+    let r = raylab(&dir, &["tonemap", "a.pfm", "-o", "d.png", "--layer", "depth"]);
+    assert!(text(&r.stderr).contains("a PFM file holds colour only"), "{}", text(&r.stderr));
+    std::fs::write(dir.join("bad.pfm"), b"PF\n100000 100000\n-1\n").unwrap();
+    let r = raylab(&dir, &["tonemap", "bad.pfm", "-o", "e.png"]);
+    assert_eq!(r.status.code(), Some(1));
+    assert!(text(&r.stderr).contains("over"), "{}", text(&r.stderr));
+    std::fs::remove_dir_all(dir).unwrap();
+}

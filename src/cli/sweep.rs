@@ -383,6 +383,11 @@ fn reference_plan(app: &App, a: &SweepArgs, base: &LoadOptions, knobs: &[Knob], 
         return Ok(ReferencePlan::Ready(crate::image::reference::read(Path::new(&a.reference), base_job.settings.encoding)?));
     }
     let mut o = base.clone();
+    // The reference's worst case (every ray splitting at every bounce, to depth 12) is far above
+    // what it costs; the estimate printed before it starts says that. A --max-rays given still holds.
+    if a.scene_args.max_rays.is_none() {
+        o.limits.max_rays = u64::MAX;
+    }
     let ov = &mut o.overrides;
     let swept =
         |name: &str| knobs.iter().find(|k| k.name == name).map(|k| k.values.iter().map(|(_, n)| n.value.clone()).collect::<Vec<_>>());

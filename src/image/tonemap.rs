@@ -7,7 +7,7 @@
 //! (pixels, channels) is checked before any pixel is decoded.
 
 use crate::image::film::Film;
-use crate::image::reference::{MAX_REFERENCE_BYTES, MAX_REFERENCE_PIXELS};
+use crate::image::reference::MAX_REFERENCE_BYTES;
 use crate::math::color::Encoding;
 use glam::Vec3;
 
@@ -37,6 +37,7 @@ impl Layer {
     }
 
     /// The EXR channel names holding it (one for depth, three otherwise).
+    #[cfg(feature = "exr")]
     fn channels(self) -> &'static [&'static str] {
         match self {
             Layer::Color => &["R", "G", "B"],
@@ -48,9 +49,11 @@ impl Layer {
 }
 
 /// Most channels an EXR file may declare.
+#[cfg(feature = "exr")]
 const MAX_CHANNELS: usize = 256;
 
 /// Most values (pixels × channels) decoded from an EXR file: 1 GiB of `f32`.
+#[cfg(feature = "exr")]
 const MAX_SAMPLES: u64 = 1 << 28;
 
 /// The largest file read, bytes (as for reference images).
@@ -83,8 +86,9 @@ fn read_exr_layer(bytes: &[u8], layer: Layer) -> Result<Film, String> {
         .map_err(|e| format!("not a readable OpenEXR file ({e})"))?;
     let header = meta.headers.first().ok_or("the file has no image part")?;
     let (w, h) = (header.layer_size.0, header.layer_size.1);
-    if w == 0 || h == 0 || (w as u64).saturating_mul(h as u64) > MAX_REFERENCE_PIXELS {
-        return Err(format!("an image of {w}×{h} pixels is empty or over the {MAX_REFERENCE_PIXELS} pixels read"));
+    let most = crate::image::reference::MAX_REFERENCE_PIXELS;
+    if w == 0 || h == 0 || (w as u64).saturating_mul(h as u64) > most {
+        return Err(format!("an image of {w}×{h} pixels is empty or over the {most} pixels read"));
     }
     if header.channels.list.len() > MAX_CHANNELS {
         return Err(format!("{} channels; at most {MAX_CHANNELS} are read", header.channels.list.len()));

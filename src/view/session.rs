@@ -15,7 +15,7 @@ use serde::Serialize;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
-use std::time::{Duration, Instant, SystemTime};
+use std::time::{Duration, SystemTime};
 
 /// Where the scene comes from.
 pub enum SceneSource {
@@ -452,7 +452,6 @@ impl Session {
         };
         let options = RenderOptions { threads, cancel: Some(cancel), on_tile: Some(&on_tile), ..RenderOptions::default() };
         let checkpoints: Vec<u32> = (0..31).map(|k| 1u32 << k).collect();
-        let started = Instant::now();
         let rendered = crate::render::render_progressive(
             &job,
             &options,
@@ -466,7 +465,7 @@ impl Session {
         .map_err(ErrorInfo::plain)?;
         let mut st = self.lock();
         if rendered.complete && !cancel.load(Ordering::Relaxed) {
-            let secs = rendered.elapsed.as_secs_f64().max(started.elapsed().as_secs_f64().min(rendered.elapsed.as_secs_f64()));
+            let secs = rendered.elapsed.as_secs_f64();
             st.status.phase = Phase::Done;
             st.status.progress = 1.0;
             st.status.seconds = secs;

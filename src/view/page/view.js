@@ -108,7 +108,7 @@ function showStatus(s) {
   document.body.dataset.phase = s.phase;
   document.body.dataset.generation = s.generation;
   $("scene").textContent = s.scene;
-  const pass = s.samples[1] > 1 ? ` — pass ${s.samples[0]} of ${s.samples[1]} samples per pixel` : "";
+  const pass = s.samples[1] > 1 ? ` — ${s.samples[0]} of ${s.samples[1]} samples per pixel` : "";
   const text = {
     loading: "Loading the scene…",
     preview: "Coarse preview…",
