@@ -14,13 +14,13 @@ JOBS=${JOBS:-2}
 OUT=${OUT:-$(mktemp -d)}
 command -v parallel >/dev/null || { echo "needs GNU parallel (apt-get install parallel)" >&2; exit 1; }
 SIZE=(--width "$WIDTH" --height "$HEIGHT" --max-rays 10000000000000)
-# Runs "$@" and prints "wall_seconds cpu_seconds" (CPU of the process and its children).
+# Runs "$@" and prints "wall_seconds cpu_seconds" (user + system time of it and its children).
 timed() {
-  local t0 c0 t1 c1
-  t0=$(date +%s.%N); c0=$(awk '{print $14+$15+$16+$17}' /proc/$$/stat)
-  "$@" >/dev/null
-  t1=$(date +%s.%N); c1=$(awk '{print $14+$15+$16+$17}' /proc/$$/stat)
-  awk -v a="$t0" -v b="$t1" -v c="$c0" -v d="$c1" -v hz="$(getconf CLK_TCK)" 'BEGIN{printf "%.1f %.1f\n", b-a, (d-c)/hz}'
+  local out
+  out=$(mktemp)
+  /usr/bin/time -f "%e %U %S" -o "$out" "$@" >/dev/null
+  awk '{printf "%.1f %.1f\n", $1, $2 + $3}' "$out"
+  rm -f "$out"
 }
 echo "raylab $("$RAYLAB" --version | cut -d' ' -f2), $(basename "$SCENE") at ${WIDTH}×${HEIGHT}, $(nproc) cores, $JOBS processes at a time"
 printf '| split | wall s | CPU s | CPU ÷ one process | merge s |\n|---|---:|---:|---:|---:|\n'
