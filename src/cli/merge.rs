@@ -54,20 +54,9 @@ pub(crate) fn run(_: &App, a: MergeArgs) -> Result<(), Failure> {
         let whole = merge(&parts, a.allow_partial).map_err(Failure::Other)?;
         let film = whole.film().map_err(|e| e.to_string())?;
         let layers = whole.aovs().map_err(|e| e.to_string())?;
-        let pfm = a.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("pfm"));
-        if pfm {
-            crate::image::reference::write_pfm(&a.output, &film)?;
-        } else {
-            match crate::image::output::kind_for(&a.output).map_err(|e| e.to_string())? {
-                crate::image::output::ImageKind::Exr => {
-                    crate::image::exr::write_exr(&a.output, &film, &layers.unwrap_or_default(), false).map_err(|e| e.to_string())?;
-                }
-                _ => {
-                    let encoding = encoding.as_deref().and_then(crate::math::color::Encoding::parse).unwrap_or_default();
-                    crate::image::output::write_image(&a.output, &film, encoding, None).map_err(|e| e.to_string())?;
-                }
-            }
-        }
+        let encoding = encoding.as_deref().and_then(crate::math::color::Encoding::parse).unwrap_or_default();
+        let settings = crate::image::output::WriteSettings { encoding, layers: layers.as_ref(), ..Default::default() };
+        crate::image::output::format_for(&a.output).and_then(|f| f.write(&a.output, &film, &settings)).map_err(|e| e.to_string())?;
         println!(
             "wrote {} ({}×{}) from {} part{}: read {:.3} s, merged and written {:.3} s",
             a.output.display(),

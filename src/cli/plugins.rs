@@ -50,6 +50,10 @@ pub fn text(reg: &Registry) -> String {
             out.push_str(&format!("  .{}  — {}\n", f.extensions.join(", ."), f.summary));
         }
     }
+    out.push_str("\nOUTPUT FORMATS (-o NAME.EXT)\n");
+    for f in crate::image::output::OUTPUT_FORMATS {
+        out.push_str(&format!("  .{}  — {}\n", f.extensions.join(", ."), f.summary));
+    }
     out
 }
 
@@ -89,6 +93,10 @@ pub fn markdown(reg: &Registry) -> String {
         for f in reg.formats() {
             out.push_str(&format!("| `.{}` | {} |\n", f.extensions.join("`, `."), f.summary));
         }
+    }
+    out.push_str("\n## Output formats\n\n`-o NAME.EXT`, chosen by extension:\n\n| extension | format |\n|---|---|\n");
+    for f in crate::image::output::OUTPUT_FORMATS {
+        out.push_str(&format!("| `.{}` | {} |\n", f.extensions.join("`, `."), f.summary));
     }
     out
 }

@@ -191,12 +191,12 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
         return Err(Failure::Other(format!("--checkpoint-every: expected a number of seconds > 0, found {}", a.checkpoint_every)));
     }
     let parts = a.crop.is_some() || a.tile.is_some() || a.pass.is_some();
-    let pfm = a.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("pfm"));
-    let kind = if pfm { None } else { Some(crate::image::output::kind_for(&a.output).map_err(|e| e.to_string())?) };
-    if kind != Some(crate::image::output::ImageKind::Exr) && (a.half || !a.aov.is_empty()) {
+    let format = crate::image::output::format_for(&a.output).map_err(|e| e.to_string())?;
+    let exr = format.kind == crate::image::output::ImageKind::Exr;
+    if !format.layers && (a.half || !a.aov.is_empty()) {
         return Err("--half and --aov apply to .exr output only".to_string().into());
     }
-    if parts && kind != Some(crate::image::output::ImageKind::Exr) {
+    if parts && !exr {
         return Err(Failure::Other(format!(
             "--crop, --tile and --pass write a partial image for `raylab merge`: an OpenEXR file (-o NAME.exr), not {}",
             a.output.display()
@@ -213,7 +213,6 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
             super::farm::TILE_INDEX_VARS.join(" or ")
         );
     }
-    let exr = kind == Some(crate::image::output::ImageKind::Exr);
     let layer = |name: &str| a.aov.iter().any(|s| s == name);
     let plan =
         crate::image::output::ImagePlan { exr, depth: layer("depth"), normal: layer("normal"), albedo: layer("albedo"), half: a.half };
@@ -347,10 +346,7 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
         };
         let partial = partial_path(&a.output);
         if !parts {
-            match kind {
-                None => crate::image::reference::write_pfm(&partial, &rendered.film)?,
-                Some(kind) => write(&job, &a, &partial, kind, &rendered.film, None, grid)?,
-            }
+            write(&job, &a, &partial, format, &rendered.film, None, grid)?;
         }
         let done = 100.0 * work[0].load(Ordering::Relaxed) as f64 / work[1].load(Ordering::Relaxed) as f64;
         return Err(Failure::Interrupted(format!(
@@ -368,10 +364,7 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
     if parts {
         save_state(&a.output, &rendered.sums, &job, None).map_err(Failure::Other)?;
     } else {
-        match kind {
-            None => crate::image::reference::write_pfm(&a.output, &rendered.film)?,
-            Some(kind) => write(&job, &a, &a.output, kind, &rendered.film, rendered.layers.as_ref(), grid)?,
-        }
+        write(&job, &a, &a.output, format, &rendered.film, rendered.layers.as_ref(), grid)?;
     }
     if a.checkpoint.is_some() && checkpoint_path.exists() {
         // The render is done: its checkpoint has served.
@@ -453,33 +446,25 @@ fn save_state(
     }
 }
 
-/// Writes the image to `path`: 8-bit PNG/JPEG, or EXR with the layers asked for (of `layers`).
-#[allow(clippy::too_many_arguments)]
+/// Writes the image to `path` in `format`, with the layers `--aov` asks for (of `layers`).
 fn write(
     job: &crate::render::RenderJob,
     a: &RenderArgs,
     path: &Path,
-    kind: crate::image::output::ImageKind,
+    format: &crate::image::output::OutputFormat,
     film: &crate::image::film::Film,
     layers: Option<&crate::image::layers::Aovs>,
     grid: Option<Grid>,
 ) -> Result<(), Failure> {
-    #[cfg(feature = "exr")]
-    if kind == crate::image::output::ImageKind::Exr {
-        use crate::image::layers::{Aov, Aovs};
-        let asked = |l: Aov| a.aov.iter().any(|s| Aov::parse(s) == Some(l));
-        let chosen = match layers {
-            Some(l) => Aovs {
-                depth: l.depth.clone().filter(|_| asked(Aov::Depth)),
-                normal: l.normal.clone().filter(|_| asked(Aov::Normal)),
-                albedo: l.albedo.clone().filter(|_| asked(Aov::Albedo)),
-            },
-            None => Aovs::default(),
-        };
-        return crate::image::exr::write_exr(path, film, &chosen, a.half).map_err(|e| e.to_string().into());
-    }
-    let _ = (a, kind, layers);
-    crate::image::output::write_image(path, film, job.settings.encoding, grid).map_err(|e| e.to_string().into())
+    use crate::image::layers::{Aov, Aovs};
+    let asked = |l: Aov| a.aov.iter().any(|s| Aov::parse(s) == Some(l));
+    let chosen = layers.map(|l| Aovs {
+        depth: l.depth.clone().filter(|_| asked(Aov::Depth)),
+        normal: l.normal.clone().filter(|_| asked(Aov::Normal)),
+        albedo: l.albedo.clone().filter(|_| asked(Aov::Albedo)),
+    });
+    let settings = crate::image::output::WriteSettings { encoding: job.settings.encoding, grid, layers: chosen.as_ref(), half: a.half };
+    format.write(path, film, &settings).map_err(|e| e.to_string().into())
 }
 
 /// One line saying how the objects and meshes are indexed for ray queries.
