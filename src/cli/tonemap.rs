@@ -25,9 +25,9 @@ pub(crate) fn run(a: TonemapArgs) -> Result<(), Failure> {
     if !(a.exposure.is_finite() && a.exposure.abs() <= 64.0) {
         return Err(Failure::Other(format!("--exposure: expected stops in -64..=64, found {}", a.exposure)));
     }
-    let kind = crate::image::output::kind_for(&a.output).map_err(|e| e.to_string())?;
-    if !matches!(kind, crate::image::output::ImageKind::Png | crate::image::output::ImageKind::Jpeg) {
-        return Err(Failure::Other(format!("{}: tonemap writes .png, .jpg or .jpeg", a.output.display())));
+    let format = crate::image::output::format_for(&a.output).map_err(|e| e.to_string())?;
+    if format.hdr {
+        return Err(Failure::Other(format!("{}: tonemap writes a viewable 8-bit image (.png, .jpg or .jpeg)", a.output.display())));
     }
     let layer = a.layer.as_deref().and_then(Layer::parse).unwrap_or(Layer::Color);
     let ext = a.input.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
