@@ -218,14 +218,7 @@ pub fn read_partial(bytes: &[u8], name: &str, max_pixels: u64) -> Result<(FrameS
     let has = |n: &str| names.iter().any(|c| c == n);
     let layered = has("raylab.rays");
     // Every channel is read whole; the pixels were bounded above.
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .first_valid_layer()
-        .all_attributes()
-        .from_buffered(std::io::Cursor::new(bytes))
-        .map_err(|e| err(format!("cannot decode its pixels ({e})")))?;
+    let image = crate::image::exr::read_flat(bytes).map_err(|e| err(format!("cannot decode its pixels ({e})")))?;
     let n = bounds.pixels() as usize;
     let channel = |name: &str| -> Result<Vec<u32>, PartialError> {
         let c = image.layer_data.channel_data.list.iter().find(|c| c.name.eq(name)).ok_or_else(|| err(format!("no channel {name}")))?;

@@ -81,7 +81,6 @@ fn read_exr_layer(_: &[u8], _: Layer) -> Result<Film, String> {
 
 #[cfg(feature = "exr")]
 fn read_exr_layer(bytes: &[u8], layer: Layer) -> Result<Film, String> {
-    use exr::prelude::{ReadChannels as _, ReadLayers as _, read};
     let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
         .map_err(|e| format!("not a readable OpenEXR file ({e})"))?;
     let header = meta.headers.first().ok_or("the file has no image part")?;
@@ -107,14 +106,7 @@ fn read_exr_layer(bytes: &[u8], layer: Layer) -> Result<Film, String> {
         return Err(format!("{w}×{h} pixels × {} channels exceed the {MAX_SAMPLES} values read", names.len()));
     }
     // Bounded above: decoding allocates at most MAX_SAMPLES values.
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .first_valid_layer()
-        .all_attributes()
-        .from_buffered(std::io::Cursor::new(bytes))
-        .map_err(|e| format!("cannot decode its pixels ({e})"))?;
+    let image = crate::image::exr::read_flat(bytes).map_err(|e| format!("cannot decode its pixels ({e})"))?;
     let data = &image.layer_data;
     let (w, h) = (data.size.0, data.size.1);
     let channel = |name: &str| -> Result<Vec<f32>, String> {
