@@ -17,7 +17,7 @@ fn render_with(scene: &str, threads: usize, seed: u64) -> raylab::Film {
 
 #[test]
 fn one_and_two_threads_give_identical_images() {
-    for scene in ["scenes/showcase.toml", "scenes/report-reflection-refraction.toml"] {
+    for scene in ["scenes/showcase.toml", "scenes/report-reflection-refraction.toml", "scenes/path-cornell.toml"] {
         let one = render_with(scene, 1, 7);
         let two = render_with(scene, 2, 7);
         let three = render_with(scene, 3, 7);
