@@ -155,15 +155,11 @@ impl PathTracer {
             let radiance = IRRADIANCE_PER_INTENSITY * ls.intensity * p;
             let mis = bsdf_pdf.map_or(1.0, |q| power_heuristic(q, f64::from(self.samples_for(light.as_ref())) * p));
             rec.note(|| {
-                let names = &scene.light_names;
+                let (name, r) = (&scene.light_names[index], radiance);
+                let head = format!("meets light {name} at t = {:.4}: radiance ({:.4}, {:.4}, {:.4})", ls.distance, r.x, r.y, r.z);
                 match bsdf_pdf {
-                    Some(q) => {
-                        format!(
-                            "meets light {} at t = {:.4}: radiance {:.4}, light pdf {p:.4}, bsdf pdf {q:.4}, mis {mis:.4}",
-                            names[index], ls.distance, radiance
-                        )
-                    }
-                    None => format!("meets light {} at t = {:.4}: radiance {:.4} (in full)", names[index], ls.distance, radiance),
+                    Some(q) => format!("{head}, light pdf {p:.4}, bsdf pdf {q:.4}, mis {mis:.4}"),
+                    None => format!("{head}, in full (a camera ray, or after a specular event: no light sample finds this path)"),
                 }
             });
             total += radiance * mis;

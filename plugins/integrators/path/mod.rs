@@ -238,10 +238,11 @@ impl PathTracer {
         };
         let mut weight = s.weight;
         let eta_scale = path.eta_scale * s.eta_squared;
-        rec.note(|| match s.pdf {
-            Some(q) => format!("scatters by the {} lobe: bsdf·cos/pdf {:.4}, pdf {q:.4}", s.lobe.name(), s.weight),
-            None => format!("scatters by the {} lobe (specular): weight {:.4}", s.lobe.name(), s.weight),
-        });
+        rec.note(|| format!("scatters by the {} lobe{}", s.lobe.name(), if s.pdf.is_none() { " (specular)" } else { "" }));
+        rec.term(|| Term::color("bsdf·cos/pdf", s.weight));
+        if let Some(q) = s.pdf {
+            rec.term(|| Term::number("bsdf pdf", q));
+        }
         if path.depth >= self.roulette_depth {
             let survive = (max_channel(path.beta * weight) * eta_scale).min(1.0);
             if !(sampler.fork(TAG_ROULETTE).next_1d() < survive) {
