@@ -64,21 +64,23 @@ impl PathTracer {
                 let u = if n == 1 { stream.next_2d() } else { stratified_2d(s, n, pattern) };
                 // No direction here (an ambient light): its light comes from escaping rays.
                 let Some(ls) = light.illuminate(si.point(), u) else { break };
-                sum += self.light_sample(c, si, bsdf, index, &ls, n, rec);
+                sum += self.light_sample(c, si, bsdf, (index, light.as_ref()), &ls, n, rec);
             }
             total += sum / f64::from(n);
         }
         total
     }
 
-    /// One light sample's contribution (before dividing by the light's `n` samples).
+    /// One light sample's contribution (before dividing by the light's `n` samples). A sample of
+    /// a delta light, or of a light no ray can meet (one that does not answer
+    /// [`LightSource::intersect`]), counts in full: no other strategy finds that light.
     #[allow(clippy::too_many_arguments)]
     fn light_sample<R: Recorder>(
         &self,
         c: &mut Ctx,
         si: &Interaction,
         bsdf: &Bsdf,
-        light: usize,
+        (index, light): (usize, &dyn LightSource),
         ls: &LightSample,
         n: u32,
         rec: &mut R,
@@ -87,7 +89,7 @@ impl PathTracer {
         // Lit only from the ray's side of the geometric surface; shaded with `ns`.
         let cos = if si.n.dot(ls.dir) > 0.0 { si.ns.dot(ls.dir) } else { 0.0 };
         let record = |skipped: Option<&str>, visible: bool, occluder: Option<u32>, terms: &[Term]| TraceLight {
-            light: scene.light_names[light].clone(),
+            light: scene.light_names[index].clone(),
             dir: ls.dir,
             distance: ls.distance,
             intensity: ls.intensity,
@@ -113,12 +115,13 @@ impl PathTracer {
             rec.light(|| record(Some("the surface reflects nothing toward this light"), false, None, &[]));
             return Color::ZERO;
         }
+        // Weighed against the BSDF's own rays where they can meet the light too.
         let (mis, pdfs) = match ls.pdf {
-            LightPdf::Delta => (1.0, None),
-            LightPdf::SolidAngle(p) => {
+            LightPdf::SolidAngle(p) if light.intersect(&Ray { origin: si.point(), dir: ls.dir }, f64::INFINITY).is_some() => {
                 let q = bsdf.pdf(ls.dir);
                 (power_heuristic(f64::from(n) * p, q), Some((p, q)))
             }
+            _ => (1.0, None),
         };
         c.stats.add(counter::SHADOW_RAYS, 1);
         let (ray, t_max) = si.spawn_shadow_ray(ls.dir, ls.distance);

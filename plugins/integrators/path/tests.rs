@@ -337,3 +337,55 @@ fn the_explanation_is_the_render() {
         assert_eq!(c.to_array().map(f64::to_bits), tree.color.to_array().map(f64::to_bits), "ray {i}");
     }
 }
+
+/// An area light that rays cannot meet (it does not answer `intersect`): its samples must then
+/// count in full, or its light would be lost.
+struct Unmet(crate::lights::rect::RectLight);
+
+impl raylab::LightSource for Unmet {
+    fn illuminate(&self, p: DVec3, u: DVec2) -> Option<raylab::LightSample> {
+        self.0.illuminate(p, u)
+    }
+    fn is_area(&self) -> bool {
+        true
+    }
+}
+
+#[test]
+fn a_light_that_rays_cannot_meet_is_sampled_in_full() {
+    use crate::lights::rect::RectLight;
+    let rect = || {
+        RectLight::new(
+            Color::splat(0.8),
+            DVec3::new(-0.6, 0.8, 0.0),
+            DVec3::new(0.0, 0.0, 3.0),
+            DVec3::new(0.0, 1.6, 0.0),
+            (1.0, 0.0, 0.0),
+            1,
+        )
+    };
+    let cam = Camera::look_at(DVec3::new(0.0, 3.0, 3.0), DVec3::ZERO, DVec3::Y, 30.0, 4, 4).unwrap();
+    let floor = || {
+        Object::with_material(
+            "floor",
+            Box::new(crate::shapes::plane::Plane::new(DVec3::ZERO, DVec3::Y)),
+            Material::diffuse(Color::splat(0.5)),
+        )
+    };
+    let ray = Ray::new(DVec3::new(0.0, 3.0, 3.0), DVec3::new(0.1, -3.0, -3.0));
+    let path = PathTracer { max_bounces: 0, ..PathTracer::default() };
+    let mean = |light: Box<dyn raylab::LightSource>| {
+        let scene = Scene::new("t", cam.clone(), Color::ZERO, vec![floor()], vec![("light".into(), light)]);
+        let mut stats = RayStats::new(COUNTERS);
+        let values: Vec<Color> = (0..1u64 << 15)
+            .map(|i| path.radiance(&scene, &ray, &mut Sampler::new(i, 0, 5), &mut stats, &mut Layers::miss(Color::ZERO)))
+            .collect();
+        mean_and_error(&values)
+    };
+    let (met, met_error) = mean(Box::new(rect()));
+    let (unmet, unmet_error) = mean(Box::new(Unmet(rect())));
+    assert!(
+        (met - unmet).abs().max_element() <= 4.0 * (met_error + unmet_error).max_element(),
+        "{met} ± {met_error} vs {unmet} ± {unmet_error}"
+    );
+}
