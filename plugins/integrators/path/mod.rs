@@ -29,8 +29,8 @@
 //! `max_bounces` limits the scattering events that light passes through after the first
 //! surface: 0 is direct light (the lights and the emitters the first surface sees); the ray
 //! scattered at the last vertex still collects the lights it meets, so the two strategies stay
-//! balanced there. After `roulette_depth` bounces, Russian roulette ends a path with
-//! probability `1 − min(1, throughput)` and reweights the survivors (unbiased).
+//! balanced there. From vertex `roulette_depth` on (not at the last), Russian roulette ends a
+//! path with probability `1 − min(1, throughput)` and reweights the survivors (unbiased).
 //!
 //! Every random number comes from a stream forked from the camera sample's by vertex and purpose
 //! (light samples, lobe choice and direction, roulette, next vertex), so work skipped anywhere
@@ -243,7 +243,8 @@ impl PathTracer {
         if let Some(q) = s.pdf {
             rec.term(|| Term::number("bsdf pdf", q));
         }
-        if path.depth >= self.roulette_depth {
+        // The last vertex's ray only collects emitters: no roulette there.
+        if path.depth >= self.roulette_depth && path.depth < self.max_bounces {
             let survive = (max_channel(path.beta * weight) * eta_scale).min(1.0);
             if !(sampler.fork(TAG_ROULETTE).next_1d() < survive) {
                 c.stats.add(counter::ROULETTE_ENDED, 1);

@@ -222,7 +222,7 @@ fn a_closed_furnace_without_roulette_sums_the_geometric_series_exactly() {
     let expected = le * (1.0 - a.powi(bounces + 2)) / (1.0 - a);
     for dir in [DVec3::NEG_Z, DVec3::new(0.3, -0.2, 0.9)] {
         for v in estimates(&job, &Ray::new(DVec3::ZERO, dir), 64) {
-            assert!((v - Color::splat(expected)).abs().max_element() < 1e-12 * expected, "{v} vs {expected}");
+            assert!((v - Color::splat(expected)).abs().max_element() < 1e-14 * expected, "{v} vs {expected}");
         }
     }
 }
