@@ -42,6 +42,6 @@ impl Directional {
 
 impl LightSource for Directional {
     fn illuminate(&self, _: DVec3, _: DVec2) -> Option<LightSample> {
-        Some(LightSample::delta(-self.direction, f64::INFINITY, self.color))
+        Some(LightSample { dir: -self.direction, distance: f64::INFINITY, intensity: self.color })
     }
 }

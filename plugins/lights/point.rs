@@ -161,10 +161,10 @@ impl PointLight {
 }
 
 impl PointLight {
-    /// The sample from the point `d` away along unit `dir` (on the light's disc, or the light's
-    /// position), for a shaded point that sees the light's centre along `to_centre`, `dc` away.
+    /// Light arriving from `d` away at a point that sees the light's centre along `to_centre`,
+    /// `dc` away (the spot's cone and exponent use the centre).
     #[inline]
-    fn sample(&self, to_centre: DVec3, dc: f64, dir: DVec3, d: f64) -> LightSample {
+    fn intensity(&self, to_centre: DVec3, dc: f64, d: f64) -> Color {
         let mut factor = 1.0;
         if let Some(s) = &self.spot {
             // L points from the light to the point: L = −dir.
@@ -172,14 +172,7 @@ impl PointLight {
             factor = if cos <= 0.0 || cos < s.cos_cutoff { 0.0 } else { cos.powf(s.exponent) };
         }
         factor /= self.kc + self.kl * d + self.kq * d * d;
-        let intensity = self.color * factor;
-        if self.radius > 0.0 {
-            // Uniform over the disc facing the point; its normal is the direction to the centre.
-            let pdf = LightPdf::from_area(1.0 / (PI * self.radius * self.radius), d, dir.dot(to_centre / dc));
-            LightSample { dir, distance: d, intensity, pdf }
-        } else {
-            LightSample::delta(dir, d, intensity)
-        }
+        self.color * factor
     }
 }
 
@@ -202,7 +195,16 @@ impl LightSource for PointLight {
         if !(d > 0.0) {
             return None;
         }
-        Some(self.sample(to_centre, dc, to_light / d, d))
+        Some(LightSample { dir: to_light / d, distance: d, intensity: self.intensity(to_centre, dc, d) })
+    }
+
+    /// A point is a delta light; a ball's samples are uniform over its disc facing `p`.
+    fn pdf(&self, p: DVec3, sample: &LightSample) -> LightPdf {
+        if !(self.radius > 0.0) {
+            return LightPdf::Delta;
+        }
+        let axis = (self.position - p).normalize();
+        LightPdf::from_area(1.0 / (PI * self.radius * self.radius), sample.distance, sample.dir.dot(axis))
     }
 
     /// The ball's disc facing the ray's origin, where the ray crosses it.
@@ -221,7 +223,7 @@ impl LightSource for PointLight {
         if !(t < t_max) || (ray.at(t) - self.position).length_squared() > self.radius * self.radius {
             return None;
         }
-        Some(self.sample(to_centre, dc, ray.dir, t))
+        Some(LightSample { dir: ray.dir, distance: t, intensity: self.intensity(to_centre, dc, t) })
     }
 
     fn sample_count(&self) -> u32 {

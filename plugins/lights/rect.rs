@@ -72,12 +72,11 @@ impl RectLight {
         RectLight { color, corner, edge1, edge2, normal: cross / area, area, kc, kl, kq, samples: samples.max(1) }
     }
 
-    /// The sample from the point `d` away along unit `dir`, uniform over the rectangle.
+    /// The sample from the point `d` away along unit `dir`.
     #[inline]
     fn sample(&self, dir: DVec3, d: f64) -> LightSample {
         let factor = 1.0 / (self.kc + self.kl * d + self.kq * d * d);
-        let pdf = LightPdf::from_area(1.0 / self.area, d, dir.dot(self.normal));
-        LightSample { dir, distance: d, intensity: self.color * factor, pdf }
+        LightSample { dir, distance: d, intensity: self.color * factor }
     }
 }
 
@@ -90,6 +89,11 @@ impl LightSource for RectLight {
             return None;
         }
         Some(self.sample(to_light / d, d))
+    }
+
+    /// Uniform over the rectangle.
+    fn pdf(&self, _: DVec3, sample: &LightSample) -> LightPdf {
+        LightPdf::from_area(1.0 / self.area, sample.distance, sample.dir.dot(self.normal))
     }
 
     /// The rectangle, from either side.

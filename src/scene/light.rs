@@ -19,21 +19,19 @@ pub struct LightSample {
     /// is the light's whole contribution as estimated from this one point: the mean over `u`
     /// uniform in [0, 1]² of the samples' intensities is the light's intensity at the point.
     pub intensity: Color,
-    /// How likely [`LightSource::illuminate`] was to pick `dir` (for Monte Carlo integrators).
-    pub pdf: LightPdf,
 }
 
-/// The probability density with which [`LightSource::illuminate`] chose a sample's direction,
+/// The probability density with which [`LightSource::illuminate`] chooses a sample's direction,
 /// for `u` uniform in [0, 1]²: what a Monte Carlo integrator needs to weigh the light's sampling
 /// against its own (multiple importance sampling).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum LightPdf {
-    /// The light arrives from this one direction only (point, spot and directional lights): no
-    /// other strategy can find it, and rays cannot hit it.
+    /// The light arrives from one direction only (point, spot and directional lights): no other
+    /// strategy can find it, and rays cannot meet it.
     Delta,
     /// Density per unit solid angle at the shaded point, sr⁻¹ (> 0; infinite where the emitter is
-    /// seen edge-on). The light's incident radiance along `dir`, in the units of `intensity` per
-    /// steradian, is `intensity × pdf`.
+    /// seen edge-on). The light's incident radiance along the sample's direction, in the units of
+    /// `intensity` per steradian, is `intensity × pdf`.
     SolidAngle(f64),
 }
 
@@ -57,14 +55,6 @@ impl LightPdf {
     }
 }
 
-impl LightSample {
-    /// A sample of a light that arrives from one direction only (a point, a spot, a direction).
-    #[inline]
-    pub fn delta(dir: DVec3, distance: f64, intensity: Color) -> Self {
-        LightSample { dir, distance, intensity, pdf: LightPdf::Delta }
-    }
-}
-
 /// A source of light.
 pub trait LightSource: Send + Sync {
     /// Light arriving at `p`. `u` ∈ [0, 1]² picks a point on an area light's emitter (uniform
@@ -75,12 +65,22 @@ pub trait LightSource: Send + Sync {
     /// counts, what it skips.
     fn illuminate(&self, p: DVec3, u: DVec2) -> Option<LightSample>;
 
+    /// The density with which `illuminate(p, u)`, for `u` uniform in [0, 1]², picks `sample`'s
+    /// direction (a sample it returned for `p`, or one [`LightSource::intersect`] returned for a
+    /// ray from `p`). Monte Carlo integrators weigh light samples with it; `phong` never asks.
+    /// The default, [`LightPdf::Delta`], is right for lights that arrive from one direction.
+    fn pdf(&self, p: DVec3, sample: &LightSample) -> LightPdf {
+        let _ = (p, sample);
+        LightPdf::Delta
+    }
+
     /// Where `ray` meets this light's emitter first, closer than `t_max`: the sample
     /// [`LightSource::illuminate`] would give at `ray.origin` for that point of the emitter
-    /// (`dir` the ray's, `distance` along it, with its `pdf`), so an integrator that sampled the
-    /// direction itself can weigh it against the light's sampling (multiple importance
-    /// sampling). `None` when the ray misses, when the emitter sends no light toward the origin,
-    /// and for lights without an extent (the default: rays cannot hit a point or a direction).
+    /// (`dir` the ray's, `distance` along it; its density is `pdf(ray.origin, &sample)`), so an
+    /// integrator that sampled the direction itself can weigh it against the light's sampling
+    /// (multiple importance sampling). `None` when the ray misses, when the emitter sends no
+    /// light toward the origin, and for lights without an extent (the default: rays cannot hit a
+    /// point or a direction).
     fn intersect(&self, ray: &Ray, t_max: f64) -> Option<LightSample> {
         let _ = (ray, t_max);
         None
@@ -108,6 +108,9 @@ pub trait LightSource: Send + Sync {
 impl<T: LightSource + ?Sized> LightSource for Box<T> {
     fn illuminate(&self, p: DVec3, u: DVec2) -> Option<LightSample> {
         (**self).illuminate(p, u)
+    }
+    fn pdf(&self, p: DVec3, sample: &LightSample) -> LightPdf {
+        (**self).pdf(p, sample)
     }
     fn intersect(&self, ray: &Ray, t_max: f64) -> Option<LightSample> {
         (**self).intersect(ray, t_max)

@@ -4,8 +4,8 @@
 //! `edge1 × edge2`. Each of `samples` shadow samples picks a point on it from the integrator's
 //! stratified `u` and sends light `color · cos θ / (kc + kl·d + kq·d²)` from there, θ being the
 //! angle from the rectangle's normal; the integrator averages the samples, so points that see only
-//! part of the rectangle lie in a penumbra. Samples are uniform over the rectangle: each carries
-//! that density (per solid angle), and a ray that meets the rectangle's lit side gets the same
+//! part of the rectangle lie in a penumbra. Samples are uniform over the rectangle (`pdf` gives
+//! that density per solid angle), and a ray that meets the rectangle's lit side gets the same
 //! sample back from `intersect`, so a path tracer can weigh its own directions against it.
 
 use raylab::glam::{DVec2, DVec3};
@@ -73,13 +73,12 @@ impl PanelLight {
     /// The sample from the point `d` away along unit `dir`.
     fn sample(&self, dir: DVec3, d: f64) -> LightSample {
         let cos = -self.normal.dot(dir);
-        let pdf = LightPdf::from_area(1.0 / self.area, d, cos);
         if cos <= 0.0 {
             // Behind the emitting side: no light, but a direction.
-            return LightSample { dir, distance: d, intensity: Color::ZERO, pdf };
+            return LightSample { dir, distance: d, intensity: Color::ZERO };
         }
         let [kc, kl, kq] = self.attenuation;
-        LightSample { dir, distance: d, intensity: self.color * (cos / (kc + kl * d + kq * d * d)), pdf }
+        LightSample { dir, distance: d, intensity: self.color * (cos / (kc + kl * d + kq * d * d)) }
     }
 }
 
@@ -92,6 +91,11 @@ impl LightSource for PanelLight {
             return None;
         }
         Some(self.sample(to_light / d, d))
+    }
+
+    /// Uniform over the rectangle: `1 / area` per unit area.
+    fn pdf(&self, _: DVec3, sample: &LightSample) -> LightPdf {
+        LightPdf::from_area(1.0 / self.area, sample.distance, self.normal.dot(sample.dir))
     }
 
     fn intersect(&self, ray: &Ray, t_max: f64) -> Option<LightSample> {

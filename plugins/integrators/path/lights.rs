@@ -116,7 +116,7 @@ impl PathTracer {
             return Color::ZERO;
         }
         // Weighed against the BSDF's own rays where they can meet the light too.
-        let (mis, pdfs) = match ls.pdf {
+        let (mis, pdfs) = match light.pdf(si.point(), ls) {
             LightPdf::SolidAngle(p) if light.intersect(&Ray { origin: si.point(), dir: ls.dir }, f64::INFINITY).is_some() => {
                 let q = bsdf.pdf(ls.dir);
                 (power_heuristic(f64::from(n) * p, q), Some((p, q)))
@@ -150,7 +150,7 @@ impl PathTracer {
         let mut total = Color::ZERO;
         for (index, light) in scene.lights.iter().enumerate() {
             let Some(ls) = light.intersect(ray, t_max) else { continue };
-            let Some(p) = ls.pdf.solid_angle() else { continue };
+            let Some(p) = light.pdf(ray.origin, &ls).solid_angle() else { continue };
             if !(p > 0.0 && p.is_finite() && max_channel(ls.intensity) > 0.0) {
                 continue;
             }

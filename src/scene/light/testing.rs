@@ -16,7 +16,7 @@ pub const SAMPLE_TOLERANCE: f64 = 1e-9;
 /// Checks `light` as seen from `p`, with `n` stratified samples (enough that their mean
 /// intensity is accurate to `relative`; panics with a message on failure):
 ///
-/// - a light whose samples are [`LightPdf::Delta`] is met by no ray;
+/// - a light whose samples are [`LightPdf::Delta`] ([`LightSource::pdf`]) is met by no ray;
 /// - otherwise every sample that carries light comes back from [`LightSource::intersect`] for
 ///   the ray from `p` along its direction, with the same distance, intensity and density
 ///   (within [`SAMPLE_TOLERANCE`], relative);
@@ -34,7 +34,7 @@ pub fn check_light(light: &dyn LightSource, p: DVec3, n: u32, grid: u32, relativ
         };
         mean += ls.intensity / f64::from(n);
         let met = light.intersect(&Ray { origin: p, dir: ls.dir }, f64::INFINITY);
-        let LightPdf::SolidAngle(pdf) = ls.pdf else {
+        let LightPdf::SolidAngle(pdf) = light.pdf(p, &ls) else {
             delta = true;
             assert!(met.is_none(), "a ray met a delta light (sample {ls:?})");
             continue;
@@ -46,7 +46,7 @@ pub fn check_light(light: &dyn LightSource, p: DVec3, n: u32, grid: u32, relativ
         let close = |a: f64, b: f64| (a - b).abs() <= SAMPLE_TOLERANCE * a.abs().max(b.abs());
         assert!(close(m.distance, ls.distance), "distance: sample {} vs ray {}", ls.distance, m.distance);
         assert!((0..3).all(|c| close(m.intensity[c], ls.intensity[c])), "intensity: sample {} vs ray {}", ls.intensity, m.intensity);
-        let met_pdf = m.pdf.solid_angle().expect("a ray met the light: its density is per solid angle");
+        let met_pdf = light.pdf(p, &m).solid_angle().expect("a ray met the light: its density is per solid angle");
         assert!(close(met_pdf, pdf), "density: sample {pdf} vs ray {met_pdf}");
     }
     if delta {
@@ -60,7 +60,7 @@ pub fn check_light(light: &dyn LightSource, p: DVec3, n: u32, grid: u32, relativ
             let phi = (f64::from(j) + 0.5) * dp;
             let dir = DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos());
             if let Some(m) = light.intersect(&Ray { origin: p, dir }, f64::INFINITY) {
-                let pdf = m.pdf.solid_angle().expect("a ray met the light: its density is per solid angle");
+                let pdf = light.pdf(p, &m).solid_angle().expect("a ray met the light: its density is per solid angle");
                 integral += m.intensity * pdf * theta.sin() * dt * dp;
             }
         }
