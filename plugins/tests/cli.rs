@@ -388,3 +388,68 @@ fn tonemap_of_a_float_render_is_the_render_s_png_and_refuses_bad_files() {
     assert!(text(&r.stderr).contains("over"), "{}", text(&r.stderr));
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+#[test]
+fn sweep_measures_phong_against_a_path_traced_reference() {
+    let dir = temp_dir("sweep-path");
+    let scene = repo().join("scenes/report-light-point.toml");
+    let scene = scene.to_str().unwrap();
+    let small = ["--width", "24", "--height", "18", "-q", "--out", "out"];
+    // The phong parameter set for the swept renders does not reach the path tracer.
+    let args = [
+        &["sweep", scene, "--vary", "spp=1,2", "--set", "prune_threshold=0", "--reference-integrator", "path", "--reference-spp", "4"][..],
+        &small,
+    ]
+    .concat();
+    let out = raylab(&dir, &args);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("out/results.json")).unwrap()).unwrap();
+    assert_eq!(json["reference_integrator"], "path");
+    assert!(json["reference_seconds"].as_f64().is_some_and(|s| s > 0.0), "{json}");
+    let results = json["results"].as_array().unwrap();
+    assert_eq!(results.len(), 2);
+    assert!(results.iter().all(|r| r["rmse"].as_f64().is_some_and(|e| e > 0.0)), "phong differs from the path tracer: {json}");
+    // The reference is cached under a name that covers its integrator: phong's is another file.
+    let refs = |d: &Path| {
+        std::fs::read_dir(d.join("out"))
+            .unwrap()
+            .filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().starts_with("reference-"))
+            .count()
+    };
+    assert_eq!(refs(&dir), 1);
+    let out = raylab(&dir, &[&["sweep", scene, "--vary", "spp=1", "--reference-spp", "2"][..], &small].concat());
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert_eq!(refs(&dir), 2);
+    // The integrator is a knob too: phong's and the path tracer's curves against one reference.
+    let out = raylab(
+        &dir,
+        &[
+            &[
+                "sweep",
+                scene,
+                "--vary",
+                "spp=1,2",
+                "--vary",
+                "integrator=phong,path",
+                "--reference-integrator",
+                "path",
+                "--reference-spp",
+                "4",
+            ][..],
+            &small,
+        ]
+        .concat(),
+    );
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let csv = std::fs::read_to_string(dir.join("out/results.csv")).unwrap();
+    assert!(csv.starts_with("spp,integrator,") && csv.contains(",phong,") && csv.contains(",path,"), "{csv}");
+    // A reference image cannot be re-rendered by another integrator.
+    let out = raylab(
+        &dir,
+        &[&["sweep", scene, "--vary", "spp=1", "--reference", "x.pfm", "--reference-integrator", "path"][..], &small].concat(),
+    );
+    assert!(!out.status.success() && text(&out.stderr).contains("--reference-integrator"), "{}", text(&out.stderr));
+    let out = raylab(&dir, &[&["sweep", scene, "--vary", "spp=1", "--reference-integrator", "pth"][..], &small].concat());
+    assert!(!out.status.success() && text(&out.stderr).contains("unknown integrator \"pth\""), "{}", text(&out.stderr));
+    std::fs::remove_dir_all(dir).unwrap();
+}

@@ -88,7 +88,7 @@ pub(crate) struct SceneArgs {
     /// Random seed (overrides the scene).
     #[arg(long, allow_hyphen_values = true, value_parser = int_in::<u64>(0, u64::MAX.into()))]
     seed: Option<u64>,
-    /// Integrator type, replacing the scene's (e.g. `normals`, `depth`).
+    /// Integrator type, replacing the scene's (e.g. `path`, `normals`, `depth`).
     #[arg(long)]
     integrator: Option<String>,
     /// Set an integrator parameter: `--set max_depth=5` (value in TOML syntax; repeatable).

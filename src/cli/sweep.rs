@@ -20,8 +20,8 @@ pub(crate) struct SweepArgs {
     /// Scene file. Omit for the bundled default scene.
     scene: Option<PathBuf>,
     /// A knob and the values to try: `spp=1,4,16`, `depth=1,3,5`, `aa_threshold=0.1,0.05`,
-    /// `aa_depth=…`, `lens_samples=…`, `aperture=…`, or any integrator parameter
-    /// (`glossy_rays`, `shadow_rays`, `shadow_probes`, `prune_threshold`, …). Repeatable.
+    /// `aa_depth=…`, `lens_samples=…`, `aperture=…`, `integrator=phong,path`, or any integrator
+    /// parameter (`glossy_rays`, `shadow_rays`, `shadow_probes`, `prune_threshold`, …). Repeatable.
     #[arg(long = "vary", value_name = "KNOB=V1,V2,…", required = true)]
     vary: Vec<String>,
     /// Vary one knob at a time from the base settings (the scene's, with the flags below),
@@ -32,6 +32,10 @@ pub(crate) struct SweepArgs {
     /// computed once and cached in the output folder.
     #[arg(long, value_name = "REF|auto", default_value = "auto")]
     reference: String,
+    /// Integrator of the `auto` reference, at its reference settings (default: the scene's).
+    /// `--reference-integrator path` measures each setting against a physically based image.
+    #[arg(long, value_name = "NAME")]
+    reference_integrator: Option<String>,
     /// Samples per pixel of the `auto` reference (at least the largest swept `spp`).
     #[arg(long, value_name = "N", default_value_t = 256, allow_hyphen_values = true, value_parser = super::int_in::<u32>(1, u32::MAX.into()))]
     reference_spp: u32,
@@ -131,8 +135,8 @@ pub(crate) fn run(app: &App, a: SweepArgs) -> Result<(), Failure> {
             PROBE_SCALE * PROBE_SCALE
         );
     }
-    let reference = match plan {
-        ReferencePlan::Ready(film) => film,
+    let (reference, reference_seconds) = match plan {
+        ReferencePlan::Ready(film) => (film, None),
         ReferencePlan::Render(job, path) => render_reference(&a, &job, &path, &options)?,
     };
     let (w, h) = (base_job.settings.width, base_job.settings.height);
@@ -188,7 +192,9 @@ pub(crate) fn run(app: &App, a: SweepArgs) -> Result<(), Failure> {
         "scene": scene_name,
         "size": [w, h],
         "reference": a.reference,
+        "reference_integrator": a.reference_integrator.as_deref().unwrap_or(&base_job.integrator_name),
         "reference_spp": a.reference_spp,
+        "reference_seconds": reference_seconds,
         "mode": if a.one_at_a_time { "one-at-a-time" } else { "grid" },
         "metric": a.metric,
         "results": outcomes,
@@ -352,6 +358,10 @@ fn apply(o: &mut LoadOptions, name: &str, value: &Node) -> Result<(), Failure> {
         }
         "aa" | "lens_samples" => set(&mut ov.render_params, name, value),
         "aperture" | "focus_distance" => set(&mut ov.camera_params, name, value),
+        "integrator" => match &value.value {
+            Value::Str(t) => ov.integrator = Some(t.clone()),
+            _ => return Err(SceneError::at(&value.loc, "integrator must be a name (phong, path, …)").into()),
+        },
         "depth" => ov.depth = Some(value.clone()),
         _ => set(&mut ov.integrator_params, name, value),
     }
@@ -376,10 +386,16 @@ enum ReferencePlan {
     Render(Box<RenderJob>, PathBuf),
 }
 
-/// The reference image: read from a file, or to be rendered at high settings (cached by a hash of
-/// the scene, its settings and raylab's version).
+/// The reference image: read from a file, or to be rendered at high settings by the scene's
+/// integrator or `--reference-integrator` (cached by a hash of the scene, its settings, the
+/// integrator and raylab's version).
 fn reference_plan(app: &App, a: &SweepArgs, base: &LoadOptions, knobs: &[Knob], base_job: &RenderJob) -> Result<ReferencePlan, Failure> {
     if a.reference != "auto" {
+        if a.reference_integrator.is_some() {
+            return Err("--reference-integrator sets the integrator of `--reference auto`; it cannot change a reference image"
+                .to_string()
+                .into());
+        }
         return Ok(ReferencePlan::Ready(crate::image::reference::read(Path::new(&a.reference), base_job.settings.encoding)?));
     }
     let mut o = base.clone();
@@ -389,6 +405,13 @@ fn reference_plan(app: &App, a: &SweepArgs, base: &LoadOptions, knobs: &[Knob], 
         o.limits.max_rays = u64::MAX;
     }
     let ov = &mut o.overrides;
+    let integrator = a.reference_integrator.as_deref().unwrap_or(&base_job.integrator_name);
+    if integrator != base_job.integrator_name {
+        // The swept integrator's parameters and depth mean nothing to another one.
+        ov.integrator = Some(integrator.to_string());
+        ov.integrator_params.clear();
+        ov.depth = None;
+    }
     let swept =
         |name: &str| knobs.iter().find(|k| k.name == name).map(|k| k.values.iter().map(|(_, n)| n.value.clone()).collect::<Vec<_>>());
     let max_spp =
@@ -399,7 +422,7 @@ fn reference_plan(app: &App, a: &SweepArgs, base: &LoadOptions, knobs: &[Knob], 
     ov.render_params.push(super::flag_node("--reference", "lens_samples", Value::Int(1)));
     // Every depth and quality knob of the integrator at its reference value (by role, whatever
     // the parameter is called), and at least as accurate as any value swept.
-    let params = app.registry.integrator(&base_job.integrator_name).map(|p| p.info.params).unwrap_or(&[]);
+    let params = app.registry.integrator(integrator).map(|p| p.info.params).unwrap_or(&[]);
     for spec in params {
         let Some(reference) = spec.role.reference() else { continue };
         let is_depth = matches!(spec.role, Role::Depth(_));
@@ -438,7 +461,8 @@ fn reference_plan(app: &App, a: &SweepArgs, base: &LoadOptions, knobs: &[Knob], 
         Some(p) => crate::input::context::read_user_file(p, "scene file", base.limits.max_file_bytes, None)?,
         None => app.default_scene.1.as_bytes().to_vec(),
     };
-    let key = hash(&[&scene_text, format!("{:?}|{:?}|{}", job.settings, job.integrator.describe(), env!("CARGO_PKG_VERSION")).as_bytes()]);
+    let settings = format!("{:?}|{}|{:?}|{}", job.settings, job.integrator_name, job.integrator.describe(), env!("CARGO_PKG_VERSION"));
+    let key = hash(&[&scene_text, settings.as_bytes()]);
     let path = a.out.join(format!("reference-{key:016x}.pfm"));
     if let Ok(film) = crate::image::reference::read(&path, job.settings.encoding) {
         if !a.quiet {
@@ -449,8 +473,8 @@ fn reference_plan(app: &App, a: &SweepArgs, base: &LoadOptions, knobs: &[Knob], 
     Ok(ReferencePlan::Render(Box::new(job), path))
 }
 
-/// Renders the reference `job` and caches it at `path`.
-fn render_reference(a: &SweepArgs, job: &RenderJob, path: &Path, options: &RenderOptions) -> Result<Film, Failure> {
+/// Renders the reference `job` and caches it at `path`; the image and the seconds it took.
+fn render_reference(a: &SweepArgs, job: &RenderJob, path: &Path, options: &RenderOptions) -> Result<(Film, Option<f64>), Failure> {
     if !a.quiet {
         eprint!("reference: rendering {} with {}, {} … ", job.settings.describe_sampling(), job.integrator_name, job.integrator.describe());
     }
@@ -459,7 +483,7 @@ fn render_reference(a: &SweepArgs, job: &RenderJob, path: &Path, options: &Rende
         eprintln!("{:.1} s, {} rays", r.elapsed.as_secs_f64(), si(r.stats.total_rays() as f64));
     }
     crate::image::reference::write_pfm(path, &r.film)?;
-    Ok(r.film)
+    Ok((r.film, Some(r.elapsed.as_secs_f64())))
 }
 
 /// Linear size of the estimate's probe: 1/PROBE_SCALE of the width and height.
