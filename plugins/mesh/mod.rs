@@ -233,7 +233,7 @@ impl Geometry for MeshObject {
             Some(ns) => face_forward(ns, -n),
             None => n,
         };
-        Surface { n, ns, front_face, uv: at.uv, local: at.point, material: self.mesh.material_id(at.prim) as u32 }
+        Surface { n, ns, front_face, local: at.point, material: self.mesh.material_id(at.prim) as u32 }
     }
     fn materials(&self) -> Option<Arc<[Material]>> {
         self.mesh.materials().cloned()

@@ -13,6 +13,7 @@ use crate::input::limits::{OBJECT_BYTES, toml_memory_estimate};
 use crate::input::params::Params;
 use crate::input::registry::Registry;
 use crate::input::spec::{Default, ParamKind, ParamSpec, Role};
+use crate::input::textures::TextureLibrary;
 use crate::input::toml::parse_toml;
 use crate::input::value::{Node, Table, Value};
 use crate::math::color::Encoding;
@@ -31,6 +32,12 @@ pub const SCENE_PARAMS: &[ParamSpec] = &[
     ParamSpec::new("render", ParamKind::Any, Default::Optional, "[render] table: image size, samples, seed, encoding"),
     ParamSpec::new("camera", ParamKind::Any, Default::Required, "[camera] table"),
     ParamSpec::new("integrator", ParamKind::Any, Default::Optional, "[integrator] table: `type` and its parameters"),
+    ParamSpec::new(
+        "textures",
+        ParamKind::Any,
+        Default::Optional,
+        "[textures.NAME] tables: `type` and its parameters; a material colour names one (kd = \"NAME\"); read only when a material uses it",
+    ),
     ParamSpec::new("materials", ParamKind::Any, Default::Optional, "[materials.NAME] tables"),
     ParamSpec::new(
         "object",
@@ -259,6 +266,12 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
     let camera = Camera::from_params(&mut cp, settings.width, settings.height)?;
     cp.finish()?;
 
+    // [textures.NAME]: built when a material first names one.
+    let textures = TextureLibrary::new(registry, ctx);
+    if let Some(n) = root.node("textures")? {
+        textures.define(n)?;
+    }
+
     // [materials.NAME]
     let mut materials = MaterialLibrary::default();
     if let Some(n) = root.node("materials")? {
@@ -269,7 +282,7 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
             let Value::Table(mt) = &e.value.value else {
                 return Err(SceneError::at(&e.value.loc, format!("material \"{}\" must be a table of coefficients", e.key)));
             };
-            materials.insert(e.key.clone(), Material::from_table(mt, &e.value.loc, &format!("material \"{}\"", e.key))?);
+            materials.insert(e.key.clone(), Material::from_table(mt, &e.value.loc, &format!("material \"{}\"", e.key), &textures)?);
         }
     }
 
@@ -306,10 +319,14 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         // The object's `material` replaces what the shape's file defines; without either, the
         // scene's default.
         let materials = match params.get("material") {
-            Some(n) => Arc::from([materials.resolve(n, &what)?]),
+            Some(n) => Arc::from([materials.resolve(n, &what, &textures)?]),
             None => g.materials().unwrap_or_else(|| default_material.clone()),
         };
         objects.push(Object::new(names.claim(node, &label, &ty, i)?, g, materials));
+    }
+
+    for (name, loc) in textures.unused() {
+        ctx.warn(SceneError::at(&loc, format!("texture \"{name}\" is not used by any material; it was not loaded")));
     }
 
     // [[light]]
