@@ -34,19 +34,23 @@
 //! against `--max-triangles` before anything is built.
 
 use super::triangle_mesh::MeshData;
+use crate::textures::image::{self as image_texture, ColorSpace, Filter, Image, ImageTexture, Wrap};
 use raylab::geometry::transform::Transform;
 use raylab::glam::{DAffine3, DMat3, DMat4, DQuat, DVec3, Mat4};
 use raylab::input::description::SceneDescription;
 use raylab::input::error::{Loc, Result, SceneError, Source};
 use raylab::input::value::{Entry, Node, Table, Value};
+use raylab::scene::material::{Channel, TextureMap};
+use raylab::scene::texture::{Coords, Mapping, Texture};
 use raylab::{Aabb, Color, LoadContext, Material};
 use std::fmt::Display;
 use std::ops::Range;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 
 /// Extensions a file may require.
-const SUPPORTED: &[&str] = &["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_ior", "KHR_materials_transmission"];
+const SUPPORTED: &[&str] =
+    &["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_ior", "KHR_materials_transmission", "KHR_texture_transform"];
 
 /// A parsed glTF file with its buffers loaded.
 /// The triangles `mesh` declares (its accessors' counts; no data decoded): an upper bound for
@@ -94,6 +98,8 @@ pub struct GltfFile {
     spans: Spans,
     /// Where the default scene places its nodes, computed once.
     placements: OnceLock<Result<Placements>>,
+    /// The file's folder as the scene names it, for the files its images name.
+    base: PathBuf,
 }
 
 /// Byte ranges of the indexed JSON elements errors point at (empty where the text could not be
@@ -220,6 +226,7 @@ pub fn parse(ctx: &LoadContext, path: &str, full: &Path, bytes: Vec<u8>, loc: &L
         json,
         spans,
         placements: OnceLock::new(),
+        base,
     };
     file.check_materials()?;
     file.warn_ignored(ctx);
@@ -434,14 +441,15 @@ impl GltfFile {
         self.doc.meshes().len()
     }
 
-    /// Mesh `index` in its own frame.
-    pub fn mesh(&self, index: usize) -> Result<MeshData> {
+    /// Mesh `index` in its own frame, with the textures its materials sample.
+    pub fn mesh(&self, ctx: &LoadContext, index: usize) -> Result<MeshData> {
         let mesh = self.doc.meshes().nth(index).ok_or_else(|| {
             SceneError::in_file(&self.name, None, format!("there is no mesh {index}: the file has {} meshes", self.mesh_count()))
         })?;
         let mut out = self.empty();
         self.check_triangles(triangle_count(&mesh))?;
         self.append(&mesh, DMat4::IDENTITY, &mut out)?;
+        self.attach_textures(ctx, &mut out);
         Ok(out)
     }
 
@@ -454,8 +462,9 @@ impl GltfFile {
         Ok(())
     }
 
-    /// Every mesh of the default scene, placed by its node's world matrix, as one mesh.
-    pub fn whole(&self) -> Result<MeshData> {
+    /// Every mesh of the default scene, placed by its node's world matrix, as one mesh, with the
+    /// textures its materials sample.
+    pub fn whole(&self, ctx: &LoadContext) -> Result<MeshData> {
         let mut out = self.empty();
         let placed = self.placements()?;
         let meshes = || placed.order.iter().filter_map(|&i| Some((self.doc.nodes().nth(i)?.mesh()?, placed.world[i]?)));
@@ -468,7 +477,94 @@ impl GltfFile {
         if out.triangles.is_empty() {
             return Err(SceneError::in_file(&self.name, None, "the file's scene has no triangles"));
         }
+        self.attach_textures(ctx, &mut out);
         Ok(out)
+    }
+
+    /// Gives the materials `out`'s triangles use the textures they sample (images decoded once
+    /// per scene; those of unused materials are not read): `baseColorTexture` multiplies `kd`
+    /// (and `ks`, `kr` of metals, whose specular colour is the base colour), `emissiveTexture`
+    /// the emission. An image that cannot be read (missing, malformed, over the limits) is a
+    /// warning: the material keeps its factors.
+    fn attach_textures(&self, ctx: &LoadContext, out: &mut MeshData) {
+        let mut used = out.material_ids.clone();
+        used.sort_unstable();
+        used.dedup();
+        for id in used {
+            let Some(m) = self.doc.materials().nth(id as usize) else { continue };
+            let pbr = m.pbr_metallic_roughness();
+            let sampled = |info: &gltf::texture::Info, kind: &str| match self.texture(ctx, info, id as usize) {
+                Ok(t) => Some(t),
+                Err(e) => {
+                    ctx.warn(e.context(format!("{}: material {id}: its {kind} is not sampled (its factor is used)", self.name)));
+                    None
+                }
+            };
+            let mut maps = Vec::new();
+            if let Some(t) = pbr.base_color_texture().and_then(|info| sampled(&info, "baseColorTexture")) {
+                maps.push((Channel::Kd, t.clone()));
+                if pbr.metallic_factor() > 0.0 {
+                    maps.extend([(Channel::Ks, t.clone()), (Channel::Kr, t)]);
+                }
+            }
+            if let Some(t) = m.emissive_texture().and_then(|info| sampled(&info, "emissiveTexture")) {
+                maps.push((Channel::Emission, t));
+            }
+            let material = &mut out.materials[id as usize];
+            material.textures.extend(maps.into_iter().map(|(channel, texture)| TextureMap { channel, texture }));
+        }
+    }
+
+    /// The texture `info` of material `material` names: its image (sRGB), its sampler's wrap
+    /// modes and magnification filter, and its `KHR_texture_transform`.
+    fn texture(&self, ctx: &LoadContext, info: &gltf::texture::Info, material: usize) -> Result<Arc<dyn Texture>> {
+        use gltf::texture::{MagFilter, WrappingMode};
+        let t = info.texture();
+        let image = self.image(ctx, &t.source(), material)?;
+        let sampler = t.sampler();
+        let wrap = |w: WrappingMode| match w {
+            WrappingMode::ClampToEdge => Wrap::Clamp,
+            WrappingMode::MirroredRepeat => Wrap::Mirror,
+            WrappingMode::Repeat => Wrap::Repeat,
+        };
+        let filter = if sampler.mag_filter() == Some(MagFilter::Nearest) { Filter::Nearest } else { Filter::Bilinear };
+        let mapping = match info.texture_transform() {
+            Some(tt) => Mapping::with_inverse(Coords::Uv, gltf_uv_transform(tt.offset(), tt.rotation(), tt.scale())),
+            None => Mapping::new(Coords::Uv),
+        };
+        Ok(Arc::new(ImageTexture::new(image, mapping, [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())], filter, Color::ONE)))
+    }
+
+    /// Image `img` decoded (sRGB), once per scene: a file beside the glTF (through the sandbox),
+    /// a `data:` URI, or a buffer view. Errors name material `material`.
+    fn image(&self, ctx: &LoadContext, img: &gltf::Image, material: usize) -> Result<Arc<Image>> {
+        let loc = self.loc(Element::Material, material);
+        let what = format!("{}: image {}", self.name, img.index());
+        let embedded = |bytes: Option<&[u8]>| -> Result<Arc<Image>> {
+            let key = format!("gltf-image:{}:{}", self.name, img.index());
+            ctx.assets.get_or_load(&key, || {
+                let bytes = bytes.ok_or_else(|| {
+                    SceneError::in_file(
+                        &self.name,
+                        None,
+                        format!("image {}: its data lies outside its buffer or is malformed", img.index()),
+                    )
+                })?;
+                image_texture::decode(bytes, &what, ColorSpace::Srgb, ctx)
+            })
+        };
+        match img.source() {
+            gltf::image::Source::Uri { uri, .. } if uri.starts_with("data:") => embedded(data_uri(uri).as_deref()),
+            gltf::image::Source::Uri { uri, .. } => {
+                let rel = self.base.join(percent_decode(uri));
+                image_texture::load(ctx, &rel.to_string_lossy(), &loc, ColorSpace::Srgb).map_err(|e| e.context(&what))
+            }
+            gltf::image::Source::View { view, .. } => {
+                let bytes =
+                    self.buffers.get(view.buffer().index()).and_then(|b| b.get(view.offset()..view.offset().checked_add(view.length())?));
+                embedded(bytes)
+            }
+        }
     }
 
     /// The mesh node `index` places and its world matrix: what a `mesh` object with `node = N`
@@ -637,17 +733,31 @@ impl GltfFile {
         };
         let materials: Vec<gltf::Material> = self.doc.materials().collect();
         type Has = fn(&gltf::Material) -> bool;
-        let textures: [(&str, Has); 5] = [
-            ("baseColorTexture", |m| m.pbr_metallic_roughness().base_color_texture().is_some()),
+        let textures: [(&str, Has); 3] = [
             ("metallicRoughnessTexture", |m| m.pbr_metallic_roughness().metallic_roughness_texture().is_some()),
             ("normalTexture", |m| m.normal_texture().is_some()),
             ("occlusionTexture", |m| m.occlusion_texture().is_some()),
-            ("emissiveTexture", |m| m.emissive_texture().is_some()),
         ];
         for (name, has) in textures {
             let n = materials.iter().filter(|m| has(m)).count();
-            warn(n, format!("{n} material(s) use a {name}: textures are not sampled (their factors are used)"));
+            warn(n, format!("{n} material(s) use a {name}, which raylab does not sample (its factors are used)"));
         }
+        let second_set = |i: Option<gltf::texture::Info>| {
+            i.is_some_and(|i| i.tex_coord() != 0 || i.texture_transform().and_then(|t| t.tex_coord()).is_some_and(|c| c != 0))
+        };
+        let n = materials
+            .iter()
+            .filter(|m| second_set(m.pbr_metallic_roughness().base_color_texture()) || second_set(m.emissive_texture()))
+            .count();
+        warn(n, format!("{n} material(s) sample a texture with a texture coordinate set other than TEXCOORD_0: TEXCOORD_0 is used"));
+        let n = materials
+            .iter()
+            .filter(|m| m.alpha_mode() != gltf::material::AlphaMode::Opaque && m.pbr_metallic_roughness().base_color_texture().is_some())
+            .count();
+        warn(
+            n,
+            format!("{n} material(s) blend or mask by their baseColorTexture's alpha, which raylab ignores (the alpha factor is used)"),
+        );
         let n = materials.iter().filter(|m| m.alpha_mode() == gltf::material::AlphaMode::Mask).count();
         warn(n, format!("{n} material(s) use alphaMode MASK: the cutoff is ignored (they are opaque)"));
         let unsupported: Vec<&str> = self.doc.extensions_used().filter(|e| !SUPPORTED.contains(e)).collect();
@@ -692,6 +802,7 @@ impl GltfFile {
             };
             typed(prim.get(&gltf::Semantic::Positions), &[DataType::F32], Dimensions::Vec3, "POSITION")?;
             typed(prim.get(&gltf::Semantic::Normals), &[DataType::F32], Dimensions::Vec3, "NORMAL")?;
+            typed(prim.get(&gltf::Semantic::TexCoords(0)), &[DataType::F32, DataType::U8, DataType::U16], Dimensions::Vec2, "TEXCOORD_0")?;
             typed(prim.indices(), &[DataType::U8, DataType::U16, DataType::U32], Dimensions::Scalar, "index")?;
             let reader = prim.reader(|b| self.buffers.get(b.index()).map(Vec::as_slice));
             let Some(positions) = reader.read_positions() else {
@@ -733,12 +844,29 @@ impl GltfFile {
                     out.normal_indices.clear();
                 }
             }
+            // Texture coordinates (v flipped: glTF's run down from the image's top), kept only
+            // if every primitive has them.
+            let texcoords: Option<Vec<[f32; 2]>> = reader
+                .read_tex_coords(0)
+                .map(|r| r.into_f32().map(|[u, v]| [u, 1.0 - v]).collect())
+                .filter(|v: &Vec<[f32; 2]>| v.len() == positions.len());
+            let keep_uv = texcoords.is_some() && out.texcoord_indices.len() == out.triangles.len();
+            match texcoords.filter(|_| keep_uv) {
+                Some(uv) => out.texcoords.extend(uv),
+                None => {
+                    out.texcoords.clear();
+                    out.texcoord_indices.clear();
+                }
+            }
             let material = prim.material().index().map_or(default_material, |i| i as u32);
             for t in tris {
                 let t = if flip { [t[0], t[2], t[1]] } else { t };
                 out.triangles.push(t.map(|v| base + v));
                 if keep {
                     out.normal_indices.push(t.map(|v| base + v));
+                }
+                if keep_uv {
+                    out.texcoord_indices.push(t.map(|v| base + v));
                 }
                 out.material_ids.push(material);
             }
@@ -780,6 +908,20 @@ impl GltfFile {
         }
         Ok(b)
     }
+}
+
+/// The lookup of a `KHR_texture_transform` (`offset`, `rotation` in radians, `scale`) in
+/// raylab's texture coordinates: the extension's `T·R·S` acts on glTF's coordinates, whose `v`
+/// runs down, so it is conjugated by the flip `v ↦ 1 − v`.
+pub fn gltf_uv_transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> DAffine3 {
+    let finite = |v: f32, default: f64| if v.is_finite() { f64::from(v) } else { default };
+    let (s, c) = finite(rotation, 0.0).sin_cos();
+    let m = raylab::glam::DMat3::from_cols(DVec3::new(c, s, 0.0), DVec3::new(-s, c, 0.0), DVec3::Z);
+    let gltf = DAffine3::from_translation(DVec3::new(finite(offset[0], 0.0), finite(offset[1], 0.0), 0.0))
+        * DAffine3::from_mat3(m)
+        * DAffine3::from_scale(DVec3::new(finite(scale[0], 1.0), finite(scale[1], 1.0), 1.0));
+    let flip = DAffine3::from_translation(DVec3::Y) * DAffine3::from_scale(DVec3::new(1.0, -1.0, 1.0));
+    flip * gltf * flip
 }
 
 fn default_gltf_material() -> Material {

@@ -76,6 +76,12 @@ impl Mapping {
         Mapping { coords, to_pattern: DAffine3::IDENTITY, placed: false }
     }
 
+    /// Over `coords`, showing the pattern at `to_pattern(p)` for a point `p` (the inverse of a
+    /// placement: a file format's texture-coordinate transform).
+    pub fn with_inverse(coords: Coords, to_pattern: DAffine3) -> Mapping {
+        Mapping { coords, to_pattern, placed: to_pattern != DAffine3::IDENTITY }
+    }
+
     /// Reads `coords` (when the plugin declares it; else texture coordinates) and `transform`.
     pub fn from_params(p: &mut Params) -> Result<Mapping> {
         let coords = match p.declares("coords") {
