@@ -58,7 +58,7 @@ pub const RENDER_PARAMS: &[ParamSpec] = &[
         "encoding",
         ParamKind::Str,
         Default::Str("srgb"),
-        "8-bit encoding: \"srgb\" or \"linear\" (clamped values written straight, as the report)",
+        "8-bit encoding: \"srgb\", \"linear\" (clamped values written straight, as the report) or \"linear-truncated\" (straight, truncated to 0–255 as the course's Java renderer did; its test images bit for bit)",
     ),
     ParamSpec::new(
         "aa",
@@ -232,7 +232,7 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
     }
     let file_seed = rp.int_in("seed", 0..=i64::MAX)? as u64;
     let seed = ov.seed.unwrap_or(file_seed);
-    let file_encoding = Encoding::parse(&rp.choice("encoding", &["srgb", "linear"])?).unwrap_or_default();
+    let file_encoding = Encoding::parse(&rp.choice("encoding", &Encoding::NAMES)?).unwrap_or_default();
     let encoding = ov.encoding.unwrap_or(file_encoding);
     let aa = match rp.choice("aa", &["stratified", "adaptive"])?.as_str() {
         "adaptive" => Antialiasing::Adaptive {
