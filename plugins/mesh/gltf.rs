@@ -11,16 +11,25 @@
 //! | raylab | from glTF |
 //! |---|---|
 //! | `kd` | `c · (1 − m)` |
-//! | `ks` | `F0 = 0.04·(1 − m) + c·m` (the specular colour at normal incidence) |
-//! | `shininess` | `(2/α² − 2) / 4` (Blinn-Phong's equivalent exponent, in Phong's terms), at most 10⁴ |
+//! | `shininess` | `n = (2/α² − 2) / 4` (Blinn-Phong's equivalent exponent, in Phong's terms), in [1, 10⁴] |
+//! | `ks` | `F0 · (n + 1) / 2`, `F0 = 0.04·(1 − m) + c·m` (the specular colour at normal incidence) |
 //! | `kr` | `F0 · m · (1 − r)²`: smooth metals mirror; rough ones and dielectrics do not |
 //! | `blur` | `α` where `kr > 0` and α ≥ 0.05 (sharper lobes are mirrors) |
 //! | `kt` | `KHR_materials_transmission` factor, or `1 − alpha` for `alphaMode = BLEND` |
 //! | `ior` | `KHR_materials_ior` (default 1.5) |
 //! | `emission` | `emissiveFactor × KHR_materials_emissive_strength` |
+//! | textures | `baseColorTexture` multiplies `kd` (and `ks`, `kr` when `m > 0`), `emissiveTexture` the emission |
 //!
-//! Textures, animations, skins, morph targets, points and lines, orthographic cameras and
-//! extensions raylab does not implement are ignored with one warning per kind (with a count).
+//! The Phong lobe `ks · cos^n` reflects `2·ks / (n + 1)` of the light a viewer sees, so
+//! `ks = F0·(n + 1)/2` keeps the specular reflectance at `F0` whatever the roughness: rough
+//! materials get a dim, wide highlight and smooth ones a small, bright one, as GGX gives them. The
+//! exponent stays ≥ 1 ([`MIN_SHININESS`]): below it the lobe is cut off by a step where the
+//! mirror direction turns away from the viewer (a hard line across flat faces).
+//! docs/gltf-materials.md compares the mapping with the glTF BRDF on a row of spheres.
+//!
+//! Metallic-roughness, normal and occlusion textures, animations, skins, morph targets, points
+//! and lines, orthographic cameras and extensions raylab does not implement are ignored with one
+//! warning per kind (with a count).
 //! Non-finite numbers (NaN, or beyond f32) in transforms, cameras, lights and materials are
 //! refused. Errors name the element by its JSON pointer (`/nodes/3/matrix`) at its line and
 //! column in the JSON (the JSON chunk, for `.glb`).
@@ -100,7 +109,14 @@ pub struct GltfFile {
     placements: OnceLock<Result<Placements>>,
     /// The file's folder as the scene names it, for the files its images name.
     base: PathBuf,
+    /// The textures built so far, by texture index and transform (`None`: unreadable, warned
+    /// about once), shared by every mesh of the file.
+    textures: std::sync::Mutex<std::collections::HashMap<TextureKey, Option<Arc<dyn Texture>>>>,
 }
+
+/// A texture of a glTF file as a material samples it: its index and `KHR_texture_transform`
+/// (offset, rotation, scale as bits).
+type TextureKey = (usize, Option<[u32; 5]>);
 
 /// Byte ranges of the indexed JSON elements errors point at (empty where the text could not be
 /// followed; errors then point at the document's start, with the pointer in the message).
@@ -227,6 +243,7 @@ pub fn parse(ctx: &LoadContext, path: &str, full: &Path, bytes: Vec<u8>, loc: &L
         spans,
         placements: OnceLock::new(),
         base,
+        textures: Default::default(),
     };
     file.check_materials()?;
     file.warn_ignored(ctx);
@@ -493,12 +510,25 @@ impl GltfFile {
         for id in used {
             let Some(m) = self.doc.materials().nth(id as usize) else { continue };
             let pbr = m.pbr_metallic_roughness();
-            let sampled = |info: &gltf::texture::Info, kind: &str| match self.texture(ctx, info, id as usize) {
-                Ok(t) => Some(t),
-                Err(e) => {
-                    ctx.warn(e.context(format!("{}: material {id}: its {kind} is not sampled (its factor is used)", self.name)));
-                    None
-                }
+            // Each texture is built (or found unreadable, with one warning) once per file.
+            let sampled = |info: &gltf::texture::Info, kind: &str| {
+                let transform = info.texture_transform().map(|t| {
+                    let [a, b] = t.offset();
+                    let [c, d] = t.scale();
+                    [a, b, t.rotation(), c, d].map(f32::to_bits)
+                });
+                self.textures
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .entry((info.texture().index(), transform))
+                    .or_insert_with(|| match self.texture(ctx, info, id as usize) {
+                        Ok(t) => Some(t),
+                        Err(e) => {
+                            ctx.warn(e.context(format!("{}: material {id}: its {kind} is not sampled (its factor is used)", self.name)));
+                            None
+                        }
+                    })
+                    .clone()
             };
             let mut maps = Vec::new();
             if let Some(t) = pbr.base_color_texture().and_then(|info| sampled(&info, "baseColorTexture")) {
@@ -539,7 +569,7 @@ impl GltfFile {
     /// a `data:` URI, or a buffer view. Errors name material `material`.
     fn image(&self, ctx: &LoadContext, img: &gltf::Image, material: usize) -> Result<Arc<Image>> {
         let loc = self.loc(Element::Material, material);
-        let what = format!("{}: image {}", self.name, img.index());
+        let what = format!("image {}", img.index());
         let embedded = |bytes: Option<&[u8]>| -> Result<Arc<Image>> {
             let key = format!("gltf-image:{}:{}", self.name, img.index());
             ctx.assets.get_or_load(&key, || {
@@ -550,7 +580,7 @@ impl GltfFile {
                         format!("image {}: its data lies outside its buffer or is malformed", img.index()),
                     )
                 })?;
-                image_texture::decode(bytes, &what, ColorSpace::Srgb, ctx)
+                image_texture::decode(bytes, &format!("{} ({what})", self.name), ColorSpace::Srgb, ctx)
             })
         };
         match img.source() {
@@ -924,6 +954,14 @@ pub fn gltf_uv_transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> DA
     flip * gltf * flip
 }
 
+/// Smallest Phong exponent a glTF material maps to: from 1 up, the lobe `cos^n` falls
+/// continuously to zero where the mirror direction turns 90° from the viewer.
+pub const MIN_SHININESS: f64 = 1.0;
+
+/// Largest Phong exponent a glTF material maps to (a mirror-smooth lobe is narrower than a
+/// pixel anyway).
+pub const MAX_SHININESS: f64 = 1e4;
+
 fn default_gltf_material() -> Material {
     pbr_to_phong([1.0, 1.0, 1.0, 1.0], 1.0, 1.0, false, None, None, [0.0; 3])
 }
@@ -958,10 +996,11 @@ pub fn pbr_to_phong(
         None if blend => 1.0 - clamp01(base[3]),
         None => 0.0,
     };
+    let shininess = ((2.0 / (alpha * alpha) - 2.0) / 4.0).clamp(MIN_SHININESS, MAX_SHININESS);
     Material {
         kd: c * (1.0 - m) * (1.0 - kt),
-        ks: f0,
-        shininess: ((2.0 / (alpha * alpha) - 2.0) / 4.0).clamp(0.0, 1e4),
+        ks: f0 * (shininess + 1.0) / 2.0,
+        shininess,
         kr,
         kt: Color::splat(kt),
         ior: ior.filter(|i| i.is_finite() && *i > 0.0).map_or(1.5, f64::from),
@@ -1198,10 +1237,24 @@ mod tests {
         assert!(gold.kr.x > 0.9 && gold.blur < 0.01 && gold.shininess >= 1e3);
         let plastic = pbr_to_phong([0.2, 0.4, 0.8, 1.0], 0.0, 0.5, false, None, None, [0.0; 3]);
         assert_eq!(plastic.kr, Color::ZERO);
-        assert!((plastic.kd - Color::new(0.2, 0.4, 0.8)).length() < 1e-6 && (plastic.ks.x - 0.04).abs() < 1e-9);
+        assert!((plastic.kd - Color::new(0.2, 0.4, 0.8)).length() < 1e-6 && (plastic.ks.x - 0.04 * 8.5 / 2.0).abs() < 1e-9);
         assert!((plastic.shininess - 7.5).abs() < 1e-9);
         let glass = pbr_to_phong([1.0; 4], 0.0, 0.0, false, Some(1.0), Some(1.33), [0.0; 3]);
         assert_eq!((glass.kt, glass.ior), (Color::ONE, 1.33f32 as f64));
+    }
+
+    /// The specular reflectance a viewer sees, `2·ks / (n + 1)`, is `F0` at every roughness, and
+    /// the exponent never drops below 1, where the lobe would end in a step.
+    #[test]
+    fn the_highlight_keeps_its_reflectance_and_never_ends_in_a_step() {
+        for r in [0.0, 0.1, 0.3, 0.5, 0.7, 0.9, 1.0] {
+            let plastic = pbr_to_phong([0.8, 0.2, 0.1, 1.0], 0.0, r, false, None, None, [0.0; 3]);
+            assert!(plastic.shininess >= MIN_SHININESS, "roughness {r}: exponent {}", plastic.shininess);
+            let reflectance = 2.0 * plastic.ks / (plastic.shininess + 1.0);
+            assert!((reflectance - Color::splat(0.04)).abs().max_element() < 1e-9, "roughness {r}: {reflectance}");
+        }
+        let rough = pbr_to_phong([1.0; 4], 0.0, 1.0, false, None, None, [0.0; 3]);
+        assert_eq!(rough.shininess, MIN_SHININESS);
     }
 
     /// One triangle as a data URI (vertices (0,0,0), (1,0,0), (0,1,0)).
@@ -1303,7 +1356,7 @@ mod tests {
     #[test]
     fn ignored_features_warn_once_per_kind() {
         let extra = r#",
-"materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}}},{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}}}],
+"materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}},"normalTexture":{"index":0}},{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}},"normalTexture":{"index":0}}],
 "textures":[{"source":0}],"images":[{"uri":"missing.png"}],
 "extensionsUsed":["KHR_materials_clearcoat","KHR_lights_punctual"]"#;
         let text = doc("[{\"mesh\":0},{\"mesh\":1}]", extra).replacen(
@@ -1314,28 +1367,48 @@ mod tests {
         let job = load_scene("textured.gltf", &text, raylab::input::limits::Limits::default()).0.unwrap();
         let w: Vec<String> = job.warnings.iter().map(|w| w.message.clone()).collect();
         let has = |s: &str| w.iter().filter(|m| m.contains(s)).count();
-        assert_eq!(has("baseColorTexture"), 1, "{w:?}");
-        assert_eq!(has("2 material(s) use a baseColorTexture"), 1, "{w:?}");
+        assert_eq!(has("2 material(s) use a normalTexture"), 1, "{w:?}");
+        // The texture both materials sample cannot be read: one warning, naming it.
+        let unread: Vec<String> = job.warnings.iter().map(|w| w.report()).filter(|r| r.contains("baseColorTexture is not sampled")).collect();
+        assert_eq!(unread.len(), 1, "{w:?}");
+        assert!(unread[0].contains("missing.png"), "{}", unread[0]);
         assert_eq!(has("2 primitive(s) are points or lines"), 1, "{w:?}");
         assert_eq!(has("ignores: KHR_materials_clearcoat"), 1, "{w:?}");
         assert_eq!(has("KHR_lights_punctual"), 0, "{w:?}");
     }
 
-    /// The textured box of the shared assets warns that its texture is not sampled (skipped
-    /// when the shared assets are absent).
+    /// The Khronos textured box samples its logo, from the PNG beside the .gltf and from the
+    /// .glb's own buffer alike, without a warning: sky blue at the image's top, green below.
     #[test]
-    fn the_shared_textured_box_warns_about_its_texture() {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-        let Some(path) = [root.join("../shared"), root.join("../../shared")]
-            .iter()
-            .map(|d| d.join("assets/gltf-boxtextured/BoxTextured.glb"))
-            .find(|p| p.is_file())
-        else {
-            eprintln!("shared assets absent: skipped");
-            return;
-        };
-        let options = raylab::LoadOptions::default();
-        let job = raylab::input::load::load_file(&crate::registry(), &path, &options).unwrap();
-        assert!(job.warnings.iter().any(|w| w.message.contains("1 material(s) use a baseColorTexture")), "{:?}", job.warnings);
+    fn the_textured_box_samples_its_logo() {
+        use raylab::scene::texture::TexturePoint;
+        let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/assets");
+        for file in ["BoxTextured.gltf", "BoxTextured.glb"] {
+            let options = raylab::LoadOptions::default();
+            let job = raylab::input::load::load_file(&crate::registry(), &assets.join(file), &options).unwrap();
+            assert!(job.warnings.is_empty(), "{file}: {:?}", job.warnings);
+            let m = &job.scene.objects[0].materials()[0];
+            assert_eq!(m.textures.len(), 1, "{file}: the base colour (a dielectric: kd only)");
+            assert_eq!(m.textures[0].channel, Channel::Kd);
+            let at = |u, v| m.textures[0].texture.eval(&TexturePoint { uv: raylab::glam::DVec2::new(u, v), local: DVec3::ZERO });
+            let (sky, hill) = (at(0.5, 0.9), at(0.5, 0.15));
+            assert!(sky.z > sky.x && sky.z > sky.y, "{file}: {sky}");
+            assert!(hill.y > hill.x && hill.y > hill.z, "{file}: {hill}");
+        }
+    }
+
+    /// `KHR_texture_transform` acts on glTF's texture coordinates (v down): an offset of half the
+    /// image in u moves the lookup by half; a quarter turn maps u onto v.
+    #[test]
+    fn texture_transforms_act_in_gltf_coordinates() {
+        let at = |m: DAffine3, u: f64, v: f64| m.transform_point3(DVec3::new(u, v, 0.0));
+        let close = |a: DVec3, b: DVec3| assert!((a - b).length() < 1e-6, "{a} vs {b}");
+        close(at(gltf_uv_transform([0.5, 0.0], 0.0, [1.0, 1.0]), 0.1, 0.3), DVec3::new(0.6, 0.3, 0.0));
+        // glTF (u, v) = (0.1, 0.7) scaled by 2 in v: (0.1, 1.4); in raylab's v-up terms
+        // (0.1, 0.3) → (0.1, −0.4).
+        close(at(gltf_uv_transform([0.0, 0.0], 0.0, [1.0, 2.0]), 0.1, 0.3), DVec3::new(0.1, -0.4, 0.0));
+        // A quarter turn: glTF (u, v) ↦ (u cos − v sin, u sin + v cos) = (−v, u).
+        let q = gltf_uv_transform([0.0, 0.0], std::f32::consts::FRAC_PI_2, [1.0, 1.0]);
+        close(at(q, 0.2, 1.0 - 0.6), DVec3::new(-0.6, 1.0 - 0.2, 0.0));
     }
 }

@@ -554,7 +554,8 @@ mod tests {
     }
 
     /// 10⁶ `mtllib` lines (each once took a read and a merge of the library: 20–50 s at 10⁵)
-    /// load the library once: one material, one warning about its texture maps.
+    /// load the library once: each material once, one warning about the maps raylab does not
+    /// sample, and one about each sampled map whose file is missing.
     #[test]
     fn a_million_mtllib_lines_read_the_library_once() {
         let mtl = b"newmtl wood\nKd 0.5 0.25 0.125\nmap_Kd wood.png\nbump wood-n.png\nmap_Ke glow.png\nnewmtl plain\nKd 1 1 1\n";
@@ -570,12 +571,14 @@ mod tests {
         assert_eq!(data.materials.len(), 2, "each material once");
         assert_eq!(data.material_ids, vec![0]);
         assert_eq!(data.materials[0].kd, DVec3::new(0.5, 0.25, 0.125));
-        let warnings = ctx.take_warnings();
-        assert_eq!(warnings.len(), 1, "{warnings:?}");
-        let w = warnings[0].report();
-        for part in ["m.mtl", "\"wood\"", "map_Kd wood.png", "bump wood-n.png", "map_Ke glow.png"] {
-            assert!(w.contains(part), "{part} not in {w}");
+        let warnings: Vec<String> = ctx.take_warnings().iter().map(|w| w.report()).collect();
+        assert_eq!(warnings.len(), 3, "{warnings:?}");
+        for part in ["m.mtl", "\"wood\"", "bump wood-n.png"] {
+            assert!(warnings[0].contains(part), "{part} not in {}", warnings[0]);
         }
+        assert!(!warnings[0].contains("map_Kd") && !warnings[0].contains("map_Ke"), "sampled maps are not ignored: {}", warnings[0]);
+        assert!(warnings[1].contains("map_Kd wood.png") && warnings[1].contains("not sampled"), "{}", warnings[1]);
+        assert!(warnings[2].contains("map_Ke glow.png"), "{}", warnings[2]);
         // A library that is missing is reported once, however often it is named.
         let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nmtllib gone.mtl\nmtllib gone.mtl\nf 1 2 3\n";
         let e = read(&ctx, "m.obj", &dir.join("m.obj"), obj.as_bytes(), true, &here()).unwrap_err();
@@ -586,7 +589,7 @@ mod tests {
     /// Materials with texture maps beyond [`MAX_MAP_WARNINGS`] are counted, not listed.
     #[test]
     fn texture_map_warnings_are_bounded_per_library() {
-        let mtl: String = (0..100).map(|i| format!("newmtl m{i}\nmap_Kd t.png\n")).collect();
+        let mtl: String = (0..100).map(|i| format!("newmtl m{i}\nmap_Ns t.png\n")).collect();
         let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m3\nf 1 2 3\n";
         let dir = folder("maps", &[("m.mtl", mtl.as_bytes())]);
         let options = raylab::input::context::LoadOptions::default();
@@ -636,5 +639,55 @@ mod tests {
         for t in ["0", "-0", "+7", "-9223372036854775808", "9223372036854775807", "9223372036854775808", "-", "+", "", "1x", "--1", " 1"] {
             assert_eq!(parse_i64(t.as_bytes()), t.parse::<i64>().ok(), "{t:?}");
         }
+    }
+
+    /// A texture statement's options place the map (`-s`, then `-o`) or clamp it; the rest of the
+    /// line, spaces and all, is the file; options raylab does not apply are named.
+    #[test]
+    fn map_statements_read_their_options_and_file() {
+        let m = MapStatement::parse("-s 2 3 -o 0.5 -clamp on -bm 0.4 my wood.png");
+        assert_eq!(m.file.as_deref(), Some("my wood.png"));
+        assert!(m.clamp);
+        assert_eq!(m.ignored, vec!["-bm".to_string()]);
+        let p = m.lookup.transform_point3(DVec3::new(0.25, 0.5, 0.0));
+        assert_eq!(p, DVec3::new(1.0, 1.5, 0.0), "scaled by (2, 3), then offset by 0.5 in u");
+        assert_eq!(MapStatement::parse("plain.png").lookup, DAffine3::IDENTITY);
+        assert_eq!(MapStatement::parse("-clamp off").file, None);
+    }
+
+    /// `vt` and `map_Kd`: the faces keep their texture coordinates (v up) and the material its
+    /// map, which reads the image (relative to the MTL's folder) through the sandbox.
+    #[test]
+    fn texture_coordinates_and_the_diffuse_map_are_read() {
+        let png = {
+            let mut out = Vec::new();
+            image::ImageEncoder::write_image(
+                image::codecs::png::PngEncoder::new(&mut out),
+                &[255, 0, 0, 0, 0, 255],
+                2,
+                1,
+                image::ExtendedColorType::Rgb8,
+            )
+            .unwrap();
+            out
+        };
+        let obj = "mtllib lib/m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.25 0.5\nvt 0.75 0.5\nvt 0.25 1\nusemtl red\nf 1/1 2/2 3/3\n";
+        let dir = folder("vt", &[("m.obj", obj.as_bytes())]);
+        std::fs::create_dir_all(dir.join("lib")).unwrap();
+        std::fs::write(dir.join("lib/m.mtl"), "newmtl red\nKd 0.5 0.5 0.5\nmap_Kd -s 1 1 tex.png\n").unwrap();
+        std::fs::write(dir.join("lib/tex.png"), png).unwrap();
+        let options = raylab::input::context::LoadOptions::default();
+        let ctx = LoadContext::new(&dir, &options);
+        let data = read(&ctx, "m.obj", &dir.join("m.obj"), obj.as_bytes(), true, &here()).unwrap();
+        assert!(ctx.take_warnings().is_empty());
+        assert_eq!((data.texcoords.len(), data.texcoord_indices), (3, vec![[0, 1, 2]]));
+        assert_eq!(data.texcoords[1], [0.75, 0.5]);
+        let m = &data.materials[0];
+        assert_eq!((m.kd, m.textures.len(), m.textures[0].channel), (DVec3::splat(0.5), 1, Channel::Kd));
+        let at = |u: f64| {
+            m.textures[0].texture.eval(&raylab::scene::texture::TexturePoint { uv: raylab::glam::DVec2::new(u, 0.5), local: DVec3::ZERO })
+        };
+        assert_eq!((at(0.25), at(0.75)), (DVec3::X, DVec3::Z), "left texel red, right blue");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }
