@@ -116,7 +116,50 @@ pub struct GltfFile {
 
 /// A texture of a glTF file as a material samples it: its index and `KHR_texture_transform`
 /// (offset, rotation, scale as bits).
-type TextureKey = (usize, Option<[u32; 5]>);
+type TextureKey = (usize, Option<[u64; 5]>);
+
+/// A texture info's `KHR_texture_transform`, read from its extensions (so that a malformed one is
+/// a warning, not the whole file's error).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct UvTransform {
+    offset: [f64; 2],
+    /// Radians.
+    rotation: f64,
+    scale: [f64; 2],
+    /// The texture coordinate set it asks for instead of the info's.
+    tex_coord: Option<u64>,
+}
+
+impl UvTransform {
+    /// The transform of `info`: `Ok(None)` without one, `Err` naming what is malformed.
+    fn of(info: &gltf::texture::Info) -> std::result::Result<Option<UvTransform>, String> {
+        let Some(v) = info.extension_value("KHR_texture_transform") else { return Ok(None) };
+        let obj = v.as_object().ok_or_else(|| format!("expected an object, found {v}"))?;
+        let pair = |key: &str, default: [f64; 2]| -> std::result::Result<[f64; 2], String> {
+            match obj.get(key) {
+                None => Ok(default),
+                Some(p) => match p.as_array().map(|a| a.iter().map(|x| x.as_f64()).collect::<Option<Vec<f64>>>()) {
+                    Some(Some(a)) if a.len() == 2 && a.iter().all(|x| x.is_finite()) => Ok([a[0], a[1]]),
+                    _ => Err(format!("`{key}`: expected two finite numbers, found {p}")),
+                },
+            }
+        };
+        let rotation = match obj.get("rotation") {
+            None => 0.0,
+            Some(r) => r.as_f64().filter(|r| r.is_finite()).ok_or_else(|| format!("`rotation`: expected a finite number, found {r}"))?,
+        };
+        let tex_coord = match obj.get("texCoord") {
+            None => None,
+            Some(c) => Some(c.as_u64().ok_or_else(|| format!("`texCoord`: expected a whole number, found {c}"))?),
+        };
+        Ok(Some(UvTransform { offset: pair("offset", [0.0, 0.0])?, rotation, scale: pair("scale", [1.0, 1.0])?, tex_coord }))
+    }
+
+    /// The transform as bits, for [`TextureKey`].
+    fn key(&self) -> [u64; 5] {
+        [self.offset[0], self.offset[1], self.rotation, self.scale[0], self.scale[1]].map(f64::to_bits)
+    }
+}
 
 /// Byte ranges of the indexed JSON elements errors point at (empty where the text could not be
 /// followed; errors then point at the document's start, with the pointer in the message).
@@ -512,16 +555,19 @@ impl GltfFile {
             let pbr = m.pbr_metallic_roughness();
             // Each texture is built (or found unreadable, with one warning) once per file.
             let sampled = |info: &gltf::texture::Info, kind: &str| {
-                let transform = info.texture_transform().map(|t| {
-                    let [a, b] = t.offset();
-                    let [c, d] = t.scale();
-                    [a, b, t.rotation(), c, d].map(f32::to_bits)
+                let transform = UvTransform::of(info).unwrap_or_else(|e| {
+                    ctx.warn(SceneError::in_file(
+                        &self.name,
+                        None,
+                        format!("material {id}: its {kind}'s KHR_texture_transform is malformed ({e}): ignored"),
+                    ));
+                    None
                 });
                 self.textures
                     .lock()
                     .unwrap_or_else(|e| e.into_inner())
-                    .entry((info.texture().index(), transform))
-                    .or_insert_with(|| match self.texture(ctx, info, id as usize) {
+                    .entry((info.texture().index(), transform.map(|t| t.key())))
+                    .or_insert_with(|| match self.texture(ctx, info, transform, id as usize) {
                         Ok(t) => Some(t),
                         Err(e) => {
                             ctx.warn(e.context(format!("{}: material {id}: its {kind} is not sampled (its factor is used)", self.name)));
@@ -546,8 +592,14 @@ impl GltfFile {
     }
 
     /// The texture `info` of material `material` names: its image (sRGB), its sampler's wrap
-    /// modes and magnification filter, and its `KHR_texture_transform`.
-    fn texture(&self, ctx: &LoadContext, info: &gltf::texture::Info, material: usize) -> Result<Arc<dyn Texture>> {
+    /// modes and magnification filter, placed by `transform` (its `KHR_texture_transform`).
+    fn texture(
+        &self,
+        ctx: &LoadContext,
+        info: &gltf::texture::Info,
+        transform: Option<UvTransform>,
+        material: usize,
+    ) -> Result<Arc<dyn Texture>> {
         use gltf::texture::{MagFilter, WrappingMode};
         let t = info.texture();
         let image = self.image(ctx, &t.source(), material)?;
@@ -558,8 +610,8 @@ impl GltfFile {
             WrappingMode::Repeat => Wrap::Repeat,
         };
         let filter = if sampler.mag_filter() == Some(MagFilter::Nearest) { Filter::Nearest } else { Filter::Bilinear };
-        let mapping = match info.texture_transform() {
-            Some(tt) => Mapping::with_inverse(Coords::Uv, gltf_uv_transform(tt.offset(), tt.rotation(), tt.scale())),
+        let mapping = match transform {
+            Some(t) => Mapping::with_inverse(Coords::Uv, gltf_uv_transform(t.offset, t.rotation, t.scale)),
             None => Mapping::new(Coords::Uv),
         };
         Ok(Arc::new(ImageTexture::new(image, mapping, [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())], filter, Color::ONE)))
@@ -773,7 +825,7 @@ impl GltfFile {
             warn(n, format!("{n} material(s) use a {name}, which raylab does not sample (its factors are used)"));
         }
         let second_set = |i: Option<gltf::texture::Info>| {
-            i.is_some_and(|i| i.tex_coord() != 0 || i.texture_transform().and_then(|t| t.tex_coord()).is_some_and(|c| c != 0))
+            i.is_some_and(|i| i.tex_coord() != 0 || UvTransform::of(&i).ok().flatten().and_then(|t| t.tex_coord).is_some_and(|c| c != 0))
         };
         let n = materials
             .iter()
@@ -943,13 +995,12 @@ impl GltfFile {
 /// The lookup of a `KHR_texture_transform` (`offset`, `rotation` in radians, `scale`) in
 /// raylab's texture coordinates: the extension's `T·R·S` acts on glTF's coordinates, whose `v`
 /// runs down, so it is conjugated by the flip `v ↦ 1 − v`.
-pub fn gltf_uv_transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> DAffine3 {
-    let finite = |v: f32, default: f64| if v.is_finite() { f64::from(v) } else { default };
-    let (s, c) = finite(rotation, 0.0).sin_cos();
+pub fn gltf_uv_transform(offset: [f64; 2], rotation: f64, scale: [f64; 2]) -> DAffine3 {
+    let (s, c) = rotation.sin_cos();
     let m = raylab::glam::DMat3::from_cols(DVec3::new(c, s, 0.0), DVec3::new(-s, c, 0.0), DVec3::Z);
-    let gltf = DAffine3::from_translation(DVec3::new(finite(offset[0], 0.0), finite(offset[1], 0.0), 0.0))
+    let gltf = DAffine3::from_translation(DVec3::new(offset[0], offset[1], 0.0))
         * DAffine3::from_mat3(m)
-        * DAffine3::from_scale(DVec3::new(finite(scale[0], 1.0), finite(scale[1], 1.0), 1.0));
+        * DAffine3::from_scale(DVec3::new(scale[0], scale[1], 1.0));
     let flip = DAffine3::from_translation(DVec3::Y) * DAffine3::from_scale(DVec3::new(1.0, -1.0, 1.0));
     flip * gltf * flip
 }
@@ -1369,7 +1420,8 @@ mod tests {
         let has = |s: &str| w.iter().filter(|m| m.contains(s)).count();
         assert_eq!(has("2 material(s) use a normalTexture"), 1, "{w:?}");
         // The texture both materials sample cannot be read: one warning, naming it.
-        let unread: Vec<String> = job.warnings.iter().map(|w| w.report()).filter(|r| r.contains("baseColorTexture is not sampled")).collect();
+        let unread: Vec<String> =
+            job.warnings.iter().map(|w| w.report()).filter(|r| r.contains("baseColorTexture is not sampled")).collect();
         assert_eq!(unread.len(), 1, "{w:?}");
         assert!(unread[0].contains("missing.png"), "{}", unread[0]);
         assert_eq!(has("2 primitive(s) are points or lines"), 1, "{w:?}");
@@ -1408,7 +1460,7 @@ mod tests {
         // (0.1, 0.3) → (0.1, −0.4).
         close(at(gltf_uv_transform([0.0, 0.0], 0.0, [1.0, 2.0]), 0.1, 0.3), DVec3::new(0.1, -0.4, 0.0));
         // A quarter turn: glTF (u, v) ↦ (u cos − v sin, u sin + v cos) = (−v, u).
-        let q = gltf_uv_transform([0.0, 0.0], std::f32::consts::FRAC_PI_2, [1.0, 1.0]);
+        let q = gltf_uv_transform([0.0, 0.0], std::f64::consts::FRAC_PI_2, [1.0, 1.0]);
         close(at(q, 0.2, 1.0 - 0.6), DVec3::new(-0.6, 1.0 - 0.2, 0.0));
     }
 }

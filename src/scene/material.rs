@@ -211,7 +211,8 @@ impl Material {
         let mut m = Material::default();
         for (channel, name) in Channel::ALL {
             let c = match p.node(name)? {
-                Some(n) if matches!(n.value, Value::Str(_) | Value::Table(_)) => {
+                // Anything but a colour is a texture (or an error saying what a colour may be).
+                Some(n) if !matches!(n.value, Value::Int(_) | Value::Float(_) | Value::Array(_)) => {
                     let texture = textures.resolve(n, &format!("{}: parameter `{name}`", p.what()))?;
                     m.textures.push(TextureMap { channel, texture });
                     Color::ONE
