@@ -17,15 +17,23 @@
 //! | `Ni` | `ior` | values ≤ 0 keep the default 1.5 |
 //! | `Ke` | `emission` | |
 //! | `Ka` | — | ignored: exporters write it inconsistently; `ka` keeps its default |
-//! | `map_Kd`, `bump`, … | — | texture maps: ignored with a warning per material |
+//! | `map_Kd`, `map_Ks`, `map_Ke` | textures multiplying `kd`, `ks`, `emission` | sRGB images, over the file's `vt`; options `-o` and `-s` (offset and scale of the texture coordinates) and `-clamp on`; others ignored with a warning |
+//! | `bump`, `map_d`, … | — | other maps: ignored with a warning per material |
+//!
+//! Texture files are read relative to their MTL file, through the sandbox, once per scene, and
+//! only for materials some face uses; one that cannot be read is a warning (the constant colour
+//! is used).
 //!
 //! tobj reports errors without a line number; raylab then finds the offending line itself, so
 //! every error names `file:line:col`.
 
 use super::triangle_mesh::MeshData;
 use super::triangulate::triangulate;
-use raylab::glam::{DVec3, Vec3};
+use crate::textures::image::{self as image_texture, ColorSpace, Filter, ImageTexture, Wrap};
+use raylab::glam::{DAffine3, DVec3, Vec3};
 use raylab::input::error::{Loc, Result, SceneError};
+use raylab::scene::material::{Channel, TextureMap};
+use raylab::scene::texture::{Coords, Mapping};
 use raylab::{Color, LoadContext, Material};
 use std::cell::RefCell;
 use std::collections::HashMap;
@@ -44,6 +52,8 @@ pub fn read(ctx: &LoadContext, path: &str, full: &Path, bytes: &[u8], need_mater
     // returns at every `mtllib` line, so a repeat returns nothing (its materials are known).
     let seen_names: RefCell<HashMap<String, bool>> = RefCell::new(HashMap::new());
     let seen_files: RefCell<HashMap<PathBuf, bool>> = RefCell::new(HashMap::new());
+    // The folder (relative to the scene) of the library that defined each material, for its maps.
+    let folders: RefCell<HashMap<String, PathBuf>> = RefCell::new(HashMap::new());
     let repeat =
         |ok: bool| -> tobj::MTLLoadResult { if ok { Ok((Vec::new(), Default::default())) } else { Err(tobj::LoadError::OpenFileFailed) } };
     let load_mtl = |mtl: &Path| -> tobj::MTLLoadResult {
@@ -64,6 +74,10 @@ pub fn read(ctx: &LoadContext, path: &str, full: &Path, bytes: &[u8], need_mater
             Ok((_, data)) => match tobj::load_mtl_buf(&mut data.as_slice()) {
                 Ok(r) => {
                     warn_ignored_maps(ctx, &rel, &r.0);
+                    let folder = Path::new(&rel).parent().map(Path::to_path_buf).unwrap_or_default();
+                    for m in &r.0 {
+                        folders.borrow_mut().entry(m.name.clone()).or_insert_with(|| folder.clone());
+                    }
                     Ok(r)
                 }
                 Err(e) => {
@@ -93,8 +107,8 @@ pub fn read(ctx: &LoadContext, path: &str, full: &Path, bytes: &[u8], need_mater
         Ok(Err(e)) => return Err(located(&name, text, &e)),
         Err(_) => return Err(SceneError::in_file(&name, None, "the OBJ reader failed on this file (it is malformed)")),
     };
-    let materials = match materials {
-        Ok(m) => m.iter().map(material).collect(),
+    let library = match materials {
+        Ok(m) => m,
         Err(_) if !need_materials => Vec::new(),
         Err(_) => match mtl_error.into_inner() {
             Some(e) => {
@@ -105,8 +119,10 @@ pub fn read(ctx: &LoadContext, path: &str, full: &Path, bytes: &[u8], need_mater
             None => Vec::new(), // no `mtllib` line: the default material
         },
     };
+    let materials = library.iter().map(material).collect();
     let mut out = MeshData { materials, ..MeshData::default() };
     let mut any_normals = true;
+    let mut any_texcoords = true;
     for model in &models {
         let m = &model.mesh;
         let base_vertex = out.positions.len() as u32;
@@ -116,6 +132,12 @@ pub fn read(ctx: &LoadContext, path: &str, full: &Path, bytes: &[u8], need_mater
         let base_normal = out.normals.len() as u32;
         if has_normals {
             out.normals.extend(m.normals.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
+        }
+        let has_texcoords = !m.texcoords.is_empty() && m.texcoord_indices.len() == m.indices.len();
+        any_texcoords &= has_texcoords;
+        let base_texcoord = out.texcoords.len() as u32;
+        if has_texcoords {
+            out.texcoords.extend(m.texcoords.chunks_exact(2).map(|c| [c[0], c[1]]));
         }
         let material = m.material_id.map_or(0, |i| i as u32);
         // Corners of each face, then its triangles.
@@ -134,6 +156,9 @@ pub fn read(ctx: &LoadContext, path: &str, full: &Path, bytes: &[u8], need_mater
                 if has_normals {
                     out.normal_indices.push(t.map(|c| base_normal + m.normal_indices[start + c as usize]));
                 }
+                if has_texcoords {
+                    out.texcoord_indices.push(t.map(|c| base_texcoord + m.texcoord_indices[start + c as usize]));
+                }
                 out.material_ids.push(material);
             }
             start += k;
@@ -143,10 +168,129 @@ pub fn read(ctx: &LoadContext, path: &str, full: &Path, bytes: &[u8], need_mater
         out.normals.clear();
         out.normal_indices.clear();
     }
+    if !any_texcoords {
+        out.texcoords.clear();
+        out.texcoord_indices.clear();
+    }
     if out.triangles.is_empty() {
         return Err(SceneError::in_file(&name, None, "the file has no faces with three or more corners (points and lines are ignored)"));
     }
+    // Texture maps, for the materials faces use.
+    let mut used = out.material_ids.clone();
+    used.sort_unstable();
+    used.dedup();
+    let folders = folders.into_inner();
+    for id in used {
+        let (Some(m), Some(out_m)) = (library.get(id as usize), out.materials.get_mut(id as usize)) else { continue };
+        let folder = folders.get(&m.name).cloned().unwrap_or_default();
+        attach_maps(ctx, m, &folder, loc, out_m);
+    }
     Ok(out)
+}
+
+/// The texture maps raylab samples: statement, the material's text of it, and the colour it
+/// multiplies.
+fn sampled_maps(m: &tobj::Material) -> [(&'static str, Option<&String>, Channel); 3] {
+    [
+        ("map_Kd", m.diffuse_texture.as_ref(), Channel::Kd),
+        ("map_Ks", m.specular_texture.as_ref(), Channel::Ks),
+        ("map_Ke", m.unknown_param.get("map_Ke"), Channel::Emission),
+    ]
+}
+
+/// Gives `out` (the raylab material of MTL material `m`, defined in the library in `folder`)
+/// the textures of its `map_Kd`, `map_Ks` and `map_Ke`; a map that cannot be read, and options
+/// raylab ignores, are warnings.
+fn attach_maps(ctx: &LoadContext, m: &tobj::Material, folder: &Path, loc: &Loc, out: &mut Material) {
+    for (key, statement, channel) in sampled_maps(m) {
+        let Some(statement) = statement else { continue };
+        let map = MapStatement::parse(statement);
+        let what = || format!("material \"{}\": {key} {statement}", m.name);
+        if !map.ignored.is_empty() {
+            ctx.warn(SceneError::msg(format!("{}: options ignored: {}", what(), map.ignored.join(", "))));
+        }
+        let Some(file) = map.file else {
+            ctx.warn(SceneError::msg(format!("{}: names no file", what())));
+            continue;
+        };
+        let path = folder.join(&file);
+        match image_texture::load(ctx, &path.to_string_lossy(), loc, ColorSpace::Srgb) {
+            Ok(image) => {
+                let wrap = if map.clamp { Wrap::Clamp } else { Wrap::Repeat };
+                let mapping = Mapping::with_inverse(Coords::Uv, map.lookup);
+                let texture = std::sync::Arc::new(ImageTexture::new(image, mapping, [wrap; 2], Filter::Bilinear, Color::ONE));
+                out.textures.push(TextureMap { channel, texture });
+            }
+            Err(e) => ctx.warn(e.context(format!("{} is not sampled (the constant colour is used)", what()))),
+        }
+    }
+}
+
+/// An MTL texture statement's file and options (`map_Kd -s 2 2 -clamp on wood.png`).
+#[derive(Debug, PartialEq)]
+struct MapStatement {
+    /// The file name (the words after the options, joined by single spaces).
+    file: Option<String>,
+    /// Texture coordinates to the map's: `-s` scales them, then `-o` offsets them.
+    lookup: DAffine3,
+    /// `-clamp on`.
+    clamp: bool,
+    /// Options raylab ignores, as written.
+    ignored: Vec<String>,
+}
+
+impl MapStatement {
+    fn parse(text: &str) -> MapStatement {
+        let words: Vec<&str> = text.split_whitespace().collect();
+        let (mut offset, mut scale) = (DVec3::ZERO, DVec3::ONE);
+        let (mut clamp, mut ignored) = (false, Vec::new());
+        let mut i = 0;
+        while i < words.len() && words[i].starts_with('-') && words[i].len() > 1 {
+            let option = words[i];
+            i += 1;
+            // Numbers following an option (up to `max`).
+            let mut numbers = |max: usize| {
+                let mut v = Vec::new();
+                while v.len() < max && i < words.len() {
+                    match words[i].parse::<f64>() {
+                        Ok(x) if x.is_finite() => v.push(x),
+                        _ => break,
+                    }
+                    i += 1;
+                }
+                v
+            };
+            match option {
+                "-o" | "-s" => {
+                    let v = numbers(3);
+                    let target = if option == "-o" { &mut offset } else { &mut scale };
+                    for (k, x) in v.into_iter().enumerate() {
+                        target[k] = x;
+                    }
+                }
+                "-clamp" => {
+                    clamp = words.get(i) == Some(&"on");
+                    i += 1;
+                }
+                "-mm" => {
+                    numbers(2);
+                    ignored.push(option.to_string());
+                }
+                "-t" => {
+                    numbers(3);
+                    ignored.push(option.to_string());
+                }
+                _ => {
+                    // -blendu, -blendv, -bm, -boost, -cc, -imfchan, -texres, -type: one value.
+                    i += 1;
+                    ignored.push(option.to_string());
+                }
+            }
+        }
+        let file = (i < words.len()).then(|| words[i..].join(" "));
+        let lookup = DAffine3::from_translation(offset) * DAffine3::from_scale(scale);
+        MapStatement { file, lookup, clamp, ignored }
+    }
 }
 
 /// The file as UTF-8 text, or an error naming the first bad line.
@@ -193,24 +337,18 @@ fn material(m: &tobj::Material) -> Material {
 /// rest are counted in one more warning.
 pub const MAX_MAP_WARNINGS: usize = 8;
 
-/// Warns, once per material of the library `file`, about the texture maps it names: raylab has
-/// no textures, so the material's constant colours are used instead.
+/// Warns, once per material of the library `file`, about the texture maps it names that raylab
+/// does not sample (all but `map_Kd`, `map_Ks` and `map_Ke`).
 fn warn_ignored_maps(ctx: &LoadContext, file: &str, materials: &[tobj::Material]) {
     let mut warned = 0;
     for m in materials {
-        let known = [
-            ("map_Ka", &m.ambient_texture),
-            ("map_Kd", &m.diffuse_texture),
-            ("map_Ks", &m.specular_texture),
-            ("map_Ns", &m.shininess_texture),
-            ("bump", &m.normal_texture),
-            ("map_d", &m.dissolve_texture),
-        ];
+        let known =
+            [("map_Ka", &m.ambient_texture), ("map_Ns", &m.shininess_texture), ("bump", &m.normal_texture), ("map_d", &m.dissolve_texture)];
         let mut maps: Vec<String> = known.iter().filter_map(|(k, v)| v.as_ref().map(|v| format!("{k} {v}"))).collect();
         let mut other: Vec<String> = m
             .unknown_param
             .iter()
-            .filter(|(k, _)| k.starts_with("map_") || matches!(k.as_str(), "disp" | "decal" | "refl" | "norm"))
+            .filter(|(k, _)| (k.starts_with("map_") && k.as_str() != "map_Ke") || matches!(k.as_str(), "disp" | "decal" | "refl" | "norm"))
             .map(|(k, v)| format!("{k} {v}"))
             .collect();
         other.sort();
@@ -223,11 +361,7 @@ fn warn_ignored_maps(ctx: &LoadContext, file: &str, materials: &[tobj::Material]
             ctx.warn(SceneError::in_file(
                 file,
                 None,
-                format!(
-                    "material \"{}\": texture maps are not supported, ignored: {}; its constant colours are used",
-                    m.name,
-                    maps.join(", ")
-                ),
+                format!("material \"{}\": texture maps raylab does not sample, ignored: {}", m.name, maps.join(", ")),
             ));
         }
     }
@@ -420,7 +554,8 @@ mod tests {
     }
 
     /// 10⁶ `mtllib` lines (each once took a read and a merge of the library: 20–50 s at 10⁵)
-    /// load the library once: one material, one warning about its texture maps.
+    /// load the library once: each material once, one warning about the maps raylab does not
+    /// sample, and one about each sampled map whose file is missing.
     #[test]
     fn a_million_mtllib_lines_read_the_library_once() {
         let mtl = b"newmtl wood\nKd 0.5 0.25 0.125\nmap_Kd wood.png\nbump wood-n.png\nmap_Ke glow.png\nnewmtl plain\nKd 1 1 1\n";
@@ -436,12 +571,14 @@ mod tests {
         assert_eq!(data.materials.len(), 2, "each material once");
         assert_eq!(data.material_ids, vec![0]);
         assert_eq!(data.materials[0].kd, DVec3::new(0.5, 0.25, 0.125));
-        let warnings = ctx.take_warnings();
-        assert_eq!(warnings.len(), 1, "{warnings:?}");
-        let w = warnings[0].report();
-        for part in ["m.mtl", "\"wood\"", "map_Kd wood.png", "bump wood-n.png", "map_Ke glow.png"] {
-            assert!(w.contains(part), "{part} not in {w}");
+        let warnings: Vec<String> = ctx.take_warnings().iter().map(|w| w.report()).collect();
+        assert_eq!(warnings.len(), 3, "{warnings:?}");
+        for part in ["m.mtl", "\"wood\"", "bump wood-n.png"] {
+            assert!(warnings[0].contains(part), "{part} not in {}", warnings[0]);
         }
+        assert!(!warnings[0].contains("map_Kd") && !warnings[0].contains("map_Ke"), "sampled maps are not ignored: {}", warnings[0]);
+        assert!(warnings[1].contains("map_Kd wood.png") && warnings[1].contains("not sampled"), "{}", warnings[1]);
+        assert!(warnings[2].contains("map_Ke glow.png"), "{}", warnings[2]);
         // A library that is missing is reported once, however often it is named.
         let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nmtllib gone.mtl\nmtllib gone.mtl\nf 1 2 3\n";
         let e = read(&ctx, "m.obj", &dir.join("m.obj"), obj.as_bytes(), true, &here()).unwrap_err();
@@ -452,7 +589,7 @@ mod tests {
     /// Materials with texture maps beyond [`MAX_MAP_WARNINGS`] are counted, not listed.
     #[test]
     fn texture_map_warnings_are_bounded_per_library() {
-        let mtl: String = (0..100).map(|i| format!("newmtl m{i}\nmap_Kd t.png\n")).collect();
+        let mtl: String = (0..100).map(|i| format!("newmtl m{i}\nmap_Ns t.png\n")).collect();
         let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m3\nf 1 2 3\n";
         let dir = folder("maps", &[("m.mtl", mtl.as_bytes())]);
         let options = raylab::input::context::LoadOptions::default();
@@ -502,5 +639,55 @@ mod tests {
         for t in ["0", "-0", "+7", "-9223372036854775808", "9223372036854775807", "9223372036854775808", "-", "+", "", "1x", "--1", " 1"] {
             assert_eq!(parse_i64(t.as_bytes()), t.parse::<i64>().ok(), "{t:?}");
         }
+    }
+
+    /// A texture statement's options place the map (`-s`, then `-o`) or clamp it; the rest of the
+    /// line, spaces and all, is the file; options raylab does not apply are named.
+    #[test]
+    fn map_statements_read_their_options_and_file() {
+        let m = MapStatement::parse("-s 2 3 -o 0.5 -clamp on -bm 0.4 my wood.png");
+        assert_eq!(m.file.as_deref(), Some("my wood.png"));
+        assert!(m.clamp);
+        assert_eq!(m.ignored, vec!["-bm".to_string()]);
+        let p = m.lookup.transform_point3(DVec3::new(0.25, 0.5, 0.0));
+        assert_eq!(p, DVec3::new(1.0, 1.5, 0.0), "scaled by (2, 3), then offset by 0.5 in u");
+        assert_eq!(MapStatement::parse("plain.png").lookup, DAffine3::IDENTITY);
+        assert_eq!(MapStatement::parse("-clamp off").file, None);
+    }
+
+    /// `vt` and `map_Kd`: the faces keep their texture coordinates (v up) and the material its
+    /// map, which reads the image (relative to the MTL's folder) through the sandbox.
+    #[test]
+    fn texture_coordinates_and_the_diffuse_map_are_read() {
+        let png = {
+            let mut out = Vec::new();
+            image::ImageEncoder::write_image(
+                image::codecs::png::PngEncoder::new(&mut out),
+                &[255, 0, 0, 0, 0, 255],
+                2,
+                1,
+                image::ExtendedColorType::Rgb8,
+            )
+            .unwrap();
+            out
+        };
+        let obj = "mtllib lib/m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.25 0.5\nvt 0.75 0.5\nvt 0.25 1\nusemtl red\nf 1/1 2/2 3/3\n";
+        let dir = folder("vt", &[("m.obj", obj.as_bytes())]);
+        std::fs::create_dir_all(dir.join("lib")).unwrap();
+        std::fs::write(dir.join("lib/m.mtl"), "newmtl red\nKd 0.5 0.5 0.5\nmap_Kd -s 1 1 tex.png\n").unwrap();
+        std::fs::write(dir.join("lib/tex.png"), png).unwrap();
+        let options = raylab::input::context::LoadOptions::default();
+        let ctx = LoadContext::new(&dir, &options);
+        let data = read(&ctx, "m.obj", &dir.join("m.obj"), obj.as_bytes(), true, &here()).unwrap();
+        assert!(ctx.take_warnings().is_empty());
+        assert_eq!((data.texcoords.len(), data.texcoord_indices), (3, vec![[0, 1, 2]]));
+        assert_eq!(data.texcoords[1], [0.75, 0.5]);
+        let m = &data.materials[0];
+        assert_eq!((m.kd, m.textures.len(), m.textures[0].channel), (DVec3::splat(0.5), 1, Channel::Kd));
+        let at = |u: f64| {
+            m.textures[0].texture.eval(&raylab::scene::texture::TexturePoint { uv: raylab::glam::DVec2::new(u, 0.5), local: DVec3::ZERO })
+        };
+        assert_eq!((at(0.25), at(0.75)), (DVec3::X, DVec3::Z), "left texel red, right blue");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

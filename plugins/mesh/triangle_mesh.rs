@@ -14,7 +14,7 @@ use raylab::Material;
 use raylab::accel::bvh::PrimitiveIndex;
 use raylab::accel::{AccelChoice, BuildStats, MESH_BVH_THRESHOLD};
 use raylab::geometry::Hit;
-use raylab::glam::{DVec2, DVec3, Vec3};
+use raylab::glam::{DVec2, DVec3, Vec2, Vec3};
 use raylab::math::float::on_surface_slack;
 use raylab::{Aabb, Ray};
 use std::sync::{Arc, OnceLock};
@@ -31,6 +31,10 @@ pub struct MeshData {
     pub normals: Vec<[f32; 3]>,
     /// Per triangle, indices into `normals` (empty, or one per triangle).
     pub normal_indices: Vec<[u32; 3]>,
+    /// Vertex texture coordinates, v up (may be empty).
+    pub texcoords: Vec<[f32; 2]>,
+    /// Per triangle, indices into `texcoords` (empty, or one per triangle).
+    pub texcoord_indices: Vec<[u32; 3]>,
     /// Per triangle, an index into `materials` (empty: all use material 0).
     pub material_ids: Vec<u32>,
     /// The file's materials, mapped to raylab's (may be empty).
@@ -88,6 +92,13 @@ struct Shading {
     indices: Vec<[u32; 3]>,
 }
 
+/// Per-vertex texture coordinates, with each stored triangle's three indices.
+#[derive(Clone, Debug)]
+struct TexCoords {
+    uv: Vec<Vec2>,
+    indices: Vec<[u32; 3]>,
+}
+
 /// A triangle mesh ready for ray queries.
 #[derive(Debug)]
 pub struct TriangleMesh {
@@ -95,6 +106,7 @@ pub struct TriangleMesh {
     tris: Vec<[f32; 9]>,
     index: PrimitiveIndex,
     shading: Option<Shading>,
+    texcoords: Option<TexCoords>,
     /// Per stored triangle, its material index (empty when the mesh has one material).
     material_ids: Vec<u32>,
     /// The file's materials (empty: none), shared by every object placing the mesh.
@@ -110,7 +122,8 @@ impl TriangleMesh {
     /// Validates `data`, drops degenerate triangles, and builds the spatial index (a hierarchy
     /// when `choice` asks for one for this many triangles).
     pub fn new(data: MeshData, normals: Normals, choice: AccelChoice) -> Result<TriangleMesh, MeshError> {
-        let MeshData { positions, triangles, normals: file_normals, normal_indices, material_ids, materials } = data;
+        let MeshData { positions, triangles, normals: file_normals, normal_indices, texcoords, texcoord_indices, material_ids, materials } =
+            data;
         if let Some(v) = positions.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
             return Err(MeshError::NonFinite { vertex: v });
         }
@@ -158,6 +171,14 @@ impl TriangleMesh {
             })
             .collect();
         let shading = shading.map(|s| Shading { indices: source.iter().map(|&i| s.indices[i]).collect(), normals: s.normals });
+        // Texture coordinates: the file's, when every triangle has valid ones.
+        let texcoords = (texcoord_indices.len() == triangles.len()
+            && texcoord_indices.iter().all(|t| t.iter().all(|&i| (i as usize) < texcoords.len()))
+            && texcoords.iter().all(|c| c.iter().all(|v| v.is_finite())))
+        .then(|| TexCoords {
+            uv: texcoords.iter().map(|&c| Vec2::from(c)).collect(),
+            indices: source.iter().map(|&i| texcoord_indices[i]).collect(),
+        });
         let first = material_ids.first().copied().unwrap_or(0) as usize;
         let uniform = material_ids.iter().all(|&m| m as usize == first);
         let (material_ids, materials) = if material_ids.len() == triangles.len() && !uniform {
@@ -169,7 +190,8 @@ impl TriangleMesh {
         };
         let bounds = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(*b));
         let materials = (!materials.is_empty()).then(|| Arc::from(materials));
-        let mut mesh = TriangleMesh { tris, index, shading, material_ids, materials, degenerate, bounds, closed: OnceLock::new(), build };
+        let mut mesh =
+            TriangleMesh { tris, index, shading, texcoords, material_ids, materials, degenerate, bounds, closed: OnceLock::new(), build };
         // Reported per triangle: the whole store, not only the hierarchy's nodes.
         mesh.build.primitives = mesh.tris.len() as u64;
         mesh.build.bytes = mesh.memory_bytes() as u64;
@@ -216,6 +238,7 @@ impl TriangleMesh {
         self.tris.len() * std::mem::size_of::<[f32; 9]>()
             + self.material_ids.len() * 4
             + self.shading.as_ref().map_or(0, |s| s.normals.len() * 12 + s.indices.len() * 12)
+            + self.texcoords.as_ref().map_or(0, |t| t.uv.len() * 8 + t.indices.len() * 12)
             + self.index.memory_bytes()
     }
 
@@ -282,6 +305,15 @@ impl TriangleMesh {
             + b1 * s.normals[i1 as usize].as_dvec3()
             + b2 * s.normals[i2 as usize].as_dvec3();
         n.try_normalize()
+    }
+
+    /// The interpolated texture coordinates at a hit, or `None` when the file has none.
+    #[inline]
+    pub fn interpolated_uv(&self, at: &Hit) -> Option<DVec2> {
+        let t = self.texcoords.as_ref()?;
+        let [i0, i1, i2] = *t.indices.get(at.prim as usize)?;
+        let (b1, b2) = (at.uv.x, at.uv.y);
+        Some((1.0 - b1 - b2) * t.uv[i0 as usize].as_dvec2() + b1 * t.uv[i1 as usize].as_dvec2() + b2 * t.uv[i2 as usize].as_dvec2())
     }
 
     /// True when the mesh encloses a volume: every edge is shared by exactly two triangles that

@@ -117,8 +117,9 @@ pub(crate) struct SceneArgs {
     /// Supplies the camera of a scene that has none (e.g. a report XML scene without <camera>).
     #[arg(long = "camera", value_name = "KEY=VALUE")]
     camera: Vec<String>,
-    /// 8-bit encoding: `srgb` (default) or `linear` (clamped values written straight, as the report).
-    #[arg(long, value_parser = ["srgb", "linear"])]
+    /// 8-bit encoding: `srgb` (default), `linear` (clamped values written straight, as the report)
+    /// or `linear-truncated` (straight and truncated, as the course's Java renderer).
+    #[arg(long, value_parser = crate::math::color::Encoding::NAMES)]
     encoding: Option<String>,
     /// Spatial index for the objects and each mesh: `auto` (a BVH when there are enough to pay
     /// for it), `bvh` or `list`.

@@ -16,9 +16,10 @@ pub(crate) fn run(app: &App, a: PluginsArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-fn sections(reg: &Registry) -> [(&'static str, &'static str, Vec<&PluginInfo>); 3] {
+fn sections(reg: &Registry) -> [(&'static str, &'static str, Vec<&PluginInfo>); 4] {
     [
         ("GEOMETRIES", "[[object]] type = ...", reg.geometries().collect()),
+        ("TEXTURES", "[textures.NAME] type = ..., or inline: kd = { type = ... }", reg.textures().collect()),
         ("LIGHTS", "[[light]] type = ...", reg.lights().collect()),
         ("INTEGRATORS", "[integrator] type = ...", reg.integrators().collect()),
     ]

@@ -14,6 +14,7 @@ use crate::input::limits::{OBJECT_BYTES, toml_memory_estimate};
 use crate::input::params::Params;
 use crate::input::registry::Registry;
 use crate::input::spec::{Default, ParamKind, ParamSpec, Role};
+use crate::input::textures::TextureLibrary;
 use crate::input::toml::parse_toml;
 use crate::input::value::{Node, Table, Value};
 use crate::math::color::Encoding;
@@ -32,6 +33,12 @@ pub const SCENE_PARAMS: &[ParamSpec] = &[
     ParamSpec::new("render", ParamKind::Any, Default::Optional, "[render] table: image size, samples, seed, encoding"),
     ParamSpec::new("camera", ParamKind::Any, Default::Required, "[camera] table"),
     ParamSpec::new("integrator", ParamKind::Any, Default::Optional, "[integrator] table: `type` and its parameters"),
+    ParamSpec::new(
+        "textures",
+        ParamKind::Any,
+        Default::Optional,
+        "[textures.NAME] tables: `type` and its parameters; a material colour names one (kd = \"NAME\"); read only when a material uses it",
+    ),
     ParamSpec::new("materials", ParamKind::Any, Default::Optional, "[materials.NAME] tables"),
     ParamSpec::new(
         "object",
@@ -52,7 +59,7 @@ pub const RENDER_PARAMS: &[ParamSpec] = &[
         "encoding",
         ParamKind::Str,
         Default::Str("srgb"),
-        "8-bit encoding: \"srgb\" or \"linear\" (clamped values written straight, as the report)",
+        "8-bit encoding: \"srgb\", \"linear\" (clamped values written straight, as the report) or \"linear-truncated\" (straight, truncated to 0–255 as the course's Java renderer did; its test images bit for bit)",
     ),
     ParamSpec::new(
         "aa",
@@ -242,7 +249,7 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
     }
     let file_seed = rp.int_in("seed", 0..=i64::MAX)? as u64;
     let seed = ov.seed.unwrap_or(file_seed);
-    let file_encoding = Encoding::parse(&rp.choice("encoding", &["srgb", "linear"])?).unwrap_or_default();
+    let file_encoding = Encoding::parse(&rp.choice("encoding", &Encoding::NAMES)?).unwrap_or_default();
     let encoding = ov.encoding.unwrap_or(file_encoding);
     let aa = match rp.choice("aa", &["stratified", "adaptive"])?.as_str() {
         "adaptive" => Antialiasing::Adaptive {
@@ -276,6 +283,12 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
     let camera = Camera::from_params(&mut cp, settings.width, settings.height)?;
     cp.finish()?;
 
+    // [textures.NAME]: built when a material first names one.
+    let textures = TextureLibrary::new(registry, ctx);
+    if let Some(n) = root.node("textures")? {
+        textures.define(n)?;
+    }
+
     // [materials.NAME]
     let mut materials = MaterialLibrary::default();
     if let Some(n) = root.node("materials")? {
@@ -286,7 +299,7 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
             let Value::Table(mt) = &e.value.value else {
                 return Err(SceneError::at(&e.value.loc, format!("material \"{}\" must be a table of coefficients", e.key)));
             };
-            materials.insert(e.key.clone(), Material::from_table(mt, &e.value.loc, &format!("material \"{}\"", e.key))?);
+            materials.insert(e.key.clone(), Material::from_table(mt, &e.value.loc, &format!("material \"{}\"", e.key), &textures)?);
         }
     }
 
@@ -323,10 +336,14 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         // The object's `material` replaces what the shape's file defines; without either, the
         // scene's default.
         let materials = match params.get("material") {
-            Some(n) => Arc::from([materials.resolve(n, &what)?]),
+            Some(n) => Arc::from([materials.resolve(n, &what, &textures)?]),
             None => g.materials().unwrap_or_else(|| default_material.clone()),
         };
         objects.push(Object::new(names.claim(node, &label, &ty, i)?, g, materials));
+    }
+
+    for (name, loc) in textures.unused() {
+        ctx.warn(SceneError::at(&loc, format!("texture \"{name}\" is not used by any material; it was not loaded")));
     }
 
     // [[light]]

@@ -12,5 +12,6 @@ pub mod load;
 pub mod params;
 pub mod registry;
 pub mod spec;
+pub mod textures;
 pub mod toml;
 pub mod value;

@@ -41,7 +41,10 @@ fn the_hole_of_the_gold_ring_shows_what_is_inside() {
 
 #[test]
 fn ambient_occlusion_darkens_the_floor_under_the_ring() {
-    let job = load_file(&raylab_torus::registry(), &scene(), &options(Some("ao"))).unwrap();
+    // A plain floor: occlusion alone, without the marble's veins.
+    let text = std::fs::read_to_string(scene()).unwrap().replace("kd = \"marble\"", "kd = 0.45");
+    let dir = scene().parent().unwrap().to_path_buf();
+    let job = raylab::input::load::load_str(&raylab_torus::registry(), "torus.toml", &text, &dir, &options(Some("ao"))).unwrap();
     let film = render(&job, &RenderOptions::default(), &|_, _| {}).unwrap().film;
     // Open floor near the bottom edge versus the floor right beside the gold ring.
     let open = film.get(40, 58).x;
