@@ -150,8 +150,9 @@ impl TriangleMesh {
             return Err(MeshError::NonFinite { vertex: v });
         }
         let n = positions.len();
-        let mut keep = Vec::with_capacity(triangles.len());
+        let mut keep: Vec<u32> = Vec::with_capacity(triangles.len());
         let mut degenerate = 0;
+        let mut bounds = Aabb::EMPTY;
         for (i, t) in triangles.iter().enumerate() {
             if let Some(&bad) = t.iter().find(|&&v| v as usize >= n) {
                 return Err(MeshError::IndexOutOfRange { triangle: i, index: bad, vertices: n });
@@ -159,7 +160,8 @@ impl TriangleMesh {
             let [a, b, c] = t.map(|v| Vec3::from(positions[v as usize]).as_dvec3());
             let cross = (b - a).cross(c - a);
             if cross.length_squared() > 0.0 && cross.is_finite() {
-                keep.push(i);
+                keep.push(i as u32);
+                bounds = bounds.include(a).include(b).include(c);
             } else {
                 degenerate += 1;
             }
@@ -181,38 +183,43 @@ impl TriangleMesh {
             Normals::Smooth => Some(Shading { normals: vertex_normals(&positions, &triangles), indices: triangles.clone() }),
             Normals::Auto => None,
         };
-        let boxes: Vec<Aabb> =
-            keep.iter().map(|&i| Aabb::from_points(triangles[i].map(|v| Vec3::from(positions[v as usize]).as_dvec3()))).collect();
-        let (index, order, build) = PrimitiveIndex::build_grouped(&boxes, choice.use_bvh(boxes.len(), MESH_BVH_THRESHOLD), PACK);
+        let tri_box = |k: usize| Aabb::from_points(triangles[keep[k] as usize].map(|v| Vec3::from(positions[v as usize]).as_dvec3()));
+        let (index, mut source, build) =
+            PrimitiveIndex::build_from(keep.len(), tri_box, choice.use_bvh(keep.len(), MESH_BVH_THRESHOLD), PACK);
         // Input triangle of each slot (padding: none).
-        let source: Vec<Option<usize>> = order.iter().map(|&s| (s != PAD_SLOT).then(|| keep[s as usize])).collect();
+        for s in source.iter_mut().filter(|s| **s != PAD_SLOT) {
+            *s = keep[*s as usize];
+        }
+        drop(keep);
         let mut packs = vec![TriPack::EMPTY; source.len().div_ceil(PACK as usize)];
-        for (slot, i) in source.iter().enumerate() {
-            let Some(i) = *i else { continue };
+        for (slot, &i) in source.iter().enumerate() {
+            if i == PAD_SLOT {
+                continue;
+            }
             let pack = &mut packs[slot / PACK as usize];
-            for (vertex, &v) in pack.v.iter_mut().zip(&triangles[i]) {
+            for (vertex, &v) in pack.v.iter_mut().zip(&triangles[i as usize]) {
                 for (lanes, &c) in vertex.iter_mut().zip(&positions[v as usize]) {
                     lanes[slot % PACK as usize] = c;
                 }
             }
         }
-        let shading =
-            shading.map(|s| Shading { indices: source.iter().map(|i| i.map_or([0; 3], |i| s.indices[i])).collect(), normals: s.normals });
+        let stored = |i: u32| (i != PAD_SLOT).then_some(i as usize);
+        let shading = shading
+            .map(|s| Shading { indices: source.iter().map(|&i| stored(i).map_or([0; 3], |i| s.indices[i])).collect(), normals: s.normals });
         let first = material_ids.first().copied().unwrap_or(0) as usize;
         let uniform = material_ids.iter().all(|&m| m as usize == first);
         let (material_ids, materials) = if material_ids.len() == triangles.len() && !uniform {
-            (source.iter().map(|i| i.map_or(0, |i| material_ids[i])).collect(), materials)
+            (source.iter().map(|&i| stored(i).map_or(0, |i| material_ids[i])).collect(), materials)
         } else if first > 0 && first < materials.len() {
             (Vec::new(), vec![materials[first].clone()])
         } else {
             (Vec::new(), materials)
         };
-        let bounds = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(*b));
         let materials = (!materials.is_empty()).then(|| Arc::from(materials));
         let filter_scale = bounds.magnitude() + bounds.extent().max_element();
         let mut mesh = TriangleMesh {
             packs,
-            triangles: keep.len(),
+            triangles: source.iter().filter(|&&i| i != PAD_SLOT).count(),
             index,
             filter_error: FILTER_ROUNDING * filter_scale,
             filter_scale,

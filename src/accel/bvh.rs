@@ -161,13 +161,19 @@ impl PrimitiveIndex {
     /// its primitives in packs of `group` and test a leaf's at once ([`Query::closest_leaves`]).
     /// A list's slots are the primitives in order, in groups of `group` (the last may be short).
     pub fn build_grouped(boxes: &[Aabb], bvh: bool, group: u32) -> (Self, Vec<u32>, BuildStats) {
-        let bounds = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(*b));
+        Self::build_from(boxes.len(), |i| boxes[i], bvh, group)
+    }
+
+    /// [`PrimitiveIndex::build_grouped`] over `count` primitives whose boxes `box_of` computes
+    /// (no list of boxes is kept: a mesh computes them from its vertices, several times).
+    pub fn build_from(count: usize, box_of: impl Fn(usize) -> Aabb + Sync, bvh: bool, group: u32) -> (Self, Vec<u32>, BuildStats) {
+        let within = |b: Aabb| b.min.abs().max(b.max.abs()).max_element() <= MAX_BVH_COORDINATE;
         #[cfg(feature = "bvh")]
-        if bvh && boxes.len() >= 2 && boxes.iter().all(|b| b.min.abs().max(b.max.abs()).max_element() <= MAX_BVH_COORDINATE) {
+        if bvh && count >= 2 && (0..count).all(|i| within(box_of(i))) {
             let shape = if group >= 4 { wide::Shape::PACK4 } else { wide::Shape::SINGLE };
-            let built = wide::Bvh4::build(boxes, shape);
+            let built = wide::Bvh4::build(count, box_of, shape);
             let index = PrimitiveIndex {
-                len: boxes.len() as u32,
+                len: count as u32,
                 slots: built.order.len() as u32,
                 group: shape.group,
                 bounds: Some(*built.bvh.root()),
@@ -175,11 +181,11 @@ impl PrimitiveIndex {
             };
             return (index, built.order, built.stats);
         }
-        let _ = bvh;
-        let mut index = PrimitiveIndex::list(boxes.len());
+        let _ = (bvh, within);
+        let mut index = PrimitiveIndex::list(count);
         index.group = group.max(1);
-        index.bounds = (!boxes.is_empty()).then_some(bounds);
-        (index, (0..boxes.len() as u32).collect(), BuildStats::default())
+        index.bounds = (count > 0).then(|| (0..count).map(&box_of).fold(Aabb::EMPTY, Aabb::union));
+        (index, (0..count as u32).collect(), BuildStats::default())
     }
 
     /// Number of primitives.

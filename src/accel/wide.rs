@@ -121,12 +121,6 @@ impl Box32 {
         let e = (self.max - self.min).as_dvec3();
         e.x * e.y + e.y * e.z + e.z * e.x
     }
-
-    /// Twice the centre (the sum of the corners: binning needs no halving).
-    #[inline]
-    fn center2(&self) -> Vec3A {
-        self.min + self.max
-    }
 }
 
 /// Rounds toward −∞ to `f32`.
@@ -164,28 +158,31 @@ pub struct Built {
 }
 
 impl Bvh4 {
-    /// Builds over `boxes` (at least one, finite and non-empty) with leaves shaped by `shape`.
-    pub fn build(boxes: &[Aabb], shape: Shape) -> Built {
+    /// Builds over `count` primitives (at least one) whose boxes (finite, non-empty) `box_of`
+    /// gives, with leaves shaped by `shape`.
+    pub fn build(count: usize, box_of: impl Fn(usize) -> Aabb + Sync, shape: Shape) -> Built {
+        use rayon::prelude::*;
         let start = Instant::now();
-        let total = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(*b));
+        let total = if count >= PARALLEL_RANGE {
+            (0..count).into_par_iter().map(&box_of).reduce(|| Aabb::EMPTY, Aabb::union)
+        } else {
+            (0..count).map(&box_of).fold(Aabb::EMPTY, Aabb::union)
+        };
         let pad = BOX_PADDING * (total.magnitude() + total.extent().length());
         let pad = DVec3::splat(pad.max(f64::MIN_POSITIVE));
-        let rounded = |b: &Aabb| {
+        let record = |i: usize| {
+            let b = box_of(i);
             let (lo, hi) = (b.min - pad, b.max + pad);
-            Box32 { min: Vec3A::new(down(lo.x), down(lo.y), down(lo.z)), max: Vec3A::new(up(hi.x), up(hi.y), up(hi.z)) }
+            PrimRef::new(Vec3A::new(down(lo.x), down(lo.y), down(lo.z)), Vec3A::new(up(hi.x), up(hi.y), up(hi.z)), i as u32)
         };
-        let boxes32: Vec<Box32> = if boxes.len() >= PARALLEL_RANGE {
-            use rayon::prelude::*;
-            boxes.par_iter().map(rounded).collect()
-        } else {
-            boxes.iter().map(rounded).collect()
-        };
-        let (nodes, order, depth) = build_nodes(&boxes32, shape);
+        let prims: Vec<PrimRef> =
+            if count >= PARALLEL_RANGE { (0..count).into_par_iter().map(record).collect() } else { (0..count).map(record).collect() };
+        let (nodes, order, depth) = build_nodes(prims, shape);
         debug_assert!(depth <= MAX_DEPTH, "{depth} levels");
         let bvh = Bvh4 { nodes, root: total.expand(pad * 2.0), depth };
         let stats = BuildStats {
             hierarchies: 1,
-            primitives: boxes.len() as u64,
+            primitives: count as u64,
             nodes: bvh.nodes.len() as u64,
             bytes: bvh.memory_bytes() as u64,
             time: start.elapsed(),
@@ -345,13 +342,45 @@ pub fn far_limit(t: f64) -> f32 {
 // Building
 // ---------------------------------------------------------------------------------------------
 
+/// A primitive while building: its `f32` box, with its index in the `w` lane of the minimum (as
+/// bits). The build moves these records, not indices, so it reads memory in order.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+struct PrimRef {
+    lo: Vec4,
+    hi: Vec4,
+}
+
+impl PrimRef {
+    fn new(min: Vec3A, max: Vec3A, index: u32) -> Self {
+        PrimRef { lo: min.extend(f32::from_bits(index)), hi: max.extend(0.0) }
+    }
+
+    #[inline(always)]
+    fn index(&self) -> u32 {
+        self.lo.w.to_bits()
+    }
+
+    #[inline(always)]
+    fn bounds(&self) -> Box32 {
+        Box32 { min: Vec3A::from_vec4(self.lo), max: Vec3A::from_vec4(self.hi) }
+    }
+
+    /// Twice the centre (the sum of the corners: binning needs no halving).
+    #[inline(always)]
+    fn center2(&self) -> Vec3A {
+        Vec3A::from_vec4(self.lo + self.hi)
+    }
+}
+
 /// A range of primitives on its way into the hierarchy: `prims[start..end]` of the range being
-/// split, its box, and its binary depth.
+/// split, its box, the box of its (doubled) centres, and its binary depth.
 #[derive(Clone, Copy)]
 struct Part {
     start: usize,
     end: usize,
     bounds: Box32,
+    centers: Box32,
     depth: u32,
 }
 
@@ -361,14 +390,26 @@ impl Part {
     }
 }
 
-/// The nodes over `boxes` (root first), the slot order and the number of levels.
-fn build_nodes(boxes: &[Box32], shape: Shape) -> (Vec<Node>, Vec<u32>, usize) {
-    let n = boxes.len();
-    let mut prims: Vec<u32> = (0..n as u32).collect();
-    let root = boxes.iter().fold(Box32::EMPTY, |a, b| a.union(b));
-    let b = Builder { boxes, shape };
+/// The boxes of a range of primitives and of their (doubled) centres.
+fn bounds_of(prims: &[PrimRef]) -> (Box32, Box32) {
+    prims.iter().fold((Box32::EMPTY, Box32::EMPTY), |(b, c), p| {
+        let centre = p.center2();
+        (b.union(&p.bounds()), Box32 { min: c.min.min(centre), max: c.max.max(centre) })
+    })
+}
+
+/// The nodes over `prims` (root first), the slot order and the number of levels.
+fn build_nodes(mut prims: Vec<PrimRef>, shape: Shape) -> (Vec<Node>, Vec<u32>, usize) {
+    let n = prims.len();
+    let (bounds, centers) = if n >= PARALLEL_RANGE {
+        use rayon::prelude::*;
+        prims.par_chunks(PARALLEL_RANGE).map(bounds_of).reduce(|| (Box32::EMPTY, Box32::EMPTY), |a, b| (a.0.union(&b.0), a.1.union(&b.1)))
+    } else {
+        bounds_of(&prims)
+    };
+    let b = Builder { shape };
     let mut nodes = Vec::with_capacity(n / 2 + 1);
-    b.subtree(&mut prims, 0, Part { start: 0, end: n, bounds: root, depth: 0 }, &mut nodes);
+    b.subtree(&mut prims, 0, Part { start: 0, end: n, bounds, centers, depth: 0 }, &mut nodes);
     // Leaves point at ranges of `prims`; give them slots in traversal order, padded to the group.
     let g = shape.group as usize;
     let mut order = Vec::with_capacity(n + n / 2);
@@ -386,7 +427,7 @@ fn build_nodes(boxes: &[Box32], shape: Shape) -> (Vec<Node>, Vec<u32>, usize) {
             } else {
                 let (first, count) = (node.child[lane] as usize, node.count[lane] as usize);
                 node.child[lane] = order.len() as u32;
-                order.extend_from_slice(&prims[first..first + count]);
+                order.extend(prims[first..first + count].iter().map(PrimRef::index));
                 order.resize(order.len().next_multiple_of(g), PAD);
             }
         }
@@ -394,26 +435,29 @@ fn build_nodes(boxes: &[Box32], shape: Shape) -> (Vec<Node>, Vec<u32>, usize) {
     (nodes, order, depth)
 }
 
-struct Builder<'a> {
-    boxes: &'a [Box32],
+struct Builder {
     shape: Shape,
 }
 
-impl Builder<'_> {
-    /// Appends the nodes over `part` (a range of `prims`, whose first element is primitive index
+impl Builder {
+    fn is_leaf(&self, p: &Part) -> bool {
+        p.len() <= self.shape.leaf_max as usize
+    }
+
+    /// Appends the nodes over `part` (a range of `prims`, whose first element is position
     /// `offset` of the whole build) to `out`, root first; leaves refer to positions in the whole
-    /// build's `prims`.
-    fn subtree(&self, prims: &mut [u32], offset: usize, part: Part, out: &mut Vec<Node>) {
+    /// build's records.
+    fn subtree(&self, prims: &mut [PrimRef], offset: usize, part: Part, out: &mut Vec<Node>) {
         let parts = self.partition(prims, part);
         let at = out.len();
         out.push(Node::EMPTY);
         let mut node = Node::EMPTY;
-        let big = parts.iter().flatten().filter(|p| p.len() > self.shape.leaf_max as usize && p.len() >= PARALLEL_RANGE).count();
+        let big = parts.iter().flatten().filter(|p| !self.is_leaf(p) && p.len() >= PARALLEL_RANGE).count();
         if big >= 2 {
             // Disjoint slices of `prims`, built into their own node lists in parallel, then
             // appended in lane order: the result does not depend on the thread count.
-            let mut slices: [Option<(&mut [u32], Part)>; WIDTH] = Default::default();
-            let mut rest: &mut [u32] = prims;
+            let mut slices: [Option<(&mut [PrimRef], Part)>; WIDTH] = Default::default();
+            let mut rest: &mut [PrimRef] = prims;
             let mut consumed = 0;
             for (lane, p) in parts.iter().enumerate() {
                 let Some(p) = p else { continue };
@@ -423,10 +467,10 @@ impl Builder<'_> {
                 consumed = p.end;
                 slices[lane] = Some((mine, *p));
             }
-            let build = |s: Option<(&mut [u32], Part)>| -> Vec<Node> {
+            let build = |s: Option<(&mut [PrimRef], Part)>| -> Vec<Node> {
                 let mut v = Vec::new();
                 if let Some((slice, p)) = s
-                    && p.len() > self.shape.leaf_max as usize
+                    && !self.is_leaf(&p)
                 {
                     self.subtree(slice, offset + p.start, Part { start: 0, end: p.len(), ..p }, &mut v);
                 }
@@ -437,7 +481,7 @@ impl Builder<'_> {
             for (lane, v) in [v0, v1, v2, v3].into_iter().enumerate() {
                 let Some(p) = parts[lane] else { continue };
                 node.set_box(lane, &p.bounds);
-                if p.len() <= self.shape.leaf_max as usize {
+                if self.is_leaf(&p) {
                     node.child[lane] = (offset + p.start) as u32;
                     node.count[lane] = p.len() as u32;
                 } else {
@@ -457,7 +501,7 @@ impl Builder<'_> {
             for (lane, p) in parts.iter().enumerate() {
                 let Some(p) = p else { continue };
                 node.set_box(lane, &p.bounds);
-                if p.len() <= self.shape.leaf_max as usize {
+                if self.is_leaf(p) {
                     node.child[lane] = (offset + p.start) as u32;
                     node.count[lane] = p.len() as u32;
                 } else {
@@ -472,48 +516,68 @@ impl Builder<'_> {
 
     /// Splits `part` into up to four parts (ranges of `prims` in order): the part with the largest
     /// box that is too big for a leaf is split in two until there are four.
-    fn partition(&self, prims: &mut [u32], part: Part) -> [Option<Part>; WIDTH] {
+    fn partition(&self, prims: &mut [PrimRef], part: Part) -> [Option<Part>; WIDTH] {
         let mut parts = [Some(part), None, None, None];
         let mut len = 1;
         while len < WIDTH {
-            let pick = (0..len).filter(|&i| parts[i].is_some_and(|p| p.len() > self.shape.leaf_max as usize)).max_by(|&a, &b| {
-                let (pa, pb) = (parts[a].unwrap_or(part), parts[b].unwrap_or(part));
-                pa.bounds.half_area().total_cmp(&pb.bounds.half_area()).then(b.cmp(&a))
-            });
-            let Some(i) = pick else { break };
+            let mut pick: Option<(usize, f64)> = None;
+            for (i, p) in parts.iter().enumerate().take(len) {
+                if let Some(p) = p
+                    && !self.is_leaf(p)
+                {
+                    let area = p.bounds.half_area();
+                    if pick.is_none_or(|(_, a)| area > a) {
+                        pick = Some((i, area));
+                    }
+                }
+            }
+            let Some((i, _)) = pick else { break };
             let Some(p) = parts[i] else { break };
-            let (mid, left, right) = self.split(&mut prims[p.start..p.end], p.depth);
-            let depth = p.depth + 1;
-            parts[i] = Some(Part { start: p.start, end: p.start + mid, bounds: left, depth });
+            let (left, right) = self.split(&mut prims[p.start..p.end], &p);
             for j in (i + 1..len).rev() {
                 parts[j + 1] = parts[j];
             }
-            parts[i + 1] = Some(Part { start: p.start + mid, end: p.end, bounds: right, depth });
+            parts[i] = Some(Part { start: p.start + left.start, end: p.start + left.end, ..left });
+            parts[i + 1] = Some(Part { start: p.start + right.start, end: p.start + right.end, ..right });
             len += 1;
         }
         parts
     }
 
-    /// Reorders `range` (two or more primitives) into two non-empty parts; returns the length of
-    /// the first and the boxes of both.
-    fn split(&self, range: &mut [u32], depth: u32) -> (usize, Box32, Box32) {
-        let boxes = self.boxes;
-        let (lo, hi) = range.iter().fold((Vec3A::INFINITY, Vec3A::NEG_INFINITY), |(lo, hi), &p| {
-            let c = boxes[p as usize].center2();
-            (lo.min(c), hi.max(c))
-        });
-        let extent = hi - lo;
-        if depth < SAH_DEPTH && extent.max_element() > 0.0 {
-            let bins = Bins::new(lo, extent);
-            if let Some((axis, bin, left, right)) = bins.best_split(range, boxes, self.shape.group) {
-                let mut first = 0;
-                for i in 0..range.len() {
-                    if bins.bin(boxes[range[i] as usize].center2(), axis) < bin {
-                        range.swap(first, i);
+    /// Reorders `range` (the primitives of `part`, two or more) into two non-empty parts, given
+    /// relative to `range`.
+    fn split(&self, range: &mut [PrimRef], part: &Part) -> (Part, Part) {
+        let depth = part.depth + 1;
+        let extent = part.centers.max - part.centers.min;
+        if part.depth < SAH_DEPTH && extent.max_element() > 0.0 {
+            let bins = Bins::new(part.centers.min, extent);
+            let split = if range.len() >= PARALLEL_BINNING {
+                use rayon::prelude::*;
+                range.par_chunks(PARALLEL_RANGE).map(|c| bins.count(c)).reduce(Counts::default, |a, b| a.merge(&b))
+            } else {
+                bins.count(range)
+            }
+            .best_split(self.shape.group);
+            if let Some((axis, bin, left, right)) = split {
+                // Partition by the chosen bin, collecting each side's centre box on the way.
+                let (mut first, mut last) = (0, range.len());
+                let (mut lc, mut rc) = (Box32::EMPTY, Box32::EMPTY);
+                while first < last {
+                    let c = range[first].center2();
+                    if bins.bin(c, axis) < bin {
+                        lc = Box32 { min: lc.min.min(c), max: lc.max.max(c) };
                         first += 1;
+                    } else {
+                        rc = Box32 { min: rc.min.min(c), max: rc.max.max(c) };
+                        last -= 1;
+                        range.swap(first, last);
                     }
                 }
-                return (first, left, right);
+                let n = range.len();
+                return (
+                    Part { start: 0, end: first, bounds: left, centers: lc, depth },
+                    Part { start: first, end: n, bounds: right, centers: rc, depth },
+                );
             }
         }
         let axis = if extent.x >= extent.y && extent.x >= extent.z {
@@ -524,11 +588,18 @@ impl Builder<'_> {
             2
         };
         let half = range.len() / 2;
-        range.select_nth_unstable_by(half, |&a, &b| boxes[a as usize].center2()[axis].total_cmp(&boxes[b as usize].center2()[axis]));
-        let bounds = |part: &[u32]| part.iter().fold(Box32::EMPTY, |a, &p| a.union(&boxes[p as usize]));
-        (half, bounds(&range[..half]), bounds(&range[half..]))
+        range.select_nth_unstable_by(half, |a, b| a.center2()[axis].total_cmp(&b.center2()[axis]));
+        let (lb, lc) = bounds_of(&range[..half]);
+        let (rb, rc) = bounds_of(&range[half..]);
+        (
+            Part { start: 0, end: half, bounds: lb, centers: lc, depth },
+            Part { start: half, end: range.len(), bounds: rb, centers: rc, depth },
+        )
     }
 }
+
+/// Ranges of at least this many primitives are binned in parallel.
+const PARALLEL_BINNING: usize = 1 << 18;
 
 /// The centroid binning of one range: bin `i` of an axis covers `lo + [i, i + 1) · extent / BINS`.
 struct Bins {
@@ -538,40 +609,70 @@ struct Bins {
     scale: Vec3A,
 }
 
+/// Primitive counts and boxes per bin and axis.
+#[derive(Clone)]
+struct Counts {
+    count: [[u32; BINS]; 3],
+    bounds: [[Box32; BINS]; 3],
+}
+
+impl Default for Counts {
+    fn default() -> Self {
+        Counts { count: [[0; BINS]; 3], bounds: [[Box32::EMPTY; BINS]; 3] }
+    }
+}
+
 impl Bins {
     fn new(lo: Vec3A, extent: Vec3A) -> Self {
         let scale = |e: f32| if e > 0.0 { (BINS as f32 / e).min(f32::MAX) } else { 0.0 };
         Bins { lo, scale: Vec3A::new(scale(extent.x), scale(extent.y), scale(extent.z)) }
     }
 
-    /// The bins of centroid (doubled) `c` on the three axes.
+    /// The bins of centre (doubled) `c` on the three axes.
     #[inline(always)]
     fn bins(&self, c: Vec3A) -> [usize; 3] {
-        let b = ((c - self.lo) * self.scale).to_array();
-        // `as usize` saturates (and maps NaN to 0): every index is in range after the min.
-        b.map(|x| (x as usize).min(BINS - 1))
+        // Clamped in `f32` first, so the conversions see values in [0, BINS − 1].
+        // (`as i32` is one instruction where `as usize` of an `f32` is a dozen.)
+        let b = ((c - self.lo) * self.scale).clamp(Vec3A::ZERO, Vec3A::splat((BINS - 1) as f32));
+        [b.x as i32 as usize, b.y as i32 as usize, b.z as i32 as usize]
     }
 
-    /// The bin of centroid (doubled) `c` on `axis`.
+    /// The bin of centre (doubled) `c` on `axis`.
     #[inline(always)]
     fn bin(&self, c: Vec3A, axis: usize) -> usize {
-        self.bins(c)[axis]
+        (((c[axis] - self.lo[axis]) * self.scale[axis]).clamp(0.0, (BINS - 1) as f32)) as i32 as usize
+    }
+
+    /// The counts and boxes of `range` in the bins.
+    fn count(&self, range: &[PrimRef]) -> Counts {
+        let mut c = Counts::default();
+        for p in range {
+            let idx = self.bins(p.center2());
+            let b = p.bounds();
+            for (axis, &i) in idx.iter().enumerate() {
+                c.count[axis][i] += 1;
+                c.bounds[axis][i] = c.bounds[axis][i].union(&b);
+            }
+        }
+        c
+    }
+}
+
+impl Counts {
+    fn merge(mut self, o: &Counts) -> Counts {
+        for axis in 0..3 {
+            for i in 0..BINS {
+                self.count[axis][i] += o.count[axis][i];
+                self.bounds[axis][i] = self.bounds[axis][i].union(&o.bounds[axis][i]);
+            }
+        }
+        self
     }
 
     /// The axis, first right-hand bin and the two boxes of the cheapest split by the
     /// surface-area heuristic (primitives counted in leaf groups of `group`), or `None` when no
     /// axis has two non-empty sides.
-    fn best_split(&self, range: &[u32], boxes: &[Box32], group: u32) -> Option<(usize, usize, Box32, Box32)> {
-        let mut count = [[0u32; BINS]; 3];
-        let mut bounds = [[Box32::EMPTY; BINS]; 3];
-        for &p in range {
-            let b = &boxes[p as usize];
-            let idx = self.bins(b.center2());
-            for axis in 0..3 {
-                count[axis][idx[axis]] += 1;
-                bounds[axis][idx[axis]] = bounds[axis][idx[axis]].union(b);
-            }
-        }
+    fn best_split(&self, group: u32) -> Option<(usize, usize, Box32, Box32)> {
         let blocks = |n: u32| f64::from(n.div_ceil(group));
         let mut best: Option<(f64, usize, usize, Box32, Box32)> = None;
         for axis in 0..3 {
@@ -579,18 +680,18 @@ impl Bins {
             let mut right = [(Box32::EMPTY, 0u32); BINS];
             let mut acc = (Box32::EMPTY, 0u32);
             for i in (1..BINS).rev() {
-                acc = (acc.0.union(&bounds[axis][i]), acc.1 + count[axis][i]);
+                acc = (acc.0.union(&self.bounds[axis][i]), acc.1 + self.count[axis][i]);
                 right[i] = acc;
             }
             let mut left = (Box32::EMPTY, 0u32);
-            for i in 1..BINS {
-                left = (left.0.union(&bounds[axis][i - 1]), left.1 + count[axis][i - 1]);
-                if left.1 == 0 || right[i].1 == 0 {
+            for (i, r) in right.iter().enumerate().skip(1) {
+                left = (left.0.union(&self.bounds[axis][i - 1]), left.1 + self.count[axis][i - 1]);
+                if left.1 == 0 || r.1 == 0 {
                     continue;
                 }
-                let cost = left.0.half_area() * blocks(left.1) + right[i].0.half_area() * blocks(right[i].1);
+                let cost = left.0.half_area() * blocks(left.1) + r.0.half_area() * blocks(r.1);
                 if best.is_none_or(|b| cost < b.0) {
-                    best = Some((cost, axis, i, left.0, right[i].0));
+                    best = Some((cost, axis, i, left.0, r.0));
                 }
             }
         }
