@@ -4,6 +4,8 @@
 
 mod bench;
 mod convert;
+mod farm;
+mod merge;
 mod plot;
 mod plugins;
 mod render;
@@ -39,14 +41,17 @@ struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Render a scene to an image (the bundled default scene when SCENE is omitted).
-    Render(render::RenderArgs),
+    Render(Box<render::RenderArgs>),
     /// Explain one pixel (or one ray): every hit, light test and child ray, and the final colour.
-    Trace(trace::TraceArgs),
+    Trace(Box<trace::TraceArgs>),
     /// List the registered plugins and their parameters.
     Plugins(plugins::PluginsArgs),
     /// Measure the speed/accuracy trade: render at many settings of the quality knobs, time each,
     /// compare with a reference (RMSE, PSNR, SSIM), and plot error against time.
     Sweep(Box<sweep::SweepArgs>),
+    /// Merge partial images (tiles, crops, sample passes from `render --tile/--crop/--pass`) into
+    /// one image: the same bits as one whole render.
+    Merge(merge::MergeArgs),
     /// Convert a scene (e.g. the report's XML) to raylab's TOML format.
     Convert(convert::ConvertArgs),
     /// Measure mesh loading, BVH building and ray throughput, from 1k to 1M triangles.
@@ -156,7 +161,8 @@ where
     I: IntoIterator<Item = T>,
     T: Into<std::ffi::OsString> + Clone,
 {
-    let cli = match Cli::try_parse_from(args) {
+    let args: Vec<std::ffi::OsString> = args.into_iter().map(Into::into).collect();
+    let cli = match Cli::try_parse_from(&args) {
         Ok(c) => c,
         Err(e) => {
             let _ = e.print();
@@ -165,8 +171,15 @@ where
     };
     let result = match cli.command {
         None => render::run(&app, render::RenderArgs::default_scene()),
-        Some(Command::Render(a)) => render::run(&app, a),
-        Some(Command::Trace(a)) => trace::run(&app, a),
+        Some(Command::Render(a)) => {
+            let mut a = *a;
+            // The arguments after `render`, for checkpoints to continue the same command.
+            let at = args.iter().position(|x| x == "render").map_or(args.len(), |i| i + 1);
+            a.raw = args[at..].iter().map(|x| x.to_string_lossy().into_owned()).collect();
+            render::run(&app, a)
+        }
+        Some(Command::Merge(a)) => merge::run(&app, a),
+        Some(Command::Trace(a)) => trace::run(&app, *a),
         Some(Command::Plugins(a)) => plugins::run(&app, a),
         Some(Command::Sweep(a)) => sweep::run(&app, *a),
         Some(Command::Convert(a)) => convert::run(&app, a),

@@ -97,7 +97,7 @@ pub(crate) fn run(app: &App, a: SweepArgs) -> Result<(), Failure> {
     let (base_job, scene_name) = super::load(app, scene, &a.scene_args, crate::image::output::ImagePlan::EIGHT_BIT)?;
     let encoding = base_job.settings.encoding;
     std::fs::create_dir_all(&a.out).map_err(|e| format!("cannot create \"{}\": {e}", a.out.display()))?;
-    let options = RenderOptions { threads: a.threads, cancel: None, layers: false };
+    let options = RenderOptions { threads: a.threads, ..RenderOptions::default() };
 
     // Every setting, checked (loaded) before anything is rendered.
     let choices = if a.one_at_a_time { one_at_a_time(&knobs) } else { grid(&knobs) };

@@ -7,5 +7,7 @@ pub mod film;
 pub mod layers;
 pub mod metrics;
 pub mod output;
+#[cfg(feature = "exr")]
+pub mod partial;
 pub mod reference;
 pub mod write;

@@ -9,6 +9,7 @@ use crate::geometry::transform::{Transformed, parse_transform};
 use crate::input::context::{LoadContext, LoadOptions, read_user_file, scene_dir};
 use crate::input::description::SceneDescription;
 use crate::input::error::{Loc, Result, SceneError, Source, did_you_mean};
+use crate::input::fingerprint::Fingerprint;
 use crate::input::limits::{OBJECT_BYTES, toml_memory_estimate};
 use crate::input::params::Params;
 use crate::input::registry::Registry;
@@ -101,6 +102,7 @@ fn read_with(registry: &Registry, path: &Path, ctx: &LoadContext) -> Result<Scen
         e.location = crate::input::error::Location::File { path: path.display().to_string(), line_col: None };
         e
     })?;
+    ctx.fingerprint("the scene file", &bytes);
     if ext == "toml" {
         let text = String::from_utf8(bytes).map_err(|e| {
             SceneError::in_file(path, None, format!("scene file is not UTF-8 text (byte {})", e.utf8_error().valid_up_to()))
@@ -123,6 +125,7 @@ fn read_with(registry: &Registry, path: &Path, ctx: &LoadContext) -> Result<Scen
 pub fn load_str(registry: &Registry, name: &str, text: &str, scene_dir: &Path, options: &LoadOptions) -> Result<RenderJob> {
     let ctx = LoadContext::new(scene_dir, options);
     ctx.charge(toml_memory_estimate(text.as_bytes()), "the scene description", None)?;
+    ctx.fingerprint("the scene file", text.as_bytes());
     let desc = parse_toml(&Source::new(name, text), stem(Path::new(name)))?;
     let parts = build_parts(registry, &desc, &ctx)?;
     drop(desc);
@@ -152,6 +155,8 @@ struct Parts {
     settings: RenderSettings,
     /// Where the integrator is set, for the work budget's error.
     integrator_loc: Loc,
+    /// The fingerprint of everything above that decides pixels (with the files read).
+    fingerprint: Fingerprint,
 }
 
 impl Parts {
@@ -160,7 +165,17 @@ impl Parts {
         scene.record_object_builds(ctx.assets.build_stats());
         let (integrator, ty) = (self.integrator, self.integrator_name);
         check_work(&self.settings, &scene, integrator.as_ref(), &ty, &self.integrator_loc, ctx.options.limits.max_rays)?;
-        Ok(RenderJob { scene, integrator, integrator_name: ty, settings: self.settings, warnings: ctx.take_warnings() })
+        let mut fingerprint = self.fingerprint;
+        fingerprint.add("files", &ctx.files_fingerprint().hex().into_bytes());
+        fingerprint.add("accel", format!("{:?}", ctx.options.accel).as_bytes());
+        Ok(RenderJob {
+            scene,
+            integrator,
+            integrator_name: ty,
+            settings: self.settings,
+            warnings: ctx.take_warnings(),
+            fingerprint: fingerprint.hex(),
+        })
     }
 }
 
@@ -209,7 +224,7 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
     if bytes > limits.max_image_bytes {
         return Err(rp
             .error(format!(
-                "image of {width}×{height} pixels needs about {} MB (film, layers and encoding), over the limit of {} MB",
+                "image of {width}×{height} pixels needs about {} MB (film, per-pixel sums, layers and encoding), over the limit of {} MB",
                 bytes.div_ceil(1 << 20),
                 limits.max_image_bytes >> 20
             ))
@@ -386,7 +401,26 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
     let integrator = (plugin.build)(&mut ip, ctx)?;
     ip.finish()?;
 
-    Ok(Parts { name, camera, background, objects, lights, integrator, integrator_name: ty, settings, integrator_loc: integ_loc })
+    // What decides the pixels besides the files: the resolved settings, camera and integrator.
+    let mut fingerprint = Fingerprint::default();
+    fingerprint.add("raylab", env!("CARGO_PKG_VERSION").as_bytes());
+    fingerprint.add("settings", format!("{settings:?}").as_bytes());
+    fingerprint.add("camera", format!("{camera:?}").as_bytes());
+    fingerprint.add("background", format!("{background:?}").as_bytes());
+    fingerprint.add("integrator", ty.as_bytes());
+    fingerprint.add("integrator parameters", crate::input::toml::table_to_toml(&integ_table).as_bytes());
+    Ok(Parts {
+        name,
+        camera,
+        background,
+        objects,
+        lights,
+        integrator,
+        integrator_name: ty,
+        settings,
+        integrator_loc: integ_loc,
+        fingerprint,
+    })
 }
 
 /// Refuses a render whose worst-case ray count exceeds `max_rays`, naming each factor.

@@ -6,6 +6,7 @@ pub mod context;
 pub mod description;
 pub mod error;
 pub mod files;
+pub mod fingerprint;
 pub mod limits;
 pub mod load;
 pub mod params;

@@ -9,25 +9,63 @@
 //! global ([`SampleId::Lattice`]), so a point's value does not depend on the tile that traces it.
 
 use crate::math::color::Color;
+use crate::render::accum::{LayerSum, PixelSum};
 use crate::render::job::{MAX_ADAPTIVE_DEPTH, RenderJob};
-use crate::render::sample::{LayerSum, SampleId, SampleSum, trace_sample};
+use crate::render::sample::{SampleId, trace_sample};
 use crate::render::stats::RayStats;
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 use std::collections::HashMap;
 
-/// The value of a lattice point or a square: mean radiance, and mean layers (weight 1).
+/// Layers as weighted means: combined with the same weights as the colour.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct WeightedLayers {
+    /// Weighted depth over the weight of the rays that hit.
+    pub depth: f32,
+    /// Weight of the rays that hit.
+    pub hits: f32,
+    /// Weighted shading normal.
+    pub normal: Vec3,
+    /// Weighted albedo.
+    pub albedo: Vec3,
+}
+
+impl WeightedLayers {
+    fn of(s: &LayerSum) -> Self {
+        let (depth, normal, albedo) = s.mean();
+        let hits = if s.rays > 0 { s.hits as f32 / s.rays as f32 } else { 0.0 };
+        WeightedLayers { depth: if depth.is_finite() { depth * hits } else { 0.0 }, hits, normal, albedo }
+    }
+
+    fn mean4(v: [WeightedLayers; 4]) -> Self {
+        let sum = |f: fn(&WeightedLayers) -> f32| (f(&v[0]) + f(&v[1]) + f(&v[2]) + f(&v[3])) * 0.25;
+        WeightedLayers {
+            depth: sum(|l| l.depth),
+            hits: sum(|l| l.hits),
+            normal: (v[0].normal + v[1].normal + v[2].normal + v[3].normal) * 0.25,
+            albedo: (v[0].albedo + v[1].albedo + v[2].albedo + v[3].albedo) * 0.25,
+        }
+    }
+
+    /// The pixel's layers as sums of one unit of weight.
+    pub fn sum(&self) -> LayerSum {
+        let depth = if self.hits > 0.0 { self.depth / self.hits } else { f32::INFINITY };
+        LayerSum::whole(depth, self.normal, self.albedo)
+    }
+}
+
+/// The value of a lattice point or a square: mean radiance, and mean layers.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Value {
     /// Mean radiance.
     pub color: Color,
-    /// Layers, normalised to weight 1 (zero unless asked for).
-    pub layers: LayerSum,
+    /// Layers (zero unless asked for).
+    pub layers: WeightedLayers,
 }
 
 fn mean4(v: [Value; 4]) -> Value {
     Value {
         color: (v[0].color + v[1].color + v[2].color + v[3].color) * 0.25,
-        layers: (v[0].layers + v[1].layers + v[2].layers + v[3].layers).scaled(0.25),
+        layers: WeightedLayers::mean4([v[0].layers, v[1].layers, v[2].layers, v[3].layers]),
     }
 }
 
@@ -127,10 +165,9 @@ impl<'a> Adaptive<'a> {
         if let Some(v) = self.cache.get(&key) {
             return *v;
         }
-        let (mut acc, mut sums) = (SampleSum::default(), LayerSum::default());
+        let (mut acc, mut sums) = (PixelSum::default(), LayerSum::default());
         trace_sample(self.job, SampleId::Lattice { x, y, depth: self.depth }, &mut acc, self.layers.then_some(&mut sums), stats);
-        let layers = if sums.weight > 0.0 { sums.scaled(1.0 / sums.weight) } else { LayerSum::default() };
-        let v = Value { color: acc.mean(), layers };
+        let v = Value { color: acc.mean(), layers: WeightedLayers::of(&sums) };
         self.cache.insert(key, v);
         v
     }

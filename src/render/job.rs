@@ -72,6 +72,10 @@ pub struct RenderJob {
     pub settings: RenderSettings,
     /// What loading ignored or approximated, to show the user (see [`crate::input::context::LoadContext::warn`]).
     pub warnings: Vec<crate::input::error::SceneError>,
+    /// The fingerprint of the scene, the files it read and the resolved settings
+    /// ([`crate::input::fingerprint`]): parts of a frame merge, and a checkpoint resumes, only
+    /// under the same one.
+    pub fingerprint: String,
 }
 
 /// Edge of the square tiles the image is split into, pixels.
