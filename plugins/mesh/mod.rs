@@ -20,7 +20,7 @@ use raylab::input::spec::{Default, ParamKind, ParamSpec};
 use raylab::input::value::Value;
 use raylab::{Aabb, LoadContext, Material, PluginInfo, Ray, Registry};
 use std::sync::Arc;
-use triangle_mesh::{MeshError, Normals, TriangleMesh};
+use triangle_mesh::{Normals, TriangleMesh};
 
 /// The `mesh` plugin's description.
 pub const INFO: PluginInfo = PluginInfo {
@@ -143,13 +143,14 @@ pub fn load_mesh(
     let full = ctx.resolve_path(file, loc)?;
     let key = format!("mesh:{}:{selection:?}:{normals:?}:{with_materials}", full.display());
     ctx.assets.get_or_load(&key, || {
-        let (data, obj_bytes) = match ext.as_str() {
+        let (data, file_bytes) = match ext.as_str() {
             "obj" => {
                 if selection.is_some() {
                     return Err(SceneError::at(loc, "`mesh` selects a mesh of a glTF file; an OBJ file is read whole"));
                 }
+                // The file's bytes are freed once read: the index is built without them.
                 let (full, bytes) = ctx.read_file(file, loc)?;
-                (obj::read(ctx, file, &full, &bytes, with_materials, loc)?, Some(bytes))
+                (obj::read(ctx, file, &full, &bytes, with_materials, loc)?, bytes.len() as u64)
             }
             "gltf" | "glb" => {
                 let g = gltf::open(ctx, file, loc)?;
@@ -158,7 +159,7 @@ pub fn load_mesh(
                         Some(i) => g.mesh(ctx, i)?,
                         None => g.whole(ctx)?,
                     },
-                    None,
+                    0,
                 )
             }
             _ => return Err(unknown()),
@@ -169,14 +170,10 @@ pub fn load_mesh(
             return Err(SceneError::in_file(&name, None, format!("{} triangles, over the limit of {limit}", data.triangles.len()))
                 .with_help("raise the limit with --max-triangles"));
         }
-        let file_bytes = obj_bytes.as_ref().map_or(0, |b| b.len() as u64);
         let per_triangle = MESH_BYTES_PER_TRIANGLE + if data.texcoord_indices.is_empty() { 0 } else { MESH_UV_BYTES_PER_TRIANGLE };
         let estimate = (data.triangles.len() as u64).saturating_mul(per_triangle).saturating_add(file_bytes);
         ctx.charge(estimate, &format!("the mesh \"{name}\" ({} triangles)", data.triangles.len()), Some(loc))?;
-        let mesh = TriangleMesh::new(data, normals, ctx.options.accel).map_err(|e| match (&e, &obj_bytes) {
-            (MeshError::NonFinite { .. }, Some(bytes)) => SceneError::in_file(&name, obj::non_finite_line(bytes), e.to_string()),
-            _ => SceneError::in_file(&name, None, e.to_string()),
-        })?;
+        let mesh = TriangleMesh::new(data, normals, ctx.options.accel).map_err(|e| SceneError::in_file(&name, None, e.to_string()))?;
         ctx.assets.record_build(mesh.build_stats());
         Ok(mesh)
     })

@@ -19,12 +19,26 @@ const DEPTH_SCALE: f64 = 4_294_967_296.0;
 /// 2⁴⁰: one unit of the normal and albedo sums (each component is within [−1, 1]).
 const UNIT_SCALE: f64 = 1_099_511_627_776.0;
 
-/// `x` in units of `1 / scale`, rounded to nearest, saturating (NaN: 0).
+/// `x` in units of `1 / scale`, rounded to nearest (half away from zero), saturating (NaN: 0).
 #[inline]
 fn fixed(x: f64, scale: f64) -> i128 {
-    let y = (x * scale).round();
-    // Most values fit 64 bits, whose conversion is one instruction; the rest take the slow one.
-    if y.abs() < 9.2e18 { y as i64 as i128 } else { y as i128 }
+    let y = x * scale;
+    // Without library calls (`f64::round` and `as i128` are calls on x86-64 without SSE4.1), to
+    // the bit: below 2⁶³ through the integer part (`y − i` is exact: Sterbenz, and `y` is whole
+    // from 2⁵² on); up to 2⁹⁵ (colours up to 2³¹, which the 2⁶⁴ scale puts above 2⁶³ from 0.5 on)
+    // `y` is whole, and its two halves above and below 2³² convert exactly; beyond, the slow path.
+    let a = y.abs();
+    if a < 9.2e18 {
+        let i = y as i64;
+        let frac = y - i as f64;
+        (i + i64::from(frac >= 0.5) - i64::from(frac <= -0.5)) as i128
+    } else if a < 3.9e28 {
+        let high = (y * (1.0 / 4_294_967_296.0)) as i64;
+        let low = y - high as f64 * 4_294_967_296.0;
+        (i128::from(high) << 32) + i128::from(low as i64)
+    } else {
+        y.round() as i128
+    }
 }
 
 /// `s` as a float: the sum of its two 64-bit halves, each converted in one instruction (not
@@ -149,6 +163,42 @@ impl LayerSum {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The rounding through the integer part is `f64::round`, including halves, the largest
+    /// values of the fast path and its edges.
+    #[test]
+    fn fixed_rounds_as_round_does() {
+        let mut values = vec![
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.5,
+            -2.5,
+            0.49999999999999994,
+            -0.49999999999999994,
+            4503599627370495.5,
+            9.19e18,
+            -9.19e18,
+            9.21e18,
+            -9.3e18,
+            3.89e28,
+            -3.89e28,
+            3.91e28,
+            1e30,
+        ];
+        values.extend((0..20_000).map(|i| {
+            let x = f64::from(i) * 0.7548776662466927;
+            (x.sin() * 10f64.powi(i % 40 - 20)).copysign(if i % 3 == 0 { -1.0 } else { 1.0 })
+        }));
+        for v in values {
+            for scale in [1.0, COLOR_SCALE, DEPTH_SCALE, UNIT_SCALE] {
+                let y = v * scale;
+                assert_eq!(fixed(v, scale), y.round() as i128, "{v} × {scale}");
+            }
+        }
+        assert_eq!(fixed(f64::NAN, 1.0), 0);
+    }
 
     #[test]
     fn sums_do_not_depend_on_order_or_split() {
