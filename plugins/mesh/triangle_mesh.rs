@@ -320,8 +320,8 @@ impl TriangleMesh {
     #[inline]
     pub fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<Hit> {
         let q = self.index.query(ray, t_min, t_max)?;
-        let pr = PackRay::new(ray, q.base(), self.filter_error, self.filter_scale);
         let tr = TriangleRay::new(ray);
+        let pr = PackRay::new(ray, &tr, q.base(), self.filter_error, self.filter_scale);
         let mut best = (0, DVec3::ZERO);
         let t = q.closest_leaves(|first, count, t_max| {
             let mut t_max = t_max;
@@ -349,8 +349,8 @@ impl TriangleMesh {
     #[inline]
     pub fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
         let Some(q) = self.index.query(ray, t_min, t_max) else { return false };
-        let pr = PackRay::new(ray, q.base(), self.filter_error, self.filter_scale);
         let tr = TriangleRay::new(ray);
+        let pr = PackRay::new(ray, &tr, q.base(), self.filter_error, self.filter_scale);
         q.any_leaves(|first, count| {
             self.candidates(&pr, first, count, |slot| {
                 let [p0, p1, p2] = self.vertices(slot);
@@ -489,21 +489,20 @@ struct PackRay {
 const SIX_U: f32 = (6.0 * F32_ROUNDOFF) as f32;
 
 impl PackRay {
-    /// `ray` from `ray.at(base)`, for a mesh whose rounding bound is `error` at magnitude `scale`
-    /// (its `filter_error` and `filter_scale`).
+    /// `ray` (prepared for the exact test as `tr`: the same axes and shear) from `ray.at(base)`,
+    /// for a mesh whose rounding bound is `error` at magnitude `scale` (its `filter_error` and
+    /// `filter_scale`).
     #[inline]
-    fn new(ray: &Ray, base: f64, error: f64, scale: f64) -> PackRay {
-        let d = ray.dir;
-        let kz = d.abs().max_position();
-        let kx = if kz == 2 { 0 } else { kz + 1 };
-        let ky = if kx == 2 { 0 } else { kx + 1 };
+    fn new(ray: &Ray, tr: &TriangleRay, base: f64, error: f64, scale: f64) -> PackRay {
+        let [kx, ky, kz] = tr.axes();
+        let [sx, sy, _] = tr.shear();
         let o = ray.at(base);
         let delta = error + 16.0 * gamma(3) * (scale + ray.origin.abs().max_element() + base.abs());
         let delta = up32(delta);
         PackRay {
             kz,
             origin: [Vec4::splat(o[kx] as f32), Vec4::splat(o[ky] as f32), Vec4::splat(o[kz] as f32)],
-            shear: [Vec4::splat((-d[kx] / d[kz]) as f32), Vec4::splat((-d[ky] / d[kz]) as f32)],
+            shear: [Vec4::splat(sx as f32), Vec4::splat(sy as f32)],
             five_delta: Vec4::splat(5.0 * delta),
             delta_sq: Vec4::splat(3.0 * delta * delta + 1e-37),
         }
@@ -657,7 +656,7 @@ mod tests {
             let inv = ray.dir.recip();
             let (t0, t1) = ((padded.min - ray.origin) * inv, (padded.max - ray.origin) * inv);
             let base = t0.min(t1).max_element().max(0.0);
-            let pr = PackRay::new(&ray, base, FILTER_ROUNDING * scale_of, scale_of);
+            let pr = PackRay::new(&ray, &TriangleRay::new(&ray), base, FILTER_ROUNDING * scale_of, scale_of);
             let mut pack = TriPack::EMPTY;
             for (k, v) in p.iter().enumerate() {
                 for axis in 0..3 {

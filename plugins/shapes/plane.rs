@@ -53,6 +53,11 @@ pub fn intersect_plane(ray: &Ray, q: DVec3, n: DVec3, t_min: f64, t_max: f64) ->
     if num.abs() <= on_surface_slack(ray.origin, q) {
         return None;
     }
+    // Opposite signs (both are non-zero here): the plane is behind the origin, t < 0 (or −0).
+    // Known without the division.
+    if t_min >= 0.0 && (num < 0.0) != (denom < 0.0) {
+        return None;
+    }
     let t = num / denom;
     if !(t > t_min && t < t_max && t.is_finite()) {
         return None;

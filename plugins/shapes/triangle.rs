@@ -65,6 +65,18 @@ impl TriangleRay {
         TriangleRay { origin: ray.origin.to_array(), k: [kx, ky, kz], shear }
     }
 
+    /// The axes permuted so the ray's largest direction component is the last: `[kx, ky, kz]`.
+    #[inline]
+    pub fn axes(&self) -> [usize; 3] {
+        self.k
+    }
+
+    /// The shear onto +z in permuted axes: (−dx/dz, −dy/dz, 1/dz).
+    #[inline]
+    pub fn shear(&self) -> [f64; 3] {
+        self.shear
+    }
+
     /// The watertight test against the triangle `p0 p1 p2` (see [`intersect_triangle`]).
     #[inline(always)]
     pub fn intersect(&self, p0: [f64; 3], p1: [f64; 3], p2: [f64; 3], t_min: f64, t_max: f64, rule: EdgeRule) -> Option<TriangleHit> {

@@ -323,13 +323,12 @@ impl Query<'_> {
     }
 
     /// Whether `test(first, count)` holds for any leaf the ray meets (see
-    /// [`Query::closest_leaves`]); stops at the first.
+    /// [`Query::closest_leaves`]), the leaves taken in no particular order; stops at the first.
     #[inline]
     pub fn any_leaves(self, mut test: impl FnMut(u32, u32) -> bool) -> bool {
         #[cfg(feature = "bvh")]
         if let (Some(b), Some(r)) = (&self.index.bvh, &self.node_ray) {
-            let mut hi = wide::far_limit(self.t_max - self.base);
-            return b.traverse(r, &mut hi, &mut |first, count, _: &mut f32| test(first, count));
+            return b.traverse_any(r, wide::far_limit(self.t_max - self.base), &mut test);
         }
         let g = self.index.group;
         (0..self.index.slots).step_by(g as usize).any(|first| test(first, g.min(self.index.slots - first)))

@@ -220,6 +220,58 @@ impl Bvh4 {
         }
     }
 
+    /// Walks the leaves the ray meets (in the shifted frame of `r`, up to `hi`) in no particular
+    /// order, calling `leaf(first, count)` until it returns true; returns whether it did. For
+    /// any-hit queries (shadow rays): the far limit never shrinks, so children are pushed as they
+    /// come, with no sorting by distance and no distance check when popped.
+    #[inline]
+    pub fn traverse_any(&self, r: &NodeRay, hi: f32, leaf: &mut impl FnMut(u32, u32) -> bool) -> bool {
+        let need = stack_entries(self.depth);
+        if need <= SMALL_STACK {
+            self.walk_any::<SMALL_STACK>(r, hi, leaf)
+        } else if need <= MEDIUM_STACK {
+            self.walk_any::<MEDIUM_STACK>(r, hi, leaf)
+        } else {
+            self.walk_any::<DEEP_STACK>(r, hi, leaf)
+        }
+    }
+
+    #[inline(always)]
+    fn walk_any<const N: usize>(&self, r: &NodeRay, hi: f32, leaf: &mut impl FnMut(u32, u32) -> bool) -> bool {
+        // As in `walk`: at most (WIDTH − 1) entries per level, `N` ≥ stack_entries(self.depth).
+        let mut stack = [(0u32, 0u32); N];
+        let mut sp = 0usize;
+        let (mut child, mut count) = (0u32, 0u32);
+        loop {
+            if count != 0 {
+                if leaf(child, count) {
+                    return true;
+                }
+            } else {
+                let node = &self.nodes[child as usize];
+                let (_, mut mask) = node_hits(node, r, hi);
+                if mask != 0 {
+                    // Continue with the first child met, push the others.
+                    let i = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    (child, count) = (node.child[i], node.count[i]);
+                    while mask != 0 {
+                        let i = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        stack[sp] = (node.child[i], node.count[i]);
+                        sp += 1;
+                    }
+                    continue;
+                }
+            }
+            if sp == 0 {
+                return false;
+            }
+            sp -= 1;
+            (child, count) = stack[sp];
+        }
+    }
+
     #[inline(always)]
     fn walk<const N: usize>(&self, r: &NodeRay, hi: &mut f32, leaf: &mut impl FnMut(u32, u32, &mut f32) -> bool) -> bool {
         // The stack holds at most (WIDTH − 1) entries per level: `N` ≥ stack_entries(self.depth).
