@@ -86,7 +86,8 @@ pub fn camera_rays(job: &RenderJob, id: SampleId) -> CameraRays<'_> {
         SampleId::Pixel { x, y, index } => {
             let pixel = u64::from(y) * u64::from(s.width) + u64::from(x);
             // The pixel's pattern key, hashed only when a stratified set (film or lens) uses it.
-            let pattern = if s.spp > 1 || job.scene.camera.aperture > 0.0 { (mix64(pixel ^ s.seed.rotate_left(17)) >> 32) as u32 } else { 0 };
+            let pattern =
+                if s.spp > 1 || job.scene.camera.aperture > 0.0 { (mix64(pixel ^ s.seed.rotate_left(17)) >> 32) as u32 } else { 0 };
             let jitter = if s.spp == 1 { DVec2::splat(0.5) } else { stratified_2d(index, s.spp, pattern) };
             CameraRays {
                 job,
