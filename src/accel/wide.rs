@@ -1,6 +1,7 @@
 //! raylab's 4-wide bounding-volume hierarchy: built top-down by binned SAH (in parallel, of
 //! bounded depth for any input), laid out as nodes of four child boxes in `f32` (structure of
-//! arrays: 128 bytes, two cache lines), traversed nearest child first with a 4-lane slab test.
+//! arrays: 128 bytes, two cache lines), traversed with a 4-lane slab test: nearest child first
+//! for the closest hit, unsorted for any hit.
 //!
 //! The lanes are glam's `Vec4`: SSE2 on every x86-64 (no feature detection, no `unsafe`), NEON or
 //! scalar code elsewhere. The traversal is **conservative** (see [`super::bvh`]): the ray's origin
