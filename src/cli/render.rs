@@ -141,6 +141,7 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
     let checkpoints: Vec<u32> = if error_log.is_some() { (0..32).map(|k| 1u32 << k).collect() } else { Vec::new() };
     let mut log_failure = None;
     let work = [AtomicU64::new(0), AtomicU64::new(1)];
+    let cpu0 = crate::render::stats::process_cpu_time();
     let rendered = crate::render::render_progressive(
         &job,
         &options,
@@ -159,6 +160,9 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
             }
         },
     )?;
+    // CPU time of every thread while tracing: a rate that other processes on a busy machine do
+    // not inflate (as POV-Ray's "CPU-seconds total").
+    let trace_cpu = cpu0.zip(crate::render::stats::process_cpu_time()).map(|(a, b)| (b - a).as_secs_f64());
     bar.finish_and_clear();
     if let Some(e) = log_failure {
         return Err(e.into());
@@ -191,7 +195,7 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
     let build_time = (accel.build.time + accel.object_builds.time).as_secs_f64();
     let memory = crate::render::stats::peak_memory_bytes().map_or_else(String::new, |b| format!(", peak memory {}B", si(b as f64)));
     println!(
-        "wrote {} ({}×{}, {}, {}{}) from {scene_name}: trace {:.3} s on {threads} thread{}, {} rays, {} rays/s, {} non-finite samples (load {:.3} s, BVH build {:.3} s, write {:.3} s{memory})",
+        "wrote {} ({}×{}, {}, {}{}) from {scene_name}: trace {:.3} s{} on {threads} thread{}, {} rays, {} rays/s, {} non-finite samples (load {:.3} s, BVH build {:.3} s, write {:.3} s{memory})",
         a.output.display(),
         s.width,
         s.height,
@@ -199,6 +203,7 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
         job.integrator_name,
         if describe.is_empty() { String::new() } else { format!(" {describe}") },
         secs,
+        trace_cpu.map_or_else(String::new, |c| format!(" ({c:.3} CPU s)")),
         if threads == 1 { "" } else { "s" },
         si(st.total_rays() as f64),
         si(st.total_rays() as f64 / secs.max(1e-9)),

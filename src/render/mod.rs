@@ -22,7 +22,7 @@ pub mod sampler;
 pub mod stats;
 pub mod trace;
 
-pub use job::{Antialiasing, MAX_ADAPTIVE_DEPTH, RenderJob, RenderSettings, TILE_SIZE};
+pub use job::{ADAPTIVE_TILE_SIZE, AdaptiveSettings, Antialiasing, MAX_ADAPTIVE_DEPTH, RenderJob, RenderSettings, TILE_SIZE};
 
 use crate::image::film::Film;
 use crate::image::layers::Aovs;
@@ -132,11 +132,11 @@ struct TileState {
     done: bool,
 }
 
-fn tiles(width: u32, height: u32) -> Vec<Tile> {
+fn tiles(width: u32, height: u32, size: u32) -> Vec<Tile> {
     let mut tiles = Vec::new();
-    for y0 in (0..height).step_by(TILE_SIZE as usize) {
-        for x0 in (0..width).step_by(TILE_SIZE as usize) {
-            tiles.push(Tile { x0, y0, x1: (x0 + TILE_SIZE).min(width), y1: (y0 + TILE_SIZE).min(height) });
+    for y0 in (0..height).step_by(size as usize) {
+        for x0 in (0..width).step_by(size as usize) {
+            tiles.push(Tile { x0, y0, x1: (x0 + size).min(width), y1: (y0 + size).min(height) });
         }
     }
     tiles
@@ -161,10 +161,15 @@ fn render_passes(
     let s = job.settings;
     let ends = match s.aa {
         Antialiasing::Stratified => pass_ends(s.spp, checkpoints),
-        Antialiasing::Adaptive { .. } => vec![1],
+        Antialiasing::Adaptive(_) => vec![1],
     };
     let counters = job.integrator.counters();
-    let mut states: Vec<TileState> = tiles(s.width, s.height)
+    // Adaptive tiles are larger: the lattice points on a tile's border are traced by both tiles.
+    let size = match s.aa {
+        Antialiasing::Stratified => TILE_SIZE,
+        Antialiasing::Adaptive(_) => ADAPTIVE_TILE_SIZE,
+    };
+    let mut states: Vec<TileState> = tiles(s.width, s.height, size)
         .into_iter()
         .map(|tile| {
             let n = tile.pixels() as usize;
@@ -187,8 +192,8 @@ fn render_passes(
             }
             st.done = match s.aa {
                 Antialiasing::Stratified => stratified_tile(job, st, begin..end, options),
-                Antialiasing::Adaptive { threshold, max_depth } => {
-                    adaptive_tile(job, st, threshold, max_depth, options.layers);
+                Antialiasing::Adaptive(a) => {
+                    adaptive_tile(job, st, a, options.layers);
                     true
                 }
             };
@@ -254,9 +259,9 @@ fn stratified_tile(job: &RenderJob, st: &mut TileState, samples: std::ops::Range
 }
 
 /// The adaptive scheme over one tile (lattice points shared by its pixels).
-fn adaptive_tile(job: &RenderJob, st: &mut TileState, threshold: f64, max_depth: u32, layers: bool) {
+fn adaptive_tile(job: &RenderJob, st: &mut TileState, settings: AdaptiveSettings, layers: bool) {
     let t = st.tile;
-    let mut scheme = Adaptive::new(job, threshold, max_depth, ((t.x1 - t.x0 + 1) * (t.y1 - t.y0 + 1)) as usize, layers);
+    let mut scheme = Adaptive::new(job, settings, t.x0, t.x1 - t.x0, layers);
     for (i, acc) in st.pixels.iter_mut().enumerate() {
         let (x, y) = t.pixel(i);
         let v = scheme.pixel(x, y, &mut st.stats);
@@ -286,9 +291,9 @@ pub fn pixel_samples(job: &RenderJob, x: u32, y: u32) -> Vec<(SampleId, f64)> {
             let spp = job.settings.spp.max(1);
             (0..spp).map(|index| (SampleId::Pixel { x, y, index }, 1.0 / f64::from(spp))).collect()
         }
-        Antialiasing::Adaptive { threshold, max_depth } => {
+        Antialiasing::Adaptive(a) => {
             let mut stats = RayStats::new(job.integrator.counters());
-            Adaptive::new(job, threshold, max_depth, 9, false).pixel_samples(x, y, &mut stats)
+            Adaptive::new(job, a, x, 1, false).pixel_samples(x, y, &mut stats)
         }
     }
 }
