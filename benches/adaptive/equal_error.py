@@ -40,11 +40,12 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 
-# raylab settings: (label, extra args). Depth d is a 2^d sub-grid per pixel side.
+# raylab settings: (label, extra args). Depth d is a 2^d sub-grid per pixel side (edges are
+# located to 1/2^d of a pixel).
 RAYLAB_DOZEN = [("no AA", [])] + [
     (f"t{t} d{d}", ["--aa", "adaptive", "--aa-threshold", str(t), "--aa-depth", str(d)])
-    for d in (1, 2, 3)
-    for t in (0.3, 0.2, 0.12, 0.08, 0.05, 0.03, 0.02)
+    for d in (3, 4)
+    for t in (0.25, 0.16, 0.12, 0.09, 0.06, 0.04, 0.03, 0.02, 0.015, 0.01)
 ]
 # POV-Ray settings: +AM2 with +R n subdivides n − 1 times (a 2^(n−1) sub-grid); +J jitters the
 # subdivision samples (POV-Ray's default), -J does not.
