@@ -1,5 +1,5 @@
 //! raylab's built-in plugins: the report's shapes, lights and recursive Phong integrator, plus
-//! debug integrators, the reader of the report's XML scenes, and (feature `mesh`) triangle meshes
+//! textures (procedural patterns and images), debug integrators, the reader of the report's XML scenes, and (feature `mesh`) triangle meshes
 //! from OBJ and glTF files. They use only the public API of the `raylab` core crate, exactly as a
 //! third-party plugin crate would.
 //!
@@ -14,6 +14,7 @@ pub mod lights;
 #[cfg(feature = "mesh")]
 pub mod mesh;
 pub mod shapes;
+pub mod textures;
 
 use raylab::Registry;
 
@@ -23,6 +24,7 @@ pub const DEFAULT_SCENE: (&str, &str) = ("scenes/showcase.toml", include_str!(".
 /// Adds every built-in plugin to `r`.
 pub fn register(r: &mut Registry) {
     shapes::register(r);
+    textures::register(r);
     lights::register(r);
     integrators::register(r);
     formats::register(r);

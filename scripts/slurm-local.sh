@@ -12,9 +12,9 @@
 #        scripts/slurm-local.sh --run CMD...   runs CMD instead, with the cluster up and SLURM_CONF
 #                                              exported (e.g. --run bash, to try sbatch by hand)
 # Settings:
-#   FARM_JOB       stand-in (default): each task writes "ID/COUNT" to part-ID.txt and the merge
-#                  checks them; raylab: `raylab render SCENE --tile auto`, `raylab merge`, and a
-#                  byte comparison with a single render (needs issue 13's --tile and merge)
+#   FARM_JOB       raylab (default): `raylab render SCENE --tile auto`, `raylab merge`, and a
+#                  byte comparison with a single render; stand-in: each task writes "ID/COUNT" to
+#                  part-ID.txt and the merge checks them (to try the scheduler alone)
 #   TILES          number of tiles, the array is 0..TILES-1 (default 4)
 #   RAYLAB         raylab binary for FARM_JOB=raylab (default: target/release/raylab)
 #   SCENE          scene for FARM_JOB=raylab (default: scenes/cornell.toml)
@@ -48,7 +48,7 @@ case ${1:-} in
 esac
 
 # --- What the farm runs. Issue 13 plugs the real commands in here and in the two .sbatch files.
-FARM_JOB=${FARM_JOB:-stand-in}
+FARM_JOB=${FARM_JOB:-raylab}
 TILES=${TILES:-4}
 RAYLAB=${RAYLAB:-$REPO/target/release/raylab}
 SCENE=${SCENE:-$REPO/scenes/cornell.toml}
@@ -84,7 +84,7 @@ check_settings() {
       # The jobs run in FARM_OUT, so relative paths would point elsewhere there.
       RAYLAB=$(realpath -e "$RAYLAB") SCENE=$(realpath -e "$SCENE")
       "$RAYLAB" render --help | grep -q -- '--tile' ||
-        die "$RAYLAB has no 'render --tile' (issue 13): only FARM_JOB=stand-in works with it"
+        die "$RAYLAB has no 'render --tile' (an old build? rebuild it with --features exr); FARM_JOB=stand-in runs without raylab"
       ;;
     *) die "FARM_JOB='$FARM_JOB' is neither stand-in nor raylab" ;;
   esac
@@ -335,7 +335,7 @@ compare_with_single_run() {
       say "merged.txt lists all $TILES tiles in order: $(tr '\n' ' ' <"$FARM_OUT/merged.txt")"
       ;;
     raylab)
-      # --- issue 13: one render of the whole frame, same scene and settings; PFM so that only
+      # --- One render of the whole frame, same scene and settings; PFM so that only
       # --- pixels are compared (EXR headers carry the share of each file).
       "$RAYLAB" render "$SCENE" -q -o "$FARM_OUT/single.pfm"
       cmp "$FARM_OUT/merged.pfm" "$FARM_OUT/single.pfm" ||

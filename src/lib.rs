@@ -18,6 +18,8 @@ pub mod input;
 pub mod math;
 pub mod render;
 pub mod scene;
+#[cfg(feature = "view")]
+pub mod view;
 
 pub use glam;
 
@@ -39,5 +41,5 @@ pub use render::trace::TraceNode;
 pub use render::{RenderJob, RenderSettings};
 pub use scene::Scene;
 pub use scene::camera::Camera;
-pub use scene::light::{LightSample, LightSource};
+pub use scene::light::{LightPdf, LightSample, LightSource};
 pub use scene::material::Material;

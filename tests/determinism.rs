@@ -4,11 +4,19 @@ use raylab::input::context::{LoadOptions, Overrides};
 use raylab::render::{RenderOptions, render};
 use std::path::Path;
 
-fn render_with(scene: &str, threads: usize, seed: u64) -> raylab::Film {
+fn render_with(scene: &str, threads: usize, seed: u64, aa: &str) -> raylab::Film {
     let registry = raylab_plugins::registry();
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(scene);
+    let aa = raylab::input::value::Node::given("test", raylab::input::value::Value::Str(aa.into()));
     let opts = LoadOptions {
-        overrides: Overrides { width: Some(96), height: Some(72), spp: Some(16), seed: Some(seed), ..Default::default() },
+        overrides: Overrides {
+            width: Some(96),
+            height: Some(72),
+            spp: Some(16),
+            seed: Some(seed),
+            render_params: vec![("aa".into(), aa)],
+            ..Default::default()
+        },
         ..Default::default()
     };
     let job = raylab::input::load::load_file(&registry, &path, &opts).unwrap_or_else(|e| panic!("{}", e.report()));
@@ -17,20 +25,25 @@ fn render_with(scene: &str, threads: usize, seed: u64) -> raylab::Film {
 
 #[test]
 fn one_and_two_threads_give_identical_images() {
-    for scene in ["scenes/showcase.toml", "scenes/report-reflection-refraction.toml"] {
-        let one = render_with(scene, 1, 7);
-        let two = render_with(scene, 2, 7);
-        let three = render_with(scene, 3, 7);
+    for (scene, aa) in [
+        ("scenes/showcase.toml", "stratified"),
+        ("scenes/showcase.toml", "adaptive"),
+        ("scenes/report-reflection-refraction.toml", "stratified"),
+        ("scenes/path-cornell.toml", "stratified"),
+    ] {
+        let one = render_with(scene, 1, 7, aa);
+        let two = render_with(scene, 2, 7, aa);
+        let three = render_with(scene, 3, 7, aa);
         let bits = |f: &raylab::Film| f.pixels.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
-        assert_eq!(bits(&one), bits(&two), "{scene}: 1 vs 2 threads");
-        assert_eq!(bits(&one), bits(&three), "{scene}: 1 vs 3 threads");
+        assert_eq!(bits(&one), bits(&two), "{scene} {aa}: 1 vs 2 threads");
+        assert_eq!(bits(&one), bits(&three), "{scene} {aa}: 1 vs 3 threads");
     }
 }
 
 #[test]
 fn the_seed_changes_the_jitter() {
     // Guards the test above against passing trivially: sampling does depend on the seed.
-    let a = render_with("scenes/showcase.toml", 2, 1);
-    let b = render_with("scenes/showcase.toml", 2, 2);
+    let a = render_with("scenes/showcase.toml", 2, 1, "stratified");
+    let b = render_with("scenes/showcase.toml", 2, 2, "stratified");
     assert_ne!(a.pixels, b.pixels);
 }

@@ -49,3 +49,19 @@ fn intersect_corpus_keeps_every_geometric_contract() {
         }
     }
 }
+
+#[cfg(feature = "exr")]
+#[test]
+fn partial_exr_corpus_reads_or_fails_cleanly() {
+    for f in corpus("partial_exr") {
+        let data = std::fs::read(&f).unwrap();
+        match raylab::image::partial::read_partial(&data, "fuzz.exr", 1 << 20) {
+            Ok((sums, info)) => {
+                let part = raylab::render::share::Part { name: "fuzz.exr".into(), sums, fingerprint: info.fingerprint };
+                let whole = raylab::render::share::merge(&[part], true).unwrap();
+                whole.film().unwrap();
+            }
+            Err(e) => assert!(e.0.starts_with("fuzz.exr: "), "{}: {e}", f.display()),
+        }
+    }
+}

@@ -12,6 +12,10 @@ use raylab::render::{explain_sample, pixel_samples};
 use std::path::Path;
 
 fn quality(aa: &str) -> raylab::RenderJob {
+    quality_with(aa, None)
+}
+
+fn quality_with(aa: &str, integrator: Option<&str>) -> raylab::RenderJob {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/quality.toml");
     let src = raylab::input::error::Source::new("test", "");
     let text = |k: &str, v: Value| (k.to_string(), Node { value: v, loc: raylab::input::error::Loc::new(&src, 0..0) });
@@ -20,7 +24,14 @@ fn quality(aa: &str) -> raylab::RenderJob {
         render_params.push(text("aa_threshold", Value::Float(0.02)));
         render_params.push(text("aa_depth", Value::Int(2)));
     }
-    let overrides = Overrides { width: Some(48), height: Some(36), spp: Some(3), render_params, ..Overrides::default() };
+    let overrides = Overrides {
+        width: Some(48),
+        height: Some(36),
+        spp: Some(3),
+        render_params,
+        integrator: integrator.map(String::from),
+        ..Overrides::default()
+    };
     load_file(&raylab_plugins::registry(), &path, &LoadOptions { overrides, ..LoadOptions::default() })
         .unwrap_or_else(|e| panic!("{}", e.report()))
 }
@@ -38,7 +49,13 @@ fn pixels(job: &raylab::RenderJob, n: usize) -> Vec<(u32, u32)> {
 
 #[test]
 fn stratified_samples_explained_sum_to_the_rendered_pixel_bit_for_bit() {
-    let job = quality("stratified");
+    for integrator in [None, Some("path")] {
+        stratified_samples_recombine(integrator);
+    }
+}
+
+fn stratified_samples_recombine(integrator: Option<&str>) {
+    let job = quality_with("stratified", integrator);
     assert!(job.scene.camera.aperture > 0.0, "the test needs depth of field");
     let film = render(&job, &RenderOptions::default(), &|_, _| {}).unwrap().film;
     for (x, y) in pixels(&job, 40) {
@@ -46,14 +63,14 @@ fn stratified_samples_explained_sum_to_the_rendered_pixel_bit_for_bit() {
         assert_eq!(samples.len(), 3);
         let (mut sum, mut n) = (DVec3::ZERO, 0u32);
         for (id, _) in samples {
-            let trees = explain_sample(&job, id).expect("phong explains");
+            let trees = explain_sample(&job, id).expect("the integrator explains");
             assert_eq!(trees.len(), 2, "one tree per lens ray");
             for t in trees.iter().filter(|t| t.color.is_finite()) {
                 sum += t.color;
                 n += 1;
             }
         }
-        assert_eq!((sum / f64::from(n)).as_vec3(), film.get(x, y), "pixel ({x}, {y})");
+        assert_eq!((sum / f64::from(n)).as_vec3(), film.get(x, y), "{}: pixel ({x}, {y})", job.integrator_name);
     }
 }
 

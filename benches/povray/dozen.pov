@@ -2,8 +2,11 @@
 // (POV counts the camera ray as level 1, so 6 means 5 bounces like raylab's max_depth = 5).
 // POV-Ray is left-handed; `right -x` makes it right-handed like raylab, and `angle` is the
 // horizontal field of view for raylab's 45° vertical one.
+// `Declare=Bailout=0` (with raylab's `--set prune_threshold=0`) traces every ray to the depth limit
+// in both, as benches/peers/run.sh does; the default is POV-Ray's own 1/255.
 // Render: povray +Idozen.pov +W800 +H600 -A +O/tmp/dozen-pov.png -D +WT2
-global_settings { max_trace_level 6 assumed_gamma 1.0 ambient_light 0 }
+#ifndef (Bailout) #declare Bailout = 1/255; #end
+global_settings { max_trace_level 6 adc_bailout Bailout assumed_gamma 1.0 ambient_light 0 }
 background { rgb <0.1, 0.12, 0.16> }
 camera { perspective location <0, 3.5, 9> look_at <0, 0.8, 0> right -x*4/3 up y sky y angle 2*degrees(atan(tan(radians(22.5))*4/3)) }
 light_source { <5, 8, 6> rgb 0.8 }

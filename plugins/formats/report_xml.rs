@@ -27,6 +27,10 @@
 //!   camera parameter from the command line.
 //! - Objects use the report's default material ([`raylab::Material::report_default`]: kd = ks = 1,
 //!   shininess 1, no reflection or transmission); its attributes may be set on each geometry.
+//! - An `<ambient-light>` without `Ka` has the report's fixed 0.1 in the report's own style, and
+//!   1 in the later one (the course from 2020 on: files with `<image>`, with `Vto`/`Vup`, or with
+//!   neither a camera nor a screen size), whose test scenes show their shapes in the ambient
+//!   colour ([`is_later_dialect`]).
 //!
 //! Every value keeps its position in the XML text, so an error anywhere (syntax, an unknown
 //! element or attribute, a bad number, or a value a plugin rejects) names the line and column.
@@ -227,7 +231,13 @@ pub const ELEMENTS: &[ElementSpec] = &[
         becomes: Becomes::Light("ambient"),
         attrs: &[
             attr(&["color"], "color", Color, Required, "colour"),
-            attr(&["Ka"], "ka", Number, Plugin, "ambient factor (default 0.1, the report's fixed Ka)"),
+            attr(
+                &["Ka"],
+                "ka",
+                Number,
+                Computed,
+                "ambient factor: the report's fixed 0.1 in its own (older) style; 1 in the later style (see \"Two dialects\" above)",
+            ),
             NAME,
         ],
         material: false,
@@ -705,6 +715,12 @@ impl Reader<'_> {
             }
         }
 
+        if is_later_dialect(root, camera, image) {
+            for light in &mut lights {
+                give_ambient_factor(light, 1.0);
+            }
+        }
+
         let mut put = |key: &str, v: Option<Located>| {
             if let Some((kl, node)) = v {
                 out.entries.push(Entry { key: key.to_string(), key_loc: kl, value: node });
@@ -823,6 +839,24 @@ impl Reader<'_> {
             t.entries.push(entry("material", (a.loc.clone(), Node { value: Value::Table(m), loc: a.loc.clone() })));
         }
         Ok(Node { value: Value::Table(t), loc: self.loc(n.range()) })
+    }
+}
+
+/// True for the course's later dialect (from 2020 on), false for the report's own: a file with an
+/// `<image>`, or a camera spelling `Vto`/`Vup` with a capital V, or neither a camera nor a
+/// screen size on `<scene>` (the course's test files), is the later one.
+pub fn is_later_dialect(scene: XmlNode, camera: Option<XmlNode>, image: Option<XmlNode>) -> bool {
+    let screen = scene.attributes().any(|a| a.name().to_ascii_lowercase().starts_with("screen-"));
+    image.is_some() || camera.is_some_and(|c| c.attributes().any(|a| matches!(a.name(), "Vto" | "Vup"))) || (camera.is_none() && !screen)
+}
+
+/// Gives an ambient light's table `ka` (at the table's location) when it has none.
+fn give_ambient_factor(light: &mut Node, ka: f64) {
+    let loc = light.loc.clone();
+    let Value::Table(t) = &mut light.value else { return };
+    let ambient = t.get("type").is_some_and(|n| matches!(&n.value, Value::Str(s) if s == "ambient"));
+    if ambient && t.get("ka").is_none() {
+        t.entries.push(Entry { key: "ka".into(), key_loc: loc.clone(), value: Node { value: Value::Float(ka), loc } });
     }
 }
 

@@ -11,7 +11,8 @@ use raylab::input::error::Result;
 use raylab::input::params::Params;
 use raylab::input::spec::{Default, ParamKind, ParamSpec};
 use raylab::render::sampler::{concentric_disc, orthonormal_basis};
-use raylab::{Color, LightSample, LightSource, LoadContext, PluginInfo};
+use raylab::{Color, LightPdf, LightSample, LightSource, LoadContext, PluginInfo, Ray};
+use std::f64::consts::PI;
 
 /// A light at a point with distance attenuation, optionally a spot.
 #[derive(Clone, Debug)]
@@ -159,6 +160,22 @@ impl PointLight {
     }
 }
 
+impl PointLight {
+    /// Light arriving from `d` away at a point that sees the light's centre along `to_centre`,
+    /// `dc` away (the spot's cone and exponent use the centre).
+    #[inline]
+    fn intensity(&self, to_centre: DVec3, dc: f64, d: f64) -> Color {
+        let mut factor = 1.0;
+        if let Some(s) = &self.spot {
+            // L points from the light to the point: L = −dir.
+            let cos = s.direction.dot(-to_centre / dc);
+            factor = if cos <= 0.0 || cos < s.cos_cutoff { 0.0 } else { cos.powf(s.exponent) };
+        }
+        factor /= self.kc + self.kl * d + self.kq * d * d;
+        self.color * factor
+    }
+}
+
 impl LightSource for PointLight {
     #[inline]
     fn illuminate(&self, p: DVec3, u: DVec2) -> Option<LightSample> {
@@ -166,12 +183,6 @@ impl LightSource for PointLight {
         let dc = to_centre.length();
         if !(dc > 0.0) {
             return None;
-        }
-        let mut factor = 1.0;
-        if let Some(s) = &self.spot {
-            // L points from the light to the point: L = −dir.
-            let cos = s.direction.dot(-to_centre / dc);
-            factor = if cos <= 0.0 || cos < s.cos_cutoff { 0.0 } else { cos.powf(s.exponent) };
         }
         let to_light = if self.radius > 0.0 {
             let (b1, b2) = orthonormal_basis(to_centre / dc);
@@ -184,8 +195,35 @@ impl LightSource for PointLight {
         if !(d > 0.0) {
             return None;
         }
-        factor /= self.kc + self.kl * d + self.kq * d * d;
-        Some(LightSample { dir: to_light / d, distance: d, intensity: self.color * factor })
+        Some(LightSample { dir: to_light / d, distance: d, intensity: self.intensity(to_centre, dc, d) })
+    }
+
+    /// A point is a delta light; a ball's samples are uniform over its disc facing `p`.
+    fn pdf(&self, p: DVec3, sample: &LightSample) -> LightPdf {
+        if !(self.radius > 0.0) {
+            return LightPdf::Delta;
+        }
+        let axis = (self.position - p).normalize();
+        LightPdf::from_area(1.0 / (PI * self.radius * self.radius), sample.distance, sample.dir.dot(axis))
+    }
+
+    /// The ball's disc facing the ray's origin, where the ray crosses it.
+    fn intersect(&self, ray: &Ray, t_max: f64) -> Option<LightSample> {
+        if !(self.radius > 0.0) {
+            return None;
+        }
+        let to_centre = self.position - ray.origin;
+        let dc = to_centre.length();
+        let toward = ray.dir.dot(to_centre);
+        if !(dc > 0.0 && toward > 0.0) {
+            return None;
+        }
+        // The disc's plane is at distance dc along its normal to_centre / dc.
+        let t = dc * dc / toward;
+        if !(t < t_max) || (ray.at(t) - self.position).length_squared() > self.radius * self.radius {
+            return None;
+        }
+        Some(LightSample { dir: ray.dir, distance: t, intensity: self.intensity(to_centre, dc, t) })
     }
 
     fn sample_count(&self) -> u32 {
@@ -194,5 +232,24 @@ impl LightSource for PointLight {
 
     fn is_area(&self) -> bool {
         self.radius > 0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use raylab::scene::light::testing::check_light;
+
+    #[test]
+    fn samples_rays_and_densities_agree() {
+        let p = DVec3::new(0.2, -0.1, 0.3);
+        let at = DVec3::new(0.5, 1.5, -0.4);
+        let spot = Spot { direction: DVec3::new(0.1, -1.0, 0.2).normalize(), exponent: 4.0, cos_cutoff: 0.5 };
+        // A point and a spot are delta lights: no ray meets them.
+        check_light(&PointLight::new(Color::ONE, at, 1.0, 0.2, 0.1), p, 4, 8, 0.0);
+        check_light(&PointLight::spot(Color::ONE, at, 1.0, 0.0, 0.3, spot), p, 4, 8, 0.0);
+        // Balls: the disc facing the shaded point, met by the rays toward it.
+        check_light(&PointLight::new(Color::new(0.5, 1.0, 2.0), at, 1.0, 0.2, 0.1).with_radius(0.7, 16), p, 64, 1500, 0.01);
+        check_light(&PointLight::spot(Color::ONE, at, 1.0, 0.0, 0.3, spot).with_radius(0.4, 16), p, 64, 1500, 0.01);
     }
 }

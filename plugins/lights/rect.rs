@@ -1,14 +1,15 @@
 //! `rect`: a rectangular area light, for soft shadows: a point light spread uniformly over a
 //! rectangle (as POV-Ray's `area_light`). Each sample takes a point of the rectangle and lights the
 //! shaded point from there, with the point light's attenuation `I₀ / (kc + kl·d + kq·d²)`. It
-//! shines to both sides and, like every light, is invisible to camera rays.
+//! shines to both sides. `phong` does not show lights to its rays; a path tracer's rays may meet
+//! the rectangle ([`LightSource::intersect`]) and see the radiance its samples imply.
 
 use super::point::{ATTENUATION, attenuation, samples};
 use raylab::glam::{DVec2, DVec3};
 use raylab::input::error::Result;
 use raylab::input::params::Params;
 use raylab::input::spec::{Default, ParamKind, ParamSpec};
-use raylab::{Color, LightSample, LightSource, LoadContext, PluginInfo};
+use raylab::{Color, LightPdf, LightSample, LightSource, LoadContext, PluginInfo, Ray};
 
 /// A rectangle `center + s·edge1 + t·edge2`, `s, t ∈ [−½, ½]`, of uniform intensity.
 #[derive(Clone, Debug)]
@@ -17,6 +18,10 @@ pub struct RectLight {
     corner: DVec3,
     edge1: DVec3,
     edge2: DVec3,
+    /// Unit normal `edge1 × edge2 / area`.
+    normal: DVec3,
+    /// `|edge1 × edge2|`, scene units².
+    area: f64,
     kc: f64,
     kl: f64,
     kq: f64,
@@ -61,7 +66,17 @@ pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn LightSource>> {
 impl RectLight {
     /// A rectangle centred at `center` with sides `edge1`, `edge2`, attenuation `(kc, kl, kq)`.
     pub fn new(color: Color, center: DVec3, edge1: DVec3, edge2: DVec3, (kc, kl, kq): (f64, f64, f64), samples: u32) -> Self {
-        RectLight { color, corner: center - 0.5 * (edge1 + edge2), edge1, edge2, kc, kl, kq, samples: samples.max(1) }
+        let cross = edge1.cross(edge2);
+        let area = cross.length();
+        let corner = center - 0.5 * (edge1 + edge2);
+        RectLight { color, corner, edge1, edge2, normal: cross / area, area, kc, kl, kq, samples: samples.max(1) }
+    }
+
+    /// The sample from the point `d` away along unit `dir`.
+    #[inline]
+    fn sample(&self, dir: DVec3, d: f64) -> LightSample {
+        let factor = 1.0 / (self.kc + self.kl * d + self.kq * d * d);
+        LightSample { dir, distance: d, intensity: self.color * factor }
     }
 }
 
@@ -73,8 +88,29 @@ impl LightSource for RectLight {
         if !(d > 0.0) {
             return None;
         }
-        let factor = 1.0 / (self.kc + self.kl * d + self.kq * d * d);
-        Some(LightSample { dir: to_light / d, distance: d, intensity: self.color * factor })
+        Some(self.sample(to_light / d, d))
+    }
+
+    /// Uniform over the rectangle.
+    fn pdf(&self, _: DVec3, sample: &LightSample) -> LightPdf {
+        LightPdf::from_area(1.0 / self.area, sample.distance, sample.dir.dot(self.normal))
+    }
+
+    /// The rectangle, from either side.
+    fn intersect(&self, ray: &Ray, t_max: f64) -> Option<LightSample> {
+        let facing = ray.dir.dot(self.normal);
+        let t = (self.corner - ray.origin).dot(self.normal) / facing;
+        if !(t > 0.0 && t < t_max) {
+            return None;
+        }
+        // Coordinates along the edges (the dual basis of edge1, edge2 in the plane).
+        let q = ray.at(t) - self.corner;
+        let a = q.cross(self.edge2).dot(self.normal) / self.area;
+        let b = self.edge1.cross(q).dot(self.normal) / self.area;
+        if !((0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b)) {
+            return None;
+        }
+        Some(self.sample(ray.dir, t))
     }
 
     fn sample_count(&self) -> u32 {
@@ -102,5 +138,21 @@ mod tests {
         assert!((at(DVec2::splat(0.5)) - DVec3::new(0.0, 5.0, 0.0)).length() < 1e-12);
         assert!((at(DVec2::new(1.0, 1.0)) - DVec3::new(1.0, 5.0, 0.5)).length() < 1e-12);
         assert!(l.is_area() && l.sample_count() == 4);
+    }
+
+    #[test]
+    fn samples_rays_and_densities_agree() {
+        // A parallelogram (edges not perpendicular), attenuated, seen from both sides and edge-on.
+        let l = RectLight::new(
+            Color::new(1.0, 0.5, 0.2),
+            DVec3::new(0.3, 2.0, -0.1),
+            DVec3::new(1.5, 0.2, 0.0),
+            DVec3::new(0.3, 0.1, 1.0),
+            (0.5, 0.1, 0.3),
+            16,
+        );
+        for p in [DVec3::ZERO, DVec3::new(1.0, 4.0, 1.0), DVec3::new(3.0, 2.3, -0.1)] {
+            raylab::scene::light::testing::check_light(&l, p, 64, 1500, 0.01);
+        }
     }
 }

@@ -11,16 +11,25 @@
 //! | raylab | from glTF |
 //! |---|---|
 //! | `kd` | `c · (1 − m)` |
-//! | `ks` | `F0 = 0.04·(1 − m) + c·m` (the specular colour at normal incidence) |
-//! | `shininess` | `(2/α² − 2) / 4` (Blinn-Phong's equivalent exponent, in Phong's terms), at most 10⁴ |
+//! | `shininess` | `n = (2/α² − 2) / 4` (Blinn-Phong's equivalent exponent, in Phong's terms), in [1, 10⁴] |
+//! | `ks` | `F0 · (n + 1) / 2`, `F0 = 0.04·(1 − m) + c·m` (the specular colour at normal incidence) |
 //! | `kr` | `F0 · m · (1 − r)²`: smooth metals mirror; rough ones and dielectrics do not |
 //! | `blur` | `α` where `kr > 0` and α ≥ 0.05 (sharper lobes are mirrors) |
 //! | `kt` | `KHR_materials_transmission` factor, or `1 − alpha` for `alphaMode = BLEND` |
 //! | `ior` | `KHR_materials_ior` (default 1.5) |
 //! | `emission` | `emissiveFactor × KHR_materials_emissive_strength` |
+//! | textures | `baseColorTexture` multiplies `kd` (and `ks`, `kr` when `m > 0`), `emissiveTexture` the emission |
 //!
-//! Textures, animations, skins, morph targets, points and lines, orthographic cameras and
-//! extensions raylab does not implement are ignored with one warning per kind (with a count).
+//! The Phong lobe `ks · cos^n` reflects `2·ks / (n + 1)` of the light a viewer sees, so
+//! `ks = F0·(n + 1)/2` keeps the specular reflectance at `F0` whatever the roughness: rough
+//! materials get a dim, wide highlight and smooth ones a small, bright one, as GGX gives them. The
+//! exponent stays ≥ 1 ([`MIN_SHININESS`]): below it the lobe is cut off by a step where the
+//! mirror direction turns away from the viewer (a hard line across flat faces).
+//! docs/gltf-materials.md compares the mapping with the glTF BRDF on a row of spheres.
+//!
+//! Metallic-roughness, normal and occlusion textures, animations, skins, morph targets, points
+//! and lines, orthographic cameras and extensions raylab does not implement are ignored with one
+//! warning per kind (with a count).
 //! Non-finite numbers (NaN, or beyond f32) in transforms, cameras, lights and materials are
 //! refused. Errors name the element by its JSON pointer (`/nodes/3/matrix`) at its line and
 //! column in the JSON (the JSON chunk, for `.glb`).
@@ -34,19 +43,23 @@
 //! against `--max-triangles` before anything is built.
 
 use super::triangle_mesh::MeshData;
+use crate::textures::image::{self as image_texture, ColorSpace, Filter, Image, ImageTexture, Wrap};
 use raylab::geometry::transform::Transform;
 use raylab::glam::{DAffine3, DMat3, DMat4, DQuat, DVec3, Mat4};
 use raylab::input::description::SceneDescription;
 use raylab::input::error::{Loc, Result, SceneError, Source};
 use raylab::input::value::{Entry, Node, Table, Value};
+use raylab::scene::material::{Channel, TextureMap};
+use raylab::scene::texture::{Coords, Mapping, Texture};
 use raylab::{Aabb, Color, LoadContext, Material};
 use std::fmt::Display;
 use std::ops::Range;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 
 /// Extensions a file may require.
-const SUPPORTED: &[&str] = &["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_ior", "KHR_materials_transmission"];
+const SUPPORTED: &[&str] =
+    &["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_ior", "KHR_materials_transmission", "KHR_texture_transform"];
 
 /// A parsed glTF file with its buffers loaded.
 /// The triangles `mesh` declares (its accessors' counts; no data decoded): an upper bound for
@@ -94,6 +107,58 @@ pub struct GltfFile {
     spans: Spans,
     /// Where the default scene places its nodes, computed once.
     placements: OnceLock<Result<Placements>>,
+    /// The file's folder as the scene names it, for the files its images name.
+    base: PathBuf,
+    /// The textures built so far, by texture index and transform (`None`: unreadable, warned
+    /// about once), shared by every mesh of the file.
+    textures: std::sync::Mutex<std::collections::HashMap<TextureKey, Option<Arc<dyn Texture>>>>,
+}
+
+/// A texture of a glTF file as a material samples it: its index and `KHR_texture_transform`
+/// (offset, rotation, scale as bits).
+type TextureKey = (usize, Option<[u64; 5]>);
+
+/// A texture info's `KHR_texture_transform`, read from its extensions (so that a malformed one is
+/// a warning, not the whole file's error).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct UvTransform {
+    offset: [f64; 2],
+    /// Radians.
+    rotation: f64,
+    scale: [f64; 2],
+    /// The texture coordinate set it asks for instead of the info's.
+    tex_coord: Option<u64>,
+}
+
+impl UvTransform {
+    /// The transform of `info`: `Ok(None)` without one, `Err` naming what is malformed.
+    fn of(info: &gltf::texture::Info) -> std::result::Result<Option<UvTransform>, String> {
+        let Some(v) = info.extension_value("KHR_texture_transform") else { return Ok(None) };
+        let obj = v.as_object().ok_or_else(|| format!("expected an object, found {v}"))?;
+        let pair = |key: &str, default: [f64; 2]| -> std::result::Result<[f64; 2], String> {
+            match obj.get(key) {
+                None => Ok(default),
+                Some(p) => match p.as_array().map(|a| a.iter().map(|x| x.as_f64()).collect::<Option<Vec<f64>>>()) {
+                    Some(Some(a)) if a.len() == 2 && a.iter().all(|x| x.is_finite()) => Ok([a[0], a[1]]),
+                    _ => Err(format!("`{key}`: expected two finite numbers, found {p}")),
+                },
+            }
+        };
+        let rotation = match obj.get("rotation") {
+            None => 0.0,
+            Some(r) => r.as_f64().filter(|r| r.is_finite()).ok_or_else(|| format!("`rotation`: expected a finite number, found {r}"))?,
+        };
+        let tex_coord = match obj.get("texCoord") {
+            None => None,
+            Some(c) => Some(c.as_u64().ok_or_else(|| format!("`texCoord`: expected a whole number, found {c}"))?),
+        };
+        Ok(Some(UvTransform { offset: pair("offset", [0.0, 0.0])?, rotation, scale: pair("scale", [1.0, 1.0])?, tex_coord }))
+    }
+
+    /// The transform as bits, for [`TextureKey`].
+    fn key(&self) -> [u64; 5] {
+        [self.offset[0], self.offset[1], self.rotation, self.scale[0], self.scale[1]].map(f64::to_bits)
+    }
 }
 
 /// Byte ranges of the indexed JSON elements errors point at (empty where the text could not be
@@ -220,6 +285,8 @@ pub fn parse(ctx: &LoadContext, path: &str, full: &Path, bytes: Vec<u8>, loc: &L
         json,
         spans,
         placements: OnceLock::new(),
+        base,
+        textures: Default::default(),
     };
     file.check_materials()?;
     file.warn_ignored(ctx);
@@ -434,14 +501,15 @@ impl GltfFile {
         self.doc.meshes().len()
     }
 
-    /// Mesh `index` in its own frame.
-    pub fn mesh(&self, index: usize) -> Result<MeshData> {
+    /// Mesh `index` in its own frame, with the textures its materials sample.
+    pub fn mesh(&self, ctx: &LoadContext, index: usize) -> Result<MeshData> {
         let mesh = self.doc.meshes().nth(index).ok_or_else(|| {
             SceneError::in_file(&self.name, None, format!("there is no mesh {index}: the file has {} meshes", self.mesh_count()))
         })?;
         let mut out = self.empty();
         self.check_triangles(triangle_count(&mesh))?;
         self.append(&mesh, DMat4::IDENTITY, &mut out)?;
+        self.attach_textures(ctx, &mut out);
         Ok(out)
     }
 
@@ -454,8 +522,9 @@ impl GltfFile {
         Ok(())
     }
 
-    /// Every mesh of the default scene, placed by its node's world matrix, as one mesh.
-    pub fn whole(&self) -> Result<MeshData> {
+    /// Every mesh of the default scene, placed by its node's world matrix, as one mesh, with the
+    /// textures its materials sample.
+    pub fn whole(&self, ctx: &LoadContext) -> Result<MeshData> {
         let mut out = self.empty();
         let placed = self.placements()?;
         let meshes = || placed.order.iter().filter_map(|&i| Some((self.doc.nodes().nth(i)?.mesh()?, placed.world[i]?)));
@@ -468,7 +537,116 @@ impl GltfFile {
         if out.triangles.is_empty() {
             return Err(SceneError::in_file(&self.name, None, "the file's scene has no triangles"));
         }
+        self.attach_textures(ctx, &mut out);
         Ok(out)
+    }
+
+    /// Gives the materials `out`'s triangles use the textures they sample (images decoded once
+    /// per scene; those of unused materials are not read): `baseColorTexture` multiplies `kd`
+    /// (and `ks`, `kr` of metals, whose specular colour is the base colour), `emissiveTexture`
+    /// the emission. An image that cannot be read (missing, malformed, over the limits) is a
+    /// warning: the material keeps its factors.
+    fn attach_textures(&self, ctx: &LoadContext, out: &mut MeshData) {
+        let mut used = out.material_ids.clone();
+        used.sort_unstable();
+        used.dedup();
+        for id in used {
+            let Some(m) = self.doc.materials().nth(id as usize) else { continue };
+            let pbr = m.pbr_metallic_roughness();
+            // Each texture is built (or found unreadable, with one warning) once per file.
+            let sampled = |info: &gltf::texture::Info, kind: &str| {
+                let transform = UvTransform::of(info).unwrap_or_else(|e| {
+                    ctx.warn(SceneError::in_file(
+                        &self.name,
+                        None,
+                        format!("material {id}: its {kind}'s KHR_texture_transform is malformed ({e}): ignored"),
+                    ));
+                    None
+                });
+                self.textures
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .entry((info.texture().index(), transform.map(|t| t.key())))
+                    .or_insert_with(|| match self.texture(ctx, info, transform, id as usize) {
+                        Ok(t) => Some(t),
+                        Err(e) => {
+                            ctx.warn(e.context(format!("{}: material {id}: its {kind} is not sampled (its factor is used)", self.name)));
+                            None
+                        }
+                    })
+                    .clone()
+            };
+            let mut maps = Vec::new();
+            if let Some(t) = pbr.base_color_texture().and_then(|info| sampled(&info, "baseColorTexture")) {
+                maps.push((Channel::Kd, t.clone()));
+                if pbr.metallic_factor() > 0.0 {
+                    maps.extend([(Channel::Ks, t.clone()), (Channel::Kr, t)]);
+                }
+            }
+            if let Some(t) = m.emissive_texture().and_then(|info| sampled(&info, "emissiveTexture")) {
+                maps.push((Channel::Emission, t));
+            }
+            let material = &mut out.materials[id as usize];
+            material.textures.extend(maps.into_iter().map(|(channel, texture)| TextureMap { channel, texture }));
+        }
+    }
+
+    /// The texture `info` of material `material` names: its image (sRGB), its sampler's wrap
+    /// modes and magnification filter, placed by `transform` (its `KHR_texture_transform`).
+    fn texture(
+        &self,
+        ctx: &LoadContext,
+        info: &gltf::texture::Info,
+        transform: Option<UvTransform>,
+        material: usize,
+    ) -> Result<Arc<dyn Texture>> {
+        use gltf::texture::{MagFilter, WrappingMode};
+        let t = info.texture();
+        let image = self.image(ctx, &t.source(), material)?;
+        let sampler = t.sampler();
+        let wrap = |w: WrappingMode| match w {
+            WrappingMode::ClampToEdge => Wrap::Clamp,
+            WrappingMode::MirroredRepeat => Wrap::Mirror,
+            WrappingMode::Repeat => Wrap::Repeat,
+        };
+        let filter = if sampler.mag_filter() == Some(MagFilter::Nearest) { Filter::Nearest } else { Filter::Bilinear };
+        let mapping = match transform {
+            Some(t) => Mapping::with_inverse(Coords::Uv, gltf_uv_transform(t.offset, t.rotation, t.scale)),
+            None => Mapping::new(Coords::Uv),
+        };
+        Ok(Arc::new(ImageTexture::new(image, mapping, [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())], filter, Color::ONE)))
+    }
+
+    /// Image `img` decoded (sRGB), once per scene: a file beside the glTF (through the sandbox),
+    /// a `data:` URI, or a buffer view. Errors name material `material`.
+    fn image(&self, ctx: &LoadContext, img: &gltf::Image, material: usize) -> Result<Arc<Image>> {
+        let loc = self.loc(Element::Material, material);
+        let what = format!("image {}", img.index());
+        let embedded = |bytes: Option<&[u8]>| -> Result<Arc<Image>> {
+            let key = format!("gltf-image:{}:{}", self.name, img.index());
+            ctx.assets.get_or_load(&key, || {
+                let bytes = bytes.ok_or_else(|| {
+                    SceneError::in_file(
+                        &self.name,
+                        None,
+                        format!("image {}: its data lies outside its buffer or is malformed", img.index()),
+                    )
+                })?;
+                image_texture::decode(bytes, &format!("{} ({what})", self.name), ColorSpace::Srgb, ctx)
+            })
+        };
+        match img.source() {
+            gltf::image::Source::Uri { uri, .. } if uri.starts_with("data:") => embedded(data_uri(uri).as_deref()),
+            gltf::image::Source::Uri { uri, .. } => {
+                let rel = self.base.join(percent_decode(uri));
+                image_texture::load(ctx, &rel.to_string_lossy(), &loc, ColorSpace::Srgb).map_err(|e| e.context(&what))
+            }
+            gltf::image::Source::View { view, .. } => {
+                let bytes =
+                    self.buffers.get(view.buffer().index()).and_then(|b| b.get(view.offset()..view.offset().checked_add(view.length())?));
+                embedded(bytes)
+            }
+        }
     }
 
     /// The mesh node `index` places and its world matrix: what a `mesh` object with `node = N`
@@ -637,17 +815,31 @@ impl GltfFile {
         };
         let materials: Vec<gltf::Material> = self.doc.materials().collect();
         type Has = fn(&gltf::Material) -> bool;
-        let textures: [(&str, Has); 5] = [
-            ("baseColorTexture", |m| m.pbr_metallic_roughness().base_color_texture().is_some()),
+        let textures: [(&str, Has); 3] = [
             ("metallicRoughnessTexture", |m| m.pbr_metallic_roughness().metallic_roughness_texture().is_some()),
             ("normalTexture", |m| m.normal_texture().is_some()),
             ("occlusionTexture", |m| m.occlusion_texture().is_some()),
-            ("emissiveTexture", |m| m.emissive_texture().is_some()),
         ];
         for (name, has) in textures {
             let n = materials.iter().filter(|m| has(m)).count();
-            warn(n, format!("{n} material(s) use a {name}: textures are not sampled (their factors are used)"));
+            warn(n, format!("{n} material(s) use a {name}, which raylab does not sample (its factors are used)"));
         }
+        let second_set = |i: Option<gltf::texture::Info>| {
+            i.is_some_and(|i| i.tex_coord() != 0 || UvTransform::of(&i).ok().flatten().and_then(|t| t.tex_coord).is_some_and(|c| c != 0))
+        };
+        let n = materials
+            .iter()
+            .filter(|m| second_set(m.pbr_metallic_roughness().base_color_texture()) || second_set(m.emissive_texture()))
+            .count();
+        warn(n, format!("{n} material(s) sample a texture with a texture coordinate set other than TEXCOORD_0: TEXCOORD_0 is used"));
+        let n = materials
+            .iter()
+            .filter(|m| m.alpha_mode() != gltf::material::AlphaMode::Opaque && m.pbr_metallic_roughness().base_color_texture().is_some())
+            .count();
+        warn(
+            n,
+            format!("{n} material(s) blend or mask by their baseColorTexture's alpha, which raylab ignores (the alpha factor is used)"),
+        );
         let n = materials.iter().filter(|m| m.alpha_mode() == gltf::material::AlphaMode::Mask).count();
         warn(n, format!("{n} material(s) use alphaMode MASK: the cutoff is ignored (they are opaque)"));
         let unsupported: Vec<&str> = self.doc.extensions_used().filter(|e| !SUPPORTED.contains(e)).collect();
@@ -692,6 +884,7 @@ impl GltfFile {
             };
             typed(prim.get(&gltf::Semantic::Positions), &[DataType::F32], Dimensions::Vec3, "POSITION")?;
             typed(prim.get(&gltf::Semantic::Normals), &[DataType::F32], Dimensions::Vec3, "NORMAL")?;
+            typed(prim.get(&gltf::Semantic::TexCoords(0)), &[DataType::F32, DataType::U8, DataType::U16], Dimensions::Vec2, "TEXCOORD_0")?;
             typed(prim.indices(), &[DataType::U8, DataType::U16, DataType::U32], Dimensions::Scalar, "index")?;
             let reader = prim.reader(|b| self.buffers.get(b.index()).map(Vec::as_slice));
             let Some(positions) = reader.read_positions() else {
@@ -733,12 +926,29 @@ impl GltfFile {
                     out.normal_indices.clear();
                 }
             }
+            // Texture coordinates (v flipped: glTF's run down from the image's top), kept only
+            // if every primitive has them.
+            let texcoords: Option<Vec<[f32; 2]>> = reader
+                .read_tex_coords(0)
+                .map(|r| r.into_f32().map(|[u, v]| [u, 1.0 - v]).collect())
+                .filter(|v: &Vec<[f32; 2]>| v.len() == positions.len());
+            let keep_uv = texcoords.is_some() && out.texcoord_indices.len() == out.triangles.len();
+            match texcoords.filter(|_| keep_uv) {
+                Some(uv) => out.texcoords.extend(uv),
+                None => {
+                    out.texcoords.clear();
+                    out.texcoord_indices.clear();
+                }
+            }
             let material = prim.material().index().map_or(default_material, |i| i as u32);
             for t in tris {
                 let t = if flip { [t[0], t[2], t[1]] } else { t };
                 out.triangles.push(t.map(|v| base + v));
                 if keep {
                     out.normal_indices.push(t.map(|v| base + v));
+                }
+                if keep_uv {
+                    out.texcoord_indices.push(t.map(|v| base + v));
                 }
                 out.material_ids.push(material);
             }
@@ -782,6 +992,27 @@ impl GltfFile {
     }
 }
 
+/// The lookup of a `KHR_texture_transform` (`offset`, `rotation` in radians, `scale`) in
+/// raylab's texture coordinates: the extension's `T·R·S` acts on glTF's coordinates, whose `v`
+/// runs down, so it is conjugated by the flip `v ↦ 1 − v`.
+pub fn gltf_uv_transform(offset: [f64; 2], rotation: f64, scale: [f64; 2]) -> DAffine3 {
+    let (s, c) = rotation.sin_cos();
+    let m = raylab::glam::DMat3::from_cols(DVec3::new(c, s, 0.0), DVec3::new(-s, c, 0.0), DVec3::Z);
+    let gltf = DAffine3::from_translation(DVec3::new(offset[0], offset[1], 0.0))
+        * DAffine3::from_mat3(m)
+        * DAffine3::from_scale(DVec3::new(scale[0], scale[1], 1.0));
+    let flip = DAffine3::from_translation(DVec3::Y) * DAffine3::from_scale(DVec3::new(1.0, -1.0, 1.0));
+    flip * gltf * flip
+}
+
+/// Smallest Phong exponent a glTF material maps to: from 1 up, the lobe `cos^n` falls
+/// continuously to zero where the mirror direction turns 90° from the viewer.
+pub const MIN_SHININESS: f64 = 1.0;
+
+/// Largest Phong exponent a glTF material maps to (a mirror-smooth lobe is narrower than a
+/// pixel anyway).
+pub const MAX_SHININESS: f64 = 1e4;
+
 fn default_gltf_material() -> Material {
     pbr_to_phong([1.0, 1.0, 1.0, 1.0], 1.0, 1.0, false, None, None, [0.0; 3])
 }
@@ -816,10 +1047,11 @@ pub fn pbr_to_phong(
         None if blend => 1.0 - clamp01(base[3]),
         None => 0.0,
     };
+    let shininess = ((2.0 / (alpha * alpha) - 2.0) / 4.0).clamp(MIN_SHININESS, MAX_SHININESS);
     Material {
         kd: c * (1.0 - m) * (1.0 - kt),
-        ks: f0,
-        shininess: ((2.0 / (alpha * alpha) - 2.0) / 4.0).clamp(0.0, 1e4),
+        ks: f0 * (shininess + 1.0) / 2.0,
+        shininess,
         kr,
         kt: Color::splat(kt),
         ior: ior.filter(|i| i.is_finite() && *i > 0.0).map_or(1.5, f64::from),
@@ -1056,10 +1288,24 @@ mod tests {
         assert!(gold.kr.x > 0.9 && gold.blur < 0.01 && gold.shininess >= 1e3);
         let plastic = pbr_to_phong([0.2, 0.4, 0.8, 1.0], 0.0, 0.5, false, None, None, [0.0; 3]);
         assert_eq!(plastic.kr, Color::ZERO);
-        assert!((plastic.kd - Color::new(0.2, 0.4, 0.8)).length() < 1e-6 && (plastic.ks.x - 0.04).abs() < 1e-9);
+        assert!((plastic.kd - Color::new(0.2, 0.4, 0.8)).length() < 1e-6 && (plastic.ks.x - 0.04 * 8.5 / 2.0).abs() < 1e-9);
         assert!((plastic.shininess - 7.5).abs() < 1e-9);
         let glass = pbr_to_phong([1.0; 4], 0.0, 0.0, false, Some(1.0), Some(1.33), [0.0; 3]);
         assert_eq!((glass.kt, glass.ior), (Color::ONE, 1.33f32 as f64));
+    }
+
+    /// The specular reflectance a viewer sees, `2·ks / (n + 1)`, is `F0` at every roughness, and
+    /// the exponent never drops below 1, where the lobe would end in a step.
+    #[test]
+    fn the_highlight_keeps_its_reflectance_and_never_ends_in_a_step() {
+        for r in [0.0, 0.1, 0.3, 0.5, 0.7, 0.9, 1.0] {
+            let plastic = pbr_to_phong([0.8, 0.2, 0.1, 1.0], 0.0, r, false, None, None, [0.0; 3]);
+            assert!(plastic.shininess >= MIN_SHININESS, "roughness {r}: exponent {}", plastic.shininess);
+            let reflectance = 2.0 * plastic.ks / (plastic.shininess + 1.0);
+            assert!((reflectance - Color::splat(0.04)).abs().max_element() < 1e-9, "roughness {r}: {reflectance}");
+        }
+        let rough = pbr_to_phong([1.0; 4], 0.0, 1.0, false, None, None, [0.0; 3]);
+        assert_eq!(rough.shininess, MIN_SHININESS);
     }
 
     /// One triangle as a data URI (vertices (0,0,0), (1,0,0), (0,1,0)).
@@ -1161,7 +1407,7 @@ mod tests {
     #[test]
     fn ignored_features_warn_once_per_kind() {
         let extra = r#",
-"materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}}},{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}}}],
+"materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}},"normalTexture":{"index":0}},{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}},"normalTexture":{"index":0}}],
 "textures":[{"source":0}],"images":[{"uri":"missing.png"}],
 "extensionsUsed":["KHR_materials_clearcoat","KHR_lights_punctual"]"#;
         let text = doc("[{\"mesh\":0},{\"mesh\":1}]", extra).replacen(
@@ -1172,28 +1418,49 @@ mod tests {
         let job = load_scene("textured.gltf", &text, raylab::input::limits::Limits::default()).0.unwrap();
         let w: Vec<String> = job.warnings.iter().map(|w| w.message.clone()).collect();
         let has = |s: &str| w.iter().filter(|m| m.contains(s)).count();
-        assert_eq!(has("baseColorTexture"), 1, "{w:?}");
-        assert_eq!(has("2 material(s) use a baseColorTexture"), 1, "{w:?}");
+        assert_eq!(has("2 material(s) use a normalTexture"), 1, "{w:?}");
+        // The texture both materials sample cannot be read: one warning, naming it.
+        let unread: Vec<String> =
+            job.warnings.iter().map(|w| w.report()).filter(|r| r.contains("baseColorTexture is not sampled")).collect();
+        assert_eq!(unread.len(), 1, "{w:?}");
+        assert!(unread[0].contains("missing.png"), "{}", unread[0]);
         assert_eq!(has("2 primitive(s) are points or lines"), 1, "{w:?}");
         assert_eq!(has("ignores: KHR_materials_clearcoat"), 1, "{w:?}");
         assert_eq!(has("KHR_lights_punctual"), 0, "{w:?}");
     }
 
-    /// The textured box of the shared assets warns that its texture is not sampled (skipped
-    /// when the shared assets are absent).
+    /// The Khronos textured box samples its logo, from the PNG beside the .gltf and from the
+    /// .glb's own buffer alike, without a warning: sky blue at the image's top, green below.
     #[test]
-    fn the_shared_textured_box_warns_about_its_texture() {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-        let Some(path) = [root.join("../shared"), root.join("../../shared")]
-            .iter()
-            .map(|d| d.join("assets/gltf-boxtextured/BoxTextured.glb"))
-            .find(|p| p.is_file())
-        else {
-            eprintln!("shared assets absent: skipped");
-            return;
-        };
-        let options = raylab::LoadOptions::default();
-        let job = raylab::input::load::load_file(&crate::registry(), &path, &options).unwrap();
-        assert!(job.warnings.iter().any(|w| w.message.contains("1 material(s) use a baseColorTexture")), "{:?}", job.warnings);
+    fn the_textured_box_samples_its_logo() {
+        use raylab::scene::texture::TexturePoint;
+        let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/assets");
+        for file in ["BoxTextured.gltf", "BoxTextured.glb"] {
+            let options = raylab::LoadOptions::default();
+            let job = raylab::input::load::load_file(&crate::registry(), &assets.join(file), &options).unwrap();
+            assert!(job.warnings.is_empty(), "{file}: {:?}", job.warnings);
+            let m = &job.scene.objects[0].materials()[0];
+            assert_eq!(m.textures.len(), 1, "{file}: the base colour (a dielectric: kd only)");
+            assert_eq!(m.textures[0].channel, Channel::Kd);
+            let at = |u, v| m.textures[0].texture.eval(&TexturePoint { uv: raylab::glam::DVec2::new(u, v), local: DVec3::ZERO });
+            let (sky, hill) = (at(0.5, 0.9), at(0.5, 0.15));
+            assert!(sky.z > sky.x && sky.z > sky.y, "{file}: {sky}");
+            assert!(hill.y > hill.x && hill.y > hill.z, "{file}: {hill}");
+        }
+    }
+
+    /// `KHR_texture_transform` acts on glTF's texture coordinates (v down): an offset of half the
+    /// image in u moves the lookup by half; a quarter turn maps u onto v.
+    #[test]
+    fn texture_transforms_act_in_gltf_coordinates() {
+        let at = |m: DAffine3, u: f64, v: f64| m.transform_point3(DVec3::new(u, v, 0.0));
+        let close = |a: DVec3, b: DVec3| assert!((a - b).length() < 1e-6, "{a} vs {b}");
+        close(at(gltf_uv_transform([0.5, 0.0], 0.0, [1.0, 1.0]), 0.1, 0.3), DVec3::new(0.6, 0.3, 0.0));
+        // glTF (u, v) = (0.1, 0.7) scaled by 2 in v: (0.1, 1.4); in raylab's v-up terms
+        // (0.1, 0.3) → (0.1, −0.4).
+        close(at(gltf_uv_transform([0.0, 0.0], 0.0, [1.0, 2.0]), 0.1, 0.3), DVec3::new(0.1, -0.4, 0.0));
+        // A quarter turn: glTF (u, v) ↦ (u cos − v sin, u sin + v cos) = (−v, u).
+        let q = gltf_uv_transform([0.0, 0.0], std::f64::consts::FRAC_PI_2, [1.0, 1.0]);
+        close(at(q, 0.2, 1.0 - 0.6), DVec3::new(-0.6, 1.0 - 0.2, 0.0));
     }
 }

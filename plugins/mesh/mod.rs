@@ -12,7 +12,7 @@ pub mod triangulate;
 
 use raylab::geometry::transform::{Transform, Transformed};
 use raylab::geometry::{Geometry, Hit, Intersectable, Surface, face_forward};
-use raylab::glam::DVec3;
+use raylab::glam::{DVec2, DVec3};
 use raylab::input::error::{Loc, Result, SceneError};
 use raylab::input::params::Params;
 use raylab::input::registry::SceneFormat;
@@ -20,7 +20,7 @@ use raylab::input::spec::{Default, ParamKind, ParamSpec};
 use raylab::input::value::Value;
 use raylab::{Aabb, LoadContext, Material, PluginInfo, Ray, Registry};
 use std::sync::Arc;
-use triangle_mesh::{MeshError, Normals, TriangleMesh};
+use triangle_mesh::{Normals, TriangleMesh};
 
 /// The `mesh` plugin's description.
 pub const INFO: PluginInfo = PluginInfo {
@@ -118,6 +118,11 @@ pub fn build(p: &mut Params, ctx: &LoadContext) -> Result<Box<dyn Geometry>> {
 /// measured: about 360 for the 1.1 M-triangle bunny).
 pub const MESH_BYTES_PER_TRIANGLE: u64 = 384;
 
+/// Estimated extra peak bytes per triangle of a mesh with texture coordinates: the file's
+/// coordinates and indices as read, and the stored ones (8 bytes per coordinate, 12 per
+/// triangle each way, a coordinate or so per triangle).
+pub const MESH_UV_BYTES_PER_TRIANGLE: u64 = 48;
+
 /// The mesh in `file` (with `selection` and `normals`), read and indexed once per scene.
 pub fn load_mesh(
     ctx: &LoadContext,
@@ -138,22 +143,23 @@ pub fn load_mesh(
     let full = ctx.resolve_path(file, loc)?;
     let key = format!("mesh:{}:{selection:?}:{normals:?}:{with_materials}", full.display());
     ctx.assets.get_or_load(&key, || {
-        let (data, obj_bytes) = match ext.as_str() {
+        let (data, file_bytes) = match ext.as_str() {
             "obj" => {
                 if selection.is_some() {
                     return Err(SceneError::at(loc, "`mesh` selects a mesh of a glTF file; an OBJ file is read whole"));
                 }
+                // The file's bytes are freed once read: the index is built without them.
                 let (full, bytes) = ctx.read_file(file, loc)?;
-                (obj::read(ctx, file, &full, &bytes, with_materials, loc)?, Some(bytes))
+                (obj::read(ctx, file, &full, &bytes, with_materials, loc)?, bytes.len() as u64)
             }
             "gltf" | "glb" => {
                 let g = gltf::open(ctx, file, loc)?;
                 (
                     match selection {
-                        Some(i) => g.mesh(i)?,
-                        None => g.whole()?,
+                        Some(i) => g.mesh(ctx, i)?,
+                        None => g.whole(ctx)?,
                     },
-                    None,
+                    0,
                 )
             }
             _ => return Err(unknown()),
@@ -164,13 +170,10 @@ pub fn load_mesh(
             return Err(SceneError::in_file(&name, None, format!("{} triangles, over the limit of {limit}", data.triangles.len()))
                 .with_help("raise the limit with --max-triangles"));
         }
-        let file_bytes = obj_bytes.as_ref().map_or(0, |b| b.len() as u64);
-        let estimate = (data.triangles.len() as u64).saturating_mul(MESH_BYTES_PER_TRIANGLE).saturating_add(file_bytes);
+        let per_triangle = MESH_BYTES_PER_TRIANGLE + if data.texcoord_indices.is_empty() { 0 } else { MESH_UV_BYTES_PER_TRIANGLE };
+        let estimate = (data.triangles.len() as u64).saturating_mul(per_triangle).saturating_add(file_bytes);
         ctx.charge(estimate, &format!("the mesh \"{name}\" ({} triangles)", data.triangles.len()), Some(loc))?;
-        let mesh = TriangleMesh::new(data, normals, ctx.options.accel).map_err(|e| match (&e, &obj_bytes) {
-            (MeshError::NonFinite { .. }, Some(bytes)) => SceneError::in_file(&name, obj::non_finite_line(bytes), e.to_string()),
-            _ => SceneError::in_file(&name, None, e.to_string()),
-        })?;
+        let mesh = TriangleMesh::new(data, normals, ctx.options.accel).map_err(|e| SceneError::in_file(&name, None, e.to_string()))?;
         ctx.assets.record_build(mesh.build_stats());
         Ok(mesh)
     })
@@ -184,7 +187,7 @@ pub fn mesh_from_bytes(ctx: &LoadContext, name: &str, ext: &str, bytes: &[u8]) -
     let loc = Loc::new(&src, 0..0);
     let data = match ext {
         "obj" => obj::read(ctx, name, std::path::Path::new(name), bytes, false, &loc)?,
-        _ => gltf::parse(ctx, name, std::path::Path::new(name), bytes.to_vec(), &loc)?.whole()?,
+        _ => gltf::parse(ctx, name, std::path::Path::new(name), bytes.to_vec(), &loc)?.whole(ctx)?,
     };
     TriangleMesh::new(data, Normals::Smooth, ctx.options.accel).map_err(|e| SceneError::in_file(name, None, e.to_string()))
 }
@@ -233,7 +236,12 @@ impl Geometry for MeshObject {
             Some(ns) => face_forward(ns, -n),
             None => n,
         };
-        Surface { n, ns, front_face, uv: at.uv, local: at.point, material: self.mesh.material_id(at.prim) as u32 }
+        Surface { n, ns, front_face, local: at.point, material: self.mesh.material_id(at.prim) as u32 }
+    }
+    /// The file's texture coordinates, interpolated; without them, the triangle's barycentric
+    /// coordinates.
+    fn uv(&self, at: &Hit) -> DVec2 {
+        self.mesh.interpolated_uv(at).unwrap_or(at.uv)
     }
     fn materials(&self) -> Option<Arc<[Material]>> {
         self.mesh.materials().cloned()

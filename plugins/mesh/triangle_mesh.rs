@@ -1,21 +1,34 @@
 //! The triangle store of a mesh, its spatial index and its ray queries.
 //!
-//! Triangles are stored as nine `f32` coordinates each, in the index's leaf order, so a leaf reads
-//! them contiguously and no vertex-index indirection sits on the hot path. They are tested in
-//! `f64` (every `f32` is exact in `f64`) by the watertight test of the `triangle` shape, with
-//! **edges and vertices counted as hits** ([`EdgeRule::Inclusive`]): a lone triangle follows the
-//! report (a ray through an edge misses it), but in a mesh that rule would let a ray slip between
-//! two triangles sharing an edge, so a mesh uses the inclusive rule and no ray passes through a
-//! closed mesh. The traversal is specialised for triangles: a closure inlined into the core's
+//! Triangles are stored in the index's leaf order as packs of four ([`TriPack`]: nine lanes of four
+//! `f32`), so a leaf reads them contiguously, four at a time, with no vertex-index indirection on
+//! the hot path. A ray meets a leaf's triangles in two steps:
+//!
+//! 1. a **conservative `f32` filter** tests a whole pack at once (the edge functions of Woop, Benthin
+//!    & Wald's watertight test in four lanes) and rejects only triangles it can prove the exact
+//!    test rejects: some edge function certainly negative and another certainly positive, beyond a
+//!    bound on the rounding error of both computations ([`PackRay`] derives it);
+//! 2. the survivors, usually the triangle hit and none other, get the `f64` watertight test of the
+//!    `triangle` shape (every `f32` is exact in `f64`), which alone decides: the hit, its `t`, its
+//!    barycentrics and error bound are exactly what they were without the filter.
+//!
+//! `f32` alone would not do: its hit points would carry errors of 10⁻⁷ of the mesh's size, and the
+//! offsets that keep secondary rays off the surface (derived from `f64` error bounds) would have to
+//! grow by the same factor. As a filter it needs no such care: an uncertain triangle is passed on.
+//!
+//! Edges and vertices count as hits ([`EdgeRule::Inclusive`]): a lone triangle follows the report
+//! (a ray through an edge misses it), but in a mesh that rule would let a ray slip between two
+//! triangles sharing an edge, so a mesh uses the inclusive rule and no ray passes through a closed
+//! mesh. The traversal is specialised for triangles: closures inlined into the core's
 //! [`PrimitiveIndex`], no dynamic dispatch and no allocation per ray.
 
 use crate::shapes::triangle::{EdgeRule, TriangleRay, barycentric_point};
 use raylab::Material;
-use raylab::accel::bvh::PrimitiveIndex;
+use raylab::accel::bvh::{PAD_SLOT, PrimitiveIndex};
 use raylab::accel::{AccelChoice, BuildStats, MESH_BVH_THRESHOLD};
 use raylab::geometry::Hit;
-use raylab::glam::{DVec2, DVec3, Vec3};
-use raylab::math::float::on_surface_slack;
+use raylab::glam::{BVec4A, DVec2, DVec3, Vec2, Vec3, Vec4};
+use raylab::math::float::{gamma, on_surface_slack};
 use raylab::{Aabb, Ray};
 use std::sync::{Arc, OnceLock};
 
@@ -31,6 +44,10 @@ pub struct MeshData {
     pub normals: Vec<[f32; 3]>,
     /// Per triangle, indices into `normals` (empty, or one per triangle).
     pub normal_indices: Vec<[u32; 3]>,
+    /// Vertex texture coordinates, v up (may be empty).
+    pub texcoords: Vec<[f32; 2]>,
+    /// Per triangle, indices into `texcoords` (empty, or one per triangle).
+    pub texcoord_indices: Vec<[u32; 3]>,
     /// Per triangle, an index into `materials` (empty: all use material 0).
     pub material_ids: Vec<u32>,
     /// The file's materials, mapped to raylab's (may be empty).
@@ -88,13 +105,43 @@ struct Shading {
     indices: Vec<[u32; 3]>,
 }
 
+/// Per-vertex texture coordinates, with each stored triangle's three indices.
+#[derive(Clone, Debug)]
+struct TexCoords {
+    uv: Vec<Vec2>,
+    indices: Vec<[u32; 3]>,
+}
+
+/// Four triangles' vertices, lane = triangle: `v[vertex][axis][lane]`. Lanes that hold no
+/// triangle (the padding of a leaf) are NaN.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(16))]
+struct TriPack {
+    v: [[[f32; 4]; 3]; 3],
+}
+
+impl TriPack {
+    const EMPTY: TriPack = TriPack { v: [[[f32::NAN; 4]; 3]; 3] };
+}
+
+/// Triangles per pack.
+const PACK: u32 = 4;
+
 /// A triangle mesh ready for ray queries.
 #[derive(Debug)]
 pub struct TriangleMesh {
-    /// Triangles in slot order: p0, p1, p2, three `f32` each.
-    tris: Vec<[f32; 9]>,
+    /// Triangles in slot order, four per pack: slot `s` is lane `s % 4` of pack `s / 4`.
+    packs: Vec<TriPack>,
+    /// Triangles stored (slots less padding).
+    triangles: usize,
     index: PrimitiveIndex,
+    /// The filter's bound on the rounding error of an `f32` sheared vertex coordinate, for the
+    /// rays of this mesh, less its part that depends on the ray (see [`PackRay`]).
+    filter_error: f64,
+    /// The magnitude that part scales with: the bounds' largest coordinate plus largest extent.
+    filter_scale: f64,
     shading: Option<Shading>,
+    texcoords: Option<TexCoords>,
     /// Per stored triangle, its material index (empty when the mesh has one material).
     material_ids: Vec<u32>,
     /// The file's materials (empty: none), shared by every object placing the mesh.
@@ -110,13 +157,15 @@ impl TriangleMesh {
     /// Validates `data`, drops degenerate triangles, and builds the spatial index (a hierarchy
     /// when `choice` asks for one for this many triangles).
     pub fn new(data: MeshData, normals: Normals, choice: AccelChoice) -> Result<TriangleMesh, MeshError> {
-        let MeshData { positions, triangles, normals: file_normals, normal_indices, material_ids, materials } = data;
+        let MeshData { positions, triangles, normals: file_normals, normal_indices, texcoords, texcoord_indices, material_ids, materials } =
+            data;
         if let Some(v) = positions.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
             return Err(MeshError::NonFinite { vertex: v });
         }
         let n = positions.len();
-        let mut keep = Vec::with_capacity(triangles.len());
+        let mut keep: Vec<u32> = Vec::with_capacity(triangles.len());
         let mut degenerate = 0;
+        let mut bounds = Aabb::EMPTY;
         for (i, t) in triangles.iter().enumerate() {
             if let Some(&bad) = t.iter().find(|&&v| v as usize >= n) {
                 return Err(MeshError::IndexOutOfRange { triangle: i, index: bad, vertices: n });
@@ -124,7 +173,8 @@ impl TriangleMesh {
             let [a, b, c] = t.map(|v| Vec3::from(positions[v as usize]).as_dvec3());
             let cross = (b - a).cross(c - a);
             if cross.length_squared() > 0.0 && cross.is_finite() {
-                keep.push(i);
+                keep.push(i as u32);
+                bounds = bounds.include(a).include(b).include(c);
             } else {
                 degenerate += 1;
             }
@@ -146,39 +196,72 @@ impl TriangleMesh {
             Normals::Smooth => Some(Shading { normals: vertex_normals(&positions, &triangles), indices: triangles.clone() }),
             Normals::Auto => None,
         };
-        let boxes: Vec<Aabb> =
-            keep.iter().map(|&i| Aabb::from_points(triangles[i].map(|v| Vec3::from(positions[v as usize]).as_dvec3()))).collect();
-        let (index, order, build) = PrimitiveIndex::build(&boxes, choice.use_bvh(boxes.len(), MESH_BVH_THRESHOLD));
-        let source: Vec<usize> = order.iter().map(|&s| keep[s as usize]).collect();
-        let tris = source
-            .iter()
-            .map(|&i| {
-                let [a, b, c] = triangles[i].map(|v| positions[v as usize]);
-                [a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2]]
-            })
-            .collect();
-        let shading = shading.map(|s| Shading { indices: source.iter().map(|&i| s.indices[i]).collect(), normals: s.normals });
+        let tri_box = |k: usize| Aabb::from_points(triangles[keep[k] as usize].map(|v| Vec3::from(positions[v as usize]).as_dvec3()));
+        let (index, mut source, build) =
+            PrimitiveIndex::build_from(keep.len(), tri_box, choice.use_bvh(keep.len(), MESH_BVH_THRESHOLD), PACK);
+        // Input triangle of each slot (padding: none).
+        for s in source.iter_mut().filter(|s| **s != PAD_SLOT) {
+            *s = keep[*s as usize];
+        }
+        drop(keep);
+        let mut packs = vec![TriPack::EMPTY; source.len().div_ceil(PACK as usize)];
+        for (slot, &i) in source.iter().enumerate() {
+            if i == PAD_SLOT {
+                continue;
+            }
+            let pack = &mut packs[slot / PACK as usize];
+            for (vertex, &v) in pack.v.iter_mut().zip(&triangles[i as usize]) {
+                for (lanes, &c) in vertex.iter_mut().zip(&positions[v as usize]) {
+                    lanes[slot % PACK as usize] = c;
+                }
+            }
+        }
+        let stored = |i: u32| (i != PAD_SLOT).then_some(i as usize);
+        let shading = shading
+            .map(|s| Shading { indices: source.iter().map(|&i| stored(i).map_or([0; 3], |i| s.indices[i])).collect(), normals: s.normals });
+        // Texture coordinates: the file's, when every triangle has valid ones.
+        let texcoords = (texcoord_indices.len() == triangles.len()
+            && texcoord_indices.iter().all(|t| t.iter().all(|&i| (i as usize) < texcoords.len()))
+            && texcoords.iter().all(|c| c.iter().all(|v| v.is_finite())))
+        .then(|| TexCoords {
+            uv: texcoords.iter().map(|&c| Vec2::from(c)).collect(),
+            indices: source.iter().map(|&i| stored(i).map_or([0; 3], |i| texcoord_indices[i])).collect(),
+        });
         let first = material_ids.first().copied().unwrap_or(0) as usize;
         let uniform = material_ids.iter().all(|&m| m as usize == first);
         let (material_ids, materials) = if material_ids.len() == triangles.len() && !uniform {
-            (source.iter().map(|&i| material_ids[i]).collect(), materials)
+            (source.iter().map(|&i| stored(i).map_or(0, |i| material_ids[i])).collect(), materials)
         } else if first > 0 && first < materials.len() {
             (Vec::new(), vec![materials[first].clone()])
         } else {
             (Vec::new(), materials)
         };
-        let bounds = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(*b));
         let materials = (!materials.is_empty()).then(|| Arc::from(materials));
-        let mut mesh = TriangleMesh { tris, index, shading, material_ids, materials, degenerate, bounds, closed: OnceLock::new(), build };
+        let filter_scale = bounds.magnitude() + bounds.extent().max_element();
+        let mut mesh = TriangleMesh {
+            packs,
+            triangles: source.iter().filter(|&&i| i != PAD_SLOT).count(),
+            index,
+            filter_error: FILTER_ROUNDING * filter_scale,
+            filter_scale,
+            shading,
+            texcoords,
+            material_ids,
+            materials,
+            degenerate,
+            bounds,
+            closed: OnceLock::new(),
+            build,
+        };
         // Reported per triangle: the whole store, not only the hierarchy's nodes.
-        mesh.build.primitives = mesh.tris.len() as u64;
+        mesh.build.primitives = mesh.triangles as u64;
         mesh.build.bytes = mesh.memory_bytes() as u64;
         Ok(mesh)
     }
 
     /// Number of triangles stored.
     pub fn triangle_count(&self) -> usize {
-        self.tris.len()
+        self.triangles
     }
 
     /// Input triangles dropped because they have no area.
@@ -213,9 +296,10 @@ impl TriangleMesh {
 
     /// Bytes used by the triangles, their attributes and the index.
     pub fn memory_bytes(&self) -> usize {
-        self.tris.len() * std::mem::size_of::<[f32; 9]>()
+        self.packs.len() * std::mem::size_of::<TriPack>()
             + self.material_ids.len() * 4
             + self.shading.as_ref().map_or(0, |s| s.normals.len() * 12 + s.indices.len() * 12)
+            + self.texcoords.as_ref().map_or(0, |t| t.uv.len() * 8 + t.indices.len() * 12)
             + self.index.memory_bytes()
     }
 
@@ -227,29 +311,35 @@ impl TriangleMesh {
 
     #[inline(always)]
     fn vertices(&self, slot: u32) -> [[f64; 3]; 3] {
-        let p = &self.tris[slot as usize];
-        [
-            [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])],
-            [f64::from(p[3]), f64::from(p[4]), f64::from(p[5])],
-            [f64::from(p[6]), f64::from(p[7]), f64::from(p[8])],
-        ]
+        let (p, lane) = (&self.packs[(slot / PACK) as usize], (slot % PACK) as usize);
+        p.v.map(|v| v.map(|axis| f64::from(axis[lane])))
     }
 
     /// The closest hit in `(t_min, t_max)`: `prim` is the triangle's slot, `uv` its barycentric
     /// coordinates (b1, b2).
     #[inline]
     pub fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<Hit> {
+        let q = self.index.query(ray, t_min, t_max)?;
+        let pr = PackRay::new(ray, q.base(), self.filter_error, self.filter_scale);
         let tr = TriangleRay::new(ray);
-        let mut b = DVec3::ZERO;
-        let (slot, t) = self.index.closest(ray, t_min, t_max, |slot, t_max| {
-            let [p0, p1, p2] = self.vertices(slot);
-            let h = tr.intersect(p0, p1, p2, t_min, t_max, EdgeRule::Inclusive)?;
-            if on_surface(ray, h.t, p0, p1, p2) {
-                return None;
-            }
-            b = h.b;
-            Some(h.t)
+        let mut best = (0, DVec3::ZERO);
+        let t = q.closest_leaves(|first, count, t_max| {
+            let mut t_max = t_max;
+            let mut found = None;
+            self.candidates(&pr, first, count, |slot| {
+                let [p0, p1, p2] = self.vertices(slot);
+                if let Some(h) = tr.intersect(p0, p1, p2, t_min, t_max, EdgeRule::Inclusive)
+                    && !on_surface(ray, h.t, p0, p1, p2)
+                {
+                    t_max = h.t;
+                    found = Some(h.t);
+                    best = (slot, h.b);
+                }
+                false
+            });
+            found
         })?;
+        let (slot, b) = best;
         let [p0, p1, p2] = self.vertices(slot).map(DVec3::from);
         let (point, error) = barycentric_point(b, p0, p1, p2);
         Some(Hit { t, point, error, uv: DVec2::new(b.y, b.z), prim: slot, object: 0 })
@@ -258,11 +348,51 @@ impl TriangleMesh {
     /// Whether any triangle is hit in `(t_min, t_max)`; stops at the first.
     #[inline]
     pub fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
+        let Some(q) = self.index.query(ray, t_min, t_max) else { return false };
+        let pr = PackRay::new(ray, q.base(), self.filter_error, self.filter_scale);
         let tr = TriangleRay::new(ray);
-        self.index.any(ray, t_min, t_max, |slot| {
-            let [p0, p1, p2] = self.vertices(slot);
-            tr.intersect(p0, p1, p2, t_min, t_max, EdgeRule::Inclusive).is_some_and(|h| !on_surface(ray, h.t, p0, p1, p2))
+        q.any_leaves(|first, count| {
+            self.candidates(&pr, first, count, |slot| {
+                let [p0, p1, p2] = self.vertices(slot);
+                tr.intersect(p0, p1, p2, t_min, t_max, EdgeRule::Inclusive).is_some_and(|h| !on_surface(ray, h.t, p0, p1, p2))
+            })
         })
+    }
+
+    /// Calls `confirm(slot)` for each triangle of the leaf `first .. first + count` that the
+    /// `f32` filter cannot rule out, in slot order; stops when it returns true, and returns
+    /// whether it did.
+    #[inline(always)]
+    fn candidates(&self, pr: &PackRay, first: u32, count: u32, confirm: impl FnMut(u32) -> bool) -> bool {
+        // One code path per axis permutation: the filter indexes the packs by constant axes.
+        match pr.kz {
+            0 => self.candidates_in::<1, 2, 0>(pr, first, count, confirm),
+            1 => self.candidates_in::<2, 0, 1>(pr, first, count, confirm),
+            _ => self.candidates_in::<0, 1, 2>(pr, first, count, confirm),
+        }
+    }
+
+    #[inline(always)]
+    fn candidates_in<const KX: usize, const KY: usize, const KZ: usize>(
+        &self,
+        pr: &PackRay,
+        first: u32,
+        count: u32,
+        mut confirm: impl FnMut(u32) -> bool,
+    ) -> bool {
+        let (start, end) = (first / PACK, (first + count).div_ceil(PACK));
+        for p in start..end {
+            let live = (first + count - p * PACK).min(PACK);
+            let mut mask = pr.filter::<KX, KY, KZ>(&self.packs[p as usize]) & ((1u32 << live) - 1);
+            while mask != 0 {
+                let lane = mask.trailing_zeros();
+                mask &= mask - 1;
+                if confirm(p * PACK + lane) {
+                    return true;
+                }
+            }
+        }
+        false
     }
 
     /// Unit geometric normal of the triangle at `slot`, by its winding.
@@ -284,11 +414,132 @@ impl TriangleMesh {
         n.try_normalize()
     }
 
+    /// The interpolated texture coordinates at a hit, or `None` when the file has none.
+    #[inline]
+    pub fn interpolated_uv(&self, at: &Hit) -> Option<DVec2> {
+        let t = self.texcoords.as_ref()?;
+        let [i0, i1, i2] = *t.indices.get(at.prim as usize)?;
+        let (b1, b2) = (at.uv.x, at.uv.y);
+        Some((1.0 - b1 - b2) * t.uv[i0 as usize].as_dvec2() + b1 * t.uv[i1 as usize].as_dvec2() + b2 * t.uv[i2 as usize].as_dvec2())
+    }
+
     /// True when the mesh encloses a volume: every edge is shared by exactly two triangles that
     /// traverse it in opposite directions (vertices matched by position). Computed on first use.
     pub fn is_closed(&self) -> bool {
-        *self.closed.get_or_init(|| closed(&self.tris))
+        *self.closed.get_or_init(|| closed(self.live_triangles()))
     }
+
+    /// The stored triangles (p0, p1, p2, three `f32` each), padding skipped.
+    fn live_triangles(&self) -> impl Iterator<Item = [f32; 9]> + '_ {
+        self.packs
+            .iter()
+            .flat_map(|p| (0..PACK as usize).map(move |l| p.v.map(|v| v.map(|a| a[l]))))
+            .filter(|t| !t[0][0].is_nan())
+            .map(|[a, b, c]| [a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2]])
+    }
+}
+
+/// The part of [`PackRay`]'s error bound δ that scales with the mesh's magnitude (its bounds'
+/// largest coordinate plus largest extent), in units of that magnitude: 10 u with u = 2⁻²⁴, the
+/// unit roundoff of `f32` (the derivation needs 2u·|o| + 6u·|p − o| ≤ 8u of it; the rest covers
+/// the root box's padding).
+const FILTER_ROUNDING: f64 = 10.0 * F32_ROUNDOFF;
+
+/// u = 2⁻²⁴: bound on the relative rounding error of one `f32` operation.
+const F32_ROUNDOFF: f64 = 1.0 / (1u64 << 24) as f64;
+
+/// A ray prepared for the `f32` filter of four triangles at once.
+///
+/// In Woop et al.'s sheared frame (axes permuted so the ray's largest component `kz` is last,
+/// sheared so the ray runs along +z), a vertex `p` is at `X = (p_kx − o_kx) + Sx (p_kz − o_kz)`,
+/// `Y` likewise, and the ray passes through the triangle where its three edge functions
+/// `E = X₁Y₂ − Y₁X₂` (cyclically) share a sign. The exact `f64` test evaluates these with the
+/// ray's own origin; the filter evaluates them in `f32` from `o'`, the origin moved along the ray
+/// to where it enters the mesh's box (the shear frame is the same for any origin on the ray, so
+/// only rounding differs). Bounds, with u = 2⁻²⁴ and R the mesh's largest coordinate plus its
+/// largest extent (so |o'| ≤ R and |p − o'| ≤ R), |Sx|, |Sy| ≤ 1:
+///
+/// - each `f32` coordinate differs from the `f64` test's by at most
+///   `δ = u(2|o'| + 6|p − o'|)(1 + O(u)) + 16γ₆₄(3)(R + |o| + |base|)` (the rounding of `o'`, of
+///   the shear and of the four operations, plus the `f64` test's own error and that of `o'`);
+/// - with `L` the largest |X|, |Y| of the triangle's three vertices, each edge function differs by
+///   at most `4Lδ + 2δ² + 4u L²(1 + O(u))` (two products and a difference, in either precision).
+///
+/// The filter uses `err = L(5δ + 6uL) + 3δ² + 10⁻³⁷`, which also covers the rounding of computing
+/// `err` itself and, by its absolute term, the absolute (not relative) rounding of subnormal
+/// results. A triangle is rejected only when one edge function is below `−err` and another above
+/// `err`: then the `f64` test sees one negative and one positive and rejects it too. Everything
+/// else (the hit, triangles within `err` of an edge, edge-on triangles, triangles behind the
+/// origin or beyond the closest hit) goes to the `f64` test.
+#[derive(Clone, Copy, Debug)]
+struct PackRay {
+    /// The axis of the ray's largest direction component (kx = kz + 1, ky = kx + 1, mod 3).
+    kz: usize,
+    /// `o'` in permuted axes (x, y, z).
+    origin: [Vec4; 3],
+    /// Sx, Sy.
+    shear: [Vec4; 2],
+    /// 5δ.
+    five_delta: Vec4,
+    /// 3δ² plus the absolute term.
+    delta_sq: Vec4,
+}
+
+/// 6u, the relative part of the filter's bound on an edge function.
+const SIX_U: f32 = (6.0 * F32_ROUNDOFF) as f32;
+
+impl PackRay {
+    /// `ray` from `ray.at(base)`, for a mesh whose rounding bound is `error` at magnitude `scale`
+    /// (its `filter_error` and `filter_scale`).
+    #[inline]
+    fn new(ray: &Ray, base: f64, error: f64, scale: f64) -> PackRay {
+        let d = ray.dir;
+        let kz = d.abs().max_position();
+        let kx = if kz == 2 { 0 } else { kz + 1 };
+        let ky = if kx == 2 { 0 } else { kx + 1 };
+        let o = ray.at(base);
+        let delta = error + 16.0 * gamma(3) * (scale + ray.origin.abs().max_element() + base.abs());
+        let delta = up32(delta);
+        PackRay {
+            kz,
+            origin: [Vec4::splat(o[kx] as f32), Vec4::splat(o[ky] as f32), Vec4::splat(o[kz] as f32)],
+            shear: [Vec4::splat((-d[kx] / d[kz]) as f32), Vec4::splat((-d[ky] / d[kz]) as f32)],
+            five_delta: Vec4::splat(5.0 * delta),
+            delta_sq: Vec4::splat(3.0 * delta * delta + 1e-37),
+        }
+    }
+
+    /// The lanes of `pack` the exact test may accept (see [`PackRay`]); the axes are permuted to
+    /// `KX, KY, KZ` (the ray's).
+    #[inline(always)]
+    fn filter<const KX: usize, const KY: usize, const KZ: usize>(&self, pack: &TriPack) -> u32 {
+        let [ox, oy, oz] = self.origin;
+        let [sx, sy] = self.shear;
+        let vertex = |v: &[[f32; 4]; 3]| {
+            let dz = Vec4::from_array(v[KZ]) - oz;
+            ((Vec4::from_array(v[KX]) - ox) + sx * dz, (Vec4::from_array(v[KY]) - oy) + sy * dz)
+        };
+        let (x0, y0) = vertex(&pack.v[0]);
+        let (x1, y1) = vertex(&pack.v[1]);
+        let (x2, y2) = vertex(&pack.v[2]);
+        let e0 = x1 * y2 - y1 * x2;
+        let e1 = x2 * y0 - y2 * x0;
+        let e2 = x0 * y1 - y0 * x1;
+        let l = x0.abs().max(x1.abs()).max(x2.abs()).max(y0.abs().max(y1.abs()).max(y2.abs()));
+        let err = l * (self.five_delta + Vec4::splat(SIX_U) * l) + self.delta_sq;
+        let neg_err = -err;
+        let neg: BVec4A = e0.cmplt(neg_err) | e1.cmplt(neg_err) | e2.cmplt(neg_err);
+        let pos: BVec4A = e0.cmpgt(err) | e1.cmpgt(err) | e2.cmpgt(err);
+        // NaN lanes (padding) compare false: kept, and masked off by the caller.
+        !(neg & pos).bitmask() & 0xf
+    }
+}
+
+/// Rounds toward +∞ to `f32`.
+#[inline]
+fn up32(x: f64) -> f32 {
+    let v = x as f32;
+    if f64::from(v) < x { v.next_up() } else { v }
 }
 
 /// Whether a hit at `t` is the ray's own origin: the origin lies within rounding
@@ -319,10 +570,10 @@ fn vertex_normals(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<Vec3> {
 }
 
 /// Whether the triangles form a closed, consistently oriented surface.
-fn closed(tris: &[[f32; 9]]) -> bool {
+fn closed(tris: impl Iterator<Item = [f32; 9]>) -> bool {
     use std::collections::HashMap;
-    let mut ids: HashMap<[u32; 3], u32> = HashMap::with_capacity(tris.len());
-    let mut edges: Vec<(u32, u32, bool)> = Vec::with_capacity(tris.len() * 3);
+    let mut ids: HashMap<[u32; 3], u32> = HashMap::new();
+    let mut edges: Vec<(u32, u32, bool)> = Vec::new();
     for t in tris {
         let mut v = [0u32; 3];
         for (k, slot) in v.iter_mut().enumerate() {
@@ -338,4 +589,98 @@ fn closed(tris: &[[f32; 9]]) -> bool {
     edges.sort_unstable();
     edges.chunks(2).all(|pair| pair.len() == 2 && pair[0].0 == pair[1].0 && pair[0].1 == pair[1].1 && pair[0].2 != pair[1].2)
         && edges.windows(3).all(|w| !(w[0].0 == w[2].0 && w[0].1 == w[2].1))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use raylab::render::sampler::mix64;
+
+    /// Uniform numbers in [0, 1) from a counter.
+    struct Rng(u64);
+
+    impl Rng {
+        fn next(&mut self) -> f64 {
+            self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+            (mix64(self.0) >> 11) as f64 / (1u64 << 53) as f64
+        }
+        fn vec(&mut self) -> DVec3 {
+            DVec3::new(self.next(), self.next(), self.next()) * 2.0 - 1.0
+        }
+    }
+
+    /// The filter never rejects a triangle the exact test accepts: rays aimed exactly at vertices,
+    /// at points on edges, inside triangles and just outside them, from near and far, at scales
+    /// from 10⁻³⁰ to 10¹² and far from the origin, through slivers.
+    #[test]
+    fn the_filter_passes_every_triangle_the_exact_test_hits() {
+        let mut r = Rng(7);
+        let (mut hits, mut rejected) = (0, 0);
+        for case in 0..200_000 {
+            let mut pick = |n: usize| ((r.next() * n as f64) as usize).min(n - 1);
+            let (si, ci, di, kind, bi, sliver) = (pick(5), pick(3), pick(4), pick(4), pick(3), pick(7) == 0);
+            let scale = [1e-30, 1e-3, 1.0, 1e3, 1e12][si];
+            let center = [DVec3::ZERO, DVec3::splat(1e3 * scale), DVec3::new(-4e5, 2e4, 7e5) * scale][ci];
+            let mut p = [r.vec(), r.vec(), r.vec()].map(|v| (center + scale * v).as_vec3().as_dvec3());
+            if sliver {
+                p[2] = (p[0] + (p[1] - p[0]) * r.next() + scale * 1e-6 * r.vec()).as_vec3().as_dvec3();
+            }
+            // Aim at a vertex, a point on an edge, inside, or outside (just beyond an edge, or far).
+            let w = match kind {
+                0 => DVec3::X,
+                1 => {
+                    let s = r.next();
+                    DVec3::new(s, 1.0 - s, 0.0)
+                }
+                2 => DVec3::new(r.next(), r.next(), r.next()),
+                _ => {
+                    let beyond = [1e-7, 1e-3, 0.5][bi] * r.next();
+                    DVec3::new(r.next() + beyond, r.next(), -beyond)
+                }
+            };
+            let target = (w.x * p[0] + w.y * p[1] + w.z * p[2]) / w.element_sum();
+            let distance = scale * [1e-3, 1.0, 1e3, 1e8][di];
+            let origin = target - r.vec().normalize() * distance;
+            let ray = Ray::new(origin, target - origin);
+            let exact = TriangleRay::new(&ray).intersect(
+                p[0].to_array(),
+                p[1].to_array(),
+                p[2].to_array(),
+                0.0,
+                f64::INFINITY,
+                EdgeRule::Inclusive,
+            );
+            let bounds = Aabb::from_points(p);
+            let scale_of = bounds.magnitude() + bounds.extent().max_element();
+            // The frame starts where the ray enters the (padded) box, as in a query.
+            let padded = bounds.expand(DVec3::splat(1e-6 * scale_of));
+            let inv = ray.dir.recip();
+            let (t0, t1) = ((padded.min - ray.origin) * inv, (padded.max - ray.origin) * inv);
+            let base = t0.min(t1).max_element().max(0.0);
+            let pr = PackRay::new(&ray, base, FILTER_ROUNDING * scale_of, scale_of);
+            let mut pack = TriPack::EMPTY;
+            for (k, v) in p.iter().enumerate() {
+                for axis in 0..3 {
+                    pack.v[k][axis][0] = v[axis] as f32;
+                }
+            }
+            let mask = match pr.kz {
+                0 => pr.filter::<1, 2, 0>(&pack),
+                1 => pr.filter::<2, 0, 1>(&pack),
+                _ => pr.filter::<0, 1, 2>(&pack),
+            };
+            if exact.is_some() {
+                hits += 1;
+                assert!(mask & 1 == 1, "case {case}: the filter rejects a hit: {p:?}, {ray:?}");
+            } else if mask & 1 == 0 {
+                rejected += 1;
+            }
+        }
+        // Rays aimed at vertices and edges hit or miss by rounding, and only those aimed clearly
+        // outside can be rejected (relative to the mesh's magnitude: not at 10³ or 10⁵ sizes from
+        // the origin, and not at 10⁻³⁰, where `f32` products underflow and every triangle is
+        // passed on).
+        assert!(hits > 100_000, "{hits} hits");
+        assert!(rejected > 8_000, "{rejected} misses rejected");
+    }
 }

@@ -31,6 +31,8 @@ pub const TOP_CAP: u32 = 2;
 pub struct Cylinder {
     base: DVec3,
     axis: DVec3,
+    /// Axes across `axis`, for texture coordinates ([`super::uv::around_frame`]).
+    across: (DVec3, DVec3),
     radius: f64,
     height: Option<f64>,
     /// Largest `|d − (d·a)a|` that is rounding noise (the axis is unit only to rounding): a ray
@@ -87,7 +89,7 @@ impl Cylinder {
     /// A cylinder; `axis` must be unit length, `radius` and `height` finite and > 0.
     pub fn new(base: DVec3, axis: DVec3, radius: f64, height: Option<f64>) -> Self {
         let parallel_noise = gamma(6) + 2.0 * (axis.length_squared() - 1.0).abs();
-        Cylinder { base, axis, radius, height, parallel_noise }
+        Cylinder { base, axis, across: super::uv::around_frame(axis), radius, height, parallel_noise }
     }
 
     fn side_hit(&self, ray: &Ray, f: DVec3, t: f64) -> Hit {
@@ -198,6 +200,22 @@ impl Geometry for Cylinder {
             _ => {
                 let rel = at.point - self.base;
                 (rel - rel.dot(self.axis) * self.axis).normalize()
+            }
+        }
+    }
+    /// The side: around the axis, and 0 at the base to 1 at the top (a tube: scene units along
+    /// the axis); the caps: the disc onto [0, 1]², seen from outside ([`super::uv`]).
+    fn uv(&self, at: &Hit) -> DVec2 {
+        let rel = at.point - self.base;
+        let (x, z) = self.across;
+        let (cx, cz) = (rel.dot(x) / (2.0 * self.radius), rel.dot(z) / (2.0 * self.radius));
+        match at.prim {
+            TOP_CAP => DVec2::new(0.5 + cx, 0.5 - cz),
+            BOTTOM_CAP => DVec2::new(0.5 + cx, 0.5 + cz),
+            _ => {
+                let along = rel.dot(self.axis);
+                let radial = (rel - along * self.axis).normalize();
+                DVec2::new(super::uv::longitude(radial, self.across), self.height.map_or(along, |h| along / h))
             }
         }
     }

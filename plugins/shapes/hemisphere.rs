@@ -83,6 +83,12 @@ impl Geometry for Hemisphere {
     fn outward_normal(&self, at: &Hit) -> DVec3 {
         (at.point - self.center).normalize()
     }
+    /// Longitude around `open`, and 0 at the bottom to 1 at the rim ([`super::uv`]).
+    fn uv(&self, at: &Hit) -> DVec2 {
+        let d = (at.point - self.center).normalize();
+        let from_bottom = (-d.dot(self.open)).clamp(-1.0, 1.0).acos() / std::f64::consts::FRAC_PI_2;
+        DVec2::new(super::uv::longitude(d, super::uv::around_frame(self.open)), from_bottom.min(1.0))
+    }
     fn bounds(&self) -> Option<Aabb> {
         Some(Aabb::new(self.center - DVec3::splat(self.radius), self.center + DVec3::splat(self.radius)))
     }

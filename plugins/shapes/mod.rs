@@ -9,6 +9,7 @@ pub mod plane;
 pub mod polygon;
 pub mod sphere;
 pub mod triangle;
+pub mod uv;
 
 #[cfg(test)]
 mod reintersect;

@@ -16,6 +16,8 @@ use raylab::{Aabb, LoadContext, PluginInfo, Ray};
 pub struct Plane {
     point: DVec3,
     normal: DVec3,
+    /// Right and up axes, for texture coordinates ([`super::uv::tangent_frame`]).
+    axes: (DVec3, DVec3),
 }
 
 /// The `plane` plugin's description.
@@ -66,7 +68,7 @@ pub fn intersect_plane(ray: &Ray, q: DVec3, n: DVec3, t_min: f64, t_max: f64) ->
 impl Plane {
     /// A plane; `normal` must be unit length.
     pub fn new(point: DVec3, normal: DVec3) -> Self {
-        Plane { point, normal }
+        Plane { point, normal, axes: super::uv::tangent_frame(normal) }
     }
 }
 
@@ -81,6 +83,11 @@ impl Intersectable for Plane {
 impl Geometry for Plane {
     fn outward_normal(&self, _: &Hit) -> DVec3 {
         self.normal
+    }
+    /// Scene units from `point` along the plane's right and up axes ([`super::uv`]).
+    fn uv(&self, at: &Hit) -> DVec2 {
+        let d = at.point - self.point;
+        DVec2::new(d.dot(self.axes.0), d.dot(self.axes.1))
     }
     fn bounds(&self) -> Option<Aabb> {
         None

@@ -26,6 +26,10 @@ pub struct Polygon {
     /// Edge i's inward-pointing normal within the plane: `normal × (v[i+1] − v[i])`.
     edge_normals: Vec<DVec3>,
     normal: DVec3,
+    /// The plane's right and up axes ([`super::uv::tangent_frame`]), and the vertices in them
+    /// relative to the first, for texture coordinates.
+    axes: (DVec3, DVec3),
+    flat: Vec<DVec2>,
 }
 
 /// Why vertices do not make a valid polygon.
@@ -125,7 +129,9 @@ impl Polygon {
                 }
             }
         }
-        Ok(Polygon { vertices, edge_normals, normal })
+        let axes = super::uv::tangent_frame(normal);
+        let flat = vertices.iter().map(|v| DVec2::new((v - origin).dot(axes.0), (v - origin).dot(axes.1))).collect();
+        Ok(Polygon { vertices, edge_normals, normal, axes, flat })
     }
 }
 
@@ -180,6 +186,17 @@ impl Intersectable for Polygon {
 impl Geometry for Polygon {
     fn outward_normal(&self, _: &Hit) -> DVec3 {
         self.normal
+    }
+    /// Four corners: bilinear, the corners in order at (0, 0), (1, 0), (1, 1), (0, 1); more or
+    /// fewer: the bounding rectangle in the plane's axes onto [0, 1]² ([`super::uv`]).
+    fn uv(&self, at: &Hit) -> DVec2 {
+        let d = at.point - self.vertices[0];
+        let p = DVec2::new(d.dot(self.axes.0), d.dot(self.axes.1));
+        if let [a, b, c, e] = self.flat[..] {
+            return super::uv::inverse_bilinear(p, [a, b, c, e]);
+        }
+        let (lo, hi) = self.flat.iter().fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+        (p - lo) / (hi - lo).max(DVec2::splat(f64::MIN_POSITIVE))
     }
     fn bounds(&self) -> Option<Aabb> {
         Some(Aabb::from_points(self.vertices.iter().copied()))

@@ -108,6 +108,10 @@ impl Geometry for Sphere {
     fn outward_normal(&self, at: &Hit) -> DVec3 {
         (at.point - self.center).normalize()
     }
+    /// Longitude around +y and latitude ([`super::uv`]).
+    fn uv(&self, at: &Hit) -> DVec2 {
+        super::uv::spherical((at.point - self.center).normalize())
+    }
     fn bounds(&self) -> Option<Aabb> {
         Some(Aabb::new(self.center - DVec3::splat(self.radius), self.center + DVec3::splat(self.radius)))
     }

@@ -165,7 +165,7 @@ fn converting_refuses_a_non_toml_output_and_an_invalid_scene() {
 #[test]
 fn colours_are_0_to_255_and_become_linear_over_255() {
     let job = load_xml(
-        r#"<scene background-color="255 0 51"><ambient-light color="255 255 255"/>
+        r#"<scene background-color="255 0 51" screen-width="500" screen-height="500"><ambient-light color="255 255 255"/>
            <geometries><sphere center="0 0 -200" radius="10" emission="51 102 255" kd="0.5 0.25 1"/></geometries></scene>"#,
         &LoadOptions::default(),
     )
@@ -344,4 +344,66 @@ fn a_description_reads_back_from_its_toml_exactly() {
         let b = raylab::input::toml::parse_toml(&Source::new("x.toml", text.clone()), "x".into()).unwrap();
         assert!(raylab::input::toml::same_values(&a.root, &b.root), "{}:\n{text}", xml.display());
     }
+}
+
+/// The 8-bit colour of pixel (`x`, `y`) of a render of `job`.
+fn pixel(job: &RenderJob, x: u32, y: u32) -> [u8; 3] {
+    let out = render(job, &RenderOptions::default(), &|_, _| {}).unwrap();
+    let rgb = raylab::image::output::to_rgb8(&out.film, job.settings.encoding, None);
+    let i = 3 * (y * out.film.width + x) as usize;
+    [rgb[i], rgb[i + 1], rgb[i + 2]]
+}
+
+/// The course's later dialect has an ambient factor of 1 where `<ambient-light>` gives none, so
+/// its first render test shows the shapes in the ambient colour 255 191 191; the report's own
+/// style keeps its fixed 0.1; an explicit `Ka` wins in both.
+#[test]
+fn the_later_dialect_has_ambient_factor_one_and_the_report_keeps_its_tenth() {
+    let course = root().join("tests/assets/course/basicRenderTestTwoColors.xml");
+    let opts = LoadOptions { overrides: Overrides { width: Some(50), height: Some(50), ..Overrides::default() }, ..LoadOptions::default() };
+    let job = load_path(&course, &opts);
+    assert_eq!(pixel(&job, 25, 25), [255, 191, 191], "the sphere, in the ambient colour");
+    assert_eq!(pixel(&job, 18, 18), [255, 191, 191], "the upper-left triangle");
+    assert_eq!(pixel(&job, 32, 18), [75, 127, 90], "the background, where the course has no upper-right triangle");
+
+    let text = std::fs::read_to_string(&course).unwrap();
+    let report_style = text
+        .replace(
+            r#"<scene background-color="75 127 90" screen-distance="100">"#,
+            r#"<scene background-color="75 127 90" screen-width="500" screen-height="500" screen-dist="100">"#,
+        )
+        .replace(r#"<image screen-width="500" screen-height="500" Nx="500" Ny="500"/>"#, "")
+        .replace(r#"Vto="0 0 -1" Vup="0 1 0""#, r#"vTo="0 0 -1" vUp="0 1 0""#);
+    let report = load_xml(&report_style, &opts).unwrap();
+    assert_eq!(pixel(&report, 25, 25), [26, 19, 19], "the report's fixed Ka 0.1");
+
+    // Each marker alone makes the later dialect; no camera and no screen is the course's tests.
+    for (marker, later) in [
+        (r#"<scene><image Nx="4" Ny="4"/><camera P0="0 0 0" vTo="0 0 -1" vUp="0 1 0"/>"#, true),
+        (r#"<scene screen-width="9" screen-height="9"><camera P0="0 0 0" Vto="0 0 -1" vUp="0 1 0"/>"#, true),
+        ("<scene>", true),
+        (r#"<scene screen-width="9" screen-height="9">"#, false),
+        (r#"<scene><camera P0="0 0 0"/>"#, false),
+    ] {
+        let xml = format!(r#"{marker}<ambient-light color="255 255 255"/></scene>"#);
+        let job = load_xml(&xml, &LoadOptions::default()).unwrap();
+        assert_eq!(job.scene.ambient, DVec3::splat(if later { 1.0 } else { 0.1 }), "{xml}");
+        let explicit = load_xml(&xml.replace("255 255 255\"", "255 255 255\" Ka=\"0.3\""), &LoadOptions::default()).unwrap();
+        assert_eq!(explicit.scene.ambient, DVec3::splat(0.3), "{xml}");
+    }
+}
+
+/// `encoding = "linear-truncated"` writes the course's `(int)` casts: a level and a half
+/// truncates where `linear` rounds it up.
+#[test]
+fn linear_truncated_writes_what_the_course_writes() {
+    let course = root().join("tests/assets/course/basicRenderTestTwoColors.xml");
+    let text = std::fs::read_to_string(&course).unwrap().replace(r#"color="255 191 191""#, r#"color="255 191 191" Ka="0.5""#);
+    let mut opts =
+        LoadOptions { overrides: Overrides { width: Some(50), height: Some(50), ..Overrides::default() }, ..LoadOptions::default() };
+    assert_eq!(pixel(&load_xml(&text, &opts).unwrap(), 25, 25), [128, 96, 96], "127.5 and 95.5 rounded");
+    opts.overrides.encoding = Some(raylab::Encoding::LinearTruncated);
+    let job = load_xml(&text, &opts).unwrap();
+    assert_eq!(pixel(&job, 25, 25), [127, 95, 95], "127.5 and 95.5 truncated");
+    assert_eq!(pixel(&job, 32, 18), [75, 127, 90], "the background's levels stay themselves");
 }

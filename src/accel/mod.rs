@@ -8,6 +8,8 @@
 //! stored once.
 
 pub mod bvh;
+#[cfg(feature = "bvh")]
+mod wide;
 
 use crate::accel::bvh::PrimitiveIndex;
 pub use crate::accel::bvh::{AccelChoice, BuildStats, MESH_BVH_THRESHOLD, SCENE_BVH_THRESHOLD};

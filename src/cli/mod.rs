@@ -4,11 +4,16 @@
 
 mod bench;
 mod convert;
+mod farm;
+mod merge;
 mod plot;
 mod plugins;
 mod render;
 mod sweep;
+mod tonemap;
 mod trace;
+#[cfg(feature = "view")]
+mod view;
 
 use crate::input::context::{LoadOptions, Overrides};
 use crate::input::error::{Loc, SceneError, Source};
@@ -39,18 +44,28 @@ struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Render a scene to an image (the bundled default scene when SCENE is omitted).
-    Render(render::RenderArgs),
+    Render(Box<render::RenderArgs>),
     /// Explain one pixel (or one ray): every hit, light test and child ray, and the final colour.
-    Trace(trace::TraceArgs),
+    Trace(Box<trace::TraceArgs>),
     /// List the registered plugins and their parameters.
     Plugins(plugins::PluginsArgs),
     /// Measure the speed/accuracy trade: render at many settings of the quality knobs, time each,
     /// compare with a reference (RMSE, PSNR, SSIM), and plot error against time.
     Sweep(Box<sweep::SweepArgs>),
+    /// Merge partial images (tiles, crops, sample passes from `render --tile/--crop/--pass`) into
+    /// one image: the same bits as one whole render.
+    Merge(merge::MergeArgs),
     /// Convert a scene (e.g. the report's XML) to raylab's TOML format.
     Convert(convert::ConvertArgs),
     /// Measure mesh loading, BVH building and ray throughput, from 1k to 1M triangles.
     Bench(bench::BenchArgs),
+    /// Turn an HDR image (OpenEXR, PFM) or one of its layers (depth, normal, albedo) into a
+    /// viewable PNG or JPEG.
+    Tonemap(tonemap::TonemapArgs),
+    /// Watch a scene render live in the browser: quality knobs as controls, and any pixel's ray
+    /// tree on a click (serves a page on 127.0.0.1).
+    #[cfg(feature = "view")]
+    View(Box<view::ViewArgs>),
 }
 
 /// Options shared by every command that loads a scene: overrides of the scene's settings, and
@@ -73,7 +88,7 @@ pub(crate) struct SceneArgs {
     /// Random seed (overrides the scene).
     #[arg(long, allow_hyphen_values = true, value_parser = int_in::<u64>(0, u64::MAX.into()))]
     seed: Option<u64>,
-    /// Integrator type, replacing the scene's (e.g. `normals`, `depth`).
+    /// Integrator type, replacing the scene's (e.g. `path`, `normals`, `depth`).
     #[arg(long)]
     integrator: Option<String>,
     /// Set an integrator parameter: `--set max_depth=5` (value in TOML syntax; repeatable).
@@ -112,8 +127,9 @@ pub(crate) struct SceneArgs {
     /// Supplies the camera of a scene that has none (e.g. a report XML scene without <camera>).
     #[arg(long = "camera", value_name = "KEY=VALUE")]
     camera: Vec<String>,
-    /// 8-bit encoding: `srgb` (default) or `linear` (clamped values written straight, as the report).
-    #[arg(long, value_parser = ["srgb", "linear"])]
+    /// 8-bit encoding: `srgb` (default), `linear` (clamped values written straight, as the report)
+    /// or `linear-truncated` (straight and truncated, as the course's Java renderer).
+    #[arg(long, value_parser = crate::math::color::Encoding::NAMES)]
     encoding: Option<String>,
     /// Spatial index for the objects and each mesh: `auto` (a BVH when there are enough to pay
     /// for it), `bvh` or `list`.
@@ -166,7 +182,8 @@ where
     I: IntoIterator<Item = T>,
     T: Into<std::ffi::OsString> + Clone,
 {
-    let cli = match Cli::try_parse_from(args) {
+    let args: Vec<std::ffi::OsString> = args.into_iter().map(Into::into).collect();
+    let cli = match Cli::try_parse_from(&args) {
         Ok(c) => c,
         Err(e) => {
             let _ = e.print();
@@ -175,12 +192,22 @@ where
     };
     let result = match cli.command {
         None => render::run(&app, render::RenderArgs::default_scene()),
-        Some(Command::Render(a)) => render::run(&app, a),
-        Some(Command::Trace(a)) => trace::run(&app, a),
+        Some(Command::Render(a)) => {
+            let mut a = *a;
+            // The arguments after `render`, for checkpoints to continue the same command.
+            let at = args.iter().position(|x| x == "render").map_or(args.len(), |i| i + 1);
+            a.raw = args[at..].iter().map(|x| x.to_string_lossy().into_owned()).collect();
+            render::run(&app, a)
+        }
+        Some(Command::Merge(a)) => merge::run(&app, a),
+        Some(Command::Trace(a)) => trace::run(&app, *a),
         Some(Command::Plugins(a)) => plugins::run(&app, a),
         Some(Command::Sweep(a)) => sweep::run(&app, *a),
         Some(Command::Convert(a)) => convert::run(&app, a),
         Some(Command::Bench(a)) => bench::run(&app, a),
+        Some(Command::Tonemap(a)) => tonemap::run(a),
+        #[cfg(feature = "view")]
+        Some(Command::View(a)) => view::run(&app, *a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -328,16 +355,7 @@ pub(crate) fn int_in<T: TryFrom<i128>>(lo: i128, hi: i128) -> impl Fn(&str) -> R
 
 /// A setting given by command-line flag `flag`, as the scene key `key` with a location naming the flag.
 pub(crate) fn flag_node(flag: &str, key: &str, value: Value) -> (String, Node) {
-    let text = match &value {
-        Value::Str(s) => s.clone(),
-        Value::Int(i) => i.to_string(),
-        Value::Float(f) => f.to_string(),
-        Value::Bool(b) => b.to_string(),
-        other => other.type_name().to_string(),
-    };
-    let src = Source::new(flag, text);
-    let loc = Loc::new(&src, 0..src.text.len());
-    (key.to_string(), Node { value, loc })
+    (key.to_string(), Node::given(flag, value))
 }
 
 /// Parses repeated `KEY=VALUE` options (value in TOML syntax) of option `flag`.

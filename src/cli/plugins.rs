@@ -16,9 +16,10 @@ pub(crate) fn run(app: &App, a: PluginsArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-fn sections(reg: &Registry) -> [(&'static str, &'static str, Vec<&PluginInfo>); 3] {
+fn sections(reg: &Registry) -> [(&'static str, &'static str, Vec<&PluginInfo>); 4] {
     [
         ("GEOMETRIES", "[[object]] type = ...", reg.geometries().collect()),
+        ("TEXTURES", "[textures.NAME] type = ..., or inline: kd = { type = ... }", reg.textures().collect()),
         ("LIGHTS", "[[light]] type = ...", reg.lights().collect()),
         ("INTEGRATORS", "[integrator] type = ...", reg.integrators().collect()),
     ]
@@ -49,6 +50,10 @@ pub fn text(reg: &Registry) -> String {
         for f in reg.formats() {
             out.push_str(&format!("  .{}  — {}\n", f.extensions.join(", ."), f.summary));
         }
+    }
+    out.push_str("\nOUTPUT FORMATS (-o NAME.EXT)\n");
+    for f in crate::image::output::OUTPUT_FORMATS {
+        out.push_str(&format!("  .{}  — {}\n", f.extensions.join(", ."), f.summary));
     }
     out
 }
@@ -89,6 +94,10 @@ pub fn markdown(reg: &Registry) -> String {
         for f in reg.formats() {
             out.push_str(&format!("| `.{}` | {} |\n", f.extensions.join("`, `."), f.summary));
         }
+    }
+    out.push_str("\n## Output formats\n\n`-o NAME.EXT`, chosen by extension:\n\n| extension | format |\n|---|---|\n");
+    for f in crate::image::output::OUTPUT_FORMATS {
+        out.push_str(&format!("| `.{}` | {} |\n", f.extensions.join("`, `."), f.summary));
     }
     out
 }

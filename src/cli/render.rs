@@ -46,6 +46,37 @@ pub(crate) struct RenderArgs {
     /// No progress bar.
     #[arg(short, long)]
     quiet: bool,
+    /// Show the render live in the tev image viewer listening at HOST:PORT (tev's default is
+    /// 127.0.0.1:14158): tiles as they finish, refined pass by pass (1, 2, 4, … spp).
+    #[arg(long, value_name = "HOST:PORT")]
+    display_server: Option<String>,
+    /// Render only the pixel bounds [X0, X1) × [Y0, Y1) of the frame (pbrt's --pixelbounds), to a
+    /// partial image (`-o NAME.exr`) that `raylab merge` combines with others.
+    #[arg(long, value_name = "X0,X1,Y0,Y1")]
+    crop: Option<String>,
+    /// Render tile I of N (0-based; bands of whole rows balanced by estimated work), to a partial
+    /// image; `auto` takes I and N from SLURM_ARRAY_TASK_ID/SLURM_ARRAY_TASK_COUNT or
+    /// JOB_COMPLETION_INDEX, with RAYLAB_TILE_COUNT giving or overriding the count.
+    #[arg(long, value_name = "I/N|auto")]
+    tile: Option<String>,
+    /// Render sample pass K of N: every pixel's samples K, K+N, … (under adaptive anti-aliasing,
+    /// the pixels whose index is K modulo N), to a partial image.
+    #[arg(long, value_name = "K/N")]
+    pass: Option<String>,
+    /// Save the render's state to this file (a partial EXR) as it goes, so `--resume FILE`
+    /// continues it after any interruption; removed once the render is done.
+    #[arg(long, value_name = "FILE")]
+    checkpoint: Option<PathBuf>,
+    /// Seconds between checkpoints.
+    #[arg(long, value_name = "SECONDS", default_value_t = 60.0, allow_hyphen_values = true)]
+    checkpoint_every: f64,
+    /// Continue the render a checkpoint saved (the same command, scene and settings: a changed
+    /// scene or file it reads is refused). Only --threads and --quiet may be given beside it.
+    #[arg(long, value_name = "FILE")]
+    resume: Option<PathBuf>,
+    /// The arguments as given (after `render`), for checkpoints.
+    #[arg(skip)]
+    pub(crate) raw: Vec<String>,
     #[command(flatten)]
     scene_args: SceneArgs,
 }
@@ -63,8 +94,16 @@ impl RenderArgs {
             reference: None,
             error_csv: None,
             quiet: false,
+            display_server: None,
             half: false,
             aov: Vec::new(),
+            crop: None,
+            tile: None,
+            pass: None,
+            checkpoint: None,
+            checkpoint_every: 60.0,
+            resume: None,
+            raw: Vec::new(),
             scene_args: SceneArgs::default(),
         }
     }
@@ -96,6 +135,51 @@ pub(crate) fn partial_path(output: &Path) -> PathBuf {
 }
 
 pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
+    match a.resume.clone() {
+        Some(file) => resume(app, a, &file),
+        None => render(app, a, None),
+    }
+}
+
+/// `render --resume FILE`: the checkpoint's command, continued from its state.
+fn resume(app: &App, given: RenderArgs, file: &Path) -> Result<(), Failure> {
+    #[cfg(not(feature = "exr"))]
+    {
+        let _ = (app, given, file);
+        Err(Failure::Other("--resume reads a checkpoint (an OpenEXR file): rebuild raylab with `--features exr`".into()))
+    }
+    #[cfg(feature = "exr")]
+    {
+        let limits = given.scene_args.load_options()?.limits;
+        let bytes = crate::input::context::read_user_file(file, "checkpoint", u64::MAX, None)?;
+        let (sums, info) = crate::image::partial::read_partial(&bytes, &file.display().to_string(), limits.max_pixels)
+            .map_err(|e| Failure::Other(e.to_string()))?;
+        let json = info.resume.ok_or_else(|| {
+            Failure::Other(format!("{} is a partial image, not a checkpoint: it says nothing of how to continue", file.display()))
+        })?;
+        let ri: super::farm::ResumeInfo =
+            serde_json::from_str(&json).map_err(|e| Failure::Other(format!("{}: unreadable resume information ({e})", file.display())))?;
+        let argv = std::iter::once("raylab".to_string()).chain(std::iter::once("render".to_string())).chain(ri.args.iter().cloned());
+        let Ok(super::Cli { command: Some(super::Command::Render(a)) }) = <super::Cli as clap::Parser>::try_parse_from(argv) else {
+            return Err(Failure::Other(format!("{}: the saved command `render {}` no longer parses", file.display(), ri.args.join(" "))));
+        };
+        let mut a = *a;
+        // Relative paths are relative to the folder the render was started in.
+        let at = |p: &Path| if p.is_absolute() { p.to_path_buf() } else { ri.cwd.join(p) };
+        a.scene = a.scene.as_deref().map(at);
+        a.output = at(&a.output);
+        a.reference = a.reference.as_deref().map(at);
+        a.error_csv = a.error_csv.as_deref().map(at);
+        a.checkpoint = Some(file.to_path_buf());
+        a.raw = ri.args;
+        a.threads = given.threads.or(a.threads);
+        a.quiet |= given.quiet;
+        render(app, a, Some((sums, info.fingerprint)))
+    }
+}
+
+/// Renders as `a` asks, continuing `resumed` (a checkpoint's state and fingerprint) if given.
+fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::FrameSums, String)>) -> Result<(), Failure> {
     catch_ctrl_c();
     let t0 = Instant::now();
     let grid = match a.grid {
@@ -103,12 +187,32 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
         Some(0) => return Err("--grid must be at least 1".to_string().into()),
         Some(interval) => Some(Grid { interval, color: parse_rgb8(&a.grid_color)? }),
     };
-    let pfm = a.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("pfm"));
-    let kind = if pfm { None } else { Some(crate::image::output::kind_for(&a.output).map_err(|e| e.to_string())?) };
-    if kind != Some(crate::image::output::ImageKind::Exr) && (a.half || !a.aov.is_empty()) {
+    if !(a.checkpoint_every > 0.0 && a.checkpoint_every.is_finite()) {
+        return Err(Failure::Other(format!("--checkpoint-every: expected a number of seconds > 0, found {}", a.checkpoint_every)));
+    }
+    let parts = a.crop.is_some() || a.tile.is_some() || a.pass.is_some();
+    let format = crate::image::output::format_for(&a.output).map_err(|e| e.to_string())?;
+    let exr = format.kind == crate::image::output::ImageKind::Exr;
+    if !format.layers && (a.half || !a.aov.is_empty()) {
         return Err("--half and --aov apply to .exr output only".to_string().into());
     }
-    let exr = kind == Some(crate::image::output::ImageKind::Exr);
+    if parts && !exr {
+        return Err(Failure::Other(format!(
+            "--crop, --tile and --pass write a partial image for `raylab merge`: an OpenEXR file (-o NAME.exr), not {}",
+            a.output.display()
+        )));
+    }
+    if !cfg!(feature = "exr") && (parts || a.checkpoint.is_some()) {
+        return Err(Failure::Other(
+            "--crop, --tile, --pass and --checkpoint write OpenEXR files: rebuild raylab with `--features exr`".into(),
+        ));
+    }
+    if !parts && a.tile.is_none() && super::farm::TILE_INDEX_VARS.iter().any(|v| std::env::var_os(v).is_some()) {
+        eprintln!(
+            "note: a scheduler's task index is set ({}), but --tile is not: rendering the whole frame (--tile auto renders this task's tile)",
+            super::farm::TILE_INDEX_VARS.join(" or ")
+        );
+    }
     let layer = |name: &str| a.aov.iter().any(|s| s == name);
     let plan =
         crate::image::output::ImagePlan { exr, depth: layer("depth"), normal: layer("normal"), albedo: layer("albedo"), half: a.half };
@@ -116,6 +220,15 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
     if INTERRUPTED.load(Ordering::SeqCst) {
         return Err(Failure::Interrupted("interrupted while loading: nothing rendered, nothing written".into()));
     }
+    if let Some((_, fingerprint)) = &resumed
+        && *fingerprint != job.fingerprint
+    {
+        return Err(Failure::Other(format!(
+            "the checkpoint is of another render (fingerprint {fingerprint}, now {}): the scene, a file it reads, or a setting changed since; render it anew",
+            job.fingerprint
+        )));
+    }
+    let share = super::farm::share(&job, a.crop.as_deref(), a.tile.as_deref(), a.pass.as_deref())?;
     let s = job.settings;
     let reference = match &a.reference {
         Some(p) => Some(crate::image::reference::read(p, s.encoding)?),
@@ -132,13 +245,61 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
         }
         b
     };
-    bar.set_message(scene_name.clone());
-    let options = RenderOptions { threads: a.threads, cancel: Some(&INTERRUPTED), layers: !a.aov.is_empty() };
+    bar.set_message(match &share {
+        Some(sh) => format!("{scene_name}, {}", sh.describe()),
+        None => scene_name.clone(),
+    });
+    // Checkpoints: the state as a partial image, with the command that continues it.
+    let resume_info = serde_json::to_string(&super::farm::ResumeInfo {
+        cwd: std::env::current_dir().unwrap_or_default(),
+        args: a.raw.iter().filter(|r| !r.is_empty()).cloned().collect(),
+    })
+    .map_err(|e| e.to_string())?;
+    let checkpoint_path = a.checkpoint.clone().unwrap_or_else(|| super::farm::default_checkpoint(&a.output));
+    let checkpoint_failure: std::sync::Mutex<Option<String>> = std::sync::Mutex::new(None);
+    let write_checkpoint = |sums: &crate::render::share::FrameSums| {
+        if let Err(e) = save_state(&checkpoint_path, sums, &job, Some(&resume_info)) {
+            checkpoint_failure.lock().unwrap_or_else(|e| e.into_inner()).get_or_insert(e);
+        }
+    };
+    let display = match &a.display_server {
+        Some(addr) => {
+            let name = a.output.file_name().map_or_else(|| "raylab".into(), |n| n.to_string_lossy().into_owned());
+            Some(crate::image::tev::Display::start(addr, &name, s.width, s.height)?)
+        }
+        None => None,
+    };
+    let show_tile = |t: &crate::render::TileDone| {
+        if let Some(d) = &display {
+            let b = t.sums.share.bounds;
+            let mut rgb = Vec::with_capacity(3 * t.tile.pixels() as usize);
+            for y in t.tile.y0..t.tile.y1 {
+                for x in t.tile.x0..t.tile.x1 {
+                    rgb.extend_from_slice(&t.sums.pixels[b.index(x, y)].mean().as_vec3().to_array());
+                }
+            }
+            d.send((t.tile, rgb));
+        }
+    };
+    let snapshots = a
+        .checkpoint
+        .as_ref()
+        .map(|_| crate::render::Snapshots { every: std::time::Duration::from_secs_f64(a.checkpoint_every), write: &write_checkpoint });
+    let options = RenderOptions {
+        threads: a.threads,
+        cancel: Some(&INTERRUPTED),
+        layers: !a.aov.is_empty(),
+        share,
+        resume: resumed.as_ref().map(|(sums, _)| sums),
+        snapshots,
+        on_tile: display.as_ref().map(|_| &show_tile as &(dyn Fn(&crate::render::TileDone) + Sync)),
+    };
     let mut error_log = match (&a.error_csv, &reference) {
         (Some(path), Some(r)) => Some(ErrorLog::new(path, r, s.encoding)?),
         _ => None,
     };
-    let checkpoints: Vec<u32> = if error_log.is_some() { (0..32).map(|k| 1u32 << k).collect() } else { Vec::new() };
+    // Passes at 1, 2, 4, … spp (the same final bits) for the error log and for a live display.
+    let checkpoints: Vec<u32> = if error_log.is_some() || display.is_some() { (0..32).map(|k| 1u32 << k).collect() } else { Vec::new() };
     let mut log_failure = None;
     let work = [AtomicU64::new(0), AtomicU64::new(1)];
     let cpu0 = crate::render::stats::process_cpu_time();
@@ -164,27 +325,54 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
     // not inflate (as POV-Ray's "CPU-seconds total").
     let trace_cpu = cpu0.zip(crate::render::stats::process_cpu_time()).map(|(a, b)| (b - a).as_secs_f64());
     bar.finish_and_clear();
+    if let (Some(d), Some(addr)) = (display, &a.display_server) {
+        let report = d.finish();
+        match (report.connected, report.error) {
+            (true, None) => {}
+            (true, Some(e)) => eprintln!("warning: the display server at {addr} missed part of the image: {e}"),
+            (false, e) => eprintln!("warning: no display server (tev) reached at {addr}: {}", e.unwrap_or_default()),
+        }
+    }
     if let Some(e) = log_failure {
         return Err(e.into());
     }
+    if let Some(e) = checkpoint_failure.lock().unwrap_or_else(|e| e.into_inner()).take() {
+        eprintln!("warning: a checkpoint could not be written: {e}");
+    }
     if !rendered.complete {
-        // In the target's format, without the layers (they are complete only at the end).
+        // The state, to continue from; and the image so far, in the target's format (a partial
+        // render's output is its state already).
+        let saved = if cfg!(feature = "exr") {
+            save_state(&checkpoint_path, &rendered.sums, &job, Some(&resume_info)).map_err(Failure::Other)?;
+            format!("; continue with `raylab render --resume {}`", checkpoint_path.display())
+        } else {
+            String::new()
+        };
         let partial = partial_path(&a.output);
-        match kind {
-            None => crate::image::reference::write_pfm(&partial, &rendered.film)?,
-            Some(kind) => write(&job, &a, &partial, kind, &rendered.film, None, grid)?,
+        if !parts {
+            write(&job, &a, &partial, format, &rendered.film, None, grid)?;
         }
         let done = 100.0 * work[0].load(Ordering::Relaxed) as f64 / work[1].load(Ordering::Relaxed) as f64;
         return Err(Failure::Interrupted(format!(
-            "interrupted: wrote the {done:.1} % rendered so far to {} (pixels not reached are black); {} was not written",
-            partial.display(),
+            "interrupted at {done:.1} %: {}{}{saved}; {} was not written",
+            if parts { String::new() } else { format!("wrote the image so far to {} (pixels not reached are black)", partial.display()) },
+            if cfg!(feature = "exr") {
+                format!("{}saved the state in {}", if parts { "" } else { " and " }, checkpoint_path.display())
+            } else {
+                String::new()
+            },
             a.output.display()
         )));
     }
     let t_write = Instant::now();
-    match kind {
-        None => crate::image::reference::write_pfm(&a.output, &rendered.film)?,
-        Some(kind) => write(&job, &a, &a.output, kind, &rendered.film, rendered.layers.as_ref(), grid)?,
+    if parts {
+        save_state(&a.output, &rendered.sums, &job, None).map_err(Failure::Other)?;
+    } else {
+        write(&job, &a, &a.output, format, &rendered.film, rendered.layers.as_ref(), grid)?;
+    }
+    if a.checkpoint.is_some() && checkpoint_path.exists() {
+        // The render is done: its checkpoint has served.
+        let _ = std::fs::remove_file(&checkpoint_path);
     }
     let write_time = t_write.elapsed();
     let st = rendered.stats;
@@ -194,8 +382,12 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
     let accel = job.scene.accel_summary();
     let build_time = (accel.build.time + accel.object_builds.time).as_secs_f64();
     let memory = crate::render::stats::peak_memory_bytes().map_or_else(String::new, |b| format!(", peak memory {}B", si(b as f64)));
+    let what = match &share {
+        Some(sh) => format!("partial image: {}; ", sh.describe()),
+        None => String::new(),
+    };
     println!(
-        "wrote {} ({}×{}, {}, {}{}) from {scene_name}: trace {:.3} s{} on {threads} thread{}, {} rays, {} rays/s, {} non-finite samples (load {:.3} s, BVH build {:.3} s, write {:.3} s{memory})",
+        "wrote {} ({what}{}×{}, {}, {}{}) from {scene_name}: trace {:.3} s{} on {threads} thread{}, {} rays, {} rays/s, {} non-finite samples (load {:.3} s, BVH build {:.3} s, write {:.3} s{memory})",
         a.output.display(),
         s.width,
         s.height,
@@ -235,33 +427,49 @@ pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-/// Writes the image to `path`: 8-bit PNG/JPEG, or EXR with the layers asked for (of `layers`).
-#[allow(clippy::too_many_arguments)]
+/// Writes a render's state as a partial image (with `resume`: a checkpoint).
+fn save_state(
+    path: &Path,
+    sums: &crate::render::share::FrameSums,
+    job: &crate::render::RenderJob,
+    resume: Option<&str>,
+) -> Result<(), String> {
+    #[cfg(feature = "exr")]
+    {
+        let info = crate::image::partial::PartialInfo {
+            fingerprint: job.fingerprint.clone(),
+            sampling: job.settings.describe_sampling(),
+            encoding: job.settings.encoding.name().to_string(),
+            resume: resume.map(str::to_string),
+        };
+        crate::image::partial::write_partial(path, sums, &info).map_err(|e| e.to_string())
+    }
+    #[cfg(not(feature = "exr"))]
+    {
+        let _ = (path, sums, job, resume);
+        Err("partial images and checkpoints are OpenEXR files: rebuild raylab with `--features exr`".into())
+    }
+}
+
+/// Writes the image to `path` in `format`, with the layers `--aov` asks for (of `layers`).
 fn write(
     job: &crate::render::RenderJob,
     a: &RenderArgs,
     path: &Path,
-    kind: crate::image::output::ImageKind,
+    format: &crate::image::output::OutputFormat,
     film: &crate::image::film::Film,
     layers: Option<&crate::image::layers::Aovs>,
     grid: Option<Grid>,
 ) -> Result<(), Failure> {
-    #[cfg(feature = "exr")]
-    if kind == crate::image::output::ImageKind::Exr {
-        use crate::image::layers::{Aov, Aovs};
-        let asked = |l: Aov| a.aov.iter().any(|s| Aov::parse(s) == Some(l));
-        let chosen = match layers {
-            Some(l) => Aovs {
-                depth: l.depth.clone().filter(|_| asked(Aov::Depth)),
-                normal: l.normal.clone().filter(|_| asked(Aov::Normal)),
-                albedo: l.albedo.clone().filter(|_| asked(Aov::Albedo)),
-            },
-            None => Aovs::default(),
-        };
-        return crate::image::exr::write_exr(path, film, &chosen, a.half).map_err(|e| e.to_string().into());
-    }
-    let _ = (a, kind, layers);
-    crate::image::output::write_image(path, film, job.settings.encoding, grid).map_err(|e| e.to_string().into())
+    use crate::image::layers::{Aov, Aovs};
+    let asked = |l: Aov| a.aov.iter().any(|s| Aov::parse(s) == Some(l));
+    let chosen = layers.map(|l| Aovs {
+        depth: l.depth.clone().filter(|_| asked(Aov::Depth)),
+        normal: l.normal.clone().filter(|_| asked(Aov::Normal)),
+        albedo: l.albedo.clone().filter(|_| asked(Aov::Albedo)),
+    });
+    let settings = crate::image::output::WriteSettings { encoding: job.settings.encoding, grid, layers: chosen.as_ref(), half: a.half };
+    format.write(path, film, &settings).map_err(|e| e.to_string().into())
 }
 
 /// One line saying how the objects and meshes are indexed for ray queries.

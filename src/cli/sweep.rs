@@ -20,8 +20,9 @@ pub(crate) struct SweepArgs {
     /// Scene file. Omit for the bundled default scene.
     scene: Option<PathBuf>,
     /// A knob and the values to try: `spp=1,4,16`, `depth=1,3,5`, `aa_threshold=0.1,0.05`,
-    /// `aa_depth=…`, `aa_edges=…`, `aa_signature=…`, `aa_cell_samples=…`, `lens_samples=…`, `aperture=…`, or any integrator parameter
-    /// (`glossy_rays`, `shadow_rays`, `shadow_probes`, `prune_threshold`, …). Repeatable.
+    /// `aa_depth=…`, `aa_edges=…`, `aa_signature=…`, `aa_cell_samples=…`, `lens_samples=…`,
+    /// `aperture=…`, `integrator=phong,path`, or any integrator parameter (`glossy_rays`,
+    /// `shadow_rays`, `shadow_probes`, `prune_threshold`, …). Repeatable.
     #[arg(long = "vary", value_name = "KNOB=V1,V2,…", required = true)]
     vary: Vec<String>,
     /// Vary one knob at a time from the base settings (the scene's, with the flags below),
@@ -32,6 +33,10 @@ pub(crate) struct SweepArgs {
     /// computed once and cached in the output folder.
     #[arg(long, value_name = "REF|auto", default_value = "auto")]
     reference: String,
+    /// Integrator of the `auto` reference, at its reference settings (default: the scene's).
+    /// `--reference-integrator path` measures each setting against a physically based image.
+    #[arg(long, value_name = "NAME")]
+    reference_integrator: Option<String>,
     /// Samples per pixel of the `auto` reference (at least the largest swept `spp`).
     #[arg(long, value_name = "N", default_value_t = 256, allow_hyphen_values = true, value_parser = super::int_in::<u32>(1, u32::MAX.into()))]
     reference_spp: u32,
@@ -97,7 +102,7 @@ pub(crate) fn run(app: &App, a: SweepArgs) -> Result<(), Failure> {
     let (base_job, scene_name) = super::load(app, scene, &a.scene_args, crate::image::output::ImagePlan::EIGHT_BIT)?;
     let encoding = base_job.settings.encoding;
     std::fs::create_dir_all(&a.out).map_err(|e| format!("cannot create \"{}\": {e}", a.out.display()))?;
-    let options = RenderOptions { threads: a.threads, cancel: None, layers: false };
+    let options = RenderOptions { threads: a.threads, ..RenderOptions::default() };
 
     // Every setting, checked (loaded) before anything is rendered.
     let choices = if a.one_at_a_time { one_at_a_time(&knobs) } else { grid(&knobs) };
@@ -107,7 +112,34 @@ pub(crate) fn run(app: &App, a: SweepArgs) -> Result<(), Failure> {
         jobs.push(load_with(app, scene, &opts)?);
     }
 
-    let reference = reference(app, &a, &base, &knobs, &base_job, &options)?;
+    // What it will cost, before it costs it.
+    let mut plan = reference_plan(app, &a, &base, &knobs, &base_job)?;
+    if !a.quiet {
+        let mut settings = 0.0;
+        for job in &mut jobs {
+            settings += estimate_seconds(job, &options)? * f64::from(a.repeat);
+        }
+        let reference = match &mut plan {
+            ReferencePlan::Render(job, _) => estimate_seconds(job, &options)?,
+            ReferencePlan::Ready(_) => 0.0,
+        };
+        let what = match &plan {
+            ReferencePlan::Render(job, _) => format!("reference ({}) ≈ {}, ", job.settings.describe_sampling(), duration(reference)),
+            ReferencePlan::Ready(_) => String::new(),
+        };
+        eprintln!(
+            "estimate: {what}{} setting{} ≈ {}; total ≈ {} (from probe renders at 1/{} size; Ctrl-C stops)",
+            jobs.len(),
+            if jobs.len() == 1 { "" } else { "s" },
+            duration(settings),
+            duration(settings + reference),
+            PROBE_SCALE * PROBE_SCALE
+        );
+    }
+    let (reference, reference_seconds) = match plan {
+        ReferencePlan::Ready(film) => (film, None),
+        ReferencePlan::Render(job, path) => render_reference(&a, &job, &path, &options)?,
+    };
     let (w, h) = (base_job.settings.width, base_job.settings.height);
     if (reference.width, reference.height) != (w, h) {
         return Err(format!("the reference is {}×{} but the scene renders {w}×{h}", reference.width, reference.height).into());
@@ -161,7 +193,9 @@ pub(crate) fn run(app: &App, a: SweepArgs) -> Result<(), Failure> {
         "scene": scene_name,
         "size": [w, h],
         "reference": a.reference,
+        "reference_integrator": a.reference_integrator.as_deref().unwrap_or(&base_job.integrator_name),
         "reference_spp": a.reference_spp,
+        "reference_seconds": reference_seconds,
         "mode": if a.one_at_a_time { "one-at-a-time" } else { "grid" },
         "metric": a.metric,
         "results": outcomes,
@@ -308,7 +342,13 @@ fn apply(o: &mut LoadOptions, name: &str, value: &Node) -> Result<(), Failure> {
     let set = |list: &mut Vec<(String, Node)>, key: &str, v: &Node| list.push((key.to_string(), v.clone()));
     match name {
         "spp" => match value.value {
-            Value::Int(n) if n >= 1 && n <= i64::from(u32::MAX) => ov.spp = Some(n as u32),
+            Value::Int(n) if n >= 1 && n <= i64::from(u32::MAX) => {
+                // Samples per pixel are stratified anti-aliasing's knob (adaptive ignores them).
+                if !ov.render_params.iter().any(|(k, _)| k == "aa") {
+                    ov.render_params.push(super::flag_node("--vary", "aa", Value::Str("stratified".into())));
+                }
+                ov.spp = Some(n as u32)
+            }
             _ => return Err(SceneError::at(&value.loc, "spp must be a whole number ≥ 1").into()),
         },
         "aa_threshold" | "aa_depth" | "aa_edges" | "aa_signature" | "aa_cell_samples" => {
@@ -319,6 +359,10 @@ fn apply(o: &mut LoadOptions, name: &str, value: &Node) -> Result<(), Failure> {
         }
         "aa" | "lens_samples" => set(&mut ov.render_params, name, value),
         "aperture" | "focus_distance" => set(&mut ov.camera_params, name, value),
+        "integrator" => match &value.value {
+            Value::Str(t) => ov.integrator = Some(t.clone()),
+            _ => return Err(SceneError::at(&value.loc, "integrator must be a name (phong, path, …)").into()),
+        },
         "depth" => ov.depth = Some(value.clone()),
         _ => set(&mut ov.integrator_params, name, value),
     }
@@ -335,21 +379,40 @@ fn load_with(app: &App, scene: Option<&Path>, opts: &LoadOptions) -> Result<Rend
     }
 }
 
-/// The reference image: read from a file, or rendered at high settings (cached by a hash of the
-/// scene, its settings and raylab's version).
-fn reference(
-    app: &App,
-    a: &SweepArgs,
-    base: &LoadOptions,
-    knobs: &[Knob],
-    base_job: &RenderJob,
-    options: &RenderOptions,
-) -> Result<Film, Failure> {
+/// Where the reference image comes from.
+enum ReferencePlan {
+    /// Read (a file given, or cached by an earlier sweep).
+    Ready(Film),
+    /// To be rendered with this job and cached at this path.
+    Render(Box<RenderJob>, PathBuf),
+}
+
+/// The reference image: read from a file, or to be rendered at high settings by the scene's
+/// integrator or `--reference-integrator` (cached by a hash of the scene, its settings, the
+/// integrator and raylab's version).
+fn reference_plan(app: &App, a: &SweepArgs, base: &LoadOptions, knobs: &[Knob], base_job: &RenderJob) -> Result<ReferencePlan, Failure> {
     if a.reference != "auto" {
-        return Ok(crate::image::reference::read(Path::new(&a.reference), base_job.settings.encoding)?);
+        if a.reference_integrator.is_some() {
+            return Err("--reference-integrator sets the integrator of `--reference auto`; it cannot change a reference image"
+                .to_string()
+                .into());
+        }
+        return Ok(ReferencePlan::Ready(crate::image::reference::read(Path::new(&a.reference), base_job.settings.encoding)?));
     }
     let mut o = base.clone();
+    // The reference's worst case (every ray splitting at every bounce, to depth 12) is far above
+    // what it costs; the estimate printed before it starts says that. A --max-rays given still holds.
+    if a.scene_args.max_rays.is_none() {
+        o.limits.max_rays = u64::MAX;
+    }
     let ov = &mut o.overrides;
+    let integrator = a.reference_integrator.as_deref().unwrap_or(&base_job.integrator_name);
+    if integrator != base_job.integrator_name {
+        // The swept integrator's parameters and depth mean nothing to another one.
+        ov.integrator = Some(integrator.to_string());
+        ov.integrator_params.clear();
+        ov.depth = None;
+    }
     let swept =
         |name: &str| knobs.iter().find(|k| k.name == name).map(|k| k.values.iter().map(|(_, n)| n.value.clone()).collect::<Vec<_>>());
     let max_spp =
@@ -360,7 +423,7 @@ fn reference(
     ov.render_params.push(super::flag_node("--reference", "lens_samples", Value::Int(1)));
     // Every depth and quality knob of the integrator at its reference value (by role, whatever
     // the parameter is called), and at least as accurate as any value swept.
-    let params = app.registry.integrator(&base_job.integrator_name).map(|p| p.info.params).unwrap_or(&[]);
+    let params = app.registry.integrator(integrator).map(|p| p.info.params).unwrap_or(&[]);
     for spec in params {
         let Some(reference) = spec.role.reference() else { continue };
         let is_depth = matches!(spec.role, Role::Depth(_));
@@ -399,23 +462,66 @@ fn reference(
         Some(p) => crate::input::context::read_user_file(p, "scene file", base.limits.max_file_bytes, None)?,
         None => app.default_scene.1.as_bytes().to_vec(),
     };
-    let key = hash(&[&scene_text, format!("{:?}|{:?}|{}", job.settings, job.integrator.describe(), env!("CARGO_PKG_VERSION")).as_bytes()]);
+    let settings = format!("{:?}|{}|{:?}|{}", job.settings, job.integrator_name, job.integrator.describe(), env!("CARGO_PKG_VERSION"));
+    let key = hash(&[&scene_text, settings.as_bytes()]);
     let path = a.out.join(format!("reference-{key:016x}.pfm"));
     if let Ok(film) = crate::image::reference::read(&path, job.settings.encoding) {
         if !a.quiet {
             eprintln!("reference: cached {} ({})", path.display(), job.settings.describe_sampling());
         }
-        return Ok(film);
+        return Ok(ReferencePlan::Ready(film));
     }
+    Ok(ReferencePlan::Render(Box::new(job), path))
+}
+
+/// Renders the reference `job` and caches it at `path`; the image and the seconds it took.
+fn render_reference(a: &SweepArgs, job: &RenderJob, path: &Path, options: &RenderOptions) -> Result<(Film, Option<f64>), Failure> {
     if !a.quiet {
         eprint!("reference: rendering {} with {}, {} … ", job.settings.describe_sampling(), job.integrator_name, job.integrator.describe());
     }
-    let r = crate::render::render(&job, options, &|_, _| {})?;
+    let r = crate::render::render(job, options, &|_, _| {})?;
     if !a.quiet {
         eprintln!("{:.1} s, {} rays", r.elapsed.as_secs_f64(), si(r.stats.total_rays() as f64));
     }
-    crate::image::reference::write_pfm(&path, &r.film)?;
-    Ok(r.film)
+    crate::image::reference::write_pfm(path, &r.film)?;
+    Ok((r.film, Some(r.elapsed.as_secs_f64())))
+}
+
+/// Linear size of the estimate's probe: 1/PROBE_SCALE of the width and height.
+const PROBE_SCALE: u32 = 4;
+
+/// Most samples per pixel the probe traces (its time is scaled to the job's).
+const PROBE_SPP: u32 = 4;
+
+/// The expected seconds of rendering `job`: the time of a probe render at 1/[`PROBE_SCALE`] of the
+/// size and at most [`PROBE_SPP`] samples per pixel, scaled by the pixels and samples it skipped.
+/// Adaptive anti-aliasing is probed as it is; the smaller image has more edges per pixel, so its
+/// estimate errs high.
+fn estimate_seconds(job: &mut RenderJob, options: &RenderOptions) -> Result<f64, Failure> {
+    let full = job.settings;
+    let (w, h) = (full.width.div_ceil(PROBE_SCALE), full.height.div_ceil(PROBE_SCALE));
+    let spp = full.spp.min(PROBE_SPP);
+    job.settings = crate::render::RenderSettings { width: w, height: h, spp, ..full };
+    let probe = crate::render::render(job, options, &|_, _| {});
+    job.settings = full;
+    let probe = probe?;
+    let pixels = f64::from(full.width) * f64::from(full.height) / (f64::from(w) * f64::from(h));
+    let samples = match full.aa {
+        crate::render::Antialiasing::Stratified => f64::from(full.spp) / f64::from(spp),
+        crate::render::Antialiasing::Adaptive(_) => 1.0,
+    };
+    Ok(probe.elapsed.as_secs_f64() * pixels * samples)
+}
+
+/// `93.4` → `1 min 33 s`.
+fn duration(seconds: f64) -> String {
+    if seconds < 60.0 {
+        format!("{seconds:.1} s")
+    } else if seconds < 3600.0 {
+        format!("{} min {:02} s", (seconds / 60.0) as u64, seconds as u64 % 60)
+    } else {
+        format!("{} h {:02} min", (seconds / 3600.0) as u64, (seconds as u64 % 3600) / 60)
+    }
 }
 
 /// A 64-bit hash of byte strings (for cache names, not security).

@@ -4,6 +4,7 @@ use super::{App, Failure, SceneArgs};
 use crate::math::ray::Ray;
 use crate::render::sample::SampleId;
 use crate::render::sampler::Sampler;
+use crate::render::trace::{SampleRef, explanation_json, sample_color};
 use crate::render::{explain_sample, pixel_samples};
 use clap::Args;
 use glam::DVec3;
@@ -57,23 +58,11 @@ pub(crate) fn run(app: &App, a: TraceArgs) -> Result<(), Failure> {
         let tree = job.integrator.explain(&job.scene, &Ray { origin: o, dir }, &mut Sampler::new(0, 0, s.seed)).ok_or_else(cannot)?;
         (vec![tree], None, None)
     };
-    // The sample's radiance: the mean of its finite rays, as the render averages them.
-    let finite: Vec<_> = trees.iter().map(|t| t.color).filter(|c| c.is_finite()).collect();
-    let c = if finite.is_empty() { glam::DVec3::ZERO } else { finite.iter().sum::<glam::DVec3>() / finite.len() as f64 };
+    let c = sample_color(&trees);
     let rgb8 = [c.x, c.y, c.z].map(|v| s.encoding.to_u8(v as f32));
     if a.json {
-        let out = serde_json::json!({
-            "scene": a.scene.display().to_string(),
-            "pixel": pixel,
-            "sample": sample.map(|(id, weight, count)| serde_json::json!({ "index": a.sample, "of": count, "id": id, "weight": weight })),
-            "sampling": s.describe_sampling(),
-            "integrator": job.integrator_name,
-            "color": c,
-            "rgb8": rgb8,
-            "encoding": s.encoding,
-            "tree": trees[0],
-            "lens_rays": if trees.len() > 1 { serde_json::to_value(&trees).map_err(|e| e.to_string())? } else { serde_json::Value::Null },
-        });
+        let sample = sample.map(|(id, weight, of)| SampleRef { index: a.sample, of, id, weight });
+        let out = explanation_json(&job, &a.scene.display().to_string(), pixel, sample, &trees);
         println!("{}", serde_json::to_string_pretty(&out).map_err(|e| e.to_string())?);
     } else {
         if let (Some((x, y)), Some((id, weight, count))) = (pixel, sample) {

@@ -15,7 +15,8 @@ use glam::{DVec2, DVec3};
 use std::sync::Arc;
 
 /// What a shape tells about its surface at a hit, computed once per hit by
-/// [`Geometry::surface`]; normals face the side the ray came from.
+/// [`Geometry::surface`]; normals face the side the ray came from. Texture coordinates are not
+/// part of it: only textured materials ask for them ([`Geometry::uv`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Surface {
     /// Unit geometric normal on the side the ray came from (`n · dir ≤ 0`): the report's
@@ -26,8 +27,6 @@ pub struct Surface {
     pub ns: DVec3,
     /// True when the ray arrived on the outward side (outside of a closed solid).
     pub front_face: bool,
-    /// Texture coordinates (shape-defined; `Hit::uv` by default).
-    pub uv: DVec2,
     /// The hit point in the shape's own frame (before any transform), for solid textures.
     pub local: DVec3,
     /// Which of the object's materials applies (the triangle's material in a mesh; 0 otherwise).
@@ -62,15 +61,23 @@ pub trait Geometry: Intersectable {
     }
 
     /// Everything shading needs at `at`, seen along `dir`, computed once: both normals facing
-    /// `dir`'s side, the side hit, texture coordinates and the material slot. The default has
-    /// the geometric normal as shading normal, `Hit::uv` as texture coordinates and slot 0;
-    /// shapes with vertex normals, texture coordinates or several materials override it.
+    /// `dir`'s side, the side hit, the point in the shape's frame and the material slot. The
+    /// default has the geometric normal as shading normal and slot 0; shapes with vertex normals
+    /// or several materials override it.
     #[inline]
     fn surface(&self, at: &Hit, dir: DVec3) -> Surface {
         let outward = self.outward_normal(at);
         let front_face = outward.dot(dir) < 0.0;
         let n = if front_face { outward } else { -outward };
-        Surface { n, ns: n, front_face, uv: at.uv, local: at.point, material: 0 }
+        Surface { n, ns: n, front_face, local: at.point, material: 0 }
+    }
+
+    /// Texture coordinates at `at` (conventionally `[0, 1]²` over the surface, `v` up: an image's
+    /// bottom row at `v = 0`). Asked for only where a textured material is hit, so a shape may
+    /// compute them here rather than in `intersect`. The default is `Hit::uv`.
+    #[inline]
+    fn uv(&self, at: &Hit) -> DVec2 {
+        at.uv
     }
 
     /// Materials the shape's own source defines (an OBJ's MTL library, a glTF file's materials),
@@ -118,6 +125,10 @@ macro_rules! forward_impls {
             #[inline]
             fn surface(&self, at: &Hit, dir: DVec3) -> Surface {
                 (**self).surface(at, dir)
+            }
+            #[inline]
+            fn uv(&self, at: &Hit) -> DVec2 {
+                (**self).uv(at)
             }
             fn materials(&self) -> Option<Arc<[Material]>> {
                 (**self).materials()

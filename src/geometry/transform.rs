@@ -22,7 +22,7 @@ use crate::math::bounds::Aabb;
 use crate::math::float::{DEGENERACY_TOLERANCE, gamma};
 use crate::math::ray::Ray;
 use crate::scene::material::Material;
-use glam::{DAffine3, DMat3, DVec3};
+use glam::{DAffine3, DMat3, DVec2, DVec3};
 use std::sync::Arc;
 
 /// An invertible affine map from an object's own frame to the world.
@@ -205,6 +205,10 @@ impl<G: Geometry> Geometry for Transformed<G> {
         let n = face_forward(self.transform.normal(s.n), dir);
         let ns = if s.ns == s.n { n } else { face_forward(self.transform.normal(s.ns), dir) };
         Surface { n, ns, ..s }
+    }
+    #[inline]
+    fn uv(&self, at: &Hit) -> DVec2 {
+        self.inner.uv(&self.object_hit(at))
     }
     fn materials(&self) -> Option<Arc<[Material]>> {
         self.inner.materials()

@@ -66,17 +66,25 @@ pub fn encode_exr(film: &Film, aovs: &Aovs, half: bool) -> Result<Vec<u8>, Strin
     Ok(out.into_inner())
 }
 
-/// Reads the colour channels of an EXR file raylab wrote (for tests and tools): width, height and
-/// linear RGB pixels, row by row.
-pub fn read_exr_rgb(bytes: &[u8]) -> Result<(usize, usize, Vec<[f32; 3]>), String> {
-    let image = read()
+/// An EXR file's first layer with every channel, as stored.
+pub type FlatImage = Image<Layer<AnyChannels<FlatSamples>>>;
+
+/// Decodes every channel of the first valid layer of the EXR file in `bytes`. Callers bound the
+/// file's size, pixels and channels (from its header) first: this allocates what they ask for.
+pub fn read_flat(bytes: &[u8]) -> Result<FlatImage, exr::error::Error> {
+    read()
         .no_deep_data()
         .largest_resolution_level()
         .all_channels()
         .first_valid_layer()
         .all_attributes()
         .from_buffered(std::io::Cursor::new(bytes))
-        .map_err(|e| e.to_string())?;
+}
+
+/// Reads the colour channels of an EXR file raylab wrote (for tests and tools): width, height and
+/// linear RGB pixels, row by row.
+pub fn read_exr_rgb(bytes: &[u8]) -> Result<(usize, usize, Vec<[f32; 3]>), String> {
+    let image = read_flat(bytes).map_err(|e| e.to_string())?;
     let layer = image.layer_data;
     let (w, h) = (layer.size.0, layer.size.1);
     let channel = |name: &str| {

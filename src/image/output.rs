@@ -1,7 +1,8 @@
-//! Writing images: 8-bit PNG and JPEG (clamped and encoded), chosen by file extension, with an
-//! optional grid overlay (the report's `printGrid`). Files are written atomically: to a temporary
-//! file beside the target, then renamed, so a crash never leaves a truncated image where a good
-//! one was.
+//! Writing images, in one table of formats chosen by file extension ([`OUTPUT_FORMATS`]): 8-bit
+//! PNG and JPEG (clamped and encoded, with an optional grid overlay, the report's `printGrid`),
+//! OpenEXR (linear floats with the depth/normal/albedo layers; feature `exr`) and PFM (linear
+//! floats, the reference format). Files are written atomically: to a temporary file beside the
+//! target, then renamed, so a crash never leaves a truncated image where a good one was.
 
 use crate::image::film::Film;
 use crate::image::write::{WriteError, write_atomically};
@@ -27,6 +28,8 @@ pub enum ImageKind {
     Jpeg,
     /// OpenEXR: linear, unclamped floating point (feature `exr`; see [`crate::image::exr`]).
     Exr,
+    /// PFM: linear, unclamped 32-bit floating point ([`crate::image::reference`]).
+    Pfm,
 }
 
 /// What a render will write, for the estimate of the image's memory ([`image_bytes`]).
@@ -59,10 +62,10 @@ impl std::default::Default for ImagePlan {
 
 /// Bytes per pixel of the film (linear RGB, `f32`).
 const FILM_BYTES_PER_PIXEL: u64 = 12;
-/// Bytes per pixel of the render's running sums ([`crate::render::sample::SampleSum`]).
-const SUM_BYTES_PER_PIXEL: u64 = 32;
-/// Bytes per pixel of the layers' running sums ([`crate::render::sample::LayerSum`]).
-const LAYER_SUM_BYTES_PER_PIXEL: u64 = 36;
+/// Bytes per pixel of the render's exact running sums ([`crate::render::accum::PixelSum`]).
+const SUM_BYTES_PER_PIXEL: u64 = std::mem::size_of::<crate::render::accum::PixelSum>() as u64;
+/// Bytes per pixel of the layers' exact running sums ([`crate::render::accum::LayerSum`]).
+const LAYER_SUM_BYTES_PER_PIXEL: u64 = std::mem::size_of::<crate::render::accum::LayerSum>() as u64;
 /// Bytes per pixel of 8-bit output: the RGB copy and the encoder's buffer.
 const EIGHT_BIT_BYTES_PER_PIXEL: u64 = 6;
 
@@ -86,23 +89,104 @@ pub fn image_bytes(pixels: u64, plan: &ImagePlan) -> u64 {
     pixels.saturating_mul(per_pixel)
 }
 
-/// The kind for a path's extension (`png`, `jpg`, `jpeg`, `exr`; case-insensitive).
-pub fn kind_for(path: &Path) -> Result<ImageKind, WriteError> {
+/// How an image is written besides its pixels (each format uses what it can store).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct WriteSettings<'a> {
+    /// 8-bit encoding (PNG, JPEG).
+    pub encoding: Encoding,
+    /// Grid lines over an 8-bit image.
+    pub grid: Option<Grid>,
+    /// The depth, normal and albedo layers (EXR).
+    pub layers: Option<&'a crate::image::layers::Aovs>,
+    /// 16-bit half floats for colour, normal and albedo (EXR).
+    pub half: bool,
+}
+
+/// An image file format raylab writes: one row of [`OUTPUT_FORMATS`].
+#[derive(Clone, Copy)]
+pub struct OutputFormat {
+    /// Short name.
+    pub name: &'static str,
+    /// Lower-case file extensions without the dot.
+    pub extensions: &'static [&'static str],
+    /// One line: what it stores.
+    pub summary: &'static str,
+    /// Linear, unclamped values (HDR), rather than clamped and encoded 8-bit ones.
+    pub hdr: bool,
+    /// Stores the depth, normal and albedo layers.
+    pub layers: bool,
+    /// Which kind it is.
+    pub kind: ImageKind,
+    write: fn(&Path, &Film, &WriteSettings) -> Result<(), WriteError>,
+}
+
+impl OutputFormat {
+    /// Writes `film` to `path` in this format, atomically.
+    pub fn write(&self, path: &Path, film: &Film, settings: &WriteSettings) -> Result<(), WriteError> {
+        (self.write)(path, film, settings)
+    }
+}
+
+fn write_8bit(path: &Path, film: &Film, s: &WriteSettings, kind: ImageKind) -> Result<(), WriteError> {
+    let rgb = try_rgb8(film, s.encoding, s.grid)?;
+    write_atomically(path, |w| encode_rgb8(w, &rgb, film.width, film.height, kind))
+}
+
+/// Every output format, chosen by the target's extension ([`format_for`]).
+pub const OUTPUT_FORMATS: &[OutputFormat] = &[
+    OutputFormat {
+        name: "png",
+        extensions: &["png"],
+        summary: "PNG, 8 bits per channel: clamped and encoded (sRGB or linear), with an optional grid",
+        hdr: false,
+        layers: false,
+        kind: ImageKind::Png,
+        write: |p, f, s| write_8bit(p, f, s, ImageKind::Png),
+    },
+    OutputFormat {
+        name: "jpeg",
+        extensions: &["jpg", "jpeg"],
+        summary: "JPEG, 8 bits per channel, quality 95: clamped and encoded, with an optional grid",
+        hdr: false,
+        layers: false,
+        kind: ImageKind::Jpeg,
+        write: |p, f, s| write_8bit(p, f, s, ImageKind::Jpeg),
+    },
+    #[cfg(feature = "exr")]
+    OutputFormat {
+        name: "exr",
+        extensions: &["exr"],
+        summary: "OpenEXR: linear, unclamped 32-bit floats (--half: 16-bit), with the depth, normal and albedo layers asked for (--aov)",
+        hdr: true,
+        layers: true,
+        kind: ImageKind::Exr,
+        write: |p, f, s| crate::image::exr::write_exr(p, f, &s.layers.cloned().unwrap_or_default(), s.half),
+    },
+    OutputFormat {
+        name: "pfm",
+        extensions: &["pfm"],
+        summary: "PFM: linear, unclamped 32-bit floats (references for `--reference` and `sweep`)",
+        hdr: true,
+        layers: false,
+        kind: ImageKind::Pfm,
+        write: |p, f, _| crate::image::reference::write_pfm(p, f).map_err(WriteError),
+    },
+];
+
+/// The output format for `path`'s extension (case-insensitive).
+pub fn format_for(path: &Path) -> Result<&'static OutputFormat, WriteError> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-    match ext.as_str() {
-        "png" => Ok(ImageKind::Png),
-        "jpg" | "jpeg" => Ok(ImageKind::Jpeg),
-        "exr" if cfg!(feature = "exr") => Ok(ImageKind::Exr),
-        "exr" => Err(WriteError(format!(
+    if let Some(f) = OUTPUT_FORMATS.iter().find(|f| f.extensions.contains(&ext.as_str())) {
+        return Ok(f);
+    }
+    if ext == "exr" {
+        return Err(WriteError(format!(
             "cannot write \"{}\": EXR output needs raylab built with the `exr` feature (cargo run --features exr)",
             path.display()
-        ))),
-        _ => Err(WriteError(format!(
-            "cannot write \"{}\": unknown image type \".{ext}\"; expected .png, .jpg, .jpeg{}",
-            path.display(),
-            if cfg!(feature = "exr") { " or .exr" } else { "" }
-        ))),
+        )));
     }
+    let known: Vec<String> = OUTPUT_FORMATS.iter().flat_map(|f| f.extensions.iter().map(|e| format!(".{e}"))).collect();
+    Err(WriteError(format!("cannot write \"{}\": unknown image type \".{ext}\"; expected one of {}", path.display(), known.join(", "))))
 }
 
 /// The film as 8-bit RGB: clamped, encoded, with the grid drawn over it.
@@ -131,11 +215,10 @@ pub fn try_rgb8(film: &Film, encoding: Encoding, grid: Option<Grid>) -> Result<V
     Ok(out)
 }
 
-/// Writes `film` to `path` as PNG or JPEG (by extension), atomically.
+/// Writes `film` to `path` in the format its extension names, atomically (no layers, full
+/// precision).
 pub fn write_image(path: &Path, film: &Film, encoding: Encoding, grid: Option<Grid>) -> Result<(), WriteError> {
-    let kind = kind_for(path)?;
-    let rgb = try_rgb8(film, encoding, grid)?;
-    write_atomically(path, |w| encode_rgb8(w, &rgb, film.width, film.height, kind))
+    format_for(path)?.write(path, film, &WriteSettings { encoding, grid, ..WriteSettings::default() })
 }
 
 /// Encodes 8-bit RGB into `w`.
@@ -146,7 +229,7 @@ pub fn encode_rgb8(w: &mut dyn Write, rgb: &[u8], width: u32, height: u32, kind:
         ImageKind::Jpeg => {
             image::codecs::jpeg::JpegEncoder::new_with_quality(w, 95).write_image(rgb, width, height, image::ExtendedColorType::Rgb8)
         }
-        ImageKind::Exr => return Err("EXR is not an 8-bit format; write it with crate::image::exr".into()),
+        ImageKind::Exr | ImageKind::Pfm => return Err("EXR and PFM are not 8-bit formats; write them through their OutputFormat".into()),
     };
     r.map_err(|e| e.to_string())
 }
@@ -154,21 +237,21 @@ pub fn encode_rgb8(w: &mut dyn Write, rgb: &[u8], width: u32, height: u32, kind:
 #[cfg(test)]
 mod tests {
 
-    /// The estimate counts the film, the render's running sums, the layers and the encoder's
-    /// copies; the default budget holds 4096² with every layer and refuses the next step up, and
-    /// holds 8-bit output of an 8K UHD frame (7680 × 4320) but not of the largest image the pixel
-    /// limit allows (8192², 2.9 GB: raise --max-image-bytes).
+    /// The estimate counts the film, the render's exact running sums, the layers and the
+    /// encoder's copies; the default budget holds 4096² with every layer and refuses the next step
+    /// up, and holds 8-bit output of an 8K UHD frame (7680 × 4320) but not of the largest image
+    /// the pixel limit allows (8192², 5.1 GB: raise --max-image-bytes, or split it into tiles).
     #[test]
     fn image_memory_estimates_fit_the_default_budget() {
         let budget = crate::input::limits::DEFAULT_MAX_IMAGE_BYTES;
-        assert_eq!(image_bytes(1, &ImagePlan::COSTLIEST), 120);
-        assert_eq!(image_bytes(1, &ImagePlan::EIGHT_BIT), 44);
+        assert_eq!(image_bytes(1, &ImagePlan::COSTLIEST), 184);
+        assert_eq!(image_bytes(1, &ImagePlan::EIGHT_BIT), 76);
         assert!(image_bytes(4096 * 4096, &ImagePlan::COSTLIEST) <= budget);
         assert!(image_bytes(4608 * 4608, &ImagePlan::COSTLIEST) > budget);
         assert!(image_bytes(7680 * 4320, &ImagePlan::EIGHT_BIT) <= budget);
         assert!(image_bytes(crate::input::limits::Limits::default().max_pixels, &ImagePlan::EIGHT_BIT) > budget);
         let half = ImagePlan { half: true, ..ImagePlan::COSTLIEST };
-        assert!(image_bytes(1, &half) < image_bytes(1, &ImagePlan::COSTLIEST));
+        assert!(image_bytes(1, &half) <= image_bytes(1, &ImagePlan::COSTLIEST));
         assert_eq!(image_bytes(u64::MAX, &ImagePlan::COSTLIEST), u64::MAX);
     }
 
@@ -211,8 +294,16 @@ mod tests {
     }
 
     #[test]
-    fn unknown_extensions_are_refused() {
-        assert!(kind_for(Path::new("a.bmp")).is_err());
-        assert_eq!(kind_for(Path::new("a.JPG")).unwrap(), ImageKind::Jpeg);
+    fn formats_are_chosen_by_extension_and_unknown_ones_refused() {
+        let e = format_for(Path::new("a.bmp")).err().unwrap();
+        assert!(e.0.contains("unknown image type \".bmp\"") && e.0.contains(".png, .jpg, .jpeg"), "{e}");
+        assert_eq!(format_for(Path::new("a.JPG")).unwrap().kind, ImageKind::Jpeg);
+        assert_eq!(format_for(Path::new("ref.pfm")).unwrap().kind, ImageKind::Pfm);
+        // Every extension names one format.
+        let mut all: Vec<&str> = OUTPUT_FORMATS.iter().flat_map(|f| f.extensions.iter().copied()).collect();
+        all.sort_unstable();
+        let n = all.len();
+        all.dedup();
+        assert_eq!(all.len(), n);
     }
 }

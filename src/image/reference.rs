@@ -116,7 +116,7 @@ pub fn decode_png(bytes: &[u8], encoding: Encoding) -> Result<Film, String> {
     let mut film = Film::new(width, height);
     let decode = |v: f32| match encoding {
         Encoding::Srgb => srgb_decode(v),
-        Encoding::Linear => v,
+        Encoding::Linear | Encoding::LinearTruncated => v,
     };
     for (x, y, p) in rgb.enumerate_pixels() {
         film.set(x, y, Vec3::new(decode(p[0]), decode(p[1]), decode(p[2])));

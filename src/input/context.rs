@@ -5,6 +5,7 @@
 use crate::accel::{AccelChoice, BuildStats};
 use crate::input::error::{Loc, Result, SceneError};
 use crate::input::files::{OpenLog, ReadError, read_regular};
+use crate::input::fingerprint::Fingerprint;
 use crate::input::limits::Limits;
 use crate::input::value::Node;
 use crate::math::color::Encoding;
@@ -103,6 +104,7 @@ pub struct LoadContext<'a> {
     pub assets: AssetCache,
     warnings: Mutex<Vec<SceneError>>,
     charged: std::sync::atomic::AtomicU64,
+    fingerprint: Mutex<Fingerprint>,
 }
 
 impl<'a> LoadContext<'a> {
@@ -114,6 +116,7 @@ impl<'a> LoadContext<'a> {
             assets: AssetCache::default(),
             warnings: Mutex::default(),
             charged: std::sync::atomic::AtomicU64::new(0),
+            fingerprint: Mutex::default(),
         }
     }
 
@@ -161,6 +164,18 @@ impl<'a> LoadContext<'a> {
     /// The warnings recorded so far, in order, leaving none behind.
     pub fn take_warnings(&self) -> Vec<SceneError> {
         std::mem::take(&mut *self.warnings.lock().unwrap_or_else(|e| e.into_inner()))
+    }
+
+    /// Adds a file (named as the scene names it) to the fingerprint of what the render depends on.
+    pub fn fingerprint(&self, name: &str, bytes: &[u8]) {
+        let mut f = self.fingerprint.lock().unwrap_or_else(|e| e.into_inner());
+        f.add("file name", name.as_bytes());
+        f.add("file", bytes);
+    }
+
+    /// The fingerprint of the files read so far.
+    pub fn files_fingerprint(&self) -> Fingerprint {
+        *self.fingerprint.lock().unwrap_or_else(|e| e.into_inner())
     }
 
     /// The scene's folder as a path that names it (`.` for the empty folder of a bare file name).
@@ -242,6 +257,7 @@ impl<'a> LoadContext<'a> {
             }
         }
         let bytes = opened.read_to_end(self.options.limits.max_file_bytes).map_err(failed)?;
+        self.fingerprint(path, &bytes);
         Ok((full, bytes))
     }
 }

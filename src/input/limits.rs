@@ -29,9 +29,10 @@ pub struct Limits {
     pub max_memory: u64,
 }
 
-/// Default [`Limits::max_image_bytes`]: 2 GiB, so an image with every layer and its encoder's
-/// copies stays well under 4 GB with the scene beside it (4096 × 4096 as EXR with every layer).
-pub const DEFAULT_MAX_IMAGE_BYTES: u64 = 2 << 30;
+/// Default [`Limits::max_image_bytes`]: 3 GiB, which holds 4096 × 4096 as EXR with every layer
+/// (the render's exact sums, the layers and the encoder's copies) and an 8K UHD frame as PNG; the
+/// job as a whole stays within [`DEFAULT_MAX_MEMORY`], which the image is charged against too.
+pub const DEFAULT_MAX_IMAGE_BYTES: u64 = 3 << 30;
 
 /// Default work budget, rays. The estimate is an upper bound (every fan full, every light
 /// sampled at every hit); the bundled scenes estimate at most 3.4e10 (quality.toml) and render in

@@ -9,10 +9,12 @@ use crate::geometry::transform::{Transformed, parse_transform};
 use crate::input::context::{LoadContext, LoadOptions, read_user_file, scene_dir};
 use crate::input::description::SceneDescription;
 use crate::input::error::{Loc, Result, SceneError, Source, did_you_mean};
+use crate::input::fingerprint::Fingerprint;
 use crate::input::limits::{OBJECT_BYTES, toml_memory_estimate};
 use crate::input::params::Params;
 use crate::input::registry::Registry;
 use crate::input::spec::{Default, ParamKind, ParamSpec, Role};
+use crate::input::textures::TextureLibrary;
 use crate::input::toml::parse_toml;
 use crate::input::value::{Node, Table, Value};
 use crate::math::color::Encoding;
@@ -32,6 +34,12 @@ pub const SCENE_PARAMS: &[ParamSpec] = &[
     ParamSpec::new("render", ParamKind::Any, Default::Optional, "[render] table: image size, samples, seed, encoding"),
     ParamSpec::new("camera", ParamKind::Any, Default::Required, "[camera] table"),
     ParamSpec::new("integrator", ParamKind::Any, Default::Optional, "[integrator] table: `type` and its parameters"),
+    ParamSpec::new(
+        "textures",
+        ParamKind::Any,
+        Default::Optional,
+        "[textures.NAME] tables: `type` and its parameters; a material colour names one (kd = \"NAME\"); read only when a material uses it",
+    ),
     ParamSpec::new("materials", ParamKind::Any, Default::Optional, "[materials.NAME] tables"),
     ParamSpec::new(
         "object",
@@ -52,7 +60,7 @@ pub const RENDER_PARAMS: &[ParamSpec] = &[
         "encoding",
         ParamKind::Str,
         Default::Str("srgb"),
-        "8-bit encoding: \"srgb\" or \"linear\" (clamped values written straight, as the report)",
+        "8-bit encoding: \"srgb\", \"linear\" (clamped values written straight, as the report) or \"linear-truncated\" (straight, truncated to 0–255 as the course's Java renderer did; its test images bit for bit)",
     ),
     ParamSpec::new(
         "aa",
@@ -63,8 +71,8 @@ pub const RENDER_PARAMS: &[ParamSpec] = &[
     ParamSpec::new(
         "aa_threshold",
         ParamKind::Float,
-        Default::Float(0.05),
-        "adaptive: split where corner values (displayed, 0..1) differ by more than this, in [0, 1]",
+        Default::Float(0.02),
+        "adaptive: refine a pixel whose corners' displayed values (0..1) differ by more than this (a square of side s pixels: more than this / s^1.5), in [0, 1]",
     ),
     ParamSpec::new(
         "aa_depth",
@@ -125,6 +133,7 @@ fn read_with(registry: &Registry, path: &Path, ctx: &LoadContext) -> Result<Scen
         e.location = crate::input::error::Location::File { path: path.display().to_string(), line_col: None };
         e
     })?;
+    ctx.fingerprint("the scene file", &bytes);
     if ext == "toml" {
         let text = String::from_utf8(bytes).map_err(|e| {
             SceneError::in_file(path, None, format!("scene file is not UTF-8 text (byte {})", e.utf8_error().valid_up_to()))
@@ -147,6 +156,7 @@ fn read_with(registry: &Registry, path: &Path, ctx: &LoadContext) -> Result<Scen
 pub fn load_str(registry: &Registry, name: &str, text: &str, scene_dir: &Path, options: &LoadOptions) -> Result<RenderJob> {
     let ctx = LoadContext::new(scene_dir, options);
     ctx.charge(toml_memory_estimate(text.as_bytes()), "the scene description", None)?;
+    ctx.fingerprint("the scene file", text.as_bytes());
     let desc = parse_toml(&Source::new(name, text), stem(Path::new(name)))?;
     let parts = build_parts(registry, &desc, &ctx)?;
     drop(desc);
@@ -173,9 +183,12 @@ struct Parts {
     lights: Vec<(String, Box<dyn crate::scene::light::LightSource>)>,
     integrator: Box<dyn crate::render::integrator::Integrator>,
     integrator_name: String,
+    integrator_params: Table,
     settings: RenderSettings,
     /// Where the integrator is set, for the work budget's error.
     integrator_loc: Loc,
+    /// The fingerprint of everything above that decides pixels (with the files read).
+    fingerprint: Fingerprint,
 }
 
 impl Parts {
@@ -184,7 +197,18 @@ impl Parts {
         scene.record_object_builds(ctx.assets.build_stats());
         let (integrator, ty) = (self.integrator, self.integrator_name);
         check_work(&self.settings, &scene, integrator.as_ref(), &ty, &self.integrator_loc, ctx.options.limits.max_rays)?;
-        Ok(RenderJob { scene, integrator, integrator_name: ty, settings: self.settings, warnings: ctx.take_warnings() })
+        let mut fingerprint = self.fingerprint;
+        fingerprint.add("files", &ctx.files_fingerprint().hex().into_bytes());
+        fingerprint.add("accel", format!("{:?}", ctx.options.accel).as_bytes());
+        Ok(RenderJob {
+            scene,
+            integrator,
+            integrator_name: ty,
+            integrator_params: self.integrator_params,
+            settings: self.settings,
+            warnings: ctx.take_warnings(),
+            fingerprint: fingerprint.hex(),
+        })
     }
 }
 
@@ -233,7 +257,7 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
     if bytes > limits.max_image_bytes {
         return Err(rp
             .error(format!(
-                "image of {width}×{height} pixels needs about {} MB (film, layers and encoding), over the limit of {} MB",
+                "image of {width}×{height} pixels needs about {} MB (film, per-pixel sums, layers and encoding), over the limit of {} MB",
                 bytes.div_ceil(1 << 20),
                 limits.max_image_bytes >> 20
             ))
@@ -249,7 +273,7 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
     }
     let file_seed = rp.int_in("seed", 0..=i64::MAX)? as u64;
     let seed = ov.seed.unwrap_or(file_seed);
-    let file_encoding = Encoding::parse(&rp.choice("encoding", &["srgb", "linear"])?).unwrap_or_default();
+    let file_encoding = Encoding::parse(&rp.choice("encoding", &Encoding::NAMES)?).unwrap_or_default();
     let encoding = ov.encoding.unwrap_or(file_encoding);
     let aa = match rp.choice("aa", &["stratified", "adaptive"])?.as_str() {
         "adaptive" => Antialiasing::Adaptive(AdaptiveSettings {
@@ -286,6 +310,12 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
     let camera = Camera::from_params(&mut cp, settings.width, settings.height)?;
     cp.finish()?;
 
+    // [textures.NAME]: built when a material first names one.
+    let textures = TextureLibrary::new(registry, ctx);
+    if let Some(n) = root.node("textures")? {
+        textures.define(n)?;
+    }
+
     // [materials.NAME]
     let mut materials = MaterialLibrary::default();
     if let Some(n) = root.node("materials")? {
@@ -296,7 +326,7 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
             let Value::Table(mt) = &e.value.value else {
                 return Err(SceneError::at(&e.value.loc, format!("material \"{}\" must be a table of coefficients", e.key)));
             };
-            materials.insert(e.key.clone(), Material::from_table(mt, &e.value.loc, &format!("material \"{}\"", e.key))?);
+            materials.insert(e.key.clone(), Material::from_table(mt, &e.value.loc, &format!("material \"{}\"", e.key), &textures)?);
         }
     }
 
@@ -333,10 +363,14 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         // The object's `material` replaces what the shape's file defines; without either, the
         // scene's default.
         let materials = match params.get("material") {
-            Some(n) => Arc::from([materials.resolve(n, &what)?]),
+            Some(n) => Arc::from([materials.resolve(n, &what, &textures)?]),
             None => g.materials().unwrap_or_else(|| default_material.clone()),
         };
         objects.push(Object::new(names.claim(node, &label, &ty, i)?, g, materials));
+    }
+
+    for (name, loc) in textures.unused() {
+        ctx.warn(SceneError::at(&loc, format!("texture \"{name}\" is not used by any material; it was not loaded")));
     }
 
     // [[light]]
@@ -413,7 +447,27 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
     let integrator = (plugin.build)(&mut ip, ctx)?;
     ip.finish()?;
 
-    Ok(Parts { name, camera, background, objects, lights, integrator, integrator_name: ty, settings, integrator_loc: integ_loc })
+    // What decides the pixels besides the files: the resolved settings, camera and integrator.
+    let mut fingerprint = Fingerprint::default();
+    fingerprint.add("raylab", env!("CARGO_PKG_VERSION").as_bytes());
+    fingerprint.add("settings", format!("{settings:?}").as_bytes());
+    fingerprint.add("camera", format!("{camera:?}").as_bytes());
+    fingerprint.add("background", format!("{background:?}").as_bytes());
+    fingerprint.add("integrator", ty.as_bytes());
+    fingerprint.add("integrator parameters", crate::input::toml::table_to_toml(&integ_table).as_bytes());
+    Ok(Parts {
+        name,
+        camera,
+        background,
+        objects,
+        lights,
+        integrator,
+        integrator_name: ty,
+        integrator_params: integ_table,
+        settings,
+        integrator_loc: integ_loc,
+        fingerprint,
+    })
 }
 
 /// Refuses a render whose worst-case ray count exceeds `max_rays`, naming each factor.

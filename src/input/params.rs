@@ -66,6 +66,11 @@ impl<'a> Params<'a> {
         SceneError::at(loc, format!("parameter `{name}`: {message}")).context(&self.what)
     }
 
+    /// True when the plugin's parameter table declares `name`.
+    pub fn declares(&self, name: &str) -> bool {
+        self.specs.iter().any(|s| s.name == name)
+    }
+
     /// True when the scene gives `name` (does not mark it used).
     pub fn has(&self, name: &str) -> bool {
         self.table.get(name).is_some()

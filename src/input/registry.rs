@@ -1,4 +1,4 @@
-//! The plugin registry: geometries, lights, integrators and scene formats, by type name.
+//! The plugin registry: geometries, textures, lights, integrators and scene formats, by type name.
 //!
 //! Built-in plugins register themselves through exactly this API; a crate outside raylab adds a
 //! geometry the same way (see docs/writing-a-plugin.md).
@@ -11,6 +11,7 @@ use crate::input::params::Params;
 use crate::input::spec::ParamSpec;
 use crate::render::integrator::Integrator;
 use crate::scene::light::LightSource;
+use crate::scene::texture::Texture;
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::Arc;
@@ -28,6 +29,8 @@ pub struct PluginInfo {
 
 /// Builds a geometry from its parameters.
 pub type GeometryBuilder = Arc<dyn Fn(&mut Params, &LoadContext) -> Result<Box<dyn Geometry>> + Send + Sync>;
+/// Builds a texture from its parameters.
+pub type TextureBuilder = Arc<dyn Fn(&mut Params, &LoadContext) -> Result<Arc<dyn Texture>> + Send + Sync>;
 /// Builds a light from its parameters.
 pub type LightBuilder = Arc<dyn Fn(&mut Params, &LoadContext) -> Result<Box<dyn LightSource>> + Send + Sync>;
 /// Builds an integrator from its parameters.
@@ -59,6 +62,7 @@ pub struct SceneFormat {
 #[derive(Clone, Default)]
 pub struct Registry {
     geometries: BTreeMap<&'static str, Plugin<GeometryBuilder>>,
+    textures: BTreeMap<&'static str, Plugin<TextureBuilder>>,
     lights: BTreeMap<&'static str, Plugin<LightBuilder>>,
     integrators: BTreeMap<&'static str, Plugin<IntegratorBuilder>>,
     formats: Vec<SceneFormat>,
@@ -78,6 +82,15 @@ impl Registry {
         build: impl Fn(&mut Params, &LoadContext) -> Result<Box<dyn Geometry>> + Send + Sync + 'static,
     ) {
         self.geometries.insert(info.name, Plugin { info, build: Arc::new(build) });
+    }
+
+    /// Registers a texture type; replaces any earlier one of the same name.
+    pub fn add_texture(
+        &mut self,
+        info: PluginInfo,
+        build: impl Fn(&mut Params, &LoadContext) -> Result<Arc<dyn Texture>> + Send + Sync + 'static,
+    ) {
+        self.textures.insert(info.name, Plugin { info, build: Arc::new(build) });
     }
 
     /// Registers a light type; replaces any earlier one of the same name.
@@ -115,6 +128,11 @@ impl Registry {
         self.geometries.get(name)
     }
 
+    /// The texture type `name`.
+    pub fn texture(&self, name: &str) -> Option<&Plugin<TextureBuilder>> {
+        self.textures.get(name)
+    }
+
     /// The light type `name`.
     pub fn light(&self, name: &str) -> Option<&Plugin<LightBuilder>> {
         self.lights.get(name)
@@ -138,6 +156,11 @@ impl Registry {
     /// Registered geometry types, sorted by name.
     pub fn geometries(&self) -> impl Iterator<Item = &PluginInfo> {
         self.geometries.values().map(|p| &p.info)
+    }
+
+    /// Registered texture types, sorted by name.
+    pub fn textures(&self) -> impl Iterator<Item = &PluginInfo> {
+        self.textures.values().map(|p| &p.info)
     }
 
     /// Registered light types, sorted by name.

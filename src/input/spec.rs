@@ -17,6 +17,8 @@ pub enum ParamKind {
     Vec3,
     /// Linear RGB `[r, g, b]` (each ≥ 0) or one number for grey.
     Color,
+    /// A colour, or a texture: the name of one in `[textures]`, or an inline texture table.
+    Texture,
     /// The name of a material in `[materials]`, or an inline material table.
     Material,
     /// A path to a file, relative to the scene file.
@@ -37,6 +39,7 @@ impl ParamKind {
             ParamKind::Str => "string",
             ParamKind::Vec3 => "vec3",
             ParamKind::Color => "color",
+            ParamKind::Texture => "color/texture",
             ParamKind::Material => "material",
             ParamKind::Path => "path",
             ParamKind::Vec3List => "[vec3]",

@@ -14,6 +14,23 @@ pub struct Node {
     pub loc: Loc,
 }
 
+impl Node {
+    /// A value given outside any scene file (a command-line flag, a control of the live view),
+    /// located in a one-line source named `origin` that holds the value's text, so errors name it.
+    pub fn given(origin: &str, value: Value) -> Node {
+        let text = match &value {
+            Value::Str(s) => s.clone(),
+            Value::Int(i) => i.to_string(),
+            Value::Float(f) => f.to_string(),
+            Value::Bool(b) => b.to_string(),
+            other => other.type_name().to_string(),
+        };
+        let src = crate::input::error::Source::new(origin, text);
+        let loc = Loc::new(&src, 0..src.text.len());
+        Node { value, loc }
+    }
+}
+
 /// A scene value: the data model shared by every scene format (TOML, the report's XML, overrides
 /// from the command line).
 #[derive(Clone, Debug)]

@@ -19,14 +19,27 @@ pub enum Encoding {
     /// Clamp to [0, 1] and write values straight, as the report's renderer did; scenes authored
     /// for it look right only so.
     Linear,
+    /// As `Linear`, but quantised by truncation, as the course's Java renderer wrote its 0–255
+    /// values (`(int)` casts): its test images, matched bit for bit.
+    #[serde(rename = "linear-truncated")]
+    LinearTruncated,
 }
 
+/// What an 8-bit value truncated from `v × 255` may gain before its cast: the course's integer
+/// values k arrive as `k / 255` rounded to `f32` (and multiplied back in `f32`), which can land
+/// up to `255 · 2⁻²³ ≈ 3·10⁻⁵` below k; three times that keeps them from truncating to `k − 1`.
+pub const TRUNCATION_SLACK: f32 = 1e-4;
+
 impl Encoding {
-    /// Parses `"srgb"` or `"linear"`.
+    /// Every encoding's name, as [`Encoding::parse`] accepts it.
+    pub const NAMES: [&'static str; 3] = ["srgb", "linear", "linear-truncated"];
+
+    /// Parses `"srgb"`, `"linear"` or `"linear-truncated"`.
     pub fn parse(s: &str) -> Option<Self> {
         match s {
             "srgb" => Some(Encoding::Srgb),
             "linear" => Some(Encoding::Linear),
+            "linear-truncated" => Some(Encoding::LinearTruncated),
             _ => None,
         }
     }
@@ -36,13 +49,18 @@ impl Encoding {
         match self {
             Encoding::Srgb => "srgb",
             Encoding::Linear => "linear",
+            Encoding::LinearTruncated => "linear-truncated",
         }
     }
 
-    /// Encodes one linear channel value to 0..=255 (NaN becomes 0).
+    /// Encodes one linear channel value to 0..=255 (NaN becomes 0): rounded, or truncated for
+    /// [`Encoding::LinearTruncated`] (with [`TRUNCATION_SLACK`]).
     #[inline]
     pub fn to_u8(self, v: f32) -> u8 {
-        (self.display(v) * 255.0 + 0.5) as u8
+        match self {
+            Encoding::LinearTruncated => (self.display(v) * 255.0 + TRUNCATION_SLACK).min(255.0) as u8,
+            _ => (self.display(v) * 255.0 + 0.5) as u8,
+        }
     }
 
     /// The displayed value of one linear channel: clamped to [0, 1] and encoded, before 8-bit
@@ -52,7 +70,7 @@ impl Encoding {
         let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
         match self {
             Encoding::Srgb => srgb_encode(v),
-            Encoding::Linear => v,
+            Encoding::Linear | Encoding::LinearTruncated => v,
         }
     }
 }
@@ -90,5 +108,22 @@ mod tests {
             let lin = srgb_decode(i as f32 / 255.0);
             assert_eq!(Encoding::Srgb.to_u8(lin), i);
         }
+    }
+
+    /// The course's `(int)` cast: a value just below a level stays below it, a level (as the
+    /// `f32` the film holds, even computed in `f64` and multiplied back) stays itself.
+    #[test]
+    fn truncation_keeps_levels_and_drops_fractions() {
+        let t = Encoding::LinearTruncated;
+        assert_eq!(t.to_u8(0.5), 127, "127.5 truncates");
+        assert_eq!(Encoding::Linear.to_u8(0.5), 128, "127.5 rounds");
+        assert_eq!(t.to_u8(190.9 / 255.0), 190);
+        assert_eq!((t.to_u8(2.0), t.to_u8(-1.0), t.to_u8(f32::NAN)), (255, 0, 0));
+        for k in 0..=255u32 {
+            let via_f64 = (f64::from(k) / 255.0 * 0.75 / 0.75) as f32;
+            assert_eq!(u32::from(t.to_u8(k as f32 / 255.0)), k);
+            assert_eq!(u32::from(t.to_u8(via_f64)), k);
+        }
+        assert_eq!(Encoding::parse(t.name()), Some(t));
     }
 }

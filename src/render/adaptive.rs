@@ -33,21 +33,62 @@
 //! same pixels. Points shared by neighbouring squares and pixels are traced once per tile: they
 //! are kept in a window of the lattice as wide as the tile and a pixel row high (indexed by
 //! coordinates, each slot checked against its point's key), with no hashing, allocation or
-//! locking per sample.
+//! locking per sample. A pixel's weighted sum is computed in a fixed order from its own points,
+//! then stored as one exact unit of weight ([`PixelSum::whole`]): a pixel is the same whichever
+//! share of the frame ([`crate::render::share`]) renders it.
 
 use crate::math::color::Color;
+use crate::render::accum::{LayerSum, PixelSum};
 use crate::render::job::{AdaptiveSettings, MAX_ADAPTIVE_DEPTH, MAX_CELL_SAMPLES, RenderJob};
-use crate::render::sample::{LayerSum, SampleId, SampleSum, trace_sample};
+use crate::render::sample::{SampleId, trace_sample};
 use crate::render::stats::RayStats;
+use glam::Vec3;
 use std::cell::RefCell;
+
+/// Layers as weighted means: combined with the same weights as the colour.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct WeightedLayers {
+    /// Weighted depth over the weight of the rays that hit.
+    pub depth: f32,
+    /// Weight of the rays that hit.
+    pub hits: f32,
+    /// Weighted shading normal.
+    pub normal: Vec3,
+    /// Weighted albedo.
+    pub albedo: Vec3,
+}
+
+impl WeightedLayers {
+    /// The mean layers of `s` as one unit of weight.
+    fn of(s: &LayerSum) -> Self {
+        let (depth, normal, albedo) = s.mean();
+        let hits = if s.rays > 0 { s.hits as f32 / s.rays as f32 } else { 0.0 };
+        WeightedLayers { depth: if depth.is_finite() { depth * hits } else { 0.0 }, hits, normal, albedo }
+    }
+
+    /// Adds `o` with weight `w`.
+    #[inline]
+    fn add_scaled(&mut self, o: &WeightedLayers, w: f32) {
+        self.depth += o.depth * w;
+        self.hits += o.hits * w;
+        self.normal += o.normal * w;
+        self.albedo += o.albedo * w;
+    }
+
+    /// The pixel's layers as sums of one unit of weight.
+    pub fn sum(&self) -> LayerSum {
+        let depth = if self.hits > 0.0 { self.depth / self.hits } else { f32::INFINITY };
+        LayerSum::whole(depth, self.normal, self.albedo)
+    }
+}
 
 /// The value of a pixel: mean radiance, and mean layers (weight 1).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Value {
     /// Mean radiance.
     pub color: Color,
-    /// Layers, normalised to weight 1 (zero unless asked for).
-    pub layers: LayerSum,
+    /// Layers (zero unless asked for).
+    pub layers: WeightedLayers,
 }
 
 /// A traced lattice point.
@@ -103,7 +144,7 @@ pub struct Adaptive<'a> {
     /// `cols`.
     slots: Vec<Point>,
     /// Layers of each slot (empty unless asked for).
-    layers: Vec<LayerSum>,
+    layers: Vec<WeightedLayers>,
     x0: u64,
     cols: u64,
     rows: u64,
@@ -145,7 +186,7 @@ impl<'a> Adaptive<'a> {
             res,
             row,
             slots,
-            layers: if layers { vec![LayerSum::default(); n] } else { Vec::new() },
+            layers: if layers { vec![WeightedLayers::default(); n] } else { Vec::new() },
             x0: u64::from(x0) * res,
             cols,
             rows,
@@ -221,11 +262,11 @@ impl<'a> Adaptive<'a> {
         let with_layers = !self.layers.is_empty();
         for index in 0..n {
             let id = SampleId::Cell { x, y, depth: self.depth, index, count: n };
-            let (mut s, mut sums) = (SampleSum::default(), LayerSum::default());
+            let (mut s, mut sums) = (PixelSum::default(), LayerSum::default());
             trace_sample(self.job, id, &mut s, with_layers.then_some(&mut sums), stats);
             acc.color += s.mean() * share;
-            if with_layers && sums.weight > 0.0 {
-                acc.layers += sums.scaled(share as f32 / sums.weight);
+            if with_layers {
+                acc.layers.add_scaled(&WeightedLayers::of(&sums), share as f32);
             }
             if let Some(r) = acc.record.as_mut() {
                 r.push((id, share));
@@ -349,7 +390,7 @@ impl<'a> Adaptive<'a> {
     fn add(&self, p: &Point, w: f64, acc: &mut Acc) {
         acc.color += p.color * w;
         if !self.layers.is_empty() {
-            acc.layers += self.layers[self.slot(p.key % self.row, p.key / self.row)].scaled(w as f32);
+            acc.layers.add_scaled(&self.layers[self.slot(p.key % self.row, p.key / self.row)], w as f32);
         }
         if let Some(r) = acc.record.as_mut() {
             let id = SampleId::Lattice { x: p.key % self.row, y: p.key / self.row, depth: self.depth };
@@ -398,7 +439,7 @@ impl<'a> Adaptive<'a> {
         if self.slots[slot].key == key {
             return self.slots[slot];
         }
-        let (mut acc, mut sums) = (SampleSum::default(), LayerSum::default());
+        let (mut acc, mut sums) = (PixelSum::default(), LayerSum::default());
         let with_layers = !self.layers.is_empty();
         let signature =
             trace_sample(self.job, SampleId::Lattice { x, y, depth: self.depth }, &mut acc, with_layers.then_some(&mut sums), stats);
@@ -408,7 +449,7 @@ impl<'a> Adaptive<'a> {
         let p = Point { key, color, display, signature };
         self.slots[slot] = p;
         if with_layers {
-            self.layers[slot] = if sums.weight > 0.0 { sums.scaled(1.0 / sums.weight) } else { LayerSum::default() };
+            self.layers[slot] = WeightedLayers::of(&sums);
         }
         p
     }
@@ -493,6 +534,6 @@ fn cross2(a: (f64, f64), b: (f64, f64)) -> f64 {
 #[derive(Default)]
 struct Acc {
     color: Color,
-    layers: LayerSum,
+    layers: WeightedLayers,
     record: Option<Vec<(SampleId, f64)>>,
 }

@@ -9,16 +9,21 @@
 //!   ([`adaptive`]).
 //!
 //! Every sample goes through one path ([`sample::trace_sample`]) and is a pure function of
-//! (pixel or lattice point, sample, dimension, seed): the image is bit-identical for any thread
-//! count and tile order. The integrator fills the depth, normal and albedo layers from the same
-//! samples, in the same pass.
+//! (pixel or lattice point, sample, dimension, seed), and pixels are exact sums
+//! ([`accum`]): the image is bit-identical for any thread count and tile order, and for any
+//! split of the frame into shares ([`share`]: crops, tiles, sample passes, a resume) merged
+//! again. The integrator fills the depth, normal and albedo layers from the same samples, in the
+//! same pass.
 
+pub mod accum;
 pub mod adaptive;
 pub mod aov;
 pub mod integrator;
 pub mod job;
 pub mod sample;
 pub mod sampler;
+pub mod share;
+pub mod split;
 pub mod stats;
 pub mod trace;
 
@@ -26,37 +31,75 @@ pub use job::{ADAPTIVE_TILE_SIZE, AdaptiveSettings, Antialiasing, MAX_ADAPTIVE_D
 
 use crate::image::film::Film;
 use crate::image::layers::Aovs;
+use crate::render::accum::{LayerSum, PixelSum};
 use crate::render::adaptive::Adaptive;
-use crate::render::sample::{LayerSum, SampleId, SampleSum, camera_rays, trace_sample};
+use crate::render::sample::{SampleId, camera_rays, trace_sample};
+use crate::render::share::{FrameSums, Rect, Sampling, Share};
 use crate::render::stats::RayStats;
 use glam::Vec3;
 use rayon::prelude::*;
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 /// How to run a render (not part of the scene: results do not depend on these).
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Default)]
 pub struct RenderOptions<'a> {
     /// Worker threads; `None` uses all cores.
     pub threads: Option<usize>,
-    /// Set to stop early (checked per row of each tile); unfinished pixels keep the samples of
-    /// earlier passes (black without) and [`Rendered::complete`] is false.
+    /// Set to stop early (checked per pixel row of each tile); every pixel keeps the samples it
+    /// has, and [`Rendered::complete`] is false.
     pub cancel: Option<&'a AtomicBool>,
     /// Also compute the depth, normal and albedo layers ([`Rendered::layers`]).
     pub layers: bool,
+    /// The part of the frame to render (default: all of it).
+    pub share: Option<Share>,
+    /// Continue from this state (of the same share; a checkpoint): samples already summed are
+    /// not traced again.
+    pub resume: Option<&'a FrameSums>,
+    /// Hand the state to `write` every `every` while rendering (checkpoints).
+    pub snapshots: Option<Snapshots<'a>>,
+    /// Called as each tile finishes (from a worker thread, while the state is locked): live
+    /// displays show the tile at once.
+    pub on_tile: Option<&'a (dyn Fn(&TileDone) + Sync)>,
+}
+
+/// A tile that has just finished, with the render's state at that moment.
+pub struct TileDone<'a> {
+    /// The tile's pixels.
+    pub tile: Rect,
+    /// The state of the whole share (the tile's pixels hold their new sums).
+    pub sums: &'a FrameSums,
+    /// Counters so far.
+    pub stats: &'a RayStats,
+    /// The stratified sample index the current pass ends at (1 under adaptive anti-aliasing).
+    pub pass_end: u32,
+    /// Wall time of tracing so far.
+    pub elapsed: Duration,
+}
+
+/// Periodic copies of a render's state.
+#[derive(Clone, Copy)]
+pub struct Snapshots<'a> {
+    /// How often.
+    pub every: Duration,
+    /// Receives the state (called from a worker thread, while the state is locked).
+    pub write: &'a (dyn Fn(&FrameSums) + Sync),
 }
 
 /// The result of a render.
 pub struct Rendered {
-    /// The image.
+    /// The image (black outside the share's bounds).
     pub film: Film,
     /// The depth, normal and albedo layers, when asked for ([`RenderOptions::layers`]).
     pub layers: Option<Aovs>,
+    /// The exact per-pixel state: what a partial file or a checkpoint holds.
+    pub sums: FrameSums,
     /// Rays traced and avoided.
     pub stats: RayStats,
     /// Wall time of tracing (excludes loading and writing).
     pub elapsed: Duration,
-    /// False when cancelled before every tile was done.
+    /// False when cancelled before every pixel had its samples.
     pub complete: bool,
 }
 
@@ -78,10 +121,10 @@ pub fn render(job: &RenderJob, options: &RenderOptions, progress: &(dyn Fn(u64, 
     render_progressive(job, options, &[], progress, &mut |_| {})
 }
 
-/// Renders `job` in passes: with stratified anti-aliasing, pass `k` takes each pixel from
-/// `checkpoints[k−1]` to `checkpoints[k]` samples (checkpoints beyond `spp` are ignored; the last
-/// pass always ends at `spp`), and `on_pass` sees the image after each. The final image has the
-/// same bits as a single-pass [`render`]. Adaptive anti-aliasing renders in one pass.
+/// Renders `job` in passes: with stratified anti-aliasing, pass `k` takes each pixel up to sample
+/// index `checkpoints[k]` (checkpoints beyond `spp` are ignored; the last pass always ends at
+/// `spp`), and `on_pass` sees the image after each. The final image has the same bits as a
+/// single-pass [`render`]. Adaptive anti-aliasing renders in one pass.
 pub fn render_progressive(
     job: &RenderJob,
     options: &RenderOptions,
@@ -100,43 +143,14 @@ pub fn render_progressive(
     }
 }
 
-/// A rectangle of pixels, `[x0, x1) × [y0, y1)`.
-#[derive(Clone, Copy)]
-struct Tile {
-    x0: u32,
-    y0: u32,
-    x1: u32,
-    y1: u32,
-}
-
-impl Tile {
-    fn pixels(&self) -> u64 {
-        u64::from(self.x1 - self.x0) * u64::from(self.y1 - self.y0)
-    }
-
-    /// The pixel at index `i` of the tile, row by row.
-    #[inline]
-    fn pixel(&self, i: usize) -> (u32, u32) {
-        let w = self.x1 - self.x0;
-        (self.x0 + i as u32 % w, self.y0 + i as u32 / w)
-    }
-}
-
-/// One tile's pixels and counters, carried from pass to pass.
-struct TileState {
-    tile: Tile,
-    pixels: Vec<SampleSum>,
-    /// Per pixel, the layers' sums (empty unless asked for).
-    layers: Vec<LayerSum>,
-    stats: RayStats,
-    done: bool,
-}
-
-fn tiles(width: u32, height: u32, size: u32) -> Vec<Tile> {
+/// The tiles of `bounds`: `size` squares on the frame's grid, clipped to the bounds.
+fn tiles(bounds: Rect, size: u32) -> Vec<Rect> {
     let mut tiles = Vec::new();
-    for y0 in (0..height).step_by(size as usize) {
-        for x0 in (0..width).step_by(size as usize) {
-            tiles.push(Tile { x0, y0, x1: (x0 + size).min(width), y1: (y0 + size).min(height) });
+    let first = |v: u32| v - v % size;
+    for y0 in (first(bounds.y0)..bounds.y1).step_by(size as usize) {
+        for x0 in (first(bounds.x0)..bounds.x1).step_by(size as usize) {
+            let t = Rect { x0, y0, x1: x0 + size, y1: y0 + size };
+            tiles.extend(t.intersect(&bounds));
         }
     }
     tiles
@@ -151,6 +165,13 @@ fn pass_ends(spp: u32, checkpoints: &[u32]) -> Vec<u32> {
     ends
 }
 
+/// The render's state: the sums, the counters, and when the state was last handed out.
+struct State {
+    sums: FrameSums,
+    stats: RayStats,
+    last_snapshot: Instant,
+}
+
 fn render_passes(
     job: &RenderJob,
     options: &RenderOptions,
@@ -159,115 +180,165 @@ fn render_passes(
     on_pass: &mut (dyn FnMut(&Pass) + Send),
 ) -> Result<Rendered, String> {
     let s = job.settings;
+    let share = options.share.unwrap_or_else(|| Share::whole(s.width, s.height));
+    if share.bounds.is_empty() || !share.bounds.within(&Rect::frame(s.width, s.height)) || share.passes == 0 || share.pass >= share.passes {
+        return Err(format!("{} is not a share of the {}×{} frame", share.describe(), s.width, s.height));
+    }
+    let sums = match options.resume {
+        Some(r) => {
+            if (r.width, r.height, r.share) != (s.width, s.height, share) || r.layers.is_some() != options.layers {
+                return Err(format!(
+                    "the saved state is of {} of a {}×{} frame{}, not of {} of this {}×{} frame{}",
+                    r.share.describe(),
+                    r.width,
+                    r.height,
+                    if r.layers.is_some() { " with layers" } else { "" },
+                    share.describe(),
+                    s.width,
+                    s.height,
+                    if options.layers { " with layers" } else { "" }
+                ));
+            }
+            r.clone()
+        }
+        None => FrameSums::new(&s, share, options.layers).map_err(|e| e.to_string())?,
+    };
     let ends = match s.aa {
         Antialiasing::Stratified => pass_ends(s.spp, checkpoints),
         Antialiasing::Adaptive(_) => vec![1],
     };
     let counters = job.integrator.counters();
     // Adaptive tiles are larger: the lattice points on a tile's border are traced by both tiles.
-    let size = match s.aa {
-        Antialiasing::Stratified => TILE_SIZE,
-        Antialiasing::Adaptive(_) => ADAPTIVE_TILE_SIZE,
-    };
-    let mut states: Vec<TileState> = tiles(s.width, s.height, size)
-        .into_iter()
-        .map(|tile| {
-            let n = tile.pixels() as usize;
-            let layers = if options.layers { vec![LayerSum::default(); n] } else { Vec::new() };
-            TileState { tile, pixels: vec![SampleSum::default(); n], layers, stats: RayStats::new(counters), done: false }
-        })
-        .collect();
-    let pixels = u64::from(s.width) * u64::from(s.height);
-    let total = pixels * u64::from(*ends.last().unwrap_or(&1));
-    let done = AtomicU64::new(0);
+    let tiles = tiles(
+        share.bounds,
+        match s.aa {
+            Antialiasing::Stratified => TILE_SIZE,
+            Antialiasing::Adaptive(_) => ADAPTIVE_TILE_SIZE,
+        },
+    );
+    let already: u64 = sums.pixels.iter().map(|p| u64::from(p.samples)).sum();
+    let total: u64 = already + (0..sums.pixels.len()).map(|i| u64::from(sums.missing(i))).sum::<u64>();
+    let done = AtomicU64::new(already);
+    let state = Mutex::new(State { sums, stats: RayStats::new(counters), last_snapshot: Instant::now() });
+    let lock = || state.lock().unwrap_or_else(|e| e.into_inner());
     let start = Instant::now();
-    let mut film = Film::try_new(s.width, s.height).map_err(|e| e.to_string())?;
     let mut complete = true;
-    let mut begin = 0;
     for &end in &ends {
-        states.par_iter_mut().for_each(|st| {
+        tiles.par_iter().for_each(|&tile| {
             if options.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
-                st.done = false;
                 return;
             }
-            st.done = match s.aa {
-                Antialiasing::Stratified => stratified_tile(job, st, begin..end, options),
-                Antialiasing::Adaptive(a) => {
-                    adaptive_tile(job, st, a, options.layers);
-                    true
-                }
-            };
-            if !st.done {
-                return;
+            let mut work = TileWork::take(&lock().sums, tile);
+            let mut stats = RayStats::new(counters);
+            let before = work.samples();
+            work.render(job, end, options.cancel, &mut stats);
+            let added = work.samples() - before;
+            let mut st = lock();
+            work.put(&mut st.sums);
+            st.stats += stats;
+            if let Some(f) = options.on_tile {
+                f(&TileDone { tile, sums: &st.sums, stats: &st.stats, pass_end: end, elapsed: start.elapsed() });
             }
-            let work = st.tile.pixels() * u64::from(end - begin);
-            progress(done.fetch_add(work, Ordering::Relaxed) + work, total);
+            if let Some(snap) = options.snapshots
+                && st.last_snapshot.elapsed() >= snap.every
+            {
+                (snap.write)(&st.sums);
+                st.last_snapshot = Instant::now();
+            }
+            drop(st);
+            progress(done.fetch_add(added, Ordering::Relaxed) + added, total);
         });
-        begin = end;
-        complete = states.iter().all(|st| st.done);
-        let mut stats = RayStats::new(counters);
-        for st in &states {
-            stats += st.stats;
-            for (i, p) in st.pixels.iter().enumerate() {
-                let (x, y) = st.tile.pixel(i);
-                film.set(x, y, p.mean().as_vec3());
+        let st = lock();
+        if options.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+            complete = st.sums.complete();
+            break;
+        }
+        if end != *ends.last().unwrap_or(&end) {
+            let film = st.sums.film().map_err(|e| e.to_string())?;
+            on_pass(&Pass { film: &film, samples: end, elapsed: start.elapsed(), stats: st.stats });
+        }
+    }
+    let st = state.into_inner().unwrap_or_else(|e| e.into_inner());
+    let film = st.sums.film().map_err(|e| e.to_string())?;
+    let layers = st.sums.aovs().map_err(|e| e.to_string())?;
+    let elapsed = start.elapsed();
+    if complete {
+        on_pass(&Pass { film: &film, samples: *ends.last().unwrap_or(&1), elapsed, stats: st.stats });
+    }
+    Ok(Rendered { film, layers, sums: st.sums, stats: st.stats, elapsed, complete })
+}
+
+/// One tile's sums, taken out of the shared state while its samples are traced.
+struct TileWork {
+    tile: Rect,
+    share: Share,
+    pixels: Vec<PixelSum>,
+    layers: Option<Vec<LayerSum>>,
+}
+
+impl TileWork {
+    fn take(sums: &FrameSums, tile: Rect) -> TileWork {
+        let b = sums.share.bounds;
+        let rows = |v: &[PixelSum]| -> Vec<PixelSum> {
+            (tile.y0..tile.y1).flat_map(|y| v[b.index(tile.x0, y)..b.index(tile.x0, y) + tile.width() as usize].iter().copied()).collect()
+        };
+        let layers = sums.layers.as_ref().map(|l| {
+            (tile.y0..tile.y1).flat_map(|y| l[b.index(tile.x0, y)..b.index(tile.x0, y) + tile.width() as usize].iter().copied()).collect()
+        });
+        TileWork { tile, share: sums.share, pixels: rows(&sums.pixels), layers }
+    }
+
+    fn put(&self, sums: &mut FrameSums) {
+        let b = sums.share.bounds;
+        let w = self.tile.width() as usize;
+        for (r, y) in (self.tile.y0..self.tile.y1).enumerate() {
+            let at = b.index(self.tile.x0, y);
+            sums.pixels[at..at + w].copy_from_slice(&self.pixels[r * w..(r + 1) * w]);
+            if let (Some(dst), Some(src)) = (sums.layers.as_mut(), self.layers.as_ref()) {
+                dst[at..at + w].copy_from_slice(&src[r * w..(r + 1) * w]);
             }
         }
-        if !complete {
-            return Ok(Rendered { film, layers: None, stats, elapsed: start.elapsed(), complete });
-        }
-        on_pass(&Pass { film: &film, samples: end, elapsed: start.elapsed(), stats });
     }
-    let mut stats = RayStats::new(counters);
-    for st in &states {
-        stats += st.stats;
-    }
-    let layers = if options.layers { Some(layers_of(&states, s.width, s.height).map_err(|e| e.to_string())?) } else { None };
-    Ok(Rendered { film, layers, stats, elapsed: start.elapsed(), complete })
-}
 
-/// The mean layers of every pixel, row-major.
-fn layers_of(states: &[TileState], width: u32, height: u32) -> Result<Aovs, crate::image::write::WriteError> {
-    let n = width as usize * height as usize;
-    let mut depth = crate::image::write::try_filled(n, f32::INFINITY, "depth layer")?;
-    let mut normal = crate::image::write::try_filled(n, Vec3::ZERO, "normal layer")?;
-    let mut albedo = crate::image::write::try_filled(n, Vec3::ZERO, "albedo layer")?;
-    for st in states {
-        for (i, p) in st.layers.iter().enumerate() {
-            let (x, y) = st.tile.pixel(i);
-            let k = y as usize * width as usize + x as usize;
-            (depth[k], normal[k], albedo[k]) = p.mean();
-        }
+    fn samples(&self) -> u64 {
+        self.pixels.iter().map(|p| u64::from(p.samples)).sum()
     }
-    Ok(Aovs { depth: Some(depth), normal: Some(normal), albedo: Some(albedo) })
-}
 
-/// Adds `samples` to every pixel of the tile; false when cancelled part-way (checked once per row
-/// of the tile, so a cancel takes effect within one row of samples, not a whole tile).
-fn stratified_tile(job: &RenderJob, st: &mut TileState, samples: std::ops::Range<u32>, options: &RenderOptions) -> bool {
-    let w = (st.tile.x1 - st.tile.x0) as usize;
-    for (i, acc) in st.pixels.iter_mut().enumerate() {
-        if i % w == 0 && options.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
-            return false;
-        }
-        let (x, y) = st.tile.pixel(i);
-        for index in samples.clone() {
-            trace_sample(job, SampleId::Pixel { x, y, index }, acc, st.layers.get_mut(i), &mut st.stats);
-        }
-    }
-    true
-}
-
-/// The adaptive scheme over one tile (lattice points shared by its pixels).
-fn adaptive_tile(job: &RenderJob, st: &mut TileState, settings: AdaptiveSettings, layers: bool) {
-    let t = st.tile;
-    let mut scheme = Adaptive::new(job, settings, t.x0, t.x1 - t.x0, layers);
-    for (i, acc) in st.pixels.iter_mut().enumerate() {
-        let (x, y) = t.pixel(i);
-        let v = scheme.pixel(x, y, &mut st.stats);
-        *acc = SampleSum { sum: v.color, n: 1 };
-        if let Some(l) = st.layers.get_mut(i) {
-            *l = v.layers;
+    /// Adds the share's samples below index `end` that each pixel lacks (stratified), or
+    /// computes the pixels not done yet (adaptive); stops between pixel rows when cancelled.
+    fn render(&mut self, job: &RenderJob, end: u32, cancel: Option<&AtomicBool>, stats: &mut RayStats) {
+        let s = &job.settings;
+        let t = self.tile;
+        let w = t.width() as usize;
+        let mut scheme = match s.aa {
+            Antialiasing::Adaptive(a) => Some(Adaptive::new(job, a, t.x0, t.width(), self.layers.is_some())),
+            Antialiasing::Stratified => None,
+        };
+        for i in 0..self.pixels.len() {
+            if i % w == 0 && cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+                return;
+            }
+            let (x, y) = t.pixel(i);
+            let want = self.share.samples_of(Sampling::of(s), s.width, x, y);
+            let acc = &mut self.pixels[i];
+            let mut layers = self.layers.as_mut().map(|l| &mut l[i]);
+            match scheme.as_mut() {
+                None => {
+                    while acc.samples < want && self.share.sample_index(acc.samples) < end {
+                        let index = self.share.sample_index(acc.samples);
+                        trace_sample(job, SampleId::Pixel { x, y, index }, acc, layers.as_deref_mut(), stats);
+                        acc.samples += 1;
+                    }
+                }
+                Some(scheme) if acc.samples < want => {
+                    let v = scheme.pixel(x, y, stats);
+                    *acc = PixelSum::whole(v.color);
+                    if let Some(l) = layers {
+                        *l = v.layers.sum();
+                    }
+                }
+                Some(_) => {}
+            }
         }
     }
 }
@@ -275,7 +346,7 @@ fn adaptive_tile(job: &RenderJob, st: &mut TileState, settings: AdaptiveSettings
 /// The colour of pixel (`x`, `y`) with stratified sampling: the mean of its `spp` samples
 /// (non-finite samples are counted and dropped). The same bits as [`render`] gives this pixel.
 pub fn render_pixel(job: &RenderJob, x: u32, y: u32, stats: &mut RayStats) -> Vec3 {
-    let mut acc = SampleSum::default();
+    let mut acc = PixelSum::default();
     for index in 0..job.settings.spp {
         trace_sample(job, SampleId::Pixel { x, y, index }, &mut acc, None, stats);
     }

@@ -2,13 +2,13 @@
 //! streams. The render, its depth/normal/albedo layers and `raylab trace` all go through
 //! [`camera_rays`], so an explained sample is exactly the sample the render computed.
 
-use crate::math::color::Color;
 use crate::math::ray::Ray;
+use crate::render::accum::{LayerSum, PixelSum};
 use crate::render::aov::Layers;
 use crate::render::job::RenderJob;
 use crate::render::sampler::{Sampler, mix64, stratified_2d};
 use crate::render::stats::RayStats;
-use glam::{DVec2, Vec3};
+use glam::DVec2;
 use serde::Serialize;
 
 /// One image sample.
@@ -151,106 +151,29 @@ pub fn camera_rays(job: &RenderJob, id: SampleId) -> CameraRays<'_> {
     }
 }
 
-/// The depth, normal and albedo of what camera rays saw first, summed with weights (every field
-/// is linear, so sums of sums and weighted means combine exactly as colours do). `f32`, like the
-/// layers written: the sums of a pixel's samples lose nothing an EXR keeps.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct LayerSum {
-    /// Σ weight × depth over the rays that hit something.
-    pub depth: f32,
-    /// Σ weight over the rays that hit something.
-    pub hits: f32,
-    /// Σ weight × shading normal (zero for misses).
-    pub normal: Vec3,
-    /// Σ weight × albedo.
-    pub albedo: Vec3,
-    /// Σ weight.
-    pub weight: f32,
-}
-
-impl LayerSum {
-    /// One ray's layers with weight 1.
-    #[inline]
-    pub fn of(l: &Layers) -> Self {
-        let hit = l.depth.is_finite();
-        LayerSum {
-            depth: if hit { l.depth as f32 } else { 0.0 },
-            hits: if hit { 1.0 } else { 0.0 },
-            normal: l.normal.as_vec3(),
-            albedo: l.albedo.as_vec3(),
-            weight: 1.0,
-        }
-    }
-
-    /// These sums scaled by `w`.
-    #[inline]
-    pub fn scaled(&self, w: f32) -> Self {
-        LayerSum { depth: self.depth * w, hits: self.hits * w, normal: self.normal * w, albedo: self.albedo * w, weight: self.weight * w }
-    }
-
-    /// The mean layers: depth over the rays that hit (+∞ when none did), normal and albedo over all.
-    pub fn mean(&self) -> (f32, Vec3, Vec3) {
-        let depth = if self.hits > 0.0 { self.depth / self.hits } else { f32::INFINITY };
-        if self.weight > 0.0 { (depth, self.normal / self.weight, self.albedo / self.weight) } else { (depth, Vec3::ZERO, Vec3::ZERO) }
-    }
-}
-
-impl std::ops::Add for LayerSum {
-    type Output = LayerSum;
-    #[inline]
-    fn add(self, o: LayerSum) -> LayerSum {
-        LayerSum {
-            depth: self.depth + o.depth,
-            hits: self.hits + o.hits,
-            normal: self.normal + o.normal,
-            albedo: self.albedo + o.albedo,
-            weight: self.weight + o.weight,
-        }
-    }
-}
-
-impl std::ops::AddAssign for LayerSum {
-    #[inline]
-    fn add_assign(&mut self, o: LayerSum) {
-        *self = *self + o;
-    }
-}
-
-/// The finite radiance values of some camera rays, summed, with their count.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct SampleSum {
-    /// Σ radiance of the rays whose radiance was finite.
-    pub sum: Color,
-    /// How many that was.
-    pub n: u32,
-}
-
-impl SampleSum {
-    /// The mean radiance (black when no ray counted).
-    #[inline]
-    pub fn mean(&self) -> Color {
-        if self.n == 0 { Color::ZERO } else { self.sum / f64::from(self.n) }
-    }
+/// Where sample `id` of `job` lies on the film, in continuous pixel coordinates (pixel (x, y)
+/// covers [x, x+1) × [y, y+1)): the point its camera rays pass through.
+pub fn film_position(job: &RenderJob, id: SampleId) -> DVec2 {
+    camera_rays(job, id).film
 }
 
 /// Traces sample `id` of `job` (every camera ray of it) and adds the result to `acc`; non-finite
 /// radiance is counted in `stats` and dropped. With `layers`, each ray's first surface is added
 /// to it too. Returns the sample's signature: its rays' [`Layers::signature`]s combined.
 #[inline]
-pub fn trace_sample(job: &RenderJob, id: SampleId, acc: &mut SampleSum, mut layers: Option<&mut LayerSum>, stats: &mut RayStats) -> u64 {
+pub fn trace_sample(job: &RenderJob, id: SampleId, acc: &mut PixelSum, mut layers: Option<&mut LayerSum>, stats: &mut RayStats) -> u64 {
     let mut signature = 0u64;
     for (ray, mut sampler) in camera_rays(job, id) {
         let mut first = Layers::miss(job.scene.background);
         stats.camera_rays += 1;
         let c = job.integrator.radiance(&job.scene, &ray, &mut sampler, stats, &mut first);
         if c.is_finite() {
-            acc.sum += c;
-            acc.n += 1;
+            acc.add(c);
         } else {
             stats.nonfinite_samples += 1;
         }
         if let Some(l) = layers.as_deref_mut() {
-            *l += LayerSum::of(&first);
+            l.add(&first);
         }
         signature = mix64(signature.rotate_left(1) ^ first.signature);
     }

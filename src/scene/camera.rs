@@ -200,6 +200,24 @@ impl Camera {
         let origin = self.position + d.x * self.right + d.y * self.up;
         Ray::new(origin, focus - origin)
     }
+
+    /// The inverse of [`Camera::ray_through`] through the lens centre: the continuous image
+    /// position of an `nx × ny` image where `point` appears, or `None` when it is not in front of
+    /// the eye (on or behind the plane through the eye facing `to`). For a thin lens this is where
+    /// the point appears in focus.
+    pub fn project(&self, nx: u32, ny: u32, point: DVec3) -> Option<DVec2> {
+        let d = point - self.position;
+        let depth = d.dot(self.to);
+        if !(depth > 0.0) {
+            return None;
+        }
+        // Onto the screen plane, then into pixels (y down).
+        let s = self.screen_distance / depth;
+        let (u, v) = (d.dot(self.right) * s, d.dot(self.up) * s);
+        let (rx, ry) = (self.screen_width / nx as f64, self.screen_height / ny as f64);
+        let film = DVec2::new(u / rx + nx as f64 / 2.0, ny as f64 / 2.0 - v / ry);
+        film.is_finite().then_some(film)
+    }
 }
 
 #[cfg(test)]
@@ -274,6 +292,26 @@ mod tests {
         assert!((top.dir.y / -top.dir.z - 1.0).abs() < 1e-12, "top edge at 45°");
         let right = cam.ray_through(200, 100, DVec2::new(200.0, 50.0), DVec2::ZERO);
         assert!((right.dir.x / -right.dir.z - 2.0).abs() < 1e-12, "aspect 2:1");
+    }
+
+    #[test]
+    fn project_inverts_ray_through() {
+        let mut cam = Camera::look_at(DVec3::new(1.0, 2.0, 3.0), DVec3::new(-2.0, 0.5, -7.0), DVec3::Y, 50.0, 320, 200).unwrap();
+        for film in [DVec2::new(0.0, 0.0), DVec2::new(160.0, 100.0), DVec2::new(319.25, 7.5), DVec2::new(12.5, 199.0)] {
+            let r = cam.ray_through(320, 200, film, DVec2::ZERO);
+            for t in [0.5, 3.0, 1e3] {
+                let back = cam.project(320, 200, r.at(t)).unwrap();
+                assert!((back - film).length() < 1e-9, "{film} at t {t}: {back}");
+            }
+        }
+        assert_eq!(cam.project(320, 200, cam.position - cam.to), None, "behind the eye");
+        assert_eq!(cam.project(320, 200, cam.position), None, "at the eye");
+        // A thin lens: points on the focus plane project where every lens ray through them starts.
+        cam.aperture = 0.3;
+        let film = DVec2::new(40.5, 60.5);
+        let r = cam.ray_through(320, 200, film, DVec2::new(0.8, 0.1));
+        let on_focus = r.at((cam.focus_distance - (r.origin - cam.position).dot(cam.to)) / r.dir.dot(cam.to));
+        assert!((cam.project(320, 200, on_focus).unwrap() - film).length() < 1e-9);
     }
 
     #[test]

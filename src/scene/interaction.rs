@@ -1,6 +1,6 @@
 //! [`Interaction`]: what an integrator needs at a hit, computed once: the object, the point and
-//! its error bound, both normals facing the incoming ray, texture coordinates and the material
-//! evaluated there.
+//! its error bound, both normals facing the incoming ray, and the material evaluated there
+//! (textures looked up at the hit's texture coordinates).
 
 use crate::geometry::{Hit, Surface};
 use crate::math::ray::Ray;
@@ -23,20 +23,24 @@ pub struct Interaction<'s> {
     pub ns: DVec3,
     /// True when the ray arrived on the surface's outward side.
     pub front_face: bool,
-    /// Texture coordinates.
-    pub uv: DVec2,
     /// The material at the hit.
     pub material: Coefficients,
 }
 
 impl<'s> Interaction<'s> {
     /// The interaction of `ray` with `object` at `hit`: the shape's surface answered once, the
-    /// material evaluated once.
+    /// material evaluated once (texture coordinates computed only for a textured material).
     #[inline]
     pub fn new(ray: &Ray, hit: Hit, object: &'s Object) -> Self {
-        let s: Surface = object.geometry().surface(&hit, ray.dir);
-        let material = object.material(s.material).at(s.uv, s.local);
-        Interaction { hit, object, dir: ray.dir, n: s.n, ns: s.ns, front_face: s.front_face, uv: s.uv, material }
+        let g = object.geometry();
+        let s: Surface = g.surface(&hit, ray.dir);
+        let material = object.material(s.material).at(|| g.uv(&hit), s.local);
+        Interaction { hit, object, dir: ray.dir, n: s.n, ns: s.ns, front_face: s.front_face, material }
+    }
+
+    /// The texture coordinates at the hit ([`crate::Geometry::uv`]; computed on each call).
+    pub fn uv(&self) -> DVec2 {
+        self.object.geometry().uv(&self.hit)
     }
 
     /// The hit point.

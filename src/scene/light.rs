@@ -1,6 +1,10 @@
-//! The [`LightSource`] trait: how much light arrives at a point, from where.
+//! The [`LightSource`] trait: how much light arrives at a point, from where, and how likely a
+//! light's own sampling was to pick that direction.
+
+pub mod testing;
 
 use crate::math::color::Color;
+use crate::math::ray::Ray;
 use glam::{DVec2, DVec3};
 
 /// Light arriving at a point from one light (or one sample point of an area light).
@@ -11,8 +15,44 @@ pub struct LightSample {
     /// Distance to the light along `dir`, scene units; `f64::INFINITY` for directional lights.
     /// Shadow rays test for occluders closer than this.
     pub distance: f64,
-    /// Intensity arriving at the point (linear RGB), attenuation included.
+    /// Intensity arriving at the point (linear RGB), attenuation included. For an area light it
+    /// is the light's whole contribution as estimated from this one point: the mean over `u`
+    /// uniform in [0, 1]² of the samples' intensities is the light's intensity at the point.
     pub intensity: Color,
+}
+
+/// The probability density with which [`LightSource::illuminate`] chooses a sample's direction,
+/// for `u` uniform in [0, 1]²: what a Monte Carlo integrator needs to weigh the light's sampling
+/// against its own (multiple importance sampling).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LightPdf {
+    /// The light arrives from one direction only (point, spot and directional lights): no other
+    /// strategy can find it, and rays cannot meet it.
+    Delta,
+    /// Density per unit solid angle at the shaded point, sr⁻¹ (> 0; infinite where the emitter is
+    /// seen edge-on). The light's incident radiance along the sample's direction, in the units of
+    /// `intensity` per steradian, is `intensity × pdf`.
+    SolidAngle(f64),
+}
+
+impl LightPdf {
+    /// The solid-angle density of a point chosen on an emitter with density `per_area` (per unit
+    /// area, e.g. `1 / area` for uniform points), seen from `distance` away at angle `cos_light`
+    /// (cosine between the emitter's normal and the direction to the shaded point):
+    /// `per_area × distance² / |cos_light|`.
+    #[inline]
+    pub fn from_area(per_area: f64, distance: f64, cos_light: f64) -> LightPdf {
+        LightPdf::SolidAngle(per_area * distance * distance / cos_light.abs())
+    }
+
+    /// The density per unit solid angle; `None` for a delta light.
+    #[inline]
+    pub fn solid_angle(self) -> Option<f64> {
+        match self {
+            LightPdf::Delta => None,
+            LightPdf::SolidAngle(p) => Some(p),
+        }
+    }
 }
 
 /// A source of light.
@@ -24,6 +64,27 @@ pub trait LightSource: Send + Sync {
     /// (outside a spot's cone) returns a sample of zero intensity, so the integrator decides, and
     /// counts, what it skips.
     fn illuminate(&self, p: DVec3, u: DVec2) -> Option<LightSample>;
+
+    /// The density with which `illuminate(p, u)`, for `u` uniform in [0, 1]², picks `sample`'s
+    /// direction (a sample it returned for `p`, or one [`LightSource::intersect`] returned for a
+    /// ray from `p`). Monte Carlo integrators weigh light samples with it; `phong` never asks.
+    /// The default, [`LightPdf::Delta`], is right for lights that arrive from one direction.
+    fn pdf(&self, p: DVec3, sample: &LightSample) -> LightPdf {
+        let _ = (p, sample);
+        LightPdf::Delta
+    }
+
+    /// Where `ray` meets this light's emitter first, closer than `t_max`: the sample
+    /// [`LightSource::illuminate`] would give at `ray.origin` for that point of the emitter
+    /// (`dir` the ray's, `distance` along it; its density is `pdf(ray.origin, &sample)`), so an
+    /// integrator that sampled the direction itself can weigh it against the light's sampling
+    /// (multiple importance sampling). `None` when the ray misses, when the emitter sends no
+    /// light toward the origin, and for lights without an extent (the default: rays cannot hit a
+    /// point or a direction).
+    fn intersect(&self, ray: &Ray, t_max: f64) -> Option<LightSample> {
+        let _ = (ray, t_max);
+        None
+    }
 
     /// Constant light this source adds everywhere, independent of direction (ambient light).
     /// Zero for lights with a position or direction.
@@ -47,6 +108,12 @@ pub trait LightSource: Send + Sync {
 impl<T: LightSource + ?Sized> LightSource for Box<T> {
     fn illuminate(&self, p: DVec3, u: DVec2) -> Option<LightSample> {
         (**self).illuminate(p, u)
+    }
+    fn pdf(&self, p: DVec3, sample: &LightSample) -> LightPdf {
+        (**self).pdf(p, sample)
+    }
+    fn intersect(&self, ray: &Ray, t_max: f64) -> Option<LightSample> {
+        (**self).intersect(ray, t_max)
     }
     fn ambient(&self) -> Color {
         (**self).ambient()

@@ -4,14 +4,22 @@
 //! A [`Material`] describes a surface; [`Material::at`] gives its [`Coefficients`] at one point
 //! of it, which is what integrators read. Every integrator interprets the same coefficients in
 //! its own way (the report's Phong model, a path tracer's normalised Phong BRDF).
+//!
+//! Any colour of a material may be textured ([`TextureMap`]): the texture's value at the hit
+//! multiplies the material's constant (a texture named in a scene file has the constant 1; a
+//! mesh file's factor, such as glTF's `baseColorFactor`, is the constant). A material without
+//! textures costs one test per hit more than constants.
 
 use crate::input::error::{Loc, Result, SceneError, did_you_mean};
 use crate::input::params::Params;
 use crate::input::spec::{Default, ParamKind, ParamSpec};
+use crate::input::textures::TextureLibrary;
 use crate::input::value::{Node, Table, Value};
 use crate::math::color::Color;
+use crate::scene::texture::{Texture, TexturePoint};
 use glam::{DVec2, DVec3};
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
 /// How a surface responds to light. All coefficients are linear RGB in [0, ∞) (a single number in
 /// a scene file means grey); energy conservation is the scene author's business, as in the report.
@@ -39,6 +47,99 @@ pub struct Material {
     /// direction, in which jittered rays are spread (≈ half-angle of the blur cone in radians).
     /// 0 means a perfect mirror or clear glass.
     pub blur: f64,
+    /// How reflection and transmission vary with the angle of incidence (off: the fixed `kr`
+    /// and `kt` of the report).
+    pub fresnel: Fresnel,
+    /// Textures multiplying the colours above, evaluated at each hit (empty: constants).
+    pub textures: Vec<TextureMap>,
+}
+
+/// A colour of a material that a texture may vary.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Channel {
+    /// `ka`.
+    Ka,
+    /// `kd`.
+    Kd,
+    /// `ks`.
+    Ks,
+    /// `kr`.
+    Kr,
+    /// `kt`.
+    Kt,
+    /// `emission`.
+    Emission,
+}
+
+impl Channel {
+    /// Every channel with its parameter name.
+    pub const ALL: [(Channel, &'static str); 6] = [
+        (Channel::Ka, "ka"),
+        (Channel::Kd, "kd"),
+        (Channel::Ks, "ks"),
+        (Channel::Kr, "kr"),
+        (Channel::Kt, "kt"),
+        (Channel::Emission, "emission"),
+    ];
+}
+
+/// A texture multiplying one colour of a material.
+#[derive(Clone, Debug)]
+pub struct TextureMap {
+    /// The colour it multiplies.
+    pub channel: Channel,
+    /// The texture.
+    pub texture: Arc<dyn Texture>,
+}
+
+/// Two maps are equal when they vary the same channel by the same texture (the same object).
+impl PartialEq for TextureMap {
+    fn eq(&self, other: &Self) -> bool {
+        self.channel == other.channel && Arc::ptr_eq(&self.texture, &other.texture)
+    }
+}
+
+/// The Fresnel weighting of a material's reflection and transmission (POV-Ray's
+/// `reflection { fresnel }`): with `F` the dielectric reflectance for the angle of incidence and
+/// the material's `ior`, reflected light is weighted `F·kr` and transmitted light `(1 − F)·kt`,
+/// so `kr` and `kt` become filters (1 and 1 for clear glass). Total internal reflection has
+/// `F = 1`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, std::default::Default)]
+pub enum Fresnel {
+    /// Fixed `kr` and `kt` (the report).
+    #[default]
+    Off,
+    /// Schlick's approximation `R₀ + (1 − R₀)(1 − cos θ)⁵` (θ on the optically thinner side).
+    Schlick,
+    /// The exact reflectance of unpolarised light at a dielectric boundary (Fresnel's equations).
+    Exact,
+}
+
+impl Fresnel {
+    /// The fraction of light reflected (in [0, 1]) by a boundary into a medium of relative index
+    /// `eta` (= n_transmitted / n_incident, > 0), for light arriving at `cos_i` (cosine of the
+    /// angle to the normal, in [0, 1]). 0 when off.
+    #[inline]
+    pub fn reflectance(self, cos_i: f64, eta: f64) -> f64 {
+        let cos_i = cos_i.clamp(0.0, 1.0);
+        let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
+        match self {
+            Fresnel::Off => 0.0,
+            _ if !(sin2_t < 1.0) => 1.0,
+            Fresnel::Schlick => {
+                let r0 = ((eta - 1.0) / (eta + 1.0)).powi(2);
+                // Schlick's cosine is the one on the thinner side.
+                let c = if eta >= 1.0 { cos_i } else { (1.0 - sin2_t).sqrt() };
+                r0 + (1.0 - r0) * (1.0 - c).powi(5)
+            }
+            Fresnel::Exact => {
+                let cos_t = (1.0 - sin2_t).sqrt();
+                let rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+                let rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+                (0.5 * (rs * rs + rp * rp)).clamp(0.0, 1.0)
+            }
+        }
+    }
 }
 
 impl std::default::Default for Material {
@@ -53,6 +154,8 @@ impl std::default::Default for Material {
             ior: 1.5,
             emission: Color::ZERO,
             blur: 0.0,
+            fresnel: Fresnel::Off,
+            textures: Vec::new(),
         }
     }
 }
@@ -78,52 +181,112 @@ pub struct Coefficients {
     pub emission: Color,
     /// Glossiness: jitter-disc radius at unit distance (0 = sharp).
     pub blur: f64,
+    /// How `kr` and `kt` vary with the angle of incidence.
+    pub fresnel: Fresnel,
 }
 
 /// The material parameter table (the keys of `[materials.NAME]` and of inline materials).
 pub const MATERIAL_PARAMS: &[ParamSpec] = &[
-    ParamSpec::new("ka", ParamKind::Color, Default::Float(1.0), "response to ambient light (1 = the report: ambient added unfiltered)"),
-    ParamSpec::new("kd", ParamKind::Color, Default::Float(0.8), "diffuse coefficient (colour)"),
-    ParamSpec::new("ks", ParamKind::Color, Default::Float(0.0), "specular (Phong highlight) coefficient"),
-    ParamSpec::new("kr", ParamKind::Color, Default::Float(0.0), "mirror reflection coefficient"),
-    ParamSpec::new("kt", ParamKind::Color, Default::Float(0.0), "transmission coefficient (also attenuates shadows)"),
+    ParamSpec::new("ka", ParamKind::Texture, Default::Float(1.0), "response to ambient light (1 = the report: ambient added unfiltered)"),
+    ParamSpec::new("kd", ParamKind::Texture, Default::Float(0.8), "diffuse coefficient (colour)"),
+    ParamSpec::new("ks", ParamKind::Texture, Default::Float(0.0), "specular (Phong highlight) coefficient"),
+    ParamSpec::new("kr", ParamKind::Texture, Default::Float(0.0), "mirror reflection coefficient"),
+    ParamSpec::new("kt", ParamKind::Texture, Default::Float(0.0), "transmission coefficient (also attenuates shadows)"),
     ParamSpec::new("shininess", ParamKind::Float, Default::Float(32.0), "Phong exponent, ≥ 0"),
     ParamSpec::new("ior", ParamKind::Float, Default::Float(1.5), "index of refraction of a closed solid's inside, > 0"),
-    ParamSpec::new("emission", ParamKind::Color, Default::Float(0.0), "emitted light, linear RGB"),
+    ParamSpec::new("emission", ParamKind::Texture, Default::Float(0.0), "emitted light, linear RGB"),
     ParamSpec::new("blur", ParamKind::Float, Default::Float(0.0), "glossiness: jitter-disc radius at unit distance (0 = sharp), 0..1"),
+    ParamSpec::new(
+        "fresnel",
+        ParamKind::Str,
+        Default::Str("off"),
+        "\"off\" (fixed kr, kt: the report), \"schlick\" or \"exact\" (true = \"exact\"): reflection F·kr and transmission (1 − F)·kt with F the dielectric reflectance for the angle and `ior`; clear glass is kr = kt = 1",
+    ),
 ];
 
 impl Material {
-    /// Reads a material from its parameters.
-    pub fn from_params(p: &mut Params) -> Result<Material> {
-        let ior = p.positive("ior")?;
-        Ok(Material {
-            ka: p.color("ka")?,
-            kd: p.color("kd")?,
-            ks: p.color("ks")?,
-            kr: p.color("kr")?,
-            kt: p.color("kt")?,
-            shininess: p.non_negative("shininess")?,
-            ior,
-            emission: p.color("emission")?,
-            blur: p.float_in("blur", 0.0..=1.0)?,
-        })
+    /// Reads a material from its parameters; colours naming a texture (a name in `textures`, or
+    /// an inline table with a `type`) are textured.
+    pub fn from_params(p: &mut Params, textures: &TextureLibrary) -> Result<Material> {
+        let mut m = Material::default();
+        for (channel, name) in Channel::ALL {
+            let c = match p.node(name)? {
+                // Anything but a colour is a texture (or an error saying what a colour may be).
+                Some(n) if !matches!(n.value, Value::Int(_) | Value::Float(_) | Value::Array(_)) => {
+                    let texture = textures.resolve(n, &format!("{}: parameter `{name}`", p.what()))?;
+                    m.textures.push(TextureMap { channel, texture });
+                    Color::ONE
+                }
+                _ => p.color(name)?,
+            };
+            *m.channel_mut(channel) = c;
+        }
+        m.ior = p.positive("ior")?;
+        m.shininess = p.non_negative("shininess")?;
+        m.blur = p.float_in("blur", 0.0..=1.0)?;
+        m.fresnel = match p.node("fresnel")? {
+            None => Fresnel::Off,
+            Some(n) => match &n.value {
+                Value::Bool(b) => {
+                    if *b {
+                        Fresnel::Exact
+                    } else {
+                        Fresnel::Off
+                    }
+                }
+                Value::Str(_) => match p.choice("fresnel", &["off", "schlick", "exact"])?.as_str() {
+                    "schlick" => Fresnel::Schlick,
+                    "exact" => Fresnel::Exact,
+                    _ => Fresnel::Off,
+                },
+                v => {
+                    return Err(p.error_at(
+                        "fresnel",
+                        format_args!("expected \"off\", \"schlick\", \"exact\" or true/false, found {}", v.type_name()),
+                    ));
+                }
+            },
+        };
+        Ok(m)
     }
 
     /// Reads a material from a table written at `loc`, checking for unknown keys.
-    pub fn from_table(t: &Table, loc: &Loc, what: &str) -> Result<Material> {
+    pub fn from_table(t: &Table, loc: &Loc, what: &str, textures: &TextureLibrary) -> Result<Material> {
         let mut p = Params::new(what, MATERIAL_PARAMS, t, loc.clone());
-        let m = Material::from_params(&mut p)?;
+        let m = Material::from_params(&mut p, textures)?;
         p.finish()?;
         Ok(m)
     }
 
-    /// The coefficients at a surface point with texture coordinates `uv` and position `local` in
-    /// the shape's own frame.
+    /// The constant of a colour channel (the factor its texture multiplies).
+    pub fn channel_mut(&mut self, channel: Channel) -> &mut Color {
+        match channel {
+            Channel::Ka => &mut self.ka,
+            Channel::Kd => &mut self.kd,
+            Channel::Ks => &mut self.ks,
+            Channel::Kr => &mut self.kr,
+            Channel::Kt => &mut self.kt,
+            Channel::Emission => &mut self.emission,
+        }
+    }
+
+    /// This material with `channel` multiplied by `texture`.
+    pub fn with_texture(mut self, channel: Channel, texture: Arc<dyn Texture>) -> Material {
+        self.textures.push(TextureMap { channel, texture });
+        self
+    }
+
+    /// True when some colour is textured (hits then need texture coordinates).
     #[inline]
-    pub fn at(&self, uv: DVec2, local: DVec3) -> Coefficients {
-        let _ = (uv, local);
-        Coefficients {
+    pub fn is_textured(&self) -> bool {
+        !self.textures.is_empty()
+    }
+
+    /// The coefficients at a surface point whose texture coordinates `uv` gives (asked for only
+    /// when the material is textured) and whose position in the shape's own frame is `local`.
+    #[inline]
+    pub fn at(&self, uv: impl FnOnce() -> DVec2, local: DVec3) -> Coefficients {
+        let mut c = Coefficients {
             ka: self.ka,
             kd: self.kd,
             ks: self.ks,
@@ -133,6 +296,26 @@ impl Material {
             ior: self.ior,
             emission: self.emission,
             blur: self.blur,
+            fresnel: self.fresnel,
+        };
+        if self.is_textured() {
+            self.apply_textures(&mut c, &TexturePoint { uv: uv(), local });
+        }
+        c
+    }
+
+    /// Multiplies the textured colours of `c` by their textures' values at `at`.
+    fn apply_textures(&self, c: &mut Coefficients, at: &TexturePoint) {
+        for m in &self.textures {
+            let v = m.texture.eval(at);
+            match m.channel {
+                Channel::Ka => c.ka *= v,
+                Channel::Kd => c.kd *= v,
+                Channel::Ks => c.ks *= v,
+                Channel::Kr => c.kr *= v,
+                Channel::Kt => c.kt *= v,
+                Channel::Emission => c.emission *= v,
+            }
         }
     }
 
@@ -187,8 +370,9 @@ impl MaterialLibrary {
     }
 
     /// The material a scene value names: the name of one of these materials, or an inline table
-    /// of coefficients (`what` names the value's owner in messages).
-    pub fn resolve(&self, node: &Node, what: &str) -> Result<Material> {
+    /// of coefficients, whose textures come from `textures` (`what` names the value's owner in
+    /// messages).
+    pub fn resolve(&self, node: &Node, what: &str, textures: &TextureLibrary) -> Result<Material> {
         match &node.value {
             Value::Str(s) => match self.get(s) {
                 Some(m) => Ok(m.clone()),
@@ -204,7 +388,7 @@ impl MaterialLibrary {
                     }))
                 }
             },
-            Value::Table(t) => Material::from_table(t, &node.loc, &format!("{what} material")),
+            Value::Table(t) => Material::from_table(t, &node.loc, &format!("{what} material"), textures),
             v => Err(SceneError::at(
                 &node.loc,
                 format!("parameter `material`: expected a material name or an inline table, found {}", v.type_name()),

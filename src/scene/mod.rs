@@ -5,6 +5,7 @@ pub mod interaction;
 pub mod light;
 pub mod material;
 pub mod object;
+pub mod texture;
 
 use crate::accel::{AccelChoice, BuildStats, ObjectAccel};
 use crate::geometry::{Hit, Intersectable};

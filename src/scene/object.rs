@@ -3,7 +3,7 @@
 use crate::geometry::{Geometry, Hit, Intersectable};
 use crate::math::ray::Ray;
 use crate::scene::material::Material;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 /// A scene object: a shape (already placed by its transform) and the materials its surface uses.
 pub struct Object {
@@ -12,7 +12,9 @@ pub struct Object {
     geometry: Box<dyn Geometry>,
     materials: Arc<[Material]>,
     transmissive: bool,
-    closed: bool,
+    /// [`Geometry::is_closed`]: for a large mesh a pass over every edge, which only refraction
+    /// needs; asked when the object is made if it transmits light, else on first use.
+    closed: OnceLock<bool>,
 }
 
 impl Object {
@@ -20,7 +22,11 @@ impl Object {
     pub fn new(name: impl Into<String>, geometry: Box<dyn Geometry>, materials: Arc<[Material]>) -> Object {
         let materials = if materials.is_empty() { Arc::from([Material::default()]) } else { materials };
         let transmissive = materials.iter().any(Material::is_transmissive);
-        let closed = geometry.is_closed();
+        // Refraction at a transmissive surface needs it: answered now, not by the first ray.
+        let closed = OnceLock::new();
+        if transmissive {
+            let _ = closed.set(geometry.is_closed());
+        }
         Object { name: name.into(), geometry, materials, transmissive, closed }
     }
 
@@ -51,7 +57,7 @@ impl Object {
     /// at closed surfaces.
     #[inline]
     pub fn is_closed(&self) -> bool {
-        self.closed
+        *self.closed.get_or_init(|| self.geometry.is_closed())
     }
 
     /// The material in slot `slot`.

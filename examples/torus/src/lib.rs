@@ -5,9 +5,9 @@
 //! implements the traits, and registers its types by name. Scene files then use them like any
 //! built-in (`type = "torus"`), and the `raylab-torus` binary renders them with the same CLI.
 //!
-//! It adds a [`torus`] geometry (a quartic, solved robustly by [`roots`]), and the two other
-//! examples of `docs/writing-a-plugin.md`: a [`panel_light`] area light and an [`ao`]
-//! (ambient occlusion) integrator.
+//! It adds a [`torus`] geometry (a quartic, solved robustly by [`roots`]), and the other
+//! examples of `docs/writing-a-plugin.md`: a [`panel_light`] area light, an [`ao`] (ambient
+//! occlusion) integrator and a [`marble`] texture.
 //!
 //! ```no_run
 //! let registry = raylab_torus::registry();
@@ -15,6 +15,7 @@
 //! ```
 
 pub mod ao;
+pub mod marble;
 pub mod panel_light;
 pub mod roots;
 pub mod torus;
@@ -24,9 +25,11 @@ use raylab::Registry;
 /// The scene the `raylab-torus` binary renders when run without arguments.
 pub const DEFAULT_SCENE: (&str, &str) = ("examples/torus/scenes/torus.toml", include_str!("../scenes/torus.toml"));
 
-/// Adds this crate's plugins to `r`: `torus`, the `panel` light and the `ao` integrator.
+/// Adds this crate's plugins to `r`: `torus`, the `panel` light, the `ao` integrator and the
+/// `marble` texture.
 pub fn register(r: &mut Registry) {
     r.add_geometry(torus::INFO, torus::build);
+    r.add_texture(marble::INFO, marble::build);
     r.add_light(panel_light::INFO, panel_light::build);
     r.add_integrator(ao::INFO, ao::build);
 }

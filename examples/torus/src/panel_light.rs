@@ -4,13 +4,15 @@
 //! `edge1 × edge2`. Each of `samples` shadow samples picks a point on it from the integrator's
 //! stratified `u` and sends light `color · cos θ / (kc + kl·d + kq·d²)` from there, θ being the
 //! angle from the rectangle's normal; the integrator averages the samples, so points that see only
-//! part of the rectangle lie in a penumbra.
+//! part of the rectangle lie in a penumbra. Samples are uniform over the rectangle (`pdf` gives
+//! that density per solid angle), and a ray that meets the rectangle's lit side gets the same
+//! sample back from `intersect`, so a path tracer can weigh its own directions against it.
 
 use raylab::glam::{DVec2, DVec3};
 use raylab::input::error::Result;
 use raylab::input::params::Params;
 use raylab::input::spec::{Default, ParamKind, ParamSpec};
-use raylab::{Color, LightSample, LightSource, LoadContext, PluginInfo};
+use raylab::{Color, LightPdf, LightSample, LightSource, LoadContext, PluginInfo, Ray};
 
 /// The `panel` plugin's description.
 pub const INFO: PluginInfo = PluginInfo {
@@ -41,6 +43,7 @@ pub struct PanelLight {
     edge1: DVec3,
     edge2: DVec3,
     normal: DVec3,
+    area: f64,
     samples: u32,
     attenuation: [f64; 3],
 }
@@ -63,7 +66,20 @@ pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn LightSource>> {
     if attenuation.iter().sum::<f64>() <= 0.0 {
         return Err(p.error("at least one of kc, kl, kq must be > 0"));
     }
-    Ok(Box::new(PanelLight { color, corner, edge1, edge2, normal: normal.normalize(), samples, attenuation }))
+    Ok(Box::new(PanelLight { color, corner, edge1, edge2, normal: normal.normalize(), area: normal.length(), samples, attenuation }))
+}
+
+impl PanelLight {
+    /// The sample from the point `d` away along unit `dir`.
+    fn sample(&self, dir: DVec3, d: f64) -> LightSample {
+        let cos = -self.normal.dot(dir);
+        if cos <= 0.0 {
+            // Behind the emitting side: no light, but a direction.
+            return LightSample { dir, distance: d, intensity: Color::ZERO };
+        }
+        let [kc, kl, kq] = self.attenuation;
+        LightSample { dir, distance: d, intensity: self.color * (cos / (kc + kl * d + kq * d * d)) }
+    }
 }
 
 impl LightSource for PanelLight {
@@ -74,14 +90,27 @@ impl LightSource for PanelLight {
         if !(d > 0.0) {
             return None;
         }
-        let dir = to_light / d;
-        let cos = -self.normal.dot(dir);
-        if cos <= 0.0 {
-            // Behind the emitting side: no light, but a direction.
-            return Some(LightSample { dir, distance: d, intensity: Color::ZERO });
+        Some(self.sample(to_light / d, d))
+    }
+
+    /// Uniform over the rectangle: `1 / area` per unit area.
+    fn pdf(&self, _: DVec3, sample: &LightSample) -> LightPdf {
+        LightPdf::from_area(1.0 / self.area, sample.distance, self.normal.dot(sample.dir))
+    }
+
+    fn intersect(&self, ray: &Ray, t_max: f64) -> Option<LightSample> {
+        let facing = -ray.dir.dot(self.normal);
+        if !(facing > 0.0) {
+            return None; // parallel, or the side that sends no light
         }
-        let [kc, kl, kq] = self.attenuation;
-        Some(LightSample { dir, distance: d, intensity: self.color * (cos / (kc + kl * d + kq * d * d)) })
+        let t = (ray.origin - self.corner).dot(self.normal) / facing;
+        let q = ray.at(t) - self.corner;
+        // edge1 ⟂ edge2: the coordinates are projections.
+        let (a, b) = (q.dot(self.edge1) / self.edge1.length_squared(), q.dot(self.edge2) / self.edge2.length_squared());
+        if !(t > 0.0 && t < t_max && (0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b)) {
+            return None;
+        }
+        Some(self.sample(ray.dir, t))
     }
 
     fn sample_count(&self) -> u32 {

@@ -188,11 +188,7 @@ impl Intersectable for Torus {
         let local = self.project(along).map_or(along, |(p, _)| p);
         let point = self.center + local;
         let error = gamma(10) * (local.abs() + point.abs() + DVec3::splat(self.major + self.minor));
-        let z = local.dot(self.axis);
-        let around = local.dot(self.v).atan2(local.dot(self.u));
-        let tube_angle = z.atan2((local - z * self.axis).length() - self.major);
-        let uv = DVec2::new(around.rem_euclid(TAU) / TAU, tube_angle.rem_euclid(TAU) / TAU);
-        Some(Hit { t, point, error, uv, prim: 0, object: 0 })
+        Some(Hit::new(t, point, error))
     }
 
     fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
@@ -203,6 +199,14 @@ impl Intersectable for Torus {
 impl Geometry for Torus {
     fn outward_normal(&self, at: &Hit) -> DVec3 {
         self.project(at.point - self.center).map_or(self.axis, |(_, n)| n)
+    }
+    /// Asked only where a textured material is hit, so `intersect` does not pay for it.
+    fn uv(&self, at: &Hit) -> DVec2 {
+        let local = at.point - self.center;
+        let z = local.dot(self.axis);
+        let around = local.dot(self.v).atan2(local.dot(self.u));
+        let tube_angle = z.atan2((local - z * self.axis).length() - self.major);
+        DVec2::new(around.rem_euclid(TAU) / TAU, tube_angle.rem_euclid(TAU) / TAU)
     }
     fn bounds(&self) -> Option<Aabb> {
         // Per world axis i: r + R·sin(angle between axis and e_i).

@@ -41,10 +41,41 @@ fn the_hole_of_the_gold_ring_shows_what_is_inside() {
 
 #[test]
 fn ambient_occlusion_darkens_the_floor_under_the_ring() {
-    let job = load_file(&raylab_torus::registry(), &scene(), &options(Some("ao"))).unwrap();
+    // A plain floor: occlusion alone, without the marble's veins.
+    let text = std::fs::read_to_string(scene()).unwrap().replace("kd = \"marble\"", "kd = 0.45");
+    let dir = scene().parent().unwrap().to_path_buf();
+    let job = raylab::input::load::load_str(&raylab_torus::registry(), "torus.toml", &text, &dir, &options(Some("ao"))).unwrap();
     let film = render(&job, &RenderOptions::default(), &|_, _| {}).unwrap().film;
     // Open floor near the bottom edge versus the floor right beside the gold ring.
     let open = film.get(40, 58).x;
     let near = (0..80).map(|x| film.get(x, 42).x).fold(f32::INFINITY, f32::min);
     assert!(open > 0.3 && near < 0.6 * open, "open floor {open}, darkest at the ring's foot {near}");
+}
+
+#[test]
+fn the_panel_lights_samples_rays_and_densities_agree() {
+    let job = load_file(&raylab_torus::registry(), &scene(), &options(None)).unwrap();
+    let i = job.scene.light_names.iter().position(|n| n == "softbox").expect("the panel");
+    let panel = job.scene.lights[i].as_ref();
+    for p in [raylab::glam::DVec3::ZERO, raylab::glam::DVec3::new(3.0, 1.0, 2.0), raylab::glam::DVec3::new(-1.0, 4.5, 0.3)] {
+        let (integral, mean) = raylab::scene::light::testing::check_light(panel, p, 1024, 1500, 0.01);
+        assert!(mean.x > 0.0, "lit below the panel: {integral} vs {mean}");
+    }
+    // Above the panel, its dark side: no light, and no ray meets it.
+    let (integral, mean) = raylab::scene::light::testing::check_light(panel, raylab::glam::DVec3::new(0.0, 6.0, 0.0), 16, 200, 0.01);
+    assert_eq!((integral, mean), (raylab::Color::ZERO, raylab::Color::ZERO));
+}
+
+#[test]
+fn the_path_tracer_renders_the_crates_scene() {
+    // The built-in path tracer meets the crate's panel with its rays (multiple importance
+    // sampling) and its torus with its scattered rays: every pixel finite, the floor lit.
+    let mut opts = options(Some("path"));
+    opts.overrides.spp = Some(4);
+    let job = load_file(&raylab_torus::registry(), &scene(), &opts).unwrap();
+    let out = render(&job, &RenderOptions::default(), &|_, _| {}).unwrap();
+    assert_eq!(out.stats.nonfinite_samples, 0);
+    assert!(out.film.pixels.iter().all(|p| p.is_finite()));
+    assert!(out.stats.get("light_hits") > 0, "rays met the panel");
+    assert!(out.film.get(40, 58).x > 0.05, "the open floor is lit");
 }

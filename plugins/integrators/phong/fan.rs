@@ -1,4 +1,5 @@
-//! Reflection and refraction: the ideal direction at a hit, and the fan of child rays around it
+//! Reflection and refraction: their weights at a hit (the material's `kr` and `kt`, or with
+//! Fresnel, `F·kr` and `(1 − F)·kt`), the ideal direction, and the fan of child rays around it
 //! (one ray at a sharp surface; `glossy_rays` jittered in a disc of radius `blur` otherwise).
 
 use super::{Ctx, Phong, TAG_REFLECTION, TAG_REFRACTION, counter};
@@ -7,6 +8,7 @@ use raylab::math::color::max_channel;
 use raylab::render::sampler::{concentric_disc, orthonormal_basis, stratified_2d};
 use raylab::render::trace::Recorder;
 use raylab::scene::interaction::Interaction;
+use raylab::scene::material::Fresnel;
 use raylab::{Color, RayKind, Sampler};
 
 /// Mirror reflection of direction `d` about unit normal `n`: `d − 2(d·n)n`.
@@ -26,6 +28,22 @@ pub fn refract(d: DVec3, n: DVec3, eta: f64) -> Option<DVec3> {
     }
     let cos_t = (1.0 - sin2_t).sqrt();
     Some((eta * d + (eta * cos_i - cos_t) * n).normalize())
+}
+
+/// The weights of the reflected and the transmitted light at `si`: the material's `kr` and `kt`,
+/// or with Fresnel `F·kr` and `(1 − F)·kt`, `F` the dielectric reflectance for the angle of
+/// incidence. Light enters a closed solid's inside (index `ior` relative to the outside) or
+/// leaves it; an open surface is a sheet with air on both sides, entered from either.
+#[inline]
+pub(super) fn fresnel_weights<R: Recorder>(si: &Interaction, rec: &mut R) -> (Color, Color) {
+    let m = &si.material;
+    if m.fresnel == Fresnel::Off {
+        return (m.kr, m.kt);
+    }
+    let eta = if si.front_face || !si.object.is_closed() { m.ior } else { 1.0 / m.ior };
+    let f = m.fresnel.reflectance(-si.dir.dot(si.n), eta);
+    rec.note(|| format!("Fresnel ({:?}, ior ratio {eta:.4}): F = {f:.4} weights reflection F·kr, transmission (1 − F)·kt", m.fresnel));
+    (m.kr * f, m.kt * (1.0 - f))
 }
 
 /// Offset (within a ray kind's tags) of the stream a glossy fan's pattern comes from.

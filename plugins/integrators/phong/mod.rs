@@ -9,6 +9,11 @@
 //!   + kr · I(reflected) + kt · I(refracted)
 //! ```
 //!
+//! With a material's `fresnel` on, `kr` and `kt` are weighted `F` and `1 − F` by the dielectric
+//! reflectance for the angle of incidence ([`raylab::scene::material::Fresnel`]). With
+//! `ambient = "first_hit"`, the ambient term is added only where the camera ray first hits (the
+//! course's renderer from 2020 on) instead of at every hit of the recursion (the report).
+//!
 //! A light counts only from the viewer's side of the surface (`n·l > 0` with `n` facing the
 //! viewer), so no light shines through an opaque wall. `shadow` is the product of the `kt` of
 //! the surfaces between the point and the light. Refraction follows Snell's law at closed solids
@@ -53,6 +58,9 @@ pub struct Phong {
     /// Skip work that cannot change the image (see the module docs). `false` does it anyway, for
     /// measuring what the skipping saves: the image stays bit-identical.
     pub avoid: bool,
+    /// Add the ambient term only at the camera ray's first hit (the course's renderer from 2020
+    /// on), not at every hit of the recursion (the report).
+    pub ambient_first_hit: bool,
 }
 
 /// The `phong` plugin's description.
@@ -96,6 +104,12 @@ pub const INFO: PluginInfo = PluginInfo {
             Default::Bool(true),
             "skip work that cannot change the image; false traces it anyway (same image, for measuring the saving)",
         ),
+        ParamSpec::new(
+            "ambient",
+            ParamKind::Str,
+            Default::Str("every_hit"),
+            "where ambient light is added: \"every_hit\" of the recursion (the report) or only the camera ray's \"first_hit\" (the course from 2020 on)",
+        ),
     ],
 };
 
@@ -108,12 +122,21 @@ pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Integrator>> {
         shadow_rays: p.int_in("shadow_rays", 0..=65536)? as u32,
         shadow_probes: p.int_in("shadow_probes", 0..=65536)? as u32,
         avoid: p.bool("avoid")?,
+        ambient_first_hit: p.choice("ambient", &["every_hit", "first_hit"])? == "first_hit",
     }))
 }
 
 impl std::default::Default for Phong {
     fn default() -> Self {
-        Phong { max_depth: 3, prune_threshold: 0.001, glossy_rays: 16, shadow_rays: 0, shadow_probes: 0, avoid: true }
+        Phong {
+            max_depth: 3,
+            prune_threshold: 0.001,
+            glossy_rays: 16,
+            shadow_rays: 0,
+            shadow_probes: 0,
+            avoid: true,
+            ambient_first_hit: false,
+        }
     }
 }
 
@@ -189,14 +212,15 @@ impl Phong {
     /// reflected and refracted rays.
     fn shade<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, sampler: &Sampler, depth: u32, weight: Color, rec: &mut R) -> Color {
         let m = &si.material;
-        let ambient = m.ka * c.scene.ambient;
+        let ambient = if self.ambient_first_hit && depth > 0 { Color::ZERO } else { m.ka * c.scene.ambient };
         rec.hit(si);
         rec.term(|| Term::color("emission", m.emission));
         rec.term(|| Term::color("ambient", ambient));
         let mut color = m.emission + ambient;
         color += self.direct(c, si, sampler, weight, rec);
+        let (kr, kt) = fan::fresnel_weights(si, rec);
         for kind in [RayKind::Reflection, RayKind::Refraction] {
-            let (coef, what) = if kind == RayKind::Reflection { (m.kr, "reflection") } else { (m.kt, "refraction") };
+            let (coef, what) = if kind == RayKind::Reflection { (kr, "reflection") } else { (kt, "refraction") };
             if self.avoid && max_channel(coef) <= 0.0 {
                 c.stats.add(counter::ZERO_COEFFICIENT_RAYS, 1);
                 continue;
@@ -292,6 +316,9 @@ impl Integrator for Phong {
         }
         if !self.avoid {
             s += ", avoid off";
+        }
+        if self.ambient_first_hit {
+            s += ", ambient at the first hit";
         }
         s
     }

@@ -202,3 +202,127 @@ fn pruning_and_depth_limit_skip_rays() {
     let (_, st) = shade(&s, &shallow, &ray);
     assert_eq!((st.get("reflection_rays"), st.get("pruned_rays"), st.get("depth_limited")), (2, 0, 1));
 }
+
+/// `ambient = "first_hit"` adds the ambient term where the camera ray first hits only: a mirror
+/// in front of an ambient-lit wall shows ambient once, not twice.
+#[test]
+fn ambient_at_the_first_hit_only_is_not_added_again_in_reflections() {
+    use raylab::LoadOptions;
+    let scene = r#"
+        [render]
+        width = 3
+        height = 3
+        encoding = "linear"
+        [camera]
+        position = [0, 0, 0]
+        look_at = [0, 0, -1]
+        fov = 1
+        [[object]]
+        type = "quadrangle"
+        name = "mirror"
+        p0 = [-10, -10, -5]
+        p1 = [10, -10, -5]
+        p2 = [10, 10, -5]
+        p3 = [-10, 10, -5]
+        material = { kd = 0, kr = 1 }
+        [[object]]
+        type = "quadrangle"
+        name = "wall behind the camera"
+        p0 = [-10, -10, 5]
+        p1 = [10, -10, 5]
+        p2 = [10, 10, 5]
+        p3 = [-10, 10, 5]
+        material = { kd = 0 }
+        [[light]]
+        type = "ambient"
+        color = 1
+        ka = 0.25
+    "#;
+    let centre = |ambient: &str| {
+        let text = format!("{scene}\n[integrator]\ntype = \"phong\"\nambient = \"{ambient}\"\n");
+        let job = raylab::input::load::load_str(&crate::registry(), "t.toml", &text, std::path::Path::new("."), &LoadOptions::default())
+            .unwrap_or_else(|e| panic!("{}", e.report()));
+        let mut stats = raylab::RayStats::new(job.integrator.counters());
+        raylab::render::render_pixel(&job, 1, 1, &mut stats).x
+    };
+    assert_eq!(centre("every_hit"), 0.5, "the mirror's ambient and the wall's, reflected");
+    assert_eq!(centre("first_hit"), 0.25, "the mirror's only");
+}
+
+/// The dielectric reflectance of glass: 4 % head on, growing toward grazing angles, total
+/// beyond the critical angle inside; 0 when off (the report's fixed coefficients).
+#[test]
+fn fresnel_reflectance_is_4_percent_head_on_and_grows_to_total_reflection() {
+    use raylab::scene::material::Fresnel;
+    for kind in [Fresnel::Schlick, Fresnel::Exact] {
+        let normal = kind.reflectance(1.0, 1.5);
+        assert!((normal - 0.04).abs() < 1e-12, "{kind:?}: R0 of glass is 4 %, found {normal}");
+        let grazing = kind.reflectance(0.05, 1.5);
+        assert!(grazing > 0.5 && grazing <= 1.0, "{kind:?}: {grazing}");
+        let mut last = 0.0;
+        for i in (0..=100).rev() {
+            let f = kind.reflectance(f64::from(i) / 100.0, 1.5);
+            assert!(f >= last - 1e-12, "{kind:?}: reflectance grows toward grazing");
+            last = f;
+        }
+        // From inside glass beyond the critical angle (sin θ > 1/1.5): total internal reflection.
+        assert_eq!(kind.reflectance(0.5, 1.0 / 1.5), 1.0, "{kind:?}");
+        assert!(kind.reflectance(0.9, 1.0 / 1.5) < 0.2, "{kind:?}: below the critical angle");
+    }
+    assert_eq!(Fresnel::Off.reflectance(0.1, 1.5), 0.0);
+    // The exact curve against published values for n = 1.5 at 60°: Rs = 0.1766, Rp = 0.0018.
+    let f = Fresnel::Exact.reflectance(60f64.to_radians().cos(), 1.5);
+    assert!((f - 0.5 * (0.17656 + 0.00177)).abs() < 1e-4, "{f}");
+}
+
+/// A clear glass ball with Fresnel (kr = kt = 1) seen head on passes on about what lies behind
+/// it (4 % reflected at each face); without Fresnel the same coefficients add light.
+#[test]
+fn fresnel_glass_passes_on_the_light_behind_it_without_adding_any() {
+    use raylab::LoadOptions;
+    let scene = |fresnel: &str| {
+        format!(
+            r#"
+            background = [0, 0, 1]
+            [render]
+            width = 101
+            height = 1
+            [camera]
+            position = [0, 0, 10]
+            look_at = [0, 0, 0]
+            fov = 11.4
+            [integrator]
+            type = "phong"
+            max_depth = 6
+            prune_threshold = 0
+            [[object]]
+            type = "sphere"
+            radius = 1
+            material = {{ ka = 0, kd = 0, kr = 1, kt = 1, ior = 1.5, fresnel = {fresnel} }}
+            [[object]]
+            type = "sphere"
+            name = "red sky"
+            radius = 100
+            material = {{ ka = 0, kd = 0, emission = [1, 0, 0], kt = 0 }}
+            "#
+        )
+    };
+    let run = |fresnel: &str| {
+        let job = raylab::input::load::load_str(
+            &crate::registry(),
+            "t.toml",
+            &scene(fresnel),
+            std::path::Path::new("."),
+            &LoadOptions::default(),
+        )
+        .unwrap_or_else(|e| panic!("{}", e.report()));
+        let mut stats = raylab::RayStats::new(job.integrator.counters());
+        raylab::render::render_pixel(&job, 50, 0, &mut stats)
+    };
+    for kind in ["\"exact\"", "\"schlick\"", "true"] {
+        let centre = run(kind);
+        assert!(centre.x > 0.9 && centre.x <= 1.0 && centre.y == 0.0, "{kind}: the red sky, a little lost: {centre}");
+    }
+    let no_fresnel = run("false");
+    assert!(no_fresnel.x > 1.5, "without Fresnel, kr + kt = 2 doubles the light: {no_fresnel}");
+}

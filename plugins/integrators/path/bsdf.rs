@@ -1,0 +1,305 @@
+//! The path tracer's scattering model at one hit, built from the material's coefficients:
+//!
+//! ```text
+//! f(ωo, ωi) = kd/π + ks·(n+2)/(2π)·cos^n α + kr·δ_mirror + kt·δ_dielectric
+//! ```
+//!
+//! - `kd`: Lambertian; `ks`: the normalised (energy-conserving) Phong lobe of exponent
+//!   `shininess` around the mirror direction of ωo about the shading normal (α is the angle
+//!   from it; Lafortune and Willems 1994);
+//! - `kr`: a perfect mirror about the geometric normal, or with `blur > 0` a second normalised
+//!   Phong lobe of exponent `4 / blur²` (the Phong lobe whose mean squared angle equals that of
+//!   phong's jitter disc of radius `blur`);
+//! - `kt`: a smooth dielectric with the exact Fresnel reflectance: at a closed solid it reflects
+//!   with probability F and refracts by Snell's law otherwise (total internal reflection where
+//!   F = 1; transmitted radiance scales by (η_i/η_t)²); an open surface is a thin slab of index
+//!   `ior` that reflects 2F/(1+F) and passes the rest straight through. With `blur > 0` the
+//!   chosen direction is jittered in a Phong lobe of exponent `4 / blur²` (a stochastic specular
+//!   event: no light samples toward it).
+//!
+//! The four weights are scaled down together so their sum is at most 1 in every channel: a
+//! material that would reflect more than it receives reflects all of it. Lobes are sampled in
+//! proportion to their weights (mean over channels); the diffuse lobe with cosine-weighted
+//! directions, the Phong lobes with `cos^n α`. [`Bsdf::pdf`] is the density of that whole
+//! strategy, for weighing it against light samples.
+
+use raylab::glam::{DVec2, DVec3};
+use raylab::math::color::max_channel;
+use raylab::render::sampler::{concentric_disc, orthonormal_basis};
+use raylab::scene::interaction::Interaction;
+use raylab::{Color, RayKind};
+use std::f64::consts::{FRAC_1_PI, TAU};
+
+use crate::integrators::phong::{reflect, refract};
+
+/// A component of the scattering model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Lobe {
+    /// Lambertian reflection (`kd`).
+    Diffuse,
+    /// The normalised Phong highlight (`ks`).
+    Specular,
+    /// A blurry mirror as a Phong lobe (`kr` with `blur > 0`).
+    Glossy,
+    /// A perfect mirror (`kr`).
+    Mirror,
+    /// Fresnel reflection or transmission of a dielectric (`kt`).
+    Dielectric,
+}
+
+impl Lobe {
+    /// The lobe's name in explanations.
+    pub fn name(self) -> &'static str {
+        match self {
+            Lobe::Diffuse => "diffuse",
+            Lobe::Specular => "specular",
+            Lobe::Glossy => "glossy",
+            Lobe::Mirror => "mirror",
+            Lobe::Dielectric => "dielectric",
+        }
+    }
+}
+
+/// The lobes in the order of [`Bsdf::choice`].
+const LOBES: [Lobe; 5] = [Lobe::Diffuse, Lobe::Specular, Lobe::Glossy, Lobe::Mirror, Lobe::Dielectric];
+
+/// The scattering model at one hit (see the module docs). Built per hit, on the stack.
+#[derive(Clone, Debug)]
+pub struct Bsdf {
+    /// Unit direction toward where the ray came from (−ray direction).
+    wo: DVec3,
+    /// Geometric normal facing `wo`.
+    n: DVec3,
+    /// Shading normal facing `wo`.
+    ns: DVec3,
+    /// Mirror direction of `wo` about `ns`: the Phong lobes' axis.
+    axis: DVec3,
+    kd: Color,
+    ks: Color,
+    shininess: f64,
+    /// `kr` as a Phong lobe (blurry mirror), and its exponent.
+    glossy: Color,
+    glossy_exponent: f64,
+    /// `kr` as a perfect mirror.
+    mirror: Color,
+    kt: Color,
+    /// `ior` of the material; `closed`: a solid's interface (else a thin sheet); `entering`: the
+    /// ray arrived from outside.
+    ior: f64,
+    closed: bool,
+    entering: bool,
+    /// Jitter exponent of a blurry dielectric (0: sharp).
+    dielectric_exponent: f64,
+    /// Probability of choosing each lobe of [`LOBES`] (sum 1, or all 0 for a black surface).
+    choice: [f64; 5],
+}
+
+/// A direction sampled from the model, and what it carries.
+#[derive(Clone, Copy, Debug)]
+pub struct Scatter {
+    /// Unit direction of the new ray.
+    pub dir: DVec3,
+    /// `f·cos θ / pdf`: the factor on the radiance the new ray brings back.
+    pub weight: Color,
+    /// Density of `dir` under the whole sampling strategy (per solid angle), for weighing light
+    /// found by the new ray; `None` after a specular event (mirror, dielectric).
+    pub pdf: Option<f64>,
+    /// The lobe chosen.
+    pub lobe: Lobe,
+    /// Reflected or transmitted.
+    pub kind: RayKind,
+    /// (η_t/η_i)² of a refraction (1 otherwise): transmitted radiance was scaled by its inverse.
+    pub eta_squared: f64,
+}
+
+/// Exponent of the Phong lobe standing for phong's jitter disc of radius `blur` (at unit
+/// distance): the lobe's mean squared angle, `2 / n`, equals the disc's, `blur² / 2`.
+pub fn blur_exponent(blur: f64) -> f64 {
+    4.0 / (blur * blur)
+}
+
+/// Fresnel reflectance of a smooth dielectric interface for unpolarised light arriving at
+/// `cos_i` (∈ [0, 1]) to the normal, with `eta` = η_t / η_i (transmitted over incident side);
+/// 1 under total internal reflection.
+pub fn fresnel_dielectric(cos_i: f64, eta: f64) -> f64 {
+    let cos_i = cos_i.clamp(0.0, 1.0);
+    let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    let parallel = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    let perpendicular = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    0.5 * (parallel * parallel + perpendicular * perpendicular)
+}
+
+/// Reflectance of a thin slab of index `eta` (relative to its surroundings) at `cos_i`, all
+/// internal reflections summed: `2F / (1 + F)`.
+pub fn thin_slab_reflectance(cos_i: f64, eta: f64) -> f64 {
+    let f = fresnel_dielectric(cos_i, eta);
+    2.0 * f / (1.0 + f)
+}
+
+/// Density of a Phong lobe of exponent `n` at cosine `c` from its axis: `(n+1)/(2π)·c^n`.
+#[inline]
+pub(super) fn lobe_pdf(c: f64, n: f64) -> f64 {
+    if c > 0.0 { (n + 1.0) / TAU * c.powf(n) } else { 0.0 }
+}
+
+/// The normalised Phong BRDF lobe of exponent `n` at cosine `c`: `(n+2)/(2π)·c^n`.
+#[inline]
+pub(super) fn lobe_brdf(c: f64, n: f64) -> f64 {
+    if c > 0.0 { (n + 2.0) / TAU * c.powf(n) } else { 0.0 }
+}
+
+/// A direction in the Phong lobe of exponent `n` around unit `axis`, from `u` ∈ [0, 1)².
+#[inline]
+pub(super) fn sample_lobe(axis: DVec3, n: f64, u: DVec2) -> DVec3 {
+    let cos = u.x.powf(1.0 / (n + 1.0));
+    let sin = (1.0 - cos * cos).max(0.0).sqrt();
+    let (b1, b2) = orthonormal_basis(axis);
+    let (s, c) = (TAU * u.y).sin_cos();
+    (sin * c) * b1 + (sin * s) * b2 + cos * axis
+}
+
+/// Mean of the three channels: a lobe's share of the sampling.
+#[inline]
+fn mean(c: Color) -> f64 {
+    (c.x + c.y + c.z) / 3.0
+}
+
+impl Bsdf {
+    /// The model at the hit `si`.
+    pub fn new(si: &Interaction) -> Bsdf {
+        let m = &si.material;
+        let scale = 1.0 / max_channel(m.kd + m.ks + m.kr + m.kt).max(1.0);
+        let (kd, ks, kr, kt) = (m.kd * scale, m.ks * scale, m.kr * scale, m.kt * scale);
+        let blurred = m.blur > 0.0;
+        let (glossy, mirror) = if blurred { (kr, Color::ZERO) } else { (Color::ZERO, kr) };
+        let mut choice = [mean(kd), mean(ks), mean(glossy), mean(mirror), mean(kt)];
+        let total: f64 = choice.iter().sum();
+        for p in &mut choice {
+            *p = if total > 0.0 { *p / total } else { 0.0 };
+        }
+        let wo = -si.dir;
+        Bsdf {
+            wo,
+            n: si.n,
+            ns: si.ns,
+            axis: reflect(si.dir, si.ns),
+            kd,
+            ks,
+            shininess: m.shininess,
+            glossy,
+            glossy_exponent: if blurred { blur_exponent(m.blur) } else { 0.0 },
+            mirror,
+            kt,
+            ior: m.ior,
+            closed: si.object.is_closed(),
+            entering: si.front_face,
+            dielectric_exponent: if blurred { blur_exponent(m.blur) } else { 0.0 },
+            choice,
+        }
+    }
+
+    /// True when some lobe can be evaluated toward a given direction (diffuse, specular,
+    /// glossy): light samples are worth taking here.
+    pub fn has_smooth_lobes(&self) -> bool {
+        self.choice[0] + self.choice[1] + self.choice[2] > 0.0
+    }
+
+    /// True when the surface scatters nothing.
+    pub fn is_black(&self) -> bool {
+        self.choice.iter().all(|&p| p <= 0.0)
+    }
+
+    /// Reflectance as the albedo layer shows it: the sum of the weights.
+    pub fn albedo(&self) -> Color {
+        self.kd + self.ks + self.glossy + self.mirror + self.kt
+    }
+
+    /// `f(ωo, wi)` of the smooth lobes (specular events have no value toward a given direction):
+    /// zero unless `wi` leaves on `wo`'s side of both normals.
+    pub fn eval(&self, wi: DVec3) -> Color {
+        if !(self.n.dot(wi) > 0.0 && self.ns.dot(wi) > 0.0) {
+            return Color::ZERO;
+        }
+        let c = wi.dot(self.axis);
+        self.kd * FRAC_1_PI + self.ks * lobe_brdf(c, self.shininess) + self.glossy * lobe_brdf(c, self.glossy_exponent)
+    }
+
+    /// Density with which [`Bsdf::sample`] picks `wi` (per solid angle), for `wi` on `wo`'s side.
+    pub fn pdf(&self, wi: DVec3) -> f64 {
+        let cos = self.ns.dot(wi);
+        let c = wi.dot(self.axis);
+        let diffuse = if cos > 0.0 { cos * FRAC_1_PI } else { 0.0 };
+        self.choice[0] * diffuse + self.choice[1] * lobe_pdf(c, self.shininess) + self.choice[2] * lobe_pdf(c, self.glossy_exponent)
+    }
+
+    /// A new direction: a lobe chosen by `pick` ∈ [0, 1) in proportion to the weights, a
+    /// direction from `u` ∈ [0, 1)², and (dielectrics) reflection or transmission by `fresnel` ∈
+    /// [0, 1). `None` when the surface is black or the direction carries nothing (it points into
+    /// the surface).
+    pub fn sample(&self, pick: f64, u: DVec2, fresnel: f64) -> Option<Scatter> {
+        let (mut acc, mut lobe) = (0.0, None);
+        for (i, &p) in self.choice.iter().enumerate() {
+            if p > 0.0 {
+                lobe = Some(LOBES[i]);
+                acc += p;
+                if pick < acc {
+                    break;
+                }
+            }
+        }
+        let lobe = lobe?;
+        let dir = match lobe {
+            Lobe::Diffuse => {
+                let d = concentric_disc(u);
+                let (b1, b2) = orthonormal_basis(self.ns);
+                d.x * b1 + d.y * b2 + (1.0 - d.length_squared()).max(0.0).sqrt() * self.ns
+            }
+            Lobe::Specular => sample_lobe(self.axis, self.shininess, u),
+            Lobe::Glossy => sample_lobe(self.axis, self.glossy_exponent, u),
+            Lobe::Mirror => {
+                let weight = self.mirror / self.choice[3];
+                let dir = reflect(-self.wo, self.n);
+                return Some(Scatter { dir, weight, pdf: None, lobe, kind: RayKind::Reflection, eta_squared: 1.0 });
+            }
+            Lobe::Dielectric => return Some(self.sample_dielectric(u, fresnel)),
+        };
+        let f = self.eval(dir);
+        let pdf = self.pdf(dir);
+        if max_channel(f) <= 0.0 || !(pdf > 0.0) {
+            return None;
+        }
+        let weight = f * self.ns.dot(dir) / pdf;
+        Some(Scatter { dir, weight, pdf: Some(pdf), lobe, kind: RayKind::Reflection, eta_squared: 1.0 })
+    }
+
+    /// Fresnel reflection or transmission of the `kt` part, jittered when blurry.
+    fn sample_dielectric(&self, u: DVec2, fresnel: f64) -> Scatter {
+        let d = -self.wo;
+        let cos_i = self.wo.dot(self.n);
+        let weight = self.kt / self.choice[4];
+        let reflected = reflect(d, self.n);
+        let (mut dir, side, kind, eta_squared) = if self.closed {
+            // η_t / η_i: into the solid through its outside, or out of it.
+            let eta = if self.entering { self.ior } else { 1.0 / self.ior };
+            match refract(d, self.n, 1.0 / eta) {
+                Some(t) if fresnel >= fresnel_dielectric(cos_i, eta) => (t, -self.n, RayKind::Refraction, eta * eta),
+                _ => (reflected, self.n, RayKind::Reflection, 1.0),
+            }
+        } else if fresnel < thin_slab_reflectance(cos_i, self.ior) {
+            (reflected, self.n, RayKind::Reflection, 1.0)
+        } else {
+            (d, -self.n, RayKind::Refraction, 1.0)
+        };
+        if self.dielectric_exponent > 0.0 {
+            dir = sample_lobe(dir, self.dielectric_exponent, u);
+            if dir.dot(side) < 0.0 {
+                dir = reflect(dir, side);
+            }
+        }
+        Scatter { dir, weight: weight / eta_squared, pdf: None, lobe: Lobe::Dielectric, kind, eta_squared }
+    }
+}

@@ -1,0 +1,175 @@
+//! Light at a path vertex from the scene's lights: next-event estimation (a shadow ray toward a
+//! sample of each light) and the lights a sampled ray meets on its way, the two strategies
+//! weighed against each other by the power heuristic where both can find the same light.
+
+use super::bsdf::Bsdf;
+use super::{Ctx, PathTracer, TAG_LIGHTS, counter};
+use raylab::math::color::max_channel;
+use raylab::math::float::SHADOW_EPSILON;
+use raylab::render::sampler::stratified_2d;
+use raylab::render::trace::{Recorder, Term, TraceLight};
+use raylab::scene::interaction::Interaction;
+use raylab::{Color, Intersectable, LightPdf, LightSample, LightSource, Ray, Sampler};
+use std::f64::consts::PI;
+
+/// Irradiance per unit of a light's `intensity`. raylab's lights follow the report: a white
+/// diffuse surface facing a light shows the light's intensity (`phong`: kd·(n·l)·I). Under the
+/// Lambertian BRDF kd/π that is irradiance π·I, so both integrators agree on direct diffuse light.
+pub const IRRADIANCE_PER_INTENSITY: f64 = PI;
+
+/// The power heuristic (Veach 1997, β = 2): the weight of a sample drawn with density `a` when
+/// another strategy would draw it with density `b` (each already times its sample count).
+/// Finite for any non-negative densities, infinite ones included: `w(a, b) + w(b, a) = 1`.
+#[inline]
+pub fn power_heuristic(a: f64, b: f64) -> f64 {
+    if !(a > 0.0) {
+        return 0.0;
+    }
+    let r = b / a;
+    let w = 1.0 / (1.0 + r * r);
+    if w.is_nan() { 0.5 } else { w }
+}
+
+impl PathTracer {
+    /// Shadow rays per sample of `light` at a vertex: [`PathTracer::light_samples`] for lights
+    /// with an extent (0: the light's own count), one for point-like lights.
+    pub(super) fn samples_for(&self, light: &dyn LightSource) -> u32 {
+        match (light.is_area(), self.light_samples) {
+            (false, _) => 1,
+            (true, 0) => light.sample_count().max(1),
+            (true, n) => n,
+        }
+    }
+
+    /// Next-event estimation at `si`: every light sampled, each sample's contribution through
+    /// the smooth lobes of `bsdf`, weighed against `bsdf`'s own sampling when the light has an
+    /// extent.
+    pub(super) fn direct<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, bsdf: &Bsdf, sampler: &Sampler, rec: &mut R) -> Color {
+        let scene = c.scene;
+        if !bsdf.has_smooth_lobes() {
+            if !scene.lights.is_empty() {
+                c.stats.add(counter::SPECULAR_VERTICES, 1);
+                rec.note(|| "only specular lobes here: no light samples (lights are found by the scattered ray)".into());
+            }
+            return Color::ZERO;
+        }
+        let streams = sampler.fork(TAG_LIGHTS);
+        let mut total = Color::ZERO;
+        for (index, light) in scene.lights.iter().enumerate() {
+            let n = self.samples_for(light.as_ref());
+            let mut stream = streams.fork(index as u64);
+            let pattern = stream.next_pattern();
+            let mut sum = Color::ZERO;
+            for s in 0..n {
+                let u = if n == 1 { stream.next_2d() } else { stratified_2d(s, n, pattern) };
+                // No direction here (an ambient light): its light comes from escaping rays.
+                let Some(ls) = light.illuminate(si.point(), u) else { break };
+                sum += self.light_sample(c, si, bsdf, (index, light.as_ref()), &ls, n, rec);
+            }
+            total += sum / f64::from(n);
+        }
+        total
+    }
+
+    /// One light sample's contribution (before dividing by the light's `n` samples). A sample of
+    /// a delta light, or of a light no ray can meet (one that does not answer
+    /// [`LightSource::intersect`]), counts in full: no other strategy finds that light.
+    #[allow(clippy::too_many_arguments)]
+    fn light_sample<R: Recorder>(
+        &self,
+        c: &mut Ctx,
+        si: &Interaction,
+        bsdf: &Bsdf,
+        (index, light): (usize, &dyn LightSource),
+        ls: &LightSample,
+        n: u32,
+        rec: &mut R,
+    ) -> Color {
+        let scene = c.scene;
+        // Lit only from the ray's side of the geometric surface; shaded with `ns`.
+        let cos = if si.n.dot(ls.dir) > 0.0 { si.ns.dot(ls.dir) } else { 0.0 };
+        let record = |skipped: Option<&str>, visible: bool, occluder: Option<u32>, terms: &[Term]| TraceLight {
+            light: scene.light_names[index].clone(),
+            dir: ls.dir,
+            distance: ls.distance,
+            intensity: ls.intensity,
+            n_dot_l: cos,
+            transmittance: if visible { Color::ONE } else { Color::ZERO },
+            occluder: occluder.map(|o| scene.object_name(o).to_string()),
+            terms: terms.to_vec(),
+            skipped: skipped.map(str::to_string),
+        };
+        if !(cos > 0.0) {
+            c.stats.add(counter::LIGHTS_BEHIND, 1);
+            rec.light(|| record(Some("the light is behind the surface as seen from the ray"), false, None, &[]));
+            return Color::ZERO;
+        }
+        if !(max_channel(ls.intensity) > 0.0) {
+            c.stats.add(counter::LIGHTS_UNREACHABLE, 1);
+            rec.light(|| record(Some("no light arrives here"), false, None, &[]));
+            return Color::ZERO;
+        }
+        let f = bsdf.eval(ls.dir);
+        if !(max_channel(f) > 0.0) {
+            c.stats.add(counter::LIGHTS_NO_RESPONSE, 1);
+            rec.light(|| record(Some("the surface reflects nothing toward this light"), false, None, &[]));
+            return Color::ZERO;
+        }
+        // Weighed against the BSDF's own rays where they can meet the light too.
+        let (mis, pdfs) = match light.pdf(si.point(), ls) {
+            LightPdf::SolidAngle(p) if light.intersect(&Ray { origin: si.point(), dir: ls.dir }, f64::INFINITY).is_some() => {
+                let q = bsdf.pdf(ls.dir);
+                (power_heuristic(f64::from(n) * p, q), Some((p, q)))
+            }
+            _ => (1.0, None),
+        };
+        c.stats.add(counter::SHADOW_RAYS, 1);
+        let (ray, t_max) = si.spawn_shadow_ray(ls.dir, ls.distance);
+        let visible = !scene.occludes(&ray, 0.0, t_max);
+        let contribution = if visible { f * cos * IRRADIANCE_PER_INTENSITY * ls.intensity * mis } else { Color::ZERO };
+        rec.light(|| {
+            let occluder = if visible { None } else { scene.intersect(&ray, 0.0, t_max).map(|h| h.object) };
+            let mut terms = vec![Term::color("bsdf", f)];
+            if let Some((p, q)) = pdfs {
+                terms.extend([Term::number("light pdf", p), Term::number("bsdf pdf", q), Term::number("mis", mis)]);
+            }
+            terms.push(Term::color("contribution", contribution / f64::from(n)));
+            record(None, visible, occluder, &terms)
+        });
+        contribution
+    }
+
+    /// The lights `ray` meets before the surface it hits at `t_hit` (∞: none): their radiance,
+    /// weighed against light sampling at the vertex the ray left when it was sampled there with
+    /// density `bsdf_pdf` (`None`: a camera ray or a specular event, which light samples cannot
+    /// find, so the light counts in full). Lights do not block each other or rays.
+    pub(super) fn emitters<R: Recorder>(&self, c: &mut Ctx, ray: &Ray, t_hit: f64, bsdf_pdf: Option<f64>, rec: &mut R) -> Color {
+        // A light counts when no surface is closer than it by more than a shadow ray's margin.
+        let t_max = if t_hit.is_finite() { t_hit / (1.0 - SHADOW_EPSILON) } else { f64::INFINITY };
+        let scene = c.scene;
+        let mut total = Color::ZERO;
+        for (index, light) in scene.lights.iter().enumerate() {
+            let Some(ls) = light.intersect(ray, t_max) else { continue };
+            let Some(p) = light.pdf(ray.origin, &ls).solid_angle() else { continue };
+            if !(p > 0.0 && p.is_finite() && max_channel(ls.intensity) > 0.0) {
+                continue;
+            }
+            c.stats.add(counter::LIGHT_HITS, 1);
+            let radiance = IRRADIANCE_PER_INTENSITY * ls.intensity * p;
+            let mis = bsdf_pdf.map_or(1.0, |q| power_heuristic(q, f64::from(self.samples_for(light.as_ref())) * p));
+            rec.note(|| {
+                let (name, r) = (&scene.light_names[index], radiance);
+                let head = format!("meets light {name} at t = {:.4}: radiance ({:.4}, {:.4}, {:.4})", ls.distance, r.x, r.y, r.z);
+                match bsdf_pdf {
+                    Some(q) => format!("{head}, light pdf {p:.4}, bsdf pdf {q:.4}, mis {mis:.4}"),
+                    None => format!("{head}, in full (a camera ray, or after a specular event: no light sample finds this path)"),
+                }
+            });
+            total += radiance * mis;
+        }
+        if total != Color::ZERO {
+            rec.term(|| Term::color("lights met", total));
+        }
+        total
+    }
+}

@@ -1,0 +1,324 @@
+//! `path`: a unidirectional path tracer with next-event estimation and multiple importance
+//! sampling, reading the same material coefficients as `phong`.
+//!
+//! A camera ray's path scatters at each surface it meets, by the energy-conserving model of
+//! [`bsdf`] (Lambertian `kd`, normalised Phong `ks`, mirror or glossy `kr`, Fresnel dielectric
+//! `kt`). At each vertex with a smooth lobe, every light is sampled with a shadow ray
+//! (next-event estimation, [`lights`]); the scattered ray also collects the lights it meets and
+//! the emission of the surface it hits. Where both strategies can find the same light (lights
+//! with an extent: `rect`, ball-shaped `point`/`spot`, or any light that answers
+//! [`raylab::LightSource::intersect`]) each is weighed by the power heuristic; point, spot and
+//! directional lights are found only by sampling, emissive surfaces only by rays.
+//!
+//! How the scene's terms enter a physically based estimate:
+//!
+//! - **Light intensities** keep the report's convention, in which a white diffuse surface facing
+//!   a light shows its intensity: a light sample of intensity `I` is irradiance `π·I`, so `path`
+//!   and `phong` agree on direct diffuse light and differ where the models differ.
+//! - **Emission** (material `emission`) is radiance, from both sides of a surface. Emissive
+//!   surfaces are not sampled as lights (shapes offer no point sampling); rays find them.
+//! - **Ambient lights** are the sky: a ray that leaves the scene after a diffuse or glossy
+//!   bounce sees radiance `ambient` (the sum of the ambient lights' `color × ka`) from every
+//!   direction. Rays that leave after only specular events (the camera ray, mirrors, glass) see
+//!   the `background`, as in `phong`. A material's `ka` has no role: surfaces respond to the sky
+//!   through their BRDF, and occluded points get less of it.
+//! - **Shadow rays** are blocked by every surface, glass included: light through glass arrives
+//!   by refraction (caustics), which light sampling cannot aim at; from point-like lights it
+//!   cannot arrive at all, as in every unidirectional path tracer.
+//!
+//! `max_bounces` limits the scattering events that light passes through after the first
+//! surface: 0 is direct light (the lights and the emitters the first surface sees); the ray
+//! scattered at the last vertex still collects the lights it meets, so the two strategies stay
+//! balanced there. From vertex `roulette_depth` on (not at the last), Russian roulette ends a
+//! path with probability `1 − min(1, throughput)` and reweights the survivors (unbiased).
+//!
+//! Every random number comes from a stream forked from the camera sample's by vertex and purpose
+//! (light samples, lobe choice and direction, roulette, next vertex), so work skipped anywhere
+//! never shifts the numbers used elsewhere. The recursion is written once, generic over a
+//! [`Recorder`]: [`NoRecord`] renders, a [`TraceNode`] explains. No allocation per ray.
+
+pub mod bsdf;
+mod lights;
+
+use bsdf::Bsdf;
+use raylab::input::error::Result;
+use raylab::input::params::Params;
+use raylab::input::spec::{Default, ParamKind, ParamSpec, Reference};
+use raylab::math::color::max_channel;
+use raylab::render::aov::Layers;
+use raylab::render::stats::{Counter, CounterKind};
+use raylab::render::trace::{NoRecord, Recorder, Term};
+use raylab::scene::interaction::Interaction;
+use raylab::{Color, Integrator, LoadContext, PluginInfo, Ray, RayKind, RayStats, Sampler, Scene, TraceNode};
+
+pub use lights::{IRRADIANCE_PER_INTENSITY, power_heuristic};
+
+/// The path tracer.
+#[derive(Clone, Debug)]
+pub struct PathTracer {
+    /// Most scattering events light passes through after the first surface (0 = direct light).
+    pub max_bounces: u32,
+    /// Bounces before Russian roulette may end a path (≥ `max_bounces`: never).
+    pub roulette_depth: u32,
+    /// Shadow rays per light with an extent at each vertex (0: each light's own `samples`).
+    pub light_samples: u32,
+}
+
+/// The `path` plugin's description.
+pub const INFO: PluginInfo = PluginInfo {
+    name: "path",
+    summary: "A unidirectional path tracer: an energy-conserving BRDF from the material coefficients (Lambertian kd, normalised Phong ks, mirror or glossy kr, Fresnel dielectric kt), next-event estimation to every light with multiple importance sampling for area lights, emissive surfaces found by rays, ambient lights as a uniform sky, Russian roulette.",
+    params: &[
+        ParamSpec::new(
+            "max_bounces",
+            ParamKind::Int,
+            Default::Int(8),
+            "most scattering events light passes through after the first surface (0 = direct light only), 0..1024",
+        )
+        .depth(Reference::AtLeast(32.0)),
+        ParamSpec::new(
+            "roulette_depth",
+            ParamKind::Int,
+            Default::Int(3),
+            "bounces before Russian roulette may end a path (survivors are reweighted: no bias, more noise); ≥ max_bounces turns it off, 0..1024",
+        )
+        .quality(Reference::Keep),
+        ParamSpec::new(
+            "light_samples",
+            ParamKind::Int,
+            Default::Int(1),
+            "shadow rays per light with an extent at each path vertex (0 = each light's own `samples`); point-like lights take one, 0..4096",
+        )
+        .quality(Reference::Keep),
+    ],
+};
+
+/// Builds the integrator from its parameters.
+pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Integrator>> {
+    Ok(Box::new(PathTracer {
+        max_bounces: p.int_in("max_bounces", 0..=1024)? as u32,
+        roulette_depth: p.int_in("roulette_depth", 0..=1024)? as u32,
+        light_samples: p.int_in("light_samples", 0..=4096)? as u32,
+    }))
+}
+
+impl std::default::Default for PathTracer {
+    fn default() -> Self {
+        PathTracer { max_bounces: 8, roulette_depth: 3, light_samples: 1 }
+    }
+}
+
+/// The counters of [`COUNTERS`], by index.
+pub mod counter {
+    /// Shadow rays toward light samples.
+    pub const SHADOW_RAYS: usize = 0;
+    /// Rays scattered at surfaces.
+    pub const BOUNCE_RAYS: usize = 1;
+    /// Rays that met a light with an extent.
+    pub const LIGHT_HITS: usize = 2;
+    /// Rays that left the scene.
+    pub const ESCAPED: usize = 3;
+    /// Paths ended by Russian roulette.
+    pub const ROULETTE_ENDED: usize = 4;
+    /// Paths ended at a surface that scatters nothing, or by a direction into the surface.
+    pub const ABSORBED: usize = 5;
+    /// Paths ended at `max_bounces`.
+    pub const DEPTH_LIMITED: usize = 6;
+    /// Light samples skipped: the light is behind the surface as seen from the ray.
+    pub const LIGHTS_BEHIND: usize = 7;
+    /// Light samples skipped: no light arrives (outside a spot's cone, a panel's back).
+    pub const LIGHTS_UNREACHABLE: usize = 8;
+    /// Light samples skipped: the smooth lobes send nothing toward the light.
+    pub const LIGHTS_NO_RESPONSE: usize = 9;
+    /// Vertices with only specular lobes, where no light is sampled.
+    pub const SPECULAR_VERTICES: usize = 10;
+}
+
+/// What `path` counts (printed by `--stats`).
+pub const COUNTERS: &[Counter] = &[
+    Counter::new("shadow_rays", CounterKind::Rays, "shadow rays"),
+    Counter::new("bounce_rays", CounterKind::Rays, "bounce rays"),
+    Counter::new("light_hits", CounterKind::Other, "rays meeting an area light"),
+    Counter::new("escaped", CounterKind::Other, "rays leaving the scene"),
+    Counter::new("roulette_ended", CounterKind::Other, "paths ended by roulette"),
+    Counter::new("absorbed", CounterKind::Other, "paths absorbed"),
+    Counter::new("depth_limited", CounterKind::Other, "limited: max bounces"),
+    Counter::new("lights_behind", CounterKind::Avoided, "avoided: light behind surface"),
+    Counter::new("lights_unreachable", CounterKind::Avoided, "avoided: no light arrives"),
+    Counter::new("lights_no_response", CounterKind::Avoided, "avoided: no response to light"),
+    Counter::new("specular_vertices", CounterKind::Avoided, "avoided: samples at specular"),
+];
+
+/// Sampler tags: each purpose at a vertex draws from its own stream.
+const TAG_LIGHTS: u64 = 1;
+const TAG_BSDF: u64 = 2;
+const TAG_ROULETTE: u64 = 3;
+const TAG_NEXT: u64 = 4;
+
+/// What one camera ray's path shares: the scene and the counters.
+struct Ctx<'a> {
+    scene: &'a Scene,
+    stats: &'a mut RayStats,
+}
+
+/// The state a ray carries from the vertex that sent it.
+#[derive(Clone, Copy, Debug)]
+struct PathState {
+    /// Scattering events before this ray (0 for the camera ray).
+    depth: u32,
+    /// Throughput: how much the radiance this ray brings back counts in the pixel.
+    beta: Color,
+    /// Product of (η_t/η_i)² over the refractions so far: undoes their radiance scaling for
+    /// Russian roulette, so paths through glass are not ended for it.
+    eta_scale: f64,
+    /// Density with which the previous vertex sampled this ray; `None` for the camera ray and
+    /// after specular events (lights it meets then count in full).
+    bsdf_pdf: Option<f64>,
+    /// Only specular events so far: a ray that leaves the scene sees the background, not the sky.
+    specular: bool,
+}
+
+impl PathState {
+    const CAMERA: PathState = PathState { depth: 0, beta: Color::ONE, eta_scale: 1.0, bsdf_pdf: None, specular: true };
+}
+
+impl PathTracer {
+    /// Radiance arriving along `ray` (its own random stream `sampler`).
+    fn li<R: Recorder>(&self, c: &mut Ctx, ray: &Ray, sampler: &Sampler, path: PathState, rec: &mut R) -> Color {
+        let hit = c.scene.trace(ray);
+        self.arrive(c, ray, hit.as_ref(), sampler, path, rec)
+    }
+
+    /// Radiance arriving along `ray`, which meets `hit` (or leaves the scene): the lights met on
+    /// the way, then the surface's emission, its light samples and its scattered ray.
+    fn arrive<R: Recorder>(
+        &self,
+        c: &mut Ctx,
+        ray: &Ray,
+        hit: Option<&Interaction>,
+        sampler: &Sampler,
+        path: PathState,
+        rec: &mut R,
+    ) -> Color {
+        let t_hit = hit.map_or(f64::INFINITY, |si| si.hit.t);
+        let mut radiance = self.emitters(c, ray, t_hit, path.bsdf_pdf, rec);
+        let Some(si) = hit else {
+            c.stats.add(counter::ESCAPED, 1);
+            let (name, sky) = if path.specular { ("background", c.scene.background) } else { ("ambient sky", c.scene.ambient) };
+            rec.term(|| Term::color(name, sky));
+            radiance += sky;
+            rec.color(radiance);
+            return radiance;
+        };
+        rec.hit(si);
+        let emission = si.material.emission;
+        rec.term(|| Term::color("emission", emission));
+        radiance += emission;
+        if path.depth > self.max_bounces {
+            c.stats.add(counter::DEPTH_LIMITED, 1);
+            rec.note(|| format!("max_bounces {} reached: only the emitters this ray meets count", self.max_bounces));
+        } else {
+            let bsdf = Bsdf::new(si);
+            radiance += self.direct(c, si, &bsdf, sampler, rec);
+            radiance += self.scatter(c, si, &bsdf, sampler, path, rec);
+        }
+        rec.color(radiance);
+        radiance
+    }
+
+    /// The light brought back by one ray scattered at `si` by `bsdf`, times its weight; zero
+    /// when the path ends here (absorbed, or by Russian roulette).
+    fn scatter<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, bsdf: &Bsdf, sampler: &Sampler, path: PathState, rec: &mut R) -> Color {
+        let mut stream = sampler.fork(TAG_BSDF);
+        let (pick, u, fresnel) = (stream.next_1d(), stream.next_2d(), stream.next_1d());
+        let Some(s) = bsdf.sample(pick, u, fresnel) else {
+            c.stats.add(counter::ABSORBED, 1);
+            rec.note(|| "absorbed: the surface scatters nothing in the sampled direction".into());
+            return Color::ZERO;
+        };
+        let mut weight = s.weight;
+        let eta_scale = path.eta_scale * s.eta_squared;
+        rec.note(|| format!("scatters by the {} lobe{}", s.lobe.name(), if s.pdf.is_none() { " (specular)" } else { "" }));
+        rec.term(|| Term::color("bsdf·cos/pdf", s.weight));
+        if let Some(q) = s.pdf {
+            rec.term(|| Term::number("bsdf pdf", q));
+        }
+        // The last vertex's ray only collects emitters: no roulette there.
+        if path.depth >= self.roulette_depth && path.depth < self.max_bounces {
+            let survive = (max_channel(path.beta * weight) * eta_scale).min(1.0);
+            if !(sampler.fork(TAG_ROULETTE).next_1d() < survive) {
+                c.stats.add(counter::ROULETTE_ENDED, 1);
+                rec.note(|| format!("Russian roulette ends the path (survival probability {survive:.4})"));
+                return Color::ZERO;
+            }
+            weight /= survive;
+            rec.term(|| Term::number("survival", survive));
+        }
+        c.stats.add(counter::BOUNCE_RAYS, 1);
+        let ray = si.spawn_ray(s.dir);
+        let next = PathState {
+            depth: path.depth + 1,
+            beta: path.beta * weight,
+            eta_scale,
+            bsdf_pdf: s.pdf,
+            specular: path.specular && s.pdf.is_none(),
+        };
+        let mut child = rec.child(s.kind, &ray, next.depth, next.beta);
+        let li = self.li(c, &ray, &sampler.fork(TAG_NEXT), next, &mut child);
+        rec.adopt(child);
+        weight * li
+    }
+
+    /// The whole path of a camera ray, recorded into `rec`; `layers` gets the first surface.
+    fn camera<R: Recorder>(
+        &self,
+        scene: &Scene,
+        ray: &Ray,
+        sampler: &Sampler,
+        stats: &mut RayStats,
+        layers: &mut Layers,
+        rec: &mut R,
+    ) -> Color {
+        let c = &mut Ctx { scene, stats };
+        let hit = scene.trace(ray);
+        if let Some(si) = &hit {
+            *layers = Layers::surface(si, Bsdf::new(si).albedo());
+        }
+        self.arrive(c, ray, hit.as_ref(), sampler, PathState::CAMERA, rec)
+    }
+}
+
+impl Integrator for PathTracer {
+    fn radiance(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler, stats: &mut RayStats, layers: &mut Layers) -> Color {
+        self.camera(scene, ray, sampler, stats, layers, &mut NoRecord)
+    }
+
+    fn explain(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler) -> Option<TraceNode> {
+        let mut stats = RayStats::new(COUNTERS);
+        let mut layers = Layers::miss(scene.background);
+        let mut root = TraceNode::new(RayKind::Camera, *ray, 0, Color::ONE);
+        self.camera(scene, ray, sampler, &mut stats, &mut layers, &mut root);
+        Some(root)
+    }
+
+    fn counters(&self) -> &'static [Counter] {
+        COUNTERS
+    }
+
+    /// A path is a chain: the camera ray and at most `max_bounces + 1` scattered rays, and at
+    /// each of its `max_bounces + 1` vertices with light samples every light's shadow rays.
+    fn worst_case_rays(&self, scene: &Scene) -> f64 {
+        let shadow: f64 = scene.lights.iter().map(|l| f64::from(self.samples_for(l.as_ref()))).sum();
+        let vertices = f64::from(self.max_bounces) + 1.0;
+        1.0 + vertices * (1.0 + shadow)
+    }
+
+    fn describe(&self) -> String {
+        let roulette = if self.roulette_depth >= self.max_bounces { "off".to_string() } else { format!("after {}", self.roulette_depth) };
+        let samples = if self.light_samples == 0 { "the lights' own".to_string() } else { self.light_samples.to_string() };
+        format!("max_bounces {}, roulette {roulette}, light samples {samples}", self.max_bounces)
+    }
+}
+
+#[cfg(test)]
+mod tests;

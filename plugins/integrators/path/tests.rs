@@ -1,0 +1,391 @@
+//! The path tracer against closed forms: the dielectric's Fresnel reflectance and Snell's law,
+//! the BSDF's sampling against its own density and its energy, closed and white furnaces, and
+//! direct light against `phong`.
+
+use super::bsdf::{Bsdf, Lobe, fresnel_dielectric, lobe_brdf, thin_slab_reflectance};
+use super::*;
+use crate::shapes::sphere::Sphere;
+use raylab::glam::{DVec2, DVec3};
+use raylab::input::context::LoadOptions;
+use raylab::input::limits::Limits;
+use raylab::render::sampler::stratified_2d;
+use raylab::scene::object::Object;
+use raylab::{Camera, Material, RenderJob};
+use std::f64::consts::{FRAC_PI_2, TAU};
+use std::path::Path;
+
+/// Fresnel reflectance in Walter et al.'s form (2007, eq. 22), written independently of the
+/// s/p-polarised form the BSDF uses.
+fn walter_fresnel(c: f64, eta: f64) -> f64 {
+    let g2 = eta * eta - 1.0 + c * c;
+    if g2 < 0.0 {
+        return 1.0;
+    }
+    let g = g2.sqrt();
+    let a = (g - c) / (g + c);
+    let b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0);
+    0.5 * a * a * (1.0 + b * b)
+}
+
+#[test]
+fn fresnel_matches_the_closed_form() {
+    for eta in [1.0001, 1.1, 1.333, 1.5, 2.42, 1.0 / 1.333, 1.0 / 1.5, 1.0 / 2.42] {
+        for i in 0..=1000 {
+            let c = f64::from(i) / 1000.0;
+            let (f, w) = (fresnel_dielectric(c, eta), walter_fresnel(c, eta));
+            assert!((f - w).abs() < 1e-12, "eta {eta}, cos {c}: {f} vs {w}");
+        }
+        let r = (eta - 1.0) / (eta + 1.0);
+        assert!((fresnel_dielectric(1.0, eta) - r * r).abs() < 1e-15, "normal incidence, eta {eta}");
+        assert_eq!(fresnel_dielectric(0.0, eta), 1.0, "grazing incidence reflects everything");
+    }
+    // Total internal reflection beyond the critical angle, leaving glass (η = 1/1.5).
+    let critical = (1.0f64 / 1.5).asin();
+    assert_eq!(fresnel_dielectric((critical + 1e-6).cos(), 1.0 / 1.5), 1.0);
+    assert!(fresnel_dielectric((critical - 1e-3).cos(), 1.0 / 1.5) < 1.0);
+    // Brewster's angle: the parallel part vanishes, leaving half the perpendicular reflectance.
+    let brewster = 1.5f64.atan();
+    let (ci, ct) = (brewster.cos(), (brewster.sin() / 1.5).asin().cos());
+    let rs = ((ci - 1.5 * ct) / (ci + 1.5 * ct)).powi(2);
+    assert!((fresnel_dielectric(ci, 1.5) - rs / 2.0).abs() < 1e-15);
+    // A thin slab sums its internal reflections: 2F / (1 + F).
+    let f = 0.04;
+    assert!((thin_slab_reflectance(1.0, 1.5) - 2.0 * f / (1.0 + f)).abs() < 1e-15);
+}
+
+/// The interaction of a ray meeting a unit sphere of `material` at its top, `theta` from the
+/// normal, from outside (or from inside with `inside`).
+fn top_of_sphere(material: Material, theta: f64, inside: bool) -> (Scene, Ray) {
+    let cam = Camera::look_at(DVec3::new(0.0, 0.0, 5.0), DVec3::ZERO, DVec3::Y, 45.0, 4, 4).unwrap();
+    let object = Object::with_material("ball", Box::new(Sphere::new(DVec3::ZERO, 1.0)), material);
+    let scene = Scene::new("test", cam, Color::ZERO, vec![object], vec![]);
+    let (d, back) =
+        if inside { (DVec3::new(theta.sin(), theta.cos(), 0.0), 0.05) } else { (DVec3::new(theta.sin(), -theta.cos(), 0.0), 2.0) };
+    let ray = Ray::new(DVec3::Y - back * d, d);
+    (scene, ray)
+}
+
+fn bsdf_at(material: Material, theta: f64, inside: bool) -> (Bsdf, DVec3) {
+    let (scene, ray) = top_of_sphere(material, theta, inside);
+    let si = scene.trace(&ray).expect("the ray meets the sphere");
+    assert!((si.point() - DVec3::Y).length() < 1e-9);
+    (Bsdf::new(&si), si.n)
+}
+
+#[test]
+fn the_dielectric_reflects_with_fresnels_probability_and_refracts_by_snells_law() {
+    let glass = Material { kd: Color::ZERO, kt: Color::ONE, ior: 1.5, ..Material::default() };
+    for (inside, eta) in [(false, 1.5), (true, 1.0 / 1.5)] {
+        for theta in [0.0, 0.3, 0.7, 0.75, 1.2, 1.5] {
+            let (bsdf, n) = bsdf_at(glass.clone(), theta, inside);
+            let f = fresnel_dielectric(theta.cos(), eta);
+            let steps = 10_000;
+            let mut reflected = 0;
+            for i in 0..steps {
+                let s = bsdf.sample(0.5, DVec2::splat(0.5), (f64::from(i) + 0.5) / f64::from(steps)).expect("glass scatters");
+                assert_eq!(s.lobe, Lobe::Dielectric);
+                assert!(s.pdf.is_none(), "specular");
+                if s.kind == RayKind::Reflection {
+                    reflected += 1;
+                    assert!((s.dir.dot(n) - theta.cos()).abs() < 1e-12);
+                    assert!((s.weight - Color::ONE).abs().max_element() < 1e-12);
+                } else {
+                    let sin_t = s.dir.cross(n).length();
+                    assert!((sin_t - theta.sin() / eta).abs() < 1e-12, "Snell: {sin_t} vs {}", theta.sin() / eta);
+                    assert!(s.dir.dot(n) < 0.0, "transmitted through the surface");
+                    assert!((s.eta_squared - eta * eta).abs() < 1e-12);
+                    assert!((s.weight - Color::splat(1.0 / (eta * eta))).abs().max_element() < 1e-12, "radiance scales by (η_i/η_t)²");
+                }
+            }
+            let fraction = f64::from(reflected) / f64::from(steps);
+            assert!((fraction - f).abs() <= 1.0 / f64::from(steps), "θ {theta}: reflected {fraction}, F = {f}");
+        }
+    }
+}
+
+/// `∫ g(ω) dω` over the hemisphere around unit `n` (midpoint rule in θ, φ).
+fn hemisphere_integral(n: DVec3, g: impl Fn(DVec3) -> f64) -> f64 {
+    let (b1, b2) = raylab::render::sampler::orthonormal_basis(n);
+    let (nt, np) = (600, 1200);
+    let mut sum = 0.0;
+    for i in 0..nt {
+        let theta = (f64::from(i) + 0.5) / f64::from(nt) * FRAC_PI_2;
+        let (st, ct) = theta.sin_cos();
+        for j in 0..np {
+            let phi = (f64::from(j) + 0.5) / f64::from(np) * TAU;
+            let w = st * phi.cos() * b1 + st * phi.sin() * b2 + ct * n;
+            sum += g(w) * st;
+        }
+    }
+    sum * (FRAC_PI_2 / f64::from(nt)) * (TAU / f64::from(np))
+}
+
+/// Mean of `Bsdf::sample`'s weights (zero where it returns nothing) over stratified samples.
+fn mean_weight(bsdf: &Bsdf, n: u32) -> (Color, f64) {
+    let mut sum = Color::ZERO;
+    let mut accepted = 0;
+    for i in 0..n {
+        let u = stratified_2d(i, n, 17);
+        let pick = (f64::from(i) + 0.5) / f64::from(n);
+        if let Some(s) = bsdf.sample(pick, u, 0.5) {
+            sum += s.weight;
+            accepted += 1;
+        }
+    }
+    (sum / f64::from(n), f64::from(accepted) / f64::from(n))
+}
+
+#[test]
+fn sampling_agrees_with_the_density_and_the_brdf() {
+    let m = Material {
+        kd: Color::new(0.3, 0.2, 0.1),
+        ks: Color::splat(0.4),
+        shininess: 20.0,
+        kr: Color::splat(0.2),
+        blur: 0.3,
+        ..Material::default()
+    };
+    for theta in [0.0, 0.6, 1.3] {
+        let (bsdf, n) = bsdf_at(m.clone(), theta, false);
+        // The density integrates to the share of samples that stay above the surface.
+        let mass = hemisphere_integral(n, |w| bsdf.pdf(w));
+        let albedo = Color::new(
+            hemisphere_integral(n, |w| bsdf.eval(w).x * w.dot(n)),
+            hemisphere_integral(n, |w| bsdf.eval(w).y * w.dot(n)),
+            hemisphere_integral(n, |w| bsdf.eval(w).z * w.dot(n)),
+        );
+        let (weight, accepted) = mean_weight(&bsdf, 1 << 18);
+        assert!(mass <= 1.0 + 1e-3, "θ {theta}: density mass {mass}");
+        assert!((mass - accepted).abs() < 5e-3, "θ {theta}: density mass {mass}, accepted {accepted}");
+        assert!((weight - albedo).abs().max_element() < 5e-3, "θ {theta}: E[f cos / pdf] = {weight}, ∫ f cos = {albedo}");
+    }
+}
+
+#[test]
+fn the_normalised_phong_lobe_conserves_energy() {
+    for n in [0.0, 1.0, 10.0, 100.0, 1000.0] {
+        // At normal incidence the lobe's albedo is exactly 1: (n+2)/(2π) is its normalisation.
+        let albedo = hemisphere_integral(DVec3::Z, |w| lobe_brdf(w.z, n) * w.z);
+        assert!((albedo - 1.0).abs() < 2e-3, "exponent {n}: albedo {albedo}");
+    }
+    // Every material, however its coefficients add up, reflects at most what it receives.
+    let greedy = Material { kd: Color::ONE, ks: Color::ONE, kr: Color::ONE, kt: Color::ONE, shininess: 5.0, ..Material::default() };
+    for m in [greedy.clone(), Material { blur: 0.5, ..greedy }, Material { kd: Color::new(2.0, 0.5, 0.0), ..Material::default() }] {
+        for theta in [0.0, 0.8, 1.4] {
+            let (bsdf, n) = bsdf_at(m.clone(), theta, false);
+            assert!(bsdf.albedo().max_element() <= 1.0 + 1e-12, "{m:?}: weights {}", bsdf.albedo());
+            let smooth = hemisphere_integral(n, |w| bsdf.eval(w).max_element() * w.dot(n));
+            assert!(smooth <= 1.0 + 2e-3, "{m:?} at θ {theta}: smooth albedo {smooth}");
+        }
+    }
+}
+
+fn load(text: &str) -> RenderJob {
+    let options = LoadOptions { limits: Limits::unlimited(), ..LoadOptions::default() };
+    raylab::input::load::load_str(&crate::registry(), "test.toml", text, Path::new("."), &options)
+        .unwrap_or_else(|e| panic!("{}", e.report()))
+}
+
+/// `n` independent estimates of the radiance along `ray` (each with its own stream).
+fn estimates(job: &RenderJob, ray: &Ray, n: u64) -> Vec<Color> {
+    let mut stats = RayStats::new(job.integrator.counters());
+    (0..n)
+        .map(|i| {
+            let mut layers = Layers::miss(job.scene.background);
+            job.integrator.radiance(&job.scene, ray, &mut Sampler::new(i, 0, 11), &mut stats, &mut layers)
+        })
+        .collect()
+}
+
+/// Mean and standard error of the mean, per channel.
+fn mean_and_error(values: &[Color]) -> (Color, Color) {
+    let n = values.len() as f64;
+    let mean = values.iter().sum::<Color>() / n;
+    let var = values.iter().map(|v| (*v - mean) * (*v - mean)).sum::<Color>() / (n - 1.0);
+    (mean, (var / n).powf(0.5))
+}
+
+/// A closed sphere around the camera whose inside emits `le` and reflects diffusely with albedo
+/// `a` (sampled perfectly: every bounce weighs exactly `a`).
+fn closed_furnace(a: f64, le: f64, integrator: &str) -> RenderJob {
+    load(&format!(
+        "background = 0\n[render]\nwidth = 4\nheight = 4\n[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\nfov = 60\n\
+         [integrator]\ntype = \"path\"\n{integrator}\n[[object]]\ntype = \"sphere\"\nradius = 1\nmaterial = {{ kd = {a}, ks = 0, emission = {le} }}\n"
+    ))
+}
+
+#[test]
+fn a_closed_furnace_without_roulette_sums_the_geometric_series_exactly() {
+    let (a, le, bounces) = (0.5, 0.7, 40);
+    let job = closed_furnace(a, le, &format!("max_bounces = {bounces}\nroulette_depth = {bounces}"));
+    // Emission at the first surface and after each of the max_bounces + 1 scattered rays.
+    let expected = le * (1.0 - a.powi(bounces + 2)) / (1.0 - a);
+    for dir in [DVec3::NEG_Z, DVec3::new(0.3, -0.2, 0.9)] {
+        for v in estimates(&job, &Ray::new(DVec3::ZERO, dir), 64) {
+            assert!((v - Color::splat(expected)).abs().max_element() < 1e-14 * expected, "{v} vs {expected}");
+        }
+    }
+}
+
+#[test]
+fn a_closed_furnace_with_roulette_converges_to_le_over_one_minus_albedo() {
+    for (a, le) in [(0.5, 1.0), (0.8, 0.25), (0.95, 0.1)] {
+        let job = closed_furnace(a, le, "max_bounces = 1024\nroulette_depth = 0");
+        let values = estimates(&job, &Ray::new(DVec3::ZERO, DVec3::NEG_Z), 1 << 16);
+        let (mean, error) = mean_and_error(&values);
+        let expected = le / (1.0 - a);
+        assert!((mean.x - expected).abs() < 4.0 * error.x + 1e-12, "a {a}: {} ± {} vs {expected}", mean.x, error.x);
+        assert!(error.x < 0.02 * expected, "a {a}: standard error {} of {expected}", error.x);
+    }
+}
+
+/// A sphere of `material` under a uniform sky and background of radiance 1.
+fn white_furnace(material: &str, seed_bounces: &str) -> RenderJob {
+    load(&format!(
+        "background = 1\n[render]\nwidth = 4\nheight = 4\n[camera]\nposition = [0, 0, 4]\nlook_at = [0, 0, 0]\nfov = 30\n\
+         [integrator]\ntype = \"path\"\n{seed_bounces}\n[[light]]\ntype = \"ambient\"\ncolor = 1\nka = 1\n\
+         [[object]]\ntype = \"sphere\"\nradius = 1\nmaterial = {material}\n"
+    ))
+}
+
+#[test]
+fn a_white_diffuse_sphere_under_a_uniform_sky_disappears() {
+    let job = white_furnace("{ kd = 1, ks = 0 }", "");
+    for (x, y) in [(0.0, 0.0), (0.5, 0.2), (0.7, -0.69)] {
+        let ray = Ray::new(DVec3::new(0.0, 0.0, 4.0), DVec3::new(x, y, -4.0));
+        for v in estimates(&job, &ray, 256) {
+            assert!((v - Color::ONE).abs().max_element() < 1e-12, "{v}");
+        }
+    }
+}
+
+#[test]
+fn no_material_reflects_more_than_the_sky_sends() {
+    // Glass (Fresnel, refraction, total internal reflection) loses nothing: the sphere disappears
+    // on average. The others may lose energy (a lobe cut by the horizon) but never gain it.
+    let cases = [
+        ("{ kd = 0, kt = 1, ior = 1.5 }", true),
+        ("{ kd = 0, kt = 1, ior = 1.5, blur = 0.3 }", true),
+        ("{ kd = 0, ks = 1, shininess = 10 }", false),
+        ("{ kd = 0, kr = 1, blur = 0.4 }", false),
+        ("{ kd = 1, ks = 1, kr = 1, kt = 1, shininess = 3 }", false),
+    ];
+    for (material, lossless) in cases {
+        let job = white_furnace(material, "max_bounces = 1024");
+        let mut values = Vec::new();
+        for (x, y) in [(0.0, 0.0), (0.5, 0.2), (0.7, -0.69)] {
+            values.extend(estimates(&job, &Ray::new(DVec3::new(0.0, 0.0, 4.0), DVec3::new(x, y, -4.0)), 1 << 14));
+        }
+        let (mean, error) = mean_and_error(&values);
+        for c in 0..3 {
+            assert!(mean[c] <= 1.0 + 4.0 * error[c], "{material}: {mean} ± {error} exceeds the sky");
+            if lossless {
+                assert!((mean[c] - 1.0).abs() <= 4.0 * error[c] + 1e-9, "{material}: {mean} ± {error}, expected 1");
+            }
+        }
+    }
+}
+
+/// A diffuse floor seen from above, lit by `light`, with `integrator`.
+fn lit_floor(light: &str, integrator: &str) -> RenderJob {
+    load(&format!(
+        "background = 0\n[render]\nwidth = 4\nheight = 4\n[camera]\nposition = [0, 3, 3]\nlook_at = [0, 0, 0]\nfov = 30\n\
+         [integrator]\n{integrator}\n[[light]]\n{light}\n\
+         [[object]]\ntype = \"plane\"\npoint = [0, 0, 0]\nnormal = [0, 1, 0]\nmaterial = {{ kd = [0.6, 0.5, 0.4], ks = 0 }}\n"
+    ))
+}
+
+#[test]
+fn direct_light_agrees_with_phong() {
+    let lights = [
+        "type = \"spot\"\nposition = [0.5, 2, 0]\ndirection = [0, -1, 0]\ncone_angle = 60\nexponent = 3\nkq = 1\nkc = 0",
+        "type = \"directional\"\ndirection = [0.3, -1, 0.2]\ncolor = 0.7",
+        "type = \"rect\"\ncenter = [0.3, 1.2, 0]\nedge1 = [1.5, 0, 0]\nedge2 = [0, 0.4, 1.2]\nkq = 1\nkc = 0.1",
+        // Large and near: most of its light is found by the BSDF's rays.
+        "type = \"rect\"\ncenter = [-0.6, 0.8, 0]\nedge1 = [0, 0, 3]\nedge2 = [0, 1.6, 0]\ncolor = 0.3",
+        "type = \"point\"\nposition = [0.4, 0.9, 0.2]\nradius = 0.5\ncolor = 0.4",
+        "type = \"spot\"\nposition = [0, 1, 0.3]\ndirection = [0, -1, 0.1]\nradius = 0.3\ncone_angle = 80\ncolor = 0.5",
+    ];
+    let ray = Ray::new(DVec3::new(0.0, 3.0, 3.0), DVec3::new(0.1, -3.0, -3.0));
+    for light in lights {
+        let phong = lit_floor(light, "type = \"phong\"\nshadow_rays = 4096\nprune_threshold = 0");
+        let reference = estimates(&phong, &ray, 1)[0];
+        for samples in [1, 3] {
+            let path = lit_floor(light, &format!("type = \"path\"\nmax_bounces = 0\nlight_samples = {samples}"));
+            let (mean, error) = mean_and_error(&estimates(&path, &ray, 1 << 16));
+            for c in 0..3 {
+                // Phong's 4096 stratified samples are accurate to well below 1e-3.
+                assert!(
+                    (mean[c] - reference[c]).abs() <= 4.0 * error[c] + 1e-3 * reference[c] + 1e-12,
+                    "{light}, light_samples {samples}: path {mean} ± {error}, phong {reference}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn the_explanation_is_the_render() {
+    let job = load(&std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/quality.toml")).unwrap());
+    let integrator = PathTracer::default();
+    for i in 0..64u64 {
+        let ray = Ray::new(job.scene.camera.position, DVec3::new((i % 8) as f64 * 0.05 - 0.2, 0.1 - (i / 8) as f64 * 0.04, -1.0));
+        let mut stats = RayStats::new(COUNTERS);
+        let mut layers = Layers::miss(job.scene.background);
+        let c = integrator.radiance(&job.scene, &ray, &mut Sampler::new(i, 0, 3), &mut stats, &mut layers);
+        let tree = integrator.explain(&job.scene, &ray, &mut Sampler::new(i, 0, 3)).unwrap();
+        assert_eq!(c.to_array().map(f64::to_bits), tree.color.to_array().map(f64::to_bits), "ray {i}");
+    }
+}
+
+/// An area light that rays cannot meet (it does not answer `intersect`): its samples must then
+/// count in full, or its light would be lost.
+struct Unmet(crate::lights::rect::RectLight);
+
+impl raylab::LightSource for Unmet {
+    fn illuminate(&self, p: DVec3, u: DVec2) -> Option<raylab::LightSample> {
+        self.0.illuminate(p, u)
+    }
+    fn is_area(&self) -> bool {
+        true
+    }
+}
+
+#[test]
+fn a_light_that_rays_cannot_meet_is_sampled_in_full() {
+    use crate::lights::rect::RectLight;
+    let rect = || {
+        RectLight::new(
+            Color::splat(0.8),
+            DVec3::new(-0.6, 0.8, 0.0),
+            DVec3::new(0.0, 0.0, 3.0),
+            DVec3::new(0.0, 1.6, 0.0),
+            (1.0, 0.0, 0.0),
+            1,
+        )
+    };
+    let cam = Camera::look_at(DVec3::new(0.0, 3.0, 3.0), DVec3::ZERO, DVec3::Y, 30.0, 4, 4).unwrap();
+    let floor = || {
+        Object::with_material(
+            "floor",
+            Box::new(crate::shapes::plane::Plane::new(DVec3::ZERO, DVec3::Y)),
+            Material::diffuse(Color::splat(0.5)),
+        )
+    };
+    let ray = Ray::new(DVec3::new(0.0, 3.0, 3.0), DVec3::new(0.1, -3.0, -3.0));
+    let path = PathTracer { max_bounces: 0, ..PathTracer::default() };
+    let mean = |light: Box<dyn raylab::LightSource>| {
+        let scene = Scene::new("t", cam.clone(), Color::ZERO, vec![floor()], vec![("light".into(), light)]);
+        let mut stats = RayStats::new(COUNTERS);
+        let values: Vec<Color> = (0..1u64 << 15)
+            .map(|i| path.radiance(&scene, &ray, &mut Sampler::new(i, 0, 5), &mut stats, &mut Layers::miss(Color::ZERO)))
+            .collect();
+        mean_and_error(&values)
+    };
+    let (met, met_error) = mean(Box::new(rect()));
+    let (unmet, unmet_error) = mean(Box::new(Unmet(rect())));
+    assert!(
+        (met - unmet).abs().max_element() <= 4.0 * (met_error + unmet_error).max_element(),
+        "{met} ± {met_error} vs {unmet} ± {unmet_error}"
+    );
+}

@@ -1,0 +1,212 @@
+//! The farm flow through the real binary: tiles and sample passes rendered as separate processes
+//! (by GNU parallel, as a scheduler would run them) merge to the bits of one render; a render
+//! killed with SIGKILL at a random moment resumes to the same bits; hostile partial files are
+//! refused with clear errors.
+#![cfg(feature = "exr")]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn raylab(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_raylab")).args(args).current_dir(dir).output().expect("raylab runs")
+}
+
+fn scene(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes").join(name).display().to_string()
+}
+
+fn temp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("raylab-farm-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn ok(out: &Output) {
+    assert!(out.status.success(), "{}\n{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+}
+
+const SIZE: [&str; 6] = ["--width", "96", "--height", "72", "--spp", "3"];
+
+#[test]
+fn gnu_parallel_renders_tiles_and_passes_that_merge_to_one_render() {
+    if Command::new("parallel").arg("--version").output().map_or(true, |o| !o.status.success()) {
+        eprintln!("SKIPPED: GNU parallel is not installed (apt-get install parallel); CI installs it");
+        return;
+    }
+    let dir = temp("parallel");
+    let s = scene("quality.toml");
+    let bin = env!("CARGO_BIN_EXE_raylab");
+    ok(&raylab(&dir, &[&["render", &s, "-o", "whole.exr", "-q", "--aov", "depth,normal,albedo"][..], &SIZE].concat()));
+    // 4 tiles × 2 sample passes = 8 processes, two at a time.
+    let cmd =
+        format!("{bin} render {s} -q --aov depth,normal,albedo {} --tile {{1}}/4 --pass {{2}}/2 -o part-{{1}}-{{2}}.exr", SIZE.join(" "));
+    let out = Command::new("parallel")
+        .args(["-j", "2", "--halt", "now,fail=1", &cmd, ":::", "0", "1", "2", "3", ":::", "0", "1"])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    ok(&out);
+    let mut parts: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with("part-"))
+        .collect();
+    parts.sort();
+    assert_eq!(parts.len(), 8);
+    let args: Vec<&str> = ["merge"].into_iter().chain(parts.iter().map(String::as_str)).chain(["-o", "merged.exr"]).collect();
+    ok(&raylab(&dir, &args));
+    assert_eq!(
+        std::fs::read(dir.join("whole.exr")).unwrap(),
+        std::fs::read(dir.join("merged.exr")).unwrap(),
+        "bit-identical EXR, layers included"
+    );
+    // One part missing: a clear error.
+    let args: Vec<&str> = ["merge"].into_iter().chain(parts.iter().skip(1).map(String::as_str)).chain(["-o", "x.png"]).collect();
+    let out = raylab(&dir, &args);
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("without all their samples"));
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// Killed with SIGKILL at a random moment (after at least one checkpoint), resumed: the image is
+/// the uninterrupted render's, bit for bit.
+#[test]
+fn a_render_killed_at_any_moment_resumes_to_the_same_image() {
+    let dir = temp("kill");
+    let s = scene("quality.toml");
+    let size = ["--width", "300", "--height", "225", "--spp", "2", "--threads", "2"];
+    ok(&raylab(&dir, &[&["render", &s, "-o", "whole.png", "-q"][..], &size].concat()));
+    // A pseudo-random delay from the clock, so runs kill at different moments; shorter on each
+    // attempt, until one kills the render part-way.
+    let jitter = u64::from(std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap().subsec_millis() % 200);
+    let mut resumed = 0;
+    for attempt in 0..4u64 {
+        let _ = std::fs::remove_file(dir.join("resumed.png"));
+        let mut child = Command::new(env!("CARGO_BIN_EXE_raylab"))
+            .args(
+                [&["render", &s, "-o", "resumed.png", "-q", "--checkpoint", "state.exr", "--checkpoint-every", "0.05"][..], &size].concat(),
+            )
+            .current_dir(&dir)
+            .spawn()
+            .unwrap();
+        let start = std::time::Instant::now();
+        while !dir.join("state.exr").exists() && start.elapsed().as_secs() < 60 && child.try_wait().unwrap().is_none() {
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(jitter >> attempt));
+        child.kill().unwrap(); // SIGKILL
+        child.wait().unwrap();
+        if dir.join("resumed.png").exists() {
+            continue;
+        }
+        ok(&raylab(&dir, &["render", "--resume", "state.exr", "-q"]));
+        assert_eq!(
+            std::fs::read(dir.join("whole.png")).unwrap(),
+            std::fs::read(dir.join("resumed.png")).unwrap(),
+            "killed after {} ms",
+            jitter >> attempt
+        );
+        assert!(!dir.join("state.exr").exists(), "the checkpoint is removed once the render is done");
+        resumed += 1;
+        break;
+    }
+    assert_eq!(resumed, 1, "no attempt killed the render part-way");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn a_changed_scene_is_not_resumed() {
+    let dir = temp("changed");
+    std::fs::copy(scene("dozen.toml"), dir.join("s.toml")).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args([
+            "render",
+            "s.toml",
+            "-o",
+            "a.png",
+            "-q",
+            "--width",
+            "300",
+            "--height",
+            "200",
+            "--spp",
+            "8",
+            "--checkpoint",
+            "c.exr",
+            "--checkpoint-every",
+            "0.05",
+        ])
+        .current_dir(&dir)
+        .spawn()
+        .unwrap();
+    let mut child = out;
+    let start = std::time::Instant::now();
+    while !dir.join("c.exr").exists() && start.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let text = std::fs::read_to_string(dir.join("s.toml")).unwrap().replace("seed = 0", "seed = 1");
+    std::fs::write(dir.join("s.toml"), if text.contains("seed = 1") { text } else { text + "\n# changed\n" }).unwrap();
+    let out = raylab(&dir, &["render", "--resume", "c.exr"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("another render"), "{}", String::from_utf8_lossy(&out.stderr));
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn share_options_are_checked() {
+    let dir = temp("args");
+    let s = scene("dozen.toml");
+    let fails = |args: &[&str], needle: &str| {
+        let out = raylab(&dir, args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(needle), "{args:?}: {err}");
+    };
+    fails(&["render", &s, "--tile", "0/4", "-o", "t.png"], "partial image");
+    fails(&["render", &s, "--tile", "4/4", "-o", "t.exr"], "expected I/N");
+    fails(&["render", &s, "--crop", "0,900,0,10", "-o", "t.exr"], "--crop");
+    fails(&["render", &s, "--crop", "0,10,0,10", "--tile", "0/2", "-o", "t.exr"], "not both");
+    let out = Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args(["render", &s, "--tile", "auto", "-o", "t.exr"])
+        .env_remove("SLURM_ARRAY_TASK_ID")
+        .env_remove("JOB_COMPLETION_INDEX")
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    assert!(String::from_utf8_lossy(&out.stderr).contains("neither SLURM_ARRAY_TASK_ID"));
+    // --tile auto under a Kubernetes Indexed Job.
+    let out = Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args([&["render", &s, "--tile", "auto", "-o", "k.exr", "-q"][..], &SIZE].concat())
+        .env_remove("SLURM_ARRAY_TASK_ID")
+        .env("JOB_COMPLETION_INDEX", "1")
+        .env("RAYLAB_TILE_COUNT", "3")
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    ok(&out);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("partial image: pixels [0, 96)"));
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// A partial that claims a frame of 10⁵ × 10⁵ pixels is refused from its header.
+#[test]
+fn a_partial_claiming_a_huge_frame_is_refused_before_decoding() {
+    use raylab::render::share::{FrameSums, Rect, Sampling, Share};
+    let dir = temp("huge");
+    let share = Share { bounds: Rect { x0: 0, y0: 0, x1: 2, y1: 2 }, pass: 0, passes: 1 };
+    let sums = FrameSums {
+        width: 100_000,
+        height: 100_000,
+        sampling: Sampling { spp: 1, adaptive: false },
+        share,
+        pixels: vec![Default::default(); 4],
+        layers: None,
+    };
+    let info =
+        raylab::image::partial::PartialInfo { fingerprint: "0".repeat(32), sampling: String::new(), encoding: "srgb".into(), resume: None };
+    raylab::image::partial::write_partial(&dir.join("huge.exr"), &sums, &info).unwrap();
+    let out = raylab(&dir, &["merge", "huge.exr", "-o", "x.png"]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("exceeds the limit"), "{}", String::from_utf8_lossy(&out.stderr));
+    std::fs::remove_dir_all(dir).unwrap();
+}

@@ -1,0 +1,402 @@
+//! `image`: a texture from an image file: PNG or JPEG (8 or 16 bits), or OpenEXR with the `exr`
+//! feature. Looked up at the surface's texture coordinates (`v` up: the image's bottom row at
+//! `v = 0`), filtered bilinearly or by nearest texel, wrapped per axis.
+//!
+//! Files are read through the scene's sandbox and size limit ([`LoadContext::read_file`]).
+//! The header is read first: an image of more than [`raylab::input::limits::Limits::max_pixels`]
+//! pixels, or wider or taller than `max_side`, is refused before anything is decoded (no
+//! decompression bomb), and the decoded size is charged to the memory budget before it is
+//! allocated. An image named by several textures, materials or mesh files is decoded once per
+//! scene ([`raylab::input::context::AssetCache`]). 8-bit images keep 3 bytes per texel and are
+//! decoded to linear through a table; others are kept as linear `f32`. Alpha is ignored.
+
+use raylab::glam::{DVec2, Vec3};
+use raylab::input::error::{Loc, Result, SceneError};
+use raylab::input::params::Params;
+use raylab::input::spec::{Default, ParamKind, ParamSpec};
+use raylab::math::color::srgb_decode;
+use raylab::scene::texture::{Mapping, TRANSFORM_PARAM, Texture, TexturePoint};
+use raylab::{Color, LoadContext, PluginInfo};
+use std::io::Cursor;
+use std::sync::Arc;
+
+/// The `image` texture's description.
+pub const INFO: PluginInfo = PluginInfo {
+    name: "image",
+    summary: "An image file (PNG, JPEG; OpenEXR with the `exr` feature) over the surface's texture coordinates, v up (the image's bottom row at v = 0). 8-bit sRGB is decoded to linear; alpha is ignored. A file used several times is decoded once.",
+    params: &[
+        ParamSpec::new("file", ParamKind::Path, Default::Required, "the image, relative to the scene file"),
+        ParamSpec::new(
+            "wrap",
+            ParamKind::Str,
+            Default::Str("repeat"),
+            "outside uv [0, 1]: \"repeat\" (tiles), \"clamp\" (the edge texels) or \"mirror\" (tiles flipped every other time)",
+        ),
+        ParamSpec::new("filter", ParamKind::Str, Default::Str("bilinear"), "\"bilinear\" (blend of the 4 nearest texels) or \"nearest\""),
+        ParamSpec::new(
+            "colorspace",
+            ParamKind::Str,
+            Default::Str("auto"),
+            "how the file's values become linear: \"auto\" (sRGB for PNG and JPEG, linear for EXR), \"srgb\" or \"linear\" (data such as a gloss map)",
+        ),
+        ParamSpec::new("scale", ParamKind::Color, Default::Float(1.0), "multiplies every texel (e.g. the strength of an emission map)"),
+        TRANSFORM_PARAM,
+    ],
+};
+
+/// Builds an `image` texture.
+pub fn build(p: &mut Params, ctx: &LoadContext) -> Result<Arc<dyn Texture>> {
+    let (file, loc) = match p.node("file")? {
+        Some(n) => match &n.value {
+            raylab::input::value::Value::Str(s) => (s.clone(), n.loc.clone()),
+            v => return Err(p.error_at("file", format_args!("expected a path (a string), found {}", v.type_name()))),
+        },
+        None => return Err(p.error("missing required parameter `file` (path)")),
+    };
+    let wrap = match p.choice("wrap", &["repeat", "clamp", "mirror"])?.as_str() {
+        "clamp" => Wrap::Clamp,
+        "mirror" => Wrap::Mirror,
+        _ => Wrap::Repeat,
+    };
+    let filter = match p.choice("filter", &["bilinear", "nearest"])?.as_str() {
+        "nearest" => Filter::Nearest,
+        _ => Filter::Bilinear,
+    };
+    let space = match p.choice("colorspace", &["auto", "srgb", "linear"])?.as_str() {
+        "srgb" => ColorSpace::Srgb,
+        "linear" => ColorSpace::Linear,
+        _ => ColorSpace::Auto,
+    };
+    let scale = p.color("scale")?;
+    let mapping = Mapping::from_params(p)?;
+    let image = load(ctx, &file, &loc, space).map_err(|e| e.context(p.what()))?;
+    Ok(Arc::new(ImageTexture { image, mapping, wrap: [wrap; 2], filter, scale }))
+}
+
+/// What happens outside texture coordinates [0, 1] (per axis).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Wrap {
+    /// The image tiles.
+    Repeat,
+    /// The edge texels continue.
+    Clamp,
+    /// The image tiles, flipped every other time.
+    Mirror,
+}
+
+impl Wrap {
+    /// The texel index for integer position `i` (any value, NaN included) in a row of `n ≥ 1`.
+    #[inline]
+    fn index(self, i: f64, n: usize) -> usize {
+        // `as` saturates (NaN → 0), so huge coordinates still land in the image.
+        let (i, n) = (i as i64, n as i64);
+        (match self {
+            Wrap::Repeat => i.rem_euclid(n),
+            Wrap::Clamp => i.clamp(0, n - 1),
+            Wrap::Mirror => {
+                let m = i.rem_euclid(2 * n);
+                if m >= n { 2 * n - 1 - m } else { m }
+            }
+        }) as usize
+    }
+}
+
+/// How texels are combined at a point.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Filter {
+    /// The 4 nearest texels, weighted by distance (texel values are exact at texel centres).
+    Bilinear,
+    /// The texel the point falls in.
+    Nearest,
+}
+
+/// How a file's values become linear RGB.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ColorSpace {
+    /// sRGB for PNG and JPEG, linear for OpenEXR.
+    Auto,
+    /// The sRGB transfer curve (IEC 61966-2-1).
+    Srgb,
+    /// Values taken as they are (data maps; EXR).
+    Linear,
+}
+
+/// Texels of a decoded image.
+enum Texels {
+    /// 8-bit RGB, with the table mapping each value to linear.
+    Eight { rgb: Vec<[u8; 3]>, linear: Box<[f32; 256]> },
+    /// Linear RGB.
+    Float(Vec<[f32; 3]>),
+}
+
+/// A decoded image: linear RGB texels, row 0 at the top.
+pub struct Image {
+    width: usize,
+    height: usize,
+    texels: Texels,
+}
+
+impl std::fmt::Debug for Image {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let depth = if matches!(self.texels, Texels::Eight { .. }) { "8-bit" } else { "float" };
+        write!(f, "Image({}×{}, {depth})", self.width, self.height)
+    }
+}
+
+impl Image {
+    /// Width and height, texels.
+    pub fn size(&self) -> (usize, usize) {
+        (self.width, self.height)
+    }
+
+    /// Bytes the texels take.
+    pub fn memory_bytes(&self) -> usize {
+        match &self.texels {
+            Texels::Eight { rgb, .. } => rgb.len() * 3 + 1024,
+            Texels::Float(t) => t.len() * 12,
+        }
+    }
+
+    /// The linear value of texel (`x`, `y`), row 0 at the top; both in range.
+    #[inline]
+    fn texel(&self, x: usize, y: usize) -> Vec3 {
+        let i = y * self.width + x;
+        match &self.texels {
+            Texels::Eight { rgb, linear } => {
+                let [r, g, b] = rgb[i];
+                Vec3::new(linear[r as usize], linear[g as usize], linear[b as usize])
+            }
+            Texels::Float(t) => Vec3::from(t[i]),
+        }
+    }
+
+    /// The filtered value at texture coordinates `uv` (v up), wrapped per axis by `wrap`.
+    #[inline]
+    pub fn lookup(&self, uv: DVec2, wrap: [Wrap; 2], filter: Filter) -> Color {
+        let uv = if uv.is_finite() { uv } else { DVec2::ZERO };
+        let x = uv.x * self.width as f64;
+        let y = (1.0 - uv.y) * self.height as f64;
+        let at = |i: f64, j: f64| self.texel(wrap[0].index(i, self.width), wrap[1].index(j, self.height));
+        match filter {
+            Filter::Nearest => at(x.floor(), y.floor()).as_dvec3(),
+            Filter::Bilinear => {
+                let (x, y) = (x - 0.5, y - 0.5);
+                let (x0, y0) = (x.floor(), y.floor());
+                let (fx, fy) = ((x - x0) as f32, (y - y0) as f32);
+                let top = at(x0, y0).lerp(at(x0 + 1.0, y0), fx);
+                let bottom = at(x0, y0 + 1.0).lerp(at(x0 + 1.0, y0 + 1.0), fx);
+                top.lerp(bottom, fy).as_dvec3()
+            }
+        }
+    }
+}
+
+/// An image over a surface's texture coordinates.
+#[derive(Clone, Debug)]
+pub struct ImageTexture {
+    image: Arc<Image>,
+    mapping: Mapping,
+    wrap: [Wrap; 2],
+    filter: Filter,
+    scale: Color,
+}
+
+impl ImageTexture {
+    /// `image` placed by `mapping`, wrapped per axis (u, v), filtered, its texels times `scale`.
+    pub fn new(image: Arc<Image>, mapping: Mapping, wrap: [Wrap; 2], filter: Filter, scale: Color) -> Self {
+        ImageTexture { image, mapping, wrap, filter, scale }
+    }
+}
+
+impl Texture for ImageTexture {
+    #[inline]
+    fn eval(&self, at: &TexturePoint) -> Color {
+        self.image.lookup(self.mapping.uv(at), self.wrap, self.filter) * self.scale
+    }
+}
+
+/// The image file `path` (as written in the scene, at `loc`), decoded once per scene and
+/// colour space.
+pub fn load(ctx: &LoadContext, path: &str, loc: &Loc, space: ColorSpace) -> Result<Arc<Image>> {
+    let full = ctx.resolve_path(path, loc)?;
+    ctx.assets.get_or_load(&format!("image:{}:{space:?}", full.display()), || {
+        let (full, bytes) = ctx.read_file(path, loc)?;
+        decode(&bytes, &full.display().to_string(), space, ctx)
+    })
+}
+
+/// Decodes image file `bytes` (named `name` in messages): the header is checked against the
+/// size limits and the decoded size charged to the memory budget before decoding. Never panics.
+pub fn decode(bytes: &[u8], name: &str, space: ColorSpace, ctx: &LoadContext) -> Result<Image> {
+    use raylab::input::limits::Limits;
+    let fail = |msg: String| SceneError::in_file(name, None, msg);
+    let reader =
+        image::ImageReader::new(Cursor::new(bytes)).with_guessed_format().map_err(|e| fail(format!("cannot read the image: {e}")))?;
+    let format = match reader.format() {
+        Some(f @ (image::ImageFormat::Png | image::ImageFormat::Jpeg | image::ImageFormat::OpenExr)) => f,
+        Some(f) => return Err(fail(format!("{f:?} images are not supported; expected PNG, JPEG or OpenEXR"))),
+        None => return Err(fail("not a PNG, JPEG or OpenEXR image (unrecognised signature)".into())),
+    };
+    if format == image::ImageFormat::OpenExr && !cfg!(feature = "exr") {
+        return Err(fail("OpenEXR textures need raylab built with the `exr` feature (cargo run --features exr)".into()));
+    }
+    let space = match space {
+        ColorSpace::Auto if format == image::ImageFormat::OpenExr => ColorSpace::Linear,
+        ColorSpace::Auto => ColorSpace::Srgb,
+        s => s,
+    };
+    let limits: &Limits = &ctx.options.limits;
+    let decoded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| -> Result<image::DynamicImage> {
+        use image::ImageDecoder;
+        let mut reader = reader;
+        let mut image_limits = image::Limits::default();
+        // The decoder's own allocations stay within the memory budget's remainder.
+        image_limits.max_alloc = Some(limits.max_memory.saturating_sub(ctx.charged()));
+        reader.limits(image_limits);
+        let decoder = reader.into_decoder().map_err(|e| fail(format!("cannot read the image's header: {e}")))?;
+        let (w, h) = decoder.dimensions();
+        let pixels = u64::from(w) * u64::from(h);
+        if w == 0 || h == 0 {
+            return Err(fail(format!("the image is {w}×{h}: it has no texels")));
+        }
+        if w.max(h) > limits.max_side || pixels > limits.max_pixels {
+            return Err(fail(format!(
+                "the image is {w}×{h} = {pixels} pixels, over the limit of {} pixels and {} per side",
+                limits.max_pixels, limits.max_side
+            ))
+            .with_help("raise the limits with --max-pixels and --max-side"));
+        }
+        let eight = decoder.color_type().bytes_per_pixel() == decoder.color_type().channel_count();
+        let kept = pixels * if eight { 3 } else { 12 };
+        ctx.charge(decoder.total_bytes().saturating_add(kept), &format!("the image \"{name}\" ({w}×{h})"), None)?;
+        image::DynamicImage::from_decoder(decoder).map_err(|e| fail(format!("cannot decode the image: {e}")))
+    }));
+    let img = match decoded {
+        Ok(r) => r?,
+        Err(_) => return Err(fail("the image decoder failed on this file (it is malformed)".into())),
+    };
+    let (width, height) = (img.width() as usize, img.height() as usize);
+    let eight = img.color().bytes_per_pixel() == img.color().channel_count();
+    let texels = if eight {
+        let rgb = img.into_rgb8().into_raw().chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+        let mut linear = Box::new([0.0f32; 256]);
+        for (i, v) in linear.iter_mut().enumerate() {
+            let x = i as f32 / 255.0;
+            *v = if space == ColorSpace::Srgb { srgb_decode(x) } else { x };
+        }
+        Texels::Eight { rgb, linear }
+    } else {
+        let to_linear = |v: f32| {
+            let v = if v.is_finite() { v.max(0.0) } else { 0.0 };
+            if space == ColorSpace::Srgb { srgb_decode(v.min(1.0)) } else { v }
+        };
+        Texels::Float(img.into_rgb32f().into_raw().chunks_exact(3).map(|c| [to_linear(c[0]), to_linear(c[1]), to_linear(c[2])]).collect())
+    };
+    Ok(Image { width, height, texels })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use raylab::LoadOptions;
+
+    fn png(w: u32, h: u32, rgb: &[u8]) -> Vec<u8> {
+        use image::ImageEncoder;
+        let mut out = Vec::new();
+        image::codecs::png::PngEncoder::new(&mut out).write_image(rgb, w, h, image::ExtendedColorType::Rgb8).unwrap();
+        out
+    }
+
+    /// CRC-32 (ISO-HDLC), as PNG chunks carry it.
+    fn crc32(bytes: &[u8]) -> u32 {
+        let mut c = !0u32;
+        for &b in bytes {
+            c ^= u32::from(b);
+            for _ in 0..8 {
+                c = if c & 1 != 0 { 0xEDB8_8320 ^ (c >> 1) } else { c >> 1 };
+            }
+        }
+        !c
+    }
+
+    fn ctx_decode(bytes: &[u8], space: ColorSpace, options: &LoadOptions) -> Result<Image> {
+        let ctx = LoadContext::new(std::path::Path::new(""), options);
+        decode(bytes, "t.png", space, &ctx)
+    }
+
+    /// A 2×2 image: red, green (top row), blue, white (bottom row).
+    fn quad() -> Vec<u8> {
+        png(2, 2, &[255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 255])
+    }
+
+    #[test]
+    fn texels_are_exact_at_their_centres_and_v_points_up() {
+        let img = ctx_decode(&quad(), ColorSpace::Auto, &LoadOptions::default()).unwrap();
+        let at = |u: f64, v: f64| img.lookup(DVec2::new(u, v), [Wrap::Clamp; 2], Filter::Bilinear);
+        assert_eq!(at(0.25, 0.75), Color::new(1.0, 0.0, 0.0), "top left is red");
+        assert_eq!(at(0.75, 0.75), Color::new(0.0, 1.0, 0.0));
+        assert_eq!(at(0.25, 0.25), Color::new(0.0, 0.0, 1.0), "bottom left (v = 0) is blue");
+        let mid = at(0.5, 0.75);
+        assert!((mid - Color::new(0.5, 0.5, 0.0)).abs().max_element() < 1e-6, "{mid}");
+        let near = img.lookup(DVec2::new(0.6, 0.3), [Wrap::Repeat; 2], Filter::Nearest);
+        assert_eq!(near, Color::ONE);
+    }
+
+    #[test]
+    fn srgb_is_decoded_to_linear_unless_asked_not_to() {
+        let grey = png(1, 1, &[128, 128, 128]);
+        let srgb = ctx_decode(&grey, ColorSpace::Auto, &LoadOptions::default()).unwrap();
+        let v = srgb.lookup(DVec2::ZERO, [Wrap::Repeat; 2], Filter::Bilinear).x;
+        assert!((v - 0.2158605).abs() < 1e-6, "{v}");
+        let lin = ctx_decode(&grey, ColorSpace::Linear, &LoadOptions::default()).unwrap();
+        assert_eq!(lin.lookup(DVec2::ZERO, [Wrap::Repeat; 2], Filter::Bilinear).x, f64::from(128.0f32 / 255.0));
+    }
+
+    #[test]
+    fn wrap_modes_map_any_index_into_the_image() {
+        assert_eq!([-1.0, 0.0, 3.0, 4.0].map(|i| Wrap::Repeat.index(i, 4)), [3, 0, 3, 0]);
+        assert_eq!([-1.0, 0.0, 3.0, 4.0].map(|i| Wrap::Clamp.index(i, 4)), [0, 0, 3, 3]);
+        assert_eq!([-1.0, 0.0, 3.0, 4.0, 8.0].map(|i| Wrap::Mirror.index(i, 4)), [0, 0, 3, 3, 0]);
+        for w in [Wrap::Repeat, Wrap::Clamp, Wrap::Mirror] {
+            for i in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 1e300, -1e300, 9.2e18] {
+                assert!(w.index(i, 3) < 3, "{w:?} {i}");
+            }
+        }
+        let img = ctx_decode(&quad(), ColorSpace::Auto, &LoadOptions::default()).unwrap();
+        for uv in [DVec2::NAN, DVec2::INFINITY, DVec2::splat(-1e300), DVec2::new(1e15, -7.3)] {
+            for f in [Filter::Bilinear, Filter::Nearest] {
+                assert!(img.lookup(uv, [Wrap::Mirror, Wrap::Repeat], f).is_finite());
+            }
+        }
+    }
+
+    /// A tiny file declaring a huge image is refused from its header, before decoding.
+    #[test]
+    fn a_decompression_bomb_is_refused_from_its_header() {
+        let mut bomb = png(1, 1, &[0, 0, 0]);
+        // IHDR: type at 12..16, width and height at 16..24, its CRC at 29..33.
+        bomb[16..20].copy_from_slice(&30_000u32.to_be_bytes());
+        bomb[20..24].copy_from_slice(&30_000u32.to_be_bytes());
+        let crc = crc32(&bomb[12..29]);
+        bomb[29..33].copy_from_slice(&crc.to_be_bytes());
+        let e = ctx_decode(&bomb, ColorSpace::Auto, &LoadOptions::default()).unwrap_err();
+        assert!(e.report().contains("30000×30000 = 900000000 pixels, over the limit"), "{}", e.report());
+        // Within the pixel limit but over the memory budget: refused by the charge.
+        let big = png(64, 64, &[7; 64 * 64 * 3]);
+        let mut options = LoadOptions::default();
+        options.limits.max_memory = 1000;
+        let e = ctx_decode(&big, ColorSpace::Auto, &options).unwrap_err();
+        assert!(e.report().contains("over the limit"), "{}", e.report());
+        options.limits = raylab::input::limits::Limits { max_pixels: 100, ..std::default::Default::default() };
+        let e = ctx_decode(&big, ColorSpace::Auto, &options).unwrap_err();
+        assert!(e.report().contains("64×64 = 4096 pixels, over the limit of 100"), "{}", e.report());
+    }
+
+    #[test]
+    fn garbage_and_truncated_files_are_errors() {
+        let options = LoadOptions::default();
+        for bytes in [&b""[..], b"not an image", &quad()[..40], b"\x89PNG\r\n\x1a\n"] {
+            assert!(ctx_decode(bytes, ColorSpace::Auto, &options).is_err());
+        }
+    }
+}

@@ -1,0 +1,229 @@
+//! The classic procedural patterns: `checker`, `stripes`, `gradient` and `ring`, over texture
+//! coordinates or through the shape's own frame ([`Mapping`]), each with unit-sized cells
+//! placed and sized by its `transform`.
+//!
+//! Cells are decided by `floor`, so a surface lying exactly on a cell boundary in object
+//! coordinates (a plane at y = 0 under a solid checker) shows rounding noise: move the pattern by
+//! half a cell (`transform = { translate = [0, 0.5, 0] }`) or lay it over uv.
+
+use raylab::glam::DVec3;
+use raylab::input::error::Result;
+use raylab::input::params::Params;
+use raylab::input::spec::{Default, ParamKind, ParamSpec};
+use raylab::scene::texture::{COORDS_PARAM, Mapping, TRANSFORM_PARAM, Texture, TexturePoint};
+use raylab::{Color, LoadContext, PluginInfo};
+use std::sync::Arc;
+
+const EVEN: ParamSpec = ParamSpec::new("even", ParamKind::Color, Default::Float(0.8), "colour of the even cells, linear RGB");
+const ODD: ParamSpec = ParamSpec::new("odd", ParamKind::Color, Default::Float(0.1), "colour of the odd cells, linear RGB");
+
+/// The `checker` texture's description.
+pub const CHECKER_INFO: PluginInfo = PluginInfo {
+    name: "checker",
+    summary: "A checkerboard of unit cells: `even` where ⌊x⌋ + ⌊y⌋ + ⌊z⌋ is even, `odd` elsewhere (squares over uv, cubes through an object).",
+    params: &[EVEN, ODD, COORDS_PARAM, TRANSFORM_PARAM],
+};
+
+/// The `stripes` texture's description.
+pub const STRIPES_INFO: PluginInfo = PluginInfo {
+    name: "stripes",
+    summary: "Stripes of unit width across x (across u over uv): `even` where ⌊x⌋ is even, `odd` elsewhere. Turn them with `transform`.",
+    params: &[EVEN, ODD, COORDS_PARAM, TRANSFORM_PARAM],
+};
+
+/// The `ring` texture's description.
+pub const RING_INFO: PluginInfo = PluginInfo {
+    name: "ring",
+    summary: "Concentric rings of unit width around the z axis (circles around uv (0, 0); cylinders through an object, as wood): `even` where ⌊√(x² + y²)⌋ is even, `odd` elsewhere.",
+    params: &[EVEN, ODD, COORDS_PARAM, TRANSFORM_PARAM],
+};
+
+/// The `gradient` texture's description.
+pub const GRADIENT_INFO: PluginInfo = PluginInfo {
+    name: "gradient",
+    summary: "A linear blend along x (along u over uv): `from` at x = 0 to `to` at x = 1, then clamped, repeated or mirrored.",
+    params: &[
+        ParamSpec::new("from", ParamKind::Color, Default::Float(0.0), "colour at x = 0, linear RGB"),
+        ParamSpec::new("to", ParamKind::Color, Default::Float(1.0), "colour at x = 1, linear RGB"),
+        ParamSpec::new(
+            "repeat",
+            ParamKind::Str,
+            Default::Str("clamp"),
+            "beyond [0, 1]: \"clamp\" (the end colours), \"repeat\" (sawtooth) or \"mirror\" (back and forth)",
+        ),
+        COORDS_PARAM,
+        TRANSFORM_PARAM,
+    ],
+};
+
+/// Which cell pattern a [`Cells`] texture draws.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CellKind {
+    /// ⌊x⌋ + ⌊y⌋ + ⌊z⌋.
+    Checker,
+    /// ⌊x⌋.
+    Stripes,
+    /// ⌊√(x² + y²)⌋.
+    Ring,
+}
+
+/// Two colours alternating over integer cells of the pattern's coordinates.
+#[derive(Clone, Debug)]
+pub struct Cells {
+    kind: CellKind,
+    even: Color,
+    odd: Color,
+    mapping: Mapping,
+}
+
+impl Cells {
+    /// `kind` in colours `even` and `odd`, laid over the surface by `mapping`.
+    pub fn new(kind: CellKind, even: Color, odd: Color, mapping: Mapping) -> Self {
+        Cells { kind, even, odd, mapping }
+    }
+
+    /// The cell index of pattern point `p` (its parity chooses the colour).
+    #[inline]
+    fn cell(&self, p: DVec3) -> i64 {
+        // `as` saturates (and maps NaN to 0), so any point has a cell.
+        let f = |v: f64| v.floor() as i64;
+        match self.kind {
+            CellKind::Checker => f(p.x).wrapping_add(f(p.y)).wrapping_add(f(p.z)),
+            CellKind::Stripes => f(p.x),
+            CellKind::Ring => f(p.x.hypot(p.y)),
+        }
+    }
+}
+
+impl Texture for Cells {
+    #[inline]
+    fn eval(&self, at: &TexturePoint) -> Color {
+        if self.cell(self.mapping.point(at)) & 1 == 0 { self.even } else { self.odd }
+    }
+}
+
+fn build_cells(kind: CellKind, p: &mut Params) -> Result<Arc<dyn Texture>> {
+    let (even, odd) = (p.color("even")?, p.color("odd")?);
+    Ok(Arc::new(Cells::new(kind, even, odd, Mapping::from_params(p)?)))
+}
+
+/// Builds a `checker` texture.
+pub fn build_checker(p: &mut Params, _: &LoadContext) -> Result<Arc<dyn Texture>> {
+    build_cells(CellKind::Checker, p)
+}
+
+/// Builds a `stripes` texture.
+pub fn build_stripes(p: &mut Params, _: &LoadContext) -> Result<Arc<dyn Texture>> {
+    build_cells(CellKind::Stripes, p)
+}
+
+/// Builds a `ring` texture.
+pub fn build_ring(p: &mut Params, _: &LoadContext) -> Result<Arc<dyn Texture>> {
+    build_cells(CellKind::Ring, p)
+}
+
+/// What a gradient does beyond [0, 1].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Repeat {
+    /// The end colours.
+    Clamp,
+    /// Starts again at `from` (a sawtooth).
+    Repeat,
+    /// Runs back to `from`, then forth again.
+    Mirror,
+}
+
+/// A linear blend of two colours along the pattern's x.
+#[derive(Clone, Debug)]
+pub struct Gradient {
+    from: Color,
+    to: Color,
+    repeat: Repeat,
+    mapping: Mapping,
+}
+
+impl Gradient {
+    /// From `from` at x = 0 to `to` at x = 1, laid over the surface by `mapping`.
+    pub fn new(from: Color, to: Color, repeat: Repeat, mapping: Mapping) -> Self {
+        Gradient { from, to, repeat, mapping }
+    }
+}
+
+impl Texture for Gradient {
+    #[inline]
+    fn eval(&self, at: &TexturePoint) -> Color {
+        let x = self.mapping.point(at).x;
+        let t = match self.repeat {
+            Repeat::Clamp => x.clamp(0.0, 1.0),
+            Repeat::Repeat => x - x.floor(),
+            Repeat::Mirror => 1.0 - ((x - 2.0 * (0.5 * x).floor()) - 1.0).abs(),
+        };
+        // NaN (a degenerate hit) and what rounding leaves outside [0, 1] go to the ends.
+        let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };
+        self.from + (self.to - self.from) * t
+    }
+}
+
+/// Builds a `gradient` texture.
+pub fn build_gradient(p: &mut Params, _: &LoadContext) -> Result<Arc<dyn Texture>> {
+    let (from, to) = (p.color("from")?, p.color("to")?);
+    let repeat = match p.choice("repeat", &["clamp", "repeat", "mirror"])?.as_str() {
+        "repeat" => Repeat::Repeat,
+        "mirror" => Repeat::Mirror,
+        _ => Repeat::Clamp,
+    };
+    Ok(Arc::new(Gradient::new(from, to, repeat, Mapping::from_params(p)?)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use raylab::glam::DVec2;
+    use raylab::scene::texture::Coords;
+
+    fn at_uv(u: f64, v: f64) -> TexturePoint {
+        TexturePoint { uv: DVec2::new(u, v), local: DVec3::ZERO }
+    }
+
+    fn at_local(p: DVec3) -> TexturePoint {
+        TexturePoint { uv: DVec2::ZERO, local: p }
+    }
+
+    #[test]
+    fn cells_alternate_over_uv_and_through_objects() {
+        let (a, b) = (Color::ONE, Color::ZERO);
+        let c = Cells::new(CellKind::Checker, a, b, Mapping::new(Coords::Uv));
+        assert_eq!(c.eval(&at_uv(0.5, 0.5)), a);
+        assert_eq!(c.eval(&at_uv(1.5, 0.5)), b);
+        assert_eq!(c.eval(&at_uv(-0.5, 0.5)), b, "cells continue below zero");
+        assert_eq!(c.eval(&at_uv(1.5, 1.5)), a);
+        let solid = Cells::new(CellKind::Checker, a, b, Mapping::new(Coords::Object));
+        assert_eq!(solid.eval(&at_local(DVec3::new(0.5, 0.5, 1.5))), b);
+        let s = Cells::new(CellKind::Stripes, a, b, Mapping::new(Coords::Uv));
+        assert_eq!((s.eval(&at_uv(0.2, 7.0)), s.eval(&at_uv(1.2, -3.0))), (a, b));
+        let r = Cells::new(CellKind::Ring, a, b, Mapping::new(Coords::Object));
+        assert_eq!(r.eval(&at_local(DVec3::new(0.9, 0.8, 9.0))), b, "radius 1.2: ring 1");
+        assert_eq!(r.eval(&at_local(DVec3::new(0.3, 0.3, 9.0))), a);
+        // Any input has a colour.
+        for v in [f64::NAN, f64::INFINITY, -1e300] {
+            let x = c.eval(&at_uv(v, v));
+            assert!(x == a || x == b);
+        }
+    }
+
+    #[test]
+    fn gradients_blend_and_wrap() {
+        let g = |repeat| Gradient::new(Color::ZERO, Color::ONE, repeat, Mapping::new(Coords::Uv));
+        assert_eq!(g(Repeat::Clamp).eval(&at_uv(0.25, 0.0)).x, 0.25);
+        assert_eq!(g(Repeat::Clamp).eval(&at_uv(7.0, 0.0)).x, 1.0);
+        assert_eq!(g(Repeat::Repeat).eval(&at_uv(1.25, 0.0)).x, 0.25);
+        assert_eq!(g(Repeat::Mirror).eval(&at_uv(1.25, 0.0)).x, 0.75);
+        assert_eq!(g(Repeat::Mirror).eval(&at_uv(-0.25, 0.0)).x, 0.25);
+        for repeat in [Repeat::Clamp, Repeat::Repeat, Repeat::Mirror] {
+            for v in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 1e300] {
+                let x = g(repeat).eval(&at_uv(v, 0.0)).x;
+                assert!((0.0..=1.0).contains(&x), "{repeat:?} at {v}: {x}");
+            }
+        }
+    }
+}

@@ -1,0 +1,700 @@
+//! raylab's 4-wide bounding-volume hierarchy: built top-down by binned SAH (in parallel, of
+//! bounded depth for any input), laid out as nodes of four child boxes in `f32` (structure of
+//! arrays: 128 bytes, two cache lines), traversed nearest child first with a 4-lane slab test.
+//!
+//! The lanes are glam's `Vec4`: SSE2 on every x86-64 (no feature detection, no `unsafe`), NEON or
+//! scalar code elsewhere. The traversal is **conservative** (see [`super::bvh`]): the ray's origin
+//! is moved in `f64` to where it enters the padded root box before it is rounded to `f32`, every
+//! box is rounded outward and padded by [`BOX_PADDING`] of the root's magnitude, and reciprocals
+//! of direction components are finite, so no slab test produces NaN or culls a box the exact ray
+//! meets.
+//!
+//! Leaves hold up to [`Shape::leaf_max`] primitives in consecutive *slots*; with
+//! [`Shape::group`] > 1 every leaf starts at a multiple of the group and is padded to it, so a
+//! caller can store its primitives in packs of `group` lanes (a mesh's four-triangle packs).
+
+use super::bvh::{BOX_PADDING, BuildStats, MAX_INV_DIR};
+use crate::math::bounds::Aabb;
+use glam::{DVec3, Vec3A, Vec4};
+use std::time::Instant;
+
+/// Children per node.
+pub const WIDTH: usize = 4;
+
+/// A slot of the order that holds no primitive (padding of a leaf to its group).
+pub const PAD: u32 = u32::MAX;
+
+/// Centroid bins per axis in a split search.
+const BINS: usize = 16;
+
+/// Deepest binary level split by the surface-area heuristic; deeper ranges are halved by count
+/// (object median), as are ranges whose centroids coincide.
+const SAH_DEPTH: u32 = 40;
+
+/// Most binary levels of a build: [`SAH_DEPTH`] plus the ⌈log₂ n⌉ of the median halving
+/// (n < 2³²), plus the leaf. Every node's children are at least one binary level below it, so a
+/// hierarchy has at most this many levels of nodes.
+pub const MAX_DEPTH: usize = SAH_DEPTH as usize + 33;
+
+/// Ranges of at least this many primitives are built in parallel with their siblings.
+const PARALLEL_RANGE: usize = 1 << 14;
+
+/// Traversal stack entries for hierarchies of `levels` levels: each level leaves at most
+/// `WIDTH − 1` entries behind. The stack is cleared per ray, so a hierarchy gets the smallest of
+/// a few sizes that holds it: 16 entries (5 levels: scenes of objects), 64 (21 levels: meshes of
+/// millions of triangles) or enough for [`MAX_DEPTH`].
+const fn stack_entries(levels: usize) -> usize {
+    (WIDTH - 1) * levels + 1
+}
+const SMALL_STACK: usize = 16;
+const MEDIUM_STACK: usize = 64;
+const DEEP_STACK: usize = stack_entries(MAX_DEPTH);
+
+/// How primitives are grouped into leaves.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shape {
+    /// Leaves start at multiples of this many slots and are padded to it with [`PAD`].
+    pub group: u32,
+    /// Most primitives in a leaf (a multiple of `group`).
+    pub leaf_max: u32,
+}
+
+impl Shape {
+    /// One primitive per leaf, no padding: scene objects.
+    pub const SINGLE: Shape = Shape { group: 1, leaf_max: 1 };
+    /// Leaves of up to four primitives in one pack of four slots: mesh triangles.
+    pub const PACK4: Shape = Shape { group: 4, leaf_max: 4 };
+}
+
+/// A node: four child boxes, each an inner node or a leaf. An unused lane has an empty box
+/// (min +∞, max −∞), which no ray meets.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+pub struct Node {
+    /// `bounds[axis][0]`: the children's minima on `axis`, `bounds[axis][1]` their maxima; lane =
+    /// child. Rounded outward from `f64` and padded.
+    bounds: [[[f32; WIDTH]; 2]; 3],
+    /// Child `i`: a node index when `count[i] == 0`, else the first slot of a leaf of `count[i]`
+    /// primitives.
+    child: [u32; WIDTH],
+    count: [u32; WIDTH],
+}
+
+impl Node {
+    const EMPTY: Node = Node { bounds: [[[f32::INFINITY; WIDTH], [f32::NEG_INFINITY; WIDTH]]; 3], child: [0; WIDTH], count: [0; WIDTH] };
+
+    fn set_box(&mut self, lane: usize, b: &Box32) {
+        for axis in 0..3 {
+            self.bounds[axis][0][lane] = b.min[axis];
+            self.bounds[axis][1][lane] = b.max[axis];
+        }
+    }
+
+    fn is_used(&self, lane: usize) -> bool {
+        self.bounds[0][0][lane] <= self.bounds[0][1][lane]
+    }
+}
+
+/// A box in `f32`, for the build.
+#[derive(Clone, Copy, Debug)]
+pub struct Box32 {
+    /// Lower corner.
+    pub min: Vec3A,
+    /// Upper corner.
+    pub max: Vec3A,
+}
+
+impl Box32 {
+    const EMPTY: Box32 = Box32 { min: Vec3A::splat(f32::INFINITY), max: Vec3A::splat(f32::NEG_INFINITY) };
+
+    #[inline]
+    fn union(&self, o: &Box32) -> Box32 {
+        Box32 { min: self.min.min(o.min), max: self.max.max(o.max) }
+    }
+
+    /// Half the surface area, in `f64` (no overflow for any `f32` box).
+    #[inline]
+    fn half_area(&self) -> f64 {
+        if self.min.cmpgt(self.max).any() {
+            return 0.0;
+        }
+        let e = (self.max - self.min).as_dvec3();
+        e.x * e.y + e.y * e.z + e.z * e.x
+    }
+}
+
+/// Rounds toward −∞ to `f32`.
+#[inline]
+pub fn down(x: f64) -> f32 {
+    let v = x as f32;
+    if f64::from(v) > x { v.next_down() } else { v }
+}
+
+/// Rounds toward +∞ to `f32`.
+#[inline]
+pub fn up(x: f64) -> f32 {
+    let v = x as f32;
+    if f64::from(v) < x { v.next_up() } else { v }
+}
+
+/// A 4-wide hierarchy with its padded root box.
+pub struct Bvh4 {
+    nodes: Vec<Node>,
+    /// The padded root box, in `f64`.
+    root: Aabb,
+    /// Levels of nodes.
+    depth: usize,
+}
+
+/// A built hierarchy: the nodes, the slot order (`order[slot]` is the primitive at `slot`, or
+/// [`PAD`]) and what the build cost.
+pub struct Built {
+    /// The hierarchy.
+    pub bvh: Bvh4,
+    /// Primitive of each slot.
+    pub order: Vec<u32>,
+    /// Cost of the build.
+    pub stats: BuildStats,
+}
+
+impl Bvh4 {
+    /// Builds over `count` primitives (at least one) whose boxes (finite, non-empty) `box_of`
+    /// gives, with leaves shaped by `shape`.
+    pub fn build(count: usize, box_of: impl Fn(usize) -> Aabb + Sync, shape: Shape) -> Built {
+        use rayon::prelude::*;
+        let start = Instant::now();
+        let total = if count >= PARALLEL_RANGE {
+            (0..count).into_par_iter().map(&box_of).reduce(|| Aabb::EMPTY, Aabb::union)
+        } else {
+            (0..count).map(&box_of).fold(Aabb::EMPTY, Aabb::union)
+        };
+        let pad = BOX_PADDING * (total.magnitude() + total.extent().length());
+        let pad = DVec3::splat(pad.max(f64::MIN_POSITIVE));
+        let record = |i: usize| {
+            let b = box_of(i);
+            let (lo, hi) = (b.min - pad, b.max + pad);
+            PrimRef::new(Vec3A::new(down(lo.x), down(lo.y), down(lo.z)), Vec3A::new(up(hi.x), up(hi.y), up(hi.z)), i as u32)
+        };
+        let prims: Vec<PrimRef> =
+            if count >= PARALLEL_RANGE { (0..count).into_par_iter().map(record).collect() } else { (0..count).map(record).collect() };
+        let (nodes, order, depth) = build_nodes(prims, shape);
+        debug_assert!(depth <= MAX_DEPTH, "{depth} levels");
+        let bvh = Bvh4 { nodes, root: total.expand(pad * 2.0), depth };
+        let stats = BuildStats {
+            hierarchies: 1,
+            primitives: count as u64,
+            nodes: bvh.nodes.len() as u64,
+            bytes: bvh.memory_bytes() as u64,
+            time: start.elapsed(),
+        };
+        Built { bvh, order, stats }
+    }
+
+    /// Levels of nodes.
+    pub fn depth(&self) -> usize {
+        self.depth
+    }
+
+    /// Bytes of the nodes.
+    pub fn memory_bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<Node>()
+    }
+
+    /// The padded root box.
+    pub fn root(&self) -> &Aabb {
+        &self.root
+    }
+
+    /// Walks the leaves the ray meets (in the shifted frame of `r`, up to `hi`), nearest first,
+    /// calling `leaf(first, count, &mut hi)`; stops when it returns true, and returns whether it
+    /// did. `leaf` may lower `hi` (a closer hit found).
+    #[inline]
+    pub fn traverse(&self, r: &NodeRay, hi: &mut f32, leaf: &mut impl FnMut(u32, u32, &mut f32) -> bool) -> bool {
+        let need = stack_entries(self.depth);
+        if need <= SMALL_STACK {
+            self.walk::<SMALL_STACK>(r, hi, leaf)
+        } else if need <= MEDIUM_STACK {
+            self.walk::<MEDIUM_STACK>(r, hi, leaf)
+        } else {
+            self.walk::<DEEP_STACK>(r, hi, leaf)
+        }
+    }
+
+    #[inline(always)]
+    fn walk<const N: usize>(&self, r: &NodeRay, hi: &mut f32, leaf: &mut impl FnMut(u32, u32, &mut f32) -> bool) -> bool {
+        // The stack holds at most (WIDTH − 1) entries per level: `N` ≥ stack_entries(self.depth).
+        let mut stack = [Entry::default(); N];
+        let mut sp = 0usize;
+        let mut cur = Entry { child: 0, count: 0, near: 0.0 };
+        'walk: loop {
+            'descend: {
+                if cur.count != 0 {
+                    if leaf(cur.child, cur.count, hi) {
+                        return true;
+                    }
+                    break 'descend;
+                }
+                let node = &self.nodes[cur.child as usize];
+                let (near, mut mask) = node_hits(node, r, *hi);
+                if mask == 0 {
+                    break 'descend;
+                }
+                let near = near.to_array();
+                if mask & (mask - 1) == 0 {
+                    let i = mask.trailing_zeros() as usize;
+                    cur = Entry { child: node.child[i], count: node.count[i], near: near[i] };
+                    continue 'walk;
+                }
+                // Several children: push them, farthest deepest, and continue with the nearest.
+                let base = sp;
+                while mask != 0 {
+                    let i = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    let e = Entry { child: node.child[i], count: node.count[i], near: near[i] };
+                    let mut j = sp;
+                    while j > base && stack[j - 1].near < e.near {
+                        stack[j] = stack[j - 1];
+                        j -= 1;
+                    }
+                    stack[j] = e;
+                    sp += 1;
+                }
+                sp -= 1;
+                cur = stack[sp];
+                continue 'walk;
+            }
+            loop {
+                if sp == 0 {
+                    return false;
+                }
+                sp -= 1;
+                if stack[sp].near <= *hi {
+                    cur = stack[sp];
+                    break;
+                }
+            }
+        }
+    }
+}
+
+/// A traversal stack entry: a child and the distance at which the ray enters its box.
+#[derive(Clone, Copy, Default)]
+struct Entry {
+    child: u32,
+    count: u32,
+    near: f32,
+}
+
+/// A ray prepared for the `f32` slab tests: origin shifted to the root box, reciprocals finite.
+#[derive(Clone, Copy, Debug)]
+pub struct NodeRay {
+    origin: [Vec4; 3],
+    inv: [Vec4; 3],
+    /// Per axis: 0 when the ray meets the minimum plane first, 1 when the maximum.
+    near_plane: [usize; 3],
+}
+
+impl NodeRay {
+    /// The `f32` ray from `origin` (the shifted origin, in `f64`) along unit `dir`.
+    #[inline]
+    pub fn new(origin: DVec3, dir: DVec3) -> NodeRay {
+        let d = dir.as_vec3a();
+        // Reciprocals never infinite: |1/d| is capped at MAX_INV_DIR, keeping the sign.
+        let r = Vec3A::ONE / d;
+        let cap = Vec3A::splat(MAX_INV_DIR).copysign(d);
+        let inv = Vec3A::select(r.abs().cmple(Vec3A::splat(MAX_INV_DIR)), r, cap);
+        let o = origin.as_vec3a();
+        // Signs from the reciprocal, so −0 counts as negative (as in 1/−0 = −∞).
+        let near_plane = [usize::from(inv.x < 0.0), usize::from(inv.y < 0.0), usize::from(inv.z < 0.0)];
+        NodeRay {
+            origin: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
+            inv: [Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z)],
+            near_plane,
+        }
+    }
+}
+
+/// The entry distances of the ray into a node's four child boxes over `[0, hi]`, and the mask of
+/// the children it meets.
+#[inline(always)]
+fn node_hits(node: &Node, r: &NodeRay, hi: f32) -> (Vec4, u32) {
+    let slab = |axis: usize| {
+        let n = r.near_plane[axis] & 1;
+        let near = (Vec4::from_array(node.bounds[axis][n]) - r.origin[axis]) * r.inv[axis];
+        let far = (Vec4::from_array(node.bounds[axis][n ^ 1]) - r.origin[axis]) * r.inv[axis];
+        (near, far)
+    };
+    let (nx, fx) = slab(0);
+    let (ny, fy) = slab(1);
+    let (nz, fz) = slab(2);
+    let near = nx.max(ny).max(nz).max(Vec4::ZERO);
+    let far = fx.min(fy).min(fz).min(Vec4::splat(hi));
+    (near, near.cmple(far).bitmask())
+}
+
+/// The shifted-frame far limit for a hit at shifted distance `t`, rounded up.
+#[inline(always)]
+pub fn far_limit(t: f64) -> f32 {
+    if t.is_finite() { up(t) } else { f32::INFINITY }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Building
+// ---------------------------------------------------------------------------------------------
+
+/// A primitive while building: its `f32` box, with its index in the `w` lane of the minimum (as
+/// bits). The build moves these records, not indices, so it reads memory in order.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+struct PrimRef {
+    lo: Vec4,
+    hi: Vec4,
+}
+
+impl PrimRef {
+    fn new(min: Vec3A, max: Vec3A, index: u32) -> Self {
+        PrimRef { lo: min.extend(f32::from_bits(index)), hi: max.extend(0.0) }
+    }
+
+    #[inline(always)]
+    fn index(&self) -> u32 {
+        self.lo.w.to_bits()
+    }
+
+    #[inline(always)]
+    fn bounds(&self) -> Box32 {
+        Box32 { min: Vec3A::from_vec4(self.lo), max: Vec3A::from_vec4(self.hi) }
+    }
+
+    /// Twice the centre (the sum of the corners: binning needs no halving).
+    #[inline(always)]
+    fn center2(&self) -> Vec3A {
+        Vec3A::from_vec4(self.lo + self.hi)
+    }
+}
+
+/// A range of primitives on its way into the hierarchy: `prims[start..end]` of the range being
+/// split, its box, the box of its (doubled) centres, and its binary depth.
+#[derive(Clone, Copy)]
+struct Part {
+    start: usize,
+    end: usize,
+    bounds: Box32,
+    centers: Box32,
+    depth: u32,
+}
+
+impl Part {
+    fn len(&self) -> usize {
+        self.end - self.start
+    }
+}
+
+/// The boxes of a range of primitives and of their (doubled) centres.
+fn bounds_of(prims: &[PrimRef]) -> (Box32, Box32) {
+    prims.iter().fold((Box32::EMPTY, Box32::EMPTY), |(b, c), p| {
+        let centre = p.center2();
+        (b.union(&p.bounds()), Box32 { min: c.min.min(centre), max: c.max.max(centre) })
+    })
+}
+
+/// The nodes over `prims` (root first), the slot order and the number of levels.
+fn build_nodes(mut prims: Vec<PrimRef>, shape: Shape) -> (Vec<Node>, Vec<u32>, usize) {
+    let n = prims.len();
+    let (bounds, centers) = if n >= PARALLEL_RANGE {
+        use rayon::prelude::*;
+        prims.par_chunks(PARALLEL_RANGE).map(bounds_of).reduce(|| (Box32::EMPTY, Box32::EMPTY), |a, b| (a.0.union(&b.0), a.1.union(&b.1)))
+    } else {
+        bounds_of(&prims)
+    };
+    let b = Builder { shape };
+    let mut nodes = Vec::with_capacity(n / 2 + 1);
+    b.subtree(&mut prims, 0, Part { start: 0, end: n, bounds, centers, depth: 0 }, &mut nodes);
+    // Leaves point at ranges of `prims`; give them slots in traversal order, padded to the group.
+    let g = shape.group as usize;
+    let mut order = Vec::with_capacity(n + n / 2);
+    let mut depth = 0;
+    let mut todo = vec![(0usize, 1usize)];
+    while let Some((i, level)) = todo.pop() {
+        depth = depth.max(level);
+        for lane in (0..WIDTH).rev() {
+            let node = &mut nodes[i];
+            if !node.is_used(lane) {
+                continue;
+            }
+            if node.count[lane] == 0 {
+                todo.push((node.child[lane] as usize, level + 1));
+            } else {
+                let (first, count) = (node.child[lane] as usize, node.count[lane] as usize);
+                node.child[lane] = order.len() as u32;
+                order.extend(prims[first..first + count].iter().map(PrimRef::index));
+                order.resize(order.len().next_multiple_of(g), PAD);
+            }
+        }
+    }
+    (nodes, order, depth)
+}
+
+struct Builder {
+    shape: Shape,
+}
+
+impl Builder {
+    fn is_leaf(&self, p: &Part) -> bool {
+        p.len() <= self.shape.leaf_max as usize
+    }
+
+    /// Appends the nodes over `part` (a range of `prims`, whose first element is position
+    /// `offset` of the whole build) to `out`, root first; leaves refer to positions in the whole
+    /// build's records.
+    fn subtree(&self, prims: &mut [PrimRef], offset: usize, part: Part, out: &mut Vec<Node>) {
+        let parts = self.partition(prims, part);
+        let at = out.len();
+        out.push(Node::EMPTY);
+        let mut node = Node::EMPTY;
+        let big = parts.iter().flatten().filter(|p| !self.is_leaf(p) && p.len() >= PARALLEL_RANGE).count();
+        if big >= 2 {
+            // Disjoint slices of `prims`, built into their own node lists in parallel, then
+            // appended in lane order: the result does not depend on the thread count.
+            let mut slices: [Option<(&mut [PrimRef], Part)>; WIDTH] = Default::default();
+            let mut rest: &mut [PrimRef] = prims;
+            let mut consumed = 0;
+            for (lane, p) in parts.iter().enumerate() {
+                let Some(p) = p else { continue };
+                let (_, tail) = rest.split_at_mut(p.start - consumed);
+                let (mine, tail) = tail.split_at_mut(p.len());
+                rest = tail;
+                consumed = p.end;
+                slices[lane] = Some((mine, *p));
+            }
+            let build = |s: Option<(&mut [PrimRef], Part)>| -> Vec<Node> {
+                let mut v = Vec::new();
+                if let Some((slice, p)) = s
+                    && !self.is_leaf(&p)
+                {
+                    self.subtree(slice, offset + p.start, Part { start: 0, end: p.len(), ..p }, &mut v);
+                }
+                v
+            };
+            let [s0, s1, s2, s3] = slices;
+            let ((v0, v1), (v2, v3)) = rayon::join(|| rayon::join(|| build(s0), || build(s1)), || rayon::join(|| build(s2), || build(s3)));
+            for (lane, v) in [v0, v1, v2, v3].into_iter().enumerate() {
+                let Some(p) = parts[lane] else { continue };
+                node.set_box(lane, &p.bounds);
+                if self.is_leaf(&p) {
+                    node.child[lane] = (offset + p.start) as u32;
+                    node.count[lane] = p.len() as u32;
+                } else {
+                    let base = out.len() as u32;
+                    node.child[lane] = base;
+                    out.extend(v.into_iter().map(|mut n| {
+                        for l in 0..WIDTH {
+                            if n.count[l] == 0 && n.is_used(l) {
+                                n.child[l] += base;
+                            }
+                        }
+                        n
+                    }));
+                }
+            }
+        } else {
+            for (lane, p) in parts.iter().enumerate() {
+                let Some(p) = p else { continue };
+                node.set_box(lane, &p.bounds);
+                if self.is_leaf(p) {
+                    node.child[lane] = (offset + p.start) as u32;
+                    node.count[lane] = p.len() as u32;
+                } else {
+                    node.child[lane] = out.len() as u32;
+                    let slice = &mut prims[p.start..p.end];
+                    self.subtree(slice, offset + p.start, Part { start: 0, end: p.len(), ..*p }, out);
+                }
+            }
+        }
+        out[at] = node;
+    }
+
+    /// Splits `part` into up to four parts (ranges of `prims` in order): the part with the largest
+    /// box that is too big for a leaf is split in two until there are four.
+    fn partition(&self, prims: &mut [PrimRef], part: Part) -> [Option<Part>; WIDTH] {
+        let mut parts = [Some(part), None, None, None];
+        let mut len = 1;
+        while len < WIDTH {
+            let mut pick: Option<(usize, f64)> = None;
+            for (i, p) in parts.iter().enumerate().take(len) {
+                if let Some(p) = p
+                    && !self.is_leaf(p)
+                {
+                    let area = p.bounds.half_area();
+                    if pick.is_none_or(|(_, a)| area > a) {
+                        pick = Some((i, area));
+                    }
+                }
+            }
+            let Some((i, _)) = pick else { break };
+            let Some(p) = parts[i] else { break };
+            let (left, right) = self.split(&mut prims[p.start..p.end], &p);
+            for j in (i + 1..len).rev() {
+                parts[j + 1] = parts[j];
+            }
+            parts[i] = Some(Part { start: p.start + left.start, end: p.start + left.end, ..left });
+            parts[i + 1] = Some(Part { start: p.start + right.start, end: p.start + right.end, ..right });
+            len += 1;
+        }
+        parts
+    }
+
+    /// Reorders `range` (the primitives of `part`, two or more) into two non-empty parts, given
+    /// relative to `range`.
+    fn split(&self, range: &mut [PrimRef], part: &Part) -> (Part, Part) {
+        let depth = part.depth + 1;
+        let extent = part.centers.max - part.centers.min;
+        if part.depth < SAH_DEPTH && extent.max_element() > 0.0 {
+            let bins = Bins::new(part.centers.min, extent);
+            let split = if range.len() >= PARALLEL_BINNING {
+                use rayon::prelude::*;
+                range.par_chunks(PARALLEL_RANGE).map(|c| bins.count(c)).reduce(Counts::default, |a, b| a.merge(&b))
+            } else {
+                bins.count(range)
+            }
+            .best_split(self.shape.group);
+            if let Some((axis, bin, left, right)) = split {
+                // Partition by the chosen bin, collecting each side's centre box on the way.
+                let (mut first, mut last) = (0, range.len());
+                let (mut lc, mut rc) = (Box32::EMPTY, Box32::EMPTY);
+                while first < last {
+                    let c = range[first].center2();
+                    if bins.bin(c, axis) < bin {
+                        lc = Box32 { min: lc.min.min(c), max: lc.max.max(c) };
+                        first += 1;
+                    } else {
+                        rc = Box32 { min: rc.min.min(c), max: rc.max.max(c) };
+                        last -= 1;
+                        range.swap(first, last);
+                    }
+                }
+                let n = range.len();
+                return (
+                    Part { start: 0, end: first, bounds: left, centers: lc, depth },
+                    Part { start: first, end: n, bounds: right, centers: rc, depth },
+                );
+            }
+        }
+        let axis = if extent.x >= extent.y && extent.x >= extent.z {
+            0
+        } else if extent.y >= extent.z {
+            1
+        } else {
+            2
+        };
+        let half = range.len() / 2;
+        range.select_nth_unstable_by(half, |a, b| a.center2()[axis].total_cmp(&b.center2()[axis]));
+        let (lb, lc) = bounds_of(&range[..half]);
+        let (rb, rc) = bounds_of(&range[half..]);
+        (
+            Part { start: 0, end: half, bounds: lb, centers: lc, depth },
+            Part { start: half, end: range.len(), bounds: rb, centers: rc, depth },
+        )
+    }
+}
+
+/// Ranges of at least this many primitives are binned in parallel.
+const PARALLEL_BINNING: usize = 1 << 18;
+
+/// The centroid binning of one range: bin `i` of an axis covers `lo + [i, i + 1) · extent / BINS`.
+struct Bins {
+    lo: Vec3A,
+    /// BINS / extent per axis, capped so that it is finite; 0 for an axis of zero extent (every
+    /// centroid in bin 0).
+    scale: Vec3A,
+}
+
+/// Primitive counts and boxes per bin and axis.
+#[derive(Clone)]
+struct Counts {
+    count: [[u32; BINS]; 3],
+    bounds: [[Box32; BINS]; 3],
+}
+
+impl Default for Counts {
+    fn default() -> Self {
+        Counts { count: [[0; BINS]; 3], bounds: [[Box32::EMPTY; BINS]; 3] }
+    }
+}
+
+impl Bins {
+    fn new(lo: Vec3A, extent: Vec3A) -> Self {
+        let scale = |e: f32| if e > 0.0 { (BINS as f32 / e).min(f32::MAX) } else { 0.0 };
+        Bins { lo, scale: Vec3A::new(scale(extent.x), scale(extent.y), scale(extent.z)) }
+    }
+
+    /// The bins of centre (doubled) `c` on the three axes.
+    #[inline(always)]
+    fn bins(&self, c: Vec3A) -> [usize; 3] {
+        // Clamped in `f32` first, so the conversions see values in [0, BINS − 1].
+        // (`as i32` is one instruction where `as usize` of an `f32` is a dozen.)
+        let b = ((c - self.lo) * self.scale).clamp(Vec3A::ZERO, Vec3A::splat((BINS - 1) as f32));
+        [b.x as i32 as usize, b.y as i32 as usize, b.z as i32 as usize]
+    }
+
+    /// The bin of centre (doubled) `c` on `axis`.
+    #[inline(always)]
+    fn bin(&self, c: Vec3A, axis: usize) -> usize {
+        (((c[axis] - self.lo[axis]) * self.scale[axis]).clamp(0.0, (BINS - 1) as f32)) as i32 as usize
+    }
+
+    /// The counts and boxes of `range` in the bins.
+    fn count(&self, range: &[PrimRef]) -> Counts {
+        let mut c = Counts::default();
+        for p in range {
+            let idx = self.bins(p.center2());
+            let b = p.bounds();
+            for (axis, &i) in idx.iter().enumerate() {
+                c.count[axis][i] += 1;
+                c.bounds[axis][i] = c.bounds[axis][i].union(&b);
+            }
+        }
+        c
+    }
+}
+
+impl Counts {
+    fn merge(mut self, o: &Counts) -> Counts {
+        for axis in 0..3 {
+            for i in 0..BINS {
+                self.count[axis][i] += o.count[axis][i];
+                self.bounds[axis][i] = self.bounds[axis][i].union(&o.bounds[axis][i]);
+            }
+        }
+        self
+    }
+
+    /// The axis, first right-hand bin and the two boxes of the cheapest split by the
+    /// surface-area heuristic (primitives counted in leaf groups of `group`), or `None` when no
+    /// axis has two non-empty sides.
+    fn best_split(&self, group: u32) -> Option<(usize, usize, Box32, Box32)> {
+        let blocks = |n: u32| f64::from(n.div_ceil(group));
+        let mut best: Option<(f64, usize, usize, Box32, Box32)> = None;
+        for axis in 0..3 {
+            // Box and primitive count of the right-hand side from each bin on.
+            let mut right = [(Box32::EMPTY, 0u32); BINS];
+            let mut acc = (Box32::EMPTY, 0u32);
+            for i in (1..BINS).rev() {
+                acc = (acc.0.union(&self.bounds[axis][i]), acc.1 + self.count[axis][i]);
+                right[i] = acc;
+            }
+            let mut left = (Box32::EMPTY, 0u32);
+            for (i, r) in right.iter().enumerate().skip(1) {
+                left = (left.0.union(&self.bounds[axis][i - 1]), left.1 + self.count[axis][i - 1]);
+                if left.1 == 0 || r.1 == 0 {
+                    continue;
+                }
+                let cost = left.0.half_area() * blocks(left.1) + r.0.half_area() * blocks(r.1);
+                if best.is_none_or(|b| cost < b.0) {
+                    best = Some((cost, axis, i, left.0, r.0));
+                }
+            }
+        }
+        best.map(|(_, axis, i, l, r)| (axis, i, l, r))
+    }
+}

@@ -1,0 +1,238 @@
+//! Exact per-pixel sums. A pixel's colour is the mean of its samples' radiance; the sums are kept
+//! in fixed point (`i128`, 64 fraction bits), where addition is exact and so does not depend on
+//! order. That is what lets a frame be split by tiles, crops, sample passes, machines or a
+//! resume and merge to the same bits as one process: the sums of disjoint shares of a pixel's
+//! samples add up to exactly the sum one process computes.
+//!
+//! Range: each sample is rounded to the nearest multiple of 2⁻⁶⁴ (far below an `f32` film's
+//! resolution at any value it can hold above 10⁻¹⁹), and a pixel's sum saturates at
+//! ±2⁶³ ≈ 9.2·10¹⁸ (it never wraps).
+
+use crate::math::color::Color;
+use crate::render::aov::Layers;
+use glam::Vec3;
+
+/// 2⁶⁴: one unit of the colour sums.
+const COLOR_SCALE: f64 = 18_446_744_073_709_551_616.0;
+/// 2³²: one unit of the depth sums (scene units).
+const DEPTH_SCALE: f64 = 4_294_967_296.0;
+/// 2⁴⁰: one unit of the normal and albedo sums (each component is within [−1, 1]).
+const UNIT_SCALE: f64 = 1_099_511_627_776.0;
+
+/// `x` in units of `1 / scale`, rounded to nearest (half away from zero), saturating (NaN: 0).
+#[inline]
+fn fixed(x: f64, scale: f64) -> i128 {
+    let y = x * scale;
+    // Without library calls (`f64::round` and `as i128` are calls on x86-64 without SSE4.1), to
+    // the bit: below 2⁶³ through the integer part (`y − i` is exact: Sterbenz, and `y` is whole
+    // from 2⁵² on); up to 2⁹⁵ (colours up to 2³¹, which the 2⁶⁴ scale puts above 2⁶³ from 0.5 on)
+    // `y` is whole, and its two halves above and below 2³² convert exactly; beyond, the slow path.
+    let a = y.abs();
+    if a < 9.2e18 {
+        let i = y as i64;
+        let frac = y - i as f64;
+        (i + i64::from(frac >= 0.5) - i64::from(frac <= -0.5)) as i128
+    } else if a < 3.9e28 {
+        let high = (y * (1.0 / 4_294_967_296.0)) as i64;
+        let low = y - high as f64 * 4_294_967_296.0;
+        (i128::from(high) << 32) + i128::from(low as i64)
+    } else {
+        y.round() as i128
+    }
+}
+
+/// `s` as a float: the sum of its two 64-bit halves, each converted in one instruction (not
+/// rounded once like `s as f64`, but as deterministic, and within 2 ulp).
+#[inline]
+fn float(s: i128) -> f64 {
+    ((s >> 64) as i64) as f64 * 18_446_744_073_709_551_616.0 + (s as u64) as f64
+}
+
+/// The finite radiance of some camera rays, summed exactly, with their count and how many of the
+/// pixel's samples they came from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PixelSum {
+    /// Σ radiance per channel, in units of 2⁻⁶⁴.
+    pub sum: [i128; 3],
+    /// Rays whose radiance was finite (the divisor of the mean).
+    pub n: u32,
+    /// Samples of the pixel's share already added (for a resume: which come next).
+    pub samples: u32,
+}
+
+impl PixelSum {
+    /// Adds one ray's radiance `c` (finite).
+    #[inline]
+    pub fn add(&mut self, c: Color) {
+        for (s, v) in self.sum.iter_mut().zip(c.to_array()) {
+            *s = s.saturating_add(fixed(v, COLOR_SCALE));
+        }
+        self.n += 1;
+    }
+
+    /// A pixel whose value `c` was computed whole (adaptive anti-aliasing): one unit of weight.
+    pub fn whole(c: Color) -> Self {
+        let mut p = PixelSum::default();
+        p.add(c);
+        p.samples = 1;
+        p
+    }
+
+    /// The mean radiance (black when no ray counted).
+    #[inline]
+    pub fn mean(&self) -> Color {
+        if self.n == 0 {
+            return Color::ZERO;
+        }
+        let n = f64::from(self.n);
+        Color::new(float(self.sum[0]) / COLOR_SCALE / n, float(self.sum[1]) / COLOR_SCALE / n, float(self.sum[2]) / COLOR_SCALE / n)
+    }
+
+    /// `o`'s rays and samples added to these.
+    pub fn merge(&mut self, o: &PixelSum) {
+        for (s, v) in self.sum.iter_mut().zip(o.sum) {
+            *s = s.saturating_add(v);
+        }
+        self.n = self.n.saturating_add(o.n);
+        self.samples = self.samples.saturating_add(o.samples);
+    }
+}
+
+/// The depth, normal and albedo of what camera rays saw first, summed exactly (see the module
+/// docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LayerSum {
+    /// Σ depth over the rays that hit something, in units of 2⁻³² scene units.
+    pub depth: i128,
+    /// Rays that hit something.
+    pub hits: u32,
+    /// Rays.
+    pub rays: u32,
+    /// Σ shading normal, in units of 2⁻⁴⁰.
+    pub normal: [i64; 3],
+    /// Σ albedo, in units of 2⁻⁴⁰.
+    pub albedo: [i64; 3],
+}
+
+impl LayerSum {
+    /// Adds one ray's layers.
+    #[inline]
+    pub fn add(&mut self, l: &Layers) {
+        if l.depth.is_finite() {
+            self.depth = self.depth.saturating_add(fixed(l.depth, DEPTH_SCALE));
+            self.hits += 1;
+        }
+        self.rays += 1;
+        for k in 0..3 {
+            self.normal[k] = self.normal[k].saturating_add(fixed(l.normal[k], UNIT_SCALE) as i64);
+            self.albedo[k] = self.albedo[k].saturating_add(fixed(l.albedo[k], UNIT_SCALE) as i64);
+        }
+    }
+
+    /// A pixel whose layers were computed whole (adaptive anti-aliasing).
+    pub fn whole(depth: f32, normal: Vec3, albedo: Vec3) -> Self {
+        let mut s = LayerSum::default();
+        s.add(&Layers { depth: f64::from(depth), normal: normal.as_dvec3(), albedo: albedo.as_dvec3(), signature: 0 });
+        s
+    }
+
+    /// `o`'s rays added to these.
+    pub fn merge(&mut self, o: &LayerSum) {
+        self.depth = self.depth.saturating_add(o.depth);
+        self.hits = self.hits.saturating_add(o.hits);
+        self.rays = self.rays.saturating_add(o.rays);
+        for k in 0..3 {
+            self.normal[k] = self.normal[k].saturating_add(o.normal[k]);
+            self.albedo[k] = self.albedo[k].saturating_add(o.albedo[k]);
+        }
+    }
+
+    /// The mean layers: depth over the rays that hit (+∞ when none did), normal and albedo over
+    /// all rays.
+    pub fn mean(&self) -> (f32, Vec3, Vec3) {
+        let depth = if self.hits > 0 { (float(self.depth) / DEPTH_SCALE / f64::from(self.hits)) as f32 } else { f32::INFINITY };
+        if self.rays == 0 {
+            return (depth, Vec3::ZERO, Vec3::ZERO);
+        }
+        let n = f64::from(self.rays) * UNIT_SCALE;
+        let v = |a: [i64; 3]| Vec3::new((a[0] as f64 / n) as f32, (a[1] as f64 / n) as f32, (a[2] as f64 / n) as f32);
+        (depth, v(self.normal), v(self.albedo))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The rounding through the integer part is `f64::round`, including halves, the largest
+    /// values of the fast path and its edges.
+    #[test]
+    fn fixed_rounds_as_round_does() {
+        let mut values = vec![
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.5,
+            -2.5,
+            0.49999999999999994,
+            -0.49999999999999994,
+            4503599627370495.5,
+            9.19e18,
+            -9.19e18,
+            9.21e18,
+            -9.3e18,
+            3.89e28,
+            -3.89e28,
+            3.91e28,
+            1e30,
+        ];
+        values.extend((0..20_000).map(|i| {
+            let x = f64::from(i) * 0.7548776662466927;
+            (x.sin() * 10f64.powi(i % 40 - 20)).copysign(if i % 3 == 0 { -1.0 } else { 1.0 })
+        }));
+        for v in values {
+            for scale in [1.0, COLOR_SCALE, DEPTH_SCALE, UNIT_SCALE] {
+                let y = v * scale;
+                assert_eq!(fixed(v, scale), y.round() as i128, "{v} × {scale}");
+            }
+        }
+        assert_eq!(fixed(f64::NAN, 1.0), 0);
+    }
+
+    #[test]
+    fn sums_do_not_depend_on_order_or_split() {
+        let values: Vec<Color> = (0..1000)
+            .map(|i| {
+                let x = f64::from(i);
+                Color::new((x * 0.37).sin().abs() * 1e3, 1.0 / (x + 1.0), (x * 1e-3).exp() - 1.0 + 1e-12)
+            })
+            .collect();
+        let mut forward = PixelSum::default();
+        values.iter().for_each(|c| forward.add(*c));
+        let mut backward = PixelSum::default();
+        values.iter().rev().for_each(|c| backward.add(*c));
+        assert_eq!(forward, backward);
+        // Three passes of interleaved samples, merged.
+        let mut merged = PixelSum::default();
+        for k in 0..3 {
+            let mut part = PixelSum::default();
+            values.iter().skip(k).step_by(3).for_each(|c| part.add(*c));
+            merged.merge(&part);
+        }
+        assert_eq!((merged.sum, merged.n), (forward.sum, forward.n));
+        let plain: Color = values.iter().sum::<Color>() / 1000.0;
+        assert!((forward.mean() - plain).abs().max_element() < 1e-12 * plain.max_element());
+    }
+
+    #[test]
+    fn huge_radiance_saturates_and_tiny_rounds_to_zero() {
+        let mut p = PixelSum::default();
+        p.add(Color::splat(1e30));
+        p.add(Color::splat(1e30));
+        assert!(p.mean().x > 1e18 && p.mean().is_finite());
+        let mut q = PixelSum::default();
+        q.add(Color::splat(1e-30));
+        assert_eq!(q.mean(), Color::ZERO);
+    }
+}

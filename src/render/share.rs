@@ -1,0 +1,321 @@
+//! Parts of a frame: a rectangle of pixels ([`Rect`]), the share of the frame's work one render
+//! does ([`Share`]: pixel bounds and a sample pass), and that share's exact state
+//! ([`FrameSums`]): what a partial file, a checkpoint and a merge hold.
+//!
+//! Shares never change what a sample computes (every sample is a pure function of its pixel or
+//! lattice point, index and the seed) and the sums are exact ([`crate::render::accum`]), so any
+//! set of disjoint shares that covers the frame merges to the bits of one whole render.
+
+use crate::image::film::Film;
+use crate::image::layers::Aovs;
+use crate::image::write::{WriteError, try_filled};
+use crate::render::accum::{LayerSum, PixelSum};
+use crate::render::job::{Antialiasing, RenderSettings};
+use glam::Vec3;
+use serde::Serialize;
+
+/// A rectangle of pixels, `[x0, x1) × [y0, y1)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+pub struct Rect {
+    /// First column.
+    pub x0: u32,
+    /// First row.
+    pub y0: u32,
+    /// One past the last column.
+    pub x1: u32,
+    /// One past the last row.
+    pub y1: u32,
+}
+
+impl Rect {
+    /// The whole of a `width × height` frame.
+    pub fn frame(width: u32, height: u32) -> Rect {
+        Rect { x0: 0, y0: 0, x1: width, y1: height }
+    }
+
+    /// Columns.
+    pub fn width(&self) -> u32 {
+        self.x1.saturating_sub(self.x0)
+    }
+
+    /// Rows.
+    pub fn height(&self) -> u32 {
+        self.y1.saturating_sub(self.y0)
+    }
+
+    /// Pixels.
+    pub fn pixels(&self) -> u64 {
+        u64::from(self.width()) * u64::from(self.height())
+    }
+
+    /// True when it holds no pixel.
+    pub fn is_empty(&self) -> bool {
+        self.pixels() == 0
+    }
+
+    /// Whether pixel (`x`, `y`) is inside.
+    #[inline]
+    pub fn contains(&self, x: u32, y: u32) -> bool {
+        x >= self.x0 && x < self.x1 && y >= self.y0 && y < self.y1
+    }
+
+    /// Whether `self` lies within `other`.
+    pub fn within(&self, other: &Rect) -> bool {
+        self.x0 >= other.x0 && self.y0 >= other.y0 && self.x1 <= other.x1 && self.y1 <= other.y1
+    }
+
+    /// The pixels both hold, if any.
+    pub fn intersect(&self, o: &Rect) -> Option<Rect> {
+        let r = Rect { x0: self.x0.max(o.x0), y0: self.y0.max(o.y0), x1: self.x1.min(o.x1), y1: self.y1.min(o.y1) };
+        (r.x0 < r.x1 && r.y0 < r.y1).then_some(r)
+    }
+
+    /// The pixel at index `i` of the rectangle, row by row.
+    #[inline]
+    pub fn pixel(&self, i: usize) -> (u32, u32) {
+        let w = self.width() as usize;
+        (self.x0 + (i % w) as u32, self.y0 + (i / w) as u32)
+    }
+
+    /// The index of pixel (`x`, `y`) (inside) in row-by-row order.
+    #[inline]
+    pub fn index(&self, x: u32, y: u32) -> usize {
+        (y - self.y0) as usize * self.width() as usize + (x - self.x0) as usize
+    }
+}
+
+/// How many samples each pixel of a whole render has: `spp` stratified samples, or one adaptive
+/// value (whose lattice samples are not counted).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+pub struct Sampling {
+    /// Samples per pixel (stratified).
+    pub spp: u32,
+    /// Adaptive anti-aliasing: one value per pixel.
+    pub adaptive: bool,
+}
+
+impl Sampling {
+    /// The sampling of `settings`.
+    pub fn of(settings: &RenderSettings) -> Self {
+        Sampling { spp: settings.spp.max(1), adaptive: matches!(settings.aa, Antialiasing::Adaptive(_)) }
+    }
+}
+
+/// The share of a frame's work one render does: the pixels in `bounds`, and of those, sample
+/// pass `pass` of `passes`. Under stratified anti-aliasing a pass takes every pixel's samples
+/// `pass, pass + passes, …`; under adaptive anti-aliasing, whose samples depend on each other, it
+/// takes the pixels whose index `y · width + x` is `pass` modulo `passes` (spread over the whole
+/// frame all the same).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+pub struct Share {
+    /// The pixels.
+    pub bounds: Rect,
+    /// This render's pass (0-based).
+    pub pass: u32,
+    /// How many passes share the samples (≥ 1).
+    pub passes: u32,
+}
+
+impl Share {
+    /// All of a `width × height` frame.
+    pub fn whole(width: u32, height: u32) -> Share {
+        Share { bounds: Rect::frame(width, height), pass: 0, passes: 1 }
+    }
+
+    /// How many samples of pixel (`x`, `y`) of a frame `width` pixels wide the share takes: its
+    /// stratified sample indices, or 1 for an adaptive pixel it owns; 0 outside it.
+    pub fn samples_of(&self, sampling: Sampling, width: u32, x: u32, y: u32) -> u32 {
+        if !self.bounds.contains(x, y) {
+            return 0;
+        }
+        if sampling.adaptive {
+            let index = u64::from(y) * u64::from(width) + u64::from(x);
+            u32::from(index % u64::from(self.passes.max(1)) == u64::from(self.pass))
+        } else if self.pass >= sampling.spp {
+            0
+        } else {
+            (sampling.spp - self.pass).div_ceil(self.passes.max(1))
+        }
+    }
+
+    /// The stratified sample index of the share's `k`-th sample of a pixel.
+    #[inline]
+    pub fn sample_index(&self, k: u32) -> u32 {
+        self.pass + k * self.passes.max(1)
+    }
+
+    /// A description: `pixels [x0, x1) × [y0, y1), pass K/N`.
+    pub fn describe(&self) -> String {
+        let b = self.bounds;
+        let pass = if self.passes > 1 { format!(", sample pass {}/{}", self.pass, self.passes) } else { String::new() };
+        format!("pixels [{}, {}) × [{}, {}){pass}", b.x0, b.x1, b.y0, b.y1)
+    }
+}
+
+/// The exact state of a render of one share of a frame: per pixel of the share's bounds, the
+/// sums of its samples so far (and of its layers, when asked for).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameSums {
+    /// The frame's width, pixels.
+    pub width: u32,
+    /// The frame's height, pixels.
+    pub height: u32,
+    /// How many samples a pixel has in the whole render.
+    pub sampling: Sampling,
+    /// The share.
+    pub share: Share,
+    /// Per pixel of `share.bounds`, row by row.
+    pub pixels: Vec<PixelSum>,
+    /// Per pixel, the layers' sums (when asked for).
+    pub layers: Option<Vec<LayerSum>>,
+}
+
+impl FrameSums {
+    /// Empty sums for `share` of a frame rendered with `settings` (allocated fallibly).
+    pub fn new(settings: &RenderSettings, share: Share, layers: bool) -> Result<Self, WriteError> {
+        let n = share.bounds.pixels() as usize;
+        Ok(FrameSums {
+            width: settings.width,
+            height: settings.height,
+            sampling: Sampling::of(settings),
+            share,
+            pixels: try_filled(n, PixelSum::default(), "per-pixel sums")?,
+            layers: if layers { Some(try_filled(n, LayerSum::default(), "per-pixel layer sums")?) } else { None },
+        })
+    }
+
+    /// How many samples pixel `i` (of the bounds) lacks to complete its share.
+    pub fn missing(&self, i: usize) -> u32 {
+        let (x, y) = self.share.bounds.pixel(i);
+        self.share.samples_of(self.sampling, self.width, x, y).saturating_sub(self.pixels[i].samples)
+    }
+
+    /// Whether every pixel has all the samples of its share.
+    pub fn complete(&self) -> bool {
+        (0..self.pixels.len()).all(|i| self.missing(i) == 0)
+    }
+
+    /// The image: the mean of each pixel's samples so far, black outside the bounds (or where
+    /// none is done).
+    pub fn film(&self) -> Result<Film, WriteError> {
+        let mut film = Film::try_new(self.width, self.height)?;
+        for (i, p) in self.pixels.iter().enumerate() {
+            let (x, y) = self.share.bounds.pixel(i);
+            film.set(x, y, p.mean().as_vec3());
+        }
+        Ok(film)
+    }
+
+    /// The depth, normal and albedo layers over the whole frame, when summed.
+    pub fn aovs(&self) -> Result<Option<Aovs>, WriteError> {
+        let Some(sums) = &self.layers else { return Ok(None) };
+        let n = self.width as usize * self.height as usize;
+        let mut depth = try_filled(n, f32::INFINITY, "depth layer")?;
+        let mut normal = try_filled(n, Vec3::ZERO, "normal layer")?;
+        let mut albedo = try_filled(n, Vec3::ZERO, "albedo layer")?;
+        for (i, l) in sums.iter().enumerate() {
+            let (x, y) = self.share.bounds.pixel(i);
+            let k = y as usize * self.width as usize + x as usize;
+            (depth[k], normal[k], albedo[k]) = l.mean();
+        }
+        Ok(Some(Aovs { depth: Some(depth), normal: Some(normal), albedo: Some(albedo) }))
+    }
+}
+
+/// One part of a frame to merge, named for messages.
+pub struct Part {
+    /// The file name (or another name for messages).
+    pub name: String,
+    /// Its state.
+    pub sums: FrameSums,
+    /// Its fingerprint.
+    pub fingerprint: String,
+}
+
+/// Merges `parts` of one frame into the state of the whole frame: every part must have the same
+/// fingerprint, frame and sampling, no two may share samples of a pixel, and together they must
+/// give every pixel all its samples (unless `allow_partial`). The sums add exactly, so the result
+/// has the bits of one whole render.
+pub fn merge(parts: &[Part], allow_partial: bool) -> Result<FrameSums, String> {
+    let Some(first) = parts.first() else { return Err("no parts to merge".into()) };
+    let f = &first.sums;
+    for p in &parts[1..] {
+        let s = &p.sums;
+        if p.fingerprint != first.fingerprint {
+            return Err(format!(
+                "{} is from another render (fingerprint {}) than {} ({}): a different scene, file it reads, or setting",
+                p.name, p.fingerprint, first.name, first.fingerprint
+            ));
+        }
+        if (s.width, s.height, s.sampling) != (f.width, f.height, f.sampling) {
+            return Err(format!(
+                "{} is of a {}×{} frame ({:?}), {} of a {}×{} frame ({:?})",
+                p.name, s.width, s.height, s.sampling, first.name, f.width, f.height, f.sampling
+            ));
+        }
+        if s.layers.is_some() != f.layers.is_some() {
+            return Err(format!("{} and {} differ in having the depth, normal and albedo layers", p.name, first.name));
+        }
+    }
+    for (i, a) in parts.iter().enumerate() {
+        for b in &parts[i + 1..] {
+            let Some(r) = a.sums.share.bounds.intersect(&b.sums.share.bounds) else { continue };
+            let (sa, sb) = (a.sums.share, b.sums.share);
+            if sa.passes != sb.passes {
+                return Err(format!(
+                    "{} (sample pass {}/{}) and {} (pass {}/{}) overlap in pixels [{}, {}) × [{}, {}) with different pass counts",
+                    a.name, sa.pass, sa.passes, b.name, sb.pass, sb.passes, r.x0, r.x1, r.y0, r.y1
+                ));
+            }
+            if sa.pass == sb.pass {
+                return Err(format!(
+                    "{} and {} overlap: both hold pixels [{}, {}) × [{}, {}) of sample pass {}/{}",
+                    a.name, b.name, r.x0, r.x1, r.y0, r.y1, sa.pass, sa.passes
+                ));
+            }
+        }
+    }
+    let mut whole = FrameSums {
+        width: f.width,
+        height: f.height,
+        sampling: f.sampling,
+        share: Share::whole(f.width, f.height),
+        pixels: try_filled(f.width as usize * f.height as usize, PixelSum::default(), "merged image's sums").map_err(|e| e.to_string())?,
+        layers: match f.layers {
+            Some(_) => {
+                Some(try_filled(f.width as usize * f.height as usize, LayerSum::default(), "merged layers").map_err(|e| e.to_string())?)
+            }
+            None => None,
+        },
+    };
+    for p in parts {
+        let b = p.sums.share.bounds;
+        for (i, px) in p.sums.pixels.iter().enumerate() {
+            let (x, y) = b.pixel(i);
+            let k = whole.share.bounds.index(x, y);
+            whole.pixels[k].merge(px);
+            if let (Some(dst), Some(src)) = (whole.layers.as_mut(), p.sums.layers.as_ref()) {
+                dst[k].merge(&src[i]);
+            }
+        }
+    }
+    if !allow_partial {
+        let mut hole: Option<Rect> = None;
+        let mut count = 0u64;
+        for i in 0..whole.pixels.len() {
+            if whole.missing(i) > 0 {
+                let (x, y) = whole.share.bounds.pixel(i);
+                count += 1;
+                let h = hole.get_or_insert(Rect { x0: x, y0: y, x1: x + 1, y1: y + 1 });
+                *h = Rect { x0: h.x0.min(x), y0: h.y0.min(y), x1: h.x1.max(x + 1), y1: h.y1.max(y + 1) };
+            }
+        }
+        if let Some(h) = hole {
+            return Err(format!(
+                "the parts leave {count} pixel(s) without all their samples, within [{}, {}) × [{}, {}): a tile or pass is missing or unfinished (--allow-partial merges anyway)",
+                h.x0, h.x1, h.y0, h.y1
+            ));
+        }
+    }
+    Ok(whole)
+}

@@ -1,0 +1,73 @@
+//! Checks for light plugins' tests: a light's samples, the rays that meet it and its densities
+//! tell one story, so a Monte Carlo integrator can combine its own directions with the light's
+//! ([`LightSource::intersect`], [`LightPdf`]). The built-in lights' tests use it, and so can a
+//! third-party crate's.
+
+use crate::math::color::Color;
+use crate::math::ray::Ray;
+use crate::render::sampler::stratified_2d;
+use crate::scene::light::{LightPdf, LightSource};
+use glam::DVec3;
+use std::f64::consts::{PI, TAU};
+
+/// Relative agreement required between a light's sample and the same point met by a ray.
+pub const SAMPLE_TOLERANCE: f64 = 1e-9;
+
+/// Checks `light` as seen from `p`, with `n` stratified samples (enough that their mean
+/// intensity is accurate to `relative`; panics with a message on failure):
+///
+/// - a light whose samples are [`LightPdf::Delta`] ([`LightSource::pdf`]) is met by no ray;
+/// - otherwise every sample that carries light comes back from [`LightSource::intersect`] for
+///   the ray from `p` along its direction, with the same distance, intensity and density
+///   (within [`SAMPLE_TOLERANCE`], relative);
+/// - the radiance the light's samples imply (`intensity × pdf`), integrated over all directions
+///   from `p` (rays on a `grid × 2·grid` grid in θ, φ), equals the mean intensity of its samples
+///   within `relative`: the densities are those of the sampling.
+///
+/// Returns the integral and the mean.
+pub fn check_light(light: &dyn LightSource, p: DVec3, n: u32, grid: u32, relative: f64) -> (Color, Color) {
+    let mut mean = Color::ZERO;
+    let mut delta = false;
+    for i in 0..n {
+        let Some(ls) = light.illuminate(p, stratified_2d(i, n, 0x5eed)) else {
+            panic!("the light has no direction at {p}: nothing to check");
+        };
+        mean += ls.intensity / f64::from(n);
+        let met = light.intersect(&Ray { origin: p, dir: ls.dir }, f64::INFINITY);
+        let LightPdf::SolidAngle(pdf) = light.pdf(p, &ls) else {
+            delta = true;
+            assert!(met.is_none(), "a ray met a delta light (sample {ls:?})");
+            continue;
+        };
+        if !(ls.intensity.max_element() > 0.0) {
+            continue;
+        }
+        let m = met.unwrap_or_else(|| panic!("the ray toward sample {ls:?} from {p} does not meet the light"));
+        let close = |a: f64, b: f64| (a - b).abs() <= SAMPLE_TOLERANCE * a.abs().max(b.abs());
+        assert!(close(m.distance, ls.distance), "distance: sample {} vs ray {}", ls.distance, m.distance);
+        assert!((0..3).all(|c| close(m.intensity[c], ls.intensity[c])), "intensity: sample {} vs ray {}", ls.intensity, m.intensity);
+        let met_pdf = light.pdf(p, &m).solid_angle().expect("a ray met the light: its density is per solid angle");
+        assert!(close(met_pdf, pdf), "density: sample {pdf} vs ray {met_pdf}");
+    }
+    if delta {
+        return (Color::ZERO, mean);
+    }
+    let (dt, dp) = (PI / f64::from(grid), TAU / f64::from(2 * grid));
+    let mut integral = Color::ZERO;
+    for i in 0..grid {
+        let theta = (f64::from(i) + 0.5) * dt;
+        for j in 0..2 * grid {
+            let phi = (f64::from(j) + 0.5) * dp;
+            let dir = DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos());
+            if let Some(m) = light.intersect(&Ray { origin: p, dir }, f64::INFINITY) {
+                let pdf = light.pdf(p, &m).solid_angle().expect("a ray met the light: its density is per solid angle");
+                integral += m.intensity * pdf * theta.sin() * dt * dp;
+            }
+        }
+    }
+    assert!(
+        (integral - mean).abs().max_element() <= relative * mean.max_element(),
+        "the radiance over all directions, {integral}, is not the samples' mean intensity {mean}"
+    );
+    (integral, mean)
+}

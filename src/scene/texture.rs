@@ -1,0 +1,125 @@
+//! Textures: colours that vary over a surface. A material colour (`kd`, `ks`, …) may name a
+//! texture instead of a constant ([`crate::scene::material::TextureMap`]); the texture is looked
+//! up where a ray hits, at the surface's texture coordinates or its position in the shape's own
+//! frame ([`TexturePoint`]).
+//!
+//! Texture types are plugins, registered by name like shapes
+//! ([`crate::Registry::add_texture`]). [`Mapping`] is what procedural patterns share: which
+//! coordinates they are laid over and where they are placed (the `coords` and `transform`
+//! parameters).
+
+use crate::geometry::transform::parse_transform;
+use crate::input::error::Result;
+use crate::input::params::Params;
+use crate::input::spec::{Default, ParamKind, ParamSpec};
+use crate::math::color::Color;
+use glam::{DAffine3, DVec2, DVec3};
+
+/// Where a texture is looked up.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TexturePoint {
+    /// The surface's texture coordinates ([`crate::Geometry::uv`]).
+    pub uv: DVec2,
+    /// The point in the shape's own frame (before the object's transform): solid textures move
+    /// with the object.
+    pub local: DVec3,
+}
+
+/// A colour that varies over a surface.
+///
+/// Evaluated once per textured coefficient at every hit of a textured material, from many
+/// threads: it must not allocate, and must return finite values ≥ 0 for any input (texture
+/// coordinates may be huge, negative or NaN on degenerate hits).
+pub trait Texture: Send + Sync + std::fmt::Debug {
+    /// The colour (linear RGB, finite, ≥ 0) at `at`.
+    fn eval(&self, at: &TexturePoint) -> Color;
+}
+
+/// Which coordinates a pattern is laid over.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Coords {
+    /// The surface's texture coordinates, as the point `(u, v, 0)`.
+    Uv,
+    /// The point in the shape's own frame (a solid texture: patterns run through the object).
+    Object,
+}
+
+/// The `coords` parameter of patterns.
+pub const COORDS_PARAM: ParamSpec = ParamSpec::new(
+    "coords",
+    ParamKind::Str,
+    Default::Str("uv"),
+    "\"uv\": over the surface's texture coordinates, as the point (u, v, 0); \"object\": through the shape's own frame (a solid pattern)",
+);
+
+/// The `transform` parameter of patterns and images.
+pub const TRANSFORM_PARAM: ParamSpec = ParamSpec::new(
+    "transform",
+    ParamKind::Any,
+    Default::Optional,
+    "places the pattern, as an object's transform places a shape: { scale = 0.25 } makes it four times smaller (tiles it 4× over uv [0, 1])",
+);
+
+/// How a pattern is laid over a surface: the coordinates ([`Coords`]) and the pattern's
+/// placement, read from the [`COORDS_PARAM`] and [`TRANSFORM_PARAM`] parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Mapping {
+    coords: Coords,
+    /// The inverse of the pattern's placement (the identity when it has none).
+    to_pattern: DAffine3,
+    placed: bool,
+}
+
+impl Mapping {
+    /// Over `coords`, unplaced.
+    pub const fn new(coords: Coords) -> Mapping {
+        Mapping { coords, to_pattern: DAffine3::IDENTITY, placed: false }
+    }
+
+    /// Over `coords`, showing the pattern at `to_pattern(p)` for a point `p` (the inverse of a
+    /// placement: a file format's texture-coordinate transform).
+    pub fn with_inverse(coords: Coords, to_pattern: DAffine3) -> Mapping {
+        Mapping { coords, to_pattern, placed: to_pattern != DAffine3::IDENTITY }
+    }
+
+    /// Reads `coords` (when the plugin declares it; else texture coordinates) and `transform`.
+    pub fn from_params(p: &mut Params) -> Result<Mapping> {
+        let coords = match p.declares("coords") {
+            true => match p.choice("coords", &["uv", "object"])?.as_str() {
+                "object" => Coords::Object,
+                _ => Coords::Uv,
+            },
+            false => Coords::Uv,
+        };
+        let mut m = Mapping::new(coords);
+        if let Some(n) = p.node("transform")? {
+            let t = parse_transform(n).map_err(|e| e.context(p.what()))?;
+            if !t.is_identity() {
+                m.to_pattern = t.inverse_matrix();
+                m.placed = true;
+            }
+        }
+        Ok(m)
+    }
+
+    /// Which coordinates the pattern is laid over.
+    pub fn coords(&self) -> Coords {
+        self.coords
+    }
+
+    /// The point of the (unplaced) pattern that `at` shows.
+    #[inline]
+    pub fn point(&self, at: &TexturePoint) -> DVec3 {
+        let p = match self.coords {
+            Coords::Uv => at.uv.extend(0.0),
+            Coords::Object => at.local,
+        };
+        if self.placed { self.to_pattern.transform_point3(p) } else { p }
+    }
+
+    /// The texture coordinates of the (unplaced) image that `at` shows.
+    #[inline]
+    pub fn uv(&self, at: &TexturePoint) -> DVec2 {
+        if self.placed { self.to_pattern.transform_point3(at.uv.extend(0.0)).truncate() } else { at.uv }
+    }
+}

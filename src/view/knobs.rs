@@ -1,0 +1,253 @@
+//! The page's controls: the quality knobs of the render (samples, anti-aliasing, lens samples)
+//! and of whichever integrator the scene uses, found by the roles in its parameter table
+//! ([`Role::Depth`], [`Role::Quality`]), so any integrator's knobs appear without the page
+//! knowing their names.
+
+use crate::input::context::LoadOptions;
+use crate::input::error::{Result, SceneError};
+use crate::input::load::RENDER_PARAMS;
+use crate::input::registry::Registry;
+use crate::input::spec::{Default, ParamKind, ParamSpec, Role};
+use crate::input::value::{Node, Value};
+use crate::render::RenderJob;
+use crate::render::job::Antialiasing;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// What the page asks for, over the scene and the command line (absent: keep theirs).
+#[derive(Clone, Debug, std::default::Default, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Settings {
+    /// Samples per pixel.
+    pub spp: Option<u32>,
+    /// `stratified` or `adaptive`.
+    pub aa: Option<String>,
+    /// Adaptive threshold.
+    pub aa_threshold: Option<f64>,
+    /// Adaptive depth.
+    pub aa_depth: Option<i64>,
+    /// Lens samples per image sample.
+    pub lens_samples: Option<i64>,
+    /// Integrator type.
+    pub integrator: Option<String>,
+    /// Integrator parameters by name (its depth and quality knobs).
+    #[serde(default)]
+    pub params: BTreeMap<String, serde_json::Value>,
+}
+
+/// Most integrator parameters one request may set (the page sends a handful).
+const MAX_PARAMS: usize = 64;
+
+/// Where a value from the page came from, for error messages: `page control "spp"`.
+fn origin(key: &str) -> String {
+    format!("page control \"{key}\"")
+}
+
+/// `base` (the command line's options) with the page's `settings` over them.
+pub fn options(base: &LoadOptions, s: &Settings, registry: &Registry) -> Result<LoadOptions> {
+    let mut o = base.clone();
+    let ov = &mut o.overrides;
+    if let Some(v) = s.spp {
+        ov.spp = Some(v);
+    }
+    let mut render = |key: &str, v: Value| ov.render_params.push((key.to_string(), Node::given(&origin(key), v)));
+    if let Some(v) = &s.aa {
+        render("aa", Value::Str(v.clone()));
+    }
+    if let Some(v) = s.aa_threshold {
+        render("aa_threshold", Value::Float(v));
+    }
+    if let Some(v) = s.aa_depth {
+        render("aa_depth", Value::Int(v));
+    }
+    if let Some(v) = s.lens_samples {
+        render("lens_samples", Value::Int(v));
+    }
+    if let Some(t) = &s.integrator {
+        if registry.integrator(t).is_none() {
+            let names: Vec<&str> = registry.integrators().map(|p| p.name).collect();
+            return Err(SceneError::msg(format!("unknown integrator \"{t}\"")).with_help(format!("known: {}", names.join(", "))));
+        }
+        if ov.integrator.as_deref() != Some(t) {
+            // The command line's parameters were for another integrator.
+            ov.integrator_params.clear();
+            ov.depth = None;
+        }
+        ov.integrator = Some(t.clone());
+    }
+    if s.params.len() > MAX_PARAMS {
+        return Err(SceneError::msg(format!("{} integrator parameters in one request; at most {MAX_PARAMS}", s.params.len())));
+    }
+    for (k, v) in &s.params {
+        let value = match v {
+            serde_json::Value::Bool(b) => Value::Bool(*b),
+            serde_json::Value::Number(n) => match n.as_i64() {
+                Some(i) => Value::Int(i),
+                None => Value::Float(n.as_f64().unwrap_or(f64::NAN)),
+            },
+            serde_json::Value::String(s) => Value::Str(s.clone()),
+            _ => return Err(SceneError::msg(format!("{}: expected a number, a boolean or a string", origin(k)))),
+        };
+        ov.integrator_params.push((k.clone(), Node::given(&origin(k), value)));
+    }
+    Ok(o)
+}
+
+/// A choice of a `choice` control.
+#[derive(Clone, Debug, Serialize)]
+pub struct Choice {
+    /// The value sent back.
+    pub value: String,
+    /// What the page shows.
+    pub label: String,
+    /// One line on what it is.
+    pub doc: String,
+}
+
+/// One control of the page.
+#[derive(Clone, Debug, Serialize)]
+pub struct Knob {
+    /// `spp`, `aa`, `aa_threshold`, `aa_depth`, `lens_samples`, `integrator`, or `params.NAME`.
+    pub key: String,
+    /// What the page calls it.
+    pub label: String,
+    /// `int`, `float`, `bool` or `choice`.
+    pub kind: &'static str,
+    /// The value this render uses.
+    pub value: serde_json::Value,
+    /// The default when the scene says nothing.
+    pub default: serde_json::Value,
+    /// The choices of a `choice` control.
+    pub choices: Vec<Choice>,
+    /// What it does (its parameter table's meaning).
+    pub doc: String,
+    /// `sampling` or `integrator`.
+    pub group: &'static str,
+    /// False when it has no effect with the other settings (the page greys it out).
+    pub active: bool,
+    /// Why it is inactive, or a remark.
+    pub note: Option<String>,
+}
+
+fn doc_of(table: &[ParamSpec], name: &str) -> String {
+    table.iter().find(|s| s.name == name).map_or_else(String::new, |s| s.doc.to_string())
+}
+
+fn default_json(d: Default) -> serde_json::Value {
+    match d {
+        Default::Float(v) => v.into(),
+        Default::Int(v) => v.into(),
+        Default::Bool(v) => v.into(),
+        Default::Str(v) => v.into(),
+        _ => serde_json::Value::Null,
+    }
+}
+
+fn value_json(v: &Value) -> serde_json::Value {
+    match v {
+        Value::Bool(b) => (*b).into(),
+        Value::Int(i) => (*i).into(),
+        Value::Float(f) => (*f).into(),
+        Value::Str(s) => s.clone().into(),
+        _ => serde_json::Value::Null,
+    }
+}
+
+/// The controls for `job` (loaded with the page's settings), with the values it uses.
+pub fn describe(registry: &Registry, job: &RenderJob) -> Vec<Knob> {
+    let s = &job.settings;
+    let (adaptive, threshold, depth) = match s.aa {
+        Antialiasing::Adaptive(a) => (true, a.threshold, a.max_depth),
+        Antialiasing::Stratified => (false, 0.02, 3),
+    };
+    let render = |key: &str, label: &str, kind, value: serde_json::Value, active: bool, note: Option<String>| {
+        let spec = RENDER_PARAMS.iter().find(|p| p.name == key);
+        Knob {
+            key: key.into(),
+            label: label.into(),
+            kind,
+            value,
+            default: spec.map_or(serde_json::Value::Null, |p| default_json(p.default)),
+            choices: Vec::new(),
+            doc: doc_of(RENDER_PARAMS, key),
+            group: "sampling",
+            active,
+            note,
+        }
+    };
+    let mut knobs = vec![Knob {
+        choices: vec![
+            Choice {
+                value: "stratified".into(),
+                label: "stratified".into(),
+                doc: "the same number of samples in every pixel, jittered over it".into(),
+            },
+            Choice {
+                value: "adaptive".into(),
+                label: "adaptive".into(),
+                doc: "rays through pixel corners; more only where neighbours disagree".into(),
+            },
+        ],
+        ..render("aa", "Anti-aliasing", "choice", if adaptive { "adaptive" } else { "stratified" }.into(), true, None)
+    }];
+    knobs.push(render(
+        "spp",
+        "Samples per pixel",
+        "int",
+        s.spp.into(),
+        !adaptive,
+        adaptive.then(|| "adaptive anti-aliasing chooses its own samples".to_string()),
+    ));
+    let stratified_note = (!adaptive).then(|| "used by adaptive anti-aliasing only".to_string());
+    knobs.push(render("aa_threshold", "Adaptive threshold", "float", threshold.into(), adaptive, stratified_note.clone()));
+    knobs.push(render("aa_depth", "Adaptive depth", "int", depth.into(), adaptive, stratified_note));
+    let lens = job.scene.camera.aperture > 0.0;
+    knobs.push(render(
+        "lens_samples",
+        "Lens samples",
+        "int",
+        s.lens_samples.into(),
+        lens,
+        (!lens).then(|| "the camera is a pinhole (aperture 0): no depth of field to sample".to_string()),
+    ));
+    knobs.push(Knob {
+        key: "integrator".into(),
+        label: "Integrator".into(),
+        kind: "choice",
+        value: job.integrator_name.clone().into(),
+        default: registry.default_integrator().map_or(serde_json::Value::Null, Into::into),
+        choices: registry.integrators().map(|p| Choice { value: p.name.into(), label: p.name.into(), doc: p.summary.into() }).collect(),
+        doc: "how a camera ray becomes a colour".into(),
+        group: "integrator",
+        active: true,
+        note: None,
+    });
+    if let Some(plugin) = registry.integrator(&job.integrator_name) {
+        for p in plugin.info.params.iter().filter(|p| matches!(p.role, Role::Depth(_) | Role::Quality(_))) {
+            let kind = match p.kind {
+                ParamKind::Int => "int",
+                ParamKind::Float => "float",
+                ParamKind::Bool => "bool",
+                _ => continue,
+            };
+            let value = job.integrator_params.get(p.name).map_or_else(|| default_json(p.default), |n| value_json(&n.value));
+            let label = match p.role {
+                Role::Depth(_) => format!("Recursion depth ({})", p.name),
+                _ => p.name.replace('_', " "),
+            };
+            knobs.push(Knob {
+                key: format!("params.{}", p.name),
+                label,
+                kind,
+                value,
+                default: default_json(p.default),
+                choices: Vec::new(),
+                doc: p.doc.into(),
+                group: "integrator",
+                active: true,
+                note: None,
+            });
+        }
+    }
+    knobs
+}

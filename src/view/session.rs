@@ -1,0 +1,494 @@
+//! The live view's render session: loads the scene with the page's settings, renders it on a
+//! worker thread (a coarse preview, then the frame in passes, tile by tile), keeps the displayed
+//! pixels and the status the page polls, and starts again when a setting or the scene file
+//! changes (cancelling the render under way).
+
+use super::knobs::{self, Knob, Settings};
+use crate::image::film::Film;
+use crate::input::context::LoadOptions;
+use crate::input::error::{Location, SceneError};
+use crate::input::registry::Registry;
+use crate::render::job::{Antialiasing, RenderJob, TILE_SIZE};
+use crate::render::share::Rect;
+use crate::render::{RenderOptions, TileDone};
+use serde::Serialize;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard};
+use std::time::{Duration, SystemTime};
+
+/// Where the scene comes from.
+pub enum SceneSource {
+    /// A scene file, watched for changes.
+    File(PathBuf),
+    /// A scene built into the binary (its display name and TOML text).
+    Bundled {
+        /// The name errors use.
+        name: &'static str,
+        /// The TOML text.
+        text: &'static str,
+    },
+}
+
+impl SceneSource {
+    /// The name shown on the page.
+    pub fn name(&self) -> String {
+        match self {
+            SceneSource::File(p) => p.display().to_string(),
+            SceneSource::Bundled { name, .. } => format!("{name} (bundled)"),
+        }
+    }
+
+    /// The file's modification time and size, to notice a save (`None` for a bundled scene or
+    /// an unreadable file).
+    fn stamp(&self) -> Option<(SystemTime, u64)> {
+        match self {
+            SceneSource::File(p) => std::fs::metadata(p).ok().and_then(|m| Some((m.modified().ok()?, m.len()))),
+            SceneSource::Bundled { .. } => None,
+        }
+    }
+}
+
+/// How often the scene file's modification time is looked at.
+const WATCH_INTERVAL: Duration = Duration::from_millis(400);
+
+/// The preview's pixels are this many of the frame's on a side (a 1/64 of the work).
+const PREVIEW_FACTOR: u32 = 8;
+
+/// What the session is doing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Phase {
+    /// Reading and building the scene.
+    Loading,
+    /// The coarse preview.
+    Preview,
+    /// The frame, in passes.
+    Rendering,
+    /// The frame is complete.
+    Done,
+    /// The scene or a setting is in error; the last good image stays.
+    Error,
+}
+
+/// An error for the page: the message, where it is, and the full report (with the line and a caret).
+#[derive(Clone, Debug, Serialize)]
+pub struct ErrorInfo {
+    /// What is wrong.
+    pub message: String,
+    /// The file (or flag, or control) at fault, when known.
+    pub file: Option<String>,
+    /// 1-based line, when known.
+    pub line: Option<usize>,
+    /// 1-based column, when known.
+    pub column: Option<usize>,
+    /// The report as the command line prints it.
+    pub report: String,
+}
+
+impl ErrorInfo {
+    /// The page's view of a scene error.
+    pub fn of(e: &SceneError) -> Self {
+        let (file, line, column) = match &e.location {
+            Location::None => (None, None, None),
+            Location::File { path, line_col } => (Some(path.clone()), line_col.map(|l| l.0), line_col.map(|l| l.1)),
+            Location::Span(loc) => {
+                let (l, c) = loc.source.line_col(loc.start);
+                (Some(loc.source.name.clone()), Some(l), Some(c))
+            }
+        };
+        ErrorInfo { message: e.message.clone(), file, line, column, report: e.report() }
+    }
+
+    /// An error with no location.
+    pub fn plain(message: impl Into<String>) -> Self {
+        let message = message.into();
+        ErrorInfo { report: message.clone(), message, file: None, line: None, column: None }
+    }
+}
+
+/// The render's progress, as the page shows it.
+#[derive(Clone, Debug, Serialize)]
+pub struct Status {
+    /// What is happening.
+    pub phase: Phase,
+    /// Renders started so far (each restart is a new generation).
+    pub generation: u64,
+    /// The scene's name.
+    pub scene: String,
+    /// Why the current render started (`start`, `settings`, `scene file changed`).
+    pub reason: String,
+    /// The sampling, in words (`adaptive AA (threshold 0.05, depth 3)`).
+    pub sampling: String,
+    /// The integrator and its settings, in words.
+    pub integrator: String,
+    /// Samples per pixel so far and in all (stratified), or 1 of 1 (adaptive).
+    pub samples: [u32; 2],
+    /// Fraction of the frame's work done, 0..1.
+    pub progress: f64,
+    /// Seconds of tracing so far.
+    pub seconds: f64,
+    /// Rays traced so far.
+    pub rays: u64,
+    /// Rays per second of tracing.
+    pub rays_per_second: f64,
+    /// Why the last load failed.
+    pub error: Option<ErrorInfo>,
+    /// What loading ignored or approximated.
+    pub warnings: Vec<String>,
+}
+
+/// The displayed pixels: 8-bit RGBA, encoded as the scene's 8-bit output is; alpha 0 where
+/// nothing is known yet. Each 16×16 tile remembers the update that last changed it.
+pub struct Frame {
+    /// Changes when the size does (the page then takes the whole frame).
+    pub id: u64,
+    /// Width, pixels.
+    pub width: u32,
+    /// Height, pixels.
+    pub height: u32,
+    /// `width × height × 4` bytes, row by row.
+    pub rgba: Vec<u8>,
+    /// Per tile (row by row), the update number of its last change.
+    pub tile_seq: Vec<u64>,
+}
+
+impl Frame {
+    fn tiles_x(&self) -> u32 {
+        self.width.div_ceil(TILE_SIZE)
+    }
+
+    /// The tiles changed after update `seq`, as rectangles.
+    pub fn changed_since(&self, seq: u64) -> Vec<Rect> {
+        let tx = self.tiles_x();
+        (0..self.tile_seq.len())
+            .filter(|&i| self.tile_seq[i] > seq)
+            .map(|i| {
+                let (x0, y0) = ((i as u32 % tx) * TILE_SIZE, (i as u32 / tx) * TILE_SIZE);
+                Rect { x0, y0, x1: (x0 + TILE_SIZE).min(self.width), y1: (y0 + TILE_SIZE).min(self.height) }
+            })
+            .collect()
+    }
+
+    /// Marks the tiles `r` overlaps as changed by update `seq`.
+    fn touch(&mut self, r: Rect, seq: u64) {
+        let tx = self.tiles_x();
+        for ty in r.y0 / TILE_SIZE..r.y1.div_ceil(TILE_SIZE) {
+            for t in r.x0 / TILE_SIZE..r.x1.div_ceil(TILE_SIZE) {
+                self.tile_seq[(ty * tx + t) as usize] = seq;
+            }
+        }
+    }
+
+    /// The RGBA bytes of `r`, row by row.
+    pub fn bytes_of(&self, r: Rect, out: &mut Vec<u8>) {
+        for y in r.y0..r.y1 {
+            let at = 4 * (y as usize * self.width as usize + r.x0 as usize);
+            out.extend_from_slice(&self.rgba[at..at + 4 * r.width() as usize]);
+        }
+    }
+}
+
+/// What the page polls, under one lock.
+pub struct State {
+    /// The page's settings (over the command line's).
+    pub settings: Settings,
+    /// Restarts asked for (by the page or the file watcher).
+    requested: u64,
+    /// Why the last restart was asked for.
+    reason: String,
+    /// Set to stop the render under way.
+    cancel: Arc<AtomicBool>,
+    /// Progress and errors.
+    pub status: Status,
+    /// The displayed pixels.
+    pub frame: Option<Frame>,
+    /// The job of the displayed render, for explanations.
+    pub job: Option<Arc<RenderJob>>,
+    /// The controls, with the values of the current render.
+    pub knobs: Vec<Knob>,
+    /// Bumps when the controls change.
+    pub knobs_version: u64,
+    /// The finished image (when the phase is done).
+    pub film: Option<Film>,
+    /// Bumps on every change; pollers wait for it to pass what they saw.
+    pub version: u64,
+    /// Update counter for the frame's tiles.
+    seq: u64,
+    frames: u64,
+}
+
+/// A live render session: the scene, the base options from the command line, and the state.
+pub struct Session {
+    registry: Registry,
+    source: SceneSource,
+    base: LoadOptions,
+    threads: Option<usize>,
+    state: Mutex<State>,
+    changed: Condvar,
+}
+
+impl Session {
+    /// A session for `source`, loaded with `base` (the command line's options) and the page's
+    /// settings over them, rendering on `threads` threads (all cores when `None`).
+    pub fn new(registry: Registry, source: SceneSource, base: LoadOptions, threads: Option<usize>) -> Arc<Session> {
+        let status = Status {
+            phase: Phase::Loading,
+            generation: 0,
+            scene: source.name(),
+            reason: "start".into(),
+            sampling: String::new(),
+            integrator: String::new(),
+            samples: [0, 0],
+            progress: 0.0,
+            seconds: 0.0,
+            rays: 0,
+            rays_per_second: 0.0,
+            error: None,
+            warnings: Vec::new(),
+        };
+        Arc::new(Session {
+            registry,
+            source,
+            base,
+            threads,
+            state: Mutex::new(State {
+                settings: Settings::default(),
+                requested: 1,
+                reason: "start".into(),
+                cancel: Arc::new(AtomicBool::new(false)),
+                status,
+                frame: None,
+                job: None,
+                knobs: Vec::new(),
+                knobs_version: 0,
+                film: None,
+                version: 1,
+                seq: 0,
+                frames: 0,
+            }),
+            changed: Condvar::new(),
+        })
+    }
+
+    /// The scene's name, as the page shows it.
+    pub fn scene_name(&self) -> String {
+        self.source.name()
+    }
+
+    /// The state, locked.
+    pub fn lock(&self) -> MutexGuard<'_, State> {
+        self.state.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Waits until the state's version passes `seen` or `timeout` elapses; returns the state.
+    pub fn wait_for_change(&self, seen: u64, timeout: Duration) -> MutexGuard<'_, State> {
+        let st = self.lock();
+        let (st, _) = self.changed.wait_timeout_while(st, timeout, |s| s.version <= seen).unwrap_or_else(|e| e.into_inner());
+        st
+    }
+
+    fn bump(&self, st: &mut State) {
+        st.version += 1;
+        self.changed.notify_all();
+    }
+
+    /// Replaces the page's settings and starts the render again.
+    pub fn apply(&self, settings: Settings) {
+        let mut st = self.lock();
+        st.settings = settings;
+        self.restart(&mut st, "settings");
+    }
+
+    fn restart(&self, st: &mut State, reason: &str) {
+        st.requested += 1;
+        st.reason = reason.into();
+        st.cancel.store(true, Ordering::Relaxed);
+        self.bump(st);
+    }
+
+    /// Starts the worker threads: the renderer and (for a scene file) the watcher.
+    pub fn start(self: &Arc<Self>) {
+        let s = self.clone();
+        std::thread::Builder::new().name("raylab-view-render".into()).spawn(move || s.render_loop()).expect("spawning the render thread");
+        if matches!(self.source, SceneSource::File(_)) {
+            let s = self.clone();
+            std::thread::Builder::new().name("raylab-view-watch".into()).spawn(move || s.watch()).expect("spawning the watcher thread");
+        }
+    }
+
+    /// Polls the scene file's modification time and size; a change restarts the render.
+    fn watch(&self) {
+        let mut last = self.source.stamp();
+        loop {
+            std::thread::sleep(WATCH_INTERVAL);
+            let now = self.source.stamp();
+            if now != last {
+                last = now;
+                let mut st = self.lock();
+                self.restart(&mut st, "scene file changed");
+            }
+        }
+    }
+
+    fn render_loop(&self) {
+        let mut handled = 0;
+        loop {
+            let (settings, cancel) = {
+                let mut st = self.lock();
+                while st.requested == handled {
+                    st = self.changed.wait(st).unwrap_or_else(|e| e.into_inner());
+                }
+                handled = st.requested;
+                let cancel = Arc::new(AtomicBool::new(false));
+                st.cancel = cancel.clone();
+                st.status.generation += 1;
+                st.status.phase = Phase::Loading;
+                st.status.reason = st.reason.clone();
+                st.status.error = None;
+                st.film = None;
+                self.bump(&mut st);
+                (st.settings.clone(), cancel)
+            };
+            if let Err(e) = self.render_once(&settings, &cancel) {
+                let mut st = self.lock();
+                st.status.phase = Phase::Error;
+                st.status.error = Some(e);
+                self.bump(&mut st);
+            }
+        }
+    }
+
+    /// Loads the scene with `settings` and renders it until done or cancelled.
+    fn render_once(&self, settings: &Settings, cancel: &AtomicBool) -> Result<(), ErrorInfo> {
+        let (job, knobs) = self.load(settings).map_err(|e| ErrorInfo::of(&e))?;
+        let mut job = job;
+        let s = job.settings;
+        let threads = self.threads;
+        {
+            let mut st = self.lock();
+            st.status.sampling = s.describe_sampling();
+            st.status.integrator = format!("{} {}", job.integrator_name, job.integrator.describe()).trim().to_string();
+            st.status.warnings = job.warnings.iter().map(|w| w.report()).collect();
+            st.status.samples = [0, if matches!(s.aa, Antialiasing::Stratified) { s.spp } else { 1 }];
+            st.status.progress = 0.0;
+            st.status.seconds = 0.0;
+            st.status.rays = 0;
+            st.status.rays_per_second = 0.0;
+            st.knobs = knobs;
+            st.knobs_version += 1;
+            let same = st.frame.as_ref().is_some_and(|f| (f.width, f.height) == (s.width, s.height));
+            if !same {
+                st.frames += 1;
+                let n = s.width as usize * s.height as usize;
+                let tiles = (s.width.div_ceil(TILE_SIZE) * s.height.div_ceil(TILE_SIZE)) as usize;
+                st.frame = Some(Frame { id: st.frames, width: s.width, height: s.height, rgba: vec![0; 4 * n], tile_seq: vec![0; tiles] });
+            }
+            st.status.phase = Phase::Preview;
+            self.bump(&mut st);
+        }
+
+        // A coarse preview: the same scene at 1/PREVIEW_FACTOR of the size, one sample per pixel.
+        let (pw, ph) = (s.width.div_ceil(PREVIEW_FACTOR), s.height.div_ceil(PREVIEW_FACTOR));
+        job.settings = crate::render::RenderSettings { width: pw, height: ph, spp: 1, aa: Antialiasing::Stratified, lens_samples: 1, ..s };
+        let preview = crate::render::render(&job, &RenderOptions { threads, cancel: Some(cancel), ..RenderOptions::default() }, &|_, _| {});
+        job.settings = s;
+        if cancel.load(Ordering::Relaxed) {
+            return Ok(());
+        }
+        if let Ok(p) = preview {
+            let mut st = self.lock();
+            st.seq += 1;
+            let seq = st.seq;
+            if let Some(f) = st.frame.as_mut() {
+                for y in 0..s.height {
+                    for x in 0..s.width {
+                        let c = p.film.get(x * pw / s.width, y * ph / s.height);
+                        let at = 4 * (y as usize * s.width as usize + x as usize);
+                        f.rgba[at..at + 4].copy_from_slice(&[s.encoding.to_u8(c.x), s.encoding.to_u8(c.y), s.encoding.to_u8(c.z), 255]);
+                    }
+                }
+                f.touch(Rect::frame(s.width, s.height), seq);
+            }
+            self.bump(&mut st);
+        }
+
+        // The frame, in passes of 1, 2, 4, … samples per pixel, each tile shown as it finishes.
+        let job = Arc::new(job);
+        {
+            let mut st = self.lock();
+            st.job = Some(job.clone());
+            st.status.phase = Phase::Rendering;
+            self.bump(&mut st);
+        }
+        let work = [AtomicU64::new(0), AtomicU64::new(1)];
+        let on_tile = |t: &TileDone| {
+            let mut st = self.lock();
+            st.seq += 1;
+            let seq = st.seq;
+            if let Some(f) = st.frame.as_mut() {
+                let b = t.sums.share.bounds;
+                for y in t.tile.y0..t.tile.y1 {
+                    for x in t.tile.x0..t.tile.x1 {
+                        let p = &t.sums.pixels[b.index(x, y)];
+                        if p.samples == 0 {
+                            continue;
+                        }
+                        let c = p.mean().as_vec3();
+                        let at = 4 * (y as usize * f.width as usize + x as usize);
+                        f.rgba[at..at + 4].copy_from_slice(&[s.encoding.to_u8(c.x), s.encoding.to_u8(c.y), s.encoding.to_u8(c.z), 255]);
+                    }
+                }
+                f.touch(t.tile, seq);
+            }
+            let secs = t.elapsed.as_secs_f64();
+            let rays = t.stats.total_rays();
+            st.status.seconds = secs;
+            st.status.rays = rays;
+            st.status.rays_per_second = if secs > 0.0 { rays as f64 / secs } else { 0.0 };
+            st.status.samples[0] = t.pass_end.min(st.status.samples[1]);
+            st.status.progress = work[0].load(Ordering::Relaxed) as f64 / work[1].load(Ordering::Relaxed).max(1) as f64;
+            self.bump(&mut st);
+        };
+        let options = RenderOptions { threads, cancel: Some(cancel), on_tile: Some(&on_tile), ..RenderOptions::default() };
+        let checkpoints: Vec<u32> = (0..31).map(|k| 1u32 << k).collect();
+        let rendered = crate::render::render_progressive(
+            &job,
+            &options,
+            &checkpoints,
+            &|done, total| {
+                work[0].fetch_max(done, Ordering::Relaxed);
+                work[1].store(total.max(1), Ordering::Relaxed);
+            },
+            &mut |_| {},
+        )
+        .map_err(ErrorInfo::plain)?;
+        let mut st = self.lock();
+        if rendered.complete && !cancel.load(Ordering::Relaxed) {
+            let secs = rendered.elapsed.as_secs_f64();
+            st.status.phase = Phase::Done;
+            st.status.progress = 1.0;
+            st.status.seconds = secs;
+            st.status.rays = rendered.stats.total_rays();
+            st.status.rays_per_second = if secs > 0.0 { st.status.rays as f64 / secs } else { 0.0 };
+            st.status.samples[0] = st.status.samples[1];
+            st.film = Some(rendered.film);
+            self.bump(&mut st);
+        }
+        Ok(())
+    }
+
+    /// Loads the scene with the page's `settings` over the command line's options; also
+    /// describes the controls with the values this load resolved.
+    fn load(&self, settings: &Settings) -> Result<(RenderJob, Vec<Knob>), SceneError> {
+        let options = knobs::options(&self.base, settings, &self.registry)?;
+        let job = match &self.source {
+            SceneSource::File(p) => crate::input::load::load_file(&self.registry, p, &options)?,
+            SceneSource::Bundled { name, text } => {
+                crate::input::load::load_str(&self.registry, name, text, std::path::Path::new("."), &options)?
+            }
+        };
+        let knobs = knobs::describe(&self.registry, &job);
+        Ok((job, knobs))
+    }
+}

@@ -1,0 +1,135 @@
+//! Frames beyond one process: any split of a frame into shares (crops, tiles, sample passes),
+//! merged, has the bits of one whole render; a render resumed from any saved state ends with the
+//! bits of an uninterrupted one; parts that do not belong together are refused.
+
+use proptest::prelude::*;
+use raylab::input::context::{LoadOptions, Overrides};
+use raylab::input::load::load_file;
+use raylab::input::value::{Node, Value};
+use raylab::render::share::{FrameSums, Part, Rect, Share, merge};
+use raylab::render::{RenderJob, RenderOptions, Snapshots, render};
+use std::path::Path;
+use std::sync::Mutex;
+
+/// A bundled scene at a small size, with `aa` and optional layers.
+fn job(scene: &str, aa: &str, spp: u32) -> RenderJob {
+    job_sized(scene, aa, spp, 40, 30)
+}
+
+/// A bundled scene at `width × height`, with `aa`.
+fn job_sized(scene: &str, aa: &str, spp: u32, width: u32, height: u32) -> RenderJob {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(scene);
+    let src = raylab::input::error::Source::new("test", "");
+    let node = |v: Value| Node { value: v, loc: raylab::input::error::Loc::new(&src, 0..0) };
+    let mut render_params = vec![("aa".to_string(), node(Value::Str(aa.into())))];
+    if aa == "adaptive" {
+        render_params.push(("aa_threshold".into(), node(Value::Float(0.03))));
+        render_params.push(("aa_depth".into(), node(Value::Int(2))));
+    }
+    let overrides = Overrides { width: Some(width), height: Some(height), spp: Some(spp), render_params, ..Overrides::default() };
+    load_file(&raylab_plugins::registry(), &path, &LoadOptions { overrides, ..LoadOptions::default() })
+        .unwrap_or_else(|e| panic!("{}", e.report()))
+}
+
+fn part(job: &RenderJob, share: Share, layers: bool) -> Part {
+    let r = render(job, &RenderOptions { share: Some(share), layers, threads: Some(2), ..RenderOptions::default() }, &|_, _| {}).unwrap();
+    assert!(r.complete);
+    Part { name: share.describe(), sums: r.sums, fingerprint: job.fingerprint.clone() }
+}
+
+/// `n` bands of rows at the given cut fractions (sorted, distinct, inside).
+fn bands(height: u32, cuts: &[f64]) -> Vec<Rect> {
+    let mut ys: Vec<u32> = cuts.iter().map(|c| (c * f64::from(height)) as u32).filter(|&y| y > 0 && y < height).collect();
+    ys.sort_unstable();
+    ys.dedup();
+    let mut edges = vec![0];
+    edges.extend(ys);
+    edges.push(height);
+    edges.windows(2).map(|w| Rect { x0: 0, y0: w[0], x1: 40, y1: w[1] }).collect()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 12, ..ProptestConfig::default() })]
+
+    /// Random crops (row bands, then a split column in one band) and random sample-pass counts,
+    /// under both anti-aliasing schemes, with depth of field and area lights (quality.toml) and
+    /// the layers: the merge equals the whole render, sums and all.
+    #[test]
+    fn any_split_merges_to_the_whole_render(
+        adaptive in any::<bool>(),
+        cuts in prop::collection::vec(0.05f64..0.95, 0..4),
+        column in 1u32..39,
+        passes in 1u32..4,
+        layers in any::<bool>(),
+    ) {
+        let j = job("quality.toml", if adaptive { "adaptive" } else { "stratified" }, 3);
+        let whole = render(&j, &RenderOptions { layers, threads: Some(1), ..RenderOptions::default() }, &|_, _| {}).unwrap();
+        let mut rects = bands(30, &cuts);
+        // Split the first band into two crops side by side.
+        let first = rects.remove(0);
+        rects.push(Rect { x1: column, ..first });
+        rects.push(Rect { x0: column, ..first });
+        let parts: Vec<Part> = rects
+            .iter()
+            .flat_map(|&bounds| (0..passes).map(move |pass| Share { bounds, pass, passes }))
+            .map(|share| part(&j, share, layers))
+            .collect();
+        let merged = merge(&parts, false).unwrap();
+        prop_assert_eq!(&merged.pixels, &whole.sums.pixels);
+        prop_assert_eq!(&merged.layers, &whole.sums.layers);
+        prop_assert_eq!(merged.film().unwrap(), whole.film);
+    }
+}
+
+#[test]
+fn missing_duplicated_overlapping_and_foreign_parts_are_refused() {
+    let j = job("dozen.toml", "stratified", 2);
+    let top = Rect { x0: 0, y0: 0, x1: 40, y1: 15 };
+    let bottom = Rect { x0: 0, y0: 15, x1: 40, y1: 30 };
+    let a = part(&j, Share { bounds: top, pass: 0, passes: 1 }, false);
+    let b = part(&j, Share { bounds: bottom, pass: 0, passes: 1 }, false);
+    assert!(merge(&[a, b], false).is_ok());
+    let fresh = |r: Rect| part(&j, Share { bounds: r, pass: 0, passes: 1 }, false);
+    let e = merge(&[fresh(top)], false).unwrap_err();
+    assert!(e.contains("without all their samples") && e.contains("[0, 40) × [15, 30)"), "{e}");
+    assert!(merge(&[fresh(top)], true).is_ok(), "--allow-partial");
+    let e = merge(&[fresh(top), fresh(top), fresh(bottom)], false).unwrap_err();
+    assert!(e.contains("overlap"), "{e}");
+    let e = merge(&[fresh(Rect { y1: 20, ..top }), fresh(bottom)], false).unwrap_err();
+    assert!(e.contains("overlap") && e.contains("[15, 20)"), "{e}");
+    let other = job("dozen.toml", "stratified", 3);
+    let foreign = Part { fingerprint: other.fingerprint.clone(), ..part(&other, Share { bounds: bottom, pass: 0, passes: 1 }, false) };
+    let e = merge(&[fresh(top), foreign], false).unwrap_err();
+    assert!(e.contains("another render"), "{e}");
+    let e = merge(&[part(&j, Share { bounds: top, pass: 0, passes: 2 }, false), fresh(top)], false).unwrap_err();
+    assert!(e.contains("different pass counts"), "{e}");
+    assert_ne!(j.fingerprint, other.fingerprint);
+}
+
+/// A render stopped at any moment and resumed from the state saved then ends with the same bits:
+/// every snapshot a render hands out (one after each tile here), resumed.
+#[test]
+fn resuming_from_any_snapshot_gives_the_uninterrupted_image() {
+    // Adaptive tiles are larger (ADAPTIVE_TILE_SIZE): a frame of six of them.
+    for (scene, aa, (w, h)) in [("quality.toml", "stratified", (40, 30)), ("showcase.toml", "adaptive", (140, 100))] {
+        let j = job_sized(scene, aa, 2, w, h);
+        let whole = render(&j, &RenderOptions { threads: Some(1), ..RenderOptions::default() }, &|_, _| {}).unwrap();
+        let states: Mutex<Vec<FrameSums>> = Mutex::new(Vec::new());
+        let keep = |s: &FrameSums| states.lock().unwrap().push(s.clone());
+        let snapshots = Some(Snapshots { every: std::time::Duration::ZERO, write: &keep });
+        let again = render(&j, &RenderOptions { threads: Some(2), snapshots, ..RenderOptions::default() }, &|_, _| {}).unwrap();
+        assert_eq!(again.film, whole.film);
+        let states = states.into_inner().unwrap();
+        assert!(states.len() >= 4, "{} snapshots", states.len());
+        assert!(states.iter().filter(|s| !s.complete()).count() >= 3, "snapshots part-way through");
+        // Every third snapshot: resumed.
+        for s in states.iter().step_by(3) {
+            let resumed = render(&j, &RenderOptions { resume: Some(s), threads: Some(2), ..RenderOptions::default() }, &|_, _| {}).unwrap();
+            assert!(resumed.complete);
+            assert_eq!(resumed.film, whole.film, "{scene} {aa}");
+        }
+        // A state of the wrong share is refused.
+        let wrong = FrameSums { share: Share { pass: 0, passes: 2, ..states[0].share }, ..states[0].clone() };
+        assert!(render(&j, &RenderOptions { resume: Some(&wrong), ..RenderOptions::default() }, &|_, _| {}).is_err());
+    }
+}
