@@ -601,6 +601,9 @@ fn triangulate_deferred(out: &mut MeshData, polygons: Vec<Polygon>) {
     }
 }
 
+/// An MTL material as written, and the folder (relative to the scene) of its library.
+type MaterialSource = (tobj::Material, PathBuf);
+
 /// The MTL libraries an OBJ file names, each read once, and its `usemtl` selection.
 struct Libraries<'a> {
     ctx: &'a LoadContext<'a>,
@@ -611,7 +614,7 @@ struct Libraries<'a> {
     materials: Vec<Material>,
     /// Each material's MTL statement and the folder (relative to the scene) of its library, for
     /// its texture maps.
-    sources: Vec<(tobj::Material, PathBuf)>,
+    sources: Vec<MaterialSource>,
     by_name: HashMap<String, u32>,
     /// Whether each library, by the name as written and by the file it resolves to, was read.
     seen_names: HashMap<String, bool>,
@@ -688,7 +691,7 @@ impl<'a> Libraries<'a> {
 
     /// The materials read, with their MTL statements and folders; an error when a library named
     /// could not be read and none was.
-    fn finish(self, name: &str) -> Result<(Vec<Material>, Vec<(tobj::Material, PathBuf)>)> {
+    fn finish(self, name: &str) -> Result<(Vec<Material>, Vec<MaterialSource>)> {
         match self.error {
             Some(e) if self.materials.is_empty() => Err(e
                 .context(format!("{name}: its material library"))
