@@ -75,10 +75,11 @@ impl WeightedLayers {
         self.albedo += o.albedo * w;
     }
 
-    /// The pixel's layers as sums of one unit of weight.
+    /// The pixel's layers as sums of one unit of weight. The albedo is a convex combination of
+    /// values in [0, 1]; clamping removes what rounding of the weights adds beyond.
     pub fn sum(&self) -> LayerSum {
         let depth = if self.hits > 0.0 { self.depth / self.hits } else { f32::INFINITY };
-        LayerSum::whole(depth, self.normal, self.albedo)
+        LayerSum::whole(depth, self.normal, self.albedo.clamp(Vec3::ZERO, Vec3::ONE))
     }
 }
 
