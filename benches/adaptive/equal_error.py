@@ -56,6 +56,17 @@ POV_DOZEN = [("-A", ["-A"])] + [
     for j in ("", " -J")
 ]
 
+# The quality scene (soft shadows, glossy floor, frosted glass; no depth of field: POV-Ray's
+# twin has none): fewer settings, each render costs more.
+RAYLAB_QUALITY = [("no AA", ["--aa", "stratified", "--spp", "1"])] + [
+    (f"t{t} d{d}", ["--aa", "adaptive", "--aa-threshold", str(t), "--aa-depth", str(d)])
+    for d in (3,)
+    for t in (0.12, 0.06, 0.03, 0.02, 0.01)
+]
+POV_QUALITY = [("-A", ["-A"])] + [
+    (f"+A{a} +R{r}", [f"+A{a}", "+AM2", f"+R{r}"]) for r in (2, 3, 4) for a in (0.3, 0.2, 0.1, 0.05)
+]
+
 SCENES = {
     "dozen": {
         "raylab": "scenes/dozen.toml",
@@ -68,6 +79,20 @@ SCENES = {
         "pov_ref": {"scale": 4, "args": ["+A0.0", "+AM1", "+R6", "+J"]},
         "raylab_settings": RAYLAB_DOZEN,
         "pov_settings": POV_DOZEN,
+        "pov_default": "+A0.3 +R3",
+        "pov_r4": "+A0.3 +R4",
+    },
+    "quality": {
+        "raylab": "scenes/quality.toml",
+        "raylab_args": ["--aperture", "0"],
+        "pov": "benches/povray/quality.pov",
+        "size": (640, 400),
+        # 16 × 16 strata per pixel (each with the scene's glossy and shadow rays).
+        "raylab_ref": ["--aa", "stratified", "--spp", "256"],
+        # 2 × 2 pixels per final pixel, each supersampled 4 × 4 jittered + its centre.
+        "pov_ref": {"scale": 2, "args": ["+A0.0", "+AM1", "+R4", "+J"]},
+        "raylab_settings": RAYLAB_QUALITY,
+        "pov_settings": POV_QUALITY,
         "pov_default": "+A0.3 +R3",
         "pov_r4": "+A0.3 +R4",
     },
@@ -131,12 +156,12 @@ def references(cfg, name, exe, out, threads):
     w, h = cfg["size"]
     # Keyed by the scene and the settings, not the binary: stratified sampling does not change
     # when the adaptive scheme does. Delete the file to render it again.
-    rl_key = key([cfg["raylab"], (ROOT / cfg["raylab"]).read_text(), cfg["raylab_ref"], w, h])
+    rl_key = key([cfg["raylab"], (ROOT / cfg["raylab"]).read_text(), cfg.get("raylab_args", []) + cfg["raylab_ref"], w, h])
     rl = out / f"ref-raylab-{name}-{rl_key}.pfm"
     if not rl.exists():
         print(f"[{name}] raylab reference: {shlex.join(cfg['raylab_ref'])} …", flush=True)
         tmp = out / f"tmp-{rl.name}"
-        raylab_render(exe, cfg["raylab"], tmp, cfg["raylab_ref"], threads)
+        raylab_render(exe, cfg["raylab"], tmp, cfg.get("raylab_args", []) + cfg["raylab_ref"], threads)
         tmp.rename(rl)
     pr = cfg["pov_ref"]
     pov_key = key([cfg["pov"], (ROOT / cfg["pov"]).read_text(), pr, w, h, "ppm16"])
@@ -251,7 +276,7 @@ def main():
             for renderer, label, args in jobs:
                 img = out / f"{name}-{renderer}-{key([label, args])}.png"
                 if renderer == "raylab":
-                    m = raylab_render(exe, cfg["raylab"], img, args, a.threads)
+                    m = raylab_render(exe, cfg["raylab"], img, cfg.get("raylab_args", []) + args, a.threads)
                 else:
                     m = pov_render(cfg["pov"], img, w, h, args, a.threads)
                 res = results.setdefault((renderer, label), {"renderer": renderer, "label": label, "args": args, "cpu": [], "wall": [], "image": str(img)})
