@@ -13,6 +13,11 @@ use std::sync::Mutex;
 
 /// A bundled scene at a small size, with `aa` and optional layers.
 fn job(scene: &str, aa: &str, spp: u32) -> RenderJob {
+    job_sized(scene, aa, spp, 40, 30)
+}
+
+/// A bundled scene at `width × height`, with `aa`.
+fn job_sized(scene: &str, aa: &str, spp: u32, width: u32, height: u32) -> RenderJob {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(scene);
     let src = raylab::input::error::Source::new("test", "");
     let node = |v: Value| Node { value: v, loc: raylab::input::error::Loc::new(&src, 0..0) };
@@ -21,7 +26,7 @@ fn job(scene: &str, aa: &str, spp: u32) -> RenderJob {
         render_params.push(("aa_threshold".into(), node(Value::Float(0.03))));
         render_params.push(("aa_depth".into(), node(Value::Int(2))));
     }
-    let overrides = Overrides { width: Some(40), height: Some(30), spp: Some(spp), render_params, ..Overrides::default() };
+    let overrides = Overrides { width: Some(width), height: Some(height), spp: Some(spp), render_params, ..Overrides::default() };
     load_file(&raylab_plugins::registry(), &path, &LoadOptions { overrides, ..LoadOptions::default() })
         .unwrap_or_else(|e| panic!("{}", e.report()))
 }
@@ -105,8 +110,9 @@ fn missing_duplicated_overlapping_and_foreign_parts_are_refused() {
 /// every snapshot a render hands out (one after each tile here), resumed.
 #[test]
 fn resuming_from_any_snapshot_gives_the_uninterrupted_image() {
-    for (scene, aa) in [("quality.toml", "stratified"), ("showcase.toml", "adaptive")] {
-        let j = job(scene, aa, 2);
+    // Adaptive tiles are larger (ADAPTIVE_TILE_SIZE): a frame of six of them.
+    for (scene, aa, (w, h)) in [("quality.toml", "stratified", (40, 30)), ("showcase.toml", "adaptive", (140, 100))] {
+        let j = job_sized(scene, aa, 2, w, h);
         let whole = render(&j, &RenderOptions { threads: Some(1), ..RenderOptions::default() }, &|_, _| {}).unwrap();
         let states: Mutex<Vec<FrameSums>> = Mutex::new(Vec::new());
         let keep = |s: &FrameSums| states.lock().unwrap().push(s.clone());

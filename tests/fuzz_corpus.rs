@@ -65,3 +65,13 @@ fn partial_exr_corpus_reads_or_fails_cleanly() {
         }
     }
 }
+
+#[test]
+fn texture_image_corpus_decodes_within_the_limits_or_fails_cleanly() {
+    for f in corpus("texture_image") {
+        let data = std::fs::read(&f).unwrap();
+        if let Err(v) = raylab_plugins::textures::fuzz::check_bytes(&data) {
+            panic!("{}: {v}", f.display());
+        }
+    }
+}

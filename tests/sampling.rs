@@ -8,7 +8,8 @@ use raylab::image::film::Film;
 use raylab::image::metrics;
 use raylab::input::context::LoadOptions;
 use raylab::input::load::load_str;
-use raylab::render::{Antialiasing, RenderJob, RenderOptions, Rendered, render, render_progressive};
+use raylab::render::adaptive::Adaptive;
+use raylab::render::{AdaptiveSettings, Antialiasing, RenderJob, RenderOptions, Rendered, render, render_progressive};
 use std::path::Path;
 
 fn job(text: &str) -> RenderJob {
@@ -86,29 +87,34 @@ fn error_falls_as_samples_rise_on_a_scene_with_edges() {
 fn adaptive_supersampling_traces_fewer_rays_than_16_spp_for_no_more_error() {
     let reference = run(&with(EDGES, 1024, Antialiasing::Stratified), None).film;
     let uniform = run(&with(EDGES, 16, Antialiasing::Stratified), None);
-    let adaptive = run(&with(EDGES, 1, Antialiasing::Adaptive { threshold: 0.02, max_depth: 3 }), None);
-    let (eu, ea) = (rmse(&uniform.film, &reference), rmse(&adaptive.film, &reference));
-    let (ru, ra) = (uniform.stats.camera_rays, adaptive.stats.camera_rays);
-    assert!(ea <= eu, "adaptive error {ea} > uniform {eu}");
-    assert!(ra * 3 < ru * 2, "adaptive traced {ra} camera rays, uniform {ru}");
+    // With edges located by bisection, and with subdivision alone.
+    for edges in [true, false] {
+        let settings = AdaptiveSettings { edges, ..AdaptiveSettings::new(0.005, 4) };
+        let adaptive = run(&with(EDGES, 1, Antialiasing::Adaptive(settings)), None);
+        let (eu, ea) = (rmse(&uniform.film, &reference), rmse(&adaptive.film, &reference));
+        let (ru, ra) = (uniform.stats.camera_rays, adaptive.stats.camera_rays);
+        assert!(ea <= eu, "edges {edges}: adaptive error {ea} > uniform {eu}");
+        assert!(ra * 3 < ru * 2, "edges {edges}: adaptive traced {ra} camera rays, uniform {ru}");
+    }
 }
 
 #[test]
 fn adaptive_supersampling_refines_only_where_samples_disagree() {
-    // A flat background costs the corner lattice alone: (w + 1)(h + 1) rays, shared by pixels.
-    let flat = "[render]\nwidth = 20\nheight = 10\n[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\n";
-    let r = run(&with(flat, 1, Antialiasing::Adaptive { threshold: 0.0, max_depth: 4 }), None);
-    let tiles_x = 2; // 16-pixel tiles: one lattice column is shared by two tiles and traced by each.
-    assert_eq!(r.stats.camera_rays, 21 * 11 + (tiles_x - 1) * 11);
+    // A flat background costs the corner lattice alone: (w + 1)(h + 1) rays, shared by pixels;
+    // a lattice column on the border of two tiles is traced by each.
+    let flat = "[render]\nwidth = 100\nheight = 10\n[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\n";
+    let r = run(&with(flat, 1, Antialiasing::Adaptive(AdaptiveSettings::new(0.0, 4))), None);
+    let tiles_x = 100u64.div_ceil(u64::from(raylab::render::ADAPTIVE_TILE_SIZE));
+    assert_eq!(r.stats.camera_rays, 101 * 11 + (tiles_x - 1) * 11);
     // Edges force refinement, and a threshold of 1 never refines.
-    let busy = run(&with(EDGES, 1, Antialiasing::Adaptive { threshold: 0.05, max_depth: 2 }), None).stats.camera_rays;
-    let none = run(&with(EDGES, 1, Antialiasing::Adaptive { threshold: 1.0, max_depth: 2 }), None).stats.camera_rays;
+    let busy = run(&with(EDGES, 1, Antialiasing::Adaptive(AdaptiveSettings::new(0.05, 2))), None).stats.camera_rays;
+    let none = run(&with(EDGES, 1, Antialiasing::Adaptive(AdaptiveSettings::new(1.0, 2))), None).stats.camera_rays;
     assert!(busy > none + 48 * 36 / 4, "{busy} vs {none}");
 }
 
 #[test]
 fn images_do_not_depend_on_the_thread_count() {
-    for aa in [Antialiasing::Stratified, Antialiasing::Adaptive { threshold: 0.05, max_depth: 3 }] {
+    for aa in [Antialiasing::Stratified, Antialiasing::Adaptive(AdaptiveSettings::new(0.05, 3))] {
         let mut j = with(EDGES, 5, aa);
         j.scene.camera.aperture = 0.05;
         j.settings.lens_samples = 2;
@@ -199,4 +205,33 @@ direction = [{}, {}, {}]
         }
     }
     assert!(lit > 200, "the sphere should cover many lit pixels, got {lit}");
+}
+
+#[test]
+fn adaptive_pixels_do_not_depend_on_the_tile_or_the_order() {
+    // Each pixel alone (its own one-pixel window), and the pixels of an odd window walked
+    // backwards, give the render's bits: a pixel depends only on the lattice points inside it,
+    // whatever a tile split or a crop shares or traces first.
+    for settings in [AdaptiveSettings::new(0.01, 3), AdaptiveSettings { edges: false, cell_samples: 3, ..AdaptiveSettings::new(0.02, 2) }] {
+        let mut j = with(EDGES, 1, Antialiasing::Adaptive(settings));
+        j.scene.camera.aperture = 0.05;
+        j.settings.lens_samples = 2;
+        let film = run(&j, Some(2)).film;
+        let mut stats = raylab::render::stats::RayStats::new(j.integrator.counters());
+        // As the render stores a pixel: one exact unit of weight.
+        let bits = |v: raylab::glam::DVec3| raylab::render::accum::PixelSum::whole(v).mean().as_vec3().to_array().map(f32::to_bits);
+        for y in 0..j.settings.height {
+            for x in 0..j.settings.width {
+                let alone = Adaptive::new(&j, settings, x, 1, false).pixel(x, y, &mut stats).color;
+                assert_eq!(bits(alone), film.get(x, y).to_array().map(f32::to_bits), "pixel ({x}, {y}), {settings:?}");
+            }
+        }
+        let mut window = Adaptive::new(&j, settings, 5, 17, false);
+        for y in (3..20).rev() {
+            for x in (5..22).rev() {
+                let v = window.pixel(x, y, &mut stats).color;
+                assert_eq!(bits(v), film.get(x, y).to_array().map(f32::to_bits), "pixel ({x}, {y}) walked backwards");
+            }
+        }
+    }
 }

@@ -27,9 +27,11 @@
 //! mirror direction turns away from the viewer (a hard line across flat faces).
 //! docs/gltf-materials.md compares the mapping with the glTF BRDF on a row of spheres.
 //!
-//! Metallic-roughness, normal and occlusion textures, animations, skins, morph targets, points
-//! and lines, orthographic cameras and extensions raylab does not implement are ignored with one
-//! warning per kind (with a count).
+//! Metallic-roughness, normal, occlusion and transmission textures, vertex colours, animations,
+//! skins, morph targets, points and lines, orthographic cameras and extensions raylab does not
+//! implement (those `extensionsUsed` lists and those found on any element) are ignored with one
+//! warning per kind (with a count, or naming each extension). Sparse accessors are read (the
+//! gltf crate applies their substitutions).
 //! Non-finite numbers (NaN, or beyond f32) in transforms, cameras, lights and materials are
 //! refused. Errors name the element by its JSON pointer (`/nodes/3/matrix`) at its line and
 //! column in the JSON (the JSON chunk, for `.glb`).
@@ -815,10 +817,11 @@ impl GltfFile {
         };
         let materials: Vec<gltf::Material> = self.doc.materials().collect();
         type Has = fn(&gltf::Material) -> bool;
-        let textures: [(&str, Has); 3] = [
+        let textures: [(&str, Has); 4] = [
             ("metallicRoughnessTexture", |m| m.pbr_metallic_roughness().metallic_roughness_texture().is_some()),
             ("normalTexture", |m| m.normal_texture().is_some()),
             ("occlusionTexture", |m| m.occlusion_texture().is_some()),
+            ("KHR_materials_transmission transmissionTexture", |m| m.transmission().is_some_and(|t| t.transmission_texture().is_some())),
         ];
         for (name, has) in textures {
             let n = materials.iter().filter(|m| has(m)).count();
@@ -842,9 +845,11 @@ impl GltfFile {
         );
         let n = materials.iter().filter(|m| m.alpha_mode() == gltf::material::AlphaMode::Mask).count();
         warn(n, format!("{n} material(s) use alphaMode MASK: the cutoff is ignored (they are opaque)"));
-        let unsupported: Vec<&str> = self.doc.extensions_used().filter(|e| !SUPPORTED.contains(e)).collect();
+        let unsupported: Vec<String> = self.extensions().into_iter().filter(|e| !SUPPORTED.contains(&e.as_str())).collect();
         warn(unsupported.len(), format!("the file uses extensions raylab ignores: {}", unsupported.join(", ")));
         let prims = || self.doc.meshes().flat_map(|m| m.primitives().collect::<Vec<_>>());
+        let n = prims().filter(|p| p.get(&gltf::Semantic::Colors(0)).is_some()).count();
+        warn(n, format!("{n} primitive(s) have vertex colours (COLOR_0), which raylab ignores"));
         use gltf::mesh::Mode;
         let n = prims().filter(|p| !matches!(p.mode(), Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan)).count();
         warn(n, format!("{n} primitive(s) are points or lines, which raylab skips"));
@@ -856,6 +861,39 @@ impl GltfFile {
         warn(n, format!("{n} skin(s) ignored: skinned meshes are shown in their bind pose"));
         let n = self.doc.scenes().len();
         warn(n.saturating_sub(1), format!("the file has {n} scenes: only its default scene is read"));
+    }
+
+    /// The names of the extensions the file uses, sorted: those `extensionsUsed` declares and
+    /// those found on its elements (a file may omit some from the list).
+    fn extensions(&self) -> std::collections::BTreeSet<String> {
+        let mut names: std::collections::BTreeSet<String> = self.doc.extensions_used().map(String::from).collect();
+        // Each element's extensions that the gltf crate does not read itself (a JSON map).
+        macro_rules! add {
+            ($extensions:expr) => {
+                names.extend($extensions.into_iter().flat_map(|e| e.keys()).cloned())
+            };
+        }
+        add!(self.doc.extensions());
+        self.doc.nodes().for_each(|n| add!(n.extensions()));
+        self.doc.cameras().for_each(|c| add!(c.extensions()));
+        self.doc.images().for_each(|i| add!(i.extensions()));
+        self.doc.samplers().for_each(|t| add!(t.extensions()));
+        self.doc.textures().for_each(|t| add!(t.extensions()));
+        self.doc.accessors().for_each(|a| add!(a.extensions()));
+        self.doc.buffers().for_each(|b| add!(b.extensions()));
+        for m in self.doc.meshes() {
+            add!(m.extensions());
+            m.primitives().for_each(|p| add!(p.extensions()));
+        }
+        for m in self.doc.materials() {
+            add!(m.extensions());
+            let pbr = m.pbr_metallic_roughness();
+            add!(pbr.extensions());
+            for info in [pbr.base_color_texture(), pbr.metallic_roughness_texture(), m.emissive_texture()].into_iter().flatten() {
+                add!(info.extensions());
+            }
+        }
+        names
     }
 
     /// Appends the triangles of every primitive of `mesh`, transformed by `m`.
@@ -880,7 +918,19 @@ impl GltfFile {
                     a.view().and_then(|v| v.stride()).unwrap_or(0),
                     a.size()
                 ))),
-                _ => Ok(()),
+                Some(a) if a.count() == 0 => Err(err(format!("its {what} accessor has count 0 (at least 1 is required)"))),
+                Some(a) => match a.sparse() {
+                    Some(sp) if sp.count() == 0 || sp.count() > a.count() => Err(err(format!(
+                        "its {what} accessor's sparse count is {}; expected 1 to the accessor's count, {}",
+                        sp.count(),
+                        a.count()
+                    ))),
+                    Some(sp) if sp.indices().view().stride().is_some() || sp.values().view().stride().is_some() => {
+                        Err(err(format!("its {what} accessor's sparse indices or values have a byteStride, which glTF forbids")))
+                    }
+                    _ => Ok(()),
+                },
+                None => Ok(()),
             };
             typed(prim.get(&gltf::Semantic::Positions), &[DataType::F32], Dimensions::Vec3, "POSITION")?;
             typed(prim.get(&gltf::Semantic::Normals), &[DataType::F32], Dimensions::Vec3, "NORMAL")?;
@@ -1462,5 +1512,77 @@ mod tests {
         // A quarter turn: glTF (u, v) ↦ (u cos − v sin, u sin + v cos) = (−v, u).
         let q = gltf_uv_transform([0.0, 0.0], std::f64::consts::FRAC_PI_2, [1.0, 1.0]);
         close(at(q, 0.2, 1.0 - 0.6), DVec3::new(-0.6, 1.0 - 0.2, 0.0));
+    }
+
+    /// Standard base64 (for `data:` URIs in test documents).
+    fn base64(bytes: &[u8]) -> String {
+        const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+        let mut out = String::new();
+        for c in bytes.chunks(3) {
+            let n = c.iter().enumerate().fold(0u32, |n, (i, &b)| n | u32::from(b) << (16 - 8 * i));
+            for i in 0..4 {
+                out.push(if i <= c.len() { ALPHABET[(n >> (18 - 6 * i) & 63) as usize] as char } else { '=' });
+            }
+        }
+        out
+    }
+
+    /// Reads glTF `text` as one mesh, with the warnings the read gave.
+    fn read_mesh(text: &str) -> (Result<MeshData>, Vec<String>) {
+        let options = raylab::LoadOptions::default();
+        let ctx = LoadContext::new(Path::new("."), &options);
+        let src = Source::new("t.gltf", String::new());
+        let mesh = parse(&ctx, "t.gltf", Path::new("t.gltf"), text.as_bytes().to_vec(), &Loc::new(&src, 0..0)).and_then(|f| f.whole(&ctx));
+        (mesh, ctx.take_warnings().iter().map(|w| w.message.clone()).collect())
+    }
+
+    /// Extensions a file uses without declaring them in `extensionsUsed`, the transmission
+    /// texture and vertex colours are named in a warning, once each.
+    #[test]
+    fn undeclared_extensions_transmission_textures_and_vertex_colours_warn() {
+        let extra = r#",
+"materials":[{"extensions":{"KHR_materials_clearcoat":{"clearcoatFactor":1},"KHR_materials_transmission":{"transmissionFactor":0.5,"transmissionTexture":{"index":0}}}},
+{"extensions":{"KHR_materials_clearcoat":{}}}],
+"textures":[{"source":0,"extensions":{"EXT_texture_webp":{"source":0}}}],"images":[{"uri":"missing.png"}],
+"extensionsUsed":["KHR_materials_transmission"]"#;
+        let text = doc("[{\"mesh\":0}]", extra).replacen(
+            r#""attributes":{"POSITION":0}}"#,
+            r#""attributes":{"POSITION":0,"COLOR_0":0},"material":0},{"attributes":{"POSITION":0},"material":1}"#,
+            1,
+        );
+        let (mesh, w) = read_mesh(&text);
+        assert_eq!(mesh.unwrap().triangles.len(), 2);
+        let has = |s: &str| w.iter().filter(|m| m.contains(s)).count();
+        assert_eq!(has("the file uses extensions raylab ignores: EXT_texture_webp, KHR_materials_clearcoat"), 1, "{w:?}");
+        assert_eq!(has("KHR_materials_transmission transmissionTexture, which raylab does not sample"), 1, "{w:?}");
+        assert_eq!(has("1 primitive(s) have vertex colours (COLOR_0), which raylab ignores"), 1, "{w:?}");
+        assert_eq!(has("ignores: KHR_materials_transmission"), 0, "{w:?}");
+    }
+
+    /// A sparse accessor's substitutions are applied (vertex 2 moved from (0, 1, 0) to
+    /// (0, 2, 0)), without a warning; a malformed one is an error naming the primitive.
+    #[test]
+    fn sparse_accessors_are_read() {
+        let mut sparse = 2u16.to_le_bytes().to_vec();
+        sparse.extend([0, 0]);
+        sparse.extend([0.0f32, 2.0, 0.0].iter().flat_map(|v| v.to_le_bytes()));
+        let with = |sparse_count: u32, stride: &str| {
+            let text = doc("[{\"mesh\":0}]", "")
+                .replacen(r#""max":[1,1,0]}"#, &format!(r#""max":[1,2,0],"sparse":{{"count":{sparse_count},"indices":{{"bufferView":1,"componentType":5123}},"values":{{"bufferView":2}}}}}}"#), 1)
+                .replacen(
+                    r#""bufferViews":[{"buffer":0,"byteLength":36}]"#,
+                    &format!(r#""bufferViews":[{{"buffer":0,"byteLength":36}},{{"buffer":1,"byteLength":2{stride}}},{{"buffer":1,"byteOffset":4,"byteLength":12}}]"#),
+                    1,
+                )
+                .replacen("\"}]", &format!("\"}},{{\"byteLength\":16,\"uri\":\"data:application/octet-stream;base64,{}\"}}]", base64(&sparse)), 1);
+            read_mesh(&text)
+        };
+        let (mesh, w) = with(1, "");
+        assert_eq!(mesh.unwrap().positions, [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 2.0, 0.0]]);
+        assert!(w.is_empty(), "{w:?}");
+        for (count, stride, want) in [(0, "", "sparse"), (2, "", "outside its buffer"), (1, ",\"byteStride\":4", "sparse")] {
+            let e = with(count, stride).0.err().unwrap_or_else(|| panic!("count {count}{stride} was read"));
+            assert!(e.message.contains("primitive 0") && e.message.contains(want), "count {count}{stride}: {}", e.report());
+        }
     }
 }

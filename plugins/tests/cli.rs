@@ -28,7 +28,7 @@ fn no_arguments_renders_the_default_scene_to_render_png() {
     let out = raylab(&dir, &[]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let stdout = text(&out.stdout);
-    assert!(stdout.starts_with("wrote render.png (800×600, adaptive AA (threshold 0.05, depth 3)"), "{stdout}");
+    assert!(stdout.starts_with("wrote render.png (800×600, adaptive AA (threshold 0.02, depth 3)"), "{stdout}");
     assert!(stdout.contains("rays/s") && stdout.contains("trace "), "{stdout}");
     assert!(stdout.contains(", 0 non-finite samples"), "the summary states the non-finite count: {stdout}");
     let img = image::open(dir.join("render.png")).unwrap();

@@ -176,3 +176,63 @@ fn mtl_maps_go_through_the_sandbox() {
     assert!(job.scene.objects[0].materials()[0].textures.is_empty());
     std::fs::remove_dir_all(&root).unwrap();
 }
+
+/// The `texture_image` fuzz corpus's seeds read as they should under the fuzz target's limits:
+/// valid PNG, JPEG and OpenEXR files of every layout decode to their size with finite,
+/// non-negative texels; a header declaring too large an image is refused from the header; other
+/// malformed files are errors naming the file (the replay of every file is in
+/// `tests/fuzz_corpus.rs`).
+#[test]
+fn the_texture_fuzz_seeds_decode_or_fail_as_expected() {
+    use raylab::LoadContext;
+    use raylab_plugins::textures::image::{ColorSpace, decode};
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/corpus/texture_image");
+    let options = LoadOptions { limits: raylab_plugins::textures::fuzz::limits(), ..LoadOptions::default() };
+    let read = |name: &str| {
+        let ctx = LoadContext::new(Path::new("."), &options);
+        decode(&std::fs::read(dir.join(name)).unwrap(), name, ColorSpace::Auto, &ctx)
+    };
+    let mut valid = vec![
+        ("png-rgb8-4x3.png", (4, 3)),
+        ("png-rgba8-2x2.png", (2, 2)),
+        ("png-gray8-3x1.png", (3, 1)),
+        ("png-gray16-2x2.png", (2, 2)),
+        ("png-rgb16-2x2.png", (2, 2)),
+        ("png-palette-2x2.png", (2, 2)),
+        ("png-1bit-9x2.png", (9, 2)),
+        ("png-interlaced-5x5.png", (5, 5)),
+        ("png-zlib-bomb-1024x1024-rgba16.png", (1024, 1024)),
+        ("jpeg-baseline-16x8.jpg", (16, 8)),
+        ("jpeg-progressive-16x8.jpg", (16, 8)),
+        ("jpeg-gray-8x8.jpg", (8, 8)),
+        ("jpeg-subsampled-odd-7x5.jpg", (7, 5)),
+    ];
+    if cfg!(feature = "exr") {
+        valid.extend([("exr-half-rgb-2x2.exr", (2, 2)), ("exr-float-rgb-2x2.exr", (2, 2)), ("exr-nan-inf-negative.exr", (2, 2))]);
+    }
+    for (name, size) in valid {
+        let image = read(name).unwrap_or_else(|e| panic!("{name}: {}", e.report()));
+        assert_eq!(image.size(), size, "{name}");
+        assert!(raylab_plugins::textures::fuzz::check_bytes(&std::fs::read(dir.join(name)).unwrap()).is_ok(), "{name}");
+    }
+    let mut too_large = vec![
+        ("png-huge-100000x100000.png", "100000×100000 = 10000000000 pixels, over the limit"),
+        ("png-huge-side-65536x1.png", "65536×1 = 65536 pixels, over the limit"),
+        ("png-over-pixels-2048x2048.png", "2048×2048 = 4194304 pixels, over the limit"),
+        ("jpeg-huge-65535x65535.jpg", "65535×65535 = 4294836225 pixels, over the limit"),
+    ];
+    if cfg!(feature = "exr") {
+        too_large.extend([
+            ("exr-huge-data-window.exr", "100000×100000 = 10000000000 pixels, over the limit"),
+            ("exr-over-pixels-2048x2048.exr", "2048×2048 = 4194304 pixels, over the limit"),
+        ]);
+    }
+    for (name, want) in too_large {
+        let e = read(name).err().unwrap_or_else(|| panic!("{name} was read"));
+        assert!(e.report().contains(want), "{name}: {}", e.report());
+    }
+    for name in ["png-bad-ihdr-crc.png", "png-truncated-header.png", "png-zero-width.png", "jpeg-bad-marker.jpg", "jpeg-only-soi.jpg"] {
+        let e = read(name).err().unwrap_or_else(|| panic!("{name} was read"));
+        assert!(e.where_().is_some_and(|w| w.starts_with(name)), "{name}: {}", e.report());
+    }
+}

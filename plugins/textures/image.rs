@@ -121,12 +121,18 @@ pub enum ColorSpace {
     Linear,
 }
 
-/// Texels of a decoded image.
+/// Texels of a decoded image, row by row, 3 values (R, G, B) a texel: the decoder's buffer
+/// converted in place, so that decoding takes at most the decoded file plus what is kept.
 enum Texels {
     /// 8-bit RGB, with the table mapping each value to linear.
-    Eight { rgb: Vec<[u8; 3]>, linear: Box<[f32; 256]> },
+    Eight { rgb: Vec<u8>, linear: Box<[f32; 256]> },
     /// Linear RGB.
-    Float(Vec<[f32; 3]>),
+    Float(Vec<f32>),
+}
+
+/// Bytes an image of `pixels` texels keeps ([`Image::memory_bytes`]), 8-bit or `f32`.
+fn kept_bytes(pixels: u64, eight: bool) -> u64 {
+    if eight { pixels * 3 + std::mem::size_of::<[f32; 256]>() as u64 } else { pixels * 3 * std::mem::size_of::<f32>() as u64 }
 }
 
 /// A decoded image: linear RGB texels, row 0 at the top.
@@ -151,22 +157,19 @@ impl Image {
 
     /// Bytes the texels take.
     pub fn memory_bytes(&self) -> usize {
-        match &self.texels {
-            Texels::Eight { rgb, .. } => rgb.len() * 3 + 1024,
-            Texels::Float(t) => t.len() * 12,
-        }
+        kept_bytes((self.width * self.height) as u64, matches!(self.texels, Texels::Eight { .. })) as usize
     }
 
     /// The linear value of texel (`x`, `y`), row 0 at the top; both in range.
     #[inline]
     fn texel(&self, x: usize, y: usize) -> Vec3 {
-        let i = y * self.width + x;
+        let i = 3 * (y * self.width + x);
         match &self.texels {
             Texels::Eight { rgb, linear } => {
-                let [r, g, b] = rgb[i];
+                let [r, g, b] = [rgb[i], rgb[i + 1], rgb[i + 2]];
                 Vec3::new(linear[r as usize], linear[g as usize], linear[b as usize])
             }
-            Texels::Float(t) => Vec3::from(t[i]),
+            Texels::Float(t) => Vec3::new(t[i], t[i + 1], t[i + 2]),
         }
     }
 
@@ -267,8 +270,7 @@ pub fn decode(bytes: &[u8], name: &str, space: ColorSpace, ctx: &LoadContext) ->
             .with_help("raise the limits with --max-pixels and --max-side"));
         }
         let eight = decoder.color_type().bytes_per_pixel() == decoder.color_type().channel_count();
-        let kept = pixels * if eight { 3 } else { 12 };
-        ctx.charge(decoder.total_bytes().saturating_add(kept), &format!("the image \"{name}\" ({w}×{h})"), None)?;
+        ctx.charge(decoder.total_bytes().saturating_add(kept_bytes(pixels, eight)), &format!("the image \"{name}\" ({w}×{h})"), None)?;
         image::DynamicImage::from_decoder(decoder).map_err(|e| fail(format!("cannot decode the image: {e}")))
     }));
     let img = match decoded {
@@ -278,7 +280,7 @@ pub fn decode(bytes: &[u8], name: &str, space: ColorSpace, ctx: &LoadContext) ->
     let (width, height) = (img.width() as usize, img.height() as usize);
     let eight = img.color().bytes_per_pixel() == img.color().channel_count();
     let texels = if eight {
-        let rgb = img.into_rgb8().into_raw().chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+        let rgb = img.into_rgb8().into_raw();
         let mut linear = Box::new([0.0f32; 256]);
         for (i, v) in linear.iter_mut().enumerate() {
             let x = i as f32 / 255.0;
@@ -290,7 +292,9 @@ pub fn decode(bytes: &[u8], name: &str, space: ColorSpace, ctx: &LoadContext) ->
             let v = if v.is_finite() { v.max(0.0) } else { 0.0 };
             if space == ColorSpace::Srgb { srgb_decode(v.min(1.0)) } else { v }
         };
-        Texels::Float(img.into_rgb32f().into_raw().chunks_exact(3).map(|c| [to_linear(c[0]), to_linear(c[1]), to_linear(c[2])]).collect())
+        let mut rgb = img.into_rgb32f().into_raw();
+        rgb.iter_mut().for_each(|v| *v = to_linear(*v));
+        Texels::Float(rgb)
     };
     Ok(Image { width, height, texels })
 }
@@ -390,6 +394,17 @@ mod tests {
         options.limits = raylab::input::limits::Limits { max_pixels: 100, ..std::default::Default::default() };
         let e = ctx_decode(&big, ColorSpace::Auto, &options).unwrap_err();
         assert!(e.report().contains("64×64 = 4096 pixels, over the limit of 100"), "{}", e.report());
+    }
+
+    /// What an image keeps (texels and, for 8 bits, the table to linear) is charged in full;
+    /// found by the `texture_image` fuzz target (a 3×1 grey PNG kept 1033 bytes, charged 12).
+    #[test]
+    fn the_charge_covers_what_the_image_keeps() {
+        let options = LoadOptions::default();
+        let ctx = LoadContext::new(std::path::Path::new(""), &options);
+        let image = decode(&png(3, 1, &[1, 2, 3, 4, 5, 6, 7, 8, 9]), "t.png", ColorSpace::Auto, &ctx).unwrap();
+        assert_eq!(image.memory_bytes(), 3 * 3 + 1024);
+        assert!(ctx.charged() >= image.memory_bytes() as u64, "{} charged", ctx.charged());
     }
 
     #[test]

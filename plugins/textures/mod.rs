@@ -1,6 +1,7 @@
 //! Textures: the classic procedural patterns ([`patterns`]: checker, stripes, gradient, ring) and
 //! image files ([`image`]), registered by name for `[textures.NAME]` tables and inline textures.
 
+pub mod fuzz;
 pub mod image;
 pub mod patterns;
 

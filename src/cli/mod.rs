@@ -94,16 +94,26 @@ pub(crate) struct SceneArgs {
     /// Set an integrator parameter: `--set max_depth=5` (value in TOML syntax; repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
-    /// Anti-aliasing: `stratified` (--spp samples per pixel) or `adaptive` (recursive corner
-    /// subdivision where neighbouring samples disagree).
+    /// Anti-aliasing: `stratified` (--spp samples per pixel) or `adaptive` (refinement where
+    /// neighbouring samples disagree: edges located by bisection, squares subdivided).
     #[arg(long, value_parser = ["stratified", "adaptive"])]
     aa: Option<String>,
-    /// Adaptive anti-aliasing: split where corner values (displayed, 0..1) differ by more than this.
+    /// Adaptive anti-aliasing: refine a pixel whose corners' displayed values (0..1) differ by
+    /// more than this (a square of side s pixels: more than T / s^1.5).
     #[arg(long, value_name = "T", allow_hyphen_values = true)]
     aa_threshold: Option<f64>,
     /// Adaptive anti-aliasing: most subdivision levels per pixel (0–8).
     #[arg(long, value_name = "N", allow_hyphen_values = true)]
     aa_depth: Option<i64>,
+    /// Adaptive anti-aliasing: locate edges by bisection (true, the default) or only subdivide.
+    #[arg(long, value_name = "BOOL")]
+    aa_edges: Option<bool>,
+    /// Adaptive anti-aliasing: also refine where the corners' rays saw different objects.
+    #[arg(long, value_name = "BOOL")]
+    aa_signature: Option<bool>,
+    /// Adaptive anti-aliasing: stratified samples inside each finest cell still unresolved (0–64).
+    #[arg(long, value_name = "N", allow_hyphen_values = true)]
+    aa_cell_samples: Option<i64>,
     /// Rays through distinct lens points per image sample (depth of field).
     #[arg(long, value_name = "N", allow_hyphen_values = true)]
     lens_samples: Option<i64>,
@@ -256,6 +266,15 @@ impl SceneArgs {
         }
         if let Some(v) = self.aa_depth {
             render_params.push(flag_node("--aa-depth", "aa_depth", Value::Int(v)));
+        }
+        if let Some(v) = self.aa_edges {
+            render_params.push(flag_node("--aa-edges", "aa_edges", Value::Bool(v)));
+        }
+        if let Some(v) = self.aa_signature {
+            render_params.push(flag_node("--aa-signature", "aa_signature", Value::Bool(v)));
+        }
+        if let Some(v) = self.aa_cell_samples {
+            render_params.push(flag_node("--aa-cell-samples", "aa_cell_samples", Value::Int(v)));
         }
         if let Some(v) = self.lens_samples {
             render_params.push(flag_node("--lens-samples", "lens_samples", Value::Int(v)));

@@ -302,6 +302,7 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
     let checkpoints: Vec<u32> = if error_log.is_some() || display.is_some() { (0..32).map(|k| 1u32 << k).collect() } else { Vec::new() };
     let mut log_failure = None;
     let work = [AtomicU64::new(0), AtomicU64::new(1)];
+    let cpu0 = crate::render::stats::process_cpu_time();
     let rendered = crate::render::render_progressive(
         &job,
         &options,
@@ -320,6 +321,9 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
             }
         },
     )?;
+    // CPU time of every thread while tracing: a rate that other processes on a busy machine do
+    // not inflate (as POV-Ray's "CPU-seconds total").
+    let trace_cpu = cpu0.zip(crate::render::stats::process_cpu_time()).map(|(a, b)| (b - a).as_secs_f64());
     bar.finish_and_clear();
     if let (Some(d), Some(addr)) = (display, &a.display_server) {
         let report = d.finish();
@@ -383,7 +387,7 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
         None => String::new(),
     };
     println!(
-        "wrote {} ({what}{}×{}, {}, {}{}) from {scene_name}: trace {:.3} s on {threads} thread{}, {} rays, {} rays/s, {} non-finite samples (load {:.3} s, BVH build {:.3} s, write {:.3} s{memory})",
+        "wrote {} ({what}{}×{}, {}, {}{}) from {scene_name}: trace {:.3} s{} on {threads} thread{}, {} rays, {} rays/s, {} non-finite samples (load {:.3} s, BVH build {:.3} s, write {:.3} s{memory})",
         a.output.display(),
         s.width,
         s.height,
@@ -391,6 +395,7 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
         job.integrator_name,
         if describe.is_empty() { String::new() } else { format!(" {describe}") },
         secs,
+        trace_cpu.map_or_else(String::new, |c| format!(" ({c:.3} CPU s)")),
         if threads == 1 { "" } else { "s" },
         si(st.total_rays() as f64),
         si(st.total_rays() as f64 / secs.max(1e-9)),

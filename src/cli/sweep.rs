@@ -20,8 +20,9 @@ pub(crate) struct SweepArgs {
     /// Scene file. Omit for the bundled default scene.
     scene: Option<PathBuf>,
     /// A knob and the values to try: `spp=1,4,16`, `depth=1,3,5`, `aa_threshold=0.1,0.05`,
-    /// `aa_depth=…`, `lens_samples=…`, `aperture=…`, `integrator=phong,path`, or any integrator
-    /// parameter (`glossy_rays`, `shadow_rays`, `shadow_probes`, `prune_threshold`, …). Repeatable.
+    /// `aa_depth=…`, `aa_edges=…`, `aa_signature=…`, `aa_cell_samples=…`, `lens_samples=…`,
+    /// `aperture=…`, `integrator=phong,path`, or any integrator parameter (`glossy_rays`,
+    /// `shadow_rays`, `shadow_probes`, `prune_threshold`, …). Repeatable.
     #[arg(long = "vary", value_name = "KNOB=V1,V2,…", required = true)]
     vary: Vec<String>,
     /// Vary one knob at a time from the base settings (the scene's, with the flags below),
@@ -350,7 +351,7 @@ fn apply(o: &mut LoadOptions, name: &str, value: &Node) -> Result<(), Failure> {
             }
             _ => return Err(SceneError::at(&value.loc, "spp must be a whole number ≥ 1").into()),
         },
-        "aa_threshold" | "aa_depth" => {
+        "aa_threshold" | "aa_depth" | "aa_edges" | "aa_signature" | "aa_cell_samples" => {
             if !ov.render_params.iter().any(|(k, _)| k == "aa") {
                 ov.render_params.push(super::flag_node("--vary", "aa", Value::Str("adaptive".into())));
             }
@@ -507,7 +508,7 @@ fn estimate_seconds(job: &mut RenderJob, options: &RenderOptions) -> Result<f64,
     let pixels = f64::from(full.width) * f64::from(full.height) / (f64::from(w) * f64::from(h));
     let samples = match full.aa {
         crate::render::Antialiasing::Stratified => f64::from(full.spp) / f64::from(spp),
-        crate::render::Antialiasing::Adaptive { .. } => 1.0,
+        crate::render::Antialiasing::Adaptive(_) => 1.0,
     };
     Ok(probe.elapsed.as_secs_f64() * pixels * samples)
 }

@@ -71,6 +71,11 @@ pub(crate) fn run(app: &App, a: TraceArgs) -> Result<(), Failure> {
                 SampleId::Lattice { x, y, depth } => {
                     format!("adaptive lattice point {} of {count} at ({x}, {y})/{}, weight {weight:.4}", a.sample, 1u64 << depth)
                 }
+                SampleId::Cell { x, y, depth, index, count: n } => format!(
+                    "adaptive sample {} of {count}: point {index} of {n} in the lattice cell at ({x}, {y})/{}, weight {weight:.4}",
+                    a.sample,
+                    1u64 << depth
+                ),
             };
             println!(
                 "pixel ({x}, {y}) of {}×{}, {which} ({}), integrator {}",

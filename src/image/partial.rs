@@ -283,6 +283,7 @@ mod tests {
                 depth: if i == 3 { f64::INFINITY } else { 1e9 + i as f64 },
                 normal: glam::DVec3::new(-0.5, 0.25, 1.0),
                 albedo: glam::DVec3::splat(0.75),
+                signature: 0,
             });
         }
         FrameSums { width: 10, height: 8, sampling: Sampling { spp: 12, adaptive: false }, share, pixels, layers: Some(layers) }

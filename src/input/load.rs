@@ -18,6 +18,7 @@ use crate::input::textures::TextureLibrary;
 use crate::input::toml::parse_toml;
 use crate::input::value::{Node, Table, Value};
 use crate::math::color::Encoding;
+use crate::render::job::{AdaptiveSettings, MAX_CELL_SAMPLES};
 use crate::render::{Antialiasing, MAX_ADAPTIVE_DEPTH, RenderJob, RenderSettings};
 use crate::scene::Scene;
 use crate::scene::camera::{CAMERA_PARAMS, Camera};
@@ -70,10 +71,33 @@ pub const RENDER_PARAMS: &[ParamSpec] = &[
     ParamSpec::new(
         "aa_threshold",
         ParamKind::Float,
-        Default::Float(0.05),
-        "adaptive: split where corner values (displayed, 0..1) differ by more than this, in [0, 1]",
+        Default::Float(0.02),
+        "adaptive: refine a pixel whose corners' displayed values (0..1) differ by more than this (a square of side s pixels: more than this / s^1.5), in [0, 1]",
     ),
-    ParamSpec::new("aa_depth", ParamKind::Int, Default::Int(3), "adaptive: most subdivision levels per pixel, 0..=8"),
+    ParamSpec::new(
+        "aa_depth",
+        ParamKind::Int,
+        Default::Int(3),
+        "adaptive: most subdivision levels per pixel, 0..=8 (edges are located to 1/2^depth of a pixel)",
+    ),
+    ParamSpec::new(
+        "aa_edges",
+        ParamKind::Bool,
+        Default::Bool(true),
+        "adaptive: where two sides of a square cross an edge, locate it by bisection and split the square along it instead of subdividing",
+    ),
+    ParamSpec::new(
+        "aa_signature",
+        ParamKind::Bool,
+        Default::Bool(false),
+        "adaptive: also refine where the corners' rays saw different objects (the integrator's sample signature)",
+    ),
+    ParamSpec::new(
+        "aa_cell_samples",
+        ParamKind::Int,
+        Default::Int(0),
+        "adaptive: stratified samples added inside each finest cell whose corners still disagree, 0..=64",
+    ),
     ParamSpec::new(
         "lens_samples",
         ParamKind::Int,
@@ -252,10 +276,13 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
     let file_encoding = Encoding::parse(&rp.choice("encoding", &Encoding::NAMES)?).unwrap_or_default();
     let encoding = ov.encoding.unwrap_or(file_encoding);
     let aa = match rp.choice("aa", &["stratified", "adaptive"])?.as_str() {
-        "adaptive" => Antialiasing::Adaptive {
+        "adaptive" => Antialiasing::Adaptive(AdaptiveSettings {
             threshold: rp.float_in("aa_threshold", 0.0..=1.0)?,
             max_depth: rp.int_in("aa_depth", 0..=i64::from(MAX_ADAPTIVE_DEPTH))? as u32,
-        },
+            edges: rp.bool("aa_edges")?,
+            signature: rp.bool("aa_signature")?,
+            cell_samples: rp.int_in("aa_cell_samples", 0..=i64::from(MAX_CELL_SAMPLES))? as u32,
+        }),
         _ => Antialiasing::Stratified,
     };
     let lens_samples = rp.int_in("lens_samples", 1..=i64::from(limits.max_spp))? as u32;
@@ -449,8 +476,12 @@ fn check_work(s: &RenderSettings, scene: &Scene, integrator: &dyn crate::Integra
     let (samples, what) = match s.aa {
         Antialiasing::Stratified => (f64::from(s.spp), "spp"),
         // Every point of the 2^depth lattice in each pixel, corners included.
-        Antialiasing::Adaptive { max_depth, .. } => {
-            ((f64::from(1u32 << max_depth.min(MAX_ADAPTIVE_DEPTH)) + 1.0).powi(2), "adaptive lattice points per pixel")
+        Antialiasing::Adaptive(a) => {
+            let cells = f64::from(1u32 << a.max_depth.min(MAX_ADAPTIVE_DEPTH)).powi(2);
+            (
+                (f64::from(1u32 << a.max_depth.min(MAX_ADAPTIVE_DEPTH)) + 1.0).powi(2) + cells * f64::from(a.cell_samples),
+                "adaptive lattice points and cell samples per pixel",
+            )
         }
     };
     let lens = if scene.camera.aperture > 0.0 { f64::from(s.lens_samples.max(1)) } else { 1.0 };

@@ -132,7 +132,7 @@ impl LayerSum {
     /// A pixel whose layers were computed whole (adaptive anti-aliasing).
     pub fn whole(depth: f32, normal: Vec3, albedo: Vec3) -> Self {
         let mut s = LayerSum::default();
-        s.add(&Layers { depth: f64::from(depth), normal: normal.as_dvec3(), albedo: albedo.as_dvec3() });
+        s.add(&Layers { depth: f64::from(depth), normal: normal.as_dvec3(), albedo: albedo.as_dvec3(), signature: 0 });
         s
     }
 

@@ -28,18 +28,29 @@ pub struct Layers {
     /// Reflectance of the first surface as the integrator sees it (for a miss, the background
     /// clamped to 1).
     pub albedo: Color,
+    /// What the ray saw, as an identifier: adaptive anti-aliasing may split a square whose
+    /// corners' signatures differ. By default the first surface's object (`index + 1`; 0 for a
+    /// miss); an integrator may fold in what its secondary rays met (the object a reflection
+    /// hits, which lights are occluded) with [`Layers::mix_signature`].
+    pub signature: u64,
 }
 
 impl Layers {
     /// A ray that hit nothing, in front of `background`.
     #[inline]
     pub fn miss(background: Color) -> Self {
-        Layers { depth: f64::INFINITY, normal: DVec3::ZERO, albedo: background.min(Color::ONE) }
+        Layers { depth: f64::INFINITY, normal: DVec3::ZERO, albedo: background.min(Color::ONE), signature: 0 }
     }
 
     /// The first surface `si`, with the integrator's `albedo` (clamped to 1).
     #[inline]
     pub fn surface(si: &crate::scene::interaction::Interaction, albedo: Color) -> Self {
-        Layers { depth: si.hit.t, normal: si.ns, albedo: albedo.min(Color::ONE) }
+        Layers { depth: si.hit.t, normal: si.ns, albedo: albedo.min(Color::ONE), signature: u64::from(si.hit.object) + 1 }
+    }
+
+    /// Folds `what` (e.g. the index of the object a secondary ray hit) into the signature.
+    #[inline]
+    pub fn mix_signature(&mut self, what: u64) {
+        self.signature = crate::render::sampler::mix64(self.signature ^ what.wrapping_mul(0x9E37_79B9_7F4A_7C15));
     }
 }

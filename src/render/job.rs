@@ -10,18 +10,44 @@ use crate::scene::Scene;
 pub enum Antialiasing {
     /// `spp` samples per pixel: the centre for 1, stratified (correlated multi-jitter) for more.
     Stratified,
-    /// Recursive corner subdivision where neighbouring samples disagree (see the module docs).
-    Adaptive {
-        /// Split a square when its corners' displayed values (clamped, encoded, 0..1) differ by
-        /// more than this in any channel.
-        threshold: f64,
-        /// Most subdivision levels per pixel (0 = the four corners only).
-        max_depth: u32,
-    },
+    /// Recursive corner subdivision where neighbouring samples disagree
+    /// ([`crate::render::adaptive`]).
+    Adaptive(AdaptiveSettings),
+}
+
+/// The settings of adaptive anti-aliasing ([`crate::render::adaptive`]).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct AdaptiveSettings {
+    /// Contrast threshold, in displayed units (clamped, encoded, 0..1): a pixel's square splits
+    /// when its corners differ by more than this in some channel; a square of side `s` pixels
+    /// when they differ by more than `threshold / s^1.5`.
+    pub threshold: f64,
+    /// Most subdivision levels per pixel (0 = the four corners only).
+    pub max_depth: u32,
+    /// Where exactly two sides of a square cross an edge, locate the crossings by bisection
+    /// along the sides and split the square along the line between them, instead of
+    /// subdividing.
+    pub edges: bool,
+    /// Also split where the corners' signatures differ
+    /// ([`crate::render::aov::Layers::signature`]: by default the first object hit).
+    pub signature: bool,
+    /// Stratified samples added inside each finest cell whose corners still disagree.
+    pub cell_samples: u32,
+}
+
+impl AdaptiveSettings {
+    /// `threshold` and `max_depth` with the other settings at their defaults (edges on,
+    /// signatures off, no cell samples).
+    pub fn new(threshold: f64, max_depth: u32) -> Self {
+        AdaptiveSettings { threshold, max_depth, edges: true, signature: false, cell_samples: 0 }
+    }
 }
 
 /// Most adaptive subdivision levels (a 256 × 256 sub-grid per pixel).
 pub const MAX_ADAPTIVE_DEPTH: u32 = 8;
+
+/// Most stratified samples in one unresolved cell of the adaptive lattice.
+pub const MAX_CELL_SAMPLES: u32 = 64;
 
 /// Image and sampling settings of a render.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -54,7 +80,19 @@ impl RenderSettings {
     pub fn describe_sampling(&self) -> String {
         let aa = match self.aa {
             Antialiasing::Stratified => format!("{} spp", self.spp),
-            Antialiasing::Adaptive { threshold, max_depth } => format!("adaptive AA (threshold {threshold}, depth {max_depth})"),
+            Antialiasing::Adaptive(a) => {
+                let mut d = format!("adaptive AA (threshold {}, depth {}", a.threshold, a.max_depth);
+                if !a.edges {
+                    d += ", no edges";
+                }
+                if a.signature {
+                    d += ", signatures";
+                }
+                if a.cell_samples > 0 {
+                    d += &format!(", {} cell samples", a.cell_samples);
+                }
+                d + ")"
+            }
         };
         if self.lens_samples > 1 { format!("{aa}, {} lens samples", self.lens_samples) } else { aa }
     }
@@ -83,3 +121,8 @@ pub struct RenderJob {
 
 /// Edge of the square tiles the image is split into, pixels.
 pub const TILE_SIZE: u32 = 16;
+
+/// Edge of the tiles under adaptive anti-aliasing, pixels: the lattice points on a tile's border
+/// are traced by both tiles it separates, `2 / ADAPTIVE_TILE_SIZE` more rays per pixel in flat
+/// regions (3 % here, 13 % with 16-pixel tiles).
+pub const ADAPTIVE_TILE_SIZE: u32 = 64;

@@ -27,7 +27,7 @@ pub mod split;
 pub mod stats;
 pub mod trace;
 
-pub use job::{Antialiasing, MAX_ADAPTIVE_DEPTH, RenderJob, RenderSettings, TILE_SIZE};
+pub use job::{ADAPTIVE_TILE_SIZE, AdaptiveSettings, Antialiasing, MAX_ADAPTIVE_DEPTH, RenderJob, RenderSettings, TILE_SIZE};
 
 use crate::image::film::Film;
 use crate::image::layers::Aovs;
@@ -143,13 +143,13 @@ pub fn render_progressive(
     }
 }
 
-/// The tiles of `bounds`: `TILE_SIZE` squares on the frame's grid, clipped to the bounds.
-fn tiles(bounds: Rect) -> Vec<Rect> {
+/// The tiles of `bounds`: `size` squares on the frame's grid, clipped to the bounds.
+fn tiles(bounds: Rect, size: u32) -> Vec<Rect> {
     let mut tiles = Vec::new();
-    let first = |v: u32| v - v % TILE_SIZE;
-    for y0 in (first(bounds.y0)..bounds.y1).step_by(TILE_SIZE as usize) {
-        for x0 in (first(bounds.x0)..bounds.x1).step_by(TILE_SIZE as usize) {
-            let t = Rect { x0, y0, x1: x0 + TILE_SIZE, y1: y0 + TILE_SIZE };
+    let first = |v: u32| v - v % size;
+    for y0 in (first(bounds.y0)..bounds.y1).step_by(size as usize) {
+        for x0 in (first(bounds.x0)..bounds.x1).step_by(size as usize) {
+            let t = Rect { x0, y0, x1: x0 + size, y1: y0 + size };
             tiles.extend(t.intersect(&bounds));
         }
     }
@@ -205,10 +205,17 @@ fn render_passes(
     };
     let ends = match s.aa {
         Antialiasing::Stratified => pass_ends(s.spp, checkpoints),
-        Antialiasing::Adaptive { .. } => vec![1],
+        Antialiasing::Adaptive(_) => vec![1],
     };
     let counters = job.integrator.counters();
-    let tiles = tiles(share.bounds);
+    // Adaptive tiles are larger: the lattice points on a tile's border are traced by both tiles.
+    let tiles = tiles(
+        share.bounds,
+        match s.aa {
+            Antialiasing::Stratified => TILE_SIZE,
+            Antialiasing::Adaptive(_) => ADAPTIVE_TILE_SIZE,
+        },
+    );
     let already: u64 = sums.pixels.iter().map(|p| u64::from(p.samples)).sum();
     let total: u64 = already + (0..sums.pixels.len()).map(|i| u64::from(sums.missing(i))).sum::<u64>();
     let done = AtomicU64::new(already);
@@ -304,9 +311,7 @@ impl TileWork {
         let t = self.tile;
         let w = t.width() as usize;
         let mut scheme = match s.aa {
-            Antialiasing::Adaptive { threshold, max_depth } => {
-                Some(Adaptive::new(job, threshold, max_depth, ((t.width() + 1) * (t.height() + 1)) as usize, self.layers.is_some()))
-            }
+            Antialiasing::Adaptive(a) => Some(Adaptive::new(job, a, t.x0, t.width(), self.layers.is_some())),
             Antialiasing::Stratified => None,
         };
         for i in 0..self.pixels.len() {
@@ -357,9 +362,9 @@ pub fn pixel_samples(job: &RenderJob, x: u32, y: u32) -> Vec<(SampleId, f64)> {
             let spp = job.settings.spp.max(1);
             (0..spp).map(|index| (SampleId::Pixel { x, y, index }, 1.0 / f64::from(spp))).collect()
         }
-        Antialiasing::Adaptive { threshold, max_depth } => {
+        Antialiasing::Adaptive(a) => {
             let mut stats = RayStats::new(job.integrator.counters());
-            Adaptive::new(job, threshold, max_depth, 9, false).pixel_samples(x, y, &mut stats)
+            Adaptive::new(job, a, x, 1, false).pixel_samples(x, y, &mut stats)
         }
     }
 }

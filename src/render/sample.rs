@@ -35,6 +35,21 @@ pub enum SampleId {
         /// Subdivision levels per pixel (the lattice has `2^depth` points per pixel side).
         depth: u32,
     },
+    /// Point `index` of `count` stratified points (correlated multi-jitter) inside the finest
+    /// cell of the adaptive lattice whose top-left point is (`x`, `y`): the extra samples of a
+    /// cell still unresolved at the deepest level.
+    Cell {
+        /// Column of the cell's top-left lattice point.
+        x: u64,
+        /// Row of the cell's top-left lattice point.
+        y: u64,
+        /// Subdivision levels per pixel.
+        depth: u32,
+        /// Sample number, `0..count`.
+        index: u32,
+        /// Points in the cell.
+        count: u32,
+    },
 }
 
 /// Lens-pattern key offset, so lens and film patterns of a pixel are independent.
@@ -43,6 +58,9 @@ const LENS_PATTERN: u32 = 0x5bd1_e995;
 /// Sample index that marks adaptive lattice samples in [`Sampler::new`] (stratified samples
 /// never reach it: `spp` is far smaller).
 const LATTICE_SAMPLE: u32 = u32::MAX;
+
+/// Key offset of [`SampleId::Cell`] streams, apart from the lattice points' own.
+const CELL_STREAM: u64 = 0x6a09_e667_f3bc_c909;
 
 /// The camera rays of one image sample, one per lens point (one for a pinhole camera), each with
 /// its random stream.
@@ -116,6 +134,22 @@ pub fn camera_rays(job: &RenderJob, id: SampleId) -> CameraRays<'_> {
                 next: 0,
             }
         }
+        SampleId::Cell { x, y, depth, index, count } => {
+            let res = 1u64 << depth;
+            let key = mix64((y * (u64::from(s.width) * res + 1) + x) ^ CELL_STREAM);
+            let cell = (mix64(key ^ s.seed.rotate_left(17)) >> 32) as u32;
+            let u = stratified_2d(index, count, cell);
+            CameraRays {
+                job,
+                film: DVec2::new((x as f64 + u.x) / res as f64, (y as f64 + u.y) / res as f64),
+                sampler: Sampler::new(key, index, s.seed),
+                first: index * s.lens_samples,
+                count: per_sample,
+                total: count * s.lens_samples,
+                pattern: cell ^ LENS_PATTERN,
+                next: 0,
+            }
+        }
     }
 }
 
@@ -127,9 +161,10 @@ pub fn film_position(job: &RenderJob, id: SampleId) -> DVec2 {
 
 /// Traces sample `id` of `job` (every camera ray of it) and adds the result to `acc`; non-finite
 /// radiance is counted in `stats` and dropped. With `layers`, each ray's first surface is added
-/// to it too.
+/// to it too. Returns the sample's signature: its rays' [`Layers::signature`]s combined.
 #[inline]
-pub fn trace_sample(job: &RenderJob, id: SampleId, acc: &mut PixelSum, mut layers: Option<&mut LayerSum>, stats: &mut RayStats) {
+pub fn trace_sample(job: &RenderJob, id: SampleId, acc: &mut PixelSum, mut layers: Option<&mut LayerSum>, stats: &mut RayStats) -> u64 {
+    let mut signature = 0u64;
     for (ray, mut sampler) in camera_rays(job, id) {
         let mut first = Layers::miss(job.scene.background);
         stats.camera_rays += 1;
@@ -142,5 +177,7 @@ pub fn trace_sample(job: &RenderJob, id: SampleId, acc: &mut PixelSum, mut layer
         if let Some(l) = layers.as_deref_mut() {
             l.add(&first);
         }
+        signature = mix64(signature.rotate_left(1) ^ first.signature);
     }
+    signature
 }

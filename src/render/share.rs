@@ -97,7 +97,7 @@ pub struct Sampling {
 impl Sampling {
     /// The sampling of `settings`.
     pub fn of(settings: &RenderSettings) -> Self {
-        Sampling { spp: settings.spp.max(1), adaptive: matches!(settings.aa, Antialiasing::Adaptive { .. }) }
+        Sampling { spp: settings.spp.max(1), adaptive: matches!(settings.aa, Antialiasing::Adaptive(_)) }
     }
 }
 

@@ -157,8 +157,8 @@ fn value_json(v: &Value) -> serde_json::Value {
 pub fn describe(registry: &Registry, job: &RenderJob) -> Vec<Knob> {
     let s = &job.settings;
     let (adaptive, threshold, depth) = match s.aa {
-        Antialiasing::Adaptive { threshold, max_depth } => (true, threshold, max_depth),
-        Antialiasing::Stratified => (false, 0.05, 3),
+        Antialiasing::Adaptive(a) => (true, a.threshold, a.max_depth),
+        Antialiasing::Stratified => (false, 0.02, 3),
     };
     let render = |key: &str, label: &str, kind, value: serde_json::Value, active: bool, note: Option<String>| {
         let spec = RENDER_PARAMS.iter().find(|p| p.name == key);
