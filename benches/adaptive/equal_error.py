@@ -21,6 +21,9 @@ raylab (`cargo build --release`).
     benches/adaptive/equal_error.py --scenes dozen,quality --rounds 3 --out target/adaptive-bench \
         --plot-dir docs
 
+`--size` and `--ref-spp` make a cheaper run (raylab's quality reference at 256 spp and 640×400
+takes many minutes on two cores); the reference cache key includes both.
+
 The plot (`adaptive-<scene>.png`) shows both renderers' settings, error against CPU time on log
 axes, with each front drawn as a line.
 """
@@ -106,8 +109,9 @@ def run(cmd, **kw):
     return p
 
 
-def raylab_render(exe, scene, out, args, threads):
-    cmd = [str(exe), "render", str(ROOT / scene), "-q", "--threads", str(threads), "--max-rays", str(10**15), "--stats", "-o", str(out)] + args
+def raylab_render(exe, scene, out, args, threads, size):
+    w, h = size
+    cmd = [str(exe), "render", str(ROOT / scene), "-q", "--threads", str(threads), "--max-rays", str(10**15), "--stats", "--width", str(w), "--height", str(h), "-o", str(out)] + args
     p = run(cmd)
     m = re.search(r"trace ([0-9.]+) s \(([0-9.]+) CPU s\)", p.stdout)
     if not m:
@@ -161,7 +165,7 @@ def references(cfg, name, exe, out, threads):
     if not rl.exists():
         print(f"[{name}] raylab reference: {shlex.join(cfg['raylab_ref'])} …", flush=True)
         tmp = out / f"tmp-{rl.name}"
-        raylab_render(exe, cfg["raylab"], tmp, cfg.get("raylab_args", []) + cfg["raylab_ref"], threads)
+        raylab_render(exe, cfg["raylab"], tmp, cfg.get("raylab_args", []) + cfg["raylab_ref"], threads, (w, h))
         tmp.rename(rl)
     pr = cfg["pov_ref"]
     pov_key = key([cfg["pov"], (ROOT / cfg["pov"]).read_text(), pr, w, h, "ppm16"])
@@ -250,12 +254,25 @@ def main():
     ap.add_argument("--plot-dir", default=None, help="where adaptive-<scene>.png goes (default: --out)")
     ap.add_argument("--raylab-only", default=None, help="comma-separated labels: run only these raylab settings")
     ap.add_argument("--time", choices=["cpu", "wall"], default="cpu", help="which time the fronts use")
+    ap.add_argument("--size", default=None, help="WxH: render at this size instead of the scene's (keep its aspect ratio: POV-Ray's twins fix it)")
+    ap.add_argument("--ref-spp", type=int, default=None, help="samples per pixel of raylab's stratified reference instead of the scene's default")
     a = ap.parse_args()
     exe = Path(a.raylab).resolve()
     out = Path(a.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
     for name in a.scenes.split(","):
-        cfg = SCENES[name]
+        cfg = dict(SCENES[name])
+        if a.size:
+            m = re.fullmatch(r"([1-9][0-9]{0,4})x([1-9][0-9]{0,4})", a.size.lower())
+            if not m:
+                ap.error(f"--size {a.size!r}: expected WxH, e.g. 320x200")
+            size = (int(m.group(1)), int(m.group(2)))
+            if size[0] * cfg["size"][1] != size[1] * cfg["size"][0]:
+                ap.error(f"--size {a.size}: {name} is {cfg['size'][0]}×{cfg['size'][1]}; keep its aspect ratio")
+            cfg["size"] = size
+        if a.ref_spp:
+            i = cfg["raylab_ref"].index("--spp")
+            cfg["raylab_ref"] = cfg["raylab_ref"][:i + 1] + [str(a.ref_spp)] + cfg["raylab_ref"][i + 2:]
         w, h = cfg["size"]
         ref_rl, ref_pov = references(cfg, name, exe, out, a.threads)
         rl_settings = cfg["raylab_settings"]
@@ -276,7 +293,7 @@ def main():
             for renderer, label, args in jobs:
                 img = out / f"{name}-{renderer}-{key([label, args])}.png"
                 if renderer == "raylab":
-                    m = raylab_render(exe, cfg["raylab"], img, cfg.get("raylab_args", []) + args, a.threads)
+                    m = raylab_render(exe, cfg["raylab"], img, cfg.get("raylab_args", []) + args, a.threads, (w, h))
                 else:
                     m = pov_render(cfg["pov"], img, w, h, args, a.threads)
                 res = results.setdefault((renderer, label), {"renderer": renderer, "label": label, "args": args, "cpu": [], "wall": [], "image": str(img)})
