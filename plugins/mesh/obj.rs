@@ -88,27 +88,17 @@ pub fn read(ctx: &LoadContext, path: &str, full: &Path, bytes: &[u8], need_mater
                 p.positions.push(v);
             }
             "vt" => {
-                // u, then optional v and w (ignored).
-                let mut uv = [0.0f32; 2];
-                let mut n = 0;
-                for w in words {
-                    match parse_f32(w) {
-                        Some(x) if n < 3 => {
-                            if n < 2 {
-                                uv[n] = x;
-                            }
-                            n += 1;
-                        }
-                        _ => {
-                            n = 0;
-                            break;
-                        }
-                    }
+                // u, then optional v and w (w, and anything after it, ignored).
+                let bad = || at(key, "expected a texture coordinate `vt u [v [w]]`".into());
+                let (mut v, mut n) = ([0.0f32; 3], 0);
+                for w in words.take(3) {
+                    v[n] = parse_f32(w).ok_or_else(bad)?;
+                    n += 1;
                 }
                 if n == 0 {
-                    return Err(at(key, "expected a texture coordinate `vt u [v [w]]`".into()));
+                    return Err(bad());
                 }
-                p.texcoords.push(uv);
+                p.texcoords.push([v[0], v[1]]);
             }
             "vn" => match words.floats::<3>() {
                 Some(n) => p.normals.push(n),

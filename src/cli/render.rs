@@ -299,14 +299,14 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
         _ => None,
     };
     // Passes at 1, 2, 4, … spp (the same final bits) for the error log and for a live display.
-    let checkpoints: Vec<u32> = if error_log.is_some() || display.is_some() { (0..32).map(|k| 1u32 << k).collect() } else { Vec::new() };
+    let checkpoints: &[u32] = if error_log.is_some() || display.is_some() { &crate::render::DOUBLING_PASSES } else { &[] };
     let mut log_failure = None;
     let work = [AtomicU64::new(0), AtomicU64::new(1)];
     let cpu0 = crate::render::stats::process_cpu_time();
     let rendered = crate::render::render_progressive(
         &job,
         &options,
-        &checkpoints,
+        checkpoints,
         &|done, total| {
             work[0].fetch_max(done, Ordering::Relaxed);
             work[1].store(total.max(1), Ordering::Relaxed);

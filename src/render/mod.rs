@@ -121,6 +121,18 @@ pub fn render(job: &RenderJob, options: &RenderOptions, progress: &(dyn Fn(u64, 
     render_progressive(job, options, &[], progress, &mut |_| {})
 }
 
+/// Pass ends at 1, 2, 4, … samples per pixel (every power of two a `u32` holds): checkpoints for
+/// [`render_progressive`] that refine the whole image, doubling its samples each pass.
+pub const DOUBLING_PASSES: [u32; 32] = {
+    let mut p = [0; 32];
+    let mut k = 0;
+    while k < 32 {
+        p[k] = 1 << k;
+        k += 1;
+    }
+    p
+};
+
 /// Renders `job` in passes: with stratified anti-aliasing, pass `k` takes each pixel up to sample
 /// index `checkpoints[k]` (checkpoints beyond `spp` are ignored; the last pass always ends at
 /// `spp`), and `on_pass` sees the image after each. The final image has the same bits as a

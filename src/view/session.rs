@@ -451,11 +451,10 @@ impl Session {
             self.bump(&mut st);
         };
         let options = RenderOptions { threads, cancel: Some(cancel), on_tile: Some(&on_tile), ..RenderOptions::default() };
-        let checkpoints: Vec<u32> = (0..31).map(|k| 1u32 << k).collect();
         let rendered = crate::render::render_progressive(
             &job,
             &options,
-            &checkpoints,
+            &crate::render::DOUBLING_PASSES,
             &|done, total| {
                 work[0].fetch_max(done, Ordering::Relaxed);
                 work[1].store(total.max(1), Ordering::Relaxed);
