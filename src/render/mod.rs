@@ -230,7 +230,15 @@ fn render_passes(
         },
     );
     let already: u64 = sums.pixels.iter().map(|p| u64::from(p.samples)).sum();
-    let total: u64 = already + (0..sums.pixels.len()).map(|i| u64::from(sums.missing(i))).sum::<u64>();
+    let total: u64 = match s.aa {
+        // Every pixel of a stratified share wants the same samples: its total is
+        // `already + Σ missing`, each pixel's `max(samples, want)`, without asking pixel by pixel.
+        Antialiasing::Stratified => {
+            let want = share.samples_of(Sampling::of(&s), s.width, share.bounds.x0, share.bounds.y0);
+            sums.pixels.iter().map(|p| u64::from(p.samples.max(want))).sum()
+        }
+        Antialiasing::Adaptive(_) => already + (0..sums.pixels.len()).map(|i| u64::from(sums.missing(i))).sum::<u64>(),
+    };
     let done = AtomicU64::new(already);
     let state = Mutex::new(State { sums, stats: RayStats::new(counters), last_snapshot: Instant::now() });
     let lock = || state.lock().unwrap_or_else(|e| e.into_inner());
