@@ -312,7 +312,9 @@ impl TriangleMesh {
     #[inline(always)]
     fn vertices(&self, slot: u32) -> [[f64; 3]; 3] {
         let (p, lane) = (&self.packs[(slot / PACK) as usize], (slot % PACK) as usize);
-        p.v.map(|v| v.map(|axis| f64::from(axis[lane])))
+        // Indexed in place: mapping `p.v` by value would copy the whole pack first.
+        let at = |v: usize| [f64::from(p.v[v][0][lane]), f64::from(p.v[v][1][lane]), f64::from(p.v[v][2][lane])];
+        [at(0), at(1), at(2)]
     }
 
     /// The closest hit in `(t_min, t_max)`: `prim` is the triangle's slot, `uv` its barycentric
