@@ -101,6 +101,13 @@ impl<O: Intersectable> Intersectable for Accelerated<'_, O> {
                 best = Some(h);
                 Some(h.t)
             });
+        } else if let [(_, i)] = accel.bounded[..] {
+            // One bounded object: its own test culls as well as its box would (a mesh clips the
+            // ray to its box anyway), without the three divisions of the box test.
+            if let Some(mut h) = objects[i as usize].intersect(ray, t_min, t_max) {
+                h.object = i;
+                best = Some(h);
+            }
         } else {
             let inv = ray.dir.recip();
             for (b, i) in &accel.bounded {
@@ -125,6 +132,9 @@ impl<O: Intersectable> Intersectable for Accelerated<'_, O> {
         }
         if accel.index.is_bvh() {
             return accel.index.any(ray, t_min, t_max, |slot| objects[accel.bounded[slot as usize].1 as usize].occludes(ray, t_min, t_max));
+        }
+        if let [(_, i)] = accel.bounded[..] {
+            return objects[i as usize].occludes(ray, t_min, t_max);
         }
         let inv = ray.dir.recip();
         accel.bounded.iter().any(|(b, i)| b.hit(ray, inv, t_min, t_max) && objects[*i as usize].occludes(ray, t_min, t_max))
