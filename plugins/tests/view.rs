@@ -307,8 +307,20 @@ fn the_page_renders_restarts_on_a_knob_and_explains_a_clicked_pixel() {
     assert_eq!(b.script("return document.title"), "raylab live view");
     assert_eq!(b.script(CANVAS_HASH).as_u64().unwrap() as u32, render_hash(&dir, &scene, &SIZE), "the page's image equals raylab render's");
     let knobs = b.script("return window.raylab.knobs.map(k => k.key).join(' ')");
-    for k in ["aa", "spp", "aa_threshold", "lens_samples", "integrator", "params.max_depth", "params.prune_threshold", "params.glossy_rays"]
-    {
+    for k in [
+        "aa",
+        "spp",
+        "aa_threshold",
+        "aa_depth",
+        "aa_edges",
+        "aa_signature",
+        "aa_cell_samples",
+        "lens_samples",
+        "integrator",
+        "params.max_depth",
+        "params.prune_threshold",
+        "params.glossy_rays",
+    ] {
         assert!(knobs.as_str().unwrap().split(' ').any(|x| x == k), "control {k} in {knobs}");
     }
     b.screenshot(&shots.join("1-loaded.png"));

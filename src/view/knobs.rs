@@ -10,7 +10,7 @@ use crate::input::registry::Registry;
 use crate::input::spec::{Default, ParamKind, ParamSpec, Role};
 use crate::input::value::{Node, Value};
 use crate::render::RenderJob;
-use crate::render::job::Antialiasing;
+use crate::render::job::{AdaptiveSettings, Antialiasing};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -26,6 +26,12 @@ pub struct Settings {
     pub aa_threshold: Option<f64>,
     /// Adaptive depth.
     pub aa_depth: Option<i64>,
+    /// Adaptive: split along located edges.
+    pub aa_edges: Option<bool>,
+    /// Adaptive: refine where the corners saw different objects.
+    pub aa_signature: Option<bool>,
+    /// Adaptive: stratified samples inside each finest cell that still disagrees.
+    pub aa_cell_samples: Option<i64>,
     /// Lens samples per image sample.
     pub lens_samples: Option<i64>,
     /// Integrator type.
@@ -59,6 +65,15 @@ pub fn options(base: &LoadOptions, s: &Settings, registry: &Registry) -> Result<
     }
     if let Some(v) = s.aa_depth {
         render("aa_depth", Value::Int(v));
+    }
+    if let Some(v) = s.aa_edges {
+        render("aa_edges", Value::Bool(v));
+    }
+    if let Some(v) = s.aa_signature {
+        render("aa_signature", Value::Bool(v));
+    }
+    if let Some(v) = s.aa_cell_samples {
+        render("aa_cell_samples", Value::Int(v));
     }
     if let Some(v) = s.lens_samples {
         render("lens_samples", Value::Int(v));
@@ -107,7 +122,8 @@ pub struct Choice {
 /// One control of the page.
 #[derive(Clone, Debug, Serialize)]
 pub struct Knob {
-    /// `spp`, `aa`, `aa_threshold`, `aa_depth`, `lens_samples`, `integrator`, or `params.NAME`.
+    /// `spp`, `aa`, `aa_threshold`, `aa_depth`, `aa_edges`, `aa_signature`, `aa_cell_samples`,
+    /// `lens_samples`, `integrator`, or `params.NAME`.
     pub key: String,
     /// What the page calls it.
     pub label: String,
@@ -156,9 +172,9 @@ fn value_json(v: &Value) -> serde_json::Value {
 /// The controls for `job` (loaded with the page's settings), with the values it uses.
 pub fn describe(registry: &Registry, job: &RenderJob) -> Vec<Knob> {
     let s = &job.settings;
-    let (adaptive, threshold, depth) = match s.aa {
-        Antialiasing::Adaptive(a) => (true, a.threshold, a.max_depth),
-        Antialiasing::Stratified => (false, 0.02, 3),
+    let adaptive = match s.aa {
+        Antialiasing::Adaptive(a) => Some(a),
+        Antialiasing::Stratified => None,
     };
     let render = |key: &str, label: &str, kind, value: serde_json::Value, active: bool, note: Option<String>| {
         let spec = RENDER_PARAMS.iter().find(|p| p.name == key);
@@ -188,19 +204,31 @@ pub fn describe(registry: &Registry, job: &RenderJob) -> Vec<Knob> {
                 doc: "rays through pixel corners; more only where neighbours disagree".into(),
             },
         ],
-        ..render("aa", "Anti-aliasing", "choice", if adaptive { "adaptive" } else { "stratified" }.into(), true, None)
+        ..render("aa", "Anti-aliasing", "choice", if adaptive.is_some() { "adaptive" } else { "stratified" }.into(), true, None)
     }];
     knobs.push(render(
         "spp",
         "Samples per pixel",
         "int",
         s.spp.into(),
-        !adaptive,
-        adaptive.then(|| "adaptive anti-aliasing chooses its own samples".to_string()),
+        adaptive.is_none(),
+        adaptive.is_some().then(|| "adaptive anti-aliasing chooses its own samples".to_string()),
     ));
-    let stratified_note = (!adaptive).then(|| "used by adaptive anti-aliasing only".to_string());
-    knobs.push(render("aa_threshold", "Adaptive threshold", "float", threshold.into(), adaptive, stratified_note.clone()));
-    knobs.push(render("aa_depth", "Adaptive depth", "int", depth.into(), adaptive, stratified_note));
+    let stratified_note = adaptive.is_none().then(|| "used by adaptive anti-aliasing only".to_string());
+    // Stratified sampling shows the adaptive knobs greyed out at their defaults.
+    type Of = fn(&AdaptiveSettings) -> serde_json::Value;
+    let adaptive_knobs: [(&str, &str, &str, Of); 5] = [
+        ("aa_threshold", "Adaptive threshold", "float", |a| a.threshold.into()),
+        ("aa_depth", "Adaptive depth", "int", |a| a.max_depth.into()),
+        ("aa_edges", "Split along edges", "bool", |a| a.edges.into()),
+        ("aa_signature", "Refine where objects differ", "bool", |a| a.signature.into()),
+        ("aa_cell_samples", "Samples per unresolved cell", "int", |a| a.cell_samples.into()),
+    ];
+    for (key, label, kind, of) in adaptive_knobs {
+        let spec_default = RENDER_PARAMS.iter().find(|p| p.name == key).map_or(serde_json::Value::Null, |p| default_json(p.default));
+        let value = adaptive.as_ref().map_or(spec_default, of);
+        knobs.push(render(key, label, kind, value, adaptive.is_some(), stratified_note.clone()));
+    }
     let lens = job.scene.camera.aperture > 0.0;
     knobs.push(render(
         "lens_samples",
@@ -250,4 +278,35 @@ pub fn describe(registry: &Registry, job: &RenderJob) -> Vec<Knob> {
         }
     }
     knobs
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_adaptive_setting_of_the_page_reaches_the_render_parameters() {
+        let s = Settings {
+            aa: Some("adaptive".into()),
+            aa_threshold: Some(0.1),
+            aa_depth: Some(2),
+            aa_edges: Some(false),
+            aa_signature: Some(true),
+            aa_cell_samples: Some(4),
+            ..Settings::default()
+        };
+        let o = options(&LoadOptions::default(), &s, &Registry::default()).unwrap();
+        let given: Vec<String> = o.overrides.render_params.iter().map(|(k, n)| format!("{k}={:?}", n.value)).collect();
+        assert_eq!(
+            given,
+            [
+                "aa=Str(\"adaptive\")",
+                "aa_threshold=Float(0.1)",
+                "aa_depth=Int(2)",
+                "aa_edges=Bool(false)",
+                "aa_signature=Bool(true)",
+                "aa_cell_samples=Int(4)"
+            ]
+        );
+    }
 }

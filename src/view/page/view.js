@@ -217,8 +217,7 @@ function change(k, input) {
   if (k.key === "integrator") s.params = {};
   // The adaptive knobs do not apply to stratified sampling (the scene loader refuses them).
   if (k.key === "aa" && v === "stratified") {
-    delete s.aa_threshold;
-    delete s.aa_depth;
+    for (const key of ["aa_threshold", "aa_depth", "aa_edges", "aa_signature", "aa_cell_samples"]) delete s[key];
   }
   send(s);
 }
