@@ -4,9 +4,9 @@
 //! and bounded ones in a [`PrimitiveIndex`]: a hierarchy when the scene has enough of them
 //! ([`SCENE_BVH_THRESHOLD`] under `auto`), a list with a box test per object otherwise: for a
 //! dozen analytic shapes, building a hierarchy costs more than it saves (a lone bounded object
-//! gets no box test: its own test culls as well, and a mesh clips rays to its box). Meshes index their own
-//! triangles, so a scene of meshes is a two-level hierarchy, and a mesh placed several times is
-//! stored once.
+//! gets no box test: its own test culls as well, and a mesh clips rays to its box). Meshes index
+//! their own triangles, so a scene of meshes is a two-level hierarchy, and a mesh placed several
+//! times is stored once.
 
 pub mod bvh;
 #[cfg(feature = "bvh")]
