@@ -99,7 +99,7 @@ raylab_render() {
     local log=$WORK/raylab.log
     "$RAYLAB" render "$scene" -o "$out" --threads "$threads" --stats -q "$@" >"$log" 2>&1 || { cat "$log" >&2; die "raylab failed"; }
     local trace rays
-    trace=$(sed -n 's/.*: trace \([0-9.]*\) s on.*/\1/p' "$log" | head -1)
+    trace=$(sed -n 's/.*: trace \([0-9.]*\) s [(o].*/\1/p' "$log" | head -1)
     rays=$(awk '/^  (camera|shadow|reflection|refraction) rays/ {s += $NF} END {print s}' "$log")
     echo "$trace $rays"
 }

@@ -1,14 +1,15 @@
 //! `plane`: an infinite plane given by a point and a normal (the report's `Plane`).
 //!
 //! `t = n·(q − o) / (n·d)`. The hit point is projected back onto the plane, and a ray whose
-//! origin is within [`on_surface_slack`] of the plane (it starts on the plane) does not hit it.
+//! origin is within [`raylab::math::float::on_surface_slack`] of the plane (it starts on the
+//! plane) does not hit it.
 
 use raylab::geometry::{Geometry, Hit, Intersectable};
 use raylab::glam::{DVec2, DVec3};
 use raylab::input::error::Result;
 use raylab::input::params::Params;
 use raylab::input::spec::{Default, ParamKind, ParamSpec};
-use raylab::math::float::{gamma, on_surface_slack};
+use raylab::math::float::{gamma, max_abs};
 use raylab::{Aabb, LoadContext, PluginInfo, Ray};
 
 /// The plane through `point` with unit `normal` (its outward side).
@@ -16,6 +17,7 @@ use raylab::{Aabb, LoadContext, PluginInfo, Ray};
 pub struct Plane {
     point: DVec3,
     normal: DVec3,
+    equation: PlaneEquation,
     /// Right and up axes, for texture coordinates ([`super::uv::tangent_frame`]).
     axes: (DVec3, DVec3),
 }
@@ -42,17 +44,51 @@ pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Geometry>> {
 /// of `n·d` (its side is then uncertain) misses, as does a ray starting on the plane.
 #[inline]
 pub fn intersect_plane(ray: &Ray, q: DVec3, n: DVec3, t_min: f64, t_max: f64) -> Option<(f64, DVec3, DVec3)> {
-    let denom = n.dot(ray.dir);
-    if !(denom.abs() > gamma(3) * n.abs().dot(ray.dir.abs())) {
-        return None;
+    PlaneEquation::new(q, n).intersect(ray, t_min, t_max)
+}
+
+/// The plane through `q` with unit normal `n`, with the magnitudes [`intersect_plane`] uses
+/// computed once (the same results, bit for bit).
+#[derive(Clone, Copy, Debug)]
+pub struct PlaneEquation {
+    q: DVec3,
+    n: DVec3,
+    /// `|n|` and `|q|` per axis, and `‖q‖∞`.
+    n_abs: DVec3,
+    q_abs: DVec3,
+    q_max: f64,
+}
+
+impl PlaneEquation {
+    /// The plane through `q` with unit normal `n`.
+    #[inline]
+    pub fn new(q: DVec3, n: DVec3) -> Self {
+        PlaneEquation { q, n, n_abs: n.abs(), q_abs: q.abs(), q_max: max_abs(q) }
     }
-    let diff = q - ray.origin;
-    let num = n.dot(diff);
-    // The numerator is the origin's distance from the plane: within the on-surface slack, the
-    // origin lies on it.
-    if num.abs() <= on_surface_slack(ray.origin, q) {
-        return None;
+
+    /// [`intersect_plane`] for this plane.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<(f64, DVec3, DVec3)> {
+        let (q, n) = (self.q, self.n);
+        let denom = n.dot(ray.dir);
+        if !(denom.abs() > gamma(3) * self.n_abs.dot(ray.dir.abs())) {
+            return None;
+        }
+        let diff = q - ray.origin;
+        let num = n.dot(diff);
+        // The numerator is the origin's distance from the plane: within the on-surface slack
+        // ([`raylab::math::float::on_surface_slack`], written out with `‖q‖∞` stored), the origin lies on it.
+        if num.abs() <= gamma(5) * (max_abs(ray.origin) + self.q_max) {
+            return None;
+        }
+        plane_hit(ray, q, n, self.q_abs, num, denom, t_min, t_max)
     }
+}
+
+/// The rest of [`PlaneEquation::intersect`] once the ray crosses the plane at `num / denom`.
+#[inline]
+#[allow(clippy::too_many_arguments)]
+fn plane_hit(ray: &Ray, q: DVec3, n: DVec3, q_abs: DVec3, num: f64, denom: f64, t_min: f64, t_max: f64) -> Option<(f64, DVec3, DVec3)> {
     // Opposite signs (both are non-zero here): the plane is behind the origin, t < 0 (or −0).
     // Known without the division.
     if t_min >= 0.0 && (num < 0.0) != (denom < 0.0) {
@@ -67,20 +103,20 @@ pub fn intersect_plane(ray: &Ray, q: DVec3, n: DVec3, t_min: f64, t_max: f64) ->
     if !p.is_finite() {
         return None;
     }
-    Some((t, p, gamma(8) * (p.abs() + q.abs())))
+    Some((t, p, gamma(8) * (p.abs() + q_abs)))
 }
 
 impl Plane {
     /// A plane; `normal` must be unit length.
     pub fn new(point: DVec3, normal: DVec3) -> Self {
-        Plane { point, normal, axes: super::uv::tangent_frame(normal) }
+        Plane { point, normal, equation: PlaneEquation::new(point, normal), axes: super::uv::tangent_frame(normal) }
     }
 }
 
 impl Intersectable for Plane {
     #[inline]
     fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<Hit> {
-        let (t, point, error) = intersect_plane(ray, self.point, self.normal, t_min, t_max)?;
+        let (t, point, error) = self.equation.intersect(ray, t_min, t_max)?;
         Some(Hit { t, point, error, uv: DVec2::ZERO, prim: 0, object: 0 })
     }
 }

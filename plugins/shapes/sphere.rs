@@ -60,8 +60,10 @@ pub fn sphere_roots(f: DVec3, d: DVec3, radius: f64, slack: f64) -> Option<[(f64
     let small = c / q;
     let mut small_err = gamma(8) * (f.length_squared() + r2) / q.abs() + gamma(4) * small.abs();
     // Moving the origin by `slack` moves c by up to 2|f|·slack; only a root near zero needs that
-    // term exactly (|f| ≤ 2·|f|∞ bounds it without a square root).
-    if small.abs() <= small_err + 4.0 * max_abs(f) * slack / q.abs() {
+    // term exactly (|f| ≤ 2·|f|∞ bounds it without a square root). The test is
+    // `|small| ≤ small_err + 4|f|∞·slack/|q|` multiplied through by |q| (no division): its
+    // rounding can only move the decision where the term is half of what the test allows.
+    if (small.abs() - small_err) * q.abs() <= 4.0 * max_abs(f) * slack {
         small_err += 2.0 * f.length() * slack / q.abs();
     }
     let small = (small, small_err);

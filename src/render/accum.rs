@@ -24,18 +24,19 @@ const UNIT_SCALE: f64 = 1_099_511_627_776.0;
 fn fixed(x: f64, scale: f64) -> i128 {
     let y = x * scale;
     // Without library calls (`f64::round` and `as i128` are calls on x86-64 without SSE4.1), to
-    // the bit: below 2⁶³ through the integer part (`y − i` is exact: Sterbenz, and `y` is whole
-    // from 2⁵² on); up to 2⁹⁵ (colours up to 2³¹, which the 2⁶⁴ scale puts above 2⁶³ from 0.5 on)
-    // `y` is whole, and its two halves above and below 2³² convert exactly; beyond, the slow path.
+    // the bit: below 2⁵² through the integer part (`y − i` is exact: Sterbenz); from 2⁵² to 2¹²⁶
+    // (colours up to 2⁶² at the 2⁶⁴ scale) `y` is whole, and its significand shifted by its
+    // exponent is exactly its value (no conversion, no saturation checks); beyond, the slow path.
     let a = y.abs();
-    if a < 9.2e18 {
+    if a < 4_503_599_627_370_496.0 {
         let i = y as i64;
         let frac = y - i as f64;
         (i + i64::from(frac >= 0.5) - i64::from(frac <= -0.5)) as i128
-    } else if a < 3.9e28 {
-        let high = (y * (1.0 / 4_294_967_296.0)) as i64;
-        let low = y - high as f64 * 4_294_967_296.0;
-        (i128::from(high) << 32) + i128::from(low as i64)
+    } else if a < 8.5e37 {
+        let bits = y.to_bits();
+        let significand = i128::from((bits & 0x000F_FFFF_FFFF_FFFF) | 0x0010_0000_0000_0000);
+        let magnitude = significand << (((bits >> 52) & 0x7FF) - 1075);
+        if y < 0.0 { -magnitude } else { magnitude }
     } else {
         y.round() as i128
     }
@@ -186,6 +187,13 @@ mod tests {
             -3.89e28,
             3.91e28,
             1e30,
+            4503599627370496.0,
+            -4503599627370497.0,
+            4503599627370495.5,
+            8.49e37,
+            -8.49e37,
+            8.51e37,
+            1.7e38,
         ];
         values.extend((0..20_000).map(|i| {
             let x = f64::from(i) * 0.7548776662466927;

@@ -33,7 +33,7 @@ use crate::image::film::Film;
 use crate::image::layers::Aovs;
 use crate::render::accum::{LayerSum, PixelSum};
 use crate::render::adaptive::Adaptive;
-use crate::render::sample::{SampleId, camera_rays, trace_sample};
+use crate::render::sample::{SampleId, camera_rays, film_frame, trace_sample, trace_sample_in};
 use crate::render::share::{FrameSums, Rect, Sampling, Share};
 use crate::render::stats::RayStats;
 use glam::Vec3;
@@ -291,13 +291,18 @@ struct TileWork {
 impl TileWork {
     fn take(sums: &FrameSums, tile: Rect) -> TileWork {
         let b = sums.share.bounds;
-        let rows = |v: &[PixelSum]| -> Vec<PixelSum> {
-            (tile.y0..tile.y1).flat_map(|y| v[b.index(tile.x0, y)..b.index(tile.x0, y) + tile.width() as usize].iter().copied()).collect()
-        };
-        let layers = sums.layers.as_ref().map(|l| {
-            (tile.y0..tile.y1).flat_map(|y| l[b.index(tile.x0, y)..b.index(tile.x0, y) + tile.width() as usize].iter().copied()).collect()
-        });
-        TileWork { tile, share: sums.share, pixels: rows(&sums.pixels), layers }
+        let w = tile.width() as usize;
+        // Row by row, each a slice copy.
+        fn rows<T: Copy>(v: &[T], tile: Rect, b: Rect, w: usize) -> Vec<T> {
+            let mut out = Vec::with_capacity(w * tile.height() as usize);
+            for y in tile.y0..tile.y1 {
+                let at = b.index(tile.x0, y);
+                out.extend_from_slice(&v[at..at + w]);
+            }
+            out
+        }
+        let layers = sums.layers.as_ref().map(|l| rows(l, tile, b, w));
+        TileWork { tile, share: sums.share, pixels: rows(&sums.pixels, tile, b, w), layers }
     }
 
     fn put(&self, sums: &mut FrameSums) {
@@ -321,16 +326,15 @@ impl TileWork {
     fn render(&mut self, job: &RenderJob, end: u32, cancel: Option<&AtomicBool>, stats: &mut RayStats) {
         let s = &job.settings;
         let t = self.tile;
-        let w = t.width() as usize;
         let mut scheme = match s.aa {
             Antialiasing::Adaptive(a) => Some(Adaptive::new(job, a, t.x0, t.width(), self.layers.is_some())),
             Antialiasing::Stratified => None,
         };
-        for i in 0..self.pixels.len() {
-            if i % w == 0 && cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+        let frame = film_frame(job);
+        for (i, (x, y)) in (t.y0..t.y1).flat_map(|y| (t.x0..t.x1).map(move |x| (x, y))).enumerate() {
+            if x == t.x0 && cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
                 return;
             }
-            let (x, y) = t.pixel(i);
             let want = self.share.samples_of(Sampling::of(s), s.width, x, y);
             let acc = &mut self.pixels[i];
             let mut layers = self.layers.as_mut().map(|l| &mut l[i]);
@@ -338,7 +342,7 @@ impl TileWork {
                 None => {
                     while acc.samples < want && self.share.sample_index(acc.samples) < end {
                         let index = self.share.sample_index(acc.samples);
-                        trace_sample(job, SampleId::Pixel { x, y, index }, acc, layers.as_deref_mut(), stats);
+                        trace_sample_in(job, frame, SampleId::Pixel { x, y, index }, acc, layers.as_deref_mut(), stats);
                         acc.samples += 1;
                     }
                 }

@@ -8,6 +8,7 @@ use crate::render::aov::Layers;
 use crate::render::job::RenderJob;
 use crate::render::sampler::{Sampler, mix64, stratified_2d};
 use crate::render::stats::RayStats;
+use crate::scene::camera::FilmFrame;
 use glam::DVec2;
 use serde::Serialize;
 
@@ -66,6 +67,7 @@ const CELL_STREAM: u64 = 0x6a09_e667_f3bc_c909;
 /// its random stream.
 pub struct CameraRays<'a> {
     job: &'a RenderJob,
+    frame: FilmFrame,
     film: DVec2,
     sampler: Sampler,
     /// Lens points `first .. first + count` of a stratified set of `total`.
@@ -79,17 +81,17 @@ pub struct CameraRays<'a> {
 impl Iterator for CameraRays<'_> {
     type Item = (Ray, Sampler);
 
-    #[inline]
+    // Always inlined: the iterator then lives in registers of the sample loop.
+    #[inline(always)]
     fn next(&mut self) -> Option<(Ray, Sampler)> {
         if self.next >= self.count {
             return None;
         }
         let l = self.next;
         self.next += 1;
-        let s = &self.job.settings;
         let camera = &self.job.scene.camera;
         let lens = if camera.aperture > 0.0 { stratified_2d(self.first + l, self.total.max(1), self.pattern) } else { DVec2::ZERO };
-        let ray = camera.ray_through(s.width, s.height, self.film, lens);
+        let ray = camera.ray_in(&self.frame, self.film, lens);
         let sampler = if l == 0 { self.sampler.clone() } else { self.sampler.fork(u64::from(l)) };
         Some((ray, sampler))
     }
@@ -97,7 +99,20 @@ impl Iterator for CameraRays<'_> {
 
 /// The camera rays of sample `id` of `job`: where it lies on the film, and for each lens point
 /// the ray and the random stream its integrator draws from.
+#[inline]
 pub fn camera_rays(job: &RenderJob, id: SampleId) -> CameraRays<'_> {
+    camera_rays_in(job, film_frame(job), id)
+}
+
+/// The camera's [`FilmFrame`] for `job`'s image: what every sample of the image shares.
+#[inline]
+pub fn film_frame(job: &RenderJob) -> FilmFrame {
+    job.scene.camera.film_frame(job.settings.width, job.settings.height)
+}
+
+/// [`camera_rays`] with `job`'s [`film_frame`] computed once by the caller.
+#[inline(always)]
+pub fn camera_rays_in(job: &RenderJob, frame: FilmFrame, id: SampleId) -> CameraRays<'_> {
     let s = &job.settings;
     let per_sample = if job.scene.camera.aperture > 0.0 { s.lens_samples.max(1) } else { 1 };
     match id {
@@ -109,6 +124,7 @@ pub fn camera_rays(job: &RenderJob, id: SampleId) -> CameraRays<'_> {
             let jitter = if s.spp == 1 { DVec2::splat(0.5) } else { stratified_2d(index, s.spp, pattern) };
             CameraRays {
                 job,
+                frame,
                 film: DVec2::new(f64::from(x), f64::from(y)) + jitter,
                 sampler: Sampler::new(pixel, index, s.seed),
                 first: index * s.lens_samples,
@@ -125,6 +141,7 @@ pub fn camera_rays(job: &RenderJob, id: SampleId) -> CameraRays<'_> {
             let pattern = sampler.next_pattern();
             CameraRays {
                 job,
+                frame,
                 film: DVec2::new(x as f64 / res as f64, y as f64 / res as f64),
                 sampler: sampler.fork(0),
                 first: 0,
@@ -141,6 +158,7 @@ pub fn camera_rays(job: &RenderJob, id: SampleId) -> CameraRays<'_> {
             let u = stratified_2d(index, count, cell);
             CameraRays {
                 job,
+                frame,
                 film: DVec2::new((x as f64 + u.x) / res as f64, (y as f64 + u.y) / res as f64),
                 sampler: Sampler::new(key, index, s.seed),
                 first: index * s.lens_samples,
@@ -163,9 +181,22 @@ pub fn film_position(job: &RenderJob, id: SampleId) -> DVec2 {
 /// radiance is counted in `stats` and dropped. With `layers`, each ray's first surface is added
 /// to it too. Returns the sample's signature: its rays' [`Layers::signature`]s combined.
 #[inline]
-pub fn trace_sample(job: &RenderJob, id: SampleId, acc: &mut PixelSum, mut layers: Option<&mut LayerSum>, stats: &mut RayStats) -> u64 {
+pub fn trace_sample(job: &RenderJob, id: SampleId, acc: &mut PixelSum, layers: Option<&mut LayerSum>, stats: &mut RayStats) -> u64 {
+    trace_sample_in(job, film_frame(job), id, acc, layers, stats)
+}
+
+/// [`trace_sample`] with `job`'s [`film_frame`] computed once by the caller (the same result).
+#[inline]
+pub fn trace_sample_in(
+    job: &RenderJob,
+    frame: FilmFrame,
+    id: SampleId,
+    acc: &mut PixelSum,
+    mut layers: Option<&mut LayerSum>,
+    stats: &mut RayStats,
+) -> u64 {
     let mut signature = 0u64;
-    for (ray, mut sampler) in camera_rays(job, id) {
+    for (ray, mut sampler) in camera_rays_in(job, frame, id) {
         let mut first = Layers::miss(job.scene.background);
         stats.camera_rays += 1;
         let c = job.integrator.radiance(&job.scene, &ray, &mut sampler, stats, &mut first);

@@ -199,8 +199,9 @@ impl FrameSums {
     /// none is done).
     pub fn film(&self) -> Result<Film, WriteError> {
         let mut film = Film::try_new(self.width, self.height)?;
-        for (i, p) in self.pixels.iter().enumerate() {
-            let (x, y) = self.share.bounds.pixel(i);
+        let b = self.share.bounds;
+        let at = (b.y0..b.y1).flat_map(|y| (b.x0..b.x1).map(move |x| (x, y)));
+        for (p, (x, y)) in self.pixels.iter().zip(at) {
             film.set(x, y, p.mean().as_vec3());
         }
         Ok(film)

@@ -76,6 +76,19 @@ pub fn apply_overrides(file: &Table, overrides: &[(String, Node)]) -> Table {
     t
 }
 
+/// The per-image constants of [`Camera::ray_through`] ([`Camera::film_frame`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FilmFrame {
+    /// Pixel width and height on the screen, scene units.
+    rx: f64,
+    ry: f64,
+    /// Half the image size, pixels.
+    half_x: f64,
+    half_y: f64,
+    /// The screen's centre.
+    pc: DVec3,
+}
+
 /// Why a camera could not be built.
 #[derive(Clone, Debug, PartialEq)]
 pub enum CameraError {
@@ -186,10 +199,28 @@ impl Camera {
     /// of an `nx × ny` image. `lens` ∈ [0, 1)² picks the point on the lens (ignored for a pinhole).
     #[inline]
     pub fn ray_through(&self, nx: u32, ny: u32, film: DVec2, lens: DVec2) -> Ray {
-        let rx = self.screen_width / nx as f64;
-        let ry = self.screen_height / ny as f64;
-        let pc = self.position + self.screen_distance * self.to;
-        let p = pc + ((film.x - nx as f64 / 2.0) * rx) * self.right - ((film.y - ny as f64 / 2.0) * ry) * self.up;
+        self.ray_in(&self.film_frame(nx, ny), film, lens)
+    }
+
+    /// What [`Camera::ray_through`] needs of an `nx × ny` image that is the same for every pixel:
+    /// computed once per image (or tile) for [`Camera::ray_in`].
+    #[inline]
+    pub fn film_frame(&self, nx: u32, ny: u32) -> FilmFrame {
+        FilmFrame {
+            rx: self.screen_width / nx as f64,
+            ry: self.screen_height / ny as f64,
+            half_x: nx as f64 / 2.0,
+            half_y: ny as f64 / 2.0,
+            pc: self.position + self.screen_distance * self.to,
+        }
+    }
+
+    /// [`Camera::ray_through`] with the image's [`FilmFrame`] (from this camera) given: the same
+    /// ray, bit for bit.
+    #[inline]
+    pub fn ray_in(&self, frame: &FilmFrame, film: DVec2, lens: DVec2) -> Ray {
+        let FilmFrame { rx, ry, half_x, half_y, pc } = *frame;
+        let p = pc + ((film.x - half_x) * rx) * self.right - ((film.y - half_y) * ry) * self.up;
         let dir = p - self.position;
         if self.aperture <= 0.0 {
             return Ray::new(self.position, dir);

@@ -133,10 +133,19 @@ impl Scene {
     }
 
     /// The closest surface along `ray` (`0 < t`), with everything shading needs, computed once.
-    #[inline]
+    ///
+    /// Always inlined (the traversal behind it is not), so the large `Interaction` is built in
+    /// the caller's frame instead of being returned through a copy.
+    #[inline(always)]
     pub fn trace(&self, ray: &Ray) -> Option<Interaction<'_>> {
-        let hit = self.intersect(ray, 0.0, f64::INFINITY)?;
+        let hit = self.closest_hit(ray)?;
         Some(self.interaction(ray, hit))
+    }
+
+    /// The closest hit along `ray` (`0 < t`): [`Scene::trace`]'s traversal, kept out of line.
+    #[inline(never)]
+    fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
+        self.intersect(ray, 0.0, f64::INFINITY)
     }
 
     /// The interaction of `ray` at `hit` (a hit of this scene: [`Hit::object`] indexes `objects`).
