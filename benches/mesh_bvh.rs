@@ -1,12 +1,13 @@
 //! Criterion benchmarks of meshes: BVH build time, primary (closest-hit) and shadow (any-hit)
-//! rays per second, on bumpy spheres of 1k to 1M triangles. `raylab bench` measures the same
-//! on any mesh file, as a table (see the README's "Speed").
+//! rays per second, on bumpy spheres of 1k to 1M triangles, queried directly and as the one
+//! bounded object of a scene (`scene_primary`, `scene_shadow`: through `ObjectAccel`).
+//! `raylab bench` measures the same on any mesh file, as a table (see the README's "Speed").
 //!
 //! `cargo bench -p raylab-plugins --features mesh,bvh`
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use raylab::Ray;
-use raylab::accel::AccelChoice;
+use raylab::accel::{AccelChoice, ObjectAccel};
 use raylab::geometry::{Geometry, Intersectable};
 use raylab::glam::DVec3;
 use raylab::math::float::offset_ray_origin;
@@ -66,7 +67,12 @@ fn meshes(c: &mut Criterion) {
             b.iter(|| TriangleMesh::new(black_box(d.clone()), Normals::Flat, AccelChoice::Bvh).unwrap())
         });
         build.finish();
-        let mesh = MeshObject::new(Arc::new(TriangleMesh::new(data, Normals::Flat, AccelChoice::Bvh).unwrap()));
+        let objects = [MeshObject::new(Arc::new(TriangleMesh::new(data, Normals::Flat, AccelChoice::Bvh).unwrap()))];
+        let mesh = &objects[0];
+        // The mesh as the one bounded object of a scene (a model on an infinite ground: the scene
+        // query a render makes, the frame's corners missing the mesh's box).
+        let (accel, _) = ObjectAccel::build(&[mesh.bounds()], |_| true, AccelChoice::Auto);
+        let scene = accel.over(&objects);
         let shadow: Vec<Ray> = rays
             .iter()
             .filter_map(|r| mesh.intersect(r, 0.0, f64::INFINITY).map(|h| (h, r)))
@@ -77,9 +83,15 @@ fn meshes(c: &mut Criterion) {
         g.bench_function(BenchmarkId::new("primary", n), |b| {
             b.iter(|| rays.iter().filter(|r| mesh.intersect(r, 0.0, f64::INFINITY).is_some()).count())
         });
+        g.bench_function(BenchmarkId::new("scene_primary", n), |b| {
+            b.iter(|| rays.iter().filter(|r| scene.intersect(r, 0.0, f64::INFINITY).is_some()).count())
+        });
         g.throughput(Throughput::Elements(shadow.len() as u64));
         g.bench_function(BenchmarkId::new("shadow", n), |b| {
             b.iter(|| shadow.iter().filter(|r| mesh.occludes(r, 0.0, f64::INFINITY)).count())
+        });
+        g.bench_function(BenchmarkId::new("scene_shadow", n), |b| {
+            b.iter(|| shadow.iter().filter(|r| scene.occludes(r, 0.0, f64::INFINITY)).count())
         });
         g.finish();
     }

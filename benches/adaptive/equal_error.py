@@ -63,8 +63,8 @@ POV_DOZEN = [("-A", ["-A"])] + [
 # twin has none): fewer settings, each render costs more.
 RAYLAB_QUALITY = [("no AA", ["--aa", "stratified", "--spp", "1"])] + [
     (f"t{t} d{d}", ["--aa", "adaptive", "--aa-threshold", str(t), "--aa-depth", str(d)])
-    for d in (3,)
-    for t in (0.12, 0.06, 0.03, 0.02, 0.01)
+    for d, ts in ((3, (0.12, 0.06, 0.03, 0.02, 0.01)), (4, (0.06, 0.03, 0.02, 0.01)))
+    for t in ts
 ]
 POV_QUALITY = [("-A", ["-A"])] + [
     (f"+A{a} +R{r}", [f"+A{a}", "+AM2", f"+R{r}"]) for r in (2, 3, 4) for a in (0.3, 0.2, 0.1, 0.05)

@@ -312,7 +312,9 @@ impl TriangleMesh {
     #[inline(always)]
     fn vertices(&self, slot: u32) -> [[f64; 3]; 3] {
         let (p, lane) = (&self.packs[(slot / PACK) as usize], (slot % PACK) as usize);
-        p.v.map(|v| v.map(|axis| f64::from(axis[lane])))
+        // Indexed in place: mapping `p.v` by value would copy the whole pack first.
+        let at = |v: usize| [f64::from(p.v[v][0][lane]), f64::from(p.v[v][1][lane]), f64::from(p.v[v][2][lane])];
+        [at(0), at(1), at(2)]
     }
 
     /// The closest hit in `(t_min, t_max)`: `prim` is the triangle's slot, `uv` its barycentric
@@ -320,13 +322,18 @@ impl TriangleMesh {
     #[inline]
     pub fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<Hit> {
         let q = self.index.query(ray, t_min, t_max)?;
-        let tr = TriangleRay::new(ray);
-        let pr = PackRay::new(ray, &tr, q.base(), self.filter_error, self.filter_scale);
+        let base = q.base();
+        // Prepared at the first leaf: a ray through the box's empty corners reaches none.
+        let mut prepared: Option<(TriangleRay, PackRay)> = None;
         let mut best = (0, DVec3::ZERO);
         let t = q.closest_leaves(|first, count, t_max| {
             let mut t_max = t_max;
             let mut found = None;
-            self.candidates(&pr, first, count, |slot| {
+            let (tr, pr) = prepared.get_or_insert_with(|| {
+                let tr = TriangleRay::new(ray);
+                (tr, PackRay::new(ray, &tr, base, self.filter_error, self.filter_scale))
+            });
+            self.candidates(pr, first, count, |slot| {
                 let [p0, p1, p2] = self.vertices(slot);
                 if let Some(h) = tr.intersect(p0, p1, p2, t_min, t_max, EdgeRule::Inclusive)
                     && !on_surface(ray, h.t, p0, p1, p2)

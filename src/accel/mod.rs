@@ -3,9 +3,10 @@
 //! [`ObjectAccel`] keeps unbounded objects (planes, tubes) in a small list that every ray tests,
 //! and bounded ones in a [`PrimitiveIndex`]: a hierarchy when the scene has enough of them
 //! ([`SCENE_BVH_THRESHOLD`] under `auto`), a list with a box test per object otherwise: for a
-//! dozen analytic shapes, building a hierarchy costs more than it saves. Meshes index their own
-//! triangles, so a scene of meshes is a two-level hierarchy, and a mesh placed several times is
-//! stored once.
+//! dozen analytic shapes, building a hierarchy costs more than it saves (a lone bounded object
+//! gets no box test: its own test culls as well, and a mesh clips rays to its box). Meshes index
+//! their own triangles, so a scene of meshes is a two-level hierarchy, and a mesh placed several
+//! times is stored once.
 
 pub mod bvh;
 #[cfg(feature = "bvh")]
@@ -101,6 +102,13 @@ impl<O: Intersectable> Intersectable for Accelerated<'_, O> {
                 best = Some(h);
                 Some(h.t)
             });
+        } else if let [(_, i)] = accel.bounded[..] {
+            // One bounded object: its own test culls as well as its box would (a mesh clips the
+            // ray to its box anyway), without the three divisions of the box test.
+            if let Some(mut h) = objects[i as usize].intersect(ray, t_min, t_max) {
+                h.object = i;
+                best = Some(h);
+            }
         } else {
             let inv = ray.dir.recip();
             for (b, i) in &accel.bounded {
@@ -125,6 +133,9 @@ impl<O: Intersectable> Intersectable for Accelerated<'_, O> {
         }
         if accel.index.is_bvh() {
             return accel.index.any(ray, t_min, t_max, |slot| objects[accel.bounded[slot as usize].1 as usize].occludes(ray, t_min, t_max));
+        }
+        if let [(_, i)] = accel.bounded[..] {
+            return objects[i as usize].occludes(ray, t_min, t_max);
         }
         let inv = ray.dir.recip();
         accel.bounded.iter().any(|(b, i)| b.hit(ray, inv, t_min, t_max) && objects[*i as usize].occludes(ray, t_min, t_max))

@@ -42,12 +42,14 @@ const PARALLEL_RANGE: usize = 1 << 14;
 
 /// Traversal stack entries for hierarchies of `levels` levels: each level leaves at most
 /// `WIDTH − 1` entries behind. The stack is cleared per ray, so a hierarchy gets the smallest of
-/// a few sizes that holds it: 16 entries (5 levels: scenes of objects), 64 (21 levels: meshes of
-/// millions of triangles) or enough for [`MAX_DEPTH`].
+/// a few sizes that holds it (the stack is initialised per ray: no larger than needed): 16 entries
+/// (5 levels: scenes of objects), 32 (10 levels: meshes of about 10⁵ triangles), 64 (21 levels:
+/// meshes of millions of triangles) or enough for [`MAX_DEPTH`].
 const fn stack_entries(levels: usize) -> usize {
     (WIDTH - 1) * levels + 1
 }
 const SMALL_STACK: usize = 16;
+const MID_STACK: usize = 32;
 const MEDIUM_STACK: usize = 64;
 const DEEP_STACK: usize = stack_entries(MAX_DEPTH);
 
@@ -214,6 +216,8 @@ impl Bvh4 {
         let need = stack_entries(self.depth);
         if need <= SMALL_STACK {
             self.walk::<SMALL_STACK>(r, hi, leaf)
+        } else if need <= MID_STACK {
+            self.walk::<MID_STACK>(r, hi, leaf)
         } else if need <= MEDIUM_STACK {
             self.walk::<MEDIUM_STACK>(r, hi, leaf)
         } else {
@@ -230,6 +234,8 @@ impl Bvh4 {
         let need = stack_entries(self.depth);
         if need <= SMALL_STACK {
             self.walk_any::<SMALL_STACK>(r, hi, leaf)
+        } else if need <= MID_STACK {
+            self.walk_any::<MID_STACK>(r, hi, leaf)
         } else if need <= MEDIUM_STACK {
             self.walk_any::<MEDIUM_STACK>(r, hi, leaf)
         } else {
@@ -293,12 +299,27 @@ impl Bvh4 {
                     break 'descend;
                 }
                 let near = near.to_array();
-                if mask & (mask - 1) == 0 {
-                    let i = mask.trailing_zeros() as usize;
+                let i = mask.trailing_zeros() as usize;
+                let rest = mask & (mask - 1);
+                if rest == 0 {
                     cur = Entry { child: node.child[i], count: node.count[i], near: near[i] };
                     continue 'walk;
                 }
-                // Several children: push them, farthest deepest, and continue with the nearest.
+                if rest & (rest - 1) == 0 {
+                    // Two children: continue with the nearer (the later lane on a tie, as the
+                    // sorted push below would), push the other.
+                    let j = rest.trailing_zeros() as usize;
+                    let (a, b) = (
+                        Entry { child: node.child[i], count: node.count[i], near: near[i] },
+                        Entry { child: node.child[j], count: node.count[j], near: near[j] },
+                    );
+                    let (next, later) = if b.near <= a.near { (b, a) } else { (a, b) };
+                    stack[sp] = later;
+                    sp += 1;
+                    cur = next;
+                    continue 'walk;
+                }
+                // Three or four children: push them, farthest deepest, and continue with the nearest.
                 let base = sp;
                 while mask != 0 {
                     let i = mask.trailing_zeros() as usize;

@@ -8,9 +8,11 @@
 //! - **Edge**: when exactly two of its sides have ends that differ, an edge enters and leaves
 //!   through them. Each crossing is found by bisection along its side's lattice points (a point
 //!   joins the end it looks like; a point like neither is a ramp or a third value, and the edge
-//!   attempt is abandoned). The line between the crossings cuts the square into two regions;
-//!   the lattice point at each region's centroid is traced and must look like the region's
-//!   corners (a corner of an object, a curve or a thin feature fails this). Each region is the
+//!   attempt is abandoned). Bisection stops once the bracket, `L` pixels long, has ends that
+//!   differ by at most `threshold / L`: a faint edge is located coarsely, a strong one to the
+//!   lattice. The line between the crossings cuts the square into two regions; the lattice
+//!   point at each region's centroid is traced and must look like the region's corners (a
+//!   corner of an object, a curve or a thin feature fails this). Each region is the
 //!   integral of the linear interpolation of its samples (its corners, the points bracketing
 //!   the crossings on its side, its centroid), and the square is their sum: a piecewise-linear
 //!   reconstruction with a discontinuity, filtered by the pixel's box.
@@ -25,7 +27,8 @@
 //! The threshold means the same at every depth: a square of side `s` pixels is refined when its
 //! contrast exceeds `threshold / s^1.5`, about the error an unresolved edge across it leaves in
 //! its pixel (the area it misjudges, `~s²` for each of the `~1/s` squares along the edge, adding
-//! like random errors). Contrast is compared on displayed values (clamped, encoded, 0..1), the
+//! like random errors). A crossing bracketed to `L` pixels misplaces the line along the whole
+//! edge, an error of about `contrast · L`, hence `threshold / L` for bisection. Contrast is compared on displayed values (clamped, encoded, 0..1), the
 //! units of 8-bit images and their error metrics.
 //!
 //! A pixel's value depends only on the lattice points on and inside its square, which are pure
@@ -37,7 +40,7 @@
 //! then stored as one exact unit of weight ([`PixelSum::whole`]): a pixel is the same whichever
 //! share of the frame ([`crate::render::share`]) renders it.
 
-use crate::math::color::Color;
+use crate::math::color::{Color, Encoding, srgb_encode};
 use crate::render::accum::{LayerSum, PixelSum};
 use crate::render::job::{AdaptiveSettings, MAX_ADAPTIVE_DEPTH, MAX_CELL_SAMPLES, RenderJob};
 use crate::render::sample::{SampleId, trace_sample};
@@ -137,6 +140,9 @@ pub struct Adaptive<'a> {
     /// Threshold by the number of subdivisions left (the square's size), in display units.
     thresholds: [f32; MAX_ADAPTIVE_DEPTH as usize + 1],
     depth: u32,
+    /// Contrast a bisection bracket must exceed to be halved, by its length (2^k lattice
+    /// steps at index k), in display units: `threshold / L` for a bracket `L` pixels long.
+    bisect: [f32; MAX_ADAPTIVE_DEPTH as usize + 1],
     /// Lattice points per pixel side, `2^depth`.
     res: u64,
     /// Lattice points per lattice row of the image (`width · res + 1`): the key's stride.
@@ -179,7 +185,13 @@ impl<'a> Adaptive<'a> {
             let side = 2f64.powi(levels as i32 - depth as i32);
             *t = (settings.threshold / side.powf(1.5)) as f32;
         }
+        let mut bisect = [f32::INFINITY; MAX_ADAPTIVE_DEPTH as usize + 1];
+        for (levels, t) in bisect.iter_mut().enumerate().take(depth as usize + 1) {
+            // A bracket of 2^levels lattice steps is 2^(levels − depth) pixels long.
+            *t = (settings.threshold / 2f64.powi(levels as i32 - depth as i32)) as f32;
+        }
         Adaptive {
+            bisect,
             job,
             settings,
             thresholds,
@@ -299,13 +311,19 @@ impl<'a> Adaptive<'a> {
         // points bracketing it, before and after it clockwise.
         let mut cross = [(0.0f64, c[0], c[0]); 2];
         let mut found = 0;
+        // The longest final bracket, lattice units: how far the line may be from the edge.
+        let mut bracket = 1i64;
         for (k, &(a, b, (ox, oy), (dx, dy))) in sides.iter().enumerate() {
             if !crossed[k] {
                 continue;
             }
             let (mut lo, mut hi) = (0i64, s);
             let (mut vlo, mut vhi) = (c[a], c[b]);
-            while hi - lo > 1 {
+            // Bisect while the bracket's ends differ by more than `threshold / L` (`L` its
+            // length in pixels): a line misplaced by up to `L` misjudges about `L` of the
+            // pixel's area along the whole edge, an error of about `contrast · L`, so a faint
+            // edge is located only as finely as its contrast needs.
+            while hi - lo > 1 && self.differ(&vlo, &vhi, self.bisect[(hi - lo).trailing_zeros() as usize]) {
                 let m = (lo + hi) / 2;
                 let p = self.point((x as i64 + ox + dx * m) as u64, (y as i64 + oy + dy * m) as u64, stats);
                 match self.joins(&p, &vlo, &vhi, t) {
@@ -315,6 +333,7 @@ impl<'a> Adaptive<'a> {
                 }
             }
             cross[found] = (k as f64 + (lo + hi) as f64 / (2 * size) as f64, vlo, vhi);
+            bracket = bracket.max(hi - lo);
             found += 1;
         }
         let [(s1, before1, after1), (s2, before2, after2)] = cross;
@@ -352,7 +371,7 @@ impl<'a> Adaptive<'a> {
             }
             let at = (lx / size as f64, ly / size as f64);
             let corner = poly.v[1].0;
-            if side_of(at).abs() * size as f64 <= 1.0 || (side_of(at) > 0.0) != (side_of(corner) > 0.0) {
+            if side_of(at).abs() * size as f64 <= bracket as f64 || (side_of(at) > 0.0) != (side_of(corner) > 0.0) {
                 continue;
             }
             let m = self.point(x + lx as u64, y + ly as u64, stats);
@@ -446,7 +465,7 @@ impl<'a> Adaptive<'a> {
             trace_sample(self.job, SampleId::Lattice { x, y, depth: self.depth }, &mut acc, with_layers.then_some(&mut sums), stats);
         let color = acc.mean();
         let enc = self.job.settings.encoding;
-        let display = [color.x, color.y, color.z].map(|v| (enc.display(v as f32) / DISPLAY_STEP + 0.5) as u16);
+        let display = [color.x, color.y, color.z].map(|v| display_steps(enc, v as f32));
         let p = Point { key, color, display, signature };
         self.slots[slot] = p;
         if with_layers {
@@ -505,6 +524,31 @@ impl Polygon {
         }
         add(&pa, wa);
     }
+}
+
+/// Entries of [`SRGB_TABLE`] per unit of linear value.
+const SRGB_TABLE_STEPS: usize = 1 << 14;
+
+/// The sRGB curve at `i / SRGB_TABLE_STEPS`, `i` = 0 ..= [`SRGB_TABLE_STEPS`], in units of
+/// [`DISPLAY_STEP`]: interpolated linearly it is within `1e-5` of the curve (its second
+/// derivative is below `2·10³` above the linear toe, the spacing `6·10⁻⁵`), under one step.
+static SRGB_TABLE: std::sync::LazyLock<Vec<f32>> =
+    std::sync::LazyLock::new(|| (0..=SRGB_TABLE_STEPS).map(|i| srgb_encode(i as f32 / SRGB_TABLE_STEPS as f32) / DISPLAY_STEP).collect());
+
+/// The displayed value of linear `v` in units of [`DISPLAY_STEP`], rounded: sRGB by table (the
+/// curve's `powf` per channel and point cost as much as a tenth of a ray).
+#[inline]
+fn display_steps(enc: Encoding, v: f32) -> u16 {
+    let steps = match enc {
+        Encoding::Srgb => {
+            let x = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) } * SRGB_TABLE_STEPS as f32;
+            let i = (x as usize).min(SRGB_TABLE_STEPS - 1);
+            let f = x - i as f32;
+            SRGB_TABLE[i] + (SRGB_TABLE[i + 1] - SRGB_TABLE[i]) * f
+        }
+        _ => enc.display(v) / DISPLAY_STEP,
+    };
+    (steps + 0.5) as u16
 }
 
 /// The largest difference between the displayed channels of `a` and `b`.
