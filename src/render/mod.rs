@@ -36,6 +36,7 @@ use crate::render::adaptive::Adaptive;
 use crate::render::sample::{SampleId, camera_rays, film_frame, trace_sample, trace_sample_in};
 use crate::render::share::{FrameSums, Rect, Sampling, Share};
 use crate::render::stats::RayStats;
+use crate::scene::camera::FilmFrame;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::Mutex;
@@ -229,7 +230,15 @@ fn render_passes(
         },
     );
     let already: u64 = sums.pixels.iter().map(|p| u64::from(p.samples)).sum();
-    let total: u64 = already + (0..sums.pixels.len()).map(|i| u64::from(sums.missing(i))).sum::<u64>();
+    let total: u64 = match s.aa {
+        // Every pixel of a stratified share wants the same samples: its total is
+        // `already + Σ missing`, each pixel's `max(samples, want)`, without asking pixel by pixel.
+        Antialiasing::Stratified => {
+            let want = share.samples_of(Sampling::of(&s), s.width, share.bounds.x0, share.bounds.y0);
+            sums.pixels.iter().map(|p| u64::from(p.samples.max(want))).sum()
+        }
+        Antialiasing::Adaptive(_) => already + (0..sums.pixels.len()).map(|i| u64::from(sums.missing(i))).sum::<u64>(),
+    };
     let done = AtomicU64::new(already);
     let state = Mutex::new(State { sums, stats: RayStats::new(counters), last_snapshot: Instant::now() });
     let lock = || state.lock().unwrap_or_else(|e| e.into_inner());
@@ -327,35 +336,75 @@ impl TileWork {
         let s = &job.settings;
         let t = self.tile;
         let mut scheme = match s.aa {
-            Antialiasing::Adaptive(a) => Some(Adaptive::new(job, a, t.x0, t.width(), self.layers.is_some())),
-            Antialiasing::Stratified => None,
+            Antialiasing::Adaptive(a) => Adaptive::new(job, a, t.x0, t.width(), self.layers.is_some()),
+            Antialiasing::Stratified => return self.render_stratified(job, end, cancel, stats),
         };
-        let frame = film_frame(job);
         for (i, (x, y)) in (t.y0..t.y1).flat_map(|y| (t.x0..t.x1).map(move |x| (x, y))).enumerate() {
             if x == t.x0 && cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
                 return;
             }
-            let want = self.share.samples_of(Sampling::of(s), s.width, x, y);
             let acc = &mut self.pixels[i];
-            let mut layers = self.layers.as_mut().map(|l| &mut l[i]);
-            match scheme.as_mut() {
-                None => {
-                    while acc.samples < want && self.share.sample_index(acc.samples) < end {
-                        let index = self.share.sample_index(acc.samples);
-                        trace_sample_in(job, frame, SampleId::Pixel { x, y, index }, acc, layers.as_deref_mut(), stats);
-                        acc.samples += 1;
-                    }
+            if acc.samples < self.share.samples_of(Sampling::of(s), s.width, x, y) {
+                let v = scheme.pixel(x, y, stats);
+                *acc = PixelSum::whole(v.color);
+                if let Some(l) = self.layers.as_mut() {
+                    l[i] = v.layers.sum();
                 }
-                Some(scheme) if acc.samples < want => {
-                    let v = scheme.pixel(x, y, stats);
-                    *acc = PixelSum::whole(v.color);
-                    if let Some(l) = layers {
-                        *l = v.layers.sum();
-                    }
-                }
-                Some(_) => {}
             }
         }
+    }
+
+    /// [`TileWork::render`] under stratified sampling, row by row, with what is the same for
+    /// every pixel of the tile (the samples it wants, whether layers are summed) decided once.
+    fn render_stratified(&mut self, job: &RenderJob, end: u32, cancel: Option<&AtomicBool>, stats: &mut RayStats) {
+        let s = &job.settings;
+        let t = self.tile;
+        let share = self.share;
+        // The tile lies inside the share's bounds, where every pixel takes the same samples.
+        let want = share.samples_of(Sampling::of(s), s.width, t.x0, t.y0);
+        let frame = film_frame(job);
+        let w = t.width() as usize;
+        for (row, y) in (t.y0..t.y1).enumerate() {
+            if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+                return;
+            }
+            let span = row * w..(row + 1) * w;
+            let pixels = self.pixels[span.clone()].iter_mut().zip(t.x0..t.x1);
+            match self.layers.as_mut() {
+                None => {
+                    for (acc, x) in pixels {
+                        add_samples(job, frame, share, (x, y), want, end, acc, None, stats);
+                    }
+                }
+                Some(layers) => {
+                    for ((acc, x), l) in pixels.zip(&mut layers[span]) {
+                        add_samples(job, frame, share, (x, y), want, end, acc, Some(l), stats);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Adds the samples of pixel `xy` that `share` takes below index `end` and `acc` lacks (up to
+/// `want`) to `acc` and, when summed, to `layers`.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn add_samples(
+    job: &RenderJob,
+    frame: FilmFrame,
+    share: Share,
+    (x, y): (u32, u32),
+    want: u32,
+    end: u32,
+    acc: &mut PixelSum,
+    mut layers: Option<&mut LayerSum>,
+    stats: &mut RayStats,
+) {
+    while acc.samples < want && share.sample_index(acc.samples) < end {
+        let index = share.sample_index(acc.samples);
+        trace_sample_in(job, frame, SampleId::Pixel { x, y, index }, acc, layers.as_deref_mut(), stats);
+        acc.samples += 1;
     }
 }
 

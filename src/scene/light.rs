@@ -55,6 +55,24 @@ impl LightPdf {
     }
 }
 
+/// What a light says of itself that cannot change during a render
+/// ([`LightSource::is_area`], [`LightSource::sample_count`]), asked once when the scene is built
+/// ([`crate::Scene::light_facts`]) so integrators do not ask again at every hit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LightFacts {
+    /// [`LightSource::is_area`].
+    pub is_area: bool,
+    /// [`LightSource::sample_count`].
+    pub sample_count: u32,
+}
+
+impl LightFacts {
+    /// The facts `light` reports.
+    pub fn of(light: &dyn LightSource) -> LightFacts {
+        LightFacts { is_area: light.is_area(), sample_count: light.sample_count() }
+    }
+}
+
 /// A source of light.
 pub trait LightSource: Send + Sync {
     /// Light arriving at `p`. `u` ∈ [0, 1]² picks a point on an area light's emitter (uniform

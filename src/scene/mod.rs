@@ -15,7 +15,7 @@ use crate::math::float::offset_ray_origin;
 use crate::math::ray::Ray;
 use crate::scene::camera::Camera;
 use crate::scene::interaction::Interaction;
-use crate::scene::light::LightSource;
+use crate::scene::light::{LightFacts, LightSource};
 use crate::scene::object::Object;
 
 /// Most surfaces a shadow ray passes through before it is treated as blocked (guards against
@@ -36,8 +36,11 @@ pub struct Scene {
     pub objects: Vec<Object>,
     /// Names of the lights, parallel to `lights`.
     pub light_names: Vec<String>,
-    /// The lights (ambient lights included; they return no samples).
+    /// The lights (ambient lights included; they return no samples). Read once when the scene
+    /// is built (`ambient`, [`Scene::light_facts`]): not to be changed afterwards.
     pub lights: Vec<Box<dyn LightSource>>,
+    /// [`LightFacts`] of each light, parallel to `lights`.
+    light_facts: Vec<LightFacts>,
     accel: ObjectAccel,
     opaque: ObjectAccel,
     transmissive: ObjectAccel,
@@ -98,6 +101,7 @@ impl Scene {
         };
         let bounds = boxes.iter().flatten().fold(Aabb::EMPTY, |a, b| a.union(*b));
         let ambient = lights.iter().map(|l| l.ambient()).sum();
+        let light_facts = lights.iter().map(|l| LightFacts::of(l.as_ref())).collect();
         Scene {
             name: name.into(),
             camera,
@@ -106,6 +110,7 @@ impl Scene {
             objects,
             light_names,
             lights,
+            light_facts,
             accel,
             opaque,
             transmissive,
@@ -113,6 +118,13 @@ impl Scene {
             build_stats,
             object_builds: BuildStats::default(),
         }
+    }
+
+    /// What each light says of itself ([`LightFacts`]), parallel to [`Scene::lights`]: asked once
+    /// when the scene was built.
+    #[inline]
+    pub fn light_facts(&self) -> &[LightFacts] {
+        &self.light_facts
     }
 
     /// Records the cost of the hierarchies the objects built over their own parts (reported by

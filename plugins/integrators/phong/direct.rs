@@ -80,9 +80,9 @@ impl Phong {
         // spot or directional light ignores its sample position, so drawing none changes nothing.
         let mut streams = None;
         let mut total = Color::ZERO;
-        for (li, light) in scene.lights.iter().enumerate() {
-            let area = light.is_area();
-            if !area && light.sample_count() <= 1 {
+        for (li, (light, facts)) in scene.lights.iter().zip(scene.light_facts()).enumerate() {
+            let area = facts.is_area;
+            if !area && facts.sample_count <= 1 {
                 // One sample at u = (0, 0), no stream, no probes: the stratified set of one
                 // without its bookkeeping (same numbers, same counters).
                 total += self.single_sample(c, &Shade { si, weight, full: 1, light: li, no_response }, light.as_ref(), rec);
@@ -90,7 +90,7 @@ impl Phong {
             }
             let full = match area && self.shadow_rays > 0 {
                 true => self.shadow_rays,
-                false => light.sample_count().max(1),
+                false => facts.sample_count.max(1),
             };
             let mut stream = area.then(|| streams.get_or_insert_with(|| sampler.fork(TAG_LIGHTS)).fork(li as u64));
             let probes = if area && self.shadow_probes > 0 && self.shadow_probes < full { self.shadow_probes } else { 0 };
