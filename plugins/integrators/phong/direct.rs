@@ -70,6 +70,18 @@ struct Shade<'a> {
     no_response: bool,
 }
 
+/// One light sample's terms before its shadow ray.
+struct Terms {
+    /// `ns·l` where the light is on the viewer's side of the surface, else 0.
+    nl: f64,
+    diffuse: Color,
+    specular: Color,
+    /// `diffuse + specular`.
+    unshadowed: Color,
+    /// `unshadowed` is black.
+    dark: bool,
+}
+
 impl Phong {
     /// Direct light at `si`: diffuse and specular from every light, shadowed.
     pub(super) fn direct<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, sampler: &Sampler, weight: Color, rec: &mut R) -> Color {
@@ -129,59 +141,16 @@ impl Phong {
     fn single_sample<R: Recorder>(&self, c: &mut Ctx, sh: &Shade, light: &dyn LightSource, rec: &mut R) -> Color {
         let scene = c.scene;
         let si = sh.si;
-        let m = &si.material;
         let Some(ls) = light.illuminate(si.hit.point, DVec2::ZERO) else { return Color::ZERO };
         if self.avoid && sh.no_response {
             c.stats.add(counter::LIGHTS_NO_RESPONSE, 1);
             rec.note(|| format!("{}: the surface has no diffuse or specular term; no shadow rays", scene.light_names[sh.light]));
             return Color::ZERO;
         }
-        // Lit only from the viewer's side of the geometric surface; shaded with `ns`.
-        let nl = if si.n.dot(ls.dir) > 0.0 { si.ns.dot(ls.dir) } else { 0.0 };
-        let skipped = |why: &str| self.record(scene, sh.light, &ls, nl, Some(why), Color::ZERO, None, &[]);
-        if self.avoid && nl <= 0.0 {
-            c.stats.add(counter::LIGHTS_BEHIND, 1);
-            rec.light(|| skipped("the light is behind the surface as seen from the ray"));
-            return Color::ZERO;
+        match self.unshadowed(c, sh, &ls, rec) {
+            Ok(t) => t.unshadowed * self.shadowed(c, sh, &ls, &t, 1, rec),
+            Err(_) => Color::ZERO,
         }
-        if self.avoid && max_channel(ls.intensity) <= 0.0 {
-            c.stats.add(counter::LIGHTS_UNREACHABLE, 1);
-            rec.light(|| skipped("no light arrives here (outside the cone)"));
-            return Color::ZERO;
-        }
-        let lit = nl > 0.0;
-        let spec = if lit && max_channel(m.ks) > 0.0 {
-            let vr = -si.dir.dot(reflect(-ls.dir, si.ns));
-            if vr > 0.0 { shininess_power(vr, m.shininess) } else { 0.0 }
-        } else {
-            0.0
-        };
-        let diffuse = m.kd * nl.max(0.0) * ls.intensity;
-        let specular = m.ks * spec * ls.intensity;
-        let unshadowed = diffuse + specular;
-        let dark = max_channel(unshadowed) <= 0.0;
-        if self.avoid && dark {
-            c.stats.add(counter::LIGHTS_NO_RESPONSE, 1);
-            rec.light(|| skipped("no diffuse or specular response toward this light"));
-            return Color::ZERO;
-        }
-        let share = max_channel(unshadowed * sh.weight);
-        if share < self.prune_threshold {
-            c.stats.add(counter::LIGHTS_NEGLIGIBLE, 1);
-            rec.light(|| skipped(&format!("contribution {share:.3e} below the pruning threshold")));
-            return Color::ZERO;
-        }
-        c.stats.add(counter::SHADOW_RAYS, 1);
-        let (shadow_ray, t_max) = si.spawn_shadow_ray(ls.dir, ls.distance);
-        let tr = if R::ON {
-            let (tr, occ) = scene.transmittance_and_occluder(&shadow_ray, t_max);
-            let terms = [Term::color("diffuse", diffuse * tr), Term::color("specular", specular * tr)];
-            rec.light(|| self.record(scene, sh.light, &ls, nl, None, tr, occ, &terms));
-            tr
-        } else {
-            scene.transmittance(&shadow_ray, t_max)
-        };
-        unshadowed * tr
     }
 
     /// Takes the samples `set` of `light` (stratified with `pattern`; `u0` for a single sample)
@@ -200,7 +169,6 @@ impl Phong {
     ) -> bool {
         let scene = c.scene;
         let si = sh.si;
-        let m = &si.material;
         let count = match set {
             Samples::Stratified(n) | Samples::Probes(n) => n,
         };
@@ -220,60 +188,83 @@ impl Phong {
                 rec.note(|| format!("{}: the surface has no diffuse or specular term; no shadow rays", scene.light_names[sh.light]));
                 return true;
             }
-            // Lit only from the viewer's side of the geometric surface; shaded with `ns`.
-            let nl = if si.n.dot(ls.dir) > 0.0 { si.ns.dot(ls.dir) } else { 0.0 };
-            let skipped = |why: &str| self.record(scene, sh.light, &ls, nl, Some(why), Color::ZERO, None, &[]);
-            if self.avoid && nl <= 0.0 {
-                c.stats.add(counter::LIGHTS_BEHIND, 1);
-                acc.observe(Outcome::Dark);
-                rec.light(|| skipped("the light is behind the surface as seen from the ray"));
-                continue;
+            match self.unshadowed(c, sh, &ls, rec) {
+                Ok(t) => {
+                    let tr = self.shadowed(c, sh, &ls, &t, count, rec);
+                    acc.sum += t.unshadowed * tr;
+                    acc.observe(if t.dark { Outcome::Dark } else { Outcome::Lit(tr) });
+                }
+                Err(o) => acc.observe(o),
             }
-            if self.avoid && max_channel(ls.intensity) <= 0.0 {
-                c.stats.add(counter::LIGHTS_UNREACHABLE, 1);
-                acc.observe(Outcome::Dark);
-                rec.light(|| skipped("no light arrives here (outside the cone)"));
-                continue;
-            }
-            let lit = nl > 0.0;
-            let r = reflect(-ls.dir, si.ns);
-            let vr = -si.dir.dot(r);
-            let spec = if lit && vr > 0.0 && max_channel(m.ks) > 0.0 { shininess_power(vr, m.shininess) } else { 0.0 };
-            let diffuse = m.kd * nl.max(0.0) * ls.intensity;
-            let specular = m.ks * spec * ls.intensity;
-            let unshadowed = diffuse + specular;
-            let dark = max_channel(unshadowed) <= 0.0;
-            if self.avoid && dark {
-                c.stats.add(counter::LIGHTS_NO_RESPONSE, 1);
-                acc.observe(Outcome::Dark);
-                rec.light(|| skipped("no diffuse or specular response toward this light"));
-                continue;
-            }
-            let share = match sh.full {
-                1 => max_channel(unshadowed * sh.weight),
-                full => max_channel(unshadowed * sh.weight) / f64::from(full),
-            };
-            if share < self.prune_threshold {
-                c.stats.add(counter::LIGHTS_NEGLIGIBLE, 1);
-                acc.observe(if dark { Outcome::Dark } else { Outcome::Negligible });
-                rec.light(|| skipped(&format!("contribution {share:.3e} below the pruning threshold")));
-                continue;
-            }
-            c.stats.add(counter::SHADOW_RAYS, 1);
-            let (shadow_ray, t_max) = si.spawn_shadow_ray(ls.dir, ls.distance);
-            let tr = if R::ON {
-                let (tr, occ) = scene.transmittance_and_occluder(&shadow_ray, t_max);
-                let k = f64::from(count);
-                let terms = [Term::color("diffuse", diffuse * tr / k), Term::color("specular", specular * tr / k)];
-                rec.light(|| self.record(scene, sh.light, &ls, nl, None, tr, occ, &terms));
-                tr
-            } else {
-                scene.transmittance(&shadow_ray, t_max)
-            };
-            acc.sum += unshadowed * tr;
-            acc.observe(if dark { Outcome::Dark } else { Outcome::Lit(tr) });
         }
         true
+    }
+
+    /// The diffuse and specular terms of light sample `ls` before its shadow ray, or how it was
+    /// skipped (counted and recorded here): behind the surface, outside a cone, no response, or
+    /// below the pruning threshold.
+    #[inline(always)]
+    fn unshadowed<R: Recorder>(&self, c: &mut Ctx, sh: &Shade, ls: &LightSample, rec: &mut R) -> Result<Terms, Outcome> {
+        let scene = c.scene;
+        let si = sh.si;
+        let m = &si.material;
+        // Lit only from the viewer's side of the geometric surface; shaded with `ns`.
+        let nl = if si.n.dot(ls.dir) > 0.0 { si.ns.dot(ls.dir) } else { 0.0 };
+        let skipped = |why: &str| self.record(scene, sh.light, ls, nl, Some(why), Color::ZERO, None, &[]);
+        if self.avoid && nl <= 0.0 {
+            c.stats.add(counter::LIGHTS_BEHIND, 1);
+            rec.light(|| skipped("the light is behind the surface as seen from the ray"));
+            return Err(Outcome::Dark);
+        }
+        if self.avoid && max_channel(ls.intensity) <= 0.0 {
+            c.stats.add(counter::LIGHTS_UNREACHABLE, 1);
+            rec.light(|| skipped("no light arrives here (outside the cone)"));
+            return Err(Outcome::Dark);
+        }
+        let spec = if nl > 0.0 && max_channel(m.ks) > 0.0 {
+            let vr = -si.dir.dot(reflect(-ls.dir, si.ns));
+            if vr > 0.0 { shininess_power(vr, m.shininess) } else { 0.0 }
+        } else {
+            0.0
+        };
+        let diffuse = m.kd * nl.max(0.0) * ls.intensity;
+        let specular = m.ks * spec * ls.intensity;
+        let unshadowed = diffuse + specular;
+        let dark = max_channel(unshadowed) <= 0.0;
+        if self.avoid && dark {
+            c.stats.add(counter::LIGHTS_NO_RESPONSE, 1);
+            rec.light(|| skipped("no diffuse or specular response toward this light"));
+            return Err(Outcome::Dark);
+        }
+        // (A division by 1 changes no bit: skipped.)
+        let share = match sh.full {
+            1 => max_channel(unshadowed * sh.weight),
+            full => max_channel(unshadowed * sh.weight) / f64::from(full),
+        };
+        if share < self.prune_threshold {
+            c.stats.add(counter::LIGHTS_NEGLIGIBLE, 1);
+            rec.light(|| skipped(&format!("contribution {share:.3e} below the pruning threshold")));
+            return Err(if dark { Outcome::Dark } else { Outcome::Negligible });
+        }
+        Ok(Terms { nl, diffuse, specular, unshadowed, dark })
+    }
+
+    /// The transmittance toward light sample `ls` along its shadow ray (counted, and recorded with
+    /// the terms `t` as one of `count` samples).
+    #[inline(always)]
+    fn shadowed<R: Recorder>(&self, c: &mut Ctx, sh: &Shade, ls: &LightSample, t: &Terms, count: u32, rec: &mut R) -> Color {
+        let scene = c.scene;
+        c.stats.add(counter::SHADOW_RAYS, 1);
+        let (shadow_ray, t_max) = sh.si.spawn_shadow_ray(ls.dir, ls.distance);
+        if R::ON {
+            let (tr, occ) = scene.transmittance_and_occluder(&shadow_ray, t_max);
+            let k = f64::from(count);
+            let terms = [Term::color("diffuse", t.diffuse * tr / k), Term::color("specular", t.specular * tr / k)];
+            rec.light(|| self.record(scene, sh.light, ls, t.nl, None, tr, occ, &terms));
+            tr
+        } else {
+            scene.transmittance(&shadow_ray, t_max)
+        }
     }
 
     /// The explanation of one light sample.
