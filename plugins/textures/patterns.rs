@@ -16,26 +16,28 @@ use std::sync::Arc;
 
 const EVEN: ParamSpec = ParamSpec::new("even", ParamKind::Color, Default::Float(0.8), "colour of the even cells, linear RGB");
 const ODD: ParamSpec = ParamSpec::new("odd", ParamKind::Color, Default::Float(0.1), "colour of the odd cells, linear RGB");
+/// The parameters of every cell pattern (`checker`, `stripes`, `ring`).
+const CELL_PARAMS: &[ParamSpec] = &[EVEN, ODD, COORDS_PARAM, TRANSFORM_PARAM];
 
 /// The `checker` texture's description.
 pub const CHECKER_INFO: PluginInfo = PluginInfo {
     name: "checker",
     summary: "A checkerboard of unit cells: `even` where ⌊x⌋ + ⌊y⌋ + ⌊z⌋ is even, `odd` elsewhere (squares over uv, cubes through an object).",
-    params: &[EVEN, ODD, COORDS_PARAM, TRANSFORM_PARAM],
+    params: CELL_PARAMS,
 };
 
 /// The `stripes` texture's description.
 pub const STRIPES_INFO: PluginInfo = PluginInfo {
     name: "stripes",
     summary: "Stripes of unit width across x (across u over uv): `even` where ⌊x⌋ is even, `odd` elsewhere. Turn them with `transform`.",
-    params: &[EVEN, ODD, COORDS_PARAM, TRANSFORM_PARAM],
+    params: CELL_PARAMS,
 };
 
 /// The `ring` texture's description.
 pub const RING_INFO: PluginInfo = PluginInfo {
     name: "ring",
     summary: "Concentric rings of unit width around the z axis (circles around uv (0, 0); cylinders through an object, as wood): `even` where ⌊√(x² + y²)⌋ is even, `odd` elsewhere.",
-    params: &[EVEN, ODD, COORDS_PARAM, TRANSFORM_PARAM],
+    params: CELL_PARAMS,
 };
 
 /// The `gradient` texture's description.
