@@ -16,6 +16,9 @@
 //!   `ior` that reflects 2F/(1+F) and passes the rest straight through. With `blur > 0` the
 //!   chosen direction is jittered in a Phong lobe of exponent `4 / blur²` (a stochastic specular
 //!   event: no light samples toward it).
+//! - a material's `fresnel` setting (for phong: reflection `F·kr`, transmission `(1 − F)·kt`):
+//!   with `kt`, the dielectric's own `F` is the reflection and `kr` adds no mirror; without it,
+//!   the mirror weighs `F·kr`.
 //!
 //! The four weights are scaled down together so their sum is at most 1 in every channel: a
 //! material that would reflect more than it receives reflects all of it. Lobes are sampled in
@@ -27,6 +30,7 @@ use raylab::glam::{DVec2, DVec3};
 use raylab::math::color::max_channel;
 use raylab::render::sampler::{concentric_disc, orthonormal_basis};
 use raylab::scene::interaction::Interaction;
+use raylab::scene::material::Fresnel;
 use raylab::{Color, RayKind};
 use std::f64::consts::{FRAC_1_PI, TAU};
 
@@ -77,9 +81,8 @@ pub struct Bsdf {
     kd: Color,
     ks: Color,
     shininess: f64,
-    /// `kr` as a Phong lobe (blurry mirror), and its exponent.
+    /// `kr` as a Phong lobe (blurry mirror).
     glossy: Color,
-    glossy_exponent: f64,
     /// `kr` as a perfect mirror.
     mirror: Color,
     kt: Color,
@@ -88,8 +91,9 @@ pub struct Bsdf {
     ior: f64,
     closed: bool,
     entering: bool,
-    /// Jitter exponent of a blurry dielectric (0: sharp).
-    dielectric_exponent: f64,
+    /// Exponent of the Phong lobe standing for the material's `blur`: the glossy lobe's, and the
+    /// jitter of a blurry dielectric (0: sharp).
+    blur_lobe: f64,
     /// Probability of choosing each lobe of [`LOBES`] (sum 1, or all 0 for a black surface).
     choice: [f64; 5],
 }
@@ -133,6 +137,19 @@ pub fn fresnel_dielectric(cos_i: f64, eta: f64) -> f64 {
     0.5 * (parallel * parallel + perpendicular * perpendicular)
 }
 
+/// The mirror weight of `si`'s material. A material's `fresnel` setting (phong weighs reflection
+/// by `F·kr` and transmission by `(1 − F)·kt`) is honoured here too: with transmission, the
+/// dielectric lobe already reflects `F`, so `kr` adds no mirror of its own (glass given as
+/// `kr = kt = 1, fresnel = "exact"` is the dielectric alone); without it, the mirror is `F·kr`.
+fn fresnel_mirror(si: &Interaction) -> Color {
+    let m = &si.material;
+    match m.fresnel {
+        Fresnel::Off => m.kr,
+        _ if max_channel(m.kt) > 0.0 => Color::ZERO,
+        f => m.kr * f.reflectance(-si.dir.dot(si.n), if si.front_face { m.ior } else { 1.0 / m.ior }),
+    }
+}
+
 /// Reflectance of a thin slab of index `eta` (relative to its surroundings) at `cos_i`, all
 /// internal reflections summed: `2F / (1 + F)`.
 pub fn thin_slab_reflectance(cos_i: f64, eta: f64) -> f64 {
@@ -172,8 +189,9 @@ impl Bsdf {
     /// The model at the hit `si`.
     pub fn new(si: &Interaction) -> Bsdf {
         let m = &si.material;
-        let scale = 1.0 / max_channel(m.kd + m.ks + m.kr + m.kt).max(1.0);
-        let (kd, ks, kr, kt) = (m.kd * scale, m.ks * scale, m.kr * scale, m.kt * scale);
+        let kr = fresnel_mirror(si);
+        let scale = 1.0 / max_channel(m.kd + m.ks + kr + m.kt).max(1.0);
+        let (kd, ks, kr, kt) = (m.kd * scale, m.ks * scale, kr * scale, m.kt * scale);
         let blurred = m.blur > 0.0;
         let (glossy, mirror) = if blurred { (kr, Color::ZERO) } else { (Color::ZERO, kr) };
         let mut choice = [mean(kd), mean(ks), mean(glossy), mean(mirror), mean(kt)];
@@ -191,13 +209,13 @@ impl Bsdf {
             ks,
             shininess: m.shininess,
             glossy,
-            glossy_exponent: if blurred { blur_exponent(m.blur) } else { 0.0 },
             mirror,
             kt,
             ior: m.ior,
-            closed: si.object.is_closed(),
+            // Only a dielectric asks (closedness is computed on first demand, per mesh).
+            closed: max_channel(kt) > 0.0 && si.object.is_closed(),
             entering: si.front_face,
-            dielectric_exponent: if blurred { blur_exponent(m.blur) } else { 0.0 },
+            blur_lobe: if blurred { blur_exponent(m.blur) } else { 0.0 },
             choice,
         }
     }
@@ -206,11 +224,6 @@ impl Bsdf {
     /// glossy): light samples are worth taking here.
     pub fn has_smooth_lobes(&self) -> bool {
         self.choice[0] + self.choice[1] + self.choice[2] > 0.0
-    }
-
-    /// True when the surface scatters nothing.
-    pub fn is_black(&self) -> bool {
-        self.choice.iter().all(|&p| p <= 0.0)
     }
 
     /// Reflectance as the albedo layer shows it: the sum of the weights.
@@ -225,7 +238,7 @@ impl Bsdf {
             return Color::ZERO;
         }
         let c = wi.dot(self.axis);
-        self.kd * FRAC_1_PI + self.ks * lobe_brdf(c, self.shininess) + self.glossy * lobe_brdf(c, self.glossy_exponent)
+        self.kd * FRAC_1_PI + self.ks * lobe_brdf(c, self.shininess) + self.glossy * lobe_brdf(c, self.blur_lobe)
     }
 
     /// Density with which [`Bsdf::sample`] picks `wi` (per solid angle), for `wi` on `wo`'s side.
@@ -233,7 +246,7 @@ impl Bsdf {
         let cos = self.ns.dot(wi);
         let c = wi.dot(self.axis);
         let diffuse = if cos > 0.0 { cos * FRAC_1_PI } else { 0.0 };
-        self.choice[0] * diffuse + self.choice[1] * lobe_pdf(c, self.shininess) + self.choice[2] * lobe_pdf(c, self.glossy_exponent)
+        self.choice[0] * diffuse + self.choice[1] * lobe_pdf(c, self.shininess) + self.choice[2] * lobe_pdf(c, self.blur_lobe)
     }
 
     /// A new direction: a lobe chosen by `pick` ∈ [0, 1) in proportion to the weights, a
@@ -259,7 +272,7 @@ impl Bsdf {
                 d.x * b1 + d.y * b2 + (1.0 - d.length_squared()).max(0.0).sqrt() * self.ns
             }
             Lobe::Specular => sample_lobe(self.axis, self.shininess, u),
-            Lobe::Glossy => sample_lobe(self.axis, self.glossy_exponent, u),
+            Lobe::Glossy => sample_lobe(self.axis, self.blur_lobe, u),
             Lobe::Mirror => {
                 let weight = self.mirror / self.choice[3];
                 let dir = reflect(-self.wo, self.n);
@@ -294,8 +307,8 @@ impl Bsdf {
         } else {
             (d, -self.n, RayKind::Refraction, 1.0)
         };
-        if self.dielectric_exponent > 0.0 {
-            dir = sample_lobe(dir, self.dielectric_exponent, u);
+        if self.blur_lobe > 0.0 {
+            dir = sample_lobe(dir, self.blur_lobe, u);
             if dir.dot(side) < 0.0 {
                 dir = reflect(dir, side);
             }

@@ -102,6 +102,27 @@ fn the_dielectric_reflects_with_fresnels_probability_and_refracts_by_snells_law(
         }
     }
 }
+#[test]
+fn a_materials_fresnel_setting_means_what_it_means_for_phong() {
+    use raylab::scene::material::Fresnel;
+    // Glass given phong's way (kr = kt = 1, Fresnel weights) is the dielectric alone: its own F
+    // is the reflection, with no mirror beside it.
+    let glass = Material { kd: Color::ZERO, kr: Color::ONE, kt: Color::ONE, ior: 1.5, fresnel: Fresnel::Exact, ..Material::default() };
+    for theta in [0.0, 0.7, 1.4] {
+        let (bsdf, _) = bsdf_at(glass.clone(), theta, false);
+        for pick in [0.0, 0.3, 0.6, 0.99] {
+            assert_eq!(bsdf.sample(pick, DVec2::splat(0.5), 0.5).expect("glass scatters").lobe, Lobe::Dielectric, "θ {theta}");
+        }
+        assert!((bsdf.albedo() - Color::ONE).abs().max_element() < 1e-15);
+    }
+    // An opaque Fresnel mirror reflects F·kr.
+    let metal = Material { kd: Color::ZERO, kr: Color::splat(0.9), ior: 1.5, fresnel: Fresnel::Exact, ..Material::default() };
+    for theta in [0.0, 0.7, 1.4] {
+        let (bsdf, _) = bsdf_at(metal.clone(), theta, false);
+        let f = fresnel_dielectric(theta.cos(), 1.5);
+        assert!((bsdf.albedo() - Color::splat(0.9 * f)).abs().max_element() < 1e-12, "θ {theta}: {:?} vs F·kr {}", bsdf.albedo(), 0.9 * f);
+    }
+}
 
 /// `∫ g(ω) dω` over the hemisphere around unit `n` (midpoint rule in θ, φ).
 fn hemisphere_integral(n: DVec3, g: impl Fn(DVec3) -> f64) -> f64 {
