@@ -907,6 +907,7 @@ impl GltfFile {
             // The gltf crate's readers assume the types the specification requires (they panic
             // otherwise, found by the mesh_gltf fuzz target): checked first.
             use gltf::accessor::{DataType, Dimensions};
+            let max_elements = self.max_triangles.saturating_mul(3).min(u64::from(u32::MAX));
             let typed = |a: Option<gltf::Accessor>, types: &[DataType], dims: Dimensions, what: &str| match a {
                 Some(a) if !(types.contains(&a.data_type()) && a.dimensions() == dims) => Err(err(format!(
                     "its {what} accessor holds {:?} of {:?}; expected {dims:?} of {types:?}",
@@ -919,6 +920,12 @@ impl GltfFile {
                     a.size()
                 ))),
                 Some(a) if a.count() == 0 => Err(err(format!("its {what} accessor has count 0 (at least 1 is required)"))),
+                // Without a buffer view the reader yields `count` zeros (the sparse values over
+                // them), bounded by no buffer: refused beyond what the triangle limit can use.
+                Some(a) if a.view().is_none() && a.count() as u64 > max_elements => Err(err(format!(
+                    "its {what} accessor has no bufferView and count {}, over the {max_elements} elements the triangle limit allows",
+                    a.count()
+                ))),
                 Some(a) => match a.sparse() {
                     Some(sp) if sp.count() == 0 || sp.count() > a.count() => Err(err(format!(
                         "its {what} accessor's sparse count is {}; expected 1 to the accessor's count, {}",
@@ -1584,5 +1591,30 @@ mod tests {
             let e = with(count, stride).0.err().unwrap_or_else(|| panic!("count {count}{stride} was read"));
             assert!(e.message.contains("primitive 0") && e.message.contains(want), "count {count}{stride}: {}", e.report());
         }
+    }
+
+    #[test]
+    fn an_accessor_without_a_buffer_view_is_bounded_by_the_triangle_limit() {
+        // A sparse accessor with no bufferView is `count` zeros: four billion normals would be
+        // allocated (48 GB) before any check (the triangle count comes from the positions), from
+        // a file of a few hundred bytes.
+        let mut sparse = 0u16.to_le_bytes().to_vec();
+        sparse.extend([0, 0]);
+        sparse.extend([0.0f32, 2.0, 0.0].iter().flat_map(|v| v.to_le_bytes()));
+        let text = doc("[{\"mesh\":0}]", "")
+            .replacen(r#""attributes":{"POSITION":0}"#, r#""attributes":{"POSITION":0,"NORMAL":1}"#, 1)
+            .replacen(
+                r#""max":[1,1,0]}"#,
+                r#""max":[1,1,0]},{"componentType":5126,"count":4000000000,"type":"VEC3","sparse":{"count":1,"indices":{"bufferView":1,"componentType":5123},"values":{"bufferView":2}}}"#,
+                1,
+            )
+            .replacen(
+                r#""bufferViews":[{"buffer":0,"byteLength":36}]"#,
+                r#""bufferViews":[{"buffer":0,"byteLength":36},{"buffer":1,"byteLength":2},{"buffer":1,"byteOffset":4,"byteLength":12}]"#,
+                1,
+            )
+            .replacen("\"}]", &format!("\"}},{{\"byteLength\":16,\"uri\":\"data:application/octet-stream;base64,{}\"}}]", base64(&sparse)), 1);
+        let e = read_mesh(&text).0.err().expect("refused");
+        assert!(e.message.contains("no bufferView") && e.message.contains("4000000000"), "{}", e.report());
     }
 }
