@@ -149,7 +149,7 @@ pub fn read(ctx: &LoadContext, path: &str, full: &Path, bytes: &[u8], need_mater
         material_ids: if many_materials || material_ids.first().is_some_and(|&m| m > 0) { material_ids } else { Vec::new() },
         materials,
     };
-    if polygons.iter().any(|f| f.deferred) {
+    if !polygons.is_empty() {
         triangulate_deferred(&mut out, polygons);
     }
     if out.triangles.is_empty() {
@@ -385,15 +385,14 @@ mod fast {
     }
 }
 
-/// A face of more than three corners, triangulated once the positions of its corners are read.
+/// A face of more than three corners that refers ahead (to positions not yet read when the face
+/// was), triangulated once the whole file is read.
 struct Polygon {
     /// Where its triangles go in the triangle list.
     at: usize,
     /// Vertex, texture coordinate and normal index of each corner.
     corners: Vec<[u32; 3]>,
     material: u32,
-    /// True when a corner refers ahead (not yet read when the face was).
-    deferred: bool,
 }
 
 /// What the pass over the file collects.
@@ -510,27 +509,28 @@ impl Parser {
             self.material_ids.push(material);
             return true;
         }
-        let deferred = self.corners.iter().any(|c| c[0] as usize >= self.positions.len());
-        let polygon = Polygon { at: self.triangles.len(), corners: self.corners.clone(), material, deferred };
-        if !deferred {
-            self.push_polygon(&polygon);
+        if self.corners.iter().any(|c| c[0] as usize >= self.positions.len()) {
+            self.polygons.push(Polygon { at: self.triangles.len(), corners: self.corners.clone(), material });
+        } else {
+            let corners = std::mem::take(&mut self.corners);
+            self.push_polygon(&corners, material);
+            self.corners = corners;
         }
-        self.polygons.push(polygon);
         true
     }
 
     /// Appends the triangles of a polygon whose corners are all read.
-    fn push_polygon(&mut self, f: &Polygon) {
-        let points: Vec<DVec3> = f.corners.iter().map(|c| Vec3::from(self.positions[c[0] as usize]).as_dvec3()).collect();
+    fn push_polygon(&mut self, corners: &[[u32; 3]], material: u32) {
+        let points: Vec<DVec3> = corners.iter().map(|c| Vec3::from(self.positions[c[0] as usize]).as_dvec3()).collect();
         for t in triangulate(&points) {
-            self.triangles.push(t.map(|k| f.corners[k as usize][0]));
+            self.triangles.push(t.map(|k| corners[k as usize][0]));
             if self.all_normals {
-                self.normal_indices.push(t.map(|k| f.corners[k as usize][2]));
+                self.normal_indices.push(t.map(|k| corners[k as usize][2]));
             }
             if self.all_texcoords {
-                self.texcoord_indices.push(t.map(|k| f.corners[k as usize][1]));
+                self.texcoord_indices.push(t.map(|k| corners[k as usize][1]));
             }
-            self.material_ids.push(f.material);
+            self.material_ids.push(material);
         }
     }
 
@@ -572,10 +572,10 @@ fn triangulate_deferred(out: &mut MeshData, polygons: Vec<Polygon>) {
         p.material_ids.extend_from_slice(materials.get(range).unwrap_or_default());
     };
     let mut next = 0;
-    for f in polygons.iter().filter(|f| f.deferred) {
+    for f in &polygons {
         copy(&mut p, next..f.at);
         next = f.at;
-        p.push_polygon(f);
+        p.push_polygon(&f.corners, f.material);
     }
     copy(&mut p, next..triangles.len());
     out.positions = p.positions;
@@ -801,6 +801,8 @@ fn text_of<'a>(bytes: &'a [u8], name: &str) -> Result<&'a str> {
     if bytes.starts_with(&[0xFE, 0xFF]) || bytes.starts_with(&[0xFF, 0xFE]) {
         return Err(SceneError::in_file(name, Some((1, 1)), "the file is UTF-16 text; OBJ files must be ASCII or UTF-8"));
     }
+    // A UTF-8 byte-order mark would otherwise make the first line's keyword unknown.
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     std::str::from_utf8(bytes).map_err(|e| {
         let at = e.valid_up_to();
         let line = bytes[..at].iter().filter(|&&b| b == b'\n').count() + 1;
@@ -1001,6 +1003,21 @@ mod tests {
         let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nmtllib gone.mtl\nmtllib gone.mtl\nf 1 2 3\n";
         let e = read(&ctx, "m.obj", &dir.join("m.obj"), obj.as_bytes(), true, &here()).unwrap_err();
         assert!(e.report().contains("gone.mtl"), "{}", e.report());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// A byte-order mark does not hide the first line, and a quad whose corners are all read is
+    /// triangulated in place (only faces that refer ahead wait for the end of the file).
+    #[test]
+    fn a_byte_order_mark_keeps_the_first_vertex_and_quads_come_in_file_order() {
+        let obj = "\u{feff}v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\nf 1 2 5\nf 1 2 3 5\nv 0 0 1\n";
+        let dir = folder("bom", &[("m.obj", obj.as_bytes())]);
+        let options = raylab::input::context::LoadOptions::default();
+        let ctx = LoadContext::new(&dir, &options);
+        let data = read(&ctx, "m.obj", &dir.join("m.obj"), obj.as_bytes(), false, &here()).unwrap();
+        assert_eq!(data.positions.len(), 5, "the first line is a vertex");
+        assert_eq!(data.triangles.len(), 5);
+        assert_eq!(data.triangles[2], [0, 1, 4], "the triangle after the first quad");
         let _ = std::fs::remove_dir_all(&dir);
     }
 
