@@ -401,8 +401,9 @@ fn reference_plan(app: &App, a: &SweepArgs, base: &LoadOptions, knobs: &[Knob], 
     }
     let mut o = base.clone();
     // The reference's worst case (every ray splitting at every bounce, to depth 12) is far above
-    // what it costs; the estimate printed before it starts says that. A --max-rays given still holds.
-    if a.scene_args.max_rays.is_none() {
+    // what it costs; the estimate printed before it starts says that (so not under -q, which
+    // hides it). A --max-rays given still holds.
+    if a.scene_args.max_rays.is_none() && !a.quiet {
         o.limits.max_rays = u64::MAX;
     }
     let ov = &mut o.overrides;

@@ -225,6 +225,8 @@ impl Link {
         let _ = stream.set_nodelay(true);
         self.stream = Some(stream);
         self.report.connected = true;
+        // The whole image so far is sent again below: nothing was missed.
+        self.report.error = None;
         self.write(&create_image(&self.name, self.width, self.height));
         if !self.stored {
             return self.stream.is_some();

@@ -41,6 +41,15 @@ const MAX_BODY: u64 = 64 * 1024;
 /// Most requests handled at once (each long poll holds one); more are answered 503.
 const MAX_ACTIVE: usize = 32;
 
+/// One of the [`MAX_ACTIVE`] request slots, given back when dropped.
+struct Slot(Arc<AtomicUsize>);
+
+impl Drop for Slot {
+    fn drop(&mut self) {
+        self.0.fetch_sub(1, Ordering::Relaxed);
+    }
+}
+
 /// A random token of 128 bits, as 32 hex digits: from the operating system's random source where
 /// there is one, else from the standard library's randomly keyed hasher.
 pub fn random_token() -> String {
@@ -85,8 +94,9 @@ impl Running {
             active.fetch_add(1, Ordering::Relaxed);
             let (session, done, hosts, token) = (session.clone(), active.clone(), hosts.clone(), self.token.clone());
             let spawned = std::thread::Builder::new().name("raylab-view-request".into()).spawn(move || {
+                // The slot is given back however the handler ends, a panic included.
+                let _slot = Slot(done);
                 handle(request, &session, &hosts, &token);
-                done.fetch_sub(1, Ordering::Relaxed);
             });
             if spawned.is_err() {
                 active.fetch_sub(1, Ordering::Relaxed);

@@ -403,7 +403,9 @@ impl Session {
             if let Some(f) = st.frame.as_mut() {
                 for y in 0..s.height {
                     for x in 0..s.width {
-                        let c = p.film.get(x * pw / s.width, y * ph / s.height);
+                        // In u64: `x · pw` passes u32 for widths a raised --max-side allows.
+                        let scale = |v: u32, part: u32, whole: u32| (u64::from(v) * u64::from(part) / u64::from(whole)) as u32;
+                        let c = p.film.get(scale(x, pw, s.width), scale(y, ph, s.height));
                         let at = 4 * (y as usize * s.width as usize + x as usize);
                         f.rgba[at..at + 4].copy_from_slice(&[s.encoding.to_u8(c.x), s.encoding.to_u8(c.y), s.encoding.to_u8(c.z), 255]);
                     }
