@@ -66,7 +66,7 @@ pub const RENDER_PARAMS: &[ParamSpec] = &[
         "aa",
         ParamKind::Str,
         Default::Str("stratified"),
-        "anti-aliasing: \"stratified\" (spp samples per pixel) or \"adaptive\" (recursive corner subdivision)",
+        "anti-aliasing: \"stratified\" (spp samples per pixel) or \"adaptive\" (rays through pixel corners, more only where they disagree: edges located by bisection, squares subdivided)",
     ),
     ParamSpec::new(
         "aa_threshold",

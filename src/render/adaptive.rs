@@ -28,15 +28,18 @@
 //! contrast exceeds `threshold / s^1.5`, about the error an unresolved edge across it leaves in
 //! its pixel (the area it misjudges, `~s²` for each of the `~1/s` squares along the edge, adding
 //! like random errors). A crossing bracketed to `L` pixels misplaces the line along the whole
-//! edge, an error of about `contrast · L`, hence `threshold / L` for bisection. Contrast is compared on displayed values (clamped, encoded, 0..1), the
-//! units of 8-bit images and their error metrics.
+//! edge, an error of about `contrast · L`, hence `threshold / L` for bisection. Contrast is
+//! compared on displayed values (clamped, encoded, 0..1), the units of 8-bit images and their
+//! error metrics.
 //!
 //! A pixel's value depends only on the lattice points on and inside its square, which are pure
 //! functions of their coordinates and the seed: any thread count, tile split or crop gives the
 //! same pixels. Points shared by neighbouring squares and pixels are traced once per tile: they
-//! are kept in a window of the lattice as wide as the tile and a pixel row high (indexed by
-//! coordinates, each slot checked against its point's key), with no hashing, allocation or
-//! locking per sample. A pixel's weighted sum is computed in a fixed order from its own points,
+//! are kept in a window of the lattice as wide as the tile and a pixel row high, indexed by
+//! coordinates, each slot checked against its point's key, with no hashing, allocation or
+//! locking per sample. The window holds at most `MAX_WINDOW` slots: from `aa_depth` 5 on a
+//! 64-pixel tile it is narrower than the tile and some shared points are traced twice (the pixels
+//! are the same). A pixel's weighted sum is computed in a fixed order from its own points,
 //! then stored as one exact unit of weight ([`PixelSum::whole`]): a pixel is the same whichever
 //! share of the frame ([`crate::render::share`]) renders it.
 
