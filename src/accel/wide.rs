@@ -162,15 +162,10 @@ pub struct Built {
 
 impl Bvh4 {
     /// Builds over `count` primitives (at least one) whose boxes (finite, non-empty) `box_of`
-    /// gives, with leaves shaped by `shape`.
-    pub fn build(count: usize, box_of: impl Fn(usize) -> Aabb + Sync, shape: Shape) -> Built {
+    /// gives and whose union is `total`, with leaves shaped by `shape`.
+    pub fn build(count: usize, total: Aabb, box_of: impl Fn(usize) -> Aabb + Sync, shape: Shape) -> Built {
         use rayon::prelude::*;
         let start = Instant::now();
-        let total = if count >= PARALLEL_RANGE {
-            (0..count).into_par_iter().map(&box_of).reduce(|| Aabb::EMPTY, Aabb::union)
-        } else {
-            (0..count).map(&box_of).fold(Aabb::EMPTY, Aabb::union)
-        };
         let pad = BOX_PADDING * (total.magnitude() + total.extent().length());
         let pad = DVec3::splat(pad.max(f64::MIN_POSITIVE));
         let record = |i: usize| {
