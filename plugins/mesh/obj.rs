@@ -134,34 +134,68 @@ fn read_chunks(name: &str, text: &str, chunk_bytes: usize, libraries: &mut Libra
             })
             .collect()
     };
-    let parts: Vec<Chunk> = chunks.par_iter().zip(&starts).map(|(c, start)| Chunk::read(name, c, start)).collect();
-    let mut out = Parser { all_normals: true, all_texcoords: true, ..Parser::default() };
-    let total = |f: fn(&Parser) -> usize| parts.iter().map(|c| f(&c.parser)).sum::<usize>();
-    out.positions.reserve_exact(total(|p| p.positions.len()));
-    out.triangles.reserve_exact(total(|p| p.triangles.len()));
-    out.material_ids.reserve_exact(total(|p| p.material_ids.len()));
-    out.texcoords.reserve_exact(total(|p| p.texcoords.len()));
-    out.normals.reserve_exact(total(|p| p.normals.len()));
-    for part in parts {
-        // The material of each `usemtl` rank: the one current before the chunk, then each
-        // statement's, with the libraries named before it read.
-        let mut materials = vec![libraries.current];
+    let mut parts: Vec<Chunk> = chunks.par_iter().zip(&starts).map(|(c, start)| Chunk::read(name, c, start)).collect();
+    // The material of each chunk's `usemtl` ranks: the one current before the chunk, then each
+    // statement's, with the libraries named before it read; up to the first error.
+    let mut materials = Vec::with_capacity(parts.len());
+    for part in &mut parts {
+        let mut ranks = vec![libraries.current];
         for event in &part.events {
             match *event {
                 Event::Library(mtl) => libraries.load(mtl),
                 Event::Select(material) => {
                     libraries.select(material);
-                    materials.push(libraries.current);
+                    ranks.push(libraries.current);
                 }
             }
         }
-        match part.failure {
+        match part.failure.take() {
             Some(Failure::At(e)) => return Err(e),
             Some(Failure::Face(fallback)) => return Err(scan(name, text).unwrap_or(fallback)),
-            None => out.append(part.parser, &materials),
+            None => materials.push(ranks),
         }
     }
+    let parts: Vec<Parser> = parts.into_iter().map(|c| c.parser).collect();
+    // The large lists copied into place in parallel, the rest appended.
+    let mut out = Parser {
+        positions: gather(&parts, |p| &p.positions, |_, v| v),
+        triangles: gather(&parts, |p| &p.triangles, |_, t| t),
+        material_ids: gather(&parts, |p| &p.material_ids, |k, m| materials[k][m as usize]),
+        all_normals: true,
+        all_texcoords: true,
+        ..Parser::default()
+    };
+    let mut at = 0;
+    for (part, ranks) in parts.into_iter().zip(&materials) {
+        let triangles = part.triangles.len();
+        out.append(part, at, ranks);
+        at += triangles;
+    }
     Ok(out)
+}
+
+/// The lists `list(part)` of the parts one after the other, each element `e` of part `k` as
+/// `map(k, e)`: copied into place in parallel.
+fn gather<T: Copy + Sync, U: Clone + Default + Send>(
+    parts: &[Parser],
+    list: impl Fn(&Parser) -> &[T] + Sync,
+    map: impl Fn(usize, T) -> U + Sync,
+) -> Vec<U> {
+    use rayon::prelude::*;
+    let mut out = vec![U::default(); parts.iter().map(|p| list(p).len()).sum()];
+    let mut places = Vec::with_capacity(parts.len());
+    let mut rest = out.as_mut_slice();
+    for p in parts {
+        let (place, tail) = rest.split_at_mut(list(p).len());
+        places.push(place);
+        rest = tail;
+    }
+    places.into_par_iter().zip(parts).enumerate().for_each(|(k, (place, p))| {
+        for (to, &from) in place.iter_mut().zip(list(p)) {
+            *to = map(k, from);
+        }
+    });
+    out
 }
 
 /// The text split after a line end at every `size` bytes or so (one chunk for a shorter text).
@@ -729,10 +763,10 @@ impl Parser {
         }
     }
 
-    /// Appends the chunk read after this one, its `usemtl` ranks mapped to `materials`.
-    fn append(&mut self, mut next: Parser, materials: &[u32]) {
-        let at = self.triangles.len();
-        self.positions.extend_from_slice(&next.positions);
+    /// Appends the lists of the chunk read after this one but its positions, triangles and
+    /// material ids (gathered apart), its first triangle being number `at`, its `usemtl` ranks
+    /// mapped to `materials`.
+    fn append(&mut self, mut next: Parser, at: usize, materials: &[u32]) {
         self.normals.extend_from_slice(&next.normals);
         self.texcoords.extend_from_slice(&next.texcoords);
         if !next.all_normals {
@@ -749,8 +783,6 @@ impl Parser {
         if self.all_texcoords {
             self.texcoord_indices.append(&mut next.texcoord_indices);
         }
-        self.triangles.extend_from_slice(&next.triangles);
-        self.material_ids.extend(next.material_ids.iter().map(|&m| materials[m as usize]));
         self.polygons.extend(next.polygons.into_iter().map(|f| Polygon { at: at + f.at, material: materials[f.material as usize], ..f }));
         for k in 0..3 {
             self.largest[k] = self.largest[k].max(next.largest[k]);
