@@ -359,7 +359,8 @@ impl<'a> Chunk<'a> {
                     None => return Err(Failure::At(at(key, "expected a normal `vn x y z` with three numbers".into()))),
                 },
                 "f" => {
-                    if !(p.read_corners(words) && p.face(selection)) {
+                    let read = p.read_corners(words) && p.face(selection);
+                    if !read {
                         return Err(Failure::Face(at(key, "malformed face".into())));
                     }
                 }
