@@ -155,7 +155,16 @@ fn read_chunks(name: &str, text: &str, chunk_bytes: usize, libraries: &mut Libra
             None => materials.push(ranks),
         }
     }
-    let parts: Vec<Parser> = parts.into_iter().map(|c| c.parser).collect();
+    let mut parts: Vec<Parser> = parts.into_iter().map(|c| c.parser).collect();
+    if parts.len() == 1
+        && let Some(mut whole) = parts.pop()
+    {
+        // One chunk: the file, its ranks mapped in place.
+        for m in whole.material_ids.iter_mut().chain(whole.polygons.iter_mut().map(|f| &mut f.material)) {
+            *m = materials[0][*m as usize];
+        }
+        return Ok(whole);
+    }
     // The large lists copied into place in parallel, the rest appended.
     let mut out = Parser {
         positions: gather(&parts, |p| &p.positions, |_, v| v),
