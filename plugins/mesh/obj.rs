@@ -306,8 +306,11 @@ impl<'a> Chunk<'a> {
     /// Reads the lines of `text`, a chunk of the file `name` preceded by `start`.
     fn read(name: &str, text: &'a str, start: &Start) -> Chunk<'a> {
         let mut p = Parser { all_normals: true, all_texcoords: true, base: start.counts, ..Parser::default() };
-        p.triangles.reserve(start.faces);
-        p.material_ids.reserve(start.faces);
+        // Room for the faces counted, but never more than valid `f a b c` lines of the chunk's
+        // size hold (bare `f` lines would otherwise reserve five times the file's size).
+        let faces = start.faces.min(text.len() / 8);
+        p.triangles.reserve(faces);
+        p.material_ids.reserve(faces);
         let mut chunk = Chunk { parser: p, events: Vec::new(), failure: None };
         chunk.failure = chunk.lines(name, text, start.line).err();
         chunk
