@@ -154,14 +154,17 @@ impl Phong {
     fn single_sample<R: Recorder>(&self, c: &mut Ctx, sh: &Shade, light: &dyn LightSource, rec: &mut R) -> Color {
         let scene = c.scene;
         let si = sh.si;
-        let Some(ls) = light.illuminate(si.hit.point, DVec2::ZERO) else { return Color::ZERO };
+        // Read in place, not moved out of the returned option: the move copied it in 16-byte
+        // pieces straddling the callee's stores (a store-forwarding stall).
+        let sample = light.illuminate(si.hit.point, DVec2::ZERO);
+        let Some(ls) = &sample else { return Color::ZERO };
         if self.avoid && sh.no_response {
             c.stats.add(counter::LIGHTS_NO_RESPONSE, 1);
             rec.note(|| format!("{}: the surface has no diffuse or specular term; no shadow rays", scene.light_names[sh.light]));
             return Color::ZERO;
         }
-        match self.unshadowed(c, sh, &ls, rec) {
-            Ok(t) => t.unshadowed * self.shadowed(c, sh, &ls, &t, 1, rec),
+        match self.unshadowed(c, sh, ls, rec) {
+            Ok(t) => t.unshadowed * self.shadowed(c, sh, ls, &t, 1, rec),
             Err(_) => Color::ZERO,
         }
     }
