@@ -87,7 +87,7 @@ fn step_toward(x: f64, toward: f64) -> f64 {
     // ±0 steps to the smallest subnormal of the step's sign; NaN, and an infinity stepped
     // outward, stay.
     let stepped = if x == 0.0 { TINY | (tb & SIGN) } else { stepped };
-    let moves = toward > 0.0 || toward < 0.0;
+    let moves = toward.abs() > 0.0; // not for ±0 or NaN
     let stays = !moves || x.is_nan() || (x.is_infinite() && same_sign);
     if stays { x } else { f64::from_bits(stepped) }
 }
