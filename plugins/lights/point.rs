@@ -178,7 +178,12 @@ impl PointLight {
             let cos = s.direction.dot(-centre_dir());
             factor = if cos <= 0.0 || cos < s.cos_cutoff { 0.0 } else { spot_power(cos, s.exponent) };
         }
-        factor /= self.kc + self.kl * d + self.kq * d * d;
+        let attenuation = self.kc + self.kl * d + self.kq * d * d;
+        // Without attenuation (kc = 1, kl = kq = 0, the default) the divisor is 1, and a division
+        // by 1 changes no bit: skipped, off the path to the sample's intensity.
+        if attenuation != 1.0 {
+            factor /= attenuation;
+        }
         self.color * factor
     }
 }
