@@ -608,17 +608,18 @@ mod fast {
     }
 }
 
-/// A face of more than three corners that refers ahead (to positions not yet read when the face
-/// was), triangulated once the whole file is read.
+/// A face of more than three corners with a corner outside its chunk's positions (one the chunk
+/// had not read, ahead or in an earlier chunk), triangulated once the whole file is read.
 struct Polygon {
     /// Where its triangles go in the triangle list.
     at: usize,
-    /// Vertex, texture coordinate and normal index of each corner.
-    corners: Vec<[u32; 3]>,
+    /// Its corners: `corners` entries of [`Parser::deferred_corners`] from `first`.
+    first: usize,
+    corners: usize,
     material: u32,
 }
 
-/// What the pass over the file collects.
+/// What the pass over one chunk of the file collects (and, chunks joined, over the file).
 #[derive(Default)]
 struct Parser {
     positions: Vec<[f32; 3]>,
@@ -638,6 +639,9 @@ struct Parser {
     /// A texture or normal reference that is valid only if the file has none of its kind.
     unsure: [bool; 3],
     polygons: Vec<Polygon>,
+    /// Vertex, texture coordinate and normal index of each corner of `polygons`, in order (one
+    /// list, not one allocation per polygon).
+    deferred_corners: Vec<[u32; 3]>,
     /// The first vertex with a non-finite coordinate, and its line.
     non_finite: Option<(usize, usize)>,
     /// Positions, texture coordinates and normals before the text read (another chunk's).
@@ -751,7 +755,9 @@ impl Parser {
         // A polygon is triangulated over its corners' positions: those of this text only.
         let here = self.base[0]..counts[0];
         if self.corners.iter().any(|c| !here.contains(&u64::from(c[0]))) {
-            self.polygons.push(Polygon { at: self.triangles.len(), corners: self.corners.clone(), material });
+            let first = self.deferred_corners.len();
+            self.deferred_corners.extend_from_slice(&self.corners);
+            self.polygons.push(Polygon { at: self.triangles.len(), first, corners: n, material });
         } else {
             let corners = std::mem::take(&mut self.corners);
             self.push_polygon(&corners, material);
@@ -796,7 +802,14 @@ impl Parser {
         if self.all_texcoords {
             self.texcoord_indices.append(&mut next.texcoord_indices);
         }
-        self.polygons.extend(next.polygons.into_iter().map(|f| Polygon { at: at + f.at, material: materials[f.material as usize], ..f }));
+        let first = self.deferred_corners.len();
+        self.deferred_corners.extend_from_slice(&next.deferred_corners);
+        self.polygons.extend(next.polygons.into_iter().map(|f| Polygon {
+            at: at + f.at,
+            first: first + f.first,
+            material: materials[f.material as usize],
+            ..f
+        }));
         for k in 0..3 {
             self.largest[k] = self.largest[k].max(next.largest[k]);
             self.unsure[k] |= next.unsure[k];
@@ -824,6 +837,7 @@ impl Parser {
 /// waited for its end, each where its face was in the file.
 fn triangulate_deferred(p: &mut Parser) {
     let polygons = std::mem::take(&mut p.polygons);
+    let corners = std::mem::take(&mut p.deferred_corners);
     let (triangles, normals, uvs, materials) = (
         std::mem::take(&mut p.triangles),
         std::mem::take(&mut p.normal_indices),
@@ -841,7 +855,7 @@ fn triangulate_deferred(p: &mut Parser) {
     for f in &polygons {
         copy(p, next..f.at);
         next = f.at;
-        p.push_polygon(&f.corners, f.material);
+        p.push_polygon(&corners[f.first..f.first + f.corners], f.material);
     }
     copy(p, next..triangles.len());
 }

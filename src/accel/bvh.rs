@@ -172,8 +172,8 @@ impl PrimitiveIndex {
         Self::build_from(boxes.len(), |i| boxes[i], bvh, group)
     }
 
-    /// [`PrimitiveIndex::build_grouped`] over `count` primitives whose boxes `box_of` computes
-    /// (no list of boxes is kept: a mesh computes them from its vertices).
+    /// [`PrimitiveIndex::build_grouped`] over `count` primitives whose boxes `box_of` gives (their
+    /// union computed here; a caller that knows it calls [`PrimitiveIndex::build_in`]).
     pub fn build_from(count: usize, box_of: impl Fn(usize) -> Aabb + Sync, bvh: bool, group: u32) -> (Self, Vec<u32>, BuildStats) {
         // One pass: the boxes' union, and whether every box lies within the hierarchy's range.
         let start = std::time::Instant::now();
