@@ -184,6 +184,8 @@ struct State {
     last_snapshot: Instant,
 }
 
+// Never inlined: profiles of a render (callgrind's --toggle-collect='*render_passes*') find it.
+#[inline(never)]
 fn render_passes(
     job: &RenderJob,
     options: &RenderOptions,
