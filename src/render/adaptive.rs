@@ -282,7 +282,7 @@ impl<'a> Adaptive<'a> {
         for index in 0..n {
             let id = SampleId::Cell { x, y, depth: self.depth, index, count: n };
             let (mut s, mut sums) = (PixelSum::default(), LayerSum::default());
-            trace_sample_in(self.job, self.frame, id, &mut s, with_layers.then_some(&mut sums), stats);
+            trace_sample_in(self.job, &self.frame, id, &mut s, with_layers.then_some(&mut sums), stats);
             acc.color += s.mean() * share;
             if with_layers {
                 acc.layers.add_scaled(&WeightedLayers::of(&sums), share as f32);
@@ -469,7 +469,7 @@ impl<'a> Adaptive<'a> {
         let with_layers = !self.layers.is_empty();
         let signature = trace_sample_in(
             self.job,
-            self.frame,
+            &self.frame,
             SampleId::Lattice { x, y, depth: self.depth },
             &mut acc,
             with_layers.then_some(&mut sums),

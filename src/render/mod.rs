@@ -374,12 +374,12 @@ impl TileWork {
             match self.layers.as_mut() {
                 None => {
                     for (acc, x) in pixels {
-                        add_samples(job, frame, share, (x, y), want, end, acc, None, stats);
+                        add_samples(job, &frame, share, (x, y), want, end, acc, None, stats);
                     }
                 }
                 Some(layers) => {
                     for ((acc, x), l) in pixels.zip(&mut layers[span]) {
-                        add_samples(job, frame, share, (x, y), want, end, acc, Some(l), stats);
+                        add_samples(job, &frame, share, (x, y), want, end, acc, Some(l), stats);
                     }
                 }
             }
@@ -393,7 +393,7 @@ impl TileWork {
 #[allow(clippy::too_many_arguments)]
 fn add_samples(
     job: &RenderJob,
-    frame: ImageFrame,
+    frame: &ImageFrame,
     share: Share,
     (x, y): (u32, u32),
     want: u32,

@@ -101,7 +101,7 @@ impl Iterator for CameraRays<'_> {
 /// the ray and the random stream its integrator draws from.
 #[inline]
 pub fn camera_rays(job: &RenderJob, id: SampleId) -> CameraRays<'_> {
-    camera_rays_in(job, image_frame(job), id)
+    camera_rays_in(job, &image_frame(job), id)
 }
 
 /// What every sample of one image shares, computed once per image or tile: the camera's
@@ -126,7 +126,7 @@ pub fn image_frame(job: &RenderJob) -> ImageFrame {
 
 /// [`camera_rays`] with `job`'s [`image_frame`] computed once by the caller.
 #[inline(always)]
-pub fn camera_rays_in(job: &RenderJob, image: ImageFrame, id: SampleId) -> CameraRays<'_> {
+pub fn camera_rays_in<'a>(job: &'a RenderJob, image: &ImageFrame, id: SampleId) -> CameraRays<'a> {
     let s = &job.settings;
     let frame = image.film;
     let per_sample = if job.scene.camera.aperture > 0.0 { s.lens_samples.max(1) } else { 1 };
@@ -197,14 +197,14 @@ pub fn film_position(job: &RenderJob, id: SampleId) -> DVec2 {
 /// to it too. Returns the sample's signature: its rays' [`Layers::signature`]s combined.
 #[inline]
 pub fn trace_sample(job: &RenderJob, id: SampleId, acc: &mut PixelSum, layers: Option<&mut LayerSum>, stats: &mut RayStats) -> u64 {
-    trace_sample_in(job, image_frame(job), id, acc, layers, stats)
+    trace_sample_in(job, &image_frame(job), id, acc, layers, stats)
 }
 
 /// [`trace_sample`] with `job`'s [`image_frame`] computed once by the caller (the same result).
 #[inline]
 pub fn trace_sample_in(
     job: &RenderJob,
-    frame: ImageFrame,
+    frame: &ImageFrame,
     id: SampleId,
     acc: &mut PixelSum,
     mut layers: Option<&mut LayerSum>,
