@@ -165,13 +165,25 @@ impl PointLight {
     /// `dc` away (the spot's cone and exponent use the centre).
     #[inline]
     fn intensity(&self, to_centre: DVec3, dc: f64, d: f64) -> Color {
+        self.intensity_toward(|| to_centre / dc, d)
+    }
+
+    /// [`PointLight::intensity`] with the unit direction to the centre, `to_centre / dc`, computed
+    /// by `centre_dir` (only for a spot; a point light's sample already holds it).
+    #[inline]
+    fn intensity_toward(&self, centre_dir: impl FnOnce() -> DVec3, d: f64) -> Color {
         let mut factor = 1.0;
         if let Some(s) = &self.spot {
-            // L points from the light to the point: L = −dir.
-            let cos = s.direction.dot(-to_centre / dc);
+            // L points from the light to the point: L = −dir (negation is exact: −(v/dc) = (−v)/dc).
+            let cos = s.direction.dot(-centre_dir());
             factor = if cos <= 0.0 || cos < s.cos_cutoff { 0.0 } else { spot_power(cos, s.exponent) };
         }
-        factor /= self.kc + self.kl * d + self.kq * d * d;
+        let attenuation = self.kc + self.kl * d + self.kq * d * d;
+        // Without attenuation (kc = 1, kl = kq = 0, the default) the divisor is 1, and a division
+        // by 1 changes no bit: skipped, off the path to the sample's intensity.
+        if attenuation != 1.0 {
+            factor /= attenuation;
+        }
         self.color * factor
     }
 }
@@ -198,12 +210,15 @@ impl LightSource for PointLight {
         if !(dc > 0.0) {
             return None;
         }
-        let to_light = if self.radius > 0.0 {
+        if !(self.radius > 0.0) {
+            // A point: the sample's direction is the centre's (one square root, one division).
+            let dir = to_centre / dc;
+            return Some(LightSample { dir, distance: dc, intensity: self.intensity_toward(|| dir, dc) });
+        }
+        let to_light = {
             let (b1, b2) = orthonormal_basis(to_centre / dc);
             let q = concentric_disc(u) * self.radius;
             to_centre + q.x * b1 + q.y * b2
-        } else {
-            to_centre
         };
         let d = to_light.length();
         if !(d > 0.0) {

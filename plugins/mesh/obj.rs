@@ -1,5 +1,5 @@
-//! Wavefront OBJ files, read by raylab in one pass over the bytes, and their MTL libraries, read
-//! by tobj.
+//! Wavefront OBJ files, read by raylab (in chunks of lines, in parallel, with the result of one
+//! pass over the bytes), and their MTL libraries, read by tobj.
 //!
 //! Faces with more than three corners are triangulated by raylab ([`super::triangulate`]: fans
 //! for convex faces, ear clipping for concave ones); points and lines are ignored. Vertex normals
@@ -42,99 +42,37 @@ use raylab::{Color, LoadContext, Material};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
+/// Bytes of text per chunk of a file read in parallel (chunks end at line ends). The chunks
+/// depend on the file alone, and the result does not depend on them (see [`read_chunks`]).
+const CHUNK_BYTES: usize = 1 << 20;
+
 /// Reads the OBJ file `bytes` (named `path` in the scene, resolved to `full`), with its MTL
 /// library unless `need_materials` is false.
 pub fn read(ctx: &LoadContext, path: &str, full: &Path, bytes: &[u8], need_materials: bool, loc: &Loc) -> Result<MeshData> {
+    read_in_chunks(ctx, path, full, bytes, need_materials, loc, CHUNK_BYTES)
+}
+
+/// [`read`], the text read in chunks of about `chunk_bytes`.
+fn read_in_chunks(
+    ctx: &LoadContext,
+    path: &str,
+    full: &Path,
+    bytes: &[u8],
+    need_materials: bool,
+    loc: &Loc,
+    chunk_bytes: usize,
+) -> Result<MeshData> {
     let name = full.display().to_string();
     let text = text_of(bytes, &name)?;
     let mut libraries = Libraries::new(ctx, path, loc, need_materials);
-    let mut p = Parser { all_normals: true, all_texcoords: true, ..Parser::default() };
-    for (i, line) in Lines(text).enumerate() {
-        // The plain forms of the lines that make up a large file, `v x y z` and `f a b c` with
-        // integer corners, directly from the bytes; anything else by words.
-        match fast::line(line.as_bytes(), &mut p.raw) {
-            Some(fast::Line::Vertex(v)) => {
-                if p.non_finite.is_none() && !v.iter().all(|c| c.is_finite()) {
-                    p.non_finite = Some((p.positions.len(), i + 1));
-                }
-                p.positions.push(v);
-                continue;
-            }
-            Some(fast::Line::Face) if p.face(libraries.current) => continue,
-            _ => {}
-        }
-        let at = |key: &str, msg: String| SceneError::in_file(&name, Some((i + 1, line.find(key).unwrap_or(0) + 1)), msg);
-        let mut words = Words::new(line);
-        let Some(key) = words.next() else { continue };
-        match key {
-            "v" => {
-                let Some(mut v) = words.floats::<3>() else {
-                    return Err(at(key, "expected a vertex `v x y z` with three numbers".into()));
-                };
-                // Then nothing, a weight w that divides x, y, z, or a colour r g b.
-                match (words.next(), words.next(), words.next(), words.next()) {
-                    (None, ..) => {}
-                    (Some(w), None, ..) => match w.parse::<f32>() {
-                        Ok(w) if w != 0.0 => v = v.map(|c| c / w),
-                        Ok(_) => return Err(at(key, "the vertex weight w is 0".into())),
-                        Err(_) => return Err(at(key, "expected a vertex `v x y z [w]` or `v x y z r g b`".into())),
-                    },
-                    (Some(_), Some(_), Some(_), None) => {}
-                    _ => return Err(at(key, "expected a vertex `v x y z [w]` or `v x y z r g b`".into())),
-                }
-                if p.non_finite.is_none() && !v.iter().all(|c| c.is_finite()) {
-                    p.non_finite = Some((p.positions.len(), i + 1));
-                }
-                p.positions.push(v);
-            }
-            "vt" => {
-                // u, then optional v and w (w, and anything after it, ignored).
-                let bad = || at(key, "expected a texture coordinate `vt u [v [w]]`".into());
-                let (mut v, mut n) = ([0.0f32; 3], 0);
-                for w in words.take(3) {
-                    v[n] = parse_f32(w).ok_or_else(bad)?;
-                    n += 1;
-                }
-                if n == 0 {
-                    return Err(bad());
-                }
-                p.texcoords.push([v[0], v[1]]);
-            }
-            "vn" => match words.floats::<3>() {
-                Some(n) => p.normals.push(n),
-                None => return Err(at(key, "expected a normal `vn x y z` with three numbers".into())),
-            },
-            "f" => {
-                let read = p.read_corners(words) && p.face(libraries.current);
-                if !read {
-                    return Err(scan(&name, text).unwrap_or_else(|| at(key, "malformed face".into())));
-                }
-            }
-            "mtllib" => libraries.load(line.trim_start()[key.len()..].trim()),
-            "usemtl" => {
-                let material = line.trim_start()[key.len()..].trim();
-                if material.is_empty() {
-                    return Err(at(key, "expected a material name after `usemtl`".into()));
-                }
-                libraries.select(material);
-            }
-            _ => {}
-        }
-    }
+    let mut p = read_chunks(&name, text, chunk_bytes, &mut libraries)?;
     p.finish(&name, text)?;
+    if !p.polygons.is_empty() {
+        triangulate_deferred(&mut p);
+    }
     let (materials, maps) = libraries.finish(&name)?;
     let Parser {
-        positions,
-        triangles,
-        normals,
-        normal_indices,
-        texcoords,
-        texcoord_indices,
-        material_ids,
-        all_normals,
-        all_texcoords,
-        polygons,
-        ..
+        positions, triangles, normals, normal_indices, texcoords, texcoord_indices, material_ids, all_normals, all_texcoords, ..
     } = p;
     let many_materials = material_ids.iter().any(|&m| m != material_ids.first().copied().unwrap_or(0));
     let with_normals = all_normals && !normals.is_empty();
@@ -149,9 +87,6 @@ pub fn read(ctx: &LoadContext, path: &str, full: &Path, bytes: &[u8], need_mater
         material_ids: if many_materials || material_ids.first().is_some_and(|&m| m > 0) { material_ids } else { Vec::new() },
         materials,
     };
-    if !polygons.is_empty() {
-        triangulate_deferred(&mut out, polygons);
-    }
     if out.triangles.is_empty() {
         return Err(SceneError::in_file(&name, None, "the file has no faces with three or more corners (points and lines are ignored)"));
     }
@@ -167,6 +102,294 @@ pub fn read(ctx: &LoadContext, path: &str, full: &Path, bytes: &[u8], need_mater
         attach_maps(ctx, m, folder, loc, out_m);
     }
     Ok(out)
+}
+
+/// The parser of the whole text: the text split into chunks at line ends, each chunk read on its
+/// own (in parallel), then the chunks joined in order.
+///
+/// Each chunk is told what precedes it (lines, vertices, texture coordinates and normals: counted
+/// first, in parallel), so relative indices and line numbers resolve as in one pass. Material
+/// statements are replayed in file order as the chunks are joined (a chunk's faces name its
+/// `usemtl` statements by their rank in the chunk), and a polygon whose corners are not all in its
+/// own chunk waits for the end of the file, as one referring ahead does. The first error in file
+/// order is returned, after the material libraries named before it were read: the result,
+/// errors and warnings included, is that of one pass over the text.
+fn read_chunks(name: &str, text: &str, chunk_bytes: usize, libraries: &mut Libraries) -> Result<Parser> {
+    use rayon::prelude::*;
+    let chunks = split(text, chunk_bytes);
+    let starts = if chunks.len() == 1 {
+        vec![Start::default()]
+    } else {
+        let census: Vec<Census> = chunks.par_iter().map(|c| Census::of(c)).collect();
+        let mut at = Start::default();
+        census
+            .iter()
+            .map(|c| {
+                let start = Start { faces: c.faces, ..at };
+                at.line += c.lines;
+                for (total, n) in at.counts.iter_mut().zip(c.counts) {
+                    *total += n;
+                }
+                start
+            })
+            .collect()
+    };
+    let mut parts: Vec<Chunk> = chunks.par_iter().zip(&starts).map(|(c, start)| Chunk::read(name, c, start)).collect();
+    // The material of each chunk's `usemtl` ranks: the one current before the chunk, then each
+    // statement's, with the libraries named before it read; up to the first error.
+    let mut materials = Vec::with_capacity(parts.len());
+    for part in &mut parts {
+        let mut ranks = vec![libraries.current];
+        for event in &part.events {
+            match *event {
+                Event::Library(mtl) => libraries.load(mtl),
+                Event::Select(material) => {
+                    libraries.select(material);
+                    ranks.push(libraries.current);
+                }
+            }
+        }
+        match part.failure.take() {
+            Some(Failure::At(e)) => return Err(e),
+            Some(Failure::Face(fallback)) => return Err(scan(name, text).unwrap_or(fallback)),
+            None => materials.push(ranks),
+        }
+    }
+    let mut parts: Vec<Parser> = parts.into_iter().map(|c| c.parser).collect();
+    if parts.len() == 1
+        && let Some(mut whole) = parts.pop()
+    {
+        // One chunk: the file, its ranks mapped in place.
+        for m in whole.material_ids.iter_mut().chain(whole.polygons.iter_mut().map(|f| &mut f.material)) {
+            *m = materials[0][*m as usize];
+        }
+        return Ok(whole);
+    }
+    // The large lists copied into place in parallel, the rest appended.
+    let mut out = Parser {
+        positions: gather(&parts, |p| &p.positions, |_, v| v),
+        triangles: gather(&parts, |p| &p.triangles, |_, t| t),
+        material_ids: gather(&parts, |p| &p.material_ids, |k, m| materials[k][m as usize]),
+        all_normals: true,
+        all_texcoords: true,
+        ..Parser::default()
+    };
+    let mut at = 0;
+    for (part, ranks) in parts.into_iter().zip(&materials) {
+        let triangles = part.triangles.len();
+        out.append(part, at, ranks);
+        at += triangles;
+    }
+    Ok(out)
+}
+
+/// The lists `list(part)` of the parts one after the other, each element `e` of part `k` as
+/// `map(k, e)`: copied into place in parallel.
+fn gather<T: Copy + Sync, U: Clone + Default + Send>(
+    parts: &[Parser],
+    list: impl Fn(&Parser) -> &[T] + Sync,
+    map: impl Fn(usize, T) -> U + Sync,
+) -> Vec<U> {
+    use rayon::prelude::*;
+    let mut out = vec![U::default(); parts.iter().map(|p| list(p).len()).sum()];
+    let mut places = Vec::with_capacity(parts.len());
+    let mut rest = out.as_mut_slice();
+    for p in parts {
+        let (place, tail) = rest.split_at_mut(list(p).len());
+        places.push(place);
+        rest = tail;
+    }
+    places.into_par_iter().zip(parts).enumerate().for_each(|(k, (place, p))| {
+        for (to, &from) in place.iter_mut().zip(list(p)) {
+            *to = map(k, from);
+        }
+    });
+    out
+}
+
+/// The text split after a line end at every `size` bytes or so (one chunk for a shorter text).
+fn split(text: &str, size: usize) -> Vec<&str> {
+    let mut chunks = Vec::with_capacity(text.len() / size.max(1) + 1);
+    let mut rest = text;
+    while rest.len() > size {
+        let cut = rest.as_bytes()[size..].iter().position(|&b| b == b'\n').map_or(rest.len(), |p| size + p + 1);
+        let (chunk, tail) = rest.split_at(cut);
+        chunks.push(chunk);
+        rest = tail;
+    }
+    if !rest.is_empty() || chunks.is_empty() {
+        chunks.push(rest);
+    }
+    chunks
+}
+
+/// What precedes a chunk: lines and (positions, texture coordinates, normals); and the chunk's
+/// own `f` lines (a size hint).
+#[derive(Clone, Copy, Default)]
+struct Start {
+    line: usize,
+    counts: [u64; 3],
+    faces: usize,
+}
+
+/// A chunk's lines, `v`, `vt` and `vn` lines, and `f` lines.
+struct Census {
+    lines: usize,
+    counts: [u64; 3],
+    faces: usize,
+}
+
+impl Census {
+    /// Counts the lines of `chunk` by their first word, as the parser reads them.
+    fn of(chunk: &str) -> Census {
+        let mut c = Census { lines: 0, counts: [0; 3], faces: 0 };
+        for line in Lines(chunk) {
+            c.lines += 1;
+            let b = line.as_bytes();
+            let i = b.iter().position(|&c| c != b' ' && c != b'\t').unwrap_or(b.len());
+            let space = |k: usize| matches!(b.get(i + k), Some(b' ' | b'\t'));
+            // Spaces and tabs end a word both in ASCII lines and in others (split at Unicode
+            // whitespace); anything unusual is left to the words of the line.
+            let kind = match b.get(i) {
+                None => None,
+                Some(b'f') if space(1) => {
+                    c.faces += 1;
+                    None
+                }
+                Some(b'v') if space(1) => Some(0),
+                Some(b'v') if b.get(i + 1) == Some(&b't') && space(2) => Some(1),
+                Some(b'v') if b.get(i + 1) == Some(&b'n') && space(2) => Some(2),
+                Some(&c) if c != b'v' && c.is_ascii_graphic() => None,
+                _ => match Words::new(line).next() {
+                    Some("v") => Some(0),
+                    Some("vt") => Some(1),
+                    Some("vn") => Some(2),
+                    _ => None,
+                },
+            };
+            if let Some(k) = kind {
+                c.counts[k] += 1;
+            }
+        }
+        c
+    }
+}
+
+/// A material statement of a chunk, replayed in file order when the chunks are joined.
+enum Event<'a> {
+    /// `mtllib`, with the rest of its line.
+    Library(&'a str),
+    /// `usemtl`, with the material's name.
+    Select(&'a str),
+}
+
+/// Why a chunk stopped.
+enum Failure {
+    /// An error at a line.
+    At(SceneError),
+    /// A face corner that is malformed or refers to something not defined before it: the file's
+    /// scan locates the first such corner (the error given is used if it finds none).
+    Face(SceneError),
+}
+
+/// One chunk, read.
+struct Chunk<'a> {
+    /// Its vertices and faces; faces name materials by the rank of the `usemtl` before them in the
+    /// chunk (0: the material current before the chunk).
+    parser: Parser,
+    events: Vec<Event<'a>>,
+    /// The chunk's first error; nothing after it was read.
+    failure: Option<Failure>,
+}
+
+impl<'a> Chunk<'a> {
+    /// Reads the lines of `text`, a chunk of the file `name` preceded by `start`.
+    fn read(name: &str, text: &'a str, start: &Start) -> Chunk<'a> {
+        let mut p = Parser { all_normals: true, all_texcoords: true, base: start.counts, ..Parser::default() };
+        // Room for the faces counted, but never more than valid `f a b c` lines of the chunk's
+        // size hold (bare `f` lines would otherwise reserve five times the file's size).
+        let faces = start.faces.min(text.len() / 8);
+        p.triangles.reserve(faces);
+        p.material_ids.reserve(faces);
+        let mut chunk = Chunk { parser: p, events: Vec::new(), failure: None };
+        chunk.failure = chunk.lines(name, text, start.line).err();
+        chunk
+    }
+
+    /// Reads the lines of the chunk, the first being line `before + 1` of the file.
+    fn lines(&mut self, name: &str, text: &'a str, before: usize) -> std::result::Result<(), Failure> {
+        let p = &mut self.parser;
+        let mut selection = 0;
+        for (i, line) in Lines(text).enumerate() {
+            let number = before + i + 1;
+            // The plain forms of the lines that make up a large file, `v x y z` and `f a b c` with
+            // integer corners, directly from the bytes; anything else by words.
+            match fast::line(line.as_bytes(), &mut p.raw) {
+                Some(fast::Line::Vertex(v)) => {
+                    p.push_position(v, number);
+                    continue;
+                }
+                Some(fast::Line::Face) if p.face(selection) => continue,
+                _ => {}
+            }
+            let at = |key: &str, msg: String| SceneError::in_file(name, Some((number, line.find(key).unwrap_or(0) + 1)), msg);
+            let mut words = Words::new(line);
+            let Some(key) = words.next() else { continue };
+            match key {
+                "v" => {
+                    let Some(mut v) = words.floats::<3>() else {
+                        return Err(Failure::At(at(key, "expected a vertex `v x y z` with three numbers".into())));
+                    };
+                    // Then nothing, a weight w that divides x, y, z, or a colour r g b.
+                    match (words.next(), words.next(), words.next(), words.next()) {
+                        (None, ..) => {}
+                        (Some(w), None, ..) => match w.parse::<f32>() {
+                            Ok(w) if w != 0.0 => v = v.map(|c| c / w),
+                            Ok(_) => return Err(Failure::At(at(key, "the vertex weight w is 0".into()))),
+                            Err(_) => return Err(Failure::At(at(key, "expected a vertex `v x y z [w]` or `v x y z r g b`".into()))),
+                        },
+                        (Some(_), Some(_), Some(_), None) => {}
+                        _ => return Err(Failure::At(at(key, "expected a vertex `v x y z [w]` or `v x y z r g b`".into()))),
+                    }
+                    p.push_position(v, number);
+                }
+                "vt" => {
+                    // u, then optional v and w (w, and anything after it, ignored).
+                    let bad = || Failure::At(at(key, "expected a texture coordinate `vt u [v [w]]`".into()));
+                    let (mut v, mut n) = ([0.0f32; 3], 0);
+                    for w in words.take(3) {
+                        v[n] = parse_f32(w).ok_or_else(bad)?;
+                        n += 1;
+                    }
+                    if n == 0 {
+                        return Err(bad());
+                    }
+                    p.texcoords.push([v[0], v[1]]);
+                }
+                "vn" => match words.floats::<3>() {
+                    Some(n) => p.normals.push(n),
+                    None => return Err(Failure::At(at(key, "expected a normal `vn x y z` with three numbers".into()))),
+                },
+                "f" => {
+                    let read = p.read_corners(words) && p.face(selection);
+                    if !read {
+                        return Err(Failure::Face(at(key, "malformed face".into())));
+                    }
+                }
+                "mtllib" => self.events.push(Event::Library(line.trim_start()[key.len()..].trim())),
+                "usemtl" => {
+                    let material = line.trim_start()[key.len()..].trim();
+                    if material.is_empty() {
+                        return Err(Failure::At(at(key, "expected a material name after `usemtl`".into())));
+                    }
+                    self.events.push(Event::Select(material));
+                    selection += 1;
+                }
+                _ => {}
+            }
+        }
+        Ok(())
+    }
 }
 
 /// The lines of a text, without their `\n` or `\r\n`.
@@ -417,6 +640,8 @@ struct Parser {
     polygons: Vec<Polygon>,
     /// The first vertex with a non-finite coordinate, and its line.
     non_finite: Option<(usize, usize)>,
+    /// Positions, texture coordinates and normals before the text read (another chunk's).
+    base: [u64; 3],
     /// Scratch: the corners of the face being read, as written (vertex, texture, normal index),
     /// and resolved (vertex, texture, normal).
     raw: Vec<[Option<i64>; 3]>,
@@ -450,11 +675,25 @@ impl Parser {
         true
     }
 
+    /// Adds a vertex position read at `line`.
+    #[inline]
+    fn push_position(&mut self, v: [f32; 3], line: usize) {
+        if self.non_finite.is_none() && !v.iter().all(|c| c.is_finite()) {
+            self.non_finite = Some((self.base[0] as usize + self.positions.len(), line));
+        }
+        self.positions.push(v);
+    }
+
+    /// Positions, texture coordinates and normals defined so far, those before the text included.
+    fn counts(&self) -> [u64; 3] {
+        [self.base[0] + self.positions.len() as u64, self.base[1] + self.texcoords.len() as u64, self.base[2] + self.normals.len() as u64]
+    }
+
     /// Adds the face whose corners are in `raw`; false when one refers to something not defined
     /// before it (the caller then locates the error).
     fn face(&mut self, material: u32) -> bool {
         self.corners.clear();
-        let counts = [self.positions.len() as u64, self.texcoords.len() as u64, self.normals.len() as u64];
+        let counts = self.counts();
         for raw in &self.raw {
             let mut resolved = [0u32, NONE, NONE];
             for (kind, (slot, &k)) in resolved.iter_mut().zip(raw).enumerate() {
@@ -509,7 +748,9 @@ impl Parser {
             self.material_ids.push(material);
             return true;
         }
-        if self.corners.iter().any(|c| c[0] as usize >= self.positions.len()) {
+        // A polygon is triangulated over its corners' positions: those of this text only.
+        let here = self.base[0]..counts[0];
+        if self.corners.iter().any(|c| !here.contains(&u64::from(c[0]))) {
             self.polygons.push(Polygon { at: self.triangles.len(), corners: self.corners.clone(), material });
         } else {
             let corners = std::mem::take(&mut self.corners);
@@ -521,7 +762,8 @@ impl Parser {
 
     /// Appends the triangles of a polygon whose corners are all read.
     fn push_polygon(&mut self, corners: &[[u32; 3]], material: u32) {
-        let points: Vec<DVec3> = corners.iter().map(|c| Vec3::from(self.positions[c[0] as usize]).as_dvec3()).collect();
+        let points: Vec<DVec3> =
+            corners.iter().map(|c| Vec3::from(self.positions[(u64::from(c[0]) - self.base[0]) as usize]).as_dvec3()).collect();
         for t in triangulate(&points) {
             self.triangles.push(t.map(|k| corners[k as usize][0]));
             if self.all_normals {
@@ -532,6 +774,34 @@ impl Parser {
             }
             self.material_ids.push(material);
         }
+    }
+
+    /// Appends the lists of the chunk read after this one but its positions, triangles and
+    /// material ids (gathered apart), its first triangle being number `at`, its `usemtl` ranks
+    /// mapped to `materials`.
+    fn append(&mut self, mut next: Parser, at: usize, materials: &[u32]) {
+        self.normals.extend_from_slice(&next.normals);
+        self.texcoords.extend_from_slice(&next.texcoords);
+        if !next.all_normals {
+            self.all_normals = false;
+            self.normal_indices = Vec::new();
+        }
+        if self.all_normals {
+            self.normal_indices.append(&mut next.normal_indices);
+        }
+        if !next.all_texcoords {
+            self.all_texcoords = false;
+            self.texcoord_indices = Vec::new();
+        }
+        if self.all_texcoords {
+            self.texcoord_indices.append(&mut next.texcoord_indices);
+        }
+        self.polygons.extend(next.polygons.into_iter().map(|f| Polygon { at: at + f.at, material: materials[f.material as usize], ..f }));
+        for k in 0..3 {
+            self.largest[k] = self.largest[k].max(next.largest[k]);
+            self.unsure[k] |= next.unsure[k];
+        }
+        self.non_finite = self.non_finite.or(next.non_finite);
     }
 
     /// Checks what could only be checked once the whole file was read: positive indices, and
@@ -550,45 +820,30 @@ impl Parser {
     }
 }
 
-/// Rebuilds the triangle list with the triangles of the polygons whose corners referred ahead,
-/// each where its face was in the file.
-fn triangulate_deferred(out: &mut MeshData, polygons: Vec<Polygon>) {
+/// Rebuilds the triangle lists of the whole file `p` with the triangles of the polygons that
+/// waited for its end, each where its face was in the file.
+fn triangulate_deferred(p: &mut Parser) {
+    let polygons = std::mem::take(&mut p.polygons);
     let (triangles, normals, uvs, materials) = (
-        std::mem::take(&mut out.triangles),
-        std::mem::take(&mut out.normal_indices),
-        std::mem::take(&mut out.texcoord_indices),
-        std::mem::take(&mut out.material_ids),
+        std::mem::take(&mut p.triangles),
+        std::mem::take(&mut p.normal_indices),
+        std::mem::take(&mut p.texcoord_indices),
+        std::mem::take(&mut p.material_ids),
     );
-    let mut p = Parser {
-        positions: std::mem::take(&mut out.positions),
-        all_normals: !normals.is_empty(),
-        all_texcoords: !uvs.is_empty(),
-        ..Parser::default()
-    };
+    // Lists of one entry per triangle while every face so far had normals (texture coordinates).
     let copy = |p: &mut Parser, range: std::ops::Range<usize>| {
         p.triangles.extend_from_slice(&triangles[range.clone()]);
         p.normal_indices.extend_from_slice(normals.get(range.clone()).unwrap_or_default());
         p.texcoord_indices.extend_from_slice(uvs.get(range.clone()).unwrap_or_default());
-        p.material_ids.extend_from_slice(materials.get(range).unwrap_or_default());
+        p.material_ids.extend_from_slice(&materials[range]);
     };
     let mut next = 0;
     for f in &polygons {
-        copy(&mut p, next..f.at);
+        copy(p, next..f.at);
         next = f.at;
         p.push_polygon(&f.corners, f.material);
     }
-    copy(&mut p, next..triangles.len());
-    out.positions = p.positions;
-    out.triangles = p.triangles;
-    if !normals.is_empty() {
-        out.normal_indices = p.normal_indices;
-    }
-    if !uvs.is_empty() {
-        out.texcoord_indices = p.texcoord_indices;
-    }
-    if !materials.is_empty() {
-        out.material_ids = p.material_ids;
-    }
+    copy(p, next..triangles.len());
 }
 
 /// An MTL material as written, and the folder (relative to the scene) of its library.
@@ -1091,6 +1346,69 @@ mod tests {
         for t in ["0", "-0", "+7", "-9223372036854775808", "9223372036854775807", "9223372036854775808", "-", "+", "", "1x", "--1", " 1"] {
             assert_eq!(parse_i64(t.as_bytes()), t.parse::<i64>().ok(), "{t:?}");
         }
+    }
+
+    /// Read in chunks of any size, down to a line each, a file gives what it gives read whole:
+    /// relative indices, polygons and `usemtl` across chunk ends, the warnings, and errors located
+    /// on a later chunk's line; the fuzz corpus likewise.
+    #[test]
+    fn chunks_read_as_the_whole_file() {
+        let mtl = "newmtl red\nKd 1 0 0\nmap_Ks gone.png\nnewmtl blue\nKd 0 0 1\n";
+        let good = [
+            "# quads, relative corners, materials",
+            "mtllib m.mtl",
+            "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0",
+            "vt 0 0\nvt 1 0\nvt 1 1\nvn 0 0 1",
+            "usemtl red",
+            "f 1/1/1 2/2/1 3/3/1",
+            "f -4/-3/-1 -3/-2/-1 -1/-1/-1",
+            "v 0 0 1",
+            "usemtl blue",
+            "f -1/1/1 1/2/1 2/3/1 4/1/1",
+            "f 1/1/1 2/2/1 6/3/1 5/1/1",
+            "v 1 0 1",
+            "f 2/1/1 3/2/1 4/3/1 -2/1/1 -1/2/-1",
+            "usemtl nothing",
+            "f 1/1/1 3/1/1 6/1/1",
+        ]
+        .join("\n");
+        let lines = |text: &str, n: usize| text.lines().nth(n - 1).unwrap().to_string();
+        let bad_vertex = format!("{good}\nv 1 2\n");
+        let bad_face = format!("{good}\nf 1 2 -7\n");
+        let bad_ahead = format!("{good}\nf 1 2 70\n");
+        let non_finite = format!("{good}\nv 1 inf 2\n");
+        let dir = folder("chunks", &[("m.mtl", mtl.as_bytes())]);
+        let options = raylab::input::context::LoadOptions::default();
+        let ctx = LoadContext::new(&dir, &options);
+        let read = |text: &str, chunk: usize| {
+            let r = read_in_chunks(&ctx, "m.obj", &dir.join("m.obj"), text.as_bytes(), true, &here(), chunk);
+            let warnings: Vec<String> = ctx.take_warnings().iter().map(|w| w.report()).collect();
+            (r.map(|d| format!("{d:?}")).map_err(|e| e.report()), warnings)
+        };
+        let whole = read(&good, usize::MAX);
+        let data = whole.0.clone().unwrap();
+        assert!(data.contains("material_ids: [0, 0, 1, 1, 1, 1, 1, 1, 1, 0]"), "{data}");
+        assert_eq!(whole.1.len(), 1, "the missing map: {:?}", whole.1);
+        for (text, line) in [(&bad_vertex, 22), (&bad_face, 22), (&bad_ahead, 22), (&non_finite, 22)] {
+            let e = read(text, usize::MAX).0.unwrap_err();
+            assert!(e.contains(&format!(":{line}:")), "{} at line {line}: {e}", lines(text, line));
+        }
+        for text in [&good, &bad_vertex, &bad_face, &bad_ahead, &non_finite] {
+            let whole = read(text, usize::MAX);
+            for chunk in [0, 1, 9, 20, 64, 100] {
+                assert_eq!(read(text, chunk), whole, "chunks of {chunk} bytes:\n{text}");
+            }
+        }
+        let corpus = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/corpus/mesh_obj");
+        for file in std::fs::read_dir(corpus).unwrap() {
+            let bytes = std::fs::read(file.unwrap().path()).unwrap();
+            let Ok(text) = String::from_utf8(bytes) else { continue };
+            let whole = read(&text, usize::MAX);
+            for chunk in [0, 100, 4096] {
+                assert_eq!(read(&text, chunk), whole, "chunks of {chunk} bytes");
+            }
+        }
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     /// A texture statement's options place the map (`-s`, then `-o`) or clamp it; the rest of the

@@ -30,6 +30,7 @@ use raylab::geometry::Hit;
 use raylab::glam::{BVec4A, DVec2, DVec3, Vec2, Vec3, Vec4};
 use raylab::math::float::{gamma, on_surface_slack};
 use raylab::{Aabb, Ray};
+use rayon::prelude::*;
 use std::sync::{Arc, OnceLock};
 
 /// A mesh as a loader produces it: indexed triangles with optional vertex normals and materials.
@@ -127,6 +128,17 @@ impl TriPack {
 /// Triangles per pack.
 const PACK: u32 = 4;
 
+/// Triangles per job of the passes over a mesh done in parallel (smaller meshes: one pass).
+const PARALLEL_TRIANGLES: usize = 1 << 14;
+
+/// A run of input triangles checked: those with an area (input indices, in order), the number
+/// without, and the box around the former.
+struct Scanned {
+    keep: Vec<u32>,
+    degenerate: usize,
+    bounds: Aabb,
+}
+
 /// A triangle mesh ready for ray queries.
 #[derive(Debug)]
 pub struct TriangleMesh {
@@ -163,21 +175,38 @@ impl TriangleMesh {
             return Err(MeshError::NonFinite { vertex: v });
         }
         let n = positions.len();
-        let mut keep: Vec<u32> = Vec::with_capacity(triangles.len());
-        let mut degenerate = 0;
-        let mut bounds = Aabb::EMPTY;
-        for (i, t) in triangles.iter().enumerate() {
-            if let Some(&bad) = t.iter().find(|&&v| v as usize >= n) {
-                return Err(MeshError::IndexOutOfRange { triangle: i, index: bad, vertices: n });
+        // Checked in order (the first bad index is reported), in parallel for a large mesh.
+        let scan = |(job, chunk): (usize, &[[u32; 3]])| -> Result<Scanned, MeshError> {
+            let first = job * PARALLEL_TRIANGLES;
+            let mut s = Scanned { keep: Vec::with_capacity(chunk.len()), degenerate: 0, bounds: Aabb::EMPTY };
+            for (i, t) in chunk.iter().enumerate() {
+                if let Some(&bad) = t.iter().find(|&&v| v as usize >= n) {
+                    return Err(MeshError::IndexOutOfRange { triangle: first + i, index: bad, vertices: n });
+                }
+                let [a, b, c] = t.map(|v| Vec3::from(positions[v as usize]).as_dvec3());
+                let cross = (b - a).cross(c - a);
+                if cross.length_squared() > 0.0 && cross.is_finite() {
+                    s.keep.push((first + i) as u32);
+                    s.bounds = s.bounds.include(a).include(b).include(c);
+                } else {
+                    s.degenerate += 1;
+                }
             }
-            let [a, b, c] = t.map(|v| Vec3::from(positions[v as usize]).as_dvec3());
-            let cross = (b - a).cross(c - a);
-            if cross.length_squared() > 0.0 && cross.is_finite() {
-                keep.push(i as u32);
-                bounds = bounds.include(a).include(b).include(c);
-            } else {
-                degenerate += 1;
-            }
+            Ok(s)
+        };
+        let scanned: Vec<Result<Scanned, MeshError>> = if triangles.len() >= PARALLEL_TRIANGLES {
+            triangles.par_chunks(PARALLEL_TRIANGLES).enumerate().map(scan).collect()
+        } else {
+            vec![scan((0, &triangles))]
+        };
+        // The first error in order, whichever job found it first.
+        let scanned = scanned.into_iter().collect::<Result<Vec<Scanned>, MeshError>>()?;
+        let mut keep: Vec<u32> = Vec::with_capacity(scanned.iter().map(|s| s.keep.len()).sum());
+        let (mut degenerate, mut bounds) = (0, Aabb::EMPTY);
+        for s in scanned {
+            keep.extend_from_slice(&s.keep);
+            degenerate += s.degenerate;
+            bounds = bounds.union(s.bounds);
         }
         if keep.is_empty() {
             return Err(MeshError::NoTriangles);
@@ -198,24 +227,38 @@ impl TriangleMesh {
         };
         let tri_box = |k: usize| Aabb::from_points(triangles[keep[k] as usize].map(|v| Vec3::from(positions[v as usize]).as_dvec3()));
         let (index, mut source, build) =
-            PrimitiveIndex::build_from(keep.len(), tri_box, choice.use_bvh(keep.len(), MESH_BVH_THRESHOLD), PACK);
+            PrimitiveIndex::build_in(keep.len(), bounds, tri_box, choice.use_bvh(keep.len(), MESH_BVH_THRESHOLD), PACK);
         // Input triangle of each slot (padding: none).
-        for s in source.iter_mut().filter(|s| **s != PAD_SLOT) {
-            *s = keep[*s as usize];
-        }
-        drop(keep);
-        let mut packs = vec![TriPack::EMPTY; source.len().div_ceil(PACK as usize)];
-        for (slot, &i) in source.iter().enumerate() {
-            if i == PAD_SLOT {
-                continue;
+        let unkeep = |s: &mut u32| {
+            if *s != PAD_SLOT {
+                *s = keep[*s as usize];
             }
-            let pack = &mut packs[slot / PACK as usize];
-            for (vertex, &v) in pack.v.iter_mut().zip(&triangles[i as usize]) {
-                for (lanes, &c) in vertex.iter_mut().zip(&positions[v as usize]) {
-                    lanes[slot % PACK as usize] = c;
+        };
+        let parallel = source.len() >= PARALLEL_TRIANGLES;
+        if parallel {
+            source.par_iter_mut().with_min_len(PARALLEL_TRIANGLES).for_each(unkeep);
+        } else {
+            source.iter_mut().for_each(unkeep);
+        }
+        let pack = |k: usize| {
+            let mut pack = TriPack::EMPTY;
+            let slots = &source[k * PACK as usize..source.len().min((k + 1) * PACK as usize)];
+            for (lane, &i) in slots.iter().enumerate().filter(|(_, i)| **i != PAD_SLOT) {
+                for (vertex, &v) in pack.v.iter_mut().zip(&triangles[i as usize]) {
+                    for (lanes, &c) in vertex.iter_mut().zip(&positions[v as usize]) {
+                        lanes[lane] = c;
+                    }
                 }
             }
-        }
+            pack
+        };
+        let pack_count = source.len().div_ceil(PACK as usize);
+        let packs: Vec<TriPack> = if parallel {
+            (0..pack_count).into_par_iter().with_min_len(PARALLEL_TRIANGLES / PACK as usize).map(pack).collect()
+        } else {
+            (0..pack_count).map(pack).collect()
+        };
+        drop(keep);
         let stored = |i: u32| (i != PAD_SLOT).then_some(i as usize);
         let shading = shading
             .map(|s| Shading { indices: source.iter().map(|&i| stored(i).map_or([0; 3], |i| s.indices[i])).collect(), normals: s.normals });

@@ -386,6 +386,9 @@ fn tonemap_of_a_float_render_is_the_render_s_png_and_refuses_bad_files() {
     let r = raylab(&dir, &["tonemap", "bad.pfm", "-o", "e.png"]);
     assert_eq!(r.status.code(), Some(1));
     assert!(text(&r.stderr).contains("over"), "{}", text(&r.stderr));
+    // The input's type is checked before anything is read (the file need not even exist).
+    let r = raylab(&dir, &["tonemap", "missing.png", "-o", "f.png"]);
+    assert!(text(&r.stderr).contains("unknown image type \".png\""), "{}", text(&r.stderr));
     std::fs::remove_dir_all(dir).unwrap();
 }
 

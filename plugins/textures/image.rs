@@ -179,15 +179,17 @@ impl Image {
         let uv = if uv.is_finite() { uv } else { DVec2::ZERO };
         let x = uv.x * self.width as f64;
         let y = (1.0 - uv.y) * self.height as f64;
-        let at = |i: f64, j: f64| self.texel(wrap[0].index(i, self.width), wrap[1].index(j, self.height));
+        let (column, row) = (|i: f64| wrap[0].index(i, self.width), |j: f64| wrap[1].index(j, self.height));
         match filter {
-            Filter::Nearest => at(x.floor(), y.floor()).as_dvec3(),
+            Filter::Nearest => self.texel(column(x.floor()), row(y.floor())).as_dvec3(),
             Filter::Bilinear => {
                 let (x, y) = (x - 0.5, y - 0.5);
                 let (x0, y0) = (x.floor(), y.floor());
                 let (fx, fy) = ((x - x0) as f32, (y - y0) as f32);
-                let top = at(x0, y0).lerp(at(x0 + 1.0, y0), fx);
-                let bottom = at(x0, y0 + 1.0).lerp(at(x0 + 1.0, y0 + 1.0), fx);
+                // Each of the four texels' column and row wrapped once.
+                let (c0, c1, r0, r1) = (column(x0), column(x0 + 1.0), row(y0), row(y0 + 1.0));
+                let top = self.texel(c0, r0).lerp(self.texel(c1, r0), fx);
+                let bottom = self.texel(c0, r1).lerp(self.texel(c1, r1), fx);
                 top.lerp(bottom, fy).as_dvec3()
             }
         }

@@ -112,6 +112,14 @@ impl std::ops::AddAssign for BuildStats {
 /// than this (1e6 times raylab's tested range) are indexed by a list instead: slower, exact.
 pub const MAX_BVH_COORDINATE: f64 = 1e12;
 
+/// Whether box `b` lies within [`MAX_BVH_COORDINATE`] (false for a box with a NaN).
+fn within(b: Aabb) -> bool {
+    b.min.abs().max(b.max.abs()).max_element() <= MAX_BVH_COORDINATE
+}
+
+/// Primitives from which the union of their boxes is computed in parallel.
+const PARALLEL_BOXES: usize = 1 << 14;
+
 /// A spatial index over `len` primitives: a hierarchy or a flat list.
 pub struct PrimitiveIndex {
     len: u32,
@@ -165,13 +173,56 @@ impl PrimitiveIndex {
     }
 
     /// [`PrimitiveIndex::build_grouped`] over `count` primitives whose boxes `box_of` computes
-    /// (no list of boxes is kept: a mesh computes them from its vertices, several times).
+    /// (no list of boxes is kept: a mesh computes them from its vertices).
     pub fn build_from(count: usize, box_of: impl Fn(usize) -> Aabb + Sync, bvh: bool, group: u32) -> (Self, Vec<u32>, BuildStats) {
-        let within = |b: Aabb| b.min.abs().max(b.max.abs()).max_element() <= MAX_BVH_COORDINATE;
+        // One pass: the boxes' union, and whether every box lies within the hierarchy's range.
+        let start = std::time::Instant::now();
+        let add = |(total, inside): (Aabb, bool), i: usize| {
+            let b = box_of(i);
+            (total.union(b), inside && within(b))
+        };
+        let (total, inside) = if count >= PARALLEL_BOXES {
+            use rayon::prelude::*;
+            (0..count).into_par_iter().fold(|| (Aabb::EMPTY, true), add).reduce(|| (Aabb::EMPTY, true), |a, b| (a.0.union(b.0), a.1 && b.1))
+        } else {
+            (0..count).fold((Aabb::EMPTY, true), add)
+        };
+        let union_time = start.elapsed();
+        let (index, order, mut stats) = Self::build_within(count, total, inside, box_of, bvh, group);
+        if stats.hierarchies > 0 {
+            stats.time += union_time;
+        }
+        (index, order, stats)
+    }
+
+    /// [`PrimitiveIndex::build_from`] for a caller that knows `total`, the union of the boxes (a
+    /// mesh: the box around its triangles' vertices), and whose boxes are finite: each box is
+    /// computed once, by the hierarchy's build.
+    pub fn build_in(
+        count: usize,
+        total: Aabb,
+        box_of: impl Fn(usize) -> Aabb + Sync,
+        bvh: bool,
+        group: u32,
+    ) -> (Self, Vec<u32>, BuildStats) {
+        // Every finite box lies within the range exactly when their union does.
+        Self::build_within(count, total, within(total), box_of, bvh, group)
+    }
+
+    /// The index over `count` primitives whose boxes have the union `total`; `inside`: every box
+    /// lies within [`MAX_BVH_COORDINATE`].
+    fn build_within(
+        count: usize,
+        total: Aabb,
+        inside: bool,
+        box_of: impl Fn(usize) -> Aabb + Sync,
+        bvh: bool,
+        group: u32,
+    ) -> (Self, Vec<u32>, BuildStats) {
         #[cfg(feature = "bvh")]
-        if bvh && count >= 2 && (0..count).all(|i| within(box_of(i))) {
+        if bvh && count >= 2 && inside {
             let shape = if group >= 4 { wide::Shape::PACK4 } else { wide::Shape::SINGLE };
-            let built = wide::Bvh4::build(count, box_of, shape);
+            let built = wide::Bvh4::build(count, total, box_of, shape);
             let index = PrimitiveIndex {
                 len: count as u32,
                 slots: built.order.len() as u32,
@@ -181,10 +232,10 @@ impl PrimitiveIndex {
             };
             return (index, built.order, built.stats);
         }
-        let _ = (bvh, within);
+        let _ = (bvh, inside, box_of);
         let mut index = PrimitiveIndex::list(count);
         index.group = group.max(1);
-        index.bounds = (count > 0).then(|| (0..count).map(&box_of).fold(Aabb::EMPTY, Aabb::union));
+        index.bounds = (count > 0).then_some(total);
         (index, (0..count as u32).collect(), BuildStats::default())
     }
 

@@ -141,3 +141,34 @@ impl<O: Intersectable> Intersectable for Accelerated<'_, O> {
         accel.bounded.iter().any(|(b, i)| b.hit(ray, inv, t_min, t_max) && objects[*i as usize].occludes(ray, t_min, t_max))
     }
 }
+
+impl<O: Intersectable> Accelerated<'_, O> {
+    /// An object other than `skip` that blocks `ray` in `(t_min, t_max)` ([`Intersectable::occludes`]),
+    /// the first found (in no particular order); `None` when none does. With `skip` set to an
+    /// object the caller has already found clear, `is_some()` is [`Intersectable::occludes`].
+    #[inline]
+    pub fn occluder(&self, ray: &Ray, t_min: f64, t_max: f64, skip: u32) -> Option<u32> {
+        let (accel, objects) = (self.accel, self.objects);
+        let blocks = |i: u32| i != skip && objects[i as usize].occludes(ray, t_min, t_max);
+        if let Some(&i) = accel.unbounded.iter().find(|&&i| blocks(i)) {
+            return Some(i);
+        }
+        if accel.index.is_bvh() {
+            let mut found = None;
+            accel.index.any(ray, t_min, t_max, |slot| {
+                let i = accel.bounded[slot as usize].1;
+                let hit = blocks(i);
+                if hit {
+                    found = Some(i);
+                }
+                hit
+            });
+            return found;
+        }
+        if let [(_, i)] = accel.bounded[..] {
+            return blocks(i).then_some(i);
+        }
+        let inv = ray.dir.recip();
+        accel.bounded.iter().find(|(b, i)| b.hit(ray, inv, t_min, t_max) && blocks(*i)).map(|&(_, i)| i)
+    }
+}

@@ -56,7 +56,8 @@ const DEEP_STACK: usize = stack_entries(MAX_DEPTH);
 /// How primitives are grouped into leaves.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Shape {
-    /// Leaves start at multiples of this many slots and are padded to it with [`PAD`].
+    /// Leaves start at multiples of this many slots and are padded to it with [`PAD`]; a power
+    /// of two.
     pub group: u32,
     /// Most primitives in a leaf (a multiple of `group`).
     pub leaf_max: u32,
@@ -162,15 +163,10 @@ pub struct Built {
 
 impl Bvh4 {
     /// Builds over `count` primitives (at least one) whose boxes (finite, non-empty) `box_of`
-    /// gives, with leaves shaped by `shape`.
-    pub fn build(count: usize, box_of: impl Fn(usize) -> Aabb + Sync, shape: Shape) -> Built {
+    /// gives and whose union is `total`, with leaves shaped by `shape`.
+    pub fn build(count: usize, total: Aabb, box_of: impl Fn(usize) -> Aabb + Sync, shape: Shape) -> Built {
         use rayon::prelude::*;
         let start = Instant::now();
-        let total = if count >= PARALLEL_RANGE {
-            (0..count).into_par_iter().map(&box_of).reduce(|| Aabb::EMPTY, Aabb::union)
-        } else {
-            (0..count).map(&box_of).fold(Aabb::EMPTY, Aabb::union)
-        };
         let pad = BOX_PADDING * (total.magnitude() + total.extent().length());
         let pad = DVec3::splat(pad.max(f64::MIN_POSITIVE));
         let record = |i: usize| {
@@ -672,6 +668,9 @@ impl Builder {
     }
 }
 
+/// Ranges of at least this many primitives are binned into two sets of bins.
+const PAIRED_BINNING: usize = 64;
+
 /// Ranges of at least this many primitives are binned in parallel.
 const PARALLEL_BINNING: usize = 1 << 18;
 
@@ -720,15 +719,35 @@ impl Bins {
     /// The counts and boxes of `range` in the bins.
     fn count(&self, range: &[PrimRef]) -> Counts {
         let mut c = Counts::default();
-        for p in range {
-            let idx = self.bins(p.center2());
-            let b = p.bounds();
-            for (axis, &i) in idx.iter().enumerate() {
-                c.count[axis][i] += 1;
-                c.bounds[axis][i] = c.bounds[axis][i].union(&b);
+        if range.len() < PAIRED_BINNING {
+            for p in range {
+                self.add(&mut c, p);
             }
+            return c;
         }
-        c
+        // Alternate primitives into two sets of bins: neighbours, often in the same bins, do not
+        // wait for each other's update.
+        let mut d = Counts::default();
+        let mut pairs = range.chunks_exact(2);
+        for pair in &mut pairs {
+            self.add(&mut c, &pair[0]);
+            self.add(&mut d, &pair[1]);
+        }
+        for p in pairs.remainder() {
+            self.add(&mut c, p);
+        }
+        c.merge(&d)
+    }
+
+    /// Adds `p` to the counts and boxes of its bins.
+    #[inline(always)]
+    fn add(&self, c: &mut Counts, p: &PrimRef) {
+        let idx = self.bins(p.center2());
+        let b = p.bounds();
+        for (axis, &i) in idx.iter().enumerate() {
+            c.count[axis][i] += 1;
+            c.bounds[axis][i] = c.bounds[axis][i].union(&b);
+        }
     }
 }
 
@@ -747,7 +766,10 @@ impl Counts {
     /// surface-area heuristic (primitives counted in leaf groups of `group`), or `None` when no
     /// axis has two non-empty sides.
     fn best_split(&self, group: u32) -> Option<(usize, usize, Box32, Box32)> {
-        let blocks = |n: u32| f64::from(n.div_ceil(group));
+        // `n.div_ceil(group)` for a power of two, without a division per candidate.
+        debug_assert!(group.is_power_of_two());
+        let shift = group.trailing_zeros();
+        let blocks = |n: u32| f64::from((n >> shift) + u32::from(n & (group - 1) != 0));
         let mut best: Option<(f64, usize, usize, Box32, Box32)> = None;
         for axis in 0..3 {
             // Box and primitive count of the right-hand side from each bin on.

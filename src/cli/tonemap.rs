@@ -1,7 +1,7 @@
 //! `raylab tonemap`: an HDR image (OpenEXR or PFM), or one of its layers, as a viewable PNG/JPEG.
 
 use super::Failure;
-use crate::image::tonemap::{Layer, MAX_FILE_BYTES, read_layer, visualise};
+use crate::image::tonemap::{Layer, MAX_FILE_BYTES, check_input, read_layer, visualise};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -31,6 +31,7 @@ pub(crate) fn run(a: TonemapArgs) -> Result<(), Failure> {
     }
     let layer = a.layer.as_deref().and_then(Layer::parse).unwrap_or(Layer::Color);
     let ext = a.input.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    check_input(&ext, layer).map_err(|e| Failure::Other(format!("{}: {e}", a.input.display())))?;
     let bytes = crate::input::context::read_user_file(&a.input, "image", MAX_FILE_BYTES, None)?;
     let film = read_layer(&bytes, &ext, layer).map_err(|e| Failure::Other(format!("{}: {e}", a.input.display())))?;
     let (w, h) = (film.width, film.height);

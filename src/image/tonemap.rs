@@ -62,21 +62,31 @@ pub const MAX_FILE_BYTES: u64 = MAX_REFERENCE_BYTES;
 /// Reads `layer` of the image in `bytes` (an OpenEXR or PFM file, by `ext`) as a film: colour
 /// channels as they are, depth in all three channels.
 pub fn read_layer(bytes: &[u8], ext: &str, layer: Layer) -> Result<Film, String> {
+    check_input(ext, layer)?;
     match ext {
-        "pfm" => {
-            if layer != Layer::Color {
-                return Err("a PFM file holds colour only; --layer needs an OpenEXR file".into());
-            }
-            crate::image::reference::decode_pfm(bytes)
-        }
-        "exr" => read_exr_layer(bytes, layer),
+        "pfm" => crate::image::reference::decode_pfm(bytes),
+        _ => read_exr_layer(bytes, layer),
+    }
+}
+
+/// Whether a file of extension `ext` (lower case) can give `layer`, asked before the file is
+/// read: an unknown type, a layer of a PFM file, or OpenEXR without the `exr` feature is refused.
+pub fn check_input(ext: &str, layer: Layer) -> Result<(), String> {
+    match ext {
+        "pfm" if layer != Layer::Color => Err("a PFM file holds colour only; --layer needs an OpenEXR file".into()),
+        "pfm" => Ok(()),
+        "exr" if cfg!(feature = "exr") => Ok(()),
+        "exr" => Err(EXR_NEEDS_FEATURE.into()),
         _ => Err(format!("unknown image type \".{ext}\"; expected .exr or .pfm")),
     }
 }
 
+/// Why an OpenEXR file cannot be read by this build.
+const EXR_NEEDS_FEATURE: &str = "reading OpenEXR needs raylab built with `--features exr`";
+
 #[cfg(not(feature = "exr"))]
 fn read_exr_layer(_: &[u8], _: Layer) -> Result<Film, String> {
-    Err("reading OpenEXR needs raylab built with `--features exr`".into())
+    Err(EXR_NEEDS_FEATURE.into())
 }
 
 #[cfg(feature = "exr")]

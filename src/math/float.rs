@@ -69,15 +69,27 @@ pub fn offset_ray_origin(p: DVec3, err: DVec3, n: DVec3, w: DVec3) -> DVec3 {
     if w.dot(n) < 0.0 {
         offset = -offset;
     }
-    let mut po = p + offset;
-    for i in 0..3 {
-        if offset[i] > 0.0 {
-            po[i] = po[i].next_up();
-        } else if offset[i] < 0.0 {
-            po[i] = po[i].next_down();
-        }
-    }
-    po
+    let po = p + offset;
+    DVec3::new(step_toward(po.x, offset.x), step_toward(po.y, offset.y), step_toward(po.z, offset.z))
+}
+
+/// `x.next_up()` where `toward > 0`, `x.next_down()` where `toward < 0`, else `x`: the same
+/// values, computed on the bits with selects instead of branches on the (unpredictable) signs.
+#[inline(always)]
+fn step_toward(x: f64, toward: f64) -> f64 {
+    /// The smallest positive subnormal's bits.
+    const TINY: u64 = 1;
+    const SIGN: u64 = 1 << 63;
+    let (xb, tb) = (x.to_bits(), toward.to_bits());
+    // Moving x's magnitude up (same sign as the step) adds one to its bits; down subtracts one.
+    let same_sign = (xb ^ tb) & SIGN == 0;
+    let stepped = if same_sign { xb.wrapping_add(1) } else { xb.wrapping_sub(1) };
+    // ±0 steps to the smallest subnormal of the step's sign; NaN, and an infinity stepped
+    // outward, stay.
+    let stepped = if x == 0.0 { TINY | (tb & SIGN) } else { stepped };
+    let moves = toward.abs() > 0.0; // not for ±0 or NaN
+    let stays = !moves || x.is_nan() || (x.is_infinite() && same_sign);
+    if stays { x } else { f64::from_bits(stepped) }
 }
 
 /// Quadratic `a t² + b t + c = 0` solved without cancellation; roots in ascending order.
@@ -154,6 +166,47 @@ pub fn is_finite3(v: DVec3) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The branch-free step equals `next_up` / `next_down` on special values and random bits.
+    #[test]
+    fn step_toward_matches_next_up_and_down() {
+        let specials = [
+            0.0,
+            -0.0,
+            f64::from_bits(1),
+            -f64::from_bits(1),
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+            1.0,
+            -1.0,
+            f64::MAX,
+            f64::MIN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            3.5e-300,
+            -7.25e200,
+        ];
+        let mut z = 0x1234_5678_9abc_def0u64;
+        let mut xs = specials.to_vec();
+        for _ in 0..20000 {
+            z = z.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            xs.push(f64::from_bits(z));
+        }
+        for &x in &xs {
+            for t in [1.0, -1.0, 0.0, -0.0, 1e-300, -1e-300, f64::INFINITY, f64::NEG_INFINITY, f64::NAN] {
+                let expect = if t > 0.0 {
+                    x.next_up()
+                } else if t < 0.0 {
+                    x.next_down()
+                } else {
+                    x
+                };
+                let got = step_toward(x, t);
+                assert!(got.to_bits() == expect.to_bits() || (got.is_nan() && expect.is_nan()), "{x:e} toward {t}: {got:e} vs {expect:e}");
+            }
+        }
+    }
 
     #[test]
     fn gamma_grows_with_operation_count() {

@@ -49,6 +49,22 @@ pub struct Scene {
     object_builds: BuildStats,
 }
 
+/// An object index for [`Scene::transmittance_hinted`]: the opaque object that last blocked a
+/// shadow ray, tested first next time.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct OccluderHint(pub u32);
+
+impl OccluderHint {
+    /// No object.
+    pub const NONE: OccluderHint = OccluderHint(u32::MAX);
+}
+
+impl Default for OccluderHint {
+    fn default() -> Self {
+        OccluderHint::NONE
+    }
+}
+
 /// How a scene's objects are arranged for ray queries, for the render summary.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AccelSummary {
@@ -178,6 +194,33 @@ impl Scene {
             return Color::ZERO;
         }
         self.walk(&self.transmissive, ray, t_max).0
+    }
+
+    /// [`Scene::transmittance`], testing first the object `hint` names (an opaque object that
+    /// blocked a similar ray before: toward the same light from a nearby point), and leaving in it
+    /// the opaque object that blocks this ray, or none when the hinted one did not. Only the speed depends on the hint:
+    /// the answer is [`Scene::transmittance`]'s, whatever it holds (a stale or foreign index is
+    /// merely a wasted test), so a per-thread hint keeps renders deterministic.
+    #[inline]
+    pub fn transmittance_hinted(&self, ray: &Ray, t_max: f64, hint: &mut OccluderHint) -> Color {
+        let opaque = if self.transmissive.is_empty() { &self.accel } else { &self.opaque };
+        // Every opaque object is in `opaque`, and its test there is this one: a hit here is one
+        // the full query would find, and a miss need not be repeated by it.
+        let skip = match self.objects.get(hint.0 as usize) {
+            Some(o) if !o.may_transmit() => {
+                if o.occludes(ray, 0.0, t_max) {
+                    return Color::ZERO;
+                }
+                // Out of its shadow: the next rays (lit, mostly) are not made to test it again.
+                std::mem::replace(hint, OccluderHint::NONE).0
+            }
+            _ => OccluderHint::NONE.0,
+        };
+        if let Some(i) = opaque.over(&self.objects).occluder(ray, 0.0, t_max, skip) {
+            hint.0 = i;
+            return Color::ZERO;
+        }
+        if self.transmissive.is_empty() { Color::ONE } else { self.walk(&self.transmissive, ray, t_max).0 }
     }
 
     /// Like [`Scene::transmittance`], also naming the first surface crossed (for explanations).

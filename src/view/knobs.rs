@@ -53,10 +53,14 @@ fn origin(key: &str) -> String {
 pub fn options(base: &LoadOptions, s: &Settings, registry: &Registry) -> Result<LoadOptions> {
     let mut o = base.clone();
     let ov = &mut o.overrides;
-    if let Some(v) = s.spp {
-        ov.spp = Some(v);
+    // The page's spp replaces the command line's, as a parameter located at its control.
+    if s.spp.is_some() {
+        ov.spp = None;
     }
     let mut render = |key: &str, v: Value| ov.render_params.push((key.to_string(), Node::given(&origin(key), v)));
+    if let Some(v) = s.spp {
+        render("spp", Value::Int(i64::from(v)));
+    }
     if let Some(v) = &s.aa {
         render("aa", Value::Str(v.clone()));
     }

@@ -238,7 +238,15 @@ impl Bsdf {
             return Color::ZERO;
         }
         let c = wi.dot(self.axis);
-        self.kd * FRAC_1_PI + self.ks * lobe_brdf(c, self.shininess) + self.glossy * lobe_brdf(c, self.blur_lobe)
+        // Lobes of weight zero add nothing (their values are finite): no `powf` for them.
+        let mut f = self.kd * FRAC_1_PI;
+        if self.choice[1] > 0.0 {
+            f += self.ks * lobe_brdf(c, self.shininess);
+        }
+        if self.choice[2] > 0.0 {
+            f += self.glossy * lobe_brdf(c, self.blur_lobe);
+        }
+        f
     }
 
     /// Density with which [`Bsdf::sample`] picks `wi` (per solid angle), for `wi` on `wo`'s side.
@@ -246,7 +254,14 @@ impl Bsdf {
         let cos = self.ns.dot(wi);
         let c = wi.dot(self.axis);
         let diffuse = if cos > 0.0 { cos * FRAC_1_PI } else { 0.0 };
-        self.choice[0] * diffuse + self.choice[1] * lobe_pdf(c, self.shininess) + self.choice[2] * lobe_pdf(c, self.blur_lobe)
+        let mut pdf = self.choice[0] * diffuse;
+        if self.choice[1] > 0.0 {
+            pdf += self.choice[1] * lobe_pdf(c, self.shininess);
+        }
+        if self.choice[2] > 0.0 {
+            pdf += self.choice[2] * lobe_pdf(c, self.blur_lobe);
+        }
+        pdf
     }
 
     /// A new direction: a lobe chosen by `pick` ∈ [0, 1) in proportion to the weights, a

@@ -9,6 +9,7 @@ use raylab::math::float::SHADOW_EPSILON;
 use raylab::render::sampler::stratified_2d;
 use raylab::render::trace::{Recorder, Term, TraceLight};
 use raylab::scene::interaction::Interaction;
+use raylab::scene::light::LightFacts;
 use raylab::{Color, Intersectable, LightPdf, LightSample, LightSource, Ray, Sampler};
 use std::f64::consts::PI;
 
@@ -33,10 +34,10 @@ pub fn power_heuristic(a: f64, b: f64) -> f64 {
 impl PathTracer {
     /// Shadow rays per sample of `light` at a vertex: [`PathTracer::light_samples`] for lights
     /// with an extent (0: the light's own count), one for point-like lights.
-    pub(super) fn samples_for(&self, light: &dyn LightSource) -> u32 {
-        match (light.is_area(), self.light_samples) {
+    pub(super) fn samples_for(&self, facts: LightFacts) -> u32 {
+        match (facts.is_area, self.light_samples) {
             (false, _) => 1,
-            (true, 0) => light.sample_count().max(1),
+            (true, 0) => facts.sample_count.max(1),
             (true, n) => n,
         }
     }
@@ -54,9 +55,10 @@ impl PathTracer {
             return Color::ZERO;
         }
         let streams = sampler.fork(TAG_LIGHTS);
+        let facts = scene.light_facts();
         let mut total = Color::ZERO;
         for (index, light) in scene.lights.iter().enumerate() {
-            let n = self.samples_for(light.as_ref());
+            let n = self.samples_for(facts[index]);
             let mut stream = streams.fork(index as u64);
             let pattern = stream.next_pattern();
             let mut sum = Color::ZERO;
@@ -156,7 +158,7 @@ impl PathTracer {
             }
             c.stats.add(counter::LIGHT_HITS, 1);
             let radiance = IRRADIANCE_PER_INTENSITY * ls.intensity * p;
-            let mis = bsdf_pdf.map_or(1.0, |q| power_heuristic(q, f64::from(self.samples_for(light.as_ref())) * p));
+            let mis = bsdf_pdf.map_or(1.0, |q| power_heuristic(q, f64::from(self.samples_for(scene.light_facts()[index])) * p));
             rec.note(|| {
                 let (name, r) = (&scene.light_names[index], radiance);
                 let head = format!("meets light {name} at t = {:.4}: radiance ({:.4}, {:.4}, {:.4})", ls.distance, r.x, r.y, r.z);

@@ -186,16 +186,20 @@ impl PathTracer {
     /// Radiance arriving along `ray` (its own random stream `sampler`).
     fn li<R: Recorder>(&self, c: &mut Ctx, ray: &Ray, sampler: &Sampler, path: PathState, rec: &mut R) -> Color {
         let hit = c.scene.trace(ray);
-        self.arrive(c, ray, hit.as_ref(), sampler, path, rec)
+        let bsdf = hit.as_ref().filter(|_| path.depth <= self.max_bounces).map(Bsdf::new);
+        self.arrive(c, ray, hit.as_ref(), bsdf.as_ref(), sampler, path, rec)
     }
 
     /// Radiance arriving along `ray`, which meets `hit` (or leaves the scene): the lights met on
-    /// the way, then the surface's emission, its light samples and its scattered ray.
+    /// the way, then the surface's emission, and, given the hit's `bsdf` (`None`: the path is
+    /// at its bounce limit), its light samples and its scattered ray.
+    #[allow(clippy::too_many_arguments)]
     fn arrive<R: Recorder>(
         &self,
         c: &mut Ctx,
         ray: &Ray,
         hit: Option<&Interaction>,
+        bsdf: Option<&Bsdf>,
         sampler: &Sampler,
         path: PathState,
         rec: &mut R,
@@ -214,13 +218,12 @@ impl PathTracer {
         let emission = si.material.emission;
         rec.term(|| Term::color("emission", emission));
         radiance += emission;
-        if path.depth > self.max_bounces {
+        if let Some(bsdf) = bsdf {
+            radiance += self.direct(c, si, bsdf, sampler, rec);
+            radiance += self.scatter(c, si, bsdf, sampler, path, rec);
+        } else {
             c.stats.add(counter::DEPTH_LIMITED, 1);
             rec.note(|| format!("max_bounces {} reached: only the emitters this ray meets count", self.max_bounces));
-        } else {
-            let bsdf = Bsdf::new(si);
-            radiance += self.direct(c, si, &bsdf, sampler, rec);
-            radiance += self.scatter(c, si, &bsdf, sampler, path, rec);
         }
         rec.color(radiance);
         radiance
@@ -281,10 +284,12 @@ impl PathTracer {
     ) -> Color {
         let c = &mut Ctx { scene, stats };
         let hit = scene.trace(ray);
-        if let Some(si) = &hit {
-            *layers = Layers::surface(si, Bsdf::new(si).albedo());
+        // A camera ray is always within the bounce limit (depth 0).
+        let bsdf = hit.as_ref().map(Bsdf::new);
+        if let (Some(si), Some(bsdf)) = (&hit, &bsdf) {
+            *layers = Layers::surface(si, bsdf.albedo());
         }
-        self.arrive(c, ray, hit.as_ref(), sampler, PathState::CAMERA, rec)
+        self.arrive(c, ray, hit.as_ref(), bsdf.as_ref(), sampler, PathState::CAMERA, rec)
     }
 }
 
@@ -308,7 +313,7 @@ impl Integrator for PathTracer {
     /// A path is a chain: the camera ray and at most `max_bounces + 1` scattered rays, and at
     /// each of its `max_bounces + 1` vertices with light samples every light's shadow rays.
     fn worst_case_rays(&self, scene: &Scene) -> f64 {
-        let shadow: f64 = scene.lights.iter().map(|l| f64::from(self.samples_for(l.as_ref()))).sum();
+        let shadow: f64 = scene.light_facts().iter().map(|&l| f64::from(self.samples_for(l))).sum();
         let vertices = f64::from(self.max_bounces) + 1.0;
         1.0 + vertices * (1.0 + shadow)
     }

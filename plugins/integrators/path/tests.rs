@@ -249,6 +249,25 @@ fn a_closed_furnace_without_roulette_sums_the_geometric_series_exactly() {
 }
 
 #[test]
+fn the_deepest_path_allowed_renders_on_the_render_threads() {
+    // A mirror sphere around the camera: every path goes the whole 1024 bounces, one stack
+    // frame of recursion each, on the render pool's worker threads (default stacks).
+    let (le, bounces) = (0.5, 1024);
+    let job = load(&format!(
+        "background = 0\n[render]\nwidth = 2\nheight = 2\n[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\n\
+         [integrator]\ntype = \"path\"\nmax_bounces = {bounces}\nroulette_depth = {bounces}\n\
+         [[object]]\ntype = \"sphere\"\nradius = 1\nmaterial = {{ kd = 0, ks = 0, kr = 1, emission = {le} }}\n"
+    ));
+    let options = raylab::render::RenderOptions { threads: Some(2), ..raylab::render::RenderOptions::default() };
+    let r = raylab::render::render(&job, &options, &|_, _| {}).unwrap();
+    // Emission at the first surface and after each of the max_bounces + 1 mirrored rays.
+    let expected = le * f64::from(bounces + 2);
+    for (x, y) in [(0, 0), (1, 1)] {
+        assert_eq!(r.film.get(x, y).as_dvec3(), DVec3::splat(expected));
+    }
+}
+
+#[test]
 fn a_closed_furnace_with_roulette_converges_to_le_over_one_minus_albedo() {
     for (a, le) in [(0.5, 1.0), (0.8, 0.25), (0.95, 0.1)] {
         let job = closed_furnace(a, le, "max_bounces = 1024\nroulette_depth = 0");

@@ -8,8 +8,21 @@ use raylab::glam::DVec2;
 use raylab::math::color::max_channel;
 use raylab::render::sampler::stratified_2d;
 use raylab::render::trace::{Recorder, Term, TraceLight};
+use raylab::scene::OccluderHint;
 use raylab::scene::interaction::Interaction;
 use raylab::{Color, LightSample, LightSource, Sampler};
+use std::cell::Cell;
+
+/// Lights (by index) whose last opaque occluder each thread remembers.
+const REMEMBERED_LIGHTS: usize = 8;
+
+thread_local! {
+    /// Per light, the opaque object that last blocked one of this thread's shadow rays toward it:
+    /// neighbouring pixels' shadow rays are mostly blocked by the same object, which is then
+    /// tested first ([`raylab::Scene::transmittance_hinted`]). Only speed depends on it, never the
+    /// image: the hint may come from any earlier pixel or scene.
+    static LAST_OCCLUDERS: [Cell<OccluderHint>; REMEMBERED_LIGHTS] = const { [const { Cell::new(OccluderHint::NONE) }; REMEMBERED_LIGHTS] };
+}
 
 /// How one light sample turned out, for the agreement test of adaptive soft shadows. Independent
 /// of `avoid`, so the decision is the same whether or not exact skips happen.
@@ -141,14 +154,17 @@ impl Phong {
     fn single_sample<R: Recorder>(&self, c: &mut Ctx, sh: &Shade, light: &dyn LightSource, rec: &mut R) -> Color {
         let scene = c.scene;
         let si = sh.si;
-        let Some(ls) = light.illuminate(si.hit.point, DVec2::ZERO) else { return Color::ZERO };
+        // Read in place, not moved out of the returned option: the move copied it in 16-byte
+        // pieces straddling the callee's stores (a store-forwarding stall).
+        let sample = light.illuminate(si.hit.point, DVec2::ZERO);
+        let Some(ls) = &sample else { return Color::ZERO };
         if self.avoid && sh.no_response {
             c.stats.add(counter::LIGHTS_NO_RESPONSE, 1);
             rec.note(|| format!("{}: the surface has no diffuse or specular term; no shadow rays", scene.light_names[sh.light]));
             return Color::ZERO;
         }
-        match self.unshadowed(c, sh, &ls, rec) {
-            Ok(t) => t.unshadowed * self.shadowed(c, sh, &ls, &t, 1, rec),
+        match self.unshadowed(c, sh, ls, rec) {
+            Ok(t) => t.unshadowed * self.shadowed(c, sh, ls, &t, 1, rec),
             Err(_) => Color::ZERO,
         }
     }
@@ -263,7 +279,15 @@ impl Phong {
             rec.light(|| self.record(scene, sh.light, ls, t.nl, None, tr, occ, &terms));
             tr
         } else {
-            scene.transmittance(&shadow_ray, t_max)
+            LAST_OCCLUDERS.with(|last| match last.get(sh.light) {
+                Some(cell) => {
+                    let mut hint = cell.get();
+                    let tr = scene.transmittance_hinted(&shadow_ray, t_max, &mut hint);
+                    cell.set(hint);
+                    tr
+                }
+                None => scene.transmittance(&shadow_ray, t_max),
+            })
         }
     }
 

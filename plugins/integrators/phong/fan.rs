@@ -115,7 +115,8 @@ impl Phong {
             c.stats.add(counter::GLOSSY_RAYS_SAVED, u64::from(fan_size - 1));
         }
         let pattern = if sharp { 0 } else { sampler.fork(fan.tag | FAN_PATTERN).next_pattern() };
-        let (b1, b2) = orthonormal_basis(fan.ideal);
+        // The disc's axes, only where rays are jittered in it.
+        let (b1, b2) = if sharp { (DVec3::ZERO, DVec3::ZERO) } else { orthonormal_basis(fan.ideal) };
         let child_weight = if sharp { weight } else { weight / f64::from(count) };
         let counter = if fan.kind == RayKind::Reflection { counter::REFLECTION_RAYS } else { counter::REFRACTION_RAYS };
         let mut mean = Color::ZERO;
@@ -134,6 +135,11 @@ impl Phong {
             let mut child = rec.child(fan.kind, &ray, depth + 1, child_weight);
             let li = self.li(c, &ray, &child_sampler, depth + 1, child_weight, &mut child);
             rec.adopt(child);
+            if count == 1 {
+                // The running mean of one ray, 0 + (li − 0) / 1, is li (up to the sign of a zero,
+                // which the caller's sum of non-negative terms absorbs): without three divisions.
+                return li;
+            }
             // Running mean: copies of one ray average to exactly that ray's value.
             mean += (li - mean) / f64::from(i + 1);
         }
