@@ -42,6 +42,40 @@ fn fixed(x: f64, scale: f64) -> i128 {
     }
 }
 
+/// [`fixed`] at [`COLOR_SCALE`], the same value, with short paths for what radiance usually is:
+/// zero, or `2⁻¹² ≤ x < 2⁶²`, where `x · 2⁶⁴` is whole and is the significand shifted left by
+/// `exponent − 1011` (at most 73 places).
+#[inline(always)]
+fn fixed_color(x: f64) -> i128 {
+    let bits = x.to_bits();
+    // The sign bit is part of the exponent here: negative values take the long path.
+    let shift = (bits >> 52).wrapping_sub(1011);
+    if shift < 74 {
+        i128::from((bits & 0x000F_FFFF_FFFF_FFFF) | 0x0010_0000_0000_0000) << shift
+    } else if x == 0.0 {
+        0
+    } else {
+        fixed_color_rest(x)
+    }
+}
+
+/// [`fixed_color`] off its short paths: tiny, huge and non-finite colours, out of line.
+#[inline(never)]
+fn fixed_color_rest(x: f64) -> i128 {
+    fixed(x, COLOR_SCALE)
+}
+
+/// `s + v`, saturating; the saturation (a sum beyond ±2⁶³ in colour units) out of line.
+#[inline(always)]
+fn add_saturating(s: i128, v: i128) -> i128 {
+    #[cold]
+    #[inline(never)]
+    fn saturated(s: i128, v: i128) -> i128 {
+        s.saturating_add(v)
+    }
+    s.checked_add(v).unwrap_or_else(|| saturated(s, v))
+}
+
 /// `s` as a float: the sum of its two 64-bit halves, each converted in one instruction (not
 /// rounded once like `s as f64`, but as deterministic, and within 2 ulp).
 #[inline]
@@ -66,7 +100,7 @@ impl PixelSum {
     #[inline]
     pub fn add(&mut self, c: Color) {
         for (s, v) in self.sum.iter_mut().zip(c.to_array()) {
-            *s = s.saturating_add(fixed(v, COLOR_SCALE));
+            *s = add_saturating(*s, fixed_color(v));
         }
         self.n += 1;
     }
@@ -206,6 +240,29 @@ mod tests {
             }
         }
         assert_eq!(fixed(f64::NAN, 1.0), 0);
+    }
+
+    /// The colour path is [`fixed`] at the colour scale, for every exponent, both signs, zeros,
+    /// infinities and NaN.
+    #[test]
+    fn fixed_color_is_fixed_at_the_color_scale() {
+        let mut values = vec![0.0, -0.0, f64::INFINITY, f64::NEG_INFINITY, f64::NAN, f64::MIN_POSITIVE, 5e-324, f64::MAX];
+        for e in -1080..1030 {
+            for m in [1.0, 1.0 + f64::EPSILON, 1.5, 1.9999999999999998, 1.2345678901234567] {
+                let v = m * 2f64.powi(e);
+                values.extend([v, -v]);
+            }
+        }
+        for v in values {
+            assert_eq!(fixed_color(v), fixed(v, COLOR_SCALE), "{v:e}");
+        }
+    }
+
+    #[test]
+    fn sums_saturate_both_ways() {
+        assert_eq!(add_saturating(i128::MAX - 1, 5), i128::MAX);
+        assert_eq!(add_saturating(i128::MIN + 1, -5), i128::MIN);
+        assert_eq!(add_saturating(-3, 5), 2);
     }
 
     #[test]

@@ -46,7 +46,7 @@
 use crate::math::color::{Color, Encoding, srgb_encode};
 use crate::render::accum::{LayerSum, PixelSum};
 use crate::render::job::{AdaptiveSettings, MAX_ADAPTIVE_DEPTH, MAX_CELL_SAMPLES, RenderJob};
-use crate::render::sample::{SampleId, trace_sample};
+use crate::render::sample::{ImageFrame, SampleId, image_frame, trace_sample_in};
 use crate::render::stats::RayStats;
 use glam::Vec3;
 use std::cell::RefCell;
@@ -139,6 +139,8 @@ thread_local! {
 /// The adaptive scheme for one tile of one job, with the lattice points it has traced.
 pub struct Adaptive<'a> {
     job: &'a RenderJob,
+    /// What every sample of the image shares.
+    frame: ImageFrame,
     settings: AdaptiveSettings,
     /// Threshold by the number of subdivisions left (the square's size), in display units.
     thresholds: [f32; MAX_ADAPTIVE_DEPTH as usize + 1],
@@ -196,6 +198,7 @@ impl<'a> Adaptive<'a> {
         Adaptive {
             bisect,
             job,
+            frame: image_frame(job),
             settings,
             thresholds,
             depth,
@@ -279,7 +282,7 @@ impl<'a> Adaptive<'a> {
         for index in 0..n {
             let id = SampleId::Cell { x, y, depth: self.depth, index, count: n };
             let (mut s, mut sums) = (PixelSum::default(), LayerSum::default());
-            trace_sample(self.job, id, &mut s, with_layers.then_some(&mut sums), stats);
+            trace_sample_in(self.job, &self.frame, id, &mut s, with_layers.then_some(&mut sums), stats);
             acc.color += s.mean() * share;
             if with_layers {
                 acc.layers.add_scaled(&WeightedLayers::of(&sums), share as f32);
@@ -464,8 +467,14 @@ impl<'a> Adaptive<'a> {
         }
         let (mut acc, mut sums) = (PixelSum::default(), LayerSum::default());
         let with_layers = !self.layers.is_empty();
-        let signature =
-            trace_sample(self.job, SampleId::Lattice { x, y, depth: self.depth }, &mut acc, with_layers.then_some(&mut sums), stats);
+        let signature = trace_sample_in(
+            self.job,
+            &self.frame,
+            SampleId::Lattice { x, y, depth: self.depth },
+            &mut acc,
+            with_layers.then_some(&mut sums),
+            stats,
+        );
         let color = acc.mean();
         let enc = self.job.settings.encoding;
         let display = [color.x, color.y, color.z].map(|v| display_steps(enc, v as f32));

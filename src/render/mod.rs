@@ -33,10 +33,9 @@ use crate::image::film::Film;
 use crate::image::layers::Aovs;
 use crate::render::accum::{LayerSum, PixelSum};
 use crate::render::adaptive::Adaptive;
-use crate::render::sample::{SampleId, camera_rays, film_frame, trace_sample, trace_sample_in};
+use crate::render::sample::{ImageFrame, SampleId, camera_rays, image_frame, trace_sample, trace_sample_in};
 use crate::render::share::{FrameSums, Rect, Sampling, Share};
 use crate::render::stats::RayStats;
-use crate::scene::camera::FilmFrame;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::Mutex;
@@ -185,6 +184,8 @@ struct State {
     last_snapshot: Instant,
 }
 
+// Never inlined: profiles of a render (callgrind's --toggle-collect='*render_passes*') find it.
+#[inline(never)]
 fn render_passes(
     job: &RenderJob,
     options: &RenderOptions,
@@ -362,7 +363,7 @@ impl TileWork {
         let share = self.share;
         // The tile lies inside the share's bounds, where every pixel takes the same samples.
         let want = share.samples_of(Sampling::of(s), s.width, t.x0, t.y0);
-        let frame = film_frame(job);
+        let frame = image_frame(job);
         let w = t.width() as usize;
         for (row, y) in (t.y0..t.y1).enumerate() {
             if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
@@ -373,12 +374,12 @@ impl TileWork {
             match self.layers.as_mut() {
                 None => {
                     for (acc, x) in pixels {
-                        add_samples(job, frame, share, (x, y), want, end, acc, None, stats);
+                        add_samples(job, &frame, share, (x, y), want, end, acc, None, stats);
                     }
                 }
                 Some(layers) => {
                     for ((acc, x), l) in pixels.zip(&mut layers[span]) {
-                        add_samples(job, frame, share, (x, y), want, end, acc, Some(l), stats);
+                        add_samples(job, &frame, share, (x, y), want, end, acc, Some(l), stats);
                     }
                 }
             }
@@ -392,7 +393,7 @@ impl TileWork {
 #[allow(clippy::too_many_arguments)]
 fn add_samples(
     job: &RenderJob,
-    frame: FilmFrame,
+    frame: &ImageFrame,
     share: Share,
     (x, y): (u32, u32),
     want: u32,

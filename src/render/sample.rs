@@ -6,7 +6,7 @@ use crate::math::ray::Ray;
 use crate::render::accum::{LayerSum, PixelSum};
 use crate::render::aov::Layers;
 use crate::render::job::RenderJob;
-use crate::render::sampler::{Sampler, mix64, stratified_2d};
+use crate::render::sampler::{Sampler, SeedKey, mix64, stratified_2d};
 use crate::render::stats::RayStats;
 use crate::scene::camera::FilmFrame;
 use glam::DVec2;
@@ -56,7 +56,7 @@ pub enum SampleId {
 /// Lens-pattern key offset, so lens and film patterns of a pixel are independent.
 const LENS_PATTERN: u32 = 0x5bd1_e995;
 
-/// Sample index that marks adaptive lattice samples in [`Sampler::new`] (stratified samples
+/// Sample index that marks adaptive lattice samples in [`Sampler::with_seed`] (stratified samples
 /// never reach it: `spp` is far smaller).
 const LATTICE_SAMPLE: u32 = u32::MAX;
 
@@ -101,19 +101,34 @@ impl Iterator for CameraRays<'_> {
 /// the ray and the random stream its integrator draws from.
 #[inline]
 pub fn camera_rays(job: &RenderJob, id: SampleId) -> CameraRays<'_> {
-    camera_rays_in(job, film_frame(job), id)
+    camera_rays_in(job, &image_frame(job), id)
 }
 
-/// The camera's [`FilmFrame`] for `job`'s image: what every sample of the image shares.
+/// What every sample of one image shares, computed once per image or tile: the camera's
+/// [`FilmFrame`] and the hash of the render seed the samples' streams start from.
+#[derive(Clone, Copy, Debug)]
+pub struct ImageFrame {
+    film: FilmFrame,
+    seed: SeedKey,
+    /// The layers of a camera ray that hits nothing.
+    miss: Layers,
+}
+
+/// The [`ImageFrame`] of `job`'s image.
 #[inline]
-pub fn film_frame(job: &RenderJob) -> FilmFrame {
-    job.scene.camera.film_frame(job.settings.width, job.settings.height)
+pub fn image_frame(job: &RenderJob) -> ImageFrame {
+    ImageFrame {
+        film: job.scene.camera.film_frame(job.settings.width, job.settings.height),
+        seed: SeedKey::new(job.settings.seed),
+        miss: Layers::miss(job.scene.background),
+    }
 }
 
-/// [`camera_rays`] with `job`'s [`film_frame`] computed once by the caller.
+/// [`camera_rays`] with `job`'s [`image_frame`] computed once by the caller.
 #[inline(always)]
-pub fn camera_rays_in(job: &RenderJob, frame: FilmFrame, id: SampleId) -> CameraRays<'_> {
+pub fn camera_rays_in<'a>(job: &'a RenderJob, image: &ImageFrame, id: SampleId) -> CameraRays<'a> {
     let s = &job.settings;
+    let frame = image.film;
     let per_sample = if job.scene.camera.aperture > 0.0 { s.lens_samples.max(1) } else { 1 };
     match id {
         SampleId::Pixel { x, y, index } => {
@@ -126,7 +141,7 @@ pub fn camera_rays_in(job: &RenderJob, frame: FilmFrame, id: SampleId) -> Camera
                 job,
                 frame,
                 film: DVec2::new(f64::from(x), f64::from(y)) + jitter,
-                sampler: Sampler::new(pixel, index, s.seed),
+                sampler: Sampler::with_seed(pixel, index, image.seed),
                 first: index * s.lens_samples,
                 count: per_sample,
                 total: s.spp * s.lens_samples,
@@ -137,7 +152,7 @@ pub fn camera_rays_in(job: &RenderJob, frame: FilmFrame, id: SampleId) -> Camera
         SampleId::Lattice { x, y, depth } => {
             let res = 1u64 << depth;
             let key = y * (u64::from(s.width) * res + 1) + x;
-            let mut sampler = Sampler::new(key, LATTICE_SAMPLE, s.seed);
+            let mut sampler = Sampler::with_seed(key, LATTICE_SAMPLE, image.seed);
             let pattern = sampler.next_pattern();
             CameraRays {
                 job,
@@ -160,7 +175,7 @@ pub fn camera_rays_in(job: &RenderJob, frame: FilmFrame, id: SampleId) -> Camera
                 job,
                 frame,
                 film: DVec2::new((x as f64 + u.x) / res as f64, (y as f64 + u.y) / res as f64),
-                sampler: Sampler::new(key, index, s.seed),
+                sampler: Sampler::with_seed(key, index, image.seed),
                 first: index * s.lens_samples,
                 count: per_sample,
                 total: count * s.lens_samples,
@@ -182,14 +197,14 @@ pub fn film_position(job: &RenderJob, id: SampleId) -> DVec2 {
 /// to it too. Returns the sample's signature: its rays' [`Layers::signature`]s combined.
 #[inline]
 pub fn trace_sample(job: &RenderJob, id: SampleId, acc: &mut PixelSum, layers: Option<&mut LayerSum>, stats: &mut RayStats) -> u64 {
-    trace_sample_in(job, film_frame(job), id, acc, layers, stats)
+    trace_sample_in(job, &image_frame(job), id, acc, layers, stats)
 }
 
-/// [`trace_sample`] with `job`'s [`film_frame`] computed once by the caller (the same result).
+/// [`trace_sample`] with `job`'s [`image_frame`] computed once by the caller (the same result).
 #[inline]
 pub fn trace_sample_in(
     job: &RenderJob,
-    frame: FilmFrame,
+    frame: &ImageFrame,
     id: SampleId,
     acc: &mut PixelSum,
     mut layers: Option<&mut LayerSum>,
@@ -197,7 +212,7 @@ pub fn trace_sample_in(
 ) -> u64 {
     let mut signature = 0u64;
     for (ray, mut sampler) in camera_rays_in(job, frame, id) {
-        let mut first = Layers::miss(job.scene.background);
+        let mut first = frame.miss;
         stats.camera_rays += 1;
         let c = job.integrator.radiance(&job.scene, &ray, &mut sampler, stats, &mut first);
         if c.is_finite() {

@@ -17,8 +17,13 @@ impl Sampler {
     /// The stream for pixel index `pixel` (row-major), sample number `sample` and the render seed.
     #[inline]
     pub fn new(pixel: u64, sample: u32, seed: u64) -> Self {
-        let key =
-            mix64(mix64(pixel ^ mix64(seed.wrapping_add(0x9E37_79B9_7F4A_7C15))) ^ u64::from(sample).wrapping_mul(0xD1B5_4A32_D192_ED03));
+        Sampler::with_seed(pixel, sample, SeedKey::new(seed))
+    }
+
+    /// [`Sampler::new`] with the seed's hash computed once by the caller (the same stream).
+    #[inline]
+    pub fn with_seed(pixel: u64, sample: u32, seed: SeedKey) -> Self {
+        let key = mix64(mix64(pixel ^ seed.0) ^ u64::from(sample).wrapping_mul(0xD1B5_4A32_D192_ED03));
         Sampler { key, dim: 0 }
     }
 
@@ -50,6 +55,18 @@ impl Sampler {
         let h = mix64(self.key ^ u64::from(self.dim).wrapping_mul(0x9E37_79B9_7F4A_7C15));
         self.dim += 1;
         (h >> 32) as u32
+    }
+}
+
+/// A render seed hashed for [`Sampler::with_seed`]: what every stream of a render shares.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SeedKey(u64);
+
+impl SeedKey {
+    /// The hash of render seed `seed`.
+    #[inline]
+    pub fn new(seed: u64) -> Self {
+        SeedKey(mix64(seed.wrapping_add(0x9E37_79B9_7F4A_7C15)))
     }
 }
 
@@ -185,6 +202,8 @@ mod tests {
         };
         assert_eq!(a, b);
         assert_ne!(a, c);
+        let mut d = Sampler::with_seed(7, 3, SeedKey::new(42));
+        assert_eq!(a, (0..5).map(|_| d.next_1d()).collect::<Vec<f64>>());
         assert!(a.iter().all(|v| (0.0..1.0).contains(v)));
     }
 

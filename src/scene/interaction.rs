@@ -4,7 +4,7 @@
 
 use crate::geometry::{Hit, Surface};
 use crate::math::ray::Ray;
-use crate::scene::material::Coefficients;
+use crate::scene::material::CoefficientsAt;
 use crate::scene::object::Object;
 use glam::{DVec2, DVec3};
 
@@ -23,8 +23,8 @@ pub struct Interaction<'s> {
     pub ns: DVec3,
     /// True when the ray arrived on the surface's outward side.
     pub front_face: bool,
-    /// The material at the hit.
-    pub material: Coefficients,
+    /// The material's coefficients at the hit (borrowed from the object when untextured).
+    pub material: CoefficientsAt<'s>,
 }
 
 impl<'s> Interaction<'s> {
@@ -34,7 +34,7 @@ impl<'s> Interaction<'s> {
     pub fn new(ray: &Ray, hit: Hit, object: &'s Object) -> Self {
         let g = object.geometry();
         let s: Surface = g.surface(&hit, ray.dir);
-        let material = object.material(s.material).at(|| g.uv(&hit), s.local);
+        let material = object.coefficients_at(s.material, || g.uv(&hit), s.local);
         Interaction { hit, object, dir: ray.dir, n: s.n, ns: s.ns, front_face: s.front_face, material }
     }
 

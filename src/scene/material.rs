@@ -185,6 +185,29 @@ pub struct Coefficients {
     pub fresnel: Fresnel,
 }
 
+/// A material's [`Coefficients`] at one hit, as an
+/// [`Interaction`](crate::scene::interaction::Interaction) holds them: borrowed from the object
+/// when the material has no textures (the same everywhere, so nothing is copied per hit),
+/// evaluated at the hit otherwise. Dereferences to the coefficients.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CoefficientsAt<'s> {
+    /// An untextured material's coefficients.
+    Constant(&'s Coefficients),
+    /// A textured material's coefficients at the hit.
+    Textured(Coefficients),
+}
+
+impl std::ops::Deref for CoefficientsAt<'_> {
+    type Target = Coefficients;
+    #[inline]
+    fn deref(&self) -> &Coefficients {
+        match self {
+            CoefficientsAt::Constant(c) => c,
+            CoefficientsAt::Textured(c) => c,
+        }
+    }
+}
+
 /// The material parameter table (the keys of `[materials.NAME]` and of inline materials).
 pub const MATERIAL_PARAMS: &[ParamSpec] = &[
     ParamSpec::new("ka", ParamKind::Texture, Default::Float(1.0), "response to ambient light (1 = the report: ambient added unfiltered)"),
@@ -286,7 +309,18 @@ impl Material {
     /// when the material is textured) and whose position in the shape's own frame is `local`.
     #[inline]
     pub fn at(&self, uv: impl FnOnce() -> DVec2, local: DVec3) -> Coefficients {
-        let mut c = Coefficients {
+        let mut c = self.constants();
+        if self.is_textured() {
+            self.apply_textures(&mut c, &TexturePoint { uv: uv(), local });
+        }
+        c
+    }
+
+    /// The coefficients before textures: the constants textured colours multiply, and the
+    /// coefficients everywhere on an untextured surface.
+    #[inline]
+    pub fn constants(&self) -> Coefficients {
+        Coefficients {
             ka: self.ka,
             kd: self.kd,
             ks: self.ks,
@@ -297,11 +331,7 @@ impl Material {
             emission: self.emission,
             blur: self.blur,
             fresnel: self.fresnel,
-        };
-        if self.is_textured() {
-            self.apply_textures(&mut c, &TexturePoint { uv: uv(), local });
         }
-        c
     }
 
     /// Multiplies the textured colours of `c` by their textures' values at `at`.

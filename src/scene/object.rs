@@ -2,7 +2,8 @@
 
 use crate::geometry::{Geometry, Hit, Intersectable};
 use crate::math::ray::Ray;
-use crate::scene::material::Material;
+use crate::scene::material::{Coefficients, CoefficientsAt, Material};
+use glam::{DVec2, DVec3};
 use std::sync::{Arc, OnceLock};
 
 /// A scene object: a shape (already placed by its transform) and the materials its surface uses.
@@ -11,6 +12,8 @@ pub struct Object {
     pub name: String,
     geometry: Box<dyn Geometry>,
     materials: Arc<[Material]>,
+    /// Each material's [`Material::constants`], by slot: what hits on untextured materials borrow.
+    constants: Box<[Coefficients]>,
     transmissive: bool,
     /// [`Geometry::is_closed`]: for a large mesh a pass over every edge, which only refraction
     /// needs; asked when the object is made if it transmits light, else on first use.
@@ -27,7 +30,8 @@ impl Object {
         if transmissive {
             let _ = closed.set(geometry.is_closed());
         }
-        Object { name: name.into(), geometry, materials, transmissive, closed }
+        let constants = materials.iter().map(Material::constants).collect();
+        Object { name: name.into(), geometry, materials, constants, transmissive, closed }
     }
 
     /// `geometry` with one material.
@@ -64,6 +68,21 @@ impl Object {
     #[inline]
     pub fn material(&self, slot: u32) -> &Material {
         self.materials.get(slot as usize).unwrap_or(&self.materials[0])
+    }
+
+    /// The coefficients of the material in slot `slot` at a surface point ([`Material::at`]):
+    /// borrowed when the material is untextured, else evaluated with the texture coordinates
+    /// `uv` gives and the position `local` in the shape's own frame.
+    #[inline]
+    pub fn coefficients_at(&self, slot: u32, uv: impl FnOnce() -> DVec2, local: DVec3) -> CoefficientsAt<'_> {
+        // Out of line: an untextured hit's path stays small.
+        #[inline(never)]
+        fn textured(m: &Material, uv: impl FnOnce() -> DVec2, local: DVec3) -> CoefficientsAt<'static> {
+            CoefficientsAt::Textured(m.at(uv, local))
+        }
+        let slot = if (slot as usize) < self.materials.len() { slot as usize } else { 0 };
+        let m = &self.materials[slot];
+        if m.is_textured() { textured(m, uv, local) } else { CoefficientsAt::Constant(&self.constants[slot]) }
     }
 }
 
