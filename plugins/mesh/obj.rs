@@ -52,8 +52,9 @@ pub fn read(ctx: &LoadContext, path: &str, full: &Path, bytes: &[u8], need_mater
     read_in_chunks(ctx, path, full, bytes, need_materials, loc, CHUNK_BYTES)
 }
 
-/// [`read`], the text read in chunks of about `chunk_bytes`.
-fn read_in_chunks(
+/// [`read`], the text read in chunks of about `chunk_bytes` (any size gives the same result: the
+/// `mesh_obj_chunks` fuzz target compares small chunks with the whole file).
+pub fn read_in_chunks(
     ctx: &LoadContext,
     path: &str,
     full: &Path,

@@ -24,8 +24,8 @@ const UNIT_SCALE: f64 = 1_099_511_627_776.0;
 fn fixed(x: f64, scale: f64) -> i128 {
     let y = x * scale;
     // Without library calls (`f64::round` and `as i128` are calls on x86-64 without SSE4.1), to
-    // the bit: below 2⁵² through the integer part (`y − i` is exact: Sterbenz); from 2⁵² to 2¹²⁶
-    // (colours up to 2⁶² at the 2⁶⁴ scale) `y` is whole, and its significand shifted by its
+    // the bit: below 2⁵² through the integer part (`y − i` is exact: Sterbenz); from 2⁵² to just below
+    // 2¹²⁶ (8.5·10³⁷; colours up to 2⁶² at the 2⁶⁴ scale) `y` is whole, and its significand shifted by its
     // exponent is exactly its value (no conversion, no saturation checks); beyond, the slow path.
     let a = y.abs();
     if a < 4_503_599_627_370_496.0 {
@@ -59,7 +59,8 @@ fn fixed_color(x: f64) -> i128 {
     }
 }
 
-/// [`fixed_color`] off its short paths: tiny, huge and non-finite colours, out of line.
+/// [`fixed_color`] off its short paths: negative, tiny (subnormals included), huge and non-finite
+/// colours, out of line.
 #[inline(never)]
 fn fixed_color_rest(x: f64) -> i128 {
     fixed(x, COLOR_SCALE)

@@ -184,7 +184,9 @@ struct State {
     last_snapshot: Instant,
 }
 
-// Never inlined: profiles of a render (callgrind's --toggle-collect='*render_passes*') find it.
+/// The passes of a render over its share of the frame (the loop behind [`render_progressive`]).
+/// Never inlined: profiles select the render loop by this name (`benches/peers/README.md`,
+/// "Profiling").
 #[inline(never)]
 fn render_passes(
     job: &RenderJob,

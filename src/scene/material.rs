@@ -189,12 +189,19 @@ pub struct Coefficients {
 /// [`Interaction`](crate::scene::interaction::Interaction) holds them: borrowed from the object
 /// when the material has no textures (the same everywhere, so nothing is copied per hit),
 /// evaluated at the hit otherwise. Dereferences to the coefficients.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug)]
 pub enum CoefficientsAt<'s> {
     /// An untextured material's coefficients.
     Constant(&'s Coefficients),
     /// A textured material's coefficients at the hit.
     Textured(Coefficients),
+}
+
+/// Equal when the coefficients are, borrowed or evaluated.
+impl PartialEq for CoefficientsAt<'_> {
+    fn eq(&self, other: &Self) -> bool {
+        **self == **other
+    }
 }
 
 impl std::ops::Deref for CoefficientsAt<'_> {

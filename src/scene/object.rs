@@ -67,7 +67,13 @@ impl Object {
     /// The material in slot `slot`.
     #[inline]
     pub fn material(&self, slot: u32) -> &Material {
-        self.materials.get(slot as usize).unwrap_or(&self.materials[0])
+        &self.materials[self.slot_index(slot)]
+    }
+
+    /// Index of the material in slot `slot`: the first one for a slot the object lacks.
+    #[inline]
+    fn slot_index(&self, slot: u32) -> usize {
+        if (slot as usize) < self.materials.len() { slot as usize } else { 0 }
     }
 
     /// The coefficients of the material in slot `slot` at a surface point ([`Material::at`]):
@@ -80,7 +86,7 @@ impl Object {
         fn textured(m: &Material, uv: impl FnOnce() -> DVec2, local: DVec3) -> CoefficientsAt<'static> {
             CoefficientsAt::Textured(m.at(uv, local))
         }
-        let slot = if (slot as usize) < self.materials.len() { slot as usize } else { 0 };
+        let slot = self.slot_index(slot);
         let m = &self.materials[slot];
         if m.is_textured() { textured(m, uv, local) } else { CoefficientsAt::Constant(&self.constants[slot]) }
     }
