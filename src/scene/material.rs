@@ -343,8 +343,18 @@ impl Material {
 
     /// Multiplies the textured colours of `c` by their textures' values at `at`.
     fn apply_textures(&self, c: &mut Coefficients, at: &TexturePoint) {
+        // A texture mapped to several channels in a row (a glTF base colour: kd, ks and kr) is
+        // evaluated once: `eval` is a function of the point.
+        let mut last: Option<(&Arc<dyn Texture>, Color)> = None;
         for m in &self.textures {
-            let v = m.texture.eval(at);
+            let v = match last {
+                Some((t, v)) if Arc::ptr_eq(t, &m.texture) => v,
+                _ => {
+                    let v = m.texture.eval(at);
+                    last = Some((&m.texture, v));
+                    v
+                }
+            };
             match m.channel {
                 Channel::Ka => c.ka *= v,
                 Channel::Kd => c.kd *= v,
@@ -432,5 +442,34 @@ impl MaterialLibrary {
             )
             .context(what)),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::atomic::{AtomicU32, Ordering};
+
+    /// A grey texture that counts its evaluations.
+    #[derive(Debug, Default)]
+    struct Counting(AtomicU32);
+
+    impl Texture for Counting {
+        fn eval(&self, _: &TexturePoint) -> Color {
+            self.0.fetch_add(1, Ordering::Relaxed);
+            Color::splat(0.5)
+        }
+    }
+
+    #[test]
+    fn a_texture_on_several_channels_in_a_row_is_evaluated_once_per_point() {
+        let shared = Arc::new(Counting::default());
+        let other = Arc::new(Counting::default());
+        let map = |channel, t: &Arc<Counting>| TextureMap { channel, texture: t.clone() as Arc<dyn Texture> };
+        let textures = vec![map(Channel::Kd, &shared), map(Channel::Ks, &shared), map(Channel::Kr, &shared), map(Channel::Kt, &other)];
+        let m = Material { kd: Color::ONE, ks: Color::splat(0.2), kr: Color::ONE, kt: Color::ONE, textures, ..Material::default() };
+        let c = m.at(|| DVec2::ZERO, DVec3::ZERO);
+        assert_eq!((c.kd, c.ks, c.kr, c.kt), (Color::splat(0.5), Color::splat(0.1), Color::splat(0.5), Color::splat(0.5)));
+        assert_eq!((shared.0.load(Ordering::Relaxed), other.0.load(Ordering::Relaxed)), (1, 1));
     }
 }
