@@ -68,6 +68,16 @@ pub fn read_in_chunks(
     let mut libraries = Libraries::new(ctx, path, loc, need_materials);
     let mut p = read_chunks(&name, text, chunk_bytes, &mut libraries)?;
     p.finish(&name, text)?;
+    for (kind, (count, what)) in [(1, (p.texcoords.len(), "texture coordinates (`vt`)")), (2, (p.normals.len(), "normals (`vn`)"))] {
+        if let Some(line) = p.ignored[kind]
+            && count > 0
+        {
+            let msg = format!(
+                "a face refers to {what} before the file defines any (it does later): OBJ indices refer back, so the faces before the first are read without them"
+            );
+            ctx.warn(SceneError::in_file(&name, Some((line, 1)), msg));
+        }
+    }
     if !p.polygons.is_empty() {
         triangulate_deferred(&mut p);
     }
@@ -330,7 +340,7 @@ impl<'a> Chunk<'a> {
                     p.push_position(v, number);
                     continue;
                 }
-                Some(fast::Line::Face) if p.face(selection) => continue,
+                Some(fast::Line::Face) if p.face(selection, number) => continue,
                 _ => {}
             }
             let at = |key: &str, msg: String| SceneError::in_file(name, Some((number, line.find(key).unwrap_or(0) + 1)), msg);
@@ -372,7 +382,7 @@ impl<'a> Chunk<'a> {
                     None => return Err(Failure::At(at(key, "expected a normal `vn x y z` with three numbers".into()))),
                 },
                 "f" => {
-                    let read = p.read_corners(words) && p.face(selection);
+                    let read = p.read_corners(words) && p.face(selection, number);
                     if !read {
                         return Err(Failure::Face(at(key, "malformed face".into())));
                     }
@@ -639,6 +649,9 @@ struct Parser {
     largest: [u64; 3],
     /// A texture or normal reference that is valid only if the file has none of its kind.
     unsure: [bool; 3],
+    /// The first line of a face whose texture (1) or normal (2) references were ignored because
+    /// no `vt` (`vn`) line came before it.
+    ignored: [Option<usize>; 3],
     polygons: Vec<Polygon>,
     /// Vertex, texture coordinate and normal index of each corner of `polygons`, in order (one
     /// list, not one allocation per polygon).
@@ -694,9 +707,9 @@ impl Parser {
         [self.base[0] + self.positions.len() as u64, self.base[1] + self.texcoords.len() as u64, self.base[2] + self.normals.len() as u64]
     }
 
-    /// Adds the face whose corners are in `raw`; false when one refers to something not defined
-    /// before it (the caller then locates the error).
-    fn face(&mut self, material: u32) -> bool {
+    /// Adds the face whose corners are in `raw`, read at `line`; false when one refers to something
+    /// not defined before it (the caller then locates the error).
+    fn face(&mut self, material: u32, line: usize) -> bool {
         self.corners.clear();
         let counts = self.counts();
         for raw in &self.raw {
@@ -706,6 +719,7 @@ impl Parser {
                 // A texture or normal reference in a file without any is ignored; whether the
                 // file has any is known at its end.
                 if kind > 0 && counts[kind] == 0 {
+                    self.ignored[kind].get_or_insert(line);
                     if k <= 0 || k > i64::from(u32::MAX) {
                         self.unsure[kind] = true;
                     } else {
@@ -814,6 +828,7 @@ impl Parser {
         for k in 0..3 {
             self.largest[k] = self.largest[k].max(next.largest[k]);
             self.unsure[k] |= next.unsure[k];
+            self.ignored[k] = self.ignored[k].or(next.ignored[k]);
         }
         self.non_finite = self.non_finite.or(next.non_finite);
     }
@@ -1366,6 +1381,24 @@ mod tests {
     /// Read in chunks of any size, down to a line each, a file gives what it gives read whole:
     /// relative indices, polygons and `usemtl` across chunk ends, the warnings, and errors located
     /// on a later chunk's line; the fuzz corpus likewise.
+    #[test]
+    fn texture_coordinates_defined_after_the_faces_that_use_them_are_a_warning() {
+        let dir = folder("vt-after", &[]);
+        let options = raylab::input::context::LoadOptions::default();
+        let ctx = LoadContext::new(&dir, &options);
+        let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1/1 2/2/1 3/3/1\nvt 0 0\nvt 1 0\nvt 0 1\nvn 0 0 1\nf 1/1/1 2/2/1 3/3/1\n";
+        let data = read(&ctx, "m.obj", &dir.join("m.obj"), text.as_bytes(), false, &here()).unwrap();
+        assert_eq!(data.triangles.len(), 2);
+        let warnings: Vec<String> = ctx.take_warnings().iter().map(|w| w.report()).collect();
+        assert_eq!(warnings.len(), 2, "{warnings:?}");
+        for (w, what) in warnings.iter().zip(["texture coordinates (`vt`)", "normals (`vn`)"]) {
+            assert!(w.contains("m.obj:4:1") && w.contains(what), "{w}");
+        }
+        // A file without any is read without them, silently.
+        read(&ctx, "m.obj", &dir.join("m.obj"), b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1/1 2/2/1 3/3/1\n", false, &here()).unwrap();
+        assert!(ctx.take_warnings().is_empty());
+    }
+
     #[test]
     fn chunks_read_as_the_whole_file() {
         let mtl = "newmtl red\nKd 1 0 0\nmap_Ks gone.png\nnewmtl blue\nKd 0 0 1\n";
