@@ -5,7 +5,8 @@
 //! for convex faces, ear clipping for concave ones); points and lines are ignored. Vertex normals
 //! (`vn`) are used for smooth shading when every face has them. `v x y z w` divides by `w`;
 //! `v x y z r g b` (vertex colours) keeps the position. Texture coordinates (`vt u [v [w]]`, `w`
-//! ignored) are kept when every face has them. The MTL library is read relative to the OBJ file, through the scene's folder sandbox
+//! ignored) are kept when every face has them. Faces that use texture coordinates (normals)
+//! before the file's first `vt` (`vn`) line are read without them, with a warning. The MTL library is read relative to the OBJ file, through the scene's folder sandbox
 //! and size limit, once however often the file names it; `usemtl` names a material of the
 //! libraries read so far (an unknown name, or none, is the first material).
 //!
@@ -29,7 +30,7 @@
 //!
 //! Every error names `file:line:col`. A face corner that refers to a vertex, texture coordinate or
 //! normal the file does not define is found by a second pass over the text, only then: relative
-//! (negative) indices count back from their line, positive ones may refer ahead.
+//! (negative) indices count back from their line, positive vertex indices may refer ahead.
 
 use super::triangle_mesh::MeshData;
 use super::triangulate::triangulate;
