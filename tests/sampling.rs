@@ -113,8 +113,56 @@ fn adaptive_supersampling_refines_only_where_samples_disagree() {
 }
 
 #[test]
+fn coarse_levels_trace_the_block_corners_of_flat_regions_and_refine_edges() {
+    // A flat background costs the corners of 2 × 2 pixel blocks: 51 × 6 rays, the lattice
+    // column on the tile border traced by both tiles.
+    let flat = "[render]\nwidth = 100\nheight = 10\n[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\n";
+    let coarse = |t, depth, levels| Antialiasing::Adaptive(AdaptiveSettings { coarse: levels, ..AdaptiveSettings::new(t, depth) });
+    let r = run(&with(flat, 1, coarse(0.0, 4, 1)), None);
+    assert_eq!(r.stats.camera_rays, 51 * 6 + 6);
+    // Where the image does not hold a whole block (the last row of an odd height), the pixels
+    // are tested alone: the odd corners of their top row and their bottom row are added (and
+    // the border column's bottom point again).
+    let odd = flat.replace("height = 10", "height = 11");
+    assert_eq!(run(&with(&odd, 1, coarse(0.0, 4, 1)), None).stats.camera_rays, 51 * 6 + 6 + 50 + 101 + 1);
+    // On hard edges (a 48 × 36 image): blocks of 2 × 2 pixels trace far fewer rays for the same
+    // error; blocks of 4 × 4 fewer still, and lose features narrower than a block (the trade).
+    let reference = run(&with(EDGES, 1024, Antialiasing::Stratified), None).film;
+    let rays_error = |levels| {
+        let r = run(&with(EDGES, 1, coarse(0.05, 3, levels)), None);
+        (r.stats.camera_rays, rmse(&r.film, &reference))
+    };
+    let (pixel, one, two) = (rays_error(0), rays_error(1), rays_error(2));
+    assert!(one.1 <= pixel.1 * 1.1, "blocks of 2: error {} against {} testing every pixel", one.1, pixel.1);
+    assert!(one.0 * 4 < pixel.0 * 3, "blocks of 2: {} camera rays against {} testing every pixel", one.0, pixel.0);
+    assert!(two.0 < one.0 && two.1 > one.1, "blocks of 4: {two:?} against blocks of 2: {one:?}");
+}
+
+#[test]
+fn coarse_levels_beyond_the_lattice_are_refused_where_they_are_set() {
+    let text = "[render]\nwidth = 8\nheight = 8\naa = \"adaptive\"\naa_depth = 7\naa_coarse = 2\n[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\n";
+    let e = load_str(&raylab_plugins::registry(), "test.toml", text, Path::new("."), &LoadOptions::default()).err().expect("refused");
+    let msg = e.to_string();
+    assert!(msg.contains("test.toml:6") && msg.contains("2 coarse levels above 7 levels of depth"), "{msg}");
+    assert!(
+        load_str(
+            &raylab_plugins::registry(),
+            "test.toml",
+            &text.replace("aa_depth = 7", "aa_depth = 6"),
+            Path::new("."),
+            &LoadOptions::default()
+        )
+        .is_ok()
+    );
+}
+
+#[test]
 fn images_do_not_depend_on_the_thread_count() {
-    for aa in [Antialiasing::Stratified, Antialiasing::Adaptive(AdaptiveSettings::new(0.05, 3))] {
+    for aa in [
+        Antialiasing::Stratified,
+        Antialiasing::Adaptive(AdaptiveSettings::new(0.05, 3)),
+        Antialiasing::Adaptive(AdaptiveSettings { coarse: 2, ..AdaptiveSettings::new(0.05, 3) }),
+    ] {
         let mut j = with(EDGES, 5, aa);
         j.scene.camera.aperture = 0.05;
         j.settings.lens_samples = 2;
@@ -212,7 +260,12 @@ fn adaptive_pixels_do_not_depend_on_the_tile_or_the_order() {
     // Each pixel alone (its own one-pixel window), and the pixels of an odd window walked
     // backwards, give the render's bits: a pixel depends only on the lattice points inside it,
     // whatever a tile split or a crop shares or traces first.
-    for settings in [AdaptiveSettings::new(0.01, 3), AdaptiveSettings { edges: false, cell_samples: 3, ..AdaptiveSettings::new(0.02, 2) }] {
+    for settings in [
+        AdaptiveSettings::new(0.01, 3),
+        AdaptiveSettings { edges: false, cell_samples: 3, ..AdaptiveSettings::new(0.02, 2) },
+        AdaptiveSettings { coarse: 2, ..AdaptiveSettings::new(0.01, 3) },
+        AdaptiveSettings { coarse: 3, signature: true, ..AdaptiveSettings::new(0.02, 2) },
+    ] {
         let mut j = with(EDGES, 1, Antialiasing::Adaptive(settings));
         j.scene.camera.aperture = 0.05;
         j.settings.lens_samples = 2;

@@ -49,6 +49,11 @@ RAYLAB_DOZEN = [("no AA", [])] + [
     (f"t{t} d{d}", ["--aa", "adaptive", "--aa-threshold", str(t), "--aa-depth", str(d)])
     for d in (3, 4)
     for t in (0.25, 0.16, 0.12, 0.09, 0.06, 0.04, 0.03, 0.02, 0.015, 0.01)
+] + [
+    # Coarse levels c: blocks of 2^c pixels whose corners agree are interpolated.
+    (f"t{t} d3 c{c}", ["--aa", "adaptive", "--aa-threshold", str(t), "--aa-depth", "3", "--aa-coarse", str(c)])
+    for c in (1, 2)
+    for t in (0.12, 0.06, 0.04, 0.03, 0.02, 0.01)
 ]
 # POV-Ray settings: +AM2 with +R n subdivides n − 1 times (a 2^(n−1) sub-grid); +J jitters the
 # subdivision samples (POV-Ray's default), -J does not.
@@ -65,6 +70,10 @@ RAYLAB_QUALITY = [("no AA", ["--aa", "stratified", "--spp", "1"])] + [
     (f"t{t} d{d}", ["--aa", "adaptive", "--aa-threshold", str(t), "--aa-depth", str(d)])
     for d, ts in ((3, (0.12, 0.06, 0.03, 0.02, 0.01)), (4, (0.06, 0.03, 0.02, 0.01)))
     for t in ts
+] + [
+    (f"t{t} d3 c{c}", ["--aa", "adaptive", "--aa-threshold", str(t), "--aa-depth", "3", "--aa-coarse", str(c)])
+    for c in (1, 2)
+    for t in (0.25, 0.12, 0.06, 0.03)
 ]
 POV_QUALITY = [("-A", ["-A"])] + [
     (f"+A{a} +R{r}", [f"+A{a}", "+AM2", f"+R{r}"]) for r in (2, 3, 4) for a in (0.3, 0.2, 0.1, 0.05)

@@ -331,6 +331,7 @@ fn the_page_renders_restarts_on_a_knob_and_explains_a_clicked_pixel() {
         "aa_edges",
         "aa_signature",
         "aa_cell_samples",
+        "aa_coarse",
         "lens_samples",
         "integrator",
         "params.max_depth",

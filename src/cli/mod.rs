@@ -114,6 +114,10 @@ pub(crate) struct SceneArgs {
     /// Adaptive anti-aliasing: stratified samples inside each finest cell still unresolved (0–64).
     #[arg(long, value_name = "N", allow_hyphen_values = true)]
     aa_cell_samples: Option<i64>,
+    /// Adaptive anti-aliasing: levels above the pixel tested first (0–3): blocks of 2^N pixels
+    /// whose corners agree are interpolated from four rays.
+    #[arg(long, value_name = "N", allow_hyphen_values = true)]
+    aa_coarse: Option<i64>,
     /// Rays through distinct lens points per image sample (depth of field).
     #[arg(long, value_name = "N", allow_hyphen_values = true)]
     lens_samples: Option<i64>,
@@ -275,6 +279,9 @@ impl SceneArgs {
         }
         if let Some(v) = self.aa_cell_samples {
             render_params.push(flag_node("--aa-cell-samples", "aa_cell_samples", Value::Int(v)));
+        }
+        if let Some(v) = self.aa_coarse {
+            render_params.push(flag_node("--aa-coarse", "aa_coarse", Value::Int(v)));
         }
         if let Some(v) = self.lens_samples {
             render_params.push(flag_node("--lens-samples", "lens_samples", Value::Int(v)));

@@ -20,7 +20,7 @@ pub(crate) struct SweepArgs {
     /// Scene file. Omit for the bundled default scene.
     scene: Option<PathBuf>,
     /// A knob and the values to try: `spp=1,4,16`, `depth=1,3,5`, `aa_threshold=0.1,0.05`,
-    /// `aa_depth=…`, `aa_edges=…`, `aa_signature=…`, `aa_cell_samples=…`, `lens_samples=…`,
+    /// `aa_depth=…`, `aa_edges=…`, `aa_signature=…`, `aa_cell_samples=…`, `aa_coarse=…`, `lens_samples=…`,
     /// `aperture=…`, `integrator=phong,path`, or any integrator parameter (`glossy_rays`,
     /// `shadow_rays`, `shadow_probes`, `prune_threshold`, …). Repeatable.
     #[arg(long = "vary", value_name = "KNOB=V1,V2,…", required = true)]
@@ -351,7 +351,7 @@ fn apply(o: &mut LoadOptions, name: &str, value: &Node) -> Result<(), Failure> {
             }
             _ => return Err(SceneError::at(&value.loc, "spp must be a whole number ≥ 1").into()),
         },
-        "aa_threshold" | "aa_depth" | "aa_edges" | "aa_signature" | "aa_cell_samples" => {
+        "aa_threshold" | "aa_depth" | "aa_edges" | "aa_signature" | "aa_cell_samples" | "aa_coarse" => {
             if !ov.render_params.iter().any(|(k, _)| k == "aa") {
                 ov.render_params.push(super::flag_node("--vary", "aa", Value::Str("adaptive".into())));
             }

@@ -18,7 +18,7 @@ use crate::input::textures::TextureLibrary;
 use crate::input::toml::parse_toml;
 use crate::input::value::{Node, Table, Value};
 use crate::math::color::Encoding;
-use crate::render::job::{AdaptiveSettings, MAX_CELL_SAMPLES};
+use crate::render::job::{AdaptiveSettings, MAX_ADAPTIVE_COARSE, MAX_CELL_SAMPLES};
 use crate::render::{Antialiasing, MAX_ADAPTIVE_DEPTH, RenderJob, RenderSettings};
 use crate::scene::Scene;
 use crate::scene::camera::{CAMERA_PARAMS, Camera};
@@ -97,6 +97,12 @@ pub const RENDER_PARAMS: &[ParamSpec] = &[
         ParamKind::Int,
         Default::Int(0),
         "adaptive: stratified samples added inside each finest cell whose corners still disagree, 0..=64",
+    ),
+    ParamSpec::new(
+        "aa_coarse",
+        ParamKind::Int,
+        Default::Int(0),
+        "adaptive: levels above the pixel tested first, 0..=3: blocks of 2^n pixels whose corners agree are interpolated from four rays (features narrower than a block can be missed)",
     ),
     ParamSpec::new(
         "lens_samples",
@@ -282,9 +288,23 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
             edges: rp.bool("aa_edges")?,
             signature: rp.bool("aa_signature")?,
             cell_samples: rp.int_in("aa_cell_samples", 0..=i64::from(MAX_CELL_SAMPLES))? as u32,
+            coarse: rp.int_in("aa_coarse", 0..=i64::from(MAX_ADAPTIVE_COARSE))? as u32,
         }),
         _ => Antialiasing::Stratified,
     };
+    if let Antialiasing::Adaptive(a) = aa
+        && a.max_depth + a.coarse > MAX_ADAPTIVE_DEPTH
+    {
+        return Err(rp
+            .error_at(
+                "aa_coarse",
+                format_args!(
+                    "{} coarse levels above {} levels of depth: the lattice holds at most {MAX_ADAPTIVE_DEPTH} in all",
+                    a.coarse, a.max_depth
+                ),
+            )
+            .with_help("lower aa_coarse or aa_depth"));
+    }
     let lens_samples = rp.int_in("lens_samples", 1..=i64::from(limits.max_spp))? as u32;
     if u64::from(lens_samples) * spp as u64 > u64::from(limits.max_spp) {
         return Err(rp

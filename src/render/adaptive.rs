@@ -24,6 +24,14 @@
 //! corners still disagree may add `cell_samples` stratified points inside it
 //! ([`SampleId::Cell`]).
 //!
+//! With [`AdaptiveSettings::coarse`] levels the test starts above the pixel (Mitchell's
+//! low-density sampling, Radiance's `rpict -ps`): a block of `2^k × 2^k` pixels, when the image
+//! holds all of it, is tested on its four corners; if they agree, each of its pixels is the mean of
+//! their bilinear interpolation over the pixel (its value at the pixel's centre), otherwise the
+//! pixel's block one level down is tested, down to the pixel's own square. A feature between a
+//! block's corners that touches none of them is not seen: the trade for a quarter or less of a
+//! ray per pixel in smooth regions.
+//!
 //! The threshold means the same at every depth: a square of side `s` pixels is refined when its
 //! contrast exceeds `threshold / s^1.5`, about the error an unresolved edge across it leaves in
 //! its pixel (the area it misjudges, `~s²` for each of the `~1/s` squares along the edge, adding
@@ -32,12 +40,12 @@
 //! compared on displayed values (clamped, encoded, 0..1), the units of 8-bit images and their
 //! error metrics.
 //!
-//! A pixel's value depends only on the lattice points on and inside its square, which are pure
-//! functions of their coordinates and the seed: any thread count, tile split or crop gives the
-//! same pixels. Points shared by neighbouring squares and pixels are traced once per tile: they
-//! are kept in a window of the lattice as wide as the tile and a pixel row high, indexed by
-//! coordinates, each slot checked against its point's key, with no hashing, allocation or
-//! locking per sample. The window holds at most `MAX_WINDOW` slots: from `aa_depth` 5 on a
+//! A pixel's value depends only on the lattice points on and inside its square (and its blocks'
+//! corners), which are pure functions of their coordinates and the seed: any thread count, tile
+//! split or crop gives the same pixels. Points shared by neighbouring squares and pixels are
+//! traced once per tile: they are kept in a window of the lattice as wide as the tile and a pixel
+//! (or block) row high, indexed by coordinates, each slot checked against its point's key, with no
+//! hashing, allocation or locking per sample. The window holds at most `MAX_WINDOW` slots: from `aa_depth` 5 on a
 //! 64-pixel tile it is narrower than the tile and some shared points are traced twice (the pixels
 //! are the same). A pixel's weighted sum is computed in a fixed order from its own points,
 //! then stored as one exact unit of weight ([`PixelSum::whole`]): a pixel is the same whichever
@@ -45,7 +53,7 @@
 
 use crate::math::color::{Color, Encoding, srgb_encode};
 use crate::render::accum::{LayerSum, PixelSum};
-use crate::render::job::{AdaptiveSettings, MAX_ADAPTIVE_DEPTH, MAX_CELL_SAMPLES, RenderJob};
+use crate::render::job::{AdaptiveSettings, MAX_ADAPTIVE_COARSE, MAX_ADAPTIVE_DEPTH, MAX_CELL_SAMPLES, RenderJob};
 use crate::render::sample::{ImageFrame, SampleId, image_frame, trace_sample_in};
 use crate::render::stats::RayStats;
 use glam::Vec3;
@@ -145,6 +153,10 @@ pub struct Adaptive<'a> {
     /// Threshold by the number of subdivisions left (the square's size), in display units.
     thresholds: [f32; MAX_ADAPTIVE_DEPTH as usize + 1],
     depth: u32,
+    /// Coarse levels ([`AdaptiveSettings::coarse`], at most [`MAX_ADAPTIVE_COARSE`]).
+    coarse: u32,
+    /// Threshold of a block of `2^k` pixels at index `k` (1 ..= `coarse`), in display units.
+    coarse_thresholds: [f32; MAX_ADAPTIVE_COARSE as usize + 1],
     /// Contrast a bisection bracket must exceed to be halved, by its length (2^k lattice
     /// steps at index k), in display units: `threshold / L` for a bracket `L` pixels long.
     bisect: [f32; MAX_ADAPTIVE_DEPTH as usize + 1],
@@ -177,9 +189,14 @@ impl<'a> Adaptive<'a> {
         let depth = settings.max_depth.min(MAX_ADAPTIVE_DEPTH);
         let res = 1u64 << depth;
         let row = u64::from(job.settings.width) * res + 1;
-        // A pixel row's lattice rows, so its bottom row is still there for the next pixel row.
-        let rows = res + 1;
-        let cols = (u64::from(width.max(1)) * res + 1).min((MAX_WINDOW as u64 / rows).max(res + 1));
+        // A block's lattice points must fit the window (`2^(depth + coarse) + 1` a side); the
+        // loader refuses more.
+        let coarse = settings.coarse.min(MAX_ADAPTIVE_COARSE).min(MAX_ADAPTIVE_DEPTH - depth);
+        // A block row's lattice rows, so its bottom row is still there for the next block row.
+        let rows = (res << coarse) + 1;
+        // Columns from the left of `x0`'s block: a block's corners are all in the window.
+        let (x0, width) = (x0 - x0 % (1 << coarse), width.max(1) + x0 % (1 << coarse));
+        let cols = (u64::from(width) * res + 1).min((MAX_WINDOW as u64 / rows).max(rows));
         let n = (rows * cols) as usize;
         let mut slots = SLOTS.with(|s| std::mem::take(&mut *s.borrow_mut()));
         slots.clear();
@@ -189,6 +206,10 @@ impl<'a> Adaptive<'a> {
             // A square with `levels` subdivisions left has side 2^(levels − depth) pixels.
             let side = 2f64.powi(levels as i32 - depth as i32);
             *t = (settings.threshold / side.powf(1.5)) as f32;
+        }
+        let mut coarse_thresholds = [f32::INFINITY; MAX_ADAPTIVE_COARSE as usize + 1];
+        for (k, t) in coarse_thresholds.iter_mut().enumerate().take(coarse as usize + 1).skip(1) {
+            *t = (settings.threshold / 2f64.powi(k as i32).powf(1.5)) as f32;
         }
         let mut bisect = [f32::INFINITY; MAX_ADAPTIVE_DEPTH as usize + 1];
         for (levels, t) in bisect.iter_mut().enumerate().take(depth as usize + 1) {
@@ -202,6 +223,8 @@ impl<'a> Adaptive<'a> {
             settings,
             thresholds,
             depth,
+            coarse,
+            coarse_thresholds,
             res,
             row,
             slots,
@@ -229,6 +252,32 @@ impl<'a> Adaptive<'a> {
     }
 
     fn pixel_into(&mut self, x: u32, y: u32, stats: &mut RayStats, acc: &mut Acc) {
+        let (width, height) = (self.job.settings.width, self.job.settings.height);
+        for k in (1..=self.coarse).rev() {
+            // The block of 2^k pixels holding the pixel, when the image holds all of it.
+            let side = 1u32 << k;
+            let (bx, by) = (x - x % side, y - y % side);
+            if bx + side > width || by + side > height {
+                continue;
+            }
+            let (lx, ly, l) = (u64::from(bx) * self.res, u64::from(by) * self.res, u64::from(side) * self.res);
+            let c = [
+                self.point(lx, ly, stats),
+                self.point(lx + l, ly, stats),
+                self.point(lx, ly + l, stats),
+                self.point(lx + l, ly + l, stats),
+            ];
+            if !self.disagree(&c, self.coarse_thresholds[k as usize]) {
+                // The mean over the pixel of the corners' bilinear interpolation: its value at
+                // the pixel's centre.
+                let u = (f64::from(x - bx) + 0.5) / f64::from(side);
+                let v = (f64::from(y - by) + 0.5) / f64::from(side);
+                for (p, w) in c.iter().zip([(1.0 - u) * (1.0 - v), u * (1.0 - v), (1.0 - u) * v, u * v]) {
+                    self.add(p, w, acc);
+                }
+                return;
+            }
+        }
         let (x, y, r) = (u64::from(x) * self.res, u64::from(y) * self.res, self.res);
         let c = [self.point(x, y, stats), self.point(x + r, y, stats), self.point(x, y + r, stats), self.point(x + r, y + r, stats)];
         self.square(x, y, r, self.depth, c, 1.0, stats, acc);

@@ -33,18 +33,24 @@ pub struct AdaptiveSettings {
     pub signature: bool,
     /// Stratified samples added inside each finest cell whose corners still disagree.
     pub cell_samples: u32,
+    /// Levels above the pixel tested first (0 = none): blocks of `2^coarse` pixels whose
+    /// corners agree are interpolated from those four rays; others split down to the pixel.
+    pub coarse: u32,
 }
 
 impl AdaptiveSettings {
     /// `threshold` and `max_depth` with the other settings at their defaults (edges on,
     /// signatures off, no cell samples).
     pub fn new(threshold: f64, max_depth: u32) -> Self {
-        AdaptiveSettings { threshold, max_depth, edges: true, signature: false, cell_samples: 0 }
+        AdaptiveSettings { threshold, max_depth, edges: true, signature: false, cell_samples: 0, coarse: 0 }
     }
 }
 
 /// Most adaptive subdivision levels (a 256 × 256 sub-grid per pixel).
 pub const MAX_ADAPTIVE_DEPTH: u32 = 8;
+
+/// Most coarse levels of adaptive anti-aliasing (blocks of 8 × 8 pixels).
+pub const MAX_ADAPTIVE_COARSE: u32 = 3;
 
 /// Most stratified samples in one unresolved cell of the adaptive lattice.
 pub const MAX_CELL_SAMPLES: u32 = 64;
@@ -90,6 +96,9 @@ impl RenderSettings {
                 }
                 if a.cell_samples > 0 {
                     d += &format!(", {} cell samples", a.cell_samples);
+                }
+                if a.coarse > 0 {
+                    d += &format!(", coarse {}", a.coarse);
                 }
                 d + ")"
             }

@@ -32,6 +32,8 @@ pub struct Settings {
     pub aa_signature: Option<bool>,
     /// Adaptive: stratified samples inside each finest cell that still disagrees.
     pub aa_cell_samples: Option<i64>,
+    /// Adaptive: levels above the pixel tested first.
+    pub aa_coarse: Option<i64>,
     /// Lens samples per image sample.
     pub lens_samples: Option<i64>,
     /// Integrator type.
@@ -78,6 +80,9 @@ pub fn options(base: &LoadOptions, s: &Settings, registry: &Registry) -> Result<
     }
     if let Some(v) = s.aa_cell_samples {
         render("aa_cell_samples", Value::Int(v));
+    }
+    if let Some(v) = s.aa_coarse {
+        render("aa_coarse", Value::Int(v));
     }
     if let Some(v) = s.lens_samples {
         render("lens_samples", Value::Int(v));
@@ -127,7 +132,7 @@ pub struct Choice {
 #[derive(Clone, Debug, Serialize)]
 pub struct Knob {
     /// `spp`, `aa`, `aa_threshold`, `aa_depth`, `aa_edges`, `aa_signature`, `aa_cell_samples`,
-    /// `lens_samples`, `integrator`, or `params.NAME`.
+    /// `aa_coarse`, `lens_samples`, `integrator`, or `params.NAME`.
     pub key: String,
     /// What the page calls it.
     pub label: String,
@@ -221,12 +226,13 @@ pub fn describe(registry: &Registry, job: &RenderJob) -> Vec<Knob> {
     let stratified_note = adaptive.is_none().then(|| "used by adaptive anti-aliasing only".to_string());
     // Stratified sampling shows the adaptive knobs greyed out at their defaults.
     type Of = fn(&AdaptiveSettings) -> serde_json::Value;
-    let adaptive_knobs: [(&str, &str, &str, Of); 5] = [
+    let adaptive_knobs: [(&str, &str, &str, Of); 6] = [
         ("aa_threshold", "Adaptive threshold", "float", |a| a.threshold.into()),
         ("aa_depth", "Adaptive depth", "int", |a| a.max_depth.into()),
         ("aa_edges", "Split along edges", "bool", |a| a.edges.into()),
         ("aa_signature", "Refine where objects differ", "bool", |a| a.signature.into()),
         ("aa_cell_samples", "Samples per unresolved cell", "int", |a| a.cell_samples.into()),
+        ("aa_coarse", "Coarse levels (blocks of 2^n pixels)", "int", |a| a.coarse.into()),
     ];
     for (key, label, kind, of) in adaptive_knobs {
         let spec_default = RENDER_PARAMS.iter().find(|p| p.name == key).map_or(serde_json::Value::Null, |p| default_json(p.default));
@@ -297,6 +303,7 @@ mod tests {
             aa_edges: Some(false),
             aa_signature: Some(true),
             aa_cell_samples: Some(4),
+            aa_coarse: Some(2),
             ..Settings::default()
         };
         let o = options(&LoadOptions::default(), &s, &Registry::default()).unwrap();
@@ -309,7 +316,8 @@ mod tests {
                 "aa_depth=Int(2)",
                 "aa_edges=Bool(false)",
                 "aa_signature=Bool(true)",
-                "aa_cell_samples=Int(4)"
+                "aa_cell_samples=Int(4)",
+                "aa_coarse=Int(2)"
             ]
         );
     }

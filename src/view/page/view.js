@@ -217,7 +217,7 @@ function change(k, input) {
   if (k.key === "integrator") s.params = {};
   // The adaptive knobs do not apply to stratified sampling (the scene loader refuses them).
   if (k.key === "aa" && v === "stratified") {
-    for (const key of ["aa_threshold", "aa_depth", "aa_edges", "aa_signature", "aa_cell_samples"]) delete s[key];
+    for (const key of ["aa_threshold", "aa_depth", "aa_edges", "aa_signature", "aa_cell_samples", "aa_coarse"]) delete s[key];
   }
   send(s);
 }
