@@ -33,7 +33,7 @@
 //! (negative) indices count back from their line, positive vertex indices may refer ahead.
 
 use super::triangle_mesh::MeshData;
-use super::triangulate::triangulate;
+use super::triangulate::triangulate_into;
 use crate::textures::image::{self as image_texture, ColorSpace, Filter, ImageTexture, Wrap};
 use raylab::glam::{DAffine3, DVec3, Vec3};
 use raylab::input::error::{Loc, Result, SceneError};
@@ -665,6 +665,28 @@ struct Parser {
     /// and resolved (vertex, texture, normal).
     raw: Vec<[Option<i64>; 3]>,
     corners: Vec<[u32; 3]>,
+    /// Scratch for triangulating polygons.
+    triangulator: Triangulator,
+}
+
+/// Scratch space of polygon triangulation, reused from polygon to polygon.
+#[derive(Default)]
+struct Triangulator {
+    points: Vec<DVec3>,
+    triangles: Vec<[u32; 3]>,
+}
+
+impl Triangulator {
+    /// The triangles of the polygon `corners` (vertex, texture coordinate and normal index of
+    /// each), as indices into `corners`: `corners.len() − 2` of them. `position` gives a vertex
+    /// index's position.
+    fn run(&mut self, corners: &[[u32; 3]], position: impl Fn(u32) -> [f32; 3]) -> &[[u32; 3]] {
+        self.points.clear();
+        self.points.extend(corners.iter().map(|c| Vec3::from(position(c[0])).as_dvec3()));
+        self.triangles.clear();
+        triangulate_into(&self.points, &mut self.triangles);
+        &self.triangles
+    }
 }
 
 /// Index of a missing texture coordinate or normal in a corner.
@@ -784,9 +806,8 @@ impl Parser {
 
     /// Appends the triangles of a polygon whose corners are all read.
     fn push_polygon(&mut self, corners: &[[u32; 3]], material: u32) {
-        let points: Vec<DVec3> =
-            corners.iter().map(|c| Vec3::from(self.positions[(u64::from(c[0]) - self.base[0]) as usize]).as_dvec3()).collect();
-        for t in triangulate(&points) {
+        let (positions, base) = (&self.positions, self.base[0]);
+        for &t in self.triangulator.run(corners, |v| positions[(u64::from(v) - base) as usize]) {
             self.triangles.push(t.map(|k| corners[k as usize][0]));
             if self.all_normals {
                 self.normal_indices.push(t.map(|k| corners[k as usize][2]));
@@ -850,31 +871,78 @@ impl Parser {
     }
 }
 
+/// Polygons triangulated by one task of [`triangulate_deferred`] (the tasks depend on the
+/// number of polygons alone).
+const DEFERRED_POLYGONS_PER_TASK: usize = 1 << 12;
+
 /// Rebuilds the triangle lists of the whole file `p` with the triangles of the polygons that
-/// waited for its end, each where its face was in the file.
+/// waited for its end, each where its face was in the file: in parallel, in runs of polygons
+/// whose triangles go to disjoint stretches of the lists (a polygon of `n` corners gives `n − 2`
+/// triangles, so every stretch is known before triangulating).
 fn triangulate_deferred(p: &mut Parser) {
+    use rayon::prelude::*;
     let polygons = std::mem::take(&mut p.polygons);
     let corners = std::mem::take(&mut p.deferred_corners);
-    let (triangles, normals, uvs, materials) = (
-        std::mem::take(&mut p.triangles),
-        std::mem::take(&mut p.normal_indices),
-        std::mem::take(&mut p.texcoord_indices),
-        std::mem::take(&mut p.material_ids),
-    );
-    // Lists of one entry per triangle while every face so far had normals (texture coordinates).
-    let copy = |p: &mut Parser, range: std::ops::Range<usize>| {
-        p.triangles.extend_from_slice(&triangles[range.clone()]);
-        p.normal_indices.extend_from_slice(normals.get(range.clone()).unwrap_or_default());
-        p.texcoord_indices.extend_from_slice(uvs.get(range.clone()).unwrap_or_default());
-        p.material_ids.extend_from_slice(&materials[range]);
-    };
-    let mut next = 0;
-    for f in &polygons {
-        copy(p, next..f.at);
-        next = f.at;
-        p.push_polygon(&corners[f.first..f.first + f.corners], f.material);
+    let old = [std::mem::take(&mut p.triangles), std::mem::take(&mut p.normal_indices), std::mem::take(&mut p.texcoord_indices)];
+    let old_materials = std::mem::take(&mut p.material_ids);
+    let total = old[0].len() + polygons.iter().map(|f| f.corners - 2).sum::<usize>();
+    // Lists of one entry per triangle while every face had normals (texture coordinates).
+    let kept = [true, p.all_normals, p.all_texcoords];
+    let mut lists: [Vec<[u32; 3]>; 3] = kept.map(|k| if k { vec![[0; 3]; total] } else { Vec::new() });
+    let mut materials = vec![0u32; total];
+    // Each task: its polygons, the old triangles from before its first polygon up to the next
+    // task's first polygon, and its places in the new lists.
+    let runs: Vec<&[Polygon]> = polygons.chunks(DEFERRED_POLYGONS_PER_TASK).collect();
+    let mut tasks = Vec::with_capacity(runs.len());
+    let (mut rest, mut rest_materials) = (lists.each_mut().map(|l| l.as_mut_slice()), materials.as_mut_slice());
+    let mut from = 0;
+    for (k, run) in runs.iter().enumerate() {
+        let to = runs.get(k + 1).map_or(old[0].len(), |r| r[0].at);
+        let len = to - from + run.iter().map(|f| f.corners - 2).sum::<usize>();
+        let mut place: [&mut [[u32; 3]]; 3] = Default::default();
+        for (slot, list) in place.iter_mut().zip(rest.iter_mut()) {
+            let whole = std::mem::take(list);
+            let (head, tail) = whole.split_at_mut(if whole.is_empty() { 0 } else { len });
+            *slot = head;
+            *list = tail;
+        }
+        let (head, tail) = std::mem::take(&mut rest_materials).split_at_mut(len);
+        rest_materials = tail;
+        tasks.push((*run, from..to, place, head));
+        from = to;
     }
-    copy(p, next..triangles.len());
+    let positions = &p.positions;
+    tasks.into_par_iter().for_each_init(Triangulator::default, |triangulator, (run, old_range, mut place, place_materials)| {
+        let mut o = 0;
+        let copy = |place: &mut [&mut [[u32; 3]]; 3], place_materials: &mut [u32], range: std::ops::Range<usize>, o: &mut usize| {
+            let n = range.len();
+            for (to, from) in place.iter_mut().zip(&old) {
+                if !to.is_empty() {
+                    to[*o..*o + n].copy_from_slice(&from[range.clone()]);
+                }
+            }
+            place_materials[*o..*o + n].copy_from_slice(&old_materials[range]);
+            *o += n;
+        };
+        let mut next = old_range.start;
+        for f in run {
+            copy(&mut place, place_materials, next..f.at, &mut o);
+            next = f.at;
+            let face = &corners[f.first..f.first + f.corners];
+            for &t in triangulator.run(face, |v| positions[v as usize]) {
+                for (kind, to) in [0, 2, 1].into_iter().zip(place.iter_mut()) {
+                    if !to.is_empty() {
+                        to[o] = t.map(|k| face[k as usize][kind]);
+                    }
+                }
+                place_materials[o] = f.material;
+                o += 1;
+            }
+        }
+        copy(&mut place, place_materials, next..old_range.end, &mut o);
+    });
+    [p.triangles, p.normal_indices, p.texcoord_indices] = lists;
+    p.material_ids = materials;
 }
 
 /// An MTL material as written, and the folder (relative to the scene) of its library.
