@@ -129,23 +129,25 @@ pub fn read_in_chunks(
 fn read_chunks(name: &str, text: &str, chunk_bytes: usize, libraries: &mut Libraries) -> Result<Parser> {
     use rayon::prelude::*;
     let chunks = split(text, chunk_bytes);
-    let starts = if chunks.len() == 1 {
-        vec![Start::default()]
-    } else {
-        let census: Vec<Census> = chunks.par_iter().map(|c| Census::of(c)).collect();
-        let mut at = Start::default();
-        census
-            .iter()
-            .map(|c| {
-                let start = Start { faces: c.faces, ..at };
-                at.line += c.lines;
-                for (total, n) in at.counts.iter_mut().zip(c.counts) {
-                    *total += n;
-                }
-                start
-            })
-            .collect()
-    };
+    let census: Vec<Census> = chunks.par_iter().map(|c| Census::of(c)).collect();
+    // The material statements are kept until the chunks are joined: charged before they are read.
+    let events = census.iter().map(|c| c.events).sum::<u64>();
+    if events > 0 {
+        let what = format!("the {events} `usemtl` and `mtllib` statements of {name}");
+        libraries.ctx.charge(events.saturating_mul(EVENT_BYTES), &what, Some(libraries.loc))?;
+    }
+    let mut at = Start::default();
+    let starts: Vec<Start> = census
+        .iter()
+        .map(|c| {
+            let start = Start { faces: c.faces, ..at };
+            at.line += c.lines;
+            for (total, n) in at.counts.iter_mut().zip(c.counts) {
+                *total += n;
+            }
+            start
+        })
+        .collect();
     let mut parts: Vec<Chunk> = chunks.par_iter().zip(&starts).map(|(c, start)| Chunk::read(name, c, start)).collect();
     // The material of each chunk's `usemtl` ranks: the one current before the chunk, then each
     // statement's, with the libraries named before it read; up to the first error.
@@ -244,17 +246,23 @@ struct Start {
     faces: usize,
 }
 
-/// A chunk's lines, `v`, `vt` and `vn` lines, and `f` lines.
+/// A chunk's lines, `v`, `vt` and `vn` lines, `f` lines, and lines that may be `usemtl` or
+/// `mtllib` statements (at least those that are).
 struct Census {
     lines: usize,
     counts: [u64; 3],
     faces: usize,
+    events: u64,
 }
+
+/// Bytes a `usemtl` or `mtllib` statement takes until the chunks are joined: its [`Event`] and
+/// the material rank of a `usemtl`.
+const EVENT_BYTES: u64 = (std::mem::size_of::<Event>() + std::mem::size_of::<u32>()) as u64;
 
 impl Census {
     /// Counts the lines of `chunk` by their first word, as the parser reads them.
     fn of(chunk: &str) -> Census {
-        let mut c = Census { lines: 0, counts: [0; 3], faces: 0 };
+        let mut c = Census { lines: 0, counts: [0; 3], faces: 0, events: 0 };
         for line in Lines(chunk) {
             c.lines += 1;
             let b = line.as_bytes();
@@ -271,11 +279,19 @@ impl Census {
                 Some(b'v') if space(1) => Some(0),
                 Some(b'v') if b.get(i + 1) == Some(&b't') && space(2) => Some(1),
                 Some(b'v') if b.get(i + 1) == Some(&b'n') && space(2) => Some(2),
+                Some(b'u' | b'm') => {
+                    c.events += u64::from(b[i..].starts_with(b"usemtl") || b[i..].starts_with(b"mtllib"));
+                    None
+                }
                 Some(&c) if c != b'v' && c.is_ascii_graphic() => None,
                 _ => match Words::new(line).next() {
                     Some("v") => Some(0),
                     Some("vt") => Some(1),
                     Some("vn") => Some(2),
+                    Some("usemtl" | "mtllib") => {
+                        c.events += 1;
+                        None
+                    }
                     _ => None,
                 },
             };
@@ -1358,6 +1374,27 @@ mod tests {
         let e = read(&ctx, "m.obj", &dir.join("m.obj"), obj.as_bytes(), true, &here()).unwrap_err();
         assert!(e.report().contains("gone.mtl"), "{}", e.report());
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// `usemtl` statements are kept until the chunks are joined: they are charged to the memory
+    /// limit first, so a file of nothing else is refused before they are read.
+    #[test]
+    fn material_statements_are_charged_before_they_are_read() {
+        let mut obj = String::from("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+        for _ in 0..200_000 {
+            obj.push_str("usemtl a\n");
+        }
+        obj.push_str(" mtllib m.mtl\n\x0cusemtl b\n");
+        let limits = raylab::input::limits::Limits { max_memory: 1 << 20, ..Default::default() };
+        let options = raylab::input::context::LoadOptions { limits, ..Default::default() };
+        let ctx = LoadContext::new(Path::new("."), &options);
+        let e = read(&ctx, "m.obj", Path::new("m.obj"), obj.as_bytes(), false, &here()).unwrap_err().report();
+        assert!(e.contains("200002 `usemtl` and `mtllib` statements") && e.contains("--max-memory"), "{e}");
+        assert_eq!(ctx.charged(), 0, "nothing counted");
+        let options = raylab::input::context::LoadOptions::default();
+        let ctx = LoadContext::new(Path::new("."), &options);
+        read(&ctx, "m.obj", Path::new("m.obj"), obj.as_bytes(), false, &here()).unwrap();
+        assert_eq!(ctx.charged(), 200_002 * EVENT_BYTES);
     }
 
     /// A byte-order mark does not hide the first line, and a quad whose corners are all read is
