@@ -140,7 +140,7 @@ fn read_chunks(name: &str, text: &str, chunk_bytes: usize, libraries: &mut Libra
     let starts: Vec<Start> = census
         .iter()
         .map(|c| {
-            let start = Start { faces: c.faces, ..at };
+            let start = Start { faces: c.faces, own: c.counts, ..at };
             at.line += c.lines;
             for (total, n) in at.counts.iter_mut().zip(c.counts) {
                 *total += n;
@@ -238,12 +238,13 @@ fn split(text: &str, size: usize) -> Vec<&str> {
 }
 
 /// What precedes a chunk: lines and (positions, texture coordinates, normals); and the chunk's
-/// own `f` lines (a size hint).
+/// own `f` lines and `v`, `vt` and `vn` lines (size hints).
 #[derive(Clone, Copy, Default)]
 struct Start {
     line: usize,
     counts: [u64; 3],
     faces: usize,
+    own: [u64; 3],
 }
 
 /// A chunk's lines, `v`, `vt` and `vn` lines, `f` lines, and lines that may be `usemtl` or
@@ -339,6 +340,13 @@ impl<'a> Chunk<'a> {
         let faces = start.faces.min(text.len() / 8);
         p.triangles.reserve(faces);
         p.material_ids.reserve(faces);
+        // The same for the vertices (valid `v x y z`, `vt u` and `vn x y z` lines have at least
+        // 7, 4 and 8 bytes).
+        let [v, vt, vn]: [usize; 3] =
+            std::array::from_fn(|k| usize::try_from(start.own[k]).unwrap_or(usize::MAX).min(text.len() / [7, 4, 8][k]));
+        p.positions.reserve(v);
+        p.texcoords.reserve(vt);
+        p.normals.reserve(vn);
         let mut chunk = Chunk { parser: p, events: Vec::new(), failure: None };
         chunk.failure = chunk.lines(name, text, start.line).err();
         chunk
@@ -1395,6 +1403,53 @@ mod tests {
         let ctx = LoadContext::new(Path::new("."), &options);
         read(&ctx, "m.obj", Path::new("m.obj"), obj.as_bytes(), false, &here()).unwrap();
         assert_eq!(ctx.charged(), 200_002 * EVENT_BYTES);
+    }
+
+    /// Polygons deferred to the end of the file, thousands of them (several parallel runs)
+    /// between triangles and concave faces, with texture coordinates and normals, and some
+    /// referring ahead: read in chunks, they give what the whole file read as one chunk gives
+    /// (where most are triangulated in place), and each lands where its face was.
+    #[test]
+    fn many_deferred_polygons_keep_their_places() {
+        let n = 80;
+        let corner = |i: usize, j: usize| j * (n + 1) + i + 1;
+        let mut text = String::new();
+        let vertex = |text: &mut String, k: usize| {
+            let (i, j) = ((k - 1) % (n + 1), (k - 1) / (n + 1));
+            text.push_str(&format!("v {i} {j} {}\nvt {i} {j}\nvn 0 0 1\n", (i * j) % 3));
+        };
+        let half = (n + 1) * (n / 2);
+        for k in 1..=half {
+            vertex(&mut text, k);
+        }
+        for j in 0..n {
+            for i in 0..n {
+                let [a, b, c, d] = [corner(i, j), corner(i + 1, j), corner(i + 1, j + 1), corner(i, j + 1)];
+                let f = |v: &[usize]| v.iter().map(|k| format!(" {k}/{k}/{k}")).collect::<String>();
+                text.push_str(&match (i + j) % 5 {
+                    0 => format!("f{}\nf{}\n", f(&[a, b, c]), f(&[a, c, d])),
+                    1 => format!("f{}\n", f(&[a, b, c, a, d])),
+                    _ => format!("f{}\n", f(&[a, b, c, d])),
+                });
+            }
+            if j == n / 2 + 2 {
+                for k in half + 1..=(n + 1) * (n + 1) {
+                    vertex(&mut text, k);
+                }
+            }
+        }
+        let options = raylab::input::context::LoadOptions::default();
+        let ctx = LoadContext::new(Path::new("."), &options);
+        let read = |chunk: usize| {
+            let d = read_in_chunks(&ctx, "m.obj", Path::new("m.obj"), text.as_bytes(), false, &here(), chunk).unwrap();
+            (format!("{d:?}"), d.triangles.len(), d.normal_indices.len(), d.texcoord_indices.len())
+        };
+        let whole = read(usize::MAX);
+        assert!(whole.1 > 2 * n * n && whole.1 == whole.2 && whole.1 == whole.3, "{:?}", &whole.1..whole.3);
+        for chunk in [1 << 10, 1 << 14, 1 << 17] {
+            assert!(read(chunk) == whole, "chunks of {chunk} bytes");
+        }
+        assert!(ctx.take_warnings().is_empty());
     }
 
     /// A byte-order mark does not hide the first line, and a quad whose corners are all read is
