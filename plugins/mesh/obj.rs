@@ -1445,7 +1445,7 @@ mod tests {
             (format!("{d:?}"), d.triangles.len(), d.normal_indices.len(), d.texcoord_indices.len())
         };
         let whole = read(usize::MAX);
-        assert!(whole.1 > 2 * n * n && whole.1 == whole.2 && whole.1 == whole.3, "{:?}", &whole.1..whole.3);
+        assert!(whole.1 > 2 * n * n && whole.1 == whole.2 && whole.1 == whole.3, "{:?}", (whole.1, whole.2, whole.3));
         for chunk in [1 << 10, 1 << 14, 1 << 17] {
             assert!(read(chunk) == whole, "chunks of {chunk} bytes");
         }
