@@ -72,23 +72,106 @@ impl SeedKey {
 
 /// Sample `index` of a stratified set of `count` points in [0, 1)² (correlated multi-jittered),
 /// for pattern `pattern`. Each of the `count` points falls in its own cell of an m × n grid
-/// (m·n ≥ count) and the projections on both axes are stratified too.
-#[inline]
+/// (m·n ≥ count) and the projections on both axes are stratified too. A loop over one set's
+/// points builds its [`StratifiedSet`] once instead (the same points).
+// Not inlined: callers' hot loops (the camera sample path) stay as small as before.
+#[inline(never)]
 pub fn stratified_2d(index: u32, count: u32, pattern: u32) -> DVec2 {
-    let count = count.max(1);
-    let m = ((count as f64).sqrt().ceil() as u32).max(1);
-    let n = count.div_ceil(m);
-    let s = permute(index, count, pattern.wrapping_mul(0x51633e2d));
-    let sx = permute(s % m, m, pattern.wrapping_mul(0x68bc21eb));
-    let sy = permute(s / m, n, pattern.wrapping_mul(0x02e5be93));
-    let jx = randfloat(s, pattern.wrapping_mul(0x967a889b));
-    let jy = randfloat(s, pattern.wrapping_mul(0x368cc8b7));
-    DVec2::new(
-        ((sx as f64 + (sy as f64 + jx) / n as f64) / m as f64).min(ONE_MINUS_EPSILON),
-        ((s as f64 + jy) / count as f64).min(ONE_MINUS_EPSILON),
-    )
+    StratifiedSet::new(count, pattern).point(index)
 }
 
+/// The set of [`stratified_2d`] points for one `count` and `pattern`, with what its points share
+/// (grid shape, hashed pattern keys, permutation masks, divisors) computed once.
+#[derive(Clone, Copy, Debug)]
+pub struct StratifiedSet {
+    /// The set's size (≥ 1) and the m × n grid.
+    count: Permutation,
+    m: Permutation,
+    n: Permutation,
+    /// Pattern keys of the two jitters.
+    jx: u32,
+    jy: u32,
+}
+
+impl StratifiedSet {
+    /// The set of `count` points (0 counts as 1) for `pattern`.
+    #[inline]
+    pub fn new(count: u32, pattern: u32) -> Self {
+        let count = count.max(1);
+        // ⌈√count⌉, without `ceil` (a library call on x86-64 without SSE4.1): the truncation,
+        // plus one where it fell short.
+        let root = (count as f64).sqrt();
+        let m = (root as u32 + u32::from(f64::from(root as u32) < root)).max(1);
+        let n = count.div_ceil(m);
+        StratifiedSet {
+            count: Permutation::new(count, pattern.wrapping_mul(0x51633e2d)),
+            m: Permutation::new(m, pattern.wrapping_mul(0x68bc21eb)),
+            n: Permutation::new(n, pattern.wrapping_mul(0x02e5be93)),
+            jx: pattern.wrapping_mul(0x967a889b),
+            jy: pattern.wrapping_mul(0x368cc8b7),
+        }
+    }
+
+    /// Point `index` (below the set's size) of the set: `stratified_2d(index, count, pattern)`.
+    #[inline]
+    pub fn point(&self, index: u32) -> DVec2 {
+        let s = self.count.apply(index);
+        let (row, col) = self.m.div_rem(s);
+        let sx = self.m.apply(col);
+        let sy = self.n.apply(row);
+        let jx = randfloat(s, self.jx);
+        let jy = randfloat(s, self.jy);
+        let (m, n, count) = (self.m.len as f64, self.n.len as f64, self.count.len as f64);
+        DVec2::new(((sx as f64 + (sy as f64 + jx) / n) / m).min(ONE_MINUS_EPSILON), ((s as f64 + jy) / count).min(ONE_MINUS_EPSILON))
+    }
+}
+
+/// Kensler's hash-based permutation of `0..len` for key `p`, with its mask and an exact division
+/// by `len` by multiplication (Lemire et al. 2019, "Faster remainder by direct computation":
+/// `⌊a / len⌋` and `a mod len` for every 32-bit `a` from a 64-bit reciprocal) precomputed.
+#[derive(Clone, Copy, Debug)]
+struct Permutation {
+    len: u32,
+    p: u32,
+    /// `len − 1` with every lower bit set.
+    mask: u32,
+    /// `⌈2⁶⁴ / len⌉` (wrapping to 0 for `len` 1, whose quotient is then taken directly).
+    reciprocal: u64,
+}
+
+impl Permutation {
+    #[inline]
+    fn new(len: u32, p: u32) -> Self {
+        let mut w = len.saturating_sub(1);
+        w |= w >> 1;
+        w |= w >> 2;
+        w |= w >> 4;
+        w |= w >> 8;
+        w |= w >> 16;
+        Permutation { len, p, mask: w, reciprocal: (u64::MAX / u64::from(len.max(1))).wrapping_add(1) }
+    }
+
+    /// `(⌊a / len⌋, a mod len)`.
+    #[inline]
+    fn div_rem(&self, a: u32) -> (u32, u32) {
+        if self.len <= 1 {
+            return (a, 0);
+        }
+        let low = self.reciprocal.wrapping_mul(u64::from(a));
+        let rem = ((u128::from(low) * u128::from(self.len)) >> 64) as u32;
+        let quot = ((u128::from(self.reciprocal) * u128::from(a)) >> 64) as u32;
+        (quot, rem)
+    }
+
+    /// The image of `i` (below `len`).
+    #[inline]
+    fn apply(&self, i: u32) -> u32 {
+        if self.len <= 1 {
+            return 0;
+        }
+        self.div_rem(permute(i, self.mask, self.len, self.p).wrapping_add(self.p)).1
+    }
+}
 /// The largest `f64` below 1.
 pub const ONE_MINUS_EPSILON: f64 = 1.0 - f64::EPSILON / 2.0;
 
@@ -131,17 +214,10 @@ fn to_unit(h: u64) -> f64 {
     (h >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
 }
 
-/// Kensler's hash-based permutation of `i` within `0..l`.
-fn permute(mut i: u32, l: u32, p: u32) -> u32 {
-    if l <= 1 {
-        return 0;
-    }
-    let mut w = l - 1;
-    w |= w >> 1;
-    w |= w >> 2;
-    w |= w >> 4;
-    w |= w >> 8;
-    w |= w >> 16;
+/// Kensler's hash-based permutation of `i` within `0..l` (`w`: `l − 1` with every lower bit
+/// set), before its final offset by `p` modulo `l`.
+#[inline]
+fn permute(mut i: u32, w: u32, l: u32, p: u32) -> u32 {
     loop {
         i ^= p;
         i = i.wrapping_mul(0xe170893d);
@@ -162,12 +238,12 @@ fn permute(mut i: u32, l: u32, p: u32) -> u32 {
         i &= w;
         i ^= i >> 5;
         if i < l {
-            break;
+            return i;
         }
     }
-    (i.wrapping_add(p)) % l
 }
 
+#[inline]
 fn randfloat(mut i: u32, p: u32) -> f64 {
     i ^= p;
     i ^= i >> 17;
@@ -226,6 +302,61 @@ mod tests {
                 rows[(p.y * count as f64) as usize] = true;
             }
             assert!(rows.iter().all(|&r| r), "count {count}: a y-stratum is empty");
+        }
+    }
+
+    /// Kensler's construction written out directly (divisions and all), as `stratified_2d` was
+    /// before its set constants were hoisted: the hoisted form gives the same bits.
+    fn reference_stratified_2d(index: u32, count: u32, pattern: u32) -> DVec2 {
+        fn permute(mut i: u32, l: u32, p: u32) -> u32 {
+            if l <= 1 {
+                return 0;
+            }
+            let mut w = l - 1;
+            w |= w >> 1;
+            w |= w >> 2;
+            w |= w >> 4;
+            w |= w >> 8;
+            w |= w >> 16;
+            (super::permute(i, w, l, p).wrapping_add(p)) % l
+        }
+        let count = count.max(1);
+        let m = ((count as f64).sqrt().ceil() as u32).max(1);
+        let n = count.div_ceil(m);
+        let s = permute(index, count, pattern.wrapping_mul(0x51633e2d));
+        let sx = permute(s % m, m, pattern.wrapping_mul(0x68bc21eb));
+        let sy = permute(s / m, n, pattern.wrapping_mul(0x02e5be93));
+        let jx = randfloat(s, pattern.wrapping_mul(0x967a889b));
+        let jy = randfloat(s, pattern.wrapping_mul(0x368cc8b7));
+        DVec2::new(
+            ((sx as f64 + (sy as f64 + jx) / n as f64) / m as f64).min(ONE_MINUS_EPSILON),
+            ((s as f64 + jy) / count as f64).min(ONE_MINUS_EPSILON),
+        )
+    }
+
+    #[test]
+    fn hoisted_set_matches_the_direct_construction() {
+        for count in (0..=70).chain([100, 255, 256, 257, 1000, 4097]) {
+            for pattern in [0u32, 1, 9, 0x5eed, 12345, 0xdead_beef, u32::MAX] {
+                let set = StratifiedSet::new(count, pattern);
+                for i in 0..count.max(1) {
+                    let want = reference_stratified_2d(i, count, pattern);
+                    assert_eq!(set.point(i), want, "count {count}, pattern {pattern}, index {i}");
+                    assert_eq!(stratified_2d(i, count, pattern), want);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn division_by_reciprocal_is_exact() {
+        let mut a_values: Vec<u32> = (0..2000).collect();
+        a_values.extend([u32::MAX, u32::MAX - 1, 1 << 31, (1 << 31) - 1, 0xdead_beef, 4_294_967_291]);
+        for len in (1..300).chain([1023, 1024, 1025, 65535, 65536, 65537, 4_294_967_291, u32::MAX]) {
+            let perm = Permutation::new(len, 0);
+            for &a in &a_values {
+                assert_eq!(perm.div_rem(a), (a / len, a % len), "{a} / {len}");
+            }
         }
     }
 

@@ -6,7 +6,7 @@ use super::fan::reflect;
 use super::{Ctx, Phong, TAG_LIGHTS, counter};
 use raylab::glam::DVec2;
 use raylab::math::color::max_channel;
-use raylab::render::sampler::stratified_2d;
+use raylab::render::sampler::StratifiedSet;
 use raylab::render::trace::{Recorder, Term, TraceLight};
 use raylab::scene::interaction::Interaction;
 use raylab::{Color, LightSample, LightSource, Sampler};
@@ -216,12 +216,18 @@ impl Phong {
         let count = match set {
             Samples::Stratified(n) | Samples::Probes(n) => n,
         };
+        // The stratified points, past the probes' corners (none for one sample: `u0`).
+        let points = match set {
+            Samples::Probes(n) => StratifiedSet::new(n.saturating_sub(4), pattern),
+            Samples::Stratified(1) => StratifiedSet::new(1, 0),
+            Samples::Stratified(n) => StratifiedSet::new(n, pattern),
+        };
         for s in 0..count {
             let u = match set {
                 Samples::Probes(_) if s < 4 => PROBE_CORNERS[s as usize],
-                Samples::Probes(n) => stratified_2d(s - 4, n - 4, pattern),
+                Samples::Probes(_) => points.point(s - 4),
                 Samples::Stratified(1) => u0,
-                Samples::Stratified(n) => stratified_2d(s, n, pattern),
+                Samples::Stratified(_) => points.point(s),
             };
             let Some(ls) = light.illuminate(si.hit.point, u) else { return false };
             acc.n += 1;
