@@ -356,7 +356,7 @@ mod tests {
     /// Kensler's construction written out directly (divisions and all), as `stratified_2d` was
     /// before its set constants were hoisted: the hoisted form gives the same bits.
     fn reference_stratified_2d(index: u32, count: u32, pattern: u32) -> DVec2 {
-        fn permute(mut i: u32, l: u32, p: u32) -> u32 {
+        fn permute(i: u32, l: u32, p: u32) -> u32 {
             if l <= 1 {
                 return 0;
             }
