@@ -364,6 +364,7 @@ def plot(name, rows, plot_dir, tk, tkey, summary):
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
 
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
     style = {"raylab": ("tab:blue", "o"), "povray": ("tab:red", "s")}
@@ -378,6 +379,9 @@ def plot(name, rows, plot_dir, tk, tkey, summary):
             ax.annotate(s["target"], (ax.get_xlim()[0] if False else 0, s["error"]), xycoords=("axes fraction", "data"), fontsize=7, color="grey", va="bottom")
         ax.set_xscale("log")
         ax.set_yscale("log")
+        # Plain numbers on the time axis, minor ticks labelled at 2 and 5 only (all overlap).
+        ax.xaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:g}"))
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:g}" if round(v / 10 ** math.floor(math.log10(v))) in (2, 5) else ""))
         ax.set_xlabel(f"trace time, {tkey} seconds (2 threads)")
         ax.set_ylabel("RMSE, 8-bit levels" if metric == "rmse" else "mean FLIP")
         ax.grid(True, which="both", lw=0.3, alpha=0.5)
