@@ -11,6 +11,7 @@ use raylab::input::error::Result;
 use raylab::input::params::Params;
 use raylab::input::spec::{Default, ParamKind, ParamSpec};
 use raylab::render::sampler::{concentric_disc, orthonormal_basis};
+use raylab::scene::light::LightBound;
 use raylab::{Color, LightPdf, LightSample, LightSource, LoadContext, PluginInfo, Ray};
 use std::f64::consts::PI;
 
@@ -225,6 +226,14 @@ impl LightSource for PointLight {
             return None;
         }
         Some(LightSample { dir: to_light / d, distance: d, intensity: self.intensity(to_centre, dc, d) })
+    }
+
+    /// The ball (a point: radius 0); the intensity unattenuated beyond the ball's nearest point,
+    /// the spot's factor (at most 1) left out.
+    fn bound(&self, p: DVec3) -> Option<LightBound> {
+        let d = ((self.position - p).length() - self.radius).max(0.0);
+        let attenuation = self.kc + self.kl * d + self.kq * d * d;
+        Some(LightBound { centre: self.position, radius: self.radius, intensity: self.color.abs() / attenuation })
     }
 
     /// A point is a delta light; a ball's samples are uniform over its disc facing `p`.

@@ -9,6 +9,7 @@ use raylab::glam::{DVec2, DVec3};
 use raylab::input::error::Result;
 use raylab::input::params::Params;
 use raylab::input::spec::{Default, ParamKind, ParamSpec};
+use raylab::scene::light::LightBound;
 use raylab::{Color, LightPdf, LightSample, LightSource, LoadContext, PluginInfo, Ray};
 
 /// A rectangle `center + s·edge1 + t·edge2`, `s, t ∈ [−½, ½]`, of uniform intensity.
@@ -89,6 +90,15 @@ impl LightSource for RectLight {
             return None;
         }
         Some(self.sample(to_light / d, d))
+    }
+
+    /// The rectangle's circumscribed ball; the intensity unattenuated beyond its nearest point.
+    fn bound(&self, p: DVec3) -> Option<LightBound> {
+        let centre = self.corner + 0.5 * (self.edge1 + self.edge2);
+        let radius = 0.5 * (self.edge1 + self.edge2).length().max((self.edge1 - self.edge2).length());
+        let d = ((centre - p).length() - radius).max(0.0);
+        let attenuation = self.kc + self.kl * d + self.kq * d * d;
+        Some(LightBound { centre, radius, intensity: self.color.abs() / attenuation })
     }
 
     /// Uniform over the rectangle.

@@ -399,10 +399,15 @@ impl TriangleMesh {
     #[inline]
     pub fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
         let Some(q) = self.index.query(ray, t_min, t_max) else { return false };
-        let tr = TriangleRay::new(ray);
-        let pr = PackRay::new(ray, &tr, q.base(), self.filter_error, self.filter_scale);
+        let base = q.base();
+        // Prepared at the first leaf, as for the closest hit: many rays that enter the box reach none.
+        let mut prepared: Option<(TriangleRay, PackRay)> = None;
         q.any_leaves(|first, count| {
-            self.candidates(&pr, first, count, |slot| {
+            let (tr, pr) = &*prepared.get_or_insert_with(|| {
+                let tr = TriangleRay::new(ray);
+                (tr, PackRay::new(ray, &tr, base, self.filter_error, self.filter_scale))
+            });
+            self.candidates(pr, first, count, |slot| {
                 let [p0, p1, p2] = self.vertices(slot);
                 tr.intersect(p0, p1, p2, t_min, t_max, EdgeRule::Inclusive).is_some_and(|h| !on_surface(ray, h.t, p0, p1, p2))
             })
@@ -546,7 +551,7 @@ impl PackRay {
     fn new(ray: &Ray, tr: &TriangleRay, base: f64, error: f64, scale: f64) -> PackRay {
         let [kx, ky, kz] = tr.axes();
         let [sx, sy, _] = tr.shear();
-        let o = ray.at(base);
+        let o = ray.at(base).to_array();
         let delta = error + 16.0 * gamma(3) * (scale + ray.origin.abs().max_element() + base.abs());
         let delta = up32(delta);
         PackRay {

@@ -14,6 +14,8 @@ use glam::Vec3;
 
 /// 2⁶⁴: one unit of the colour sums.
 const COLOR_SCALE: f64 = 18_446_744_073_709_551_616.0;
+/// 2⁻⁶⁴: [`COLOR_SCALE`]'s reciprocal (exact).
+const COLOR_UNIT: f64 = 1.0 / COLOR_SCALE;
 /// 2³²: one unit of the depth sums (scene units).
 const DEPTH_SCALE: f64 = 4_294_967_296.0;
 /// 2⁴⁰: one unit of the normal and albedo sums (each component is within [−1, 1]).
@@ -120,8 +122,10 @@ impl PixelSum {
         if self.n == 0 {
             return Color::ZERO;
         }
-        let n = f64::from(self.n);
-        Color::new(float(self.sum[0]) / COLOR_SCALE / n, float(self.sum[1]) / COLOR_SCALE / n, float(self.sum[2]) / COLOR_SCALE / n)
+        // `/ COLOR_SCALE` is exactly `* 2⁻⁶⁴` (a power of two), and `/ 1` changes no bit: one
+        // sample per pixel needs no division.
+        let c = Color::new(float(self.sum[0]), float(self.sum[1]), float(self.sum[2])) * COLOR_UNIT;
+        if self.n == 1 { c } else { c / f64::from(self.n) }
     }
 
     /// `o`'s rays and samples added to these.

@@ -217,7 +217,8 @@ impl Camera {
 
     /// [`Camera::ray_through`] with the image's [`FilmFrame`] (from this camera) given: the same
     /// ray, bit for bit.
-    #[inline]
+    /// Always inlined (a pinhole's ray is a few products); the lens is out of line.
+    #[inline(always)]
     pub fn ray_in(&self, frame: &FilmFrame, film: DVec2, lens: DVec2) -> Ray {
         let FilmFrame { rx, ry, half_x, half_y, pc } = *frame;
         let p = pc + ((film.x - half_x) * rx) * self.right - ((film.y - half_y) * ry) * self.up;
@@ -225,6 +226,12 @@ impl Camera {
         if self.aperture <= 0.0 {
             return Ray::new(self.position, dir);
         }
+        self.lens_ray(dir, lens)
+    }
+
+    /// The ray from lens point `lens` (unit square) through the point in focus along `dir`.
+    #[inline(never)]
+    fn lens_ray(&self, dir: DVec3, lens: DVec2) -> Ray {
         let dir = dir.normalize();
         let focus = self.position + dir * (self.focus_distance / dir.dot(self.to));
         let d = crate::render::sampler::concentric_disc(lens) * self.aperture;

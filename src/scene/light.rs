@@ -73,6 +73,19 @@ impl LightFacts {
     }
 }
 
+/// What bounds every sample a light can give at a point ([`LightSource::bound`]). An integrator
+/// may skip a light whose samples would all be skipped (all behind the surface, all negligible)
+/// without drawing one. The bounds hold for exact arithmetic; a user allows for rounding.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightBound {
+    /// Centre of a ball holding every point a sample can come from.
+    pub centre: DVec3,
+    /// Radius of that ball, scene units, ≥ 0.
+    pub radius: f64,
+    /// At least each channel's magnitude of any sample's `intensity` at the point.
+    pub intensity: Color,
+}
+
 /// A source of light.
 pub trait LightSource: Send + Sync {
     /// Light arriving at `p`. `u` ∈ [0, 1]² picks a point on an area light's emitter (uniform
@@ -121,6 +134,14 @@ pub trait LightSource: Send + Sync {
     fn is_area(&self) -> bool {
         false
     }
+
+    /// A bound on the samples [`LightSource::illuminate`] gives at `p`, for any `u`; `None` (the
+    /// default) when the light has none (directional and ambient lights), and then every sample
+    /// is taken.
+    fn bound(&self, p: DVec3) -> Option<LightBound> {
+        let _ = p;
+        None
+    }
 }
 
 impl<T: LightSource + ?Sized> LightSource for Box<T> {
@@ -141,5 +162,8 @@ impl<T: LightSource + ?Sized> LightSource for Box<T> {
     }
     fn is_area(&self) -> bool {
         (**self).is_area()
+    }
+    fn bound(&self, p: DVec3) -> Option<LightBound> {
+        (**self).bound(p)
     }
 }

@@ -161,7 +161,8 @@ impl Scene {
     }
 
     /// The interaction of `ray` at `hit` (a hit of this scene: [`Hit::object`] indexes `objects`).
-    #[inline]
+    /// Always inlined, as [`Scene::trace`]: the interaction is built where it is used.
+    #[inline(always)]
     pub fn interaction(&self, ray: &Ray, hit: Hit) -> Interaction<'_> {
         Interaction::new(ray, hit, &self.objects[hit.object as usize])
     }

@@ -6,7 +6,7 @@ use super::fan::reflect;
 use super::{Ctx, Phong, TAG_LIGHTS, counter};
 use raylab::glam::DVec2;
 use raylab::math::color::max_channel;
-use raylab::render::sampler::stratified_2d;
+use raylab::render::sampler::StratifiedSet;
 use raylab::render::trace::{Recorder, Term, TraceLight};
 use raylab::scene::interaction::Interaction;
 use raylab::{Color, LightSample, LightSource, Sampler};
@@ -104,8 +104,22 @@ impl Phong {
                 true => self.shadow_rays,
                 false => facts.sample_count.max(1),
             };
-            let mut stream = area.then(|| streams.get_or_insert_with(|| sampler.fork(TAG_LIGHTS)).fork(li as u64));
             let probes = if area && self.shadow_probes > 0 && self.shadow_probes < full { self.shadow_probes } else { 0 };
+            if !no_response && let Some(why) = self.light_out_of_reach(si, light.as_ref(), weight, full) {
+                // What the samples would have counted: the first set, each skipped; its
+                // (agreeing) probes save the full set.
+                let first = if probes > 0 { probes } else { full };
+                c.stats.add(why, u64::from(first));
+                if probes > 0 {
+                    c.stats.add(counter::SHADOW_RAYS_SAVED, u64::from(full - probes));
+                }
+                rec.note(|| match why {
+                    counter::LIGHTS_BEHIND => format!("{}: the whole light is behind the surface; no samples", scene.light_names[li]),
+                    _ => format!("{}: no sample can reach the pruning threshold; no samples", scene.light_names[li]),
+                });
+                continue;
+            }
+            let mut stream = area.then(|| streams.get_or_insert_with(|| sampler.fork(TAG_LIGHTS)).fork(li as u64));
             let mut acc = LightSum { sum: Color::ZERO, n: 0, first: None, agree: true };
             let shade = Shade { si, weight, full, light: li, no_response };
             let first_set = if probes > 0 { Samples::Probes(probes) } else { Samples::Stratified(full) };
@@ -133,6 +147,33 @@ impl Phong {
             }
         }
         total
+    }
+
+    /// Why every sample of `light` (of `full`) at `si` would be skipped, from the light's
+    /// [`LightSource::bound`]: the counter of the skip (behind the surface, with `avoid`, or below
+    /// the pruning threshold), or `None` when some sample may count. Sound with rounding: the
+    /// bound is widened by [`BOUND_SLACK`] relative to the sizes involved, far more than the
+    /// few ulp the samples' own arithmetic can err by.
+    #[inline]
+    fn light_out_of_reach(&self, si: &Interaction, light: &dyn LightSource, weight: Color, full: u32) -> Option<usize> {
+        let b = light.bound(si.hit.point)?;
+        let to_centre = b.centre - si.hit.point;
+        // Every sample point q is within `radius` of the centre: n·(q − p) ≤ n·to_centre + radius.
+        let reach = b.radius + (to_centre.length() + b.radius) * BOUND_SLACK;
+        if self.avoid && si.n.dot(to_centre) + reach * si.n.length() < 0.0 {
+            return Some(counter::LIGHTS_BEHIND);
+        }
+        // Each channel of a sample's unshadowed term is at most (|kd|·|n·l| + |ks|·spec)·|I|, with
+        // |n·l| ≤ 1 and spec = (v·r)^shininess ≤ 1 (v·r ≤ 1 + a few ulp, raised to at most
+        // MAX_BOUNDED_SHININESS: within the slack).
+        let m = &si.material;
+        if self.prune_threshold > 0.0 && m.shininess <= MAX_BOUNDED_SHININESS {
+            let most = max_channel((m.kd.abs() + m.ks.abs()) * b.intensity.abs() * weight.abs()) * (1.0 + BOUND_SLACK);
+            if most / f64::from(full) < self.prune_threshold {
+                return Some(counter::LIGHTS_NEGLIGIBLE);
+            }
+        }
+        None
     }
 
     /// The one sample of a point-like light (`sample_count` 1): what [`Phong::light_samples`]
@@ -175,12 +216,18 @@ impl Phong {
         let count = match set {
             Samples::Stratified(n) | Samples::Probes(n) => n,
         };
+        // The stratified points, past the probes' corners (none for one sample: `u0`).
+        let points = match set {
+            Samples::Probes(n) => StratifiedSet::new(n.saturating_sub(4), pattern),
+            Samples::Stratified(1) => StratifiedSet::new(1, 0),
+            Samples::Stratified(n) => StratifiedSet::new(n, pattern),
+        };
         for s in 0..count {
             let u = match set {
                 Samples::Probes(_) if s < 4 => PROBE_CORNERS[s as usize],
-                Samples::Probes(n) => stratified_2d(s - 4, n - 4, pattern),
+                Samples::Probes(_) => points.point(s - 4),
                 Samples::Stratified(1) => u0,
-                Samples::Stratified(n) => stratified_2d(s, n, pattern),
+                Samples::Stratified(_) => points.point(s),
             };
             let Some(ls) = light.illuminate(si.hit.point, u) else { return false };
             acc.n += 1;
@@ -296,6 +343,14 @@ impl Phong {
         }
     }
 }
+
+/// Relative widening of a light's bound against rounding in its samples (which err by a few ulp,
+/// 10⁻¹⁵ relative).
+const BOUND_SLACK: f64 = 1e-6;
+
+/// Largest shininess for which a light's bound is used: `(1 + 10⁻¹⁵)^shininess` stays within
+/// [`BOUND_SLACK`].
+const MAX_BOUNDED_SHININESS: f64 = 1e8;
 
 /// Largest whole Phong exponent raised by repeated squaring.
 const MAX_WHOLE_SHININESS: f64 = 1024.0;

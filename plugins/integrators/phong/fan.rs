@@ -5,7 +5,7 @@
 use super::{Ctx, Phong, TAG_REFLECTION, TAG_REFRACTION, counter};
 use raylab::glam::DVec3;
 use raylab::math::color::max_channel;
-use raylab::render::sampler::{concentric_disc, orthonormal_basis, stratified_2d};
+use raylab::render::sampler::{StratifiedSet, concentric_disc, orthonormal_basis};
 use raylab::render::trace::Recorder;
 use raylab::scene::interaction::Interaction;
 use raylab::scene::material::Fresnel;
@@ -114,16 +114,17 @@ impl Phong {
         if sharp && self.avoid {
             c.stats.add(counter::GLOSSY_RAYS_SAVED, u64::from(fan_size - 1));
         }
-        let pattern = if sharp { 0 } else { sampler.fork(fan.tag | FAN_PATTERN).next_pattern() };
         // The disc's axes, only where rays are jittered in it.
         let (b1, b2) = if sharp { (DVec3::ZERO, DVec3::ZERO) } else { orthonormal_basis(fan.ideal) };
         let child_weight = if sharp { weight } else { weight / f64::from(count) };
         let counter = if fan.kind == RayKind::Reflection { counter::REFLECTION_RAYS } else { counter::REFRACTION_RAYS };
+        // The fan's pattern and its stratified points, only where rays are jittered.
+        let points = (!sharp).then(|| StratifiedSet::new(count, sampler.fork(fan.tag | FAN_PATTERN).next_pattern()));
         let mut mean = Color::ZERO;
         for i in 0..count {
             let mut dir = fan.ideal;
-            if !sharp {
-                let d = concentric_disc(stratified_2d(i, count, pattern)) * fan.blur;
+            if let Some(points) = &points {
+                let d = concentric_disc(points.point(i)) * fan.blur;
                 dir = (fan.ideal + d.x * b1 + d.y * b2).normalize();
                 if dir.dot(fan.side) < 0.0 {
                     dir = reflect(dir, fan.side);

@@ -326,3 +326,62 @@ fn fresnel_glass_passes_on_the_light_behind_it_without_adding_any() {
     let no_fresnel = run("false");
     assert!(no_fresnel.x > 1.5, "without Fresnel, kr + kt = 2 doubles the light: {no_fresnel}");
 }
+
+/// A light that counts its samples, with or without its bound.
+struct Counted {
+    light: PointLight,
+    bounded: bool,
+    samples: std::sync::Arc<std::sync::atomic::AtomicU32>,
+}
+
+impl LightSource for Counted {
+    fn illuminate(&self, p: DVec3, u: raylab::glam::DVec2) -> Option<raylab::LightSample> {
+        self.samples.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        self.light.illuminate(p, u)
+    }
+    fn sample_count(&self) -> u32 {
+        self.light.sample_count()
+    }
+    fn is_area(&self) -> bool {
+        self.light.is_area()
+    }
+    fn bound(&self, p: DVec3) -> Option<raylab::scene::light::LightBound> {
+        if self.bounded { self.light.bound(p) } else { None }
+    }
+}
+
+/// Skipping a light by its bound (wholly behind the surface, or too faint for the pruning
+/// threshold) draws no sample and gives the same colour, bit for bit, as drawing them, with the
+/// same shadow rays; a lit light is not skipped.
+#[test]
+fn a_light_skipped_by_its_bound_changes_nothing() {
+    let ball = |at: DVec3, color: f64| PointLight::new(Color::splat(color), at, 1.0, 0.0, 0.0).with_radius(0.5, 16);
+    let cases = [
+        (ball(DVec3::new(1.0, -3.0, 0.0), 1.0), "lights_behind"),
+        (ball(DVec3::new(1.0, 3.0, 0.0), 1e-6), "lights_negligible"),
+        (ball(DVec3::new(1.0, 3.0, 0.0), 1.0), ""),
+    ];
+    for probes in [0, 4] {
+        let phong = Phong { shadow_probes: probes, ..Phong::default() };
+        for (light, skip) in &cases {
+            let run = |bounded: bool| {
+                let samples = std::sync::Arc::new(std::sync::atomic::AtomicU32::new(0));
+                let counted = Counted { light: light.clone(), bounded, samples: samples.clone() };
+                let s = scene(vec![floor(lambert_phong())], vec![Box::new(counted)], Color::ZERO);
+                let (c, stats) = shade(&s, &phong, &down_ray());
+                (c, stats, samples.load(std::sync::atomic::Ordering::Relaxed))
+            };
+            let ((a, sa, na), (b, sb, nb)) = (run(true), run(false));
+            assert!(nb > 0);
+            assert_eq!(na == 0, !skip.is_empty(), "{skip}: {na} samples drawn");
+            assert_eq!(a.to_array().map(f64::to_bits), b.to_array().map(f64::to_bits), "{skip} probes {probes}");
+            assert_eq!(sa.get("shadow_rays"), sb.get("shadow_rays"));
+            if skip.is_empty() {
+                assert!(sa.get("shadow_rays") > 0);
+            } else {
+                assert_eq!(sa.get("shadow_rays"), 0);
+                assert!(sa.get(skip) > 0, "{skip}");
+            }
+        }
+    }
+}

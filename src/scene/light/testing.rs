@@ -16,6 +16,8 @@ pub const SAMPLE_TOLERANCE: f64 = 1e-9;
 /// Checks `light` as seen from `p`, with `n` stratified samples (enough that their mean
 /// intensity is accurate to `relative`; panics with a message on failure):
 ///
+/// - every sample lies within the light's [`LightSource::bound`] (if it has one), and its
+///   intensity within the bound's (both within [`SAMPLE_TOLERANCE`], relative);
 /// - a light whose samples are [`LightPdf::Delta`] ([`LightSource::pdf`]) is met by no ray;
 /// - otherwise every sample that carries light comes back from [`LightSource::intersect`] for
 ///   the ray from `p` along its direction, with the same distance, intensity and density
@@ -33,6 +35,19 @@ pub fn check_light(light: &dyn LightSource, p: DVec3, n: u32, grid: u32, relativ
             panic!("the light has no direction at {p}: nothing to check");
         };
         mean += ls.intensity / f64::from(n);
+        if let Some(b) = light.bound(p) {
+            if ls.distance.is_finite() {
+                let from_centre = (p + ls.dir * ls.distance - b.centre).length();
+                let slack = SAMPLE_TOLERANCE * (b.radius + (b.centre - p).length());
+                assert!(
+                    from_centre <= b.radius + slack,
+                    "sample {ls:?} is {from_centre} from the bound's centre, beyond its radius {}",
+                    b.radius
+                );
+            }
+            let over = ls.intensity.abs() - b.intensity * (1.0 + SAMPLE_TOLERANCE);
+            assert!(over.max_element() <= 0.0, "sample {ls:?} is brighter than the bound {}", b.intensity);
+        }
         let met = light.intersect(&Ray { origin: p, dir: ls.dir }, f64::INFINITY);
         let LightPdf::SolidAngle(pdf) = light.pdf(p, &ls) else {
             delta = true;
