@@ -33,7 +33,7 @@
 //! (negative) indices count back from their line, positive vertex indices may refer ahead.
 
 use super::triangle_mesh::MeshData;
-use super::triangulate::triangulate;
+use super::triangulate::triangulate_into;
 use crate::textures::image::{self as image_texture, ColorSpace, Filter, ImageTexture, Wrap};
 use raylab::glam::{DAffine3, DVec3, Vec3};
 use raylab::input::error::{Loc, Result, SceneError};
@@ -129,23 +129,25 @@ pub fn read_in_chunks(
 fn read_chunks(name: &str, text: &str, chunk_bytes: usize, libraries: &mut Libraries) -> Result<Parser> {
     use rayon::prelude::*;
     let chunks = split(text, chunk_bytes);
-    let starts = if chunks.len() == 1 {
-        vec![Start::default()]
-    } else {
-        let census: Vec<Census> = chunks.par_iter().map(|c| Census::of(c)).collect();
-        let mut at = Start::default();
-        census
-            .iter()
-            .map(|c| {
-                let start = Start { faces: c.faces, ..at };
-                at.line += c.lines;
-                for (total, n) in at.counts.iter_mut().zip(c.counts) {
-                    *total += n;
-                }
-                start
-            })
-            .collect()
-    };
+    let census: Vec<Census> = chunks.par_iter().map(|c| Census::of(c)).collect();
+    // The material statements are kept until the chunks are joined: charged before they are read.
+    let events = census.iter().map(|c| c.events).sum::<u64>();
+    if events > 0 {
+        let what = format!("the {events} `usemtl` and `mtllib` statements of {name}");
+        libraries.ctx.charge(events.saturating_mul(EVENT_BYTES), &what, Some(libraries.loc))?;
+    }
+    let mut at = Start::default();
+    let starts: Vec<Start> = census
+        .iter()
+        .map(|c| {
+            let start = Start { faces: c.faces, own: c.counts, ..at };
+            at.line += c.lines;
+            for (total, n) in at.counts.iter_mut().zip(c.counts) {
+                *total += n;
+            }
+            start
+        })
+        .collect();
     let mut parts: Vec<Chunk> = chunks.par_iter().zip(&starts).map(|(c, start)| Chunk::read(name, c, start)).collect();
     // The material of each chunk's `usemtl` ranks: the one current before the chunk, then each
     // statement's, with the libraries named before it read; up to the first error.
@@ -236,25 +238,32 @@ fn split(text: &str, size: usize) -> Vec<&str> {
 }
 
 /// What precedes a chunk: lines and (positions, texture coordinates, normals); and the chunk's
-/// own `f` lines (a size hint).
+/// own `f` lines and `v`, `vt` and `vn` lines (size hints).
 #[derive(Clone, Copy, Default)]
 struct Start {
     line: usize,
     counts: [u64; 3],
     faces: usize,
+    own: [u64; 3],
 }
 
-/// A chunk's lines, `v`, `vt` and `vn` lines, and `f` lines.
+/// A chunk's lines, `v`, `vt` and `vn` lines, `f` lines, and lines that may be `usemtl` or
+/// `mtllib` statements (at least those that are).
 struct Census {
     lines: usize,
     counts: [u64; 3],
     faces: usize,
+    events: u64,
 }
+
+/// Bytes a `usemtl` or `mtllib` statement takes until the chunks are joined: its [`Event`] and
+/// the material rank of a `usemtl`.
+const EVENT_BYTES: u64 = (std::mem::size_of::<Event>() + std::mem::size_of::<u32>()) as u64;
 
 impl Census {
     /// Counts the lines of `chunk` by their first word, as the parser reads them.
     fn of(chunk: &str) -> Census {
-        let mut c = Census { lines: 0, counts: [0; 3], faces: 0 };
+        let mut c = Census { lines: 0, counts: [0; 3], faces: 0, events: 0 };
         for line in Lines(chunk) {
             c.lines += 1;
             let b = line.as_bytes();
@@ -271,11 +280,19 @@ impl Census {
                 Some(b'v') if space(1) => Some(0),
                 Some(b'v') if b.get(i + 1) == Some(&b't') && space(2) => Some(1),
                 Some(b'v') if b.get(i + 1) == Some(&b'n') && space(2) => Some(2),
+                Some(b'u' | b'm') => {
+                    c.events += u64::from(b[i..].starts_with(b"usemtl") || b[i..].starts_with(b"mtllib"));
+                    None
+                }
                 Some(&c) if c != b'v' && c.is_ascii_graphic() => None,
                 _ => match Words::new(line).next() {
                     Some("v") => Some(0),
                     Some("vt") => Some(1),
                     Some("vn") => Some(2),
+                    Some("usemtl" | "mtllib") => {
+                        c.events += 1;
+                        None
+                    }
                     _ => None,
                 },
             };
@@ -323,6 +340,13 @@ impl<'a> Chunk<'a> {
         let faces = start.faces.min(text.len() / 8);
         p.triangles.reserve(faces);
         p.material_ids.reserve(faces);
+        // The same for the vertices (valid `v x y z`, `vt u` and `vn x y z` lines have at least
+        // 7, 4 and 8 bytes).
+        let [v, vt, vn]: [usize; 3] =
+            std::array::from_fn(|k| usize::try_from(start.own[k]).unwrap_or(usize::MAX).min(text.len() / [7, 4, 8][k]));
+        p.positions.reserve(v);
+        p.texcoords.reserve(vt);
+        p.normals.reserve(vn);
         let mut chunk = Chunk { parser: p, events: Vec::new(), failure: None };
         chunk.failure = chunk.lines(name, text, start.line).err();
         chunk
@@ -665,6 +689,28 @@ struct Parser {
     /// and resolved (vertex, texture, normal).
     raw: Vec<[Option<i64>; 3]>,
     corners: Vec<[u32; 3]>,
+    /// Scratch for triangulating polygons.
+    triangulator: Triangulator,
+}
+
+/// Scratch space of polygon triangulation, reused from polygon to polygon.
+#[derive(Default)]
+struct Triangulator {
+    points: Vec<DVec3>,
+    triangles: Vec<[u32; 3]>,
+}
+
+impl Triangulator {
+    /// The triangles of the polygon `corners` (vertex, texture coordinate and normal index of
+    /// each), as indices into `corners`: `corners.len() − 2` of them. `position` gives a vertex
+    /// index's position.
+    fn run(&mut self, corners: &[[u32; 3]], position: impl Fn(u32) -> [f32; 3]) -> &[[u32; 3]] {
+        self.points.clear();
+        self.points.extend(corners.iter().map(|c| Vec3::from(position(c[0])).as_dvec3()));
+        self.triangles.clear();
+        triangulate_into(&self.points, &mut self.triangles);
+        &self.triangles
+    }
 }
 
 /// Index of a missing texture coordinate or normal in a corner.
@@ -784,9 +830,8 @@ impl Parser {
 
     /// Appends the triangles of a polygon whose corners are all read.
     fn push_polygon(&mut self, corners: &[[u32; 3]], material: u32) {
-        let points: Vec<DVec3> =
-            corners.iter().map(|c| Vec3::from(self.positions[(u64::from(c[0]) - self.base[0]) as usize]).as_dvec3()).collect();
-        for t in triangulate(&points) {
+        let (positions, base) = (&self.positions, self.base[0]);
+        for &t in self.triangulator.run(corners, |v| positions[(u64::from(v) - base) as usize]) {
             self.triangles.push(t.map(|k| corners[k as usize][0]));
             if self.all_normals {
                 self.normal_indices.push(t.map(|k| corners[k as usize][2]));
@@ -850,31 +895,78 @@ impl Parser {
     }
 }
 
+/// Polygons triangulated by one task of [`triangulate_deferred`] (the tasks depend on the
+/// number of polygons alone).
+const DEFERRED_POLYGONS_PER_TASK: usize = 1 << 12;
+
 /// Rebuilds the triangle lists of the whole file `p` with the triangles of the polygons that
-/// waited for its end, each where its face was in the file.
+/// waited for its end, each where its face was in the file: in parallel, in runs of polygons
+/// whose triangles go to disjoint stretches of the lists (a polygon of `n` corners gives `n − 2`
+/// triangles, so every stretch is known before triangulating).
 fn triangulate_deferred(p: &mut Parser) {
+    use rayon::prelude::*;
     let polygons = std::mem::take(&mut p.polygons);
     let corners = std::mem::take(&mut p.deferred_corners);
-    let (triangles, normals, uvs, materials) = (
-        std::mem::take(&mut p.triangles),
-        std::mem::take(&mut p.normal_indices),
-        std::mem::take(&mut p.texcoord_indices),
-        std::mem::take(&mut p.material_ids),
-    );
-    // Lists of one entry per triangle while every face so far had normals (texture coordinates).
-    let copy = |p: &mut Parser, range: std::ops::Range<usize>| {
-        p.triangles.extend_from_slice(&triangles[range.clone()]);
-        p.normal_indices.extend_from_slice(normals.get(range.clone()).unwrap_or_default());
-        p.texcoord_indices.extend_from_slice(uvs.get(range.clone()).unwrap_or_default());
-        p.material_ids.extend_from_slice(&materials[range]);
-    };
-    let mut next = 0;
-    for f in &polygons {
-        copy(p, next..f.at);
-        next = f.at;
-        p.push_polygon(&corners[f.first..f.first + f.corners], f.material);
+    let old = [std::mem::take(&mut p.triangles), std::mem::take(&mut p.normal_indices), std::mem::take(&mut p.texcoord_indices)];
+    let old_materials = std::mem::take(&mut p.material_ids);
+    let total = old[0].len() + polygons.iter().map(|f| f.corners - 2).sum::<usize>();
+    // Lists of one entry per triangle while every face had normals (texture coordinates).
+    let kept = [true, p.all_normals, p.all_texcoords];
+    let mut lists: [Vec<[u32; 3]>; 3] = kept.map(|k| if k { vec![[0; 3]; total] } else { Vec::new() });
+    let mut materials = vec![0u32; total];
+    // Each task: its polygons, the old triangles from before its first polygon up to the next
+    // task's first polygon, and its places in the new lists.
+    let runs: Vec<&[Polygon]> = polygons.chunks(DEFERRED_POLYGONS_PER_TASK).collect();
+    let mut tasks = Vec::with_capacity(runs.len());
+    let (mut rest, mut rest_materials) = (lists.each_mut().map(|l| l.as_mut_slice()), materials.as_mut_slice());
+    let mut from = 0;
+    for (k, run) in runs.iter().enumerate() {
+        let to = runs.get(k + 1).map_or(old[0].len(), |r| r[0].at);
+        let len = to - from + run.iter().map(|f| f.corners - 2).sum::<usize>();
+        let mut place: [&mut [[u32; 3]]; 3] = Default::default();
+        for (slot, list) in place.iter_mut().zip(rest.iter_mut()) {
+            let whole = std::mem::take(list);
+            let (head, tail) = whole.split_at_mut(if whole.is_empty() { 0 } else { len });
+            *slot = head;
+            *list = tail;
+        }
+        let (head, tail) = std::mem::take(&mut rest_materials).split_at_mut(len);
+        rest_materials = tail;
+        tasks.push((*run, from..to, place, head));
+        from = to;
     }
-    copy(p, next..triangles.len());
+    let positions = &p.positions;
+    tasks.into_par_iter().for_each_init(Triangulator::default, |triangulator, (run, old_range, mut place, place_materials)| {
+        let mut o = 0;
+        let copy = |place: &mut [&mut [[u32; 3]]; 3], place_materials: &mut [u32], range: std::ops::Range<usize>, o: &mut usize| {
+            let n = range.len();
+            for (to, from) in place.iter_mut().zip(&old) {
+                if !to.is_empty() {
+                    to[*o..*o + n].copy_from_slice(&from[range.clone()]);
+                }
+            }
+            place_materials[*o..*o + n].copy_from_slice(&old_materials[range]);
+            *o += n;
+        };
+        let mut next = old_range.start;
+        for f in run {
+            copy(&mut place, place_materials, next..f.at, &mut o);
+            next = f.at;
+            let face = &corners[f.first..f.first + f.corners];
+            for &t in triangulator.run(face, |v| positions[v as usize]) {
+                for (kind, to) in [0, 2, 1].into_iter().zip(place.iter_mut()) {
+                    if !to.is_empty() {
+                        to[o] = t.map(|k| face[k as usize][kind]);
+                    }
+                }
+                place_materials[o] = f.material;
+                o += 1;
+            }
+        }
+        copy(&mut place, place_materials, next..old_range.end, &mut o);
+    });
+    [p.triangles, p.normal_indices, p.texcoord_indices] = lists;
+    p.material_ids = materials;
 }
 
 /// An MTL material as written, and the folder (relative to the scene) of its library.
@@ -1290,6 +1382,74 @@ mod tests {
         let e = read(&ctx, "m.obj", &dir.join("m.obj"), obj.as_bytes(), true, &here()).unwrap_err();
         assert!(e.report().contains("gone.mtl"), "{}", e.report());
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// `usemtl` statements are kept until the chunks are joined: they are charged to the memory
+    /// limit first, so a file of nothing else is refused before they are read.
+    #[test]
+    fn material_statements_are_charged_before_they_are_read() {
+        let mut obj = String::from("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+        for _ in 0..200_000 {
+            obj.push_str("usemtl a\n");
+        }
+        obj.push_str(" mtllib m.mtl\n\x0cusemtl b\n");
+        let limits = raylab::input::limits::Limits { max_memory: 1 << 20, ..Default::default() };
+        let options = raylab::input::context::LoadOptions { limits, ..Default::default() };
+        let ctx = LoadContext::new(Path::new("."), &options);
+        let e = read(&ctx, "m.obj", Path::new("m.obj"), obj.as_bytes(), false, &here()).unwrap_err().report();
+        assert!(e.contains("200002 `usemtl` and `mtllib` statements") && e.contains("--max-memory"), "{e}");
+        assert_eq!(ctx.charged(), 0, "nothing counted");
+        let options = raylab::input::context::LoadOptions::default();
+        let ctx = LoadContext::new(Path::new("."), &options);
+        read(&ctx, "m.obj", Path::new("m.obj"), obj.as_bytes(), false, &here()).unwrap();
+        assert_eq!(ctx.charged(), 200_002 * EVENT_BYTES);
+    }
+
+    /// Polygons deferred to the end of the file, thousands of them (several parallel runs)
+    /// between triangles and concave faces, with texture coordinates and normals, and some
+    /// referring ahead: read in chunks, they give what the whole file read as one chunk gives
+    /// (where most are triangulated in place), and each lands where its face was.
+    #[test]
+    fn many_deferred_polygons_keep_their_places() {
+        let n = 80;
+        let corner = |i: usize, j: usize| j * (n + 1) + i + 1;
+        let mut text = String::new();
+        let vertex = |text: &mut String, k: usize| {
+            let (i, j) = ((k - 1) % (n + 1), (k - 1) / (n + 1));
+            text.push_str(&format!("v {i} {j} {}\nvt {i} {j}\nvn 0 0 1\n", (i * j) % 3));
+        };
+        let half = (n + 1) * (n / 2);
+        for k in 1..=half {
+            vertex(&mut text, k);
+        }
+        for j in 0..n {
+            for i in 0..n {
+                let [a, b, c, d] = [corner(i, j), corner(i + 1, j), corner(i + 1, j + 1), corner(i, j + 1)];
+                let f = |v: &[usize]| v.iter().map(|k| format!(" {k}/{k}/{k}")).collect::<String>();
+                text.push_str(&match (i + j) % 5 {
+                    0 => format!("f{}\nf{}\n", f(&[a, b, c]), f(&[a, c, d])),
+                    1 => format!("f{}\n", f(&[a, b, c, a, d])),
+                    _ => format!("f{}\n", f(&[a, b, c, d])),
+                });
+            }
+            if j == n / 2 + 2 {
+                for k in half + 1..=(n + 1) * (n + 1) {
+                    vertex(&mut text, k);
+                }
+            }
+        }
+        let options = raylab::input::context::LoadOptions::default();
+        let ctx = LoadContext::new(Path::new("."), &options);
+        let read = |chunk: usize| {
+            let d = read_in_chunks(&ctx, "m.obj", Path::new("m.obj"), text.as_bytes(), false, &here(), chunk).unwrap();
+            (format!("{d:?}"), d.triangles.len(), d.normal_indices.len(), d.texcoord_indices.len())
+        };
+        let whole = read(usize::MAX);
+        assert!(whole.1 > 2 * n * n && whole.1 == whole.2 && whole.1 == whole.3, "{:?}", (whole.1, whole.2, whole.3));
+        for chunk in [1 << 10, 1 << 14, 1 << 17] {
+            assert!(read(chunk) == whole, "chunks of {chunk} bytes");
+        }
+        assert!(ctx.take_warnings().is_empty());
     }
 
     /// A byte-order mark does not hide the first line, and a quad whose corners are all read is

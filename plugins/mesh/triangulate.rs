@@ -12,14 +12,25 @@ use raylab::glam::{DVec2, DVec3};
 /// concave faces loads in time linear in its size.
 pub const MAX_EAR_CLIPPED_CORNERS: usize = 256;
 
+/// Most corners of a face whose projection is kept on the stack.
+const SMALL_FACE: usize = 8;
+
 /// Triangles covering the simple polygon `points` (corners in order, possibly concave), as
-/// indices into `points`, wound like the polygon. A polygon with no area, or with more than
-/// [`MAX_EAR_CLIPPED_CORNERS`] corners, gives a fan (the mesh drops degenerate triangles).
+/// indices into `points`, wound like the polygon: exactly `n − 2` of them for `n ≥ 3` corners
+/// (none for fewer). A polygon with no area, or with more than [`MAX_EAR_CLIPPED_CORNERS`]
+/// corners, gives a fan (the mesh drops degenerate triangles).
 pub fn triangulate(points: &[DVec3]) -> Vec<[u32; 3]> {
+    let mut out = Vec::new();
+    triangulate_into(points, &mut out);
+    out
+}
+
+/// [`triangulate`], the triangles appended to `out` (convex faces allocate nothing).
+pub fn triangulate_into(points: &[DVec3], out: &mut Vec<[u32; 3]>) {
     let n = points.len();
-    let fan = || (1..n.saturating_sub(1)).map(|i| [0, i as u32, i as u32 + 1]).collect();
+    let fan = |out: &mut Vec<[u32; 3]>| out.extend((1..n.saturating_sub(1)).map(|i| [0, i as u32, i as u32 + 1]));
     if n <= 3 {
-        return fan();
+        return fan(out);
     }
     // Newell's normal; project onto the plane of its two smaller axes, keeping the orientation.
     let mut normal = DVec3::ZERO;
@@ -28,7 +39,7 @@ pub fn triangulate(points: &[DVec3]) -> Vec<[u32; 3]> {
         normal += DVec3::new((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
     }
     if !(normal.length_squared() > 0.0) || !normal.is_finite() {
-        return fan();
+        return fan(out);
     }
     let axis = normal.abs().max_position();
     let (u, v) = match axis {
@@ -37,10 +48,25 @@ pub fn triangulate(points: &[DVec3]) -> Vec<[u32; 3]> {
         _ => (0, 1),
     };
     let flip = normal[axis] < 0.0;
-    let p: Vec<DVec2> = points.iter().map(|q| if flip { DVec2::new(q[v], q[u]) } else { DVec2::new(q[u], q[v]) }).collect();
+    if n > MAX_EAR_CLIPPED_CORNERS {
+        return fan(out);
+    }
+    let project = |q: &DVec3| if flip { DVec2::new(q[v], q[u]) } else { DVec2::new(q[u], q[v]) };
+    // The projected corners: on the stack for small faces (the many quads of a mesh file).
+    let mut small = [DVec2::ZERO; SMALL_FACE];
+    let large: Vec<DVec2>;
+    let p: &[DVec2] = if n <= SMALL_FACE {
+        for (to, q) in small.iter_mut().zip(points) {
+            *to = project(q);
+        }
+        &small[..n]
+    } else {
+        large = points.iter().map(project).collect();
+        &large
+    };
     let cross = |a: DVec2, b: DVec2, c: DVec2| (b - a).perp_dot(c - a);
-    if n > MAX_EAR_CLIPPED_CORNERS || (0..n).all(|i| cross(p[i], p[(i + 1) % n], p[(i + 2) % n]) >= 0.0) {
-        return fan();
+    if (0..n).all(|i| cross(p[i], p[(i + 1) % n], p[(i + 2) % n]) >= 0.0) {
+        return fan(out);
     }
     // Ear clipping over the remaining corners, a doubly linked ring. Whether a corner is an ear
     // changes only for the two neighbours of a clipped one, so each clip re-tests two corners:
@@ -62,7 +88,7 @@ pub fn triangulate(points: &[DVec3]) -> Vec<[u32; 3]> {
         true
     };
     let mut ear: Vec<bool> = (0..n).map(|b| is_ear(b, &prev, &next)).collect();
-    let mut out = Vec::with_capacity(n - 2);
+    out.reserve(n - 2);
     let (mut left, mut at) = (n, 0);
     while left > 3 {
         // The next ear going round from the last clip; a self-intersecting outline may have none:
@@ -85,7 +111,6 @@ pub fn triangulate(points: &[DVec3]) -> Vec<[u32; 3]> {
         at = c;
     }
     out.push([prev[at] as u32, at as u32, next[at] as u32]);
-    out
 }
 
 /// Whether `p` lies in the counter-clockwise triangle `a b c` or on its boundary.
@@ -120,6 +145,27 @@ mod tests {
         // The same L seen from behind (clockwise) keeps its winding.
         let back: Vec<DVec3> = l.iter().rev().copied().collect();
         assert!((area(&back, &triangulate(&back)) + 3.0).abs() < 1e-12);
+    }
+
+    /// Every polygon, convex, concave, self-intersecting, flat or not finite, gives `n − 2`
+    /// triangles (the OBJ reader places the triangles of deferred faces by this count).
+    #[test]
+    fn every_polygon_gives_two_triangles_fewer_than_its_corners() {
+        let shapes: [&[[f64; 2]]; 6] = [
+            &[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]],
+            &[[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [1.0, 1.0], [1.0, 2.0], [0.0, 2.0]],
+            &[[0.0, 0.0], [1.0, 1.0], [1.0, 0.0], [0.0, 1.0]],
+            &[[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [3.0, 0.0], [4.0, 0.0]],
+            &[[0.0, 0.0], [f64::NAN, 0.0], [1.0, 1.0], [0.0, 1.0]],
+            &[[0.0, 0.0], [3.0, 0.0], [1.0, 1.0], [3.0, 3.0], [0.0, 3.0], [2.0, 1.5], [-1.0, 1.0]],
+        ];
+        for shape in shapes {
+            let points: Vec<DVec3> = shape.iter().map(|&[x, y]| DVec3::new(x, y, 0.0)).collect();
+            assert_eq!(triangulate(&points).len(), points.len() - 2, "{shape:?}");
+        }
+        let mut out = vec![[9, 9, 9]];
+        triangulate_into(&[DVec3::ZERO, DVec3::X, DVec3::Y], &mut out);
+        assert_eq!(out, vec![[9, 9, 9], [0, 1, 2]], "appended");
     }
 
     /// A comb of [`MAX_EAR_CLIPPED_CORNERS`] corners (teeth up from a bar): clipped in O(n²), every
