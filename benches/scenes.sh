@@ -5,9 +5,9 @@
 #   benches/scenes.sh [THREADS]     # default 2; builds raylab (release, mesh,bvh) first
 #
 # Each scene at its own size; the showcase with `--aa stratified` (its own setting is adaptive, so
-# `--spp` would not apply); the ray budget lifted (`--max-rays`): the worst-case bound of the
-# 16-spp renders of `cornell` and `quality` is far above the default budget. One run: the figures
-# are as noisy as the machine; compare ratios from one run.
+# `--spp` would not apply); the ray budget lifted (`--max-rays`), so that no scene's worst-case
+# bound stops the table. One run: the figures are as noisy as the machine; compare ratios from
+# one run.
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 THREADS=${1:-2}

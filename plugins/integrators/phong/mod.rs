@@ -283,8 +283,9 @@ impl Integrator for Phong {
 
     /// Every hit of a path tree up to `max_depth` has a reflection and a refraction fan and
     /// takes every light's probes and samples. A fan has at most `ceil(glossy_rays × w)` rays for
-    /// its weight `w`, and its rays share `w` (coefficients ≤ 1), so the weights at one depth sum
-    /// to at most 2^depth; with `avoid` off, every fan has `glossy_rays` rays at full weight.
+    /// its weight `w`, and its rays share `w`, so the weights at one depth sum to at most
+    /// `gain^depth`, `gain` the scene's [`bounce_gain`]; with `avoid` off, every fan has
+    /// `glossy_rays` rays at full weight.
     fn worst_case_rays(&self, scene: &Scene) -> f64 {
         let per_hit: f64 = scene
             .lights
@@ -296,11 +297,18 @@ impl Integrator for Phong {
             })
             .sum();
         let g = f64::from(self.glossy_rays);
+        let gain = bounce_gain(scene);
         let (mut hits, mut level, mut weight) = (1.0, 1.0, 1.0);
         for _ in 0..self.max_depth {
             let full = 2.0 * g * level;
-            level = if self.avoid { full.min(2.0 * g * weight + 2.0 * level) } else { full };
-            weight *= 2.0;
+            // The fans of one depth share `gain · weight`, each rounded up to a whole ray; a fan
+            // of weight zero is not traced.
+            level = match self.avoid {
+                true if gain > 0.0 => full.min(g * gain * weight + 2.0 * level),
+                true => 0.0,
+                false => full,
+            };
+            weight *= gain;
             hits += level;
         }
         hits * (1.0 + per_hit)
@@ -322,6 +330,14 @@ impl Integrator for Phong {
         }
         s
     }
+}
+
+/// The most weight a hit passes on to its reflected and transmitted rays together: the largest
+/// `kr + kt` (each its largest channel) of the scene's materials. A textured channel is bounded
+/// by its constant (texture values at most 1, as in the whole budget); Fresnel's `F·kr` and
+/// `(1 − F)·kt` stay within it.
+fn bounce_gain(scene: &Scene) -> f64 {
+    scene.objects.iter().flat_map(|o| o.materials()).map(|m| max_channel(m.kr.abs()) + max_channel(m.kt.abs())).fold(0.0, f64::max)
 }
 
 #[cfg(test)]

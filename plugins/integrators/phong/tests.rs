@@ -385,3 +385,24 @@ fn a_light_skipped_by_its_bound_changes_nothing() {
         }
     }
 }
+
+/// The work budget's bound follows the scene's reflectance (`kr + kt` of its materials) and holds
+/// the rays a glossy path tree really traces: two facing glossy mirrors, every fan to depth 4.
+#[test]
+fn the_ray_budget_follows_the_scenes_reflectance_and_bounds_the_rays_traced() {
+    let glossy = |kr: f64| Material { kd: DVec3::ZERO, kr: DVec3::splat(kr), blur: 0.2, ..Material::default() };
+    let phong = Phong { max_depth: 4, prune_threshold: 0.0, glossy_rays: 8, ..Phong::default() };
+    let ray = Ray::new(DVec3::new(0.0, 5.0, 0.0), DVec3::new(0.0, -1.0, 0.01));
+    let mut bounds = Vec::new();
+    for kr in [2.0, 1.0, 0.5, 0.1, 0.0] {
+        let m = glossy(kr);
+        let walls: Vec<Thing> = vec![floor(m.clone()), (Box::new(Plane::new(DVec3::new(0.0, 10.0, 0.0), -DVec3::Y)), m)];
+        let s = scene(walls, vec![Box::new(Directional::new(DVec3::ONE, DVec3::new(0.1, -1.0, 0.0)))], Color::ZERO);
+        let bound = phong.worst_case_rays(&s);
+        let (_, st) = shade(&s, &phong, &ray);
+        let traced = 1 + st.get("reflection_rays") + st.get("refraction_rays") + st.get("shadow_rays");
+        assert!(traced as f64 <= bound, "kr {kr}: traced {traced} rays, bound {bound}");
+        bounds.push(bound);
+    }
+    assert!(bounds.windows(2).all(|w| w[1] < w[0]), "the bound should fall with kr: {bounds:?}");
+}
