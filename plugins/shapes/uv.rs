@@ -4,7 +4,7 @@
 //! |---|---|---|
 //! | `sphere` | longitude around +y: 0.5 facing +z, increasing toward +x | latitude: 0 at the bottom (−y), 1 at the top |
 //! | `hemisphere` | longitude around `open` (as the sphere's when `open` is +y) | 0 at the bottom of the bowl, 1 at its rim |
-//! | `plane` | scene units along the plane's right axis (+x for a floor; `+y × normal` otherwise) | scene units along its up axis (`normal × right`: −z on a floor) |
+//! | `plane` | scene units along the plane's right axis (+x projected onto a floor or ceiling, one tilted less than 45°; `+y × normal` on a wall) | scene units along its up axis (`normal × right`: −z on a floor) |
 //! | `cylinder`, `tube` | around the axis, as the sphere's around +y | 0 at the base, 1 at the top (`tube`: scene units along the axis) |
 //! | cylinder caps | the disc mapped onto [0, 1]², seen from outside | |
 //! | `triangle` | barycentric: p0 = (0, 0), p1 = (1, 0), p2 = (0, 1) | |
@@ -17,14 +17,16 @@
 use raylab::glam::{DVec2, DVec3};
 use std::f64::consts::{PI, TAU};
 
-/// Smallest `|up × n|` for which `up × n` gives a plane's right axis; nearer to ±y, +x does.
-const FRAME_PARALLEL: f64 = 1e-3;
+/// `|n·y|` above which a surface is a floor or ceiling (tilted less than 45° from level): its
+/// right axis is +x projected onto it; below, a wall: `+y × n`, so images stand upright. Both
+/// are at least `√½` long before normalising.
+const FLOOR: f64 = std::f64::consts::FRAC_1_SQRT_2;
 
-/// The right and up axes (unit, with `right × up = n`) of a surface with unit normal `n`:
-/// `+y × n` normalised (+x on a floor or ceiling), and `n × right`.
+/// The right and up axes (unit, with `right × up = n`) of a surface with unit normal `n`: on a
+/// floor or ceiling (within 45° of level) +x projected onto it, so a slightly tilted floor keeps
+/// its texture's orientation; on a wall `+y × n` normalised; up is `n × right`.
 pub fn tangent_frame(n: DVec3) -> (DVec3, DVec3) {
-    let c = DVec3::Y.cross(n);
-    let right = if c.length() > FRAME_PARALLEL { c.normalize() } else { (DVec3::X - DVec3::X.dot(n) * n).normalize() };
+    let right = if n.y.abs() > FLOOR { (DVec3::X - DVec3::X.dot(n) * n).normalize() } else { DVec3::Y.cross(n).normalize() };
     (right, n.cross(right))
 }
 
@@ -89,6 +91,34 @@ mod tests {
         assert_eq!(tangent_frame(DVec3::Y), (DVec3::X, -DVec3::Z), "a floor: u = x, v away from a camera on +z");
         assert_eq!(tangent_frame(DVec3::Z), (DVec3::X, DVec3::Y), "a wall facing +z: upright");
         assert_eq!(around_frame(DVec3::Y), (DVec3::X, DVec3::Z));
+    }
+
+    #[test]
+    fn a_slightly_tilted_floor_keeps_its_axes_and_a_turned_wall_stays_upright() {
+        for tilt in [1e-9, 1e-4, 1e-2, 0.3] {
+            for axis in [DVec3::X, DVec3::Z, DVec3::new(1.0, 0.0, 1.0).normalize()] {
+                let n = raylab::glam::DQuat::from_axis_angle(axis, tilt) * DVec3::Y;
+                let (r, u) = tangent_frame(n);
+                // Within the tilt of the level floor's axes (+x, −z), not a quarter turn away.
+                assert!(
+                    r.dot(DVec3::X) > tilt.cos() - 1e-12 && u.dot(-DVec3::Z) > tilt.cos() - 1e-12,
+                    "tilt {tilt} about {axis}: {r}, {u}"
+                );
+                let (r, u) = tangent_frame(-n);
+                assert!(
+                    r.dot(DVec3::X) > tilt.cos() - 1e-12 && u.dot(DVec3::Z) > tilt.cos() - 1e-12,
+                    "ceiling, tilt {tilt} about {axis}: {r}, {u}"
+                );
+            }
+        }
+        for turn in [0.0f64, 0.5, 2.0, 3.0, 4.0, 6.0] {
+            for lean in [0.0f64, 0.5] {
+                let n = DVec3::new(turn.sin() * lean.cos(), lean.sin(), turn.cos() * lean.cos());
+                let (r, u) = tangent_frame(n);
+                assert!(r.y.abs() < 1e-12 && u.y > 0.0, "wall turned {turn}, leaning {lean}: right {r}, up {u}");
+                assert!((r.cross(u) - n).length() < 1e-12);
+            }
+        }
     }
 
     #[test]
