@@ -57,18 +57,24 @@ pub struct PlaneEquation {
     n_abs: DVec3,
     q_abs: DVec3,
     q_max: f64,
+    /// For a normal along an axis (`±1` there, `0` elsewhere): the axis and the sign.
+    axis: Option<(usize, f64)>,
 }
 
 impl PlaneEquation {
     /// The plane through `q` with unit normal `n`.
     #[inline]
     pub fn new(q: DVec3, n: DVec3) -> Self {
-        PlaneEquation { q, n, n_abs: n.abs(), q_abs: q.abs(), q_max: max_abs(q) }
+        let axis = (0..3).find(|&k| n[k].abs() == 1.0 && n[(k + 1) % 3] == 0.0 && n[(k + 2) % 3] == 0.0).map(|k| (k, n[k]));
+        PlaneEquation { q, n, n_abs: n.abs(), q_abs: q.abs(), q_max: max_abs(q), axis }
     }
 
     /// [`intersect_plane`] for this plane.
     #[inline]
     pub fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<(f64, DVec3, DVec3)> {
+        if let Some((k, sign)) = self.axis {
+            return self.intersect_along(ray, k, sign, t_min, t_max);
+        }
         let (q, n) = (self.q, self.n);
         let denom = n.dot(ray.dir);
         if !(denom.abs() > gamma(3) * self.n_abs.dot(ray.dir.abs())) {
@@ -82,6 +88,37 @@ impl PlaneEquation {
             return None;
         }
         plane_hit(ray, q, n, self.q_abs, num, denom, t_min, t_max)
+    }
+
+    /// [`PlaneEquation::intersect`] for a normal `sign` along axis `k`: the products with the
+    /// normal's zeros and its `±1` left out. Bit for bit the general result for a finite unit
+    /// direction and points whose differences are finite: `0·x` is `±0`, which adds nothing to a
+    /// non-zero sum, and a zero sum's sign only decides cases both reject (`denom = ±0`) or
+    /// leave unchanged.
+    #[inline]
+    fn intersect_along(&self, ray: &Ray, k: usize, sign: f64, t_min: f64, t_max: f64) -> Option<(f64, DVec3, DVec3)> {
+        let denom = sign * ray.dir[k];
+        if !(denom.abs() > gamma(3) * ray.dir[k].abs()) {
+            return None;
+        }
+        let num = sign * (self.q[k] - ray.origin[k]);
+        if num.abs() <= gamma(5) * (max_abs(ray.origin) + self.q_max) {
+            return None;
+        }
+        if t_min >= 0.0 && (num < 0.0) != (denom < 0.0) {
+            return None;
+        }
+        let t = num / denom;
+        if !(t > t_min && t < t_max && t.is_finite()) {
+            return None;
+        }
+        let mut p = ray.at(t);
+        // The general `p − n (n·(p − q))`, rounded the same way (not simply `q[k]`).
+        p[k] = p[k] - (p[k] - self.q[k]);
+        if !p.is_finite() {
+            return None;
+        }
+        Some((t, p, gamma(8) * (p.abs() + self.q_abs)))
     }
 }
 
@@ -183,6 +220,30 @@ mod tests {
                 let ray = Ray { origin, dir };
                 prop_assert!(g.intersect(&ray, 0.0, f64::INFINITY).is_none(), "{:?}", ray);
                 prop_assert!(!g.occludes(&ray, 0.0, f64::INFINITY));
+            }
+        }
+
+        #[test]
+        fn a_plane_along_an_axis_answers_as_the_general_equation_bit_for_bit(
+            k in 0usize..3, neg in any::<bool>(), s in scale(), c in cube(), o in cube(), d in unit(), graze in -12.0..0.0f64, on in any::<bool>()
+        ) {
+            let mut n = DVec3::ZERO;
+            n[k] = if neg { -1.0 } else { 1.0 };
+            let q = 5.0 * s * c;
+            let fast = PlaneEquation::new(q, n);
+            prop_assert!(fast.axis.is_some());
+            let general = PlaneEquation { axis: None, ..fast };
+            // From off the plane or from a point of it; in any direction, or grazing it.
+            let mut origin = q + 5.0 * s * o;
+            if on {
+                origin[k] = q[k];
+            }
+            let mut dir = d;
+            dir[k] *= 10f64.powf(graze);
+            let ray = Ray::new(origin, dir);
+            let bits = |h: Option<(f64, DVec3, DVec3)>| h.map(|(t, p, e)| (t.to_bits(), p.to_array().map(f64::to_bits), e.to_array().map(f64::to_bits)));
+            for (lo, hi) in [(0.0, f64::INFINITY), (f64::NEG_INFINITY, f64::INFINITY), (1e-3 * s, 2.0 * s)] {
+                prop_assert_eq!(bits(fast.intersect(&ray, lo, hi)), bits(general.intersect(&ray, lo, hi)), "{:?} in ({}, {})", ray, lo, hi);
             }
         }
 
