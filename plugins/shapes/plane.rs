@@ -87,7 +87,7 @@ impl PlaneEquation {
         if num.abs() <= gamma(5) * (max_abs(ray.origin) + self.q_max) {
             return None;
         }
-        plane_hit(ray, q, n, self.q_abs, num, denom, t_min, t_max)
+        plane_hit(ray, |p| p - n * n.dot(p - q), self.q_abs, num, denom, t_min, t_max)
     }
 
     /// [`PlaneEquation::intersect`] for a normal `sign` along axis `k`: the products with the
@@ -105,27 +105,28 @@ impl PlaneEquation {
         if num.abs() <= gamma(5) * (max_abs(ray.origin) + self.q_max) {
             return None;
         }
-        if t_min >= 0.0 && (num < 0.0) != (denom < 0.0) {
-            return None;
-        }
-        let t = num / denom;
-        if !(t > t_min && t < t_max && t.is_finite()) {
-            return None;
-        }
-        let mut p = ray.at(t);
+        let q = self.q[k];
         // The general `p − n (n·(p − q))`, rounded the same way (not simply `q[k]`).
-        p[k] = p[k] - (p[k] - self.q[k]);
-        if !p.is_finite() {
-            return None;
-        }
-        Some((t, p, gamma(8) * (p.abs() + self.q_abs)))
+        let onto = |mut p: DVec3| {
+            p[k] = p[k] - (p[k] - q);
+            p
+        };
+        plane_hit(ray, onto, self.q_abs, num, denom, t_min, t_max)
     }
 }
 
-/// The rest of [`PlaneEquation::intersect`] once the ray crosses the plane at `num / denom`.
+/// The rest of [`PlaneEquation::intersect`] once the ray crosses the plane at `num / denom`:
+/// `onto` moves a point along the normal onto the plane.
 #[inline]
-#[allow(clippy::too_many_arguments)]
-fn plane_hit(ray: &Ray, q: DVec3, n: DVec3, q_abs: DVec3, num: f64, denom: f64, t_min: f64, t_max: f64) -> Option<(f64, DVec3, DVec3)> {
+fn plane_hit(
+    ray: &Ray,
+    onto: impl Fn(DVec3) -> DVec3,
+    q_abs: DVec3,
+    num: f64,
+    denom: f64,
+    t_min: f64,
+    t_max: f64,
+) -> Option<(f64, DVec3, DVec3)> {
     // Opposite signs (both are non-zero here): the plane is behind the origin, t < 0 (or −0).
     // Known without the division.
     if t_min >= 0.0 && (num < 0.0) != (denom < 0.0) {
@@ -135,8 +136,7 @@ fn plane_hit(ray: &Ray, q: DVec3, n: DVec3, q_abs: DVec3, num: f64, denom: f64, 
     if !(t > t_min && t < t_max && t.is_finite()) {
         return None;
     }
-    let p = ray.at(t);
-    let p = p - n * n.dot(p - q);
+    let p = onto(ray.at(t));
     if !p.is_finite() {
         return None;
     }

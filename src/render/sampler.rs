@@ -172,6 +172,7 @@ impl Permutation {
         self.div_rem(permute(i, self.mask, self.len, self.p).wrapping_add(self.p)).1
     }
 }
+
 /// The largest `f64` below 1.
 pub const ONE_MINUS_EPSILON: f64 = 1.0 - f64::EPSILON / 2.0;
 
