@@ -301,6 +301,7 @@ mod tests {
             let ray = Ray::new(DVec3::new(0.5, y, 0.0), DVec3::new(0.0, -y, 0.0));
             let h = g.intersect(&ray, 0.0, f64::INFINITY).unwrap();
             assert_eq!((h.t, h.point, g.normal(&h, ray.dir)), (2.0, DVec3::new(0.5, 0.0, 0.0), n));
+            assert!(g.occludes(&ray, 0.0, 2.5) && !g.occludes(&ray, 0.0, 1.5));
         }
     }
 
