@@ -213,7 +213,9 @@ pub fn trace_sample(job: &RenderJob, id: SampleId, acc: &mut PixelSum, layers: O
 }
 
 /// [`trace_sample`] with `job`'s [`image_frame`] computed once by the caller (the same result).
-#[inline]
+/// Always inlined: out of line, it read the sample's id as one 8-byte load across the caller's
+/// 4-byte stores (a store-forwarding stall per sample).
+#[inline(always)]
 pub fn trace_sample_in(
     job: &RenderJob,
     frame: &ImageFrame,
