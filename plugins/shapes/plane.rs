@@ -111,10 +111,12 @@ impl PlaneEquation {
         }
         let num = sign * (self.q[k] - ray.origin[k]);
         let q = self.q[k];
-        // The general `p − n (n·(p − q))`, rounded the same way (not simply `q[k]`).
-        let onto = |mut p: DVec3| {
-            p[k] = p[k] - (p[k] - q);
-            p
+        // The general `p − n (n·(p − q))`, rounded the same way (not simply `q[k]`). A `match`
+        // on the axis, not `p[k] = …`: indexing by a variable put the point through memory.
+        let onto = |p: DVec3| match k {
+            0 => DVec3::new(p.x - (p.x - q), p.y, p.z),
+            1 => DVec3::new(p.x, p.y - (p.y - q), p.z),
+            _ => DVec3::new(p.x, p.y, p.z - (p.z - q)),
         };
         self.crossing_at(ray, onto, num, denom, t_min, t_max)
     }
