@@ -70,77 +70,82 @@ impl PlaneEquation {
     }
 
     /// [`intersect_plane`] for this plane.
-    #[inline]
+    #[inline(always)]
     pub fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<(f64, DVec3, DVec3)> {
+        let (t, p) = self.crossing(ray, t_min, t_max)?;
+        Some((t, p, gamma(8) * (p.abs() + self.q_abs)))
+    }
+
+    /// Whether [`PlaneEquation::intersect`] finds a hit: the same decision, without the error
+    /// bound.
+    #[inline(always)]
+    pub fn crosses(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
+        self.crossing(ray, t_min, t_max).is_some()
+    }
+
+    /// `t` and the point projected onto the plane, where [`PlaneEquation::intersect`] hits.
+    #[inline(always)]
+    fn crossing(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<(f64, DVec3)> {
         if let Some((k, sign)) = self.axis {
-            return self.intersect_along(ray, k, sign, t_min, t_max);
+            return self.crossing_along(ray, k, sign, t_min, t_max);
         }
         let (q, n) = (self.q, self.n);
         let denom = n.dot(ray.dir);
         if !(denom.abs() > gamma(3) * self.n_abs.dot(ray.dir.abs())) {
             return None;
         }
-        let diff = q - ray.origin;
-        let num = n.dot(diff);
-        // The numerator is the origin's distance from the plane: within the on-surface slack
-        // ([`raylab::math::float::on_surface_slack`], written out with `‖q‖∞` stored), the origin lies on it.
-        if num.abs() <= gamma(5) * (max_abs(ray.origin) + self.q_max) {
-            return None;
-        }
-        plane_hit(ray, |p| p - n * n.dot(p - q), self.q_abs, num, denom, t_min, t_max)
+        let num = n.dot(q - ray.origin);
+        self.crossing_at(ray, |p| p - n * n.dot(p - q), num, denom, t_min, t_max)
     }
 
-    /// [`PlaneEquation::intersect`] for a normal `sign` along axis `k`: the products with the
+    /// [`PlaneEquation::crossing`] for a normal `sign` along axis `k`: the products with the
     /// normal's zeros and its `±1` left out. Bit for bit the general result for a finite unit
     /// direction and points whose differences are finite: `0·x` is `±0`, which adds nothing to a
     /// non-zero sum, and a zero sum's sign only decides cases both reject (`denom = ±0`) or
     /// leave unchanged.
-    #[inline]
-    fn intersect_along(&self, ray: &Ray, k: usize, sign: f64, t_min: f64, t_max: f64) -> Option<(f64, DVec3, DVec3)> {
+    #[inline(always)]
+    fn crossing_along(&self, ray: &Ray, k: usize, sign: f64, t_min: f64, t_max: f64) -> Option<(f64, DVec3)> {
         let denom = sign * ray.dir[k];
         if !(denom.abs() > gamma(3) * ray.dir[k].abs()) {
             return None;
         }
         let num = sign * (self.q[k] - ray.origin[k]);
+        let q = self.q[k];
+        // The general `p − n (n·(p − q))`, rounded the same way (not simply `q[k]`). A `match`
+        // on the axis, not `p[k] = …`: indexing by a variable put the point through memory.
+        let onto = |p: DVec3| match k {
+            0 => DVec3::new(p.x - (p.x - q), p.y, p.z),
+            1 => DVec3::new(p.x, p.y - (p.y - q), p.z),
+            _ => DVec3::new(p.x, p.y, p.z - (p.z - q)),
+        };
+        self.crossing_at(ray, onto, num, denom, t_min, t_max)
+    }
+
+    /// The rest of [`PlaneEquation::crossing`] once `denom` (`n·d`, clear of rounding) and `num`
+    /// (`n·(q − o)`) are known: `onto` moves a point along the normal onto the plane. Every test
+    /// here only rejects, so their order changes no answer: the cheapest come first.
+    #[inline(always)]
+    fn crossing_at(&self, ray: &Ray, onto: impl Fn(DVec3) -> DVec3, num: f64, denom: f64, t_min: f64, t_max: f64) -> Option<(f64, DVec3)> {
+        // Opposite signs (`denom` is non-zero here): the plane is behind the origin, t < 0 (or
+        // −0). Known without the division.
+        if t_min >= 0.0 && (num < 0.0) != (denom < 0.0) {
+            return None;
+        }
+        // The numerator is the origin's distance from the plane: within the on-surface slack
+        // ([`raylab::math::float::on_surface_slack`], written out with `‖q‖∞` stored), the origin lies on it.
         if num.abs() <= gamma(5) * (max_abs(ray.origin) + self.q_max) {
             return None;
         }
-        let q = self.q[k];
-        // The general `p − n (n·(p − q))`, rounded the same way (not simply `q[k]`).
-        let onto = |mut p: DVec3| {
-            p[k] = p[k] - (p[k] - q);
-            p
-        };
-        plane_hit(ray, onto, self.q_abs, num, denom, t_min, t_max)
+        let t = num / denom;
+        if !(t > t_min && t < t_max && t.is_finite()) {
+            return None;
+        }
+        let p = onto(ray.at(t));
+        if !p.is_finite() {
+            return None;
+        }
+        Some((t, p))
     }
-}
-
-/// The rest of [`PlaneEquation::intersect`] once the ray crosses the plane at `num / denom`:
-/// `onto` moves a point along the normal onto the plane.
-#[inline]
-fn plane_hit(
-    ray: &Ray,
-    onto: impl Fn(DVec3) -> DVec3,
-    q_abs: DVec3,
-    num: f64,
-    denom: f64,
-    t_min: f64,
-    t_max: f64,
-) -> Option<(f64, DVec3, DVec3)> {
-    // Opposite signs (both are non-zero here): the plane is behind the origin, t < 0 (or −0).
-    // Known without the division.
-    if t_min >= 0.0 && (num < 0.0) != (denom < 0.0) {
-        return None;
-    }
-    let t = num / denom;
-    if !(t > t_min && t < t_max && t.is_finite()) {
-        return None;
-    }
-    let p = onto(ray.at(t));
-    if !p.is_finite() {
-        return None;
-    }
-    Some((t, p, gamma(8) * (p.abs() + q_abs)))
 }
 
 impl Plane {
@@ -155,6 +160,10 @@ impl Intersectable for Plane {
     fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<Hit> {
         let (t, point, error) = self.equation.intersect(ray, t_min, t_max)?;
         Some(Hit { t, point, error, uv: DVec2::ZERO, prim: 0, object: 0 })
+    }
+    #[inline]
+    fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
+        self.equation.crosses(ray, t_min, t_max)
     }
 }
 
@@ -248,6 +257,25 @@ mod tests {
         }
 
         #[test]
+        fn occludes_is_whether_intersect_hits(
+            (g, exact, mag) in plane(), k in 0usize..4, o in cube(), d in unit(), graze in -12.0..0.0f64, on in any::<bool>()
+        ) {
+            // A general plane, or one along an axis (its fast path); rays from off or on the
+            // plane, in any direction or grazing it.
+            let g = if k < 3 { let mut n = DVec3::ZERO; n[k] = if o.x < 0.0 { -1.0 } else { 1.0 }; Plane::new(exact.point, n) } else { g };
+            let n = g.normal;
+            let mut origin = exact.point + mag * o;
+            if on {
+                origin -= n * n.dot(origin - exact.point);
+            }
+            let dir = d - n * n.dot(d) * (1.0 - 10f64.powf(graze));
+            let ray = Ray::new(origin, dir);
+            for (lo, hi) in [(0.0, f64::INFINITY), (f64::NEG_INFINITY, f64::INFINITY), (1e-3 * mag, 2.0 * mag), (0.0, 1e-300)] {
+                prop_assert_eq!(g.occludes(&ray, lo, hi), g.intersect(&ray, lo, hi).is_some(), "{:?} in ({}, {})", ray, lo, hi);
+            }
+        }
+
+        #[test]
         fn a_ray_starting_on_the_plane_does_not_hit_it((g, exact, mag) in plane(), offset in cube(), d in unit()) {
             // A point of the plane, rounded: the ray starts within rounding error of the surface.
             let on = exact.point + mag * (offset - exact.normal.dot(offset) * exact.normal);
@@ -275,6 +303,7 @@ mod tests {
             let ray = Ray::new(DVec3::new(0.5, y, 0.0), DVec3::new(0.0, -y, 0.0));
             let h = g.intersect(&ray, 0.0, f64::INFINITY).unwrap();
             assert_eq!((h.t, h.point, g.normal(&h, ray.dir)), (2.0, DVec3::new(0.5, 0.0, 0.0), n));
+            assert!(g.occludes(&ray, 0.0, 2.5) && !g.occludes(&ray, 0.0, 1.5));
         }
     }
 

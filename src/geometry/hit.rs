@@ -33,7 +33,7 @@ impl Hit {
     /// A secondary ray (reflection, refraction) leaving the hit along unit `dir`: it starts just
     /// outside the point's error box on `dir`'s side of the geometric normal `n`
     /// ([`offset_ray_origin`]), so it cannot hit the surface it leaves at `t ≈ 0`.
-    #[inline]
+    #[inline(always)]
     pub fn spawn_ray(&self, n: DVec3, dir: DVec3) -> Ray {
         Ray { origin: offset_ray_origin(self.point, self.error, n, dir), dir }
     }
@@ -41,7 +41,7 @@ impl Hit {
     /// A shadow ray toward a light `distance` away from the hit point along unit `dir` (infinite
     /// for a directional light): the ray of [`Hit::spawn_ray`] and the `t_max` that stops it
     /// [`SHADOW_EPSILON`] (relative) short of the light.
-    #[inline]
+    #[inline(always)]
     pub fn spawn_shadow_ray(&self, n: DVec3, dir: DVec3, distance: f64) -> (Ray, f64) {
         let ray = self.spawn_ray(n, dir);
         let t_max =

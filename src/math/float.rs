@@ -62,7 +62,8 @@ pub fn error_bound(n: u32, v: DVec3) -> DVec3 {
 ///
 /// This is pbrt-v4's `OffsetRayOrigin`: the offset is the projection of the error box onto the
 /// normal, so it scales with the magnitude of the coordinates and needs no scene-specific epsilon.
-#[inline]
+// Always inlined: called out of line, its four vectors went through memory.
+#[inline(always)]
 pub fn offset_ray_origin(p: DVec3, err: DVec3, n: DVec3, w: DVec3) -> DVec3 {
     let d = n.abs().dot(err);
     let mut offset = d * n;

@@ -89,11 +89,23 @@ impl Iterator for CameraRays<'_> {
         }
         let l = self.next;
         self.next += 1;
+        Some((self.ray(l), self.sampler(l)))
+    }
+}
+
+impl CameraRays<'_> {
+    /// The ray through lens point `l` (of `count`).
+    #[inline(always)]
+    fn ray(&self, l: u32) -> Ray {
         let camera = &self.job.scene.camera;
         let lens = if camera.aperture > 0.0 { stratified_2d(self.first + l, self.total.max(1), self.pattern) } else { DVec2::ZERO };
-        let ray = camera.ray_in(&self.frame, self.film, lens);
-        let sampler = if l == 0 { self.sampler.clone() } else { self.sampler.fork(u64::from(l)) };
-        Some((ray, sampler))
+        camera.ray_in(&self.frame, self.film, lens)
+    }
+
+    /// The random stream of the ray through lens point `l`.
+    #[inline(always)]
+    fn sampler(&self, l: u32) -> Sampler {
+        if l == 0 { self.sampler.clone() } else { self.sampler.fork(u64::from(l)) }
     }
 }
 
@@ -201,7 +213,9 @@ pub fn trace_sample(job: &RenderJob, id: SampleId, acc: &mut PixelSum, layers: O
 }
 
 /// [`trace_sample`] with `job`'s [`image_frame`] computed once by the caller (the same result).
-#[inline]
+/// Always inlined: out of line, it read the sample's id as one 8-byte load across the caller's
+/// 4-byte stores (a store-forwarding stall per sample).
+#[inline(always)]
 pub fn trace_sample_in(
     job: &RenderJob,
     frame: &ImageFrame,
@@ -211,7 +225,13 @@ pub fn trace_sample_in(
     stats: &mut RayStats,
 ) -> u64 {
     let mut signature = 0u64;
-    for (ray, mut sampler) in camera_rays_in(job, frame, id) {
+    let rays = camera_rays_in(job, frame, id);
+    // The rays of the iterator, each built where the integrator reads it: taken from the
+    // iterator's `(Ray, Sampler)`, the ray was copied in pieces that straddled its stores (a
+    // store-forwarding stall on every camera ray).
+    for l in 0..rays.count {
+        let ray = rays.ray(l);
+        let mut sampler = rays.sampler(l);
         let mut first = frame.miss;
         stats.camera_rays += 1;
         let c = job.integrator.radiance(&job.scene, &ray, &mut sampler, stats, &mut first);

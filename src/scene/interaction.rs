@@ -51,14 +51,14 @@ impl<'s> Interaction<'s> {
 
     /// A secondary ray leaving the hit along unit `dir`, starting outside the point's error box
     /// on `dir`'s side of the surface ([`Hit::spawn_ray`]).
-    #[inline]
+    #[inline(always)]
     pub fn spawn_ray(&self, dir: DVec3) -> Ray {
         self.hit.spawn_ray(self.n, dir)
     }
 
     /// A shadow ray toward a light `distance` away along unit `dir`, and its `t_max`
     /// ([`Hit::spawn_shadow_ray`]).
-    #[inline]
+    #[inline(always)]
     pub fn spawn_shadow_ray(&self, dir: DVec3, distance: f64) -> (Ray, f64) {
         self.hit.spawn_shadow_ray(self.n, dir, distance)
     }
