@@ -130,7 +130,7 @@ pub struct PrimitiveIndex {
     /// The box a query clips rays to (padded root of a hierarchy; `None`: no clipping).
     bounds: Option<Aabb>,
     #[cfg(feature = "bvh")]
-    bvh: Option<wide::Hierarchy>,
+    bvh: Option<wide::Bvh<{ wide::WIDTH }>>,
 }
 
 impl std::fmt::Debug for PrimitiveIndex {
@@ -222,7 +222,7 @@ impl PrimitiveIndex {
         #[cfg(feature = "bvh")]
         if bvh && count >= 2 && inside {
             let shape = if group >= 4 { wide::Shape::PACK4 } else { wide::Shape::SINGLE };
-            let built = wide::Hierarchy::build(count, total, box_of, shape);
+            let built = wide::Bvh::build_timed(count, total, box_of, shape);
             let index = PrimitiveIndex {
                 len: count as u32,
                 slots: built.order.len() as u32,

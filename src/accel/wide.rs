@@ -1,16 +1,19 @@
 //! raylab's wide bounding-volume hierarchies: built top-down by binned SAH (in parallel, of
 //! bounded depth for any input), laid out as nodes of `W` child boxes in `f32` (structure of
-//! arrays: 128 bytes for 4 children, 256 for 8), traversed with a `W`-lane slab test: nearest
-//! child first for the closest hit, unsorted for any hit. Meshes use 8 children per node
-//! ([`MESH_WIDTH`]), scenes of objects 4 ([`OBJECT_WIDTH`]).
+//! arrays: 256 bytes, four cache lines, for the [`WIDTH`] of 8), traversed with a `W`-lane slab
+//! test: nearest child first for the closest hit, unsorted for any hit. Meshes' triangles and
+//! scenes' objects use the same width.
 //!
-//! The slab test is written once over `[f32; W]` arrays and left to the compiler's vectoriser.
-//! On x86-64 a hierarchy picks its [`Kernel`] when it is built: with AVX2 and FMA
-//! (`is_x86_feature_detected!`) the traversal runs in a copy compiled for them (one 256-bit lane
-//! set per 8 children), otherwise in the baseline copy (SSE2: two 128-bit halves). Both copies
-//! are the same source doing the same `f32` operations in the same order (no fused
-//! multiply-add: Rust never contracts `a * b + c`), so their distances are bit-identical and
-//! they visit leaves in the same order with the same tie rule: an image does not depend on the
+//! Two compiled copies of the walks: the baseline copy (SSE2 on x86-64, NEON or scalar code
+//! elsewhere) takes the children four at a time in glam's `Vec4`; on x86-64 CPUs with AVX2 and
+//! FMA (`is_x86_feature_detected!`, once per process: [`Kernel`]) the walks run in a copy
+//! compiled for them whose slab test takes 8 children in one 256-bit register.
+//! `RAYLAB_SIMD=baseline` forces the baseline copy. Both do the same lane-wise `f32` operations
+//! (subtract, multiply, max, min, compare; no fused multiply-add) in the same order, so their
+//! distances and masks are bit-identical and they visit leaves in the same order with the same
+//! tie rule (children entered at equal distances: the later lane first). The leaf tests
+//! inlined into the AVX2 copy are compiled for it too; Rust neither contracts nor reassociates
+//! floating-point operations, so they round as in the baseline: an image does not depend on the
 //! machine.
 //!
 //! The traversal is **conservative** (see [`super::bvh`]): the ray's origin is moved in `f64` to
@@ -28,13 +31,11 @@ use glam::{DVec3, Vec3A, Vec4};
 use std::sync::OnceLock;
 use std::time::Instant;
 
-/// Children per node of a mesh's hierarchy.
-pub const MESH_WIDTH: usize = 8;
+/// Children per node. Measured against 4 (bunny shot, `raylab bench`, the dozen scene's
+/// objects): 8 is faster on all three. The code is generic over the width, up to [`MAX_WIDTH`].
+pub const WIDTH: usize = 8;
 
-/// Children per node of a hierarchy over a scene's objects.
-pub const OBJECT_WIDTH: usize = 4;
-
-/// Most children per node of any hierarchy (sizes the deepest traversal stack).
+/// Most children per node of a [`Bvh`] (sizes the deepest traversal stack).
 const MAX_WIDTH: usize = 8;
 
 /// A slot of the order that holds no primitive (padding of a leaf to its group).
@@ -214,75 +215,36 @@ pub struct Bvh<const W: usize> {
 /// [`PAD`]) and what the build cost.
 pub struct Built {
     /// The hierarchy.
-    pub bvh: Hierarchy,
+    pub bvh: Bvh<WIDTH>,
     /// Primitive of each slot.
     pub order: Vec<u32>,
     /// Cost of the build.
     pub stats: BuildStats,
 }
 
-/// A hierarchy of the width its leaves' [`Shape`] calls for: [`MESH_WIDTH`] children per node
-/// over packs of triangles, [`OBJECT_WIDTH`] over single objects.
-pub enum Hierarchy {
-    /// Over single primitives (a scene's objects).
-    Objects(Bvh<OBJECT_WIDTH>),
-    /// Over packs of primitives (a mesh's triangles).
-    Packs(Bvh<MESH_WIDTH>),
-}
-
-/// `$body` with `$b` bound to the hierarchy inside `$h`, whatever its width.
-macro_rules! each_width {
-    ($h:expr, $b:ident => $body:expr) => {
-        match $h {
-            Hierarchy::Objects($b) => $body,
-            Hierarchy::Packs($b) => $body,
-        }
-    };
-}
-
-impl Hierarchy {
-    /// Builds over `count` primitives (at least one) whose boxes (finite, non-empty) `box_of`
-    /// gives and whose union is `total`, with leaves shaped by `shape`.
-    pub fn build(count: usize, total: Aabb, box_of: impl Fn(usize) -> Aabb + Sync, shape: Shape) -> Built {
+impl Bvh<WIDTH> {
+    /// [`Bvh::build`], timed, with what it cost.
+    pub fn build_timed(count: usize, total: Aabb, box_of: impl Fn(usize) -> Aabb + Sync, shape: Shape) -> Built {
         let start = Instant::now();
-        let (bvh, order) = if shape.group > 1 {
-            let (b, order) = Bvh::build(count, total, box_of, shape);
-            (Hierarchy::Packs(b), order)
-        } else {
-            let (b, order) = Bvh::build(count, total, box_of, shape);
-            (Hierarchy::Objects(b), order)
+        let (bvh, order) = Bvh::build(count, total, box_of, shape);
+        let stats = BuildStats {
+            hierarchies: 1,
+            primitives: count as u64,
+            nodes: bvh.nodes.len() as u64,
+            bytes: bvh.memory_bytes() as u64,
+            time: start.elapsed(),
         };
-        let (nodes, bytes) = each_width!(&bvh, b => (b.nodes.len(), b.memory_bytes()));
-        let stats =
-            BuildStats { hierarchies: 1, primitives: count as u64, nodes: nodes as u64, bytes: bytes as u64, time: start.elapsed() };
         Built { bvh, order, stats }
     }
 
     /// Levels of nodes.
     pub fn depth(&self) -> usize {
-        each_width!(self, b => b.depth)
-    }
-
-    /// Bytes of the nodes.
-    pub fn memory_bytes(&self) -> usize {
-        each_width!(self, b => b.memory_bytes())
+        self.depth
     }
 
     /// The padded root box.
     pub fn root(&self) -> &Aabb {
-        each_width!(self, b => &b.root)
-    }
-
-    /// [`Bvh::traverse`] at the hierarchy's width.
-    #[inline]
-    pub fn traverse(&self, r: &NodeRay, hi: &mut f32, leaf: &mut impl FnMut(u32, u32, &mut f32) -> bool) -> bool {
-        each_width!(self, b => b.traverse(r, hi, leaf))
-    }
-
-    /// [`Bvh::traverse_any`] at the hierarchy's width.
-    #[inline]
-    pub fn traverse_any(&self, r: &NodeRay, hi: f32, leaf: &mut impl FnMut(u32, u32) -> bool) -> bool {
-        each_width!(self, b => b.traverse_any(r, hi, leaf))
+        &self.root
     }
 }
 
@@ -1113,17 +1075,12 @@ mod tests {
 
     #[test]
     fn kernels_agree_on_eight_wide_packs() {
-        kernels_agree::<8>(Shape::PACK4);
+        kernels_agree::<WIDTH>(Shape::PACK4);
     }
 
     #[test]
     fn kernels_agree_on_eight_wide_singles() {
-        kernels_agree::<8>(Shape::SINGLE);
-    }
-
-    #[test]
-    fn kernels_agree_on_four_wide_singles() {
-        kernels_agree::<4>(Shape::SINGLE);
+        kernels_agree::<WIDTH>(Shape::SINGLE);
     }
 
     /// Both copies of the any-hit walk visit every leaf whose box the exact (`f64`) ray meets.
@@ -1132,7 +1089,7 @@ mod tests {
         let mut rng = Rng(7);
         let bx = boxes(3000, &mut rng);
         let total = bx.iter().fold(Aabb::EMPTY, |a, b| a.union(*b));
-        let (bvh, order) = Bvh::<8>::build(bx.len(), total, |i| bx[i], Shape::PACK4);
+        let (bvh, order) = Bvh::<WIDTH>::build(bx.len(), total, |i| bx[i], Shape::PACK4);
         for i in 0..500 {
             let o = DVec3::new(rng.next(), rng.next(), rng.next());
             let d = DVec3::new(rng.next() - 0.5, rng.next() - 0.5, rng.next() - 0.5).normalize();
