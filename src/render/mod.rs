@@ -283,7 +283,7 @@ fn render_passes(
         }
     }
     let st = state.into_inner().unwrap_or_else(|e| e.into_inner());
-    let film = st.sums.film().map_err(|e| e.to_string())?;
+    let film = st.sums.film_parallel().map_err(|e| e.to_string())?;
     let layers = st.sums.aovs().map_err(|e| e.to_string())?;
     let elapsed = start.elapsed();
     if complete {

@@ -198,11 +198,34 @@ impl FrameSums {
     /// The image: the mean of each pixel's samples so far, black outside the bounds (or where
     /// none is done).
     pub fn film(&self) -> Result<Film, WriteError> {
+        self.film_rows(false)
+    }
+
+    /// [`Self::film`], rows in parallel on the current rayon pool. Not to be called while holding
+    /// a lock that jobs of that pool may take: the waiting thread runs other jobs meanwhile.
+    pub fn film_parallel(&self) -> Result<Film, WriteError> {
+        self.film_rows(true)
+    }
+
+    fn film_rows(&self, parallel: bool) -> Result<Film, WriteError> {
+        use rayon::prelude::*;
         let mut film = Film::try_new(self.width, self.height)?;
         let b = self.share.bounds;
-        let at = (b.y0..b.y1).flat_map(|y| (b.x0..b.x1).map(move |x| (x, y)));
-        for (p, (x, y)) in self.pixels.iter().zip(at) {
-            film.set(x, y, p.mean().as_vec3());
+        let (x0, x1) = (b.x0 as usize, b.x1 as usize);
+        if x1 <= x0 {
+            return Ok(film);
+        }
+        let fill = |(row, sums): (&mut [Vec3], &[PixelSum])| {
+            for (out, p) in row[x0..x1].iter_mut().zip(sums) {
+                *out = p.mean().as_vec3();
+            }
+        };
+        let rows = (b.y0 as usize)..(b.y1 as usize);
+        let (width, share_width) = (self.width as usize, x1 - x0);
+        if parallel {
+            film.pixels.par_chunks_mut(width).skip(rows.start).take(rows.len()).zip(self.pixels.par_chunks(share_width)).for_each(fill);
+        } else {
+            film.pixels.chunks_mut(width).skip(rows.start).take(rows.len()).zip(self.pixels.chunks(share_width)).for_each(fill);
         }
         Ok(film)
     }
