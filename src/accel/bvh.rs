@@ -1,8 +1,9 @@
 //! Spatial indices over primitives given by their boxes: a bounding-volume hierarchy (with the
 //! `bvh` feature) or a flat list, behind one interface, [`PrimitiveIndex`].
 //!
-//! The hierarchy is raylab's own 4-wide BVH ([`super::wide`]): built by binned SAH, of bounded
-//! depth for any input, its nodes four `f32` child boxes tested at once. Traversal must be
+//! The hierarchy is raylab's own 8-wide BVH ([`super::wide`]): built by binned SAH, of bounded
+//! depth for any input, its nodes eight `f32` child boxes tested at once (one AVX2 register
+//! where the CPU has it, two SSE2 halves otherwise, with bit-identical results). Traversal must be
 //! **conservative**: a ray that hits a primitive exactly (in `f64`) must never be culled by a box
 //! test done in `f32`. Three things make it so:
 //!
