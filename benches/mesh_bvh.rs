@@ -2,8 +2,12 @@
 //! rays per second, on bumpy spheres of 1k to 1M triangles, queried directly and as the one
 //! bounded object of a scene (`scene_primary`, `scene_shadow`: through `ObjectAccel`).
 //! `raylab bench` measures the same on any mesh file, as a table (see the README's "Speed").
+//! The ray groups are named after the traversal copy that runs (`rays-avx2`: 8-lane AVX2 slab
+//! tests; `rays-baseline`: the same hierarchy in SSE2 halves, forced by `RAYLAB_SIMD=baseline`),
+//! so criterion keeps separate histories for the two.
 //!
 //! `cargo bench -p raylab-plugins --features mesh,bvh`
+//! `RAYLAB_SIMD=baseline cargo bench -p raylab-plugins --features mesh,bvh -- rays`
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use raylab::Ray;
@@ -78,7 +82,7 @@ fn meshes(c: &mut Criterion) {
             .filter_map(|r| mesh.intersect(r, 0.0, f64::INFINITY).map(|h| (h, r)))
             .map(|(h, r)| Ray { origin: offset_ray_origin(h.point, h.error, mesh.normal(&h, r.dir), to_light), dir: to_light })
             .collect();
-        let mut g = c.benchmark_group("rays");
+        let mut g = c.benchmark_group(format!("rays-{}", raylab::accel::traversal_kernel()));
         g.throughput(Throughput::Elements(rays.len() as u64));
         g.bench_function(BenchmarkId::new("primary", n), |b| {
             b.iter(|| rays.iter().filter(|r| mesh.intersect(r, 0.0, f64::INFINITY).is_some()).count())

@@ -1,8 +1,9 @@
 //! Spatial indices over primitives given by their boxes: a bounding-volume hierarchy (with the
 //! `bvh` feature) or a flat list, behind one interface, [`PrimitiveIndex`].
 //!
-//! The hierarchy is raylab's own 4-wide BVH ([`super::wide`]): built by binned SAH, of bounded
-//! depth for any input, its nodes four `f32` child boxes tested at once. Traversal must be
+//! The hierarchy is raylab's own 8-wide BVH ([`super::wide`]): built by binned SAH, of bounded
+//! depth for any input, its nodes eight `f32` child boxes tested at once (one AVX2 register
+//! where the CPU has it, two SSE2 halves otherwise, with bit-identical results). Traversal must be
 //! **conservative**: a ray that hits a primitive exactly (in `f64`) must never be culled by a box
 //! test done in `f32`. Three things make it so:
 //!
@@ -130,7 +131,7 @@ pub struct PrimitiveIndex {
     /// The box a query clips rays to (padded root of a hierarchy; `None`: no clipping).
     bounds: Option<Aabb>,
     #[cfg(feature = "bvh")]
-    bvh: Option<wide::Bvh4>,
+    bvh: Option<wide::Bvh<{ wide::WIDTH }>>,
 }
 
 impl std::fmt::Debug for PrimitiveIndex {
@@ -222,7 +223,7 @@ impl PrimitiveIndex {
         #[cfg(feature = "bvh")]
         if bvh && count >= 2 && inside {
             let shape = if group >= 4 { wide::Shape::PACK4 } else { wide::Shape::SINGLE };
-            let built = wide::Bvh4::build(count, total, box_of, shape);
+            let built = wide::Bvh::build_timed(count, total, box_of, shape);
             let index = PrimitiveIndex {
                 len: count as u32,
                 slots: built.order.len() as u32,

@@ -13,6 +13,16 @@ pub mod bvh;
 mod wide;
 
 use crate::accel::bvh::PrimitiveIndex;
+
+/// The compiled copy of the hierarchy traversal this process runs: `avx2` (x86-64 CPUs with AVX2
+/// and FMA), `baseline` (others, or the environment variable `RAYLAB_SIMD=baseline`), or `none`
+/// without the `bvh` feature. Every copy gives the same results.
+pub fn traversal_kernel() -> &'static str {
+    #[cfg(feature = "bvh")]
+    return wide::Kernel::detect().name();
+    #[cfg(not(feature = "bvh"))]
+    "none"
+}
 pub use crate::accel::bvh::{AccelChoice, BuildStats, MESH_BVH_THRESHOLD, SCENE_BVH_THRESHOLD};
 use crate::geometry::{Hit, Intersectable};
 use crate::math::bounds::Aabb;

@@ -1,14 +1,25 @@
-//! raylab's 4-wide bounding-volume hierarchy: built top-down by binned SAH (in parallel, of
-//! bounded depth for any input), laid out as nodes of four child boxes in `f32` (structure of
-//! arrays: 128 bytes, two cache lines), traversed with a 4-lane slab test: nearest child first
-//! for the closest hit, unsorted for any hit.
+//! raylab's wide bounding-volume hierarchies: built top-down by binned SAH (in parallel, of
+//! bounded depth for any input), laid out as nodes of `W` child boxes in `f32` (structure of
+//! arrays: 256 bytes, four cache lines, for the [`WIDTH`] of 8), traversed with a `W`-lane slab
+//! test: nearest child first for the closest hit, unsorted for any hit. Meshes' triangles and
+//! scenes' objects use the same width.
 //!
-//! The lanes are glam's `Vec4`: SSE2 on every x86-64 (no feature detection, no `unsafe`), NEON or
-//! scalar code elsewhere. The traversal is **conservative** (see [`super::bvh`]): the ray's origin
-//! is moved in `f64` to where it enters the padded root box before it is rounded to `f32`, every
-//! box is rounded outward and padded by [`BOX_PADDING`] of the root's magnitude, and reciprocals
-//! of direction components are finite, so no slab test produces NaN or culls a box the exact ray
-//! meets.
+//! Two compiled copies of the walks: the baseline copy (SSE2 on x86-64, NEON or scalar code
+//! elsewhere) takes the children four at a time in glam's `Vec4`; on x86-64 CPUs with AVX2 and
+//! FMA (`is_x86_feature_detected!`, once per process: [`Kernel`]) the walks run in a copy
+//! compiled for them whose slab test takes 8 children in one 256-bit register.
+//! `RAYLAB_SIMD=baseline` forces the baseline copy. Both do the same lane-wise `f32` operations
+//! (subtract, multiply, max, min, compare; no fused multiply-add) in the same order, so their
+//! distances and masks are bit-identical and they visit leaves in the same order with the same
+//! tie rule (children entered at equal distances: the later lane first). The leaf tests
+//! inlined into the AVX2 copy are compiled for it too; Rust neither contracts nor reassociates
+//! floating-point operations, so they round as in the baseline: an image does not depend on the
+//! machine.
+//!
+//! The traversal is **conservative** (see [`super::bvh`]): the ray's origin is moved in `f64` to
+//! where it enters the padded root box before it is rounded to `f32`, every box is rounded
+//! outward and padded by [`BOX_PADDING`] of the root's magnitude, and reciprocals of direction
+//! components are finite, so no slab test produces NaN or culls a box the exact ray meets.
 //!
 //! Leaves hold up to [`Shape::leaf_max`] primitives in consecutive *slots*; with
 //! [`Shape::group`] > 1 every leaf starts at a multiple of the group and is padded to it, so a
@@ -17,10 +28,15 @@
 use super::bvh::{BOX_PADDING, BuildStats, MAX_INV_DIR};
 use crate::math::bounds::Aabb;
 use glam::{DVec3, Vec3A, Vec4};
+use std::sync::OnceLock;
 use std::time::Instant;
 
-/// Children per node.
-pub const WIDTH: usize = 4;
+/// Children per node. Measured against 4 (bunny shot, `raylab bench`, the dozen scene's
+/// objects): 8 is faster on all three. The code is generic over the width, up to [`MAX_WIDTH`].
+pub const WIDTH: usize = 8;
+
+/// Most children per node of a [`Bvh`] (sizes the deepest traversal stack).
+const MAX_WIDTH: usize = 8;
 
 /// A slot of the order that holds no primitive (padding of a leaf to its group).
 pub const PAD: u32 = u32::MAX;
@@ -40,18 +56,19 @@ pub const MAX_DEPTH: usize = SAH_DEPTH as usize + 33;
 /// Ranges of at least this many primitives are built in parallel with their siblings.
 const PARALLEL_RANGE: usize = 1 << 14;
 
-/// Traversal stack entries for hierarchies of `levels` levels: each level leaves at most
-/// `WIDTH − 1` entries behind. The stack is cleared per ray, so a hierarchy gets the smallest of
-/// a few sizes that holds it (the stack is initialised per ray: no larger than needed): 16 entries
-/// (5 levels: scenes of objects), 32 (10 levels: meshes of about 10⁵ triangles), 64 (21 levels:
-/// meshes of millions of triangles) or enough for [`MAX_DEPTH`].
-const fn stack_entries(levels: usize) -> usize {
-    (WIDTH - 1) * levels + 1
+/// Traversal stack entries for a hierarchy of `levels` levels of `width`-child nodes: each level
+/// leaves at most `width − 1` entries behind. The stack is initialised per ray, so a hierarchy
+/// gets the smallest of a few sizes that holds it: 16, 32, 64, 128 entries (8 children: 2, 4, 9,
+/// 18 levels; 4 children: 5, 10, 21, 42 levels) or enough for [`MAX_DEPTH`] levels of
+/// [`MAX_WIDTH`] children.
+const fn stack_entries(width: usize, levels: usize) -> usize {
+    (width - 1) * levels + 1
 }
-const SMALL_STACK: usize = 16;
-const MID_STACK: usize = 32;
-const MEDIUM_STACK: usize = 64;
-const DEEP_STACK: usize = stack_entries(MAX_DEPTH);
+const STACK_16: usize = 16;
+const STACK_32: usize = 32;
+const STACK_64: usize = 64;
+const STACK_128: usize = 128;
+const DEEP_STACK: usize = stack_entries(MAX_WIDTH, MAX_DEPTH);
 
 /// How primitives are grouped into leaves.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -70,22 +87,63 @@ impl Shape {
     pub const PACK4: Shape = Shape { group: 4, leaf_max: 4 };
 }
 
-/// A node: four child boxes, each an inner node or a leaf. An unused lane has an empty box
+/// Which compiled copy of the traversal a hierarchy runs: the same code, for different
+/// instruction sets.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kernel {
+    /// The baseline build of the target (SSE2 on x86-64).
+    Baseline,
+    /// Compiled for AVX2 and FMA; only chosen when the CPU has both.
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
+}
+
+impl Kernel {
+    /// The copy hierarchies run: [`Kernel::Baseline`] when the environment variable
+    /// `RAYLAB_SIMD` is `baseline` (to measure or check it), else [`Kernel::fastest`]. Decided
+    /// once per process; both copies give the same results.
+    pub fn detect() -> Kernel {
+        static KERNEL: OnceLock<Kernel> = OnceLock::new();
+        *KERNEL.get_or_init(|| {
+            if std::env::var_os("RAYLAB_SIMD").is_some_and(|v| v == "baseline") { Kernel::Baseline } else { Kernel::fastest() }
+        })
+    }
+
+    /// The fastest copy this CPU runs.
+    pub fn fastest() -> Kernel {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+            return Kernel::Avx2;
+        }
+        Kernel::Baseline
+    }
+
+    /// A short name: `baseline` or `avx2`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Kernel::Baseline => "baseline",
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx2 => "avx2",
+        }
+    }
+}
+
+/// A node: `W` child boxes, each an inner node or a leaf. An unused lane has an empty box
 /// (min +∞, max −∞), which no ray meets.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
-pub struct Node {
+pub struct Node<const W: usize> {
     /// `bounds[axis][0]`: the children's minima on `axis`, `bounds[axis][1]` their maxima; lane =
     /// child. Rounded outward from `f64` and padded.
-    bounds: [[[f32; WIDTH]; 2]; 3],
+    bounds: [[[f32; W]; 2]; 3],
     /// Child `i`: a node index when `count[i] == 0`, else the first slot of a leaf of `count[i]`
     /// primitives.
-    child: [u32; WIDTH],
-    count: [u32; WIDTH],
+    child: [u32; W],
+    count: [u32; W],
 }
 
-impl Node {
-    const EMPTY: Node = Node { bounds: [[[f32::INFINITY; WIDTH], [f32::NEG_INFINITY; WIDTH]]; 3], child: [0; WIDTH], count: [0; WIDTH] };
+impl<const W: usize> Node<W> {
+    const EMPTY: Node<W> = Node { bounds: [[[f32::INFINITY; W], [f32::NEG_INFINITY; W]]; 3], child: [0; W], count: [0; W] };
 
     fn set_box(&mut self, lane: usize, b: &Box32) {
         for axis in 0..3 {
@@ -141,44 +199,34 @@ pub fn up(x: f64) -> f32 {
     if f64::from(v) < x { v.next_up() } else { v }
 }
 
-/// A 4-wide hierarchy with its padded root box.
-pub struct Bvh4 {
-    nodes: Vec<Node>,
+/// A hierarchy of `W`-child nodes (`W` ≤ [`MAX_WIDTH`]) with its padded root box.
+#[derive(Clone)]
+pub struct Bvh<const W: usize> {
+    nodes: Vec<Node<W>>,
     /// The padded root box, in `f64`.
     root: Aabb,
     /// Levels of nodes.
     depth: usize,
+    /// The copy of the traversal to run (chosen by [`Kernel::detect`]).
+    kernel: Kernel,
 }
 
 /// A built hierarchy: the nodes, the slot order (`order[slot]` is the primitive at `slot`, or
 /// [`PAD`]) and what the build cost.
 pub struct Built {
     /// The hierarchy.
-    pub bvh: Bvh4,
+    pub bvh: Bvh<WIDTH>,
     /// Primitive of each slot.
     pub order: Vec<u32>,
     /// Cost of the build.
     pub stats: BuildStats,
 }
 
-impl Bvh4 {
-    /// Builds over `count` primitives (at least one) whose boxes (finite, non-empty) `box_of`
-    /// gives and whose union is `total`, with leaves shaped by `shape`.
-    pub fn build(count: usize, total: Aabb, box_of: impl Fn(usize) -> Aabb + Sync, shape: Shape) -> Built {
-        use rayon::prelude::*;
+impl Bvh<WIDTH> {
+    /// [`Bvh::build`], timed, with what it cost.
+    pub fn build_timed(count: usize, total: Aabb, box_of: impl Fn(usize) -> Aabb + Sync, shape: Shape) -> Built {
         let start = Instant::now();
-        let pad = BOX_PADDING * (total.magnitude() + total.extent().length());
-        let pad = DVec3::splat(pad.max(f64::MIN_POSITIVE));
-        let record = |i: usize| {
-            let b = box_of(i);
-            let (lo, hi) = (b.min - pad, b.max + pad);
-            PrimRef::new(Vec3A::new(down(lo.x), down(lo.y), down(lo.z)), Vec3A::new(up(hi.x), up(hi.y), up(hi.z)), i as u32)
-        };
-        let prims: Vec<PrimRef> =
-            if count >= PARALLEL_RANGE { (0..count).into_par_iter().map(record).collect() } else { (0..count).map(record).collect() };
-        let (nodes, order, depth) = build_nodes(prims, shape);
-        debug_assert!(depth <= MAX_DEPTH, "{depth} levels");
-        let bvh = Bvh4 { nodes, root: total.expand(pad * 2.0), depth };
+        let (bvh, order) = Bvh::build(count, total, box_of, shape);
         let stats = BuildStats {
             hierarchies: 1,
             primitives: count as u64,
@@ -194,31 +242,63 @@ impl Bvh4 {
         self.depth
     }
 
-    /// Bytes of the nodes.
-    pub fn memory_bytes(&self) -> usize {
-        self.nodes.len() * std::mem::size_of::<Node>()
-    }
-
     /// The padded root box.
     pub fn root(&self) -> &Aabb {
         &self.root
     }
+}
+
+/// Calls `$walk::<N>` with the smallest stack size `N` that holds `$need` entries.
+macro_rules! with_stack {
+    ($need:expr, $walk:ident, $($arg:expr),*) => {{
+        let need = $need;
+        if need <= STACK_16 {
+            $walk::<STACK_16, W>($($arg),*)
+        } else if need <= STACK_32 {
+            $walk::<STACK_32, W>($($arg),*)
+        } else if need <= STACK_64 {
+            $walk::<STACK_64, W>($($arg),*)
+        } else if need <= STACK_128 {
+            $walk::<STACK_128, W>($($arg),*)
+        } else {
+            $walk::<DEEP_STACK, W>($($arg),*)
+        }
+    }};
+}
+
+impl<const W: usize> Bvh<W> {
+    /// Builds over `count` primitives (at least one) whose boxes (finite, non-empty) `box_of`
+    /// gives and whose union is `total`, with leaves shaped by `shape`; returns the hierarchy and
+    /// the slot order.
+    pub fn build(count: usize, total: Aabb, box_of: impl Fn(usize) -> Aabb + Sync, shape: Shape) -> (Bvh<W>, Vec<u32>) {
+        use rayon::prelude::*;
+        const { assert!(W >= 2 && W <= MAX_WIDTH) };
+        let pad = BOX_PADDING * (total.magnitude() + total.extent().length());
+        let pad = DVec3::splat(pad.max(f64::MIN_POSITIVE));
+        let record = |i: usize| {
+            let b = box_of(i);
+            let (lo, hi) = (b.min - pad, b.max + pad);
+            PrimRef::new(Vec3A::new(down(lo.x), down(lo.y), down(lo.z)), Vec3A::new(up(hi.x), up(hi.y), up(hi.z)), i as u32)
+        };
+        let prims: Vec<PrimRef> =
+            if count >= PARALLEL_RANGE { (0..count).into_par_iter().map(record).collect() } else { (0..count).map(record).collect() };
+        let (nodes, order, depth) = build_nodes::<W>(prims, shape);
+        debug_assert!(depth <= MAX_DEPTH, "{depth} levels");
+        (Bvh { nodes, root: total.expand(pad * 2.0), depth, kernel: Kernel::detect() }, order)
+    }
+
+    /// Bytes of the nodes.
+    pub fn memory_bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<Node<W>>()
+    }
 
     /// Walks the leaves the ray meets (in the shifted frame of `r`, up to `hi`), nearest first,
     /// calling `leaf(first, count, &mut hi)`; stops when it returns true, and returns whether it
-    /// did. `leaf` may lower `hi` (a closer hit found).
+    /// did. `leaf` may lower `hi` (a closer hit found). Children entered at equal distances are
+    /// taken last lane first.
     #[inline]
     pub fn traverse(&self, r: &NodeRay, hi: &mut f32, leaf: &mut impl FnMut(u32, u32, &mut f32) -> bool) -> bool {
-        let need = stack_entries(self.depth);
-        if need <= SMALL_STACK {
-            self.walk::<SMALL_STACK>(r, hi, leaf)
-        } else if need <= MID_STACK {
-            self.walk::<MID_STACK>(r, hi, leaf)
-        } else if need <= MEDIUM_STACK {
-            self.walk::<MEDIUM_STACK>(r, hi, leaf)
-        } else {
-            self.walk::<DEEP_STACK>(r, hi, leaf)
-        }
+        with_stack!(stack_entries(W, self.depth), walk_on, self, r, hi, leaf)
     }
 
     /// Walks the leaves the ray meets (in the shifted frame of `r`, up to `hi`) in no particular
@@ -227,121 +307,172 @@ impl Bvh4 {
     /// come, with no sorting by distance and no distance check when popped.
     #[inline]
     pub fn traverse_any(&self, r: &NodeRay, hi: f32, leaf: &mut impl FnMut(u32, u32) -> bool) -> bool {
-        let need = stack_entries(self.depth);
-        if need <= SMALL_STACK {
-            self.walk_any::<SMALL_STACK>(r, hi, leaf)
-        } else if need <= MID_STACK {
-            self.walk_any::<MID_STACK>(r, hi, leaf)
-        } else if need <= MEDIUM_STACK {
-            self.walk_any::<MEDIUM_STACK>(r, hi, leaf)
-        } else {
-            self.walk_any::<DEEP_STACK>(r, hi, leaf)
-        }
+        with_stack!(stack_entries(W, self.depth), walk_any_on, self, r, hi, leaf)
     }
+}
 
-    #[inline(always)]
-    fn walk_any<const N: usize>(&self, r: &NodeRay, hi: f32, leaf: &mut impl FnMut(u32, u32) -> bool) -> bool {
-        // As in `walk`: at most (WIDTH − 1) entries per level, `N` ≥ stack_entries(self.depth).
-        let mut stack = [(0u32, 0u32); N];
-        let mut sp = 0usize;
-        let (mut child, mut count) = (0u32, 0u32);
-        loop {
-            if count != 0 {
-                if leaf(child, count) {
-                    return true;
-                }
-            } else {
-                let node = &self.nodes[child as usize];
-                let (_, mut mask) = node_hits(node, r, hi);
-                if mask != 0 {
-                    // Continue with the first child met, push the others.
+/// [`walk`] in the copy of [`Bvh::kernel`].
+#[inline(always)]
+fn walk_on<const N: usize, const W: usize>(
+    bvh: &Bvh<W>,
+    r: &NodeRay,
+    hi: &mut f32,
+    leaf: &mut impl FnMut(u32, u32, &mut f32) -> bool,
+) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if bvh.kernel == Kernel::Avx2 {
+        // SAFETY: a hierarchy's kernel is `Kernel::Avx2` only when `Kernel::fastest` returned
+        // it, after `is_x86_feature_detected!` found AVX2 and FMA on this CPU.
+        return unsafe { walk_avx2::<N, W>(bvh, r, hi, leaf) };
+    }
+    walk::<N, W, false>(bvh, r, hi, leaf)
+}
+
+/// [`walk_any`] in the copy of [`Bvh::kernel`].
+#[inline(always)]
+fn walk_any_on<const N: usize, const W: usize>(bvh: &Bvh<W>, r: &NodeRay, hi: f32, leaf: &mut impl FnMut(u32, u32) -> bool) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if bvh.kernel == Kernel::Avx2 {
+        // SAFETY: a hierarchy's kernel is `Kernel::Avx2` only when `Kernel::fastest` returned
+        // it, after `is_x86_feature_detected!` found AVX2 and FMA on this CPU.
+        return unsafe { walk_any_avx2::<N, W>(bvh, r, hi, leaf) };
+    }
+    walk_any::<N, W, false>(bvh, r, hi, leaf)
+}
+
+/// [`walk`] compiled for AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn walk_avx2<const N: usize, const W: usize>(
+    bvh: &Bvh<W>,
+    r: &NodeRay,
+    hi: &mut f32,
+    leaf: &mut impl FnMut(u32, u32, &mut f32) -> bool,
+) -> bool {
+    walk::<N, W, true>(bvh, r, hi, leaf)
+}
+
+/// [`walk_any`] compiled for AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn walk_any_avx2<const N: usize, const W: usize>(bvh: &Bvh<W>, r: &NodeRay, hi: f32, leaf: &mut impl FnMut(u32, u32) -> bool) -> bool {
+    walk_any::<N, W, true>(bvh, r, hi, leaf)
+}
+
+/// [`Bvh::traverse_any`] with a stack of `N` ≥ `stack_entries(W, depth)` entries.
+#[inline(always)]
+fn walk_any<const N: usize, const W: usize, const AVX: bool>(
+    bvh: &Bvh<W>,
+    r: &NodeRay,
+    hi: f32,
+    leaf: &mut impl FnMut(u32, u32) -> bool,
+) -> bool {
+    // At most (W − 1) entries per level are left behind.
+    let mut stack = [(0u32, 0u32); N];
+    let mut sp = 0usize;
+    let (mut child, mut count) = (0u32, 0u32);
+    loop {
+        if count != 0 {
+            if leaf(child, count) {
+                return true;
+            }
+        } else {
+            let node = &bvh.nodes[child as usize];
+            let (_, mut mask) = node_hits::<W, AVX>(node, r, hi);
+            if mask != 0 {
+                // Continue with the first child met, push the others.
+                let i = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                (child, count) = (node.child[i], node.count[i]);
+                while mask != 0 {
                     let i = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
-                    (child, count) = (node.child[i], node.count[i]);
-                    while mask != 0 {
-                        let i = mask.trailing_zeros() as usize;
-                        mask &= mask - 1;
-                        stack[sp] = (node.child[i], node.count[i]);
-                        sp += 1;
-                    }
-                    continue;
+                    stack[sp] = (node.child[i], node.count[i]);
+                    sp += 1;
                 }
+                continue;
             }
+        }
+        if sp == 0 {
+            return false;
+        }
+        sp -= 1;
+        (child, count) = stack[sp];
+    }
+}
+
+/// [`Bvh::traverse`] with a stack of `N` ≥ `stack_entries(W, depth)` entries.
+#[inline(always)]
+fn walk<const N: usize, const W: usize, const AVX: bool>(
+    bvh: &Bvh<W>,
+    r: &NodeRay,
+    hi: &mut f32,
+    leaf: &mut impl FnMut(u32, u32, &mut f32) -> bool,
+) -> bool {
+    // At most (W − 1) entries per level are left behind.
+    let mut stack = [Entry::default(); N];
+    let mut sp = 0usize;
+    let mut cur = Entry { child: 0, count: 0, near: 0.0 };
+    'walk: loop {
+        'descend: {
+            if cur.count != 0 {
+                if leaf(cur.child, cur.count, hi) {
+                    return true;
+                }
+                break 'descend;
+            }
+            let node = &bvh.nodes[cur.child as usize];
+            let (near, mut mask) = node_hits::<W, AVX>(node, r, *hi);
+            if mask == 0 {
+                break 'descend;
+            }
+            let i = mask.trailing_zeros() as usize;
+            let rest = mask & (mask - 1);
+            if rest == 0 {
+                cur = Entry { child: node.child[i], count: node.count[i], near: near[i] };
+                continue 'walk;
+            }
+            if rest & (rest - 1) == 0 {
+                // Two children: continue with the nearer (the later lane on a tie, as the
+                // sorted push below would), push the other.
+                let j = rest.trailing_zeros() as usize;
+                let (a, b) = (
+                    Entry { child: node.child[i], count: node.count[i], near: near[i] },
+                    Entry { child: node.child[j], count: node.count[j], near: near[j] },
+                );
+                let (next, later) = if b.near <= a.near { (b, a) } else { (a, b) };
+                stack[sp] = later;
+                sp += 1;
+                cur = next;
+                continue 'walk;
+            }
+            // Three or more children: push them, farthest deepest (a later lane above an earlier
+            // one at the same distance), and continue with the nearest.
+            let base = sp;
+            while mask != 0 {
+                let i = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let e = Entry { child: node.child[i], count: node.count[i], near: near[i] };
+                let mut j = sp;
+                while j > base && stack[j - 1].near < e.near {
+                    stack[j] = stack[j - 1];
+                    j -= 1;
+                }
+                stack[j] = e;
+                sp += 1;
+            }
+            sp -= 1;
+            cur = stack[sp];
+            continue 'walk;
+        }
+        loop {
             if sp == 0 {
                 return false;
             }
             sp -= 1;
-            (child, count) = stack[sp];
-        }
-    }
-
-    #[inline(always)]
-    fn walk<const N: usize>(&self, r: &NodeRay, hi: &mut f32, leaf: &mut impl FnMut(u32, u32, &mut f32) -> bool) -> bool {
-        // The stack holds at most (WIDTH − 1) entries per level: `N` ≥ stack_entries(self.depth).
-        let mut stack = [Entry::default(); N];
-        let mut sp = 0usize;
-        let mut cur = Entry { child: 0, count: 0, near: 0.0 };
-        'walk: loop {
-            'descend: {
-                if cur.count != 0 {
-                    if leaf(cur.child, cur.count, hi) {
-                        return true;
-                    }
-                    break 'descend;
-                }
-                let node = &self.nodes[cur.child as usize];
-                let (near, mut mask) = node_hits(node, r, *hi);
-                if mask == 0 {
-                    break 'descend;
-                }
-                let near = near.to_array();
-                let i = mask.trailing_zeros() as usize;
-                let rest = mask & (mask - 1);
-                if rest == 0 {
-                    cur = Entry { child: node.child[i], count: node.count[i], near: near[i] };
-                    continue 'walk;
-                }
-                if rest & (rest - 1) == 0 {
-                    // Two children: continue with the nearer (the later lane on a tie, as the
-                    // sorted push below would), push the other.
-                    let j = rest.trailing_zeros() as usize;
-                    let (a, b) = (
-                        Entry { child: node.child[i], count: node.count[i], near: near[i] },
-                        Entry { child: node.child[j], count: node.count[j], near: near[j] },
-                    );
-                    let (next, later) = if b.near <= a.near { (b, a) } else { (a, b) };
-                    stack[sp] = later;
-                    sp += 1;
-                    cur = next;
-                    continue 'walk;
-                }
-                // Three or four children: push them, farthest deepest, and continue with the nearest.
-                let base = sp;
-                while mask != 0 {
-                    let i = mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    let e = Entry { child: node.child[i], count: node.count[i], near: near[i] };
-                    let mut j = sp;
-                    while j > base && stack[j - 1].near < e.near {
-                        stack[j] = stack[j - 1];
-                        j -= 1;
-                    }
-                    stack[j] = e;
-                    sp += 1;
-                }
-                sp -= 1;
+            if stack[sp].near <= *hi {
                 cur = stack[sp];
-                continue 'walk;
-            }
-            loop {
-                if sp == 0 {
-                    return false;
-                }
-                sp -= 1;
-                if stack[sp].near <= *hi {
-                    cur = stack[sp];
-                    break;
-                }
+                break;
             }
         }
     }
@@ -358,8 +489,8 @@ struct Entry {
 /// A ray prepared for the `f32` slab tests: origin shifted to the root box, reciprocals finite.
 #[derive(Clone, Copy, Debug)]
 pub struct NodeRay {
-    origin: [Vec4; 3],
-    inv: [Vec4; 3],
+    origin: [f32; 3],
+    inv: [f32; 3],
     /// Per axis: 0 when the ray meets the minimum plane first, 1 when the maximum.
     near_plane: [usize; 3],
 }
@@ -373,33 +504,86 @@ impl NodeRay {
         let r = Vec3A::ONE / d;
         let cap = Vec3A::splat(MAX_INV_DIR).copysign(d);
         let inv = Vec3A::select(r.abs().cmple(Vec3A::splat(MAX_INV_DIR)), r, cap);
-        let o = origin.as_vec3a();
         // Signs from the reciprocal, so −0 counts as negative (as in 1/−0 = −∞).
         let near_plane = [usize::from(inv.x < 0.0), usize::from(inv.y < 0.0), usize::from(inv.z < 0.0)];
-        NodeRay {
-            origin: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
-            inv: [Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z)],
-            near_plane,
-        }
+        NodeRay { origin: origin.as_vec3a().to_array(), inv: inv.to_array(), near_plane }
     }
 }
 
-/// The entry distances of the ray into a node's four child boxes over `[0, hi]`, and the mask of
-/// the children it meets.
+/// The entry distances of the ray into a node's `W` child boxes over `[0, hi]`, and the mask of
+/// the children it meets, in the copy of the traversal `AVX` names. Both copies do the same
+/// lane-wise `f32` operations in the same order, so their results are bit-identical.
 #[inline(always)]
-fn node_hits(node: &Node, r: &NodeRay, hi: f32) -> (Vec4, u32) {
-    let slab = |axis: usize| {
-        let n = r.near_plane[axis] & 1;
-        let near = (Vec4::from_array(node.bounds[axis][n]) - r.origin[axis]) * r.inv[axis];
-        let far = (Vec4::from_array(node.bounds[axis][n ^ 1]) - r.origin[axis]) * r.inv[axis];
-        (near, far)
-    };
-    let (nx, fx) = slab(0);
-    let (ny, fy) = slab(1);
-    let (nz, fz) = slab(2);
-    let near = nx.max(ny).max(nz).max(Vec4::ZERO);
-    let far = fx.min(fy).min(fz).min(Vec4::splat(hi));
-    (near, near.cmple(far).bitmask())
+fn node_hits<const W: usize, const AVX: bool>(node: &Node<W>, r: &NodeRay, hi: f32) -> ([f32; W], u32) {
+    #[cfg(target_arch = "x86_64")]
+    if AVX {
+        // SAFETY: `AVX` is true only in the walks compiled by `walk_avx2` and `walk_any_avx2`,
+        // which run only under `Kernel::Avx2`, returned by `Kernel::fastest` after
+        // `is_x86_feature_detected!` found AVX2 and FMA.
+        return unsafe { node_hits_avx2(node, r, hi) };
+    }
+    node_hits_by4(node, r, hi)
+}
+
+/// [`node_hits`] four lanes at a time (glam's `Vec4`: SSE2 on x86-64, NEON or scalar code
+/// elsewhere).
+#[inline(always)]
+fn node_hits_by4<const W: usize>(node: &Node<W>, r: &NodeRay, hi: f32) -> ([f32; W], u32) {
+    let mut near_all = [0.0f32; W];
+    let mut mask = 0u32;
+    for c in (0..W).step_by(4) {
+        let slab = |axis: usize| {
+            let n = r.near_plane[axis] & 1;
+            let (o, inv) = (Vec4::splat(r.origin[axis]), Vec4::splat(r.inv[axis]));
+            let near = (Vec4::from_slice(&node.bounds[axis][n][c..c + 4]) - o) * inv;
+            let far = (Vec4::from_slice(&node.bounds[axis][n ^ 1][c..c + 4]) - o) * inv;
+            (near, far)
+        };
+        let (nx, fx) = slab(0);
+        let (ny, fy) = slab(1);
+        let (nz, fz) = slab(2);
+        let near = nx.max(ny).max(nz).max(Vec4::ZERO);
+        let far = fx.min(fy).min(fz).min(Vec4::splat(hi));
+        near.write_to_slice(&mut near_all[c..c + 4]);
+        mask |= near.cmple(far).bitmask() << c;
+    }
+    (near_all, mask)
+}
+
+/// [`node_hits`] in 256-bit AVX lanes: one register for 8 children; other widths go four lanes at
+/// a time. Always inlined (a `#[target_feature]` function cannot be), so that it is compiled
+/// into its caller's AVX2 copy of the walk.
+///
+/// # Safety
+/// The CPU has AVX2.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn node_hits_avx2<const W: usize>(node: &Node<W>, r: &NodeRay, hi: f32) -> ([f32; W], u32) {
+    use std::arch::x86_64::*;
+    if W != 8 {
+        return node_hits_by4(node, r, hi);
+    }
+    // SAFETY: the caller guarantees AVX2; the intrinsics below need only AVX.
+    unsafe {
+        let mut slab = [(_mm256_setzero_ps(), _mm256_setzero_ps()); 3];
+        for (axis, s) in slab.iter_mut().enumerate() {
+            let n = r.near_plane[axis] & 1;
+            let (o, inv) = (_mm256_set1_ps(r.origin[axis]), _mm256_set1_ps(r.inv[axis]));
+            let (enter, exit) = (&node.bounds[axis][n], &node.bounds[axis][n ^ 1]);
+            // Two 128-bit halves joined: the compiler emits one 256-bit load.
+            let enter = _mm256_set_m128(Vec4::from_slice(&enter[4..8]).into(), Vec4::from_slice(&enter[0..4]).into());
+            let exit = _mm256_set_m128(Vec4::from_slice(&exit[4..8]).into(), Vec4::from_slice(&exit[0..4]).into());
+            *s = (_mm256_mul_ps(_mm256_sub_ps(enter, o), inv), _mm256_mul_ps(_mm256_sub_ps(exit, o), inv));
+        }
+        let [(nx, fx), (ny, fy), (nz, fz)] = slab;
+        let near = _mm256_max_ps(_mm256_max_ps(_mm256_max_ps(nx, ny), nz), _mm256_setzero_ps());
+        let far = _mm256_min_ps(_mm256_min_ps(_mm256_min_ps(fx, fy), fz), _mm256_set1_ps(hi));
+        let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32;
+        let mut near_all = [0.0f32; W];
+        Vec4::from(_mm256_castps256_ps128(near)).write_to_slice(&mut near_all[0..4]);
+        Vec4::from(_mm256_extractf128_ps::<1>(near)).write_to_slice(&mut near_all[4..8]);
+        (near_all, mask)
+    }
 }
 
 /// The shifted-frame far limit for a hit at shifted distance `t`, rounded up.
@@ -469,7 +653,7 @@ fn bounds_of(prims: &[PrimRef]) -> (Box32, Box32) {
 }
 
 /// The nodes over `prims` (root first), the slot order and the number of levels.
-fn build_nodes(mut prims: Vec<PrimRef>, shape: Shape) -> (Vec<Node>, Vec<u32>, usize) {
+fn build_nodes<const W: usize>(mut prims: Vec<PrimRef>, shape: Shape) -> (Vec<Node<W>>, Vec<u32>, usize) {
     let n = prims.len();
     let (bounds, centers) = if n >= PARALLEL_RANGE {
         use rayon::prelude::*;
@@ -487,7 +671,7 @@ fn build_nodes(mut prims: Vec<PrimRef>, shape: Shape) -> (Vec<Node>, Vec<u32>, u
     let mut todo = vec![(0usize, 1usize)];
     while let Some((i, level)) = todo.pop() {
         depth = depth.max(level);
-        for lane in (0..WIDTH).rev() {
+        for lane in (0..W).rev() {
             let node = &mut nodes[i];
             if !node.is_used(lane) {
                 continue;
@@ -517,8 +701,8 @@ impl Builder {
     /// Appends the nodes over `part` (a range of `prims`, whose first element is position
     /// `offset` of the whole build) to `out`, root first; leaves refer to positions in the whole
     /// build's records.
-    fn subtree(&self, prims: &mut [PrimRef], offset: usize, part: Part, out: &mut Vec<Node>) {
-        let parts = self.partition(prims, part);
+    fn subtree<const W: usize>(&self, prims: &mut [PrimRef], offset: usize, part: Part, out: &mut Vec<Node<W>>) {
+        let parts = self.partition::<W>(prims, part);
         let at = out.len();
         out.push(Node::EMPTY);
         let mut node = Node::EMPTY;
@@ -526,18 +710,22 @@ impl Builder {
         if big >= 2 {
             // Disjoint slices of `prims`, built into their own node lists in parallel, then
             // appended in lane order: the result does not depend on the thread count.
-            let mut slices: [Option<(&mut [PrimRef], Part)>; WIDTH] = Default::default();
+            use rayon::prelude::*;
+            let mut slices: Vec<Option<(&mut [PrimRef], Part)>> = Vec::with_capacity(W);
             let mut rest: &mut [PrimRef] = prims;
             let mut consumed = 0;
-            for (lane, p) in parts.iter().enumerate() {
-                let Some(p) = p else { continue };
+            for p in &parts {
+                let Some(p) = p else {
+                    slices.push(None);
+                    continue;
+                };
                 let (_, tail) = rest.split_at_mut(p.start - consumed);
                 let (mine, tail) = tail.split_at_mut(p.len());
                 rest = tail;
                 consumed = p.end;
-                slices[lane] = Some((mine, *p));
+                slices.push(Some((mine, *p)));
             }
-            let build = |s: Option<(&mut [PrimRef], Part)>| -> Vec<Node> {
+            let build = |s: Option<(&mut [PrimRef], Part)>| -> Vec<Node<W>> {
                 let mut v = Vec::new();
                 if let Some((slice, p)) = s
                     && !self.is_leaf(&p)
@@ -546,9 +734,8 @@ impl Builder {
                 }
                 v
             };
-            let [s0, s1, s2, s3] = slices;
-            let ((v0, v1), (v2, v3)) = rayon::join(|| rayon::join(|| build(s0), || build(s1)), || rayon::join(|| build(s2), || build(s3)));
-            for (lane, v) in [v0, v1, v2, v3].into_iter().enumerate() {
+            let built: Vec<Vec<Node<W>>> = slices.into_par_iter().map(build).collect();
+            for (lane, v) in built.into_iter().enumerate() {
                 let Some(p) = parts[lane] else { continue };
                 node.set_box(lane, &p.bounds);
                 if self.is_leaf(&p) {
@@ -558,7 +745,7 @@ impl Builder {
                     let base = out.len() as u32;
                     node.child[lane] = base;
                     out.extend(v.into_iter().map(|mut n| {
-                        for l in 0..WIDTH {
+                        for l in 0..W {
                             if n.count[l] == 0 && n.is_used(l) {
                                 n.child[l] += base;
                             }
@@ -584,12 +771,13 @@ impl Builder {
         out[at] = node;
     }
 
-    /// Splits `part` into up to four parts (ranges of `prims` in order): the part with the largest
-    /// box that is too big for a leaf is split in two until there are four.
-    fn partition(&self, prims: &mut [PrimRef], part: Part) -> [Option<Part>; WIDTH] {
-        let mut parts = [Some(part), None, None, None];
+    /// Splits `part` into up to `W` parts (ranges of `prims` in order): the part with the largest
+    /// box that is too big for a leaf is split in two until there are `W`.
+    fn partition<const W: usize>(&self, prims: &mut [PrimRef], part: Part) -> [Option<Part>; W] {
+        let mut parts = [None; W];
+        parts[0] = Some(part);
         let mut len = 1;
-        while len < WIDTH {
+        while len < W {
             let mut pick: Option<(usize, f64)> = None;
             for (i, p) in parts.iter().enumerate().take(len) {
                 if let Some(p) = p
@@ -792,5 +980,133 @@ impl Counts {
             }
         }
         best.map(|(_, axis, i, l, r)| (axis, i, l, r))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A small deterministic generator (xorshift), uniform in [0, 1).
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> f64 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            (self.0 >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    /// `n` boxes in the unit cube, a tenth of them repeated (children met at equal distances).
+    fn boxes(n: usize, rng: &mut Rng) -> Vec<Aabb> {
+        let mut out: Vec<Aabb> = Vec::with_capacity(n);
+        for i in 0..n {
+            if i % 10 == 9 {
+                out.push(out[(rng.next() * i as f64) as usize]);
+                continue;
+            }
+            let c = DVec3::new(rng.next(), rng.next(), rng.next());
+            let e = DVec3::new(rng.next(), rng.next(), rng.next()) * 0.03;
+            out.push(Aabb::new(c - e, c + e));
+        }
+        out
+    }
+
+    /// A ray from the root's box or outside it, along a random or an axis-aligned direction.
+    fn ray(rng: &mut Rng, i: usize) -> NodeRay {
+        let o = DVec3::new(rng.next(), rng.next(), rng.next()) * 1.4 - 0.2;
+        let mut d = DVec3::new(rng.next() - 0.5, rng.next() - 0.5, rng.next() - 0.5);
+        match i % 4 {
+            0 => d.x = 0.0,
+            1 => d = DVec3::new(0.0, -1.0, 0.0),
+            _ => {}
+        }
+        NodeRay::new(o, d.normalize())
+    }
+
+    /// What the walks of one ray report: the leaves of a closest-hit walk (with the far limit
+    /// each saw), the leaves of a full any-hit walk, and whether an any-hit walk that stops did.
+    type Visits = (Vec<(u32, u32, u32)>, Vec<(u32, u32)>, bool);
+
+    /// The [`Visits`] of ray `r` in `bvh`.
+    fn visits<const W: usize>(bvh: &Bvh<W>, r: &NodeRay) -> Visits {
+        let mut closest = Vec::new();
+        let mut hi = f32::INFINITY;
+        bvh.traverse(r, &mut hi, &mut |first, count, hi: &mut f32| {
+            closest.push((first, count, hi.to_bits()));
+            // A pseudo hit that depends on the leaf only: sometimes closer, sometimes not.
+            let t = ((first.wrapping_mul(2_654_435_761) >> 8) % 1000) as f32 / 500.0;
+            *hi = hi.min(t);
+            false
+        });
+        let mut any = Vec::new();
+        bvh.traverse_any(r, f32::INFINITY, &mut |first, count| {
+            any.push((first, count));
+            false
+        });
+        let stop = bvh.traverse_any(r, 1.5, &mut |first, _| first % 7 == 3);
+        (closest, any, stop)
+    }
+
+    /// The AVX2 and baseline copies of the walks visit the same leaves in the same order, with
+    /// the same far limits: the hit a ray keeps does not depend on the machine.
+    fn kernels_agree<const W: usize>(shape: Shape) {
+        let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+        let bx = boxes(20_000, &mut rng);
+        let total = bx.iter().fold(Aabb::EMPTY, |a, b| a.union(*b));
+        let (mut bvh, _) = Bvh::<W>::build(bx.len(), total, |i| bx[i], shape);
+        let fast = Kernel::fastest();
+        if fast == Kernel::Baseline {
+            eprintln!("no AVX2 on this CPU: only the baseline copy runs (the comparison is trivial)");
+        }
+        let mut met = 0;
+        for i in 0..4000 {
+            let r = ray(&mut rng, i);
+            bvh.kernel = fast;
+            let a = visits(&bvh, &r);
+            bvh.kernel = Kernel::Baseline;
+            let b = visits(&bvh, &r);
+            assert_eq!(a, b, "ray {i}");
+            met += usize::from(!a.1.is_empty());
+        }
+        assert!(met > 1000, "only {met} rays met a leaf");
+    }
+
+    #[test]
+    fn kernels_agree_on_eight_wide_packs() {
+        kernels_agree::<WIDTH>(Shape::PACK4);
+    }
+
+    #[test]
+    fn kernels_agree_on_eight_wide_singles() {
+        kernels_agree::<WIDTH>(Shape::SINGLE);
+    }
+
+    /// Both copies of the any-hit walk visit every leaf whose box the exact (`f64`) ray meets.
+    #[test]
+    fn walks_visit_every_leaf_the_ray_meets() {
+        let mut rng = Rng(7);
+        let bx = boxes(3000, &mut rng);
+        let total = bx.iter().fold(Aabb::EMPTY, |a, b| a.union(*b));
+        let (bvh, order) = Bvh::<WIDTH>::build(bx.len(), total, |i| bx[i], Shape::PACK4);
+        for i in 0..500 {
+            let o = DVec3::new(rng.next(), rng.next(), rng.next());
+            let d = DVec3::new(rng.next() - 0.5, rng.next() - 0.5, rng.next() - 0.5).normalize();
+            let ray = crate::Ray::new(o, d);
+            let exact: Vec<u32> = (0..bx.len() as u32).filter(|&p| bx[p as usize].hit(&ray, d.recip(), 0.0, f64::INFINITY)).collect();
+            for kernel in [Kernel::Baseline, Kernel::fastest()] {
+                let bvh = Bvh { kernel, ..bvh.clone() };
+                let mut seen = Vec::new();
+                bvh.traverse_any(&NodeRay::new(o, d), f32::INFINITY, &mut |first, count| {
+                    seen.extend(order[first as usize..(first + count) as usize].iter().copied().filter(|&p| p != PAD));
+                    false
+                });
+                seen.sort_unstable();
+                for p in &exact {
+                    assert!(seen.binary_search(p).is_ok(), "ray {i}: box {p} missed");
+                }
+            }
+        }
     }
 }
