@@ -325,7 +325,7 @@ fn walk_on<const N: usize, const W: usize>(
         // it, after `is_x86_feature_detected!` found AVX2 and FMA on this CPU.
         return unsafe { walk_avx2::<N, W>(bvh, r, hi, leaf) };
     }
-    walk::<N, W, false>(bvh, r, hi, leaf)
+    walk_baseline::<N, W>(bvh, r, hi, leaf)
 }
 
 /// [`walk_any`] in the copy of [`Bvh::kernel`].
@@ -337,6 +337,24 @@ fn walk_any_on<const N: usize, const W: usize>(bvh: &Bvh<W>, r: &NodeRay, hi: f3
         // it, after `is_x86_feature_detected!` found AVX2 and FMA on this CPU.
         return unsafe { walk_any_avx2::<N, W>(bvh, r, hi, leaf) };
     }
+    walk_any_baseline::<N, W>(bvh, r, hi, leaf)
+}
+
+/// [`walk`] for any x86-64 CPU, out of line like [`walk_avx2`]: inlined, the stacks of its copies
+/// (one per stack size) made the caller's frame kilobytes deep, probed on every query.
+#[inline(never)]
+fn walk_baseline<const N: usize, const W: usize>(
+    bvh: &Bvh<W>,
+    r: &NodeRay,
+    hi: &mut f32,
+    leaf: &mut impl FnMut(u32, u32, &mut f32) -> bool,
+) -> bool {
+    walk::<N, W, false>(bvh, r, hi, leaf)
+}
+
+/// [`walk_any`] for any x86-64 CPU, out of line (see [`walk_baseline`]).
+#[inline(never)]
+fn walk_any_baseline<const N: usize, const W: usize>(bvh: &Bvh<W>, r: &NodeRay, hi: f32, leaf: &mut impl FnMut(u32, u32) -> bool) -> bool {
     walk_any::<N, W, false>(bvh, r, hi, leaf)
 }
 
