@@ -4,12 +4,13 @@
 
 use super::fan::reflect;
 use super::{Ctx, Phong, TAG_LIGHTS, counter};
-use raylab::glam::DVec2;
+use raylab::glam::{DVec2, DVec3};
 use raylab::math::color::max_channel;
 use raylab::render::sampler::StratifiedSet;
 use raylab::render::trace::{Recorder, Term, TraceLight};
 use raylab::scene::interaction::Interaction;
 use raylab::{Color, LightSample, LightSource, Sampler};
+use std::hint::black_box;
 
 /// How one light sample turned out, for the agreement test of adaptive soft shadows. Independent
 /// of `avoid`, so the decision is the same whether or not exact skips happen.
@@ -186,6 +187,12 @@ impl Phong {
         // pieces straddling the callee's stores (a store-forwarding stall).
         let sample = light.illuminate(si.hit.point, DVec2::ZERO);
         let Some(ls) = &sample else { return Color::ZERO };
+        // The direction read one component at a time: the light wrote it in pieces (x and y in
+        // one 16-byte store, z in another), and the dot products loaded y and z as one 16-byte
+        // value straddling both (a store-forwarding stall on every hit). `black_box` keeps the
+        // loads apart; the values are the same.
+        let d = &ls.dir;
+        let ls = &LightSample { dir: DVec3::new(black_box(d.x), black_box(d.y), black_box(d.z)), ..*ls };
         if self.avoid && sh.no_response {
             c.stats.add(counter::LIGHTS_NO_RESPONSE, 1);
             rec.note(|| format!("{}: the surface has no diffuse or specular term; no shadow rays", scene.light_names[sh.light]));
