@@ -30,7 +30,6 @@ mod direct;
 mod fan;
 
 use raylab::Intersectable;
-use raylab::geometry::Hit;
 use raylab::input::error::Result;
 use raylab::input::params::Params;
 use raylab::input::spec::{Default, ParamKind, ParamSpec, Reference};
@@ -39,7 +38,6 @@ use raylab::render::aov::Layers;
 use raylab::render::stats::{Counter, CounterKind};
 use raylab::render::trace::{NoRecord, Recorder, Term};
 use raylab::scene::interaction::Interaction;
-use raylab::scene::material::CoefficientsAt;
 use raylab::{Color, Integrator, LoadContext, PluginInfo, Ray, RayKind, RayStats, Sampler, Scene, TraceNode};
 
 pub use fan::{reflect, refract};
@@ -203,7 +201,7 @@ impl Phong {
     /// Radiance along `ray` (with its own random stream `sampler`) and accumulated `weight`.
     fn li<R: Recorder>(&self, c: &mut Ctx, ray: &Ray, sampler: &Sampler, depth: u32, weight: Color, rec: &mut R) -> Color {
         match c.scene.intersect(ray, 0.0, f64::INFINITY) {
-            Some(hit) => with_interaction(c.scene, ray, &hit, |si| self.shade(c, si, sampler, depth, weight, rec)),
+            Some(hit) => c.scene.with_interaction(ray, &hit, |si| self.shade(c, si, sampler, depth, weight, rec)),
             None => {
                 rec.color(c.scene.background);
                 c.scene.background
@@ -261,31 +259,11 @@ impl Phong {
             rec.color(scene.background);
             return scene.background;
         };
-        with_interaction(scene, ray, &hit, |si| {
+        scene.with_interaction(ray, &hit, |si| {
             let m = &si.material;
             *layers = Layers::surface(si, m.kd + m.kr + m.kt);
             self.shade(c, si, sampler, 0, Color::ONE, rec)
         })
-    }
-}
-
-/// `f` of the interaction of `ray` at `hit` (a hit of `scene`): [`Scene::interaction`]'s value,
-/// built where `f` reads it. An untextured material's interaction is assembled in place; taken
-/// from [`Scene::trace`], the whole 176-byte `CoefficientsAt` was copied into it on every hit.
-#[inline(always)]
-fn with_interaction<T>(scene: &Scene, ray: &Ray, hit: &Hit, f: impl FnOnce(&Interaction) -> T) -> T {
-    // The indices read on their own: the traversal stored them as 4-byte values, and copying
-    // the hit in 16-byte pieces straddled those stores (a store-forwarding stall per hit).
-    let hit = Hit { prim: std::hint::black_box(hit.prim), object: std::hint::black_box(hit.object), ..*hit };
-    let object = &scene.objects[hit.object as usize];
-    let g = object.geometry();
-    let s = g.surface(&hit, ray.dir);
-    let at = |material| Interaction { hit, object, dir: ray.dir, n: s.n, ns: s.ns, front_face: s.front_face, material };
-    match object.coefficients_at(s.material, || g.uv(&hit), s.local) {
-        // (`black_box` hides that this rebuilds the same value, which the optimiser turned back
-        // into the copy.)
-        CoefficientsAt::Constant(m) => f(&at(CoefficientsAt::Constant(std::hint::black_box(m)))),
-        textured => f(&at(textured)),
     }
 }
 
