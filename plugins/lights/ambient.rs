@@ -43,4 +43,7 @@ impl LightSource for Ambient {
     fn ambient(&self) -> Color {
         self.intensity
     }
+    fn illuminates(&self) -> bool {
+        false
+    }
 }

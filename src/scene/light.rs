@@ -64,12 +64,14 @@ pub struct LightFacts {
     pub is_area: bool,
     /// [`LightSource::sample_count`].
     pub sample_count: u32,
+    /// [`LightSource::illuminates`].
+    pub illuminates: bool,
 }
 
 impl LightFacts {
     /// The facts `light` reports.
     pub fn of(light: &dyn LightSource) -> LightFacts {
-        LightFacts { is_area: light.is_area(), sample_count: light.sample_count() }
+        LightFacts { is_area: light.is_area(), sample_count: light.sample_count(), illuminates: light.illuminates() }
     }
 }
 
@@ -135,6 +137,13 @@ pub trait LightSource: Send + Sync {
         false
     }
 
+    /// False for a light whose [`LightSource::illuminate`] never gives a sample (an ambient
+    /// light, all of whose light is [`LightSource::ambient`]): an integrator may skip it when it
+    /// gathers direct light.
+    fn illuminates(&self) -> bool {
+        true
+    }
+
     /// A bound on the samples [`LightSource::illuminate`] gives at `p`, for any `u`; `None` (the
     /// default) when the light has none (directional and ambient lights), and then every sample
     /// is taken.
@@ -162,6 +171,9 @@ impl<T: LightSource + ?Sized> LightSource for Box<T> {
     }
     fn is_area(&self) -> bool {
         (**self).is_area()
+    }
+    fn illuminates(&self) -> bool {
+        (**self).illuminates()
     }
     fn bound(&self, p: DVec3) -> Option<LightBound> {
         (**self).bound(p)

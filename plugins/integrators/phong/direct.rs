@@ -94,6 +94,10 @@ impl Phong {
         let mut streams = None;
         let mut total = Color::ZERO;
         for (li, (light, facts)) in scene.lights.iter().zip(scene.light_facts()).enumerate() {
+            if !facts.illuminates {
+                // No sample to shade or record (an ambient light: `Phong::shade` adds it).
+                continue;
+            }
             let area = facts.is_area;
             if !area && facts.sample_count <= 1 {
                 // One sample at u = (0, 0), no stream, no probes: the stratified set of one
