@@ -14,6 +14,11 @@ mod wide;
 
 use crate::accel::bvh::PrimitiveIndex;
 
+pub use crate::accel::bvh::{AccelChoice, BuildStats, MESH_BVH_THRESHOLD, SCENE_BVH_THRESHOLD};
+use crate::geometry::{Hit, Intersectable};
+use crate::math::bounds::Aabb;
+use crate::math::ray::Ray;
+
 /// The compiled copy of the hierarchy traversal this process runs: `avx2` (x86-64 CPUs with AVX2
 /// and FMA), `baseline` (others, or the environment variable `RAYLAB_SIMD=baseline`), or `none`
 /// without the `bvh` feature. Every copy gives the same results.
@@ -23,10 +28,6 @@ pub fn traversal_kernel() -> &'static str {
     #[cfg(not(feature = "bvh"))]
     "none"
 }
-pub use crate::accel::bvh::{AccelChoice, BuildStats, MESH_BVH_THRESHOLD, SCENE_BVH_THRESHOLD};
-use crate::geometry::{Hit, Intersectable};
-use crate::math::bounds::Aabb;
-use crate::math::ray::Ray;
 
 /// The objects of a scene (or a subset of them) arranged for ray queries.
 #[derive(Debug)]

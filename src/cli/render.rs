@@ -489,7 +489,9 @@ pub fn accel_line(s: &crate::scene::AccelSummary) -> String {
     } else {
         format!("; meshes as triangle lists ({} triangles)", si(parts.primitives as f64))
     };
-    format!("acceleration: {objects}{unbounded}{meshes}")
+    // Which compiled copy walks the hierarchies (the same results either way): for benchmarks.
+    let kernel = if s.bvh || parts.hierarchies > 0 { format!("; {} traversal", crate::accel::traversal_kernel()) } else { String::new() };
+    format!("acceleration: {objects}{unbounded}{meshes}{kernel}")
 }
 
 /// Error against a reference after each pass of a progressive render, written as CSV lines as
