@@ -32,10 +32,23 @@ impl<'s> Interaction<'s> {
     /// material evaluated once (texture coordinates computed only for a textured material).
     #[inline]
     pub fn new(ray: &Ray, hit: Hit, object: &'s Object) -> Self {
+        Self::with(ray, &hit, object, |si| *si)
+    }
+
+    /// `f` of [`Interaction::new`]'s value, built where `f` reads it: an untextured material's
+    /// interaction is assembled in place, where a returned one costs a copy of its whole
+    /// coefficient block (176 bytes). For integrators' hot paths ([`crate::Scene::with_interaction`]).
+    #[inline(always)]
+    pub fn with<T>(ray: &Ray, hit: &Hit, object: &'s Object, f: impl FnOnce(&Interaction<'s>) -> T) -> T {
         let g = object.geometry();
-        let s: Surface = g.surface(&hit, ray.dir);
-        let material = object.coefficients_at(s.material, || g.uv(&hit), s.local);
-        Interaction { hit, object, dir: ray.dir, n: s.n, ns: s.ns, front_face: s.front_face, material }
+        let s: Surface = g.surface(hit, ray.dir);
+        let at = |material| Interaction { hit: *hit, object, dir: ray.dir, n: s.n, ns: s.ns, front_face: s.front_face, material };
+        match object.coefficients_at(s.material, || g.uv(hit), s.local) {
+            // (`black_box` hides that this rebuilds the same value, which the optimiser turned back
+            // into the copy.)
+            CoefficientsAt::Constant(m) => f(&at(CoefficientsAt::Constant(std::hint::black_box(m)))),
+            textured => f(&at(textured)),
+        }
     }
 
     /// The texture coordinates at the hit ([`crate::Geometry::uv`]; computed on each call).

@@ -16,7 +16,6 @@ use crate::math::ray::Ray;
 use crate::scene::camera::Camera;
 use crate::scene::interaction::Interaction;
 use crate::scene::light::{LightFacts, LightSource};
-use crate::scene::material::CoefficientsAt;
 use crate::scene::object::Object;
 
 /// Most surfaces a shadow ray passes through before it is treated as blocked (guards against
@@ -168,24 +167,14 @@ impl Scene {
         Interaction::new(ray, hit, &self.objects[hit.object as usize])
     }
 
-    /// `f` of [`Scene::interaction`]'s value, built where `f` reads it: an untextured material's
-    /// interaction is assembled in place, where a returned one costs a copy of its whole
-    /// coefficient block (176 bytes) per hit. For integrators' hot paths.
+    /// `f` of [`Scene::interaction`]'s value, built where `f` reads it ([`Interaction::with`]):
+    /// no copy of the material's coefficient block per hit. For integrators' hot paths.
     #[inline(always)]
     pub fn with_interaction<T>(&self, ray: &Ray, hit: &Hit, f: impl FnOnce(&Interaction<'_>) -> T) -> T {
         // The indices read on their own: the traversal stored them as 4-byte values, and copying
         // the hit in 16-byte pieces straddled those stores (a store-forwarding stall per hit).
         let hit = Hit { prim: std::hint::black_box(hit.prim), object: std::hint::black_box(hit.object), ..*hit };
-        let object = &self.objects[hit.object as usize];
-        let g = object.geometry();
-        let s = g.surface(&hit, ray.dir);
-        let at = |material| Interaction { hit, object, dir: ray.dir, n: s.n, ns: s.ns, front_face: s.front_face, material };
-        match object.coefficients_at(s.material, || g.uv(&hit), s.local) {
-            // (`black_box` hides that this rebuilds the same value, which the optimiser turned back
-            // into the copy.)
-            CoefficientsAt::Constant(m) => f(&at(CoefficientsAt::Constant(std::hint::black_box(m)))),
-            textured => f(&at(textured)),
-        }
+        Interaction::with(ray, &hit, &self.objects[hit.object as usize], f)
     }
 
     /// The fraction of light that travels along `ray` for `0 < t < t_max`: the product of the
