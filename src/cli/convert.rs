@@ -51,7 +51,7 @@ pub(crate) fn run(app: &App, a: ConvertArgs) -> Result<(), Failure> {
 
 /// True when `a` and `b` name one existing file: the same canonical path (another spelling, a
 /// symbolic link) or, on Unix, the same inode (a hard link).
-fn same_file(a: &Path, b: &Path) -> bool {
+pub(super) fn same_file(a: &Path, b: &Path) -> bool {
     if let (Ok(x), Ok(y)) = (a.canonicalize(), b.canonicalize())
         && x == y
     {

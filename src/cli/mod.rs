@@ -4,6 +4,7 @@
 
 mod bench;
 mod convert;
+mod denoise;
 mod farm;
 mod merge;
 mod plot;
@@ -62,6 +63,9 @@ enum Command {
     /// Turn an HDR image (OpenEXR, PFM) or one of its layers (depth, normal, albedo) into a
     /// viewable PNG or JPEG.
     Tonemap(tonemap::TonemapArgs),
+    /// Denoise a finished image (an EXR with albedo and normal layers, e.g. a merged farm frame)
+    /// with Intel Open Image Denoise (its `oidnDenoise` tool: `pip install pyoidn`).
+    Denoise(denoise::DenoiseArgs),
     /// Watch a scene render live in the browser: quality knobs as controls, and any pixel's ray
     /// tree on a click (serves a page on 127.0.0.1).
     #[cfg(feature = "view")]
@@ -121,6 +125,13 @@ pub(crate) struct SceneArgs {
     /// Rays through distinct lens points per image sample (depth of field).
     #[arg(long, value_name = "N", allow_hyphen_values = true)]
     lens_samples: Option<i64>,
+    /// Stop each pixel once the estimated relative error of its mean is at most E (e.g. 0.02);
+    /// --spp is then the most samples a pixel takes (stratified sampling).
+    #[arg(long, value_name = "E", allow_hyphen_values = true)]
+    target_error: Option<f64>,
+    /// With --target-error: samples every pixel takes before its error is first tested (≥ 2).
+    #[arg(long, value_name = "N", allow_hyphen_values = true)]
+    target_min_spp: Option<i64>,
     /// Lens radius for depth of field, scene units (overrides the camera's `aperture`).
     #[arg(long, value_name = "R", allow_hyphen_values = true)]
     aperture: Option<f64>,
@@ -210,6 +221,7 @@ where
         Some(Command::Convert(a)) => convert::run(&app, a),
         Some(Command::Bench(a)) => bench::run(&app, a),
         Some(Command::Tonemap(a)) => tonemap::run(a),
+        Some(Command::Denoise(a)) => denoise::run(a),
         #[cfg(feature = "view")]
         Some(Command::View(a)) => view::run(&app, *a),
     };
@@ -285,6 +297,12 @@ impl SceneArgs {
         }
         if let Some(v) = self.lens_samples {
             render_params.push(flag_node("--lens-samples", "lens_samples", Value::Int(v)));
+        }
+        if let Some(v) = self.target_error {
+            render_params.push(flag_node("--target-error", "target_error", Value::Float(v)));
+        }
+        if let Some(v) = self.target_min_spp {
+            render_params.push(flag_node("--target-min-spp", "target_min_spp", Value::Int(v)));
         }
         let mut camera_params = key_values("--camera", &self.camera)?;
         if let Some(v) = self.aperture {

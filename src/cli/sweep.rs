@@ -21,6 +21,7 @@ pub(crate) struct SweepArgs {
     scene: Option<PathBuf>,
     /// A knob and the values to try: `spp=1,4,16`, `depth=1,3,5`, `aa_threshold=0.1,0.05`,
     /// `aa_depth=…`, `aa_edges=…`, `aa_signature=…`, `aa_cell_samples=…`, `aa_coarse=…`, `lens_samples=…`,
+    /// `target_error=0.1,0.03` (with spp as the cap), `target_min_spp=…`,
     /// `aperture=…`, `integrator=phong,path`, or any integrator parameter (`glossy_rays`,
     /// `shadow_rays`, `shadow_probes`, `prune_threshold`, …). Repeatable.
     #[arg(long = "vary", value_name = "KNOB=V1,V2,…", required = true)]
@@ -357,7 +358,7 @@ fn apply(o: &mut LoadOptions, name: &str, value: &Node) -> Result<(), Failure> {
             }
             set(&mut ov.render_params, name, value);
         }
-        "aa" | "lens_samples" => set(&mut ov.render_params, name, value),
+        "aa" | "lens_samples" | "target_error" | "target_min_spp" => set(&mut ov.render_params, name, value),
         "aperture" | "focus_distance" => set(&mut ov.camera_params, name, value),
         "integrator" => match &value.value {
             Value::Str(t) => ov.integrator = Some(t.clone()),
@@ -419,7 +420,7 @@ fn reference_plan(app: &App, a: &SweepArgs, base: &LoadOptions, knobs: &[Knob], 
     let max_spp =
         swept("spp").unwrap_or_default().iter().filter_map(|v| if let Value::Int(i) = v { Some(*i) } else { None }).max().unwrap_or(1);
     ov.spp = Some(u32::try_from(max_spp).unwrap_or(u32::MAX).max(a.reference_spp));
-    ov.render_params.retain(|(k, _)| !k.starts_with("aa"));
+    ov.render_params.retain(|(k, _)| !k.starts_with("aa") && !k.starts_with("target"));
     ov.render_params.push(super::flag_node("--reference", "aa", Value::Str("stratified".into())));
     ov.render_params.push(super::flag_node("--reference", "lens_samples", Value::Int(1)));
     // Every depth and quality knob of the integrator at its reference value (by role, whatever

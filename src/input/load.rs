@@ -110,6 +110,18 @@ pub const RENDER_PARAMS: &[ParamSpec] = &[
         Default::Int(1),
         "rays through distinct lens points per image sample (depth of field only), ≥ 1",
     ),
+    ParamSpec::new(
+        "target_error",
+        ParamKind::Float,
+        Default::Optional,
+        "stop each pixel once the estimated relative standard error of its mean luminance is at most this (e.g. 0.02), tested at target_min_spp samples and each doubling; spp is then the most a pixel takes (stratified only)",
+    ),
+    ParamSpec::new(
+        "target_min_spp",
+        ParamKind::Int,
+        Default::Int(16),
+        "with target_error: samples every pixel takes before its error is first tested, ≥ 2 (fewer lets pixels whose first samples happen to agree stop too early)",
+    ),
 ];
 
 /// Reads and builds the scene file at `path`, choosing the format by extension (`.toml` is
@@ -314,8 +326,29 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
             )
             .with_help("raise the limit with --max-spp"));
     }
+    let target_min_spp = rp.int_in("target_min_spp", 2..=i64::from(u32::MAX))? as u32;
+    let target = match rp.float_opt("target_error")? {
+        None => None,
+        Some(e) if !(e > 0.0 && e.is_finite()) => {
+            return Err(rp.error_at("target_error", format_args!("expected a relative error > 0, found {e}")));
+        }
+        Some(_) if matches!(aa, Antialiasing::Adaptive(_)) => {
+            return Err(rp
+                .error_at("target_error", "an error target applies to stratified sampling, not to adaptive anti-aliasing")
+                .with_help("use aa = \"stratified\" (--aa stratified) with target_error"));
+        }
+        Some(_) if spp < i64::from(target_min_spp) => {
+            return Err(rp
+                .error_at(
+                    "target_error",
+                    format_args!("with an error target, spp ({spp}) is the most samples a pixel takes: it must be at least target_min_spp ({target_min_spp})"),
+                )
+                .with_help("raise spp (--spp 1024, say) or lower target_min_spp"));
+        }
+        Some(error) => Some(crate::render::job::ErrorTarget { error, min_spp: target_min_spp }),
+    };
     rp.finish()?;
-    let settings = RenderSettings { width: width as u32, height: height as u32, spp: spp as u32, seed, encoding, aa, lens_samples };
+    let settings = RenderSettings { width: width as u32, height: height as u32, spp: spp as u32, seed, encoding, aa, lens_samples, target };
 
     // [camera]
     let cam_node = root.node("camera")?;

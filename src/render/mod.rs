@@ -200,6 +200,12 @@ fn render_passes(
     if share.bounds.is_empty() || !share.bounds.within(&Rect::frame(s.width, s.height)) || share.passes == 0 || share.pass >= share.passes {
         return Err(format!("{} is not a share of the {}×{} frame", share.describe(), s.width, s.height));
     }
+    if s.target.is_some() && share.passes > 1 {
+        return Err(format!(
+            "{}: with an error target, where a pixel stops depends on all its samples so far, so its samples cannot be split into passes; split the frame by tiles or crops instead",
+            share.describe()
+        ));
+    }
     let sums = match options.resume {
         Some(r) => {
             if (r.width, r.height, r.share) != (s.width, s.height, share) || r.layers.is_some() != options.layers {
@@ -405,6 +411,9 @@ fn add_samples(
     stats: &mut RayStats,
 ) {
     while acc.samples < want && share.sample_index(acc.samples) < end {
+        if job.settings.target.is_some_and(|t| t.converged(acc)) {
+            break;
+        }
         let index = share.sample_index(acc.samples);
         trace_sample_in(job, frame, SampleId::Pixel { x, y, index }, acc, layers.as_deref_mut(), stats);
         acc.samples += 1;

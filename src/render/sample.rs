@@ -124,6 +124,8 @@ pub struct ImageFrame {
     seed: SeedKey,
     /// The layers of a camera ray that hits nothing.
     miss: Layers,
+    /// A pixel's stratified samples: their count, and the columns `m` of their set's strata.
+    strata: (f64, u32),
 }
 
 /// The [`ImageFrame`] of `job`'s image.
@@ -133,6 +135,7 @@ pub fn image_frame(job: &RenderJob) -> ImageFrame {
         film: job.scene.camera.film_frame(job.settings.width, job.settings.height),
         seed: SeedKey::new(job.settings.seed),
         miss: Layers::miss(job.scene.background),
+        strata: (f64::from(job.settings.spp.max(1)), crate::render::sampler::strata(job.settings.spp).0),
     }
 }
 
@@ -226,6 +229,16 @@ pub fn trace_sample_in(
 ) -> u64 {
     let mut signature = 0u64;
     let rays = camera_rays_in(job, frame, id);
+    // Which half of the error estimate's two the sample joins: by its stratum `s` of the
+    // pixel's `spp` rows, alternately, flipped on each of the set's m-stratum bands (so both
+    // halves cover every band and every column of the set).
+    let second = match id {
+        SampleId::Pixel { y, .. } if frame.strata.1 > 1 => {
+            let s = ((rays.film.y - f64::from(y)) * frame.strata.0) as u32;
+            (s + s / frame.strata.1) & 1 == 1
+        }
+        _ => false,
+    };
     // The rays of the iterator, each built where the integrator reads it: taken from the
     // iterator's `(Ray, Sampler)`, the ray was copied in pieces that straddled its stores (a
     // store-forwarding stall on every camera ray).
@@ -236,7 +249,7 @@ pub fn trace_sample_in(
         stats.camera_rays += 1;
         let c = job.integrator.radiance(&job.scene, &ray, &mut sampler, stats, &mut first);
         if c.is_finite() {
-            acc.add(c);
+            acc.add_sample(c, second);
         } else {
             stats.nonfinite_samples += 1;
         }

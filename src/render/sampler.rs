@@ -93,16 +93,24 @@ pub struct StratifiedSet {
     jy: u32,
 }
 
+/// The `m` columns and `n` rows of strata of a stratified set of `count` points (0 counts as 1):
+/// `m = ⌈√count⌉`, `n = ⌈count / m⌉`; each point of the set lies in its own stratum.
+#[inline]
+pub fn strata(count: u32) -> (u32, u32) {
+    let count = count.max(1);
+    // ⌈√count⌉, without `ceil` (a library call on x86-64 without SSE4.1): the truncation,
+    // plus one where it fell short.
+    let root = (count as f64).sqrt();
+    let m = (root as u32 + u32::from(f64::from(root as u32) < root)).max(1);
+    (m, count.div_ceil(m))
+}
+
 impl StratifiedSet {
     /// The set of `count` points (0 counts as 1) for `pattern`.
     #[inline]
     pub fn new(count: u32, pattern: u32) -> Self {
         let count = count.max(1);
-        // ⌈√count⌉, without `ceil` (a library call on x86-64 without SSE4.1): the truncation,
-        // plus one where it fell short.
-        let root = (count as f64).sqrt();
-        let m = (root as u32 + u32::from(f64::from(root as u32) < root)).max(1);
-        let n = count.div_ceil(m);
+        let (m, n) = strata(count);
         StratifiedSet {
             count: Permutation::new(count, pattern.wrapping_mul(0x51633e2d)),
             m: Permutation::new(m, pattern.wrapping_mul(0x68bc21eb)),
