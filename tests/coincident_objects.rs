@@ -7,8 +7,8 @@ use raylab::Ray;
 use raylab::accel::{AccelChoice, ObjectAccel};
 use raylab::geometry::Geometry;
 use raylab::glam::DVec3;
-use raylab::input::context::LoadOptions;
-use raylab::input::load::load_str;
+use raylab::load::context::LoadOptions;
+use raylab::load::loader::load_str;
 use raylab_plugins::shapes::sphere::Sphere;
 use std::path::Path;
 

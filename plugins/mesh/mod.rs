@@ -13,11 +13,11 @@ pub mod triangulate;
 use raylab::geometry::transform::{Transform, Transformed};
 use raylab::geometry::{Geometry, Hit, Intersectable, Surface, by_components, face_forward};
 use raylab::glam::{DVec2, DVec3};
-use raylab::input::error::{Loc, Result, SceneError};
-use raylab::input::params::Params;
-use raylab::input::registry::SceneFormat;
-use raylab::input::spec::{Default, ParamKind, ParamSpec};
-use raylab::input::value::Value;
+use raylab::load::registry::SceneFormat;
+use raylab::param::error::{Loc, Result, SceneError};
+use raylab::param::params::Params;
+use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::value::Value;
 use raylab::{Aabb, LoadContext, Material, PluginInfo, Ray, Registry};
 use std::sync::Arc;
 use triangle_mesh::{Normals, TriangleMesh};
@@ -114,7 +114,7 @@ pub fn build(p: &mut Params, ctx: &LoadContext) -> Result<Box<dyn Geometry>> {
 
 /// Estimated peak bytes per triangle of a mesh while it is indexed and once built: the decoded
 /// data, the stored triangles, shading normals, material ids and the hierarchy with its build's
-/// scratch space (charged to [`raylab::input::limits::Limits::max_memory`] before the index is built;
+/// scratch space (charged to [`raylab::param::limits::Limits::max_memory`] before the index is built;
 /// measured: about 360 for the 1.1 M-triangle bunny).
 pub const MESH_BYTES_PER_TRIANGLE: u64 = 384;
 

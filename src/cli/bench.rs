@@ -10,8 +10,8 @@
 use super::{App, Failure, si};
 use crate::accel::AccelChoice;
 use crate::geometry::Intersectable;
-use crate::input::context::LoadOptions;
-use crate::input::load::load_str;
+use crate::load::context::LoadOptions;
+use crate::load::loader::load_str;
 use crate::math::float::offset_ray_origin;
 use crate::math::ray::Ray;
 use clap::Args;

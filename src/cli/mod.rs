@@ -15,10 +15,10 @@ mod trace;
 #[cfg(feature = "view")]
 mod view;
 
-use crate::input::context::{LoadOptions, Overrides};
-use crate::input::error::{Loc, SceneError, Source};
-use crate::input::registry::Registry;
-use crate::input::value::{Node, Value};
+use crate::load::context::{LoadOptions, Overrides};
+use crate::load::registry::Registry;
+use crate::param::error::{Loc, SceneError, Source};
+use crate::param::value::{Node, Value};
 use crate::render::RenderJob;
 use clap::{Args, Parser, Subcommand};
 use std::path::Path;
@@ -293,7 +293,7 @@ impl SceneArgs {
         if let Some(v) = self.focus_distance {
             camera_params.push(flag_node("--focus-distance", "focus_distance", Value::Float(v)));
         }
-        let mut limits = crate::input::limits::Limits::default();
+        let mut limits = crate::param::limits::Limits::default();
         if let Some(v) = self.max_pixels {
             limits.max_pixels = v;
         }
@@ -374,7 +374,7 @@ fn key_values(flag: &str, items: &[String]) -> Result<Vec<(String, Node)>, Failu
             return Err(SceneError::at(&Loc::new(&src, 0..s.len()), "expected KEY=VALUE").into());
         };
         let key = s[..eq].trim().to_string();
-        out.push((key, crate::input::toml::parse_toml_value(&src, eq + 1..s.len())?));
+        out.push((key, crate::param::toml::parse_toml_value(&src, eq + 1..s.len())?));
     }
     Ok(out)
 }
@@ -391,10 +391,10 @@ pub(crate) fn load(
 ) -> Result<(RenderJob, String), Failure> {
     let opts = LoadOptions { image, ..a.load_options()? };
     let (job, name) = match scene {
-        Some(p) => (crate::input::load::load_file(&app.registry, p, &opts)?, p.display().to_string()),
+        Some(p) => (crate::load::loader::load_file(&app.registry, p, &opts)?, p.display().to_string()),
         None => {
             let (name, text) = app.default_scene;
-            (crate::input::load::load_str(&app.registry, name, text, Path::new("."), &opts)?, format!("{name} (bundled)"))
+            (crate::load::loader::load_str(&app.registry, name, text, Path::new("."), &opts)?, format!("{name} (bundled)"))
         }
     };
     for w in &job.warnings {

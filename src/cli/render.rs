@@ -151,7 +151,7 @@ fn resume(app: &App, given: RenderArgs, file: &Path) -> Result<(), Failure> {
     #[cfg(feature = "exr")]
     {
         let limits = given.scene_args.load_options()?.limits;
-        let bytes = crate::input::context::read_user_file(file, "checkpoint", u64::MAX, None)?;
+        let bytes = crate::load::context::read_user_file(file, "checkpoint", u64::MAX, None)?;
         let (sums, info) = crate::image::partial::read_partial(&bytes, &file.display().to_string(), limits.max_pixels)
             .map_err(|e| Failure::Other(e.to_string()))?;
         let json = info.resume.ok_or_else(|| {
@@ -457,11 +457,11 @@ fn write(
     a: &RenderArgs,
     path: &Path,
     format: &crate::image::output::OutputFormat,
-    film: &crate::image::film::Film,
-    layers: Option<&crate::image::layers::Aovs>,
+    film: &crate::render::film::Film,
+    layers: Option<&crate::render::aovs::Aovs>,
     grid: Option<Grid>,
 ) -> Result<(), Failure> {
-    use crate::image::layers::{Aov, Aovs};
+    use crate::render::aovs::{Aov, Aovs};
     let asked = |l: Aov| a.aov.iter().any(|s| Aov::parse(s) == Some(l));
     let chosen = layers.map(|l| Aovs {
         depth: l.depth.clone().filter(|_| asked(Aov::Depth)),
@@ -498,14 +498,14 @@ pub fn accel_line(s: &crate::scene::AccelSummary) -> String {
 /// they come (flushed, so the file can be watched).
 struct ErrorLog<'a> {
     file: std::io::BufWriter<std::fs::File>,
-    reference: &'a crate::image::film::Film,
+    reference: &'a crate::render::film::Film,
     encoding: crate::math::color::Encoding,
 }
 
 impl<'a> ErrorLog<'a> {
     fn new(
         path: &std::path::Path,
-        reference: &'a crate::image::film::Film,
+        reference: &'a crate::render::film::Film,
         encoding: crate::math::color::Encoding,
     ) -> Result<Self, Failure> {
         let f = std::fs::File::create(path).map_err(|e| Failure::Other(format!("cannot create \"{}\": {e}", path.display())))?;

@@ -9,8 +9,8 @@
 //! sigma=1.5, use_sample_covariance=False, data_range=1, channel_axis=-1)`, which the tests
 //! reproduce. 1 − SSIM (DSSIM) is the perceptual error the sweep reports.
 
-use crate::image::film::Film;
 use crate::math::color::Encoding;
+use crate::render::film::Film;
 use serde::Serialize;
 
 /// Errors of one image against a reference.

@@ -1,6 +1,6 @@
 //! Arbitrary output variables: per-pixel depth, normal and albedo, the extra layers a denoiser
 //! (Intel Open Image Denoise, OptiX) or a compositor wants beside the colour
-//! ([`crate::image::layers::Aovs`]).
+//! ([`crate::render::aovs::Aovs`]).
 //!
 //! The integrator fills them during the render, from the render's own samples ([`Layers`] per
 //! camera ray), and each is the mean over the pixel's samples (weighted as the colour is, under

@@ -6,10 +6,10 @@
 //! lattice point, index and the seed) and the sums are exact ([`crate::render::accum`]), so any
 //! set of disjoint shares that covers the frame merges to the bits of one whole render.
 
-use crate::image::film::Film;
-use crate::image::layers::Aovs;
 use crate::image::write::{WriteError, try_filled};
 use crate::render::accum::{LayerSum, PixelSum};
+use crate::render::aovs::Aovs;
+use crate::render::film::Film;
 use crate::render::job::{Antialiasing, RenderSettings};
 use glam::Vec3;
 use serde::Serialize;

@@ -10,12 +10,12 @@
 //! mesh file's factor, such as glTF's `baseColorFactor`, is the constant). A material without
 //! textures costs one test per hit more than constants.
 
-use crate::input::error::{Loc, Result, SceneError, did_you_mean};
-use crate::input::params::Params;
-use crate::input::spec::{Default, ParamKind, ParamSpec};
-use crate::input::textures::TextureLibrary;
-use crate::input::value::{Node, Table, Value};
+use crate::load::textures::TextureLibrary;
 use crate::math::color::Color;
+use crate::param::error::{Loc, Result, SceneError, did_you_mean};
+use crate::param::params::Params;
+use crate::param::spec::{Default, ParamKind, ParamSpec};
+use crate::param::value::{Node, Table, Value};
 use crate::scene::texture::{Texture, TexturePoint};
 use glam::{DVec2, DVec3};
 use std::collections::BTreeMap;

@@ -9,10 +9,10 @@
 //! parameters).
 
 use crate::geometry::transform::parse_transform;
-use crate::input::error::Result;
-use crate::input::params::Params;
-use crate::input::spec::{Default, ParamKind, ParamSpec};
 use crate::math::color::Color;
+use crate::param::error::Result;
+use crate::param::params::Params;
+use crate::param::spec::{Default, ParamKind, ParamSpec};
 use glam::{DAffine3, DVec2, DVec3};
 
 /// Where a texture is looked up.

@@ -3,9 +3,9 @@
 //! noise), comes near its trough.
 
 use raylab::glam::DVec3;
-use raylab::input::error::Result;
-use raylab::input::params::Params;
-use raylab::input::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::error::Result;
+use raylab::param::params::Params;
+use raylab::param::spec::{Default, ParamKind, ParamSpec};
 use raylab::scene::texture::{Mapping, TRANSFORM_PARAM, Texture, TexturePoint};
 use raylab::{Color, LoadContext, PluginInfo};
 use std::sync::Arc;

@@ -6,8 +6,8 @@ use super::bsdf::{Bsdf, Lobe, fresnel_dielectric, lobe_brdf, thin_slab_reflectan
 use super::*;
 use crate::shapes::sphere::Sphere;
 use raylab::glam::{DVec2, DVec3};
-use raylab::input::context::LoadOptions;
-use raylab::input::limits::Limits;
+use raylab::load::context::LoadOptions;
+use raylab::param::limits::Limits;
 use raylab::render::sampler::stratified_2d;
 use raylab::scene::object::Object;
 use raylab::{Camera, Material, RenderJob};
@@ -203,7 +203,7 @@ fn the_normalised_phong_lobe_conserves_energy() {
 
 fn load(text: &str) -> RenderJob {
     let options = LoadOptions { limits: Limits::unlimited(), ..LoadOptions::default() };
-    raylab::input::load::load_str(&crate::registry(), "test.toml", text, Path::new("."), &options)
+    raylab::load::loader::load_str(&crate::registry(), "test.toml", text, Path::new("."), &options)
         .unwrap_or_else(|e| panic!("{}", e.report()))
 }
 

@@ -4,11 +4,11 @@
 //! geometry the same way (see docs/writing-a-plugin.md).
 
 use crate::geometry::Geometry;
-use crate::input::context::LoadContext;
-use crate::input::description::SceneDescription;
-use crate::input::error::Result;
-use crate::input::params::Params;
-use crate::input::spec::ParamSpec;
+use crate::load::context::LoadContext;
+use crate::param::description::SceneDescription;
+use crate::param::error::Result;
+use crate::param::params::Params;
+use crate::param::spec::ParamSpec;
 use crate::render::integrator::Integrator;
 use crate::scene::light::LightSource;
 use crate::scene::texture::Texture;

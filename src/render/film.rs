@@ -17,7 +17,7 @@ pub struct Film {
 }
 
 impl Film {
-    /// A black film. The caller has checked the size against [`crate::input::limits::Limits`].
+    /// A black film. The caller has checked the size against [`crate::param::limits::Limits`].
     pub fn new(width: u32, height: u32) -> Self {
         Film { width, height, pixels: vec![Vec3::ZERO; width as usize * height as usize] }
     }

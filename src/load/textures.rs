@@ -13,11 +13,11 @@
 //! ks = { type = "image", file = "assets/gloss.png" }      # an inline one
 //! ```
 
-use crate::input::context::LoadContext;
-use crate::input::error::{Loc, Result, SceneError, did_you_mean};
-use crate::input::params::Params;
-use crate::input::registry::Registry;
-use crate::input::value::{Node, Table, Value};
+use crate::load::context::LoadContext;
+use crate::load::registry::Registry;
+use crate::param::error::{Loc, Result, SceneError, did_you_mean};
+use crate::param::params::Params;
+use crate::param::value::{Node, Table, Value};
 use crate::scene::texture::Texture;
 use std::cell::RefCell;
 use std::sync::Arc;
