@@ -532,7 +532,7 @@ fn hash(parts: &[&[u8]]) -> u64 {
         for &b in *p {
             h = (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
         }
-        h = crate::render::sampler::mix64(h);
+        h = crate::math::sampler::mix64(h);
     }
     h
 }

@@ -144,7 +144,7 @@ mod tests {
             .map(|i| {
                 let (x, y) = ((i % w) as f64, (i / w) as f64);
                 let disc = if (x - 12.0).powi(2) + (y - 9.0).powi(2) < 30.0 { 0.5 } else { 0.0 };
-                let noise = (crate::render::sampler::mix64(i as u64 ^ seed) >> 40) as f64 / (1u64 << 24) as f64;
+                let noise = (crate::math::sampler::mix64(i as u64 ^ seed) >> 40) as f64 / (1u64 << 24) as f64;
                 ((x / w as f64) * 0.4 + disc + 0.1 * noise) as f32
             })
             .collect()

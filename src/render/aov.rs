@@ -51,6 +51,6 @@ impl Layers {
     /// Folds `what` (e.g. the index of the object a secondary ray hit) into the signature.
     #[inline]
     pub fn mix_signature(&mut self, what: u64) {
-        self.signature = crate::render::sampler::mix64(self.signature ^ what.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        self.signature = crate::math::sampler::mix64(self.signature ^ what.wrapping_mul(0x9E37_79B9_7F4A_7C15));
     }
 }

@@ -2,8 +2,8 @@
 
 use crate::math::color::Color;
 use crate::math::ray::Ray;
+use crate::math::sampler::Sampler;
 use crate::render::aov::Layers;
-use crate::render::sampler::Sampler;
 use crate::render::stats::{Counter, RayStats};
 use crate::render::trace::TraceNode;
 use crate::scene::Scene;

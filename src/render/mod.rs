@@ -23,7 +23,6 @@ pub mod film;
 pub mod integrator;
 pub mod job;
 pub mod sample;
-pub mod sampler;
 pub mod share;
 pub mod split;
 pub mod stats;

@@ -234,7 +234,7 @@ impl Camera {
     fn lens_ray(&self, dir: DVec3, lens: DVec2) -> Ray {
         let dir = dir.normalize();
         let focus = self.position + dir * (self.focus_distance / dir.dot(self.to));
-        let d = crate::render::sampler::concentric_disc(lens) * self.aperture;
+        let d = crate::math::sampler::concentric_disc(lens) * self.aperture;
         let origin = self.position + d.x * self.right + d.y * self.up;
         Ray::new(origin, focus - origin)
     }

@@ -79,7 +79,7 @@ impl Perlin {
         let mut state = seed;
         for i in (1..256).rev() {
             state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let j = (raylab::render::sampler::mix64(state) % (i as u64 + 1)) as usize;
+            let j = (raylab::math::sampler::mix64(state) % (i as u64 + 1)) as usize;
             p.swap(i, j);
         }
         Perlin { perm: std::array::from_fn(|i| p[i & 255]) }
