@@ -258,7 +258,7 @@ mod tests {
     /// An allocation that cannot succeed is an error, not an abort.
     #[test]
     fn an_impossible_buffer_is_an_error() {
-        let e = crate::image::write::try_filled(usize::MAX / 2, 0u64, "film").unwrap_err();
+        let e = crate::render::film::try_filled(usize::MAX / 2, 0u64, "film").unwrap_err();
         assert!(e.0.contains("out of memory for the film"), "{e}");
         assert!(crate::render::film::Film::try_new(u32::MAX, u32::MAX).is_err() || usize::BITS > 64);
     }
