@@ -19,6 +19,7 @@ pub mod accum;
 pub mod adaptive;
 pub mod aov;
 pub mod aovs;
+pub mod explain;
 pub mod film;
 pub mod integrator;
 pub mod job;
