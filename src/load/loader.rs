@@ -221,7 +221,7 @@ impl Parts {
 fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) -> Result<Parts> {
     let opts = ctx.options;
     let ov = &opts.overrides;
-    if opts.accel == AccelChoice::Bvh && !crate::accel::bvh::BVH_AVAILABLE {
+    if opts.accel == AccelChoice::Bvh && !crate::accel::build::BVH_AVAILABLE {
         return Err(SceneError::msg("a BVH was asked for, but raylab was built without the `bvh` feature")
             .with_help("rebuild with `--features bvh`, or use --accel auto/list"));
     }
