@@ -21,9 +21,7 @@ use crate::math::float::{DEGENERACY_TOLERANCE, gamma};
 use crate::math::ray::Ray;
 use crate::param::error::{Result, SceneError};
 use crate::param::value::{Node, Value, vec3_of};
-use crate::scene::material::Material;
 use glam::{DAffine3, DMat3, DVec2, DVec3};
-use std::sync::Arc;
 
 /// An invertible affine map from an object's own frame to the world.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -210,9 +208,6 @@ impl<G: Geometry> Geometry for Transformed<G> {
     #[inline]
     fn uv(&self, at: &Hit) -> DVec2 {
         self.inner.uv(&self.object_hit(at))
-    }
-    fn materials(&self) -> Option<Arc<[Material]>> {
-        self.inner.materials()
     }
     fn bounds(&self) -> Option<Aabb> {
         self.bounds

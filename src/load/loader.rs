@@ -7,7 +7,7 @@
 use crate::accel::AccelChoice;
 use crate::geometry::transform::{Transformed, parse_transform};
 use crate::load::context::{LoadContext, LoadOptions, read_user_file, scene_dir};
-use crate::load::registry::Registry;
+use crate::load::registry::{BuiltGeometry, Registry};
 use crate::load::textures::TextureLibrary;
 use crate::math::color::Encoding;
 use crate::param::description::SceneDescription;
@@ -362,7 +362,7 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         ctx.charge(OBJECT_BYTES, &what, Some(&node.loc))?;
         let transform = params.get("transform").map(|n| parse_transform(n).map_err(|e| e.context(&what))).transpose()?;
         let mut p = Params::new(&what, plugin.info.params, params, node.loc.clone()).reserving(OBJECT_KEYS);
-        let mut g = (plugin.build)(&mut p, ctx)?;
+        let BuiltGeometry { geometry: mut g, materials: own_materials } = (plugin.build)(&mut p, ctx)?;
         p.finish()?;
         if let Some(t) = transform.filter(|t| !t.is_identity()) {
             g = Box::new(Transformed::new(g, t));
@@ -384,7 +384,7 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         // scene's default.
         let materials = match params.get("material") {
             Some(n) => Arc::from([materials.resolve(n, &what, &textures)?]),
-            None => g.materials().unwrap_or_else(|| default_material.clone()),
+            None => own_materials.unwrap_or_else(|| default_material.clone()),
         };
         objects.push(Object::new(names.claim(node, &label, &ty, i)?, g, materials));
     }
