@@ -159,11 +159,10 @@ fn resume(app: &App, given: RenderArgs, file: &Path) -> Result<(), Failure> {
         })?;
         let ri: super::farm::ResumeInfo =
             serde_json::from_str(&json).map_err(|e| Failure::Other(format!("{}: unreadable resume information ({e})", file.display())))?;
-        let argv = std::iter::once("raylab".to_string()).chain(std::iter::once("render".to_string())).chain(ri.args.iter().cloned());
-        let Ok(super::Cli { command: Some(super::Command::Render(a)) }) = <super::Cli as clap::Parser>::try_parse_from(argv) else {
+        let argv = std::iter::once("raylab render".to_string()).chain(ri.args.iter().cloned());
+        let Ok(SavedCommand { args: mut a }) = <SavedCommand as clap::Parser>::try_parse_from(argv) else {
             return Err(Failure::Other(format!("{}: the saved command `render {}` no longer parses", file.display(), ri.args.join(" "))));
         };
-        let mut a = *a;
         // Relative paths are relative to the folder the render was started in.
         let at = |p: &Path| if p.is_absolute() { p.to_path_buf() } else { ri.cwd.join(p) };
         a.scene = a.scene.as_deref().map(at);
@@ -176,6 +175,14 @@ fn resume(app: &App, given: RenderArgs, file: &Path) -> Result<(), Failure> {
         a.quiet |= given.quiet;
         render(app, a, Some((sums, info.fingerprint)))
     }
+}
+
+/// The arguments of `raylab render` alone: a checkpoint's saved command, parsed again.
+#[cfg(feature = "exr")]
+#[derive(clap::Parser)]
+struct SavedCommand {
+    #[command(flatten)]
+    args: RenderArgs,
 }
 
 /// Renders as `a` asks, continuing `resumed` (a checkpoint's state and fingerprint) if given.
