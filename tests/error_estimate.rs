@@ -1,13 +1,13 @@
 //! The render's estimate of its own error (`PixelSum::std_error`, `half_variance`,
 //! `FrameSums::error_estimate`) and adaptive sampling to an error target.
 
-use raylab::input::context::LoadOptions;
+use raylab::load::context::LoadOptions;
 use raylab::render::{RenderOptions, Rendered, render};
 use std::path::Path;
 
 fn render_str(toml: &str) -> Rendered {
     let registry = raylab_plugins::registry();
-    let job = raylab::input::load::load_str(&registry, "test.toml", toml, Path::new("."), &LoadOptions::default())
+    let job = raylab::load::loader::load_str(&registry, "test.toml", toml, Path::new("."), &LoadOptions::default())
         .unwrap_or_else(|e| panic!("{}", e.report()));
     render(&job, &RenderOptions { threads: Some(2), ..RenderOptions::default() }, &|_, _| {}).expect("render")
 }
@@ -86,7 +86,7 @@ fn the_image_error_estimate_matches_the_spread_between_seeds() {
     let renders: Vec<Rendered> = (0..12u64)
         .map(|seed| {
             let opts = LoadOptions {
-                overrides: raylab::input::context::Overrides {
+                overrides: raylab::load::context::Overrides {
                     width: Some(64),
                     height: Some(64),
                     spp: Some(16),
@@ -95,7 +95,7 @@ fn the_image_error_estimate_matches_the_spread_between_seeds() {
                 },
                 ..Default::default()
             };
-            let job = raylab::input::load::load_file(&registry, &path, &opts).unwrap_or_else(|e| panic!("{}", e.report()));
+            let job = raylab::load::loader::load_file(&registry, &path, &opts).unwrap_or_else(|e| panic!("{}", e.report()));
             render(&job, &RenderOptions { threads: Some(2), ..RenderOptions::default() }, &|_, _| {}).expect("render")
         })
         .collect();
@@ -180,9 +180,9 @@ fn an_error_target_spends_samples_where_the_noise_is() {
 fn an_error_target_is_deterministic() {
     let registry = raylab_plugins::registry();
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/path-cornell.toml");
-    let target = raylab::input::value::Node::given("test", raylab::input::value::Value::Float(0.2));
+    let target = raylab::param::value::Node::given("test", raylab::param::value::Value::Float(0.2));
     let opts = LoadOptions {
-        overrides: raylab::input::context::Overrides {
+        overrides: raylab::load::context::Overrides {
             width: Some(24),
             height: Some(24),
             spp: Some(128),
@@ -191,7 +191,7 @@ fn an_error_target_is_deterministic() {
         },
         ..Default::default()
     };
-    let job = raylab::input::load::load_file(&registry, &path, &opts).unwrap_or_else(|e| panic!("{}", e.report()));
+    let job = raylab::load::loader::load_file(&registry, &path, &opts).unwrap_or_else(|e| panic!("{}", e.report()));
     let run = |threads| render(&job, &RenderOptions { threads: Some(threads), ..RenderOptions::default() }, &|_, _| {}).expect("render");
     let (a, b) = (run(1), run(3));
     assert_eq!(a.sums.pixels, b.sums.pixels);

@@ -3,7 +3,7 @@
 
 use super::Failure;
 use crate::image::denoise::denoise;
-use crate::image::film::Film;
+use crate::render::film::Film;
 use clap::Args;
 use std::path::PathBuf;
 
@@ -27,7 +27,7 @@ pub(crate) fn run(a: DenoiseArgs) -> Result<(), Failure> {
     }
     let format = crate::image::output::format_for(&a.output).map_err(|e| e.to_string())?;
     let ext = a.input.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-    let bytes = crate::input::context::read_user_file(&a.input, "image", crate::image::tonemap::MAX_FILE_BYTES, None)?;
+    let bytes = crate::load::context::read_user_file(&a.input, "image", crate::image::tonemap::MAX_FILE_BYTES, None)?;
     let (color, albedo, normal) = read(&a, &ext, &bytes)?;
     let guides = match (&albedo, &normal) {
         (Some(_), Some(_)) => "albedo and normal guides",

@@ -6,8 +6,8 @@
 //! Denoise a whole image, never a tile: the filter looks at each pixel's neighbourhood, so
 //! tiles denoised apart would not merge to the image denoised whole.
 
-use crate::image::film::Film;
 use crate::image::reference::{decode_pfm, encode_pfm};
+use crate::render::film::Film;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
@@ -156,7 +156,7 @@ mod tests {
         let mut noisy = Film::new(w, h);
         let mut state = 0x2545_f491_4f6c_dd1du64;
         for p in &mut noisy.pixels {
-            state = crate::render::sampler::mix64(state);
+            state = crate::math::sampler::mix64(state);
             let u = (state >> 40) as f32 / (1u64 << 24) as f32;
             *p = Vec3::splat(0.5 + (u - 0.5) * 0.6);
         }

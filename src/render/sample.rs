@@ -3,10 +3,10 @@
 //! [`camera_rays`], so an explained sample is exactly the sample the render computed.
 
 use crate::math::ray::Ray;
+use crate::math::sampler::{Sampler, SeedKey, mix64, stratified_2d};
 use crate::render::accum::{LayerSum, PixelSum};
 use crate::render::aov::Layers;
 use crate::render::job::RenderJob;
-use crate::render::sampler::{Sampler, SeedKey, mix64, stratified_2d};
 use crate::render::stats::RayStats;
 use crate::scene::camera::FilmFrame;
 use glam::DVec2;
@@ -135,7 +135,7 @@ pub fn image_frame(job: &RenderJob) -> ImageFrame {
         film: job.scene.camera.film_frame(job.settings.width, job.settings.height),
         seed: SeedKey::new(job.settings.seed),
         miss: Layers::miss(job.scene.background),
-        strata: (f64::from(job.settings.spp.max(1)), crate::render::sampler::strata(job.settings.spp).0),
+        strata: (f64::from(job.settings.spp.max(1)), crate::math::sampler::strata(job.settings.spp).0),
     }
 }
 
