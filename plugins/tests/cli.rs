@@ -456,3 +456,67 @@ fn sweep_measures_phong_against_a_path_traced_reference() {
     assert!(!out.status.success() && text(&out.stderr).contains("unknown integrator \"pth\""), "{}", text(&out.stderr));
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// `render --denoise` and `raylab denoise` (Intel Open Image Denoise's tool, which CI installs):
+/// the denoised 4-spp path-traced box is closer to a 256-spp render than the noisy one, and the
+/// two commands give the same image from the same render.
+#[test]
+fn denoising_brings_a_noisy_render_closer_to_the_reference() {
+    if !raylab::image::denoise::available() {
+        assert!(std::env::var_os("CI").is_none(), "CI must have the denoiser: {}", raylab::image::denoise::INSTALL_HINT);
+        eprintln!("SKIPPED: no oidnDenoise ({})", raylab::image::denoise::INSTALL_HINT);
+        return;
+    }
+    let dir = temp_dir("denoise");
+    let scene = repo().join("scenes/path-cornell.toml");
+    let scene = scene.to_str().unwrap();
+    let size = ["--width", "48", "--height", "48", "-q", "--seed", "3"];
+    let run = |args: &[&str]| {
+        let out = raylab(&dir, &[&["render", scene][..], &size[..], args].concat());
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        text(&out.stdout)
+    };
+    run(&["--spp", "256", "-o", "ref.pfm"]);
+    run(&["--spp", "4", "-o", "noisy.exr", "--aov", "albedo,normal"]);
+    let summary = run(&["--spp", "4", "-o", "denoised.pfm", "--denoise"]);
+    assert!(summary.contains("denoise ") && summary.contains("(before denoising)"), "{summary}");
+    let out = raylab(&dir, &["denoise", "noisy.exr", "-o", "again.pfm"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(text(&out.stdout).contains("albedo and normal guides"), "{}", text(&out.stdout));
+    let read = |name: &str| raylab::image::reference::decode_pfm(&std::fs::read(dir.join(name)).unwrap()).unwrap();
+    let (reference, denoised, again) = (read("ref.pfm"), read("denoised.pfm"), read("again.pfm"));
+    let noisy = raylab::image::tonemap::read_layer(&std::fs::read(dir.join("noisy.exr")).unwrap(), "exr", raylab::image::tonemap::Layer::Color).unwrap();
+    // On displayed values (clamped to 1): the light's own pixels, far brighter, would decide alone.
+    let rmse = |f: &raylab::Film| {
+        let d = f.pixels.iter().zip(&reference.pixels).map(|(a, b)| (a.min(raylab::glam::Vec3::ONE) - b.min(raylab::glam::Vec3::ONE)).length_squared() as f64);
+        (d.sum::<f64>() / f.pixels.len() as f64).sqrt()
+    };
+    assert!(rmse(&denoised) < 0.75 * rmse(&noisy), "RMSE noisy {}, denoised {}", rmse(&noisy), rmse(&denoised));
+    assert!(rmse(&again) < 0.75 * rmse(&noisy), "RMSE noisy {}, denoised again {}", rmse(&noisy), rmse(&again));
+    // Never over its input.
+    let out = raylab(&dir, &["denoise", "noisy.exr", "-o", "./noisy.exr"]);
+    assert!(!out.status.success() && text(&out.stderr).contains("would overwrite its input"), "{}", text(&out.stderr));
+    // Not per tile.
+    let out = raylab(&dir, &[&["render", scene][..], &size[..], &["--tile", "0/2", "-o", "t.exr", "--denoise"]].concat());
+    assert!(!out.status.success() && text(&out.stderr).contains("not to a tile"), "{}", text(&out.stderr));
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// `--target-error` reaches the render: pixels stop at different counts, the summary says so,
+/// and `--aov error` writes the estimate and the samples per pixel.
+#[test]
+fn an_error_target_from_the_command_line() {
+    let dir = temp_dir("target-error");
+    let scene = repo().join("scenes/path-cornell.toml");
+    let out = raylab(
+        &dir,
+        &["render", scene.to_str().unwrap(), "--width", "24", "--height", "24", "--spp", "256", "--target-error", "0.1", "-o", "t.png", "-q"],
+    );
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    assert!(stdout.contains("to error 0.1 (16..256 spp)") && stdout.contains("an error target:"), "{stdout}");
+    let out =
+        raylab(&dir, &["render", scene.to_str().unwrap(), "--width", "24", "--height", "24", "--spp", "8", "--target-error", "0.1", "-o", "t.png"]);
+    assert!(!out.status.success() && text(&out.stderr).contains("the most samples a pixel takes"), "{}", text(&out.stderr));
+    std::fs::remove_dir_all(dir).unwrap();
+}

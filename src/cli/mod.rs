@@ -210,6 +210,12 @@ impl SceneArgs {
         if let Some(v) = self.lens_samples {
             render_params.push(flag_node("--lens-samples", "lens_samples", Value::Int(v)));
         }
+        if let Some(v) = self.target_error {
+            render_params.push(flag_node("--target-error", "target_error", Value::Float(v)));
+        }
+        if let Some(v) = self.target_min_spp {
+            render_params.push(flag_node("--target-min-spp", "target_min_spp", Value::Int(v)));
+        }
         // `--camera fit` alone: frame the scene (the camera's `fit = true`).
         let (fit, camera): (Vec<String>, Vec<String>) = self.camera.iter().cloned().partition(|c| c.trim() == "fit");
         let mut camera_params = key_values("--camera", &camera)?;
