@@ -18,6 +18,7 @@ pub mod input;
 pub mod math;
 pub mod render;
 pub mod scene;
+pub mod testing;
 #[cfg(feature = "view")]
 pub mod view;
 
