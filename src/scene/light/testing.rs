@@ -5,7 +5,7 @@
 
 use crate::math::color::Color;
 use crate::math::ray::Ray;
-use crate::render::sampler::stratified_2d;
+use crate::math::sampler::stratified_2d;
 use crate::scene::light::{LightPdf, LightSource};
 use crate::testing::chi2::{Chi2Outcome, Chi2Test, Sphere};
 use glam::{DQuat, DVec3};
