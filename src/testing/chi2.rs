@@ -80,9 +80,9 @@ pub trait Domain {
     /// A sample: a direction, a point.
     type Point: Copy + fmt::Debug;
     /// The point's parameters in [0, 1]², `None` when it is not in the domain.
-    fn to_unit(&self, p: Self::Point) -> Option<DVec2>;
+    fn parameters_of(&self, p: Self::Point) -> Option<DVec2>;
     /// The point with parameters `a` ∈ [0, 1]².
-    fn from_unit(&self, a: DVec2) -> Self::Point;
+    fn point_at(&self, a: DVec2) -> Self::Point;
     /// The measure of the domain per unit of parameter area (constant: the parameterisation
     /// preserves area up to this factor).
     fn jacobian(&self) -> f64;
@@ -101,7 +101,7 @@ pub const UNIT_TOLERANCE: f64 = 1e-6;
 impl Domain for Sphere {
     type Point = DVec3;
 
-    fn to_unit(&self, d: DVec3) -> Option<DVec2> {
+    fn parameters_of(&self, d: DVec3) -> Option<DVec2> {
         if !d.is_finite() || (d.length() - 1.0).abs() > UNIT_TOLERANCE {
             return None;
         }
@@ -109,7 +109,7 @@ impl Domain for Sphere {
         Some(DVec2::new(phi / TAU, ((1.0 - d.z) / 2.0).clamp(0.0, 1.0)))
     }
 
-    fn from_unit(&self, a: DVec2) -> DVec3 {
+    fn point_at(&self, a: DVec2) -> DVec3 {
         let z = 1.0 - 2.0 * a.y;
         let r = (1.0 - z * z).max(0.0).sqrt();
         let (s, c) = (TAU * a.x).sin_cos();
@@ -138,12 +138,12 @@ pub struct Rect {
 impl Domain for Rect {
     type Point = DVec2;
 
-    fn to_unit(&self, p: DVec2) -> Option<DVec2> {
+    fn parameters_of(&self, p: DVec2) -> Option<DVec2> {
         let a = (p - self.min) / (self.max - self.min);
         (a.is_finite() && a.cmpge(DVec2::ZERO).all() && a.cmple(DVec2::ONE).all()).then_some(a)
     }
 
-    fn from_unit(&self, a: DVec2) -> DVec2 {
+    fn point_at(&self, a: DVec2) -> DVec2 {
         self.min + a * (self.max - self.min)
     }
 
@@ -153,7 +153,7 @@ impl Domain for Rect {
     }
 
     fn describe(&self, lo: DVec2, hi: DVec2) -> String {
-        let (lo, hi) = (self.from_unit(lo), self.from_unit(hi));
+        let (lo, hi) = (self.point_at(lo), self.point_at(hi));
         format!("x {:.4}–{:.4}, y {:.4}–{:.4}", lo.x, hi.x, lo.y, hi.y)
     }
 }
@@ -253,7 +253,7 @@ impl<D: Domain> Chi2Test<D> {
                 unlikely += 1;
                 first_unlikely = first_unlikely.or(Some(p));
             }
-            match self.domain.to_unit(p) {
+            match self.domain.parameters_of(p) {
                 Some(a) => {
                     let i = ((a.x * nx as f64) as usize).min(nx - 1);
                     let j = ((a.y * ny as f64) as usize).min(ny - 1);
@@ -371,7 +371,7 @@ impl<D: Domain> Chi2Test<D> {
                 for b in 0..=k {
                     for a in 0..=k {
                         let at = DVec2::new((i * k + a) as f64 * hx, (j * k + b) as f64 * hy);
-                        let v = pdf(self.domain.from_unit(at));
+                        let v = pdf(self.domain.point_at(at));
                         zero |= v == 0.0;
                         positive |= v != 0.0;
                         sum += weight(a) * weight(b) * v;
@@ -399,7 +399,7 @@ impl<D: Domain> Chi2Test<D> {
                 for b in 0..m {
                     for a in 0..m {
                         let at = DVec2::new(((i * m + a) as f64 + 0.5) * gx, ((j * m + b) as f64 + 0.5) * gy);
-                        fine += pdf(self.domain.from_unit(at));
+                        fine += pdf(self.domain.point_at(at));
                     }
                 }
                 out[j * nx + i] = fine * fine_scale;
@@ -599,7 +599,7 @@ mod tests {
     }
 
     fn uniform_direction(u: &mut Uniform) -> Option<DVec3> {
-        Some(Sphere.from_unit(u.next_2d()))
+        Some(Sphere.point_at(u.next_2d()))
     }
 
     /// Cosine-weighted directions about +z, by Malley's method.
