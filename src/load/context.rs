@@ -3,7 +3,7 @@
 //! read goes through, the memory budget, shared assets and warnings.
 
 use crate::accel::{AccelChoice, BuildStats};
-use crate::load::mesh::MeshFormat;
+use crate::load::mesh::{MeshFile, MeshRequest};
 use crate::math::color::Encoding;
 use crate::param::error::{Loc, Result, SceneError};
 use crate::param::files::{OpenLog, ReadError, read_regular};
@@ -14,6 +14,23 @@ use std::any::Any;
 use std::collections::HashMap;
 use std::path::{Component, Path, PathBuf};
 use std::sync::{Arc, Mutex, OnceLock};
+
+/// Reads a mesh file ([`crate::load::mesh`]). Unwind-safe, as the load context that carries
+/// it must stay.
+pub type MeshReader = Arc<dyn Fn(&MeshRequest, &LoadContext) -> Result<MeshFile> + Send + Sync + std::panic::RefUnwindSafe>;
+
+/// A mesh file format, chosen by the file's extension.
+#[derive(Clone)]
+pub struct MeshFormat {
+    /// Short name (`"obj"`).
+    pub name: &'static str,
+    /// Lower-case extensions without the dot (`["gltf", "glb"]`).
+    pub extensions: &'static [&'static str],
+    /// One line: what the format is and what of it is read.
+    pub summary: &'static str,
+    /// The reader.
+    pub read: MeshReader,
+}
 
 /// Settings given outside the scene file (command line), which take precedence over it.
 #[derive(Clone, Debug, std::default::Default)]

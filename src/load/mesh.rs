@@ -1,13 +1,13 @@
-//! Mesh files as a plugin kind: a [`MeshFormat`] reads the files of its extensions into
-//! [`MeshData`] (indexed triangles with optional normals, texture coordinates and materials),
-//! which a mesh geometry then indexes. Formats are registered like shapes
+//! What a mesh file format is asked ([`MeshRequest`]) and answers ([`MeshFile`], [`MeshData`]:
+//! indexed triangles with optional normals, texture coordinates and materials), which a mesh
+//! geometry then indexes. The formats themselves
+//! ([`MeshFormat`](crate::load::context::MeshFormat)) are registered like shapes
 //! ([`Registry::add_mesh_format`](crate::load::registry::Registry::add_mesh_format)) and found by
-//! extension through the load context ([`LoadContext::mesh_format_for`]).
+//! extension through the load context
+//! ([`LoadContext::mesh_format_for`](crate::load::context::LoadContext::mesh_format_for)).
 
-use crate::load::context::LoadContext;
-use crate::param::error::{Loc, Result};
+use crate::param::error::Loc;
 use crate::scene::material::Material;
-use std::sync::Arc;
 
 /// A mesh as a reader produces it: indexed triangles with optional vertex normals and materials.
 #[derive(Clone, Debug, Default)]
@@ -35,7 +35,7 @@ pub struct MeshData {
 #[derive(Clone, Copy, Debug)]
 pub struct MeshRequest<'a> {
     /// The file as the scene names it, relative to the scene's folder: read it through the
-    /// context ([`LoadContext::read_file`]), which keeps it inside the sandbox and the limits.
+    /// context (`LoadContext::read_file`), which keeps it inside the sandbox and the limits.
     pub file: &'a str,
     /// Where the scene names it, for errors.
     pub loc: &'a Loc,
@@ -55,20 +55,4 @@ pub struct MeshFile {
     /// Bytes the reader held besides `data` at its peak (the file's own bytes when it read them
     /// whole), for the memory estimate charged before the mesh is indexed.
     pub file_bytes: u64,
-}
-
-/// Reads a mesh file. (Unwind-safe, as the load context that carries it must stay.)
-pub type MeshReader = Arc<dyn Fn(&MeshRequest, &LoadContext) -> Result<MeshFile> + Send + Sync + std::panic::RefUnwindSafe>;
-
-/// A mesh file format, chosen by the file's extension.
-#[derive(Clone)]
-pub struct MeshFormat {
-    /// Short name (`"obj"`).
-    pub name: &'static str,
-    /// Lower-case extensions without the dot (`["gltf", "glb"]`).
-    pub extensions: &'static [&'static str],
-    /// One line: what the format is and what of it is read.
-    pub summary: &'static str,
-    /// The reader.
-    pub read: MeshReader,
 }

@@ -7,8 +7,7 @@
 use crate::geometry::Geometry;
 use crate::image::output::{OutputFormat, builtin_formats};
 use crate::image::write::WriteError;
-use crate::load::context::LoadContext;
-use crate::load::mesh::MeshFormat;
+use crate::load::context::{LoadContext, MeshFormat};
 use crate::param::description::SceneDescription;
 use crate::param::error::Result;
 use crate::param::params::Params;
