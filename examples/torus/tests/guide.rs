@@ -36,7 +36,8 @@ fn check_excerpt(block: &[&str], source: &str) -> Result<(), String> {
             found = Some(at + 1);
             break;
         }
-        from = found.ok_or_else(|| format!("not a contiguous run of the file after line {from} (mark a gap with `// …`):\n{}", run.join("\n")))?;
+        from = found
+            .ok_or_else(|| format!("not a contiguous run of the file after line {from} (mark a gap with `// …`):\n{}", run.join("\n")))?;
     }
     Ok(())
 }
