@@ -16,7 +16,7 @@ mod trace;
 mod view;
 
 use crate::input::context::{LoadOptions, Overrides};
-use crate::input::error::{Loc, SceneError, Source};
+use crate::input::error::SceneError;
 use crate::input::registry::Registry;
 use crate::input::value::{Node, Value};
 use crate::render::RenderJob;
@@ -367,16 +367,7 @@ pub(crate) fn flag_node(flag: &str, key: &str, value: Value) -> (String, Node) {
 
 /// Parses repeated `KEY=VALUE` options (value in TOML syntax) of option `flag`.
 fn key_values(flag: &str, items: &[String]) -> Result<Vec<(String, Node)>, Failure> {
-    let mut out = Vec::new();
-    for s in items {
-        let src = Source::new(flag, s.clone());
-        let Some(eq) = s.find('=') else {
-            return Err(SceneError::at(&Loc::new(&src, 0..s.len()), "expected KEY=VALUE").into());
-        };
-        let key = s[..eq].trim().to_string();
-        out.push((key, crate::input::toml::parse_toml_value(&src, eq + 1..s.len())?));
-    }
-    Ok(out)
+    Ok(items.iter().map(|s| crate::input::context::key_value(flag, s)).collect::<Result<_, _>>()?)
 }
 
 /// Loads `scene` (or the app's default scene) with the options in `a`; returns the job and a

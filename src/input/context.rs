@@ -7,7 +7,7 @@ use crate::input::error::{Loc, Result, SceneError};
 use crate::input::files::{OpenLog, ReadError, read_regular};
 use crate::input::fingerprint::Fingerprint;
 use crate::input::limits::Limits;
-use crate::input::value::Node;
+use crate::input::value::{Node, Value};
 use crate::math::color::Encoding;
 use std::any::Any;
 use std::collections::HashMap;
@@ -39,6 +39,120 @@ pub struct Overrides {
     /// Camera parameters, `(name, value)`, applied over the scene's `[camera]` (see
     /// [`crate::scene::camera::apply_overrides`]); they also supply a camera to a scene that has none.
     pub camera_params: Vec<(String, Node)>,
+}
+
+/// Parses one `KEY=VALUE` setting (the value in TOML syntax) given outside the scene file, as
+/// `--set` and `--camera` take them: errors name `origin` (the flag) with the column.
+pub fn key_value(origin: &str, text: &str) -> Result<(String, Node)> {
+    let src = crate::input::error::Source::new(origin, text.to_string());
+    let Some(eq) = text.find('=') else {
+        return Err(SceneError::at(&Loc::new(&src, 0..text.len()), "expected KEY=VALUE"));
+    };
+    let key = text[..eq].trim().to_string();
+    Ok((key, crate::input::toml::parse_toml_value(&src, eq + 1..text.len())?))
+}
+
+/// Sets the quality knob `name` to `value` in `o`, as `raylab sweep --vary NAME=…` does: `spp`
+/// (and stratified anti-aliasing unless `aa` is set), `depth`, `integrator`, the `[render]` keys
+/// `aa`, `aa_*` (and adaptive anti-aliasing unless `aa` is set) and `lens_samples`, the camera's
+/// `aperture` and `focus_distance`, and any other name as an integrator parameter. Settings it
+/// implies are located at `origin`.
+pub fn apply_knob(o: &mut LoadOptions, origin: &str, name: &str, value: &Node) -> Result<()> {
+    let ov = &mut o.overrides;
+    let set = |list: &mut Vec<(String, Node)>, key: &str, v: &Node| list.push((key.to_string(), v.clone()));
+    match name {
+        "spp" => match value.value {
+            Value::Int(n) if n >= 1 && n <= i64::from(u32::MAX) => {
+                // Samples per pixel are stratified anti-aliasing's knob (adaptive ignores them).
+                if !ov.render_params.iter().any(|(k, _)| k == "aa") {
+                    ov.render_params.push(("aa".to_string(), Node::given(origin, Value::Str("stratified".into()))));
+                }
+                ov.spp = Some(n as u32)
+            }
+            _ => return Err(SceneError::at(&value.loc, "spp must be a whole number ≥ 1")),
+        },
+        "aa_threshold" | "aa_depth" | "aa_edges" | "aa_signature" | "aa_cell_samples" | "aa_coarse" => {
+            if !ov.render_params.iter().any(|(k, _)| k == "aa") {
+                ov.render_params.push(("aa".to_string(), Node::given(origin, Value::Str("adaptive".into()))));
+            }
+            set(&mut ov.render_params, name, value);
+        }
+        "aa" | "lens_samples" => set(&mut ov.render_params, name, value),
+        "aperture" | "focus_distance" => set(&mut ov.camera_params, name, value),
+        "integrator" => match &value.value {
+            Value::Str(t) => ov.integrator = Some(t.clone()),
+            _ => return Err(SceneError::at(&value.loc, "integrator must be a name (phong, path, …)")),
+        },
+        "depth" => ov.depth = Some(value.clone()),
+        _ => set(&mut ov.integrator_params, name, value),
+    }
+    Ok(())
+}
+
+/// The options of a sweep's reference render (`raylab sweep --reference auto`): `o` (the base
+/// options, loading `scene_integrator`) changed to render `integrator` with stratified sampling
+/// at `reference_spp` samples per pixel (at least the largest `spp` swept), one lens sample, and
+/// every depth and quality knob of the integrator at its reference value (by role, whatever the
+/// parameter is called), at least as accurate as any value swept. `swept(name)` gives the
+/// values a knob is swept over.
+pub fn reference_options(
+    o: &mut LoadOptions,
+    registry: &crate::input::registry::Registry,
+    scene_integrator: &str,
+    integrator: &str,
+    swept: &dyn Fn(&str) -> Option<Vec<Value>>,
+    reference_spp: u32,
+) {
+    use crate::input::spec::{Reference, Role};
+    let ov = &mut o.overrides;
+    if integrator != scene_integrator {
+        // The swept integrator's parameters and depth mean nothing to another one.
+        ov.integrator = Some(integrator.to_string());
+        ov.integrator_params.clear();
+        ov.depth = None;
+    }
+    let max_spp =
+        swept("spp").unwrap_or_default().iter().filter_map(|v| if let Value::Int(i) = v { Some(*i) } else { None }).max().unwrap_or(1);
+    ov.spp = Some(u32::try_from(max_spp).unwrap_or(u32::MAX).max(reference_spp));
+    ov.render_params.retain(|(k, _)| !k.starts_with("aa"));
+    ov.render_params.push(("aa".to_string(), Node::given("--reference", Value::Str("stratified".into()))));
+    ov.render_params.push(("lens_samples".to_string(), Node::given("--reference", Value::Int(1))));
+    // Every depth and quality knob of the integrator at its reference value (by role, whatever
+    // the parameter is called), and at least as accurate as any value swept.
+    let params = registry.integrator(integrator).map(|p| p.info.params).unwrap_or(&[]);
+    for spec in params {
+        let Some(reference) = spec.role.reference() else { continue };
+        let is_depth = matches!(spec.role, Role::Depth(_));
+        let numbers: Vec<f64> = swept(if is_depth { "depth" } else { spec.name })
+            .unwrap_or_default()
+            .iter()
+            .filter_map(|v| match v {
+                Value::Float(f) => Some(*f),
+                Value::Int(i) => Some(*i as f64),
+                _ => None,
+            })
+            .collect();
+        let value = match reference {
+            Reference::Keep => continue,
+            Reference::AtLeast(r) => numbers.iter().copied().fold(r, f64::max),
+            Reference::AtMost(r) => numbers.iter().copied().fold(r, f64::min),
+            Reference::Exactly(d) => match d {
+                crate::input::spec::Default::Int(i) => i as f64,
+                crate::input::spec::Default::Float(f) => f,
+                crate::input::spec::Default::Bool(b) => {
+                    ov.integrator_params.push((spec.name.to_string(), Node::given("--reference", Value::Bool(b))));
+                    continue;
+                }
+                _ => continue,
+            },
+        };
+        let value = if spec.kind == crate::input::spec::ParamKind::Int { Value::Int(value.round() as i64) } else { Value::Float(value) };
+        if is_depth {
+            ov.depth = Some(Node::given("--reference", value));
+        } else {
+            ov.integrator_params.push((spec.name.to_string(), Node::given("--reference", value)));
+        }
+    }
 }
 
 /// How to load a scene.

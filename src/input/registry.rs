@@ -177,4 +177,47 @@ impl Registry {
     pub fn formats(&self) -> &[SceneFormat] {
         &self.formats
     }
+
+    /// Every registered type with its parameter table, as JSON (`raylab plugins --json`, and
+    /// `raylab.plugins()` in Python): `{"geometries": [{"name", "summary", "params": [{"name",
+    /// "type", "default", "required", "doc", "role"}]}], "textures", "lights", "integrators",
+    /// "formats": [{"extensions", "summary"}]}`. A default is `null` when there is none.
+    pub fn to_json(&self) -> serde_json::Value {
+        use crate::input::spec::{Default, Role};
+        let param = |s: &ParamSpec| {
+            let default = match s.default {
+                Default::Required | Default::Optional => serde_json::Value::Null,
+                Default::Float(v) => v.into(),
+                Default::Int(v) => v.into(),
+                Default::Bool(v) => v.into(),
+                Default::Str(v) => v.into(),
+                Default::Vec3(v) => v.to_vec().into(),
+            };
+            let role = match s.role {
+                Role::Setting => "setting",
+                Role::Depth(_) => "depth",
+                Role::Quality(_) => "quality",
+            };
+            serde_json::json!({
+                "name": s.name,
+                "type": s.kind.name(),
+                "default": default,
+                "required": s.default == Default::Required,
+                "doc": s.doc,
+                "role": role,
+            })
+        };
+        let plugins = |items: &mut dyn Iterator<Item = &PluginInfo>| -> serde_json::Value {
+            items
+                .map(|p| serde_json::json!({ "name": p.name, "summary": p.summary, "params": p.params.iter().map(param).collect::<Vec<_>>() }))
+                .collect()
+        };
+        serde_json::json!({
+            "geometries": plugins(&mut self.geometries()),
+            "textures": plugins(&mut self.textures()),
+            "lights": plugins(&mut self.lights()),
+            "integrators": plugins(&mut self.integrators()),
+            "formats": self.formats.iter().map(|f| serde_json::json!({ "extensions": f.extensions, "summary": f.summary })).collect::<Vec<_>>(),
+        })
+    }
 }
