@@ -5,10 +5,10 @@ use crate::runtime_error;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyByteArray, PyBytes, PyDict};
-use raylab::image::film::Film;
-use raylab::image::layers::{Aov, Aovs};
 use raylab::math::color::Encoding;
 use raylab::render::RenderJob;
+use raylab::render::aovs::{Aov, Aovs};
+use raylab::render::film::Film;
 use raylab::render::share::FrameSums;
 use raylab::render::stats::RayStats;
 use std::path::PathBuf;
@@ -211,7 +211,7 @@ pub fn merge(
         let name = path.display().to_string();
         let (sums, info) = py
             .detach(|| -> Result<_, String> {
-                let bytes = raylab::input::context::read_user_file(&path, "partial image", max_file_bytes, None).map_err(|e| e.report())?;
+                let bytes = raylab::load::context::read_user_file(&path, "partial image", max_file_bytes, None).map_err(|e| e.report())?;
                 raylab::image::partial::read_partial(&bytes, &name, max_pixels).map_err(|e| e.to_string())
             })
             .map_err(runtime_error)?;

@@ -1,7 +1,7 @@
 //! raylab from Python: the native half of the `raylab` package (`raylab._raylab`).
 //!
 //! Everything here calls the core's public API, the one the CLI calls: scenes are loaded by
-//! [`raylab::input::load`] with the same overrides, limits and sandbox, rendered by
+//! [`raylab::load::loader`] with the same overrides, limits and sandbox, rendered by
 //! [`raylab::render::render_progressive`], explained by [`raylab::render::explain_pixel`], split
 //! into tiles by [`raylab::render::split`] and merged by [`raylab::render::share::merge`]. The
 //! Python half (`raylab/__init__.py`) turns the buffers into NumPy arrays and keyword arguments
@@ -16,8 +16,8 @@ mod scene;
 use pyo3::create_exception;
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
-use raylab::input::error::Location;
-use raylab::input::registry::Registry;
+use raylab::load::registry::Registry;
+use raylab::param::error::Location;
 use std::sync::OnceLock;
 
 create_exception!(
@@ -36,7 +36,7 @@ pub(crate) fn registry() -> PyResult<&'static Registry> {
 }
 
 /// A core scene error as `raylab.SceneError`, with its location as attributes.
-pub(crate) fn scene_error(py: Python<'_>, e: &raylab::input::error::SceneError) -> PyErr {
+pub(crate) fn scene_error(py: Python<'_>, e: &raylab::param::error::SceneError) -> PyErr {
     let err = SceneError::new_err(e.report());
     let (file, line_col) = match &e.location {
         Location::None => (None, None),

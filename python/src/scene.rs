@@ -4,8 +4,8 @@ use crate::image::Rendered;
 use crate::{registry, runtime_error, scene_error};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use raylab::input::context::{LoadOptions, Overrides, key_value};
-use raylab::input::value::{Node, Value};
+use raylab::load::context::{LoadOptions, Overrides, key_value};
+use raylab::param::value::{Node, Value};
 use raylab::render::share::Share;
 use raylab::render::{RenderJob, RenderOptions};
 use std::path::PathBuf;
@@ -45,13 +45,13 @@ struct Settings {
     /// Limits by their CLI names without `--` (`max_pixels`, …, `max_depth_limit`).
     limits: Vec<(String, u64)>,
     /// Sweep knobs `(name, value in TOML syntax)`, applied last as `raylab sweep --vary` applies
-    /// them ([`raylab::input::context::apply_knob`]).
+    /// them ([`raylab::load::context::apply_knob`]).
     knobs: Vec<(String, String)>,
 }
 
 impl Settings {
     /// The load options these settings ask for, as the CLI builds them from its flags.
-    fn load_options(&self) -> Result<LoadOptions, raylab::input::error::SceneError> {
+    fn load_options(&self) -> Result<LoadOptions, raylab::param::error::SceneError> {
         let mut ov = Overrides {
             width: self.width,
             height: self.height,
@@ -63,7 +63,7 @@ impl Settings {
         };
         if let Some(e) = &self.encoding {
             ov.encoding = Some(raylab::math::color::Encoding::parse(e).ok_or_else(|| {
-                raylab::input::error::SceneError::msg(format!(
+                raylab::param::error::SceneError::msg(format!(
                     "encoding: expected one of {}, found \"{e}\"",
                     raylab::math::color::Encoding::NAMES.join(", ")
                 ))
@@ -78,7 +78,7 @@ impl Settings {
                 _ => ov.integrator_params.push((key, node)),
             }
         }
-        let mut limits = raylab::input::limits::Limits::default();
+        let mut limits = raylab::param::limits::Limits::default();
         for (name, v) in &self.limits {
             let narrow = |v: u64| u32::try_from(v).unwrap_or(u32::MAX);
             match name.as_str() {
@@ -91,13 +91,13 @@ impl Settings {
                 "max_image_bytes" => limits.max_image_bytes = *v,
                 "max_rays" => limits.max_rays = *v,
                 "max_memory" => limits.max_memory = *v,
-                other => return Err(raylab::input::error::SceneError::msg(format!("unknown limit \"{other}\""))),
+                other => return Err(raylab::param::error::SceneError::msg(format!("unknown limit \"{other}\""))),
             }
         }
         let accel = match self.accel.as_deref() {
             None => raylab::accel::AccelChoice::default(),
             Some(a) => raylab::accel::AccelChoice::parse(a)
-                .ok_or_else(|| raylab::input::error::SceneError::msg(format!("accel: expected auto, bvh or list, found \"{a}\"")))?,
+                .ok_or_else(|| raylab::param::error::SceneError::msg(format!("accel: expected auto, bvh or list, found \"{a}\"")))?,
         };
         let mut opts = LoadOptions {
             overrides: ov,
@@ -109,7 +109,7 @@ impl Settings {
         };
         for (name, value) in &self.knobs {
             let (name, node) = key_value("vary", &format!("{name}={value}"))?;
-            raylab::input::context::apply_knob(&mut opts, "vary", &name, &node)?;
+            raylab::load::context::apply_knob(&mut opts, "vary", &name, &node)?;
         }
         Ok(opts)
     }
@@ -133,11 +133,11 @@ impl Scene {
     /// Loads `origin` with `opts` (made from `settings`, perhaps changed further).
     fn open_with(py: Python<'_>, origin: Origin, settings: Settings, opts: &LoadOptions) -> PyResult<Scene> {
         let reg = registry()?;
-        let loaded = py.detach(|| -> Result<RenderJob, raylab::input::error::SceneError> {
+        let loaded = py.detach(|| -> Result<RenderJob, raylab::param::error::SceneError> {
             let opts = opts.clone();
             match &origin {
-                Origin::File(p) => raylab::input::load::load_file(reg, p, &opts),
-                Origin::Text { name, text, dir } => raylab::input::load::load_str(reg, name, text, dir, &opts),
+                Origin::File(p) => raylab::load::loader::load_file(reg, p, &opts),
+                Origin::Text { name, text, dir } => raylab::load::loader::load_str(reg, name, text, dir, &opts),
             }
         });
         let job = loaded.map_err(|e| scene_error(py, &e))?;
@@ -298,7 +298,7 @@ impl Scene {
         let swept = |name: &str| values.iter().find(|(k, _)| k == name).map(|(_, v)| v.clone());
         let scene_integrator = self.job.integrator_name.clone();
         let integrator = integrator.unwrap_or_else(|| scene_integrator.clone());
-        raylab::input::context::reference_options(&mut opts, registry()?, &scene_integrator, &integrator, &swept, reference_spp);
+        registry()?.reference_options(&mut opts, &scene_integrator, &integrator, &swept, reference_spp);
         Scene::open_with(py, self.origin.clone(), self.settings.clone(), &opts)
     }
 
@@ -320,7 +320,7 @@ impl Scene {
         progress: Option<Py<PyAny>>,
     ) -> PyResult<Rendered> {
         for name in &aov {
-            if raylab::image::layers::Aov::parse(name).is_none() {
+            if raylab::render::aovs::Aov::parse(name).is_none() {
                 return Err(PyValueError::new_err(format!("aov: expected depth, normal or albedo, found \"{name}\"")));
             }
         }
@@ -384,7 +384,7 @@ impl Scene {
             match (pixel, ray) {
                 (Some((x, y)), None) => {
                     let (trees, sref) = raylab::render::explain_pixel(job, x, y, sample)?;
-                    Ok(raylab::render::trace::explanation_json(job, &name, Some((x, y)), Some(sref), &trees))
+                    Ok(raylab::render::explain::explanation_json(job, &name, Some((x, y)), Some(sref), &trees))
                 }
                 (None, Some((o, d))) => {
                     let (o, d) = (glam::DVec3::from(o), glam::DVec3::from(d));
@@ -394,7 +394,7 @@ impl Scene {
                     let dir = d.try_normalize().ok_or("ray: the direction must not be zero")?;
                     let tree = raylab::render::explain_ray(job, &raylab::math::ray::Ray { origin: o, dir })
                         .ok_or_else(|| format!("the integrator \"{}\" cannot explain rays", job.integrator_name))?;
-                    Ok(raylab::render::trace::explanation_json(job, &name, None, None, &[tree]))
+                    Ok(raylab::render::explain::explanation_json(job, &name, None, None, &[tree]))
                 }
                 _ => Err("give pixel=(x, y) or ray=(origin, direction), one of them".into()),
             }

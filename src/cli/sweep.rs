@@ -4,11 +4,11 @@
 
 use super::plot::{Plot, Series};
 use super::{App, Failure, SceneArgs, si};
-use crate::image::film::Film;
 use crate::image::metrics::ImageError;
-use crate::input::context::LoadOptions;
-use crate::input::error::{Loc, SceneError, Source};
-use crate::input::value::{Node, Value};
+use crate::load::context::LoadOptions;
+use crate::param::error::{Loc, SceneError, Source};
+use crate::param::value::{Node, Value};
+use crate::render::film::Film;
 use crate::render::{RenderJob, RenderOptions};
 use clap::Args;
 use serde::Serialize;
@@ -287,7 +287,7 @@ fn parse_vary(s: &str) -> Result<Knob, Failure> {
                 if text.is_empty() {
                     return Err(SceneError::at(&Loc::new(&src, range), format!("--vary {name}: empty value")).into());
                 }
-                let node = match crate::input::toml::parse_toml_value(&src, range.clone()) {
+                let node = match crate::param::toml::parse_toml_value(&src, range.clone()) {
                     Ok(n) => n,
                     Err(_) if text.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') => {
                         Node { value: Value::Str(text.to_string()), loc: Loc::new(&src, range) }
@@ -330,17 +330,17 @@ fn one_at_a_time(knobs: &[Knob]) -> Vec<Vec<(usize, usize)>> {
 fn options_for(base: &LoadOptions, knobs: &[Knob], choice: &[(usize, usize)]) -> Result<LoadOptions, Failure> {
     let mut o = base.clone();
     for &(k, v) in choice {
-        crate::input::context::apply_knob(&mut o, "--vary", &knobs[k].name, &knobs[k].values[v].1)?;
+        crate::load::context::apply_knob(&mut o, "--vary", &knobs[k].name, &knobs[k].values[v].1)?;
     }
     Ok(o)
 }
 
 fn load_with(app: &App, scene: Option<&Path>, opts: &LoadOptions) -> Result<RenderJob, Failure> {
     match scene {
-        Some(p) => Ok(crate::input::load::load_file(&app.registry, p, opts)?),
+        Some(p) => Ok(crate::load::loader::load_file(&app.registry, p, opts)?),
         None => {
             let (name, text) = app.default_scene;
-            Ok(crate::input::load::load_str(&app.registry, name, text, Path::new("."), opts)?)
+            Ok(crate::load::loader::load_str(&app.registry, name, text, Path::new("."), opts)?)
         }
     }
 }
@@ -375,10 +375,10 @@ fn reference_plan(app: &App, a: &SweepArgs, base: &LoadOptions, knobs: &[Knob], 
     let integrator = a.reference_integrator.as_deref().unwrap_or(&base_job.integrator_name);
     let swept =
         |name: &str| knobs.iter().find(|k| k.name == name).map(|k| k.values.iter().map(|(_, n)| n.value.clone()).collect::<Vec<_>>());
-    crate::input::context::reference_options(&mut o, &app.registry, &base_job.integrator_name, integrator, &swept, a.reference_spp);
+    app.registry.reference_options(&mut o, &base_job.integrator_name, integrator, &swept, a.reference_spp);
     let job = load_with(app, a.scene.as_deref(), &o)?;
     let scene_text = match a.scene.as_deref() {
-        Some(p) => crate::input::context::read_user_file(p, "scene file", base.limits.max_file_bytes, None)?,
+        Some(p) => crate::load::context::read_user_file(p, "scene file", base.limits.max_file_bytes, None)?,
         None => app.default_scene.1.as_bytes().to_vec(),
     };
     let settings = format!("{:?}|{}|{:?}|{}", job.settings, job.integrator_name, job.integrator.describe(), env!("CARGO_PKG_VERSION"));
@@ -450,7 +450,7 @@ fn hash(parts: &[&[u8]]) -> u64 {
         for &b in *p {
             h = (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
         }
-        h = crate::render::sampler::mix64(h);
+        h = crate::math::sampler::mix64(h);
     }
     h
 }

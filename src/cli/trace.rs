@@ -2,8 +2,8 @@
 
 use super::{App, Failure, SceneArgs};
 use crate::math::ray::Ray;
+use crate::render::explain::{explanation_json, sample_color};
 use crate::render::sample::SampleId;
-use crate::render::trace::{explanation_json, sample_color};
 use crate::render::{explain_pixel, explain_ray};
 use clap::Args;
 use glam::DVec3;

@@ -18,10 +18,12 @@
 pub mod accum;
 pub mod adaptive;
 pub mod aov;
+pub mod aovs;
+pub mod explain;
+pub mod film;
 pub mod integrator;
 pub mod job;
 pub mod sample;
-pub mod sampler;
 pub mod share;
 pub mod split;
 pub mod stats;
@@ -29,10 +31,10 @@ pub mod trace;
 
 pub use job::{ADAPTIVE_TILE_SIZE, AdaptiveSettings, Antialiasing, MAX_ADAPTIVE_DEPTH, RenderJob, RenderSettings, TILE_SIZE};
 
-use crate::image::film::Film;
-use crate::image::layers::Aovs;
 use crate::render::accum::{LayerSum, PixelSum};
 use crate::render::adaptive::Adaptive;
+use crate::render::aovs::Aovs;
+use crate::render::film::Film;
 use crate::render::sample::{ImageFrame, SampleId, camera_rays, image_frame, trace_sample, trace_sample_in};
 use crate::render::share::{FrameSums, Rect, Sampling, Share};
 use crate::render::stats::RayStats;
@@ -447,7 +449,7 @@ pub fn explain_sample(job: &RenderJob, id: SampleId) -> Option<Vec<crate::render
 /// The explanation of one ray of `job`'s scene (`raylab trace --ray`), with the random stream of
 /// pixel (0, 0)'s first sample; `None` when the integrator cannot explain itself.
 pub fn explain_ray(job: &RenderJob, ray: &crate::math::ray::Ray) -> Option<crate::render::trace::TraceNode> {
-    job.integrator.explain(&job.scene, ray, &mut crate::render::sampler::Sampler::new(0, 0, job.settings.seed))
+    job.integrator.explain(&job.scene, ray, &mut crate::math::sampler::Sampler::new(0, 0, job.settings.seed))
 }
 
 /// The explanation of sample `index` of pixel (`x`, `y`) (0-based, as [`pixel_samples`] lists
@@ -459,7 +461,7 @@ pub fn explain_pixel(
     x: u32,
     y: u32,
     index: u32,
-) -> Result<(Vec<crate::render::trace::TraceNode>, crate::render::trace::SampleRef), String> {
+) -> Result<(Vec<crate::render::trace::TraceNode>, crate::render::explain::SampleRef), String> {
     let s = &job.settings;
     if x >= s.width || y >= s.height {
         return Err(format!("pixel ({x}, {y}) is outside the {}×{} image", s.width, s.height));
@@ -469,7 +471,7 @@ pub fn explain_pixel(
         .get(index as usize)
         .ok_or_else(|| format!("sample {index}: pixel ({x}, {y}) has {} samples (0..{})", samples.len(), samples.len()))?;
     let trees = explain_sample(job, id).ok_or_else(|| format!("the integrator \"{}\" cannot explain rays", job.integrator_name))?;
-    Ok((trees, crate::render::trace::SampleRef { index, of: samples.len(), id, weight }))
+    Ok((trees, crate::render::explain::SampleRef { index, of: samples.len(), id, weight }))
 }
 
 #[cfg(test)]

@@ -3,12 +3,12 @@
 //! read goes through, the memory budget, shared assets and warnings.
 
 use crate::accel::{AccelChoice, BuildStats};
-use crate::input::error::{Loc, Result, SceneError};
-use crate::input::files::{OpenLog, ReadError, read_regular};
-use crate::input::fingerprint::Fingerprint;
-use crate::input::limits::Limits;
-use crate::input::value::{Node, Value};
 use crate::math::color::Encoding;
+use crate::param::error::{Loc, Result, SceneError};
+use crate::param::files::{OpenLog, ReadError, read_regular};
+use crate::param::fingerprint::Fingerprint;
+use crate::param::limits::Limits;
+use crate::param::value::{Node, Value};
 use std::any::Any;
 use std::collections::HashMap;
 use std::path::{Component, Path, PathBuf};
@@ -31,7 +31,7 @@ pub struct Overrides {
     pub integrator: Option<String>,
     /// Integrator parameters, `(name, value)`, applied over the scene's.
     pub integrator_params: Vec<(String, Node)>,
-    /// The integrator's recursion depth (its parameter with [`crate::input::spec::Role::Depth`],
+    /// The integrator's recursion depth (its parameter with [`crate::param::spec::Role::Depth`],
     /// whatever its name), applied before `integrator_params`.
     pub depth: Option<Node>,
     /// `[render]` keys, `(name, value)`, applied over the scene's (e.g. `aa`, `lens_samples`).
@@ -44,12 +44,12 @@ pub struct Overrides {
 /// Parses one `KEY=VALUE` setting (the value in TOML syntax) given outside the scene file, as
 /// `--set` and `--camera` take them: errors name `origin` (the flag) with the column.
 pub fn key_value(origin: &str, text: &str) -> Result<(String, Node)> {
-    let src = crate::input::error::Source::new(origin, text.to_string());
+    let src = crate::param::error::Source::new(origin, text.to_string());
     let Some(eq) = text.find('=') else {
         return Err(SceneError::at(&Loc::new(&src, 0..text.len()), "expected KEY=VALUE"));
     };
     let key = text[..eq].trim().to_string();
-    Ok((key, crate::input::toml::parse_toml_value(&src, eq + 1..text.len())?))
+    Ok((key, crate::param::toml::parse_toml_value(&src, eq + 1..text.len())?))
 }
 
 /// Sets the quality knob `name` to `value` in `o`, as `raylab sweep --vary NAME=…` does: `spp`
@@ -87,72 +87,6 @@ pub fn apply_knob(o: &mut LoadOptions, origin: &str, name: &str, value: &Node) -
         _ => set(&mut ov.integrator_params, name, value),
     }
     Ok(())
-}
-
-/// The options of a sweep's reference render (`raylab sweep --reference auto`): `o` (the base
-/// options, loading `scene_integrator`) changed to render `integrator` with stratified sampling
-/// at `reference_spp` samples per pixel (at least the largest `spp` swept), one lens sample, and
-/// every depth and quality knob of the integrator at its reference value (by role, whatever the
-/// parameter is called), at least as accurate as any value swept. `swept(name)` gives the
-/// values a knob is swept over.
-pub fn reference_options(
-    o: &mut LoadOptions,
-    registry: &crate::input::registry::Registry,
-    scene_integrator: &str,
-    integrator: &str,
-    swept: &dyn Fn(&str) -> Option<Vec<Value>>,
-    reference_spp: u32,
-) {
-    use crate::input::spec::{Reference, Role};
-    let ov = &mut o.overrides;
-    if integrator != scene_integrator {
-        // The swept integrator's parameters and depth mean nothing to another one.
-        ov.integrator = Some(integrator.to_string());
-        ov.integrator_params.clear();
-        ov.depth = None;
-    }
-    let max_spp =
-        swept("spp").unwrap_or_default().iter().filter_map(|v| if let Value::Int(i) = v { Some(*i) } else { None }).max().unwrap_or(1);
-    ov.spp = Some(u32::try_from(max_spp).unwrap_or(u32::MAX).max(reference_spp));
-    ov.render_params.retain(|(k, _)| !k.starts_with("aa"));
-    ov.render_params.push(("aa".to_string(), Node::given("--reference", Value::Str("stratified".into()))));
-    ov.render_params.push(("lens_samples".to_string(), Node::given("--reference", Value::Int(1))));
-    // Every depth and quality knob of the integrator at its reference value (by role, whatever
-    // the parameter is called), and at least as accurate as any value swept.
-    let params = registry.integrator(integrator).map(|p| p.info.params).unwrap_or(&[]);
-    for spec in params {
-        let Some(reference) = spec.role.reference() else { continue };
-        let is_depth = matches!(spec.role, Role::Depth(_));
-        let numbers: Vec<f64> = swept(if is_depth { "depth" } else { spec.name })
-            .unwrap_or_default()
-            .iter()
-            .filter_map(|v| match v {
-                Value::Float(f) => Some(*f),
-                Value::Int(i) => Some(*i as f64),
-                _ => None,
-            })
-            .collect();
-        let value = match reference {
-            Reference::Keep => continue,
-            Reference::AtLeast(r) => numbers.iter().copied().fold(r, f64::max),
-            Reference::AtMost(r) => numbers.iter().copied().fold(r, f64::min),
-            Reference::Exactly(d) => match d {
-                crate::input::spec::Default::Int(i) => i as f64,
-                crate::input::spec::Default::Float(f) => f,
-                crate::input::spec::Default::Bool(b) => {
-                    ov.integrator_params.push((spec.name.to_string(), Node::given("--reference", Value::Bool(b))));
-                    continue;
-                }
-                _ => continue,
-            },
-        };
-        let value = if spec.kind == crate::input::spec::ParamKind::Int { Value::Int(value.round() as i64) } else { Value::Float(value) };
-        if is_depth {
-            ov.depth = Some(Node::given("--reference", value));
-        } else {
-            ov.integrator_params.push((spec.name.to_string(), Node::given("--reference", value)));
-        }
-    }
 }
 
 /// How to load a scene.
@@ -361,7 +295,7 @@ impl<'a> LoadContext<'a> {
                 None => err,
             }
         };
-        let opened = crate::input::files::open_regular(&full, self.options.open_log.as_ref()).map_err(failed)?;
+        let opened = crate::param::files::open_regular(&full, self.options.open_log.as_ref()).map_err(failed)?;
         if !self.options.allow_outside_paths {
             // The file opened is the one checked, even if a link changed in between.
             let dir = self.canonical_dir(loc)?;

@@ -4,13 +4,14 @@
 //! geometry the same way (see docs/writing-a-plugin.md).
 
 use crate::geometry::Geometry;
-use crate::input::context::LoadContext;
-use crate::input::description::SceneDescription;
-use crate::input::error::Result;
-use crate::input::params::Params;
-use crate::input::spec::ParamSpec;
+use crate::load::context::LoadContext;
+use crate::param::description::SceneDescription;
+use crate::param::error::Result;
+use crate::param::params::Params;
+use crate::param::spec::ParamSpec;
 use crate::render::integrator::Integrator;
 use crate::scene::light::LightSource;
+use crate::scene::material::Material;
 use crate::scene::texture::Texture;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -27,8 +28,19 @@ pub struct PluginInfo {
     pub params: &'static [ParamSpec],
 }
 
+/// A geometry as its builder made it: the shape, and the materials its own source defines (an
+/// OBJ's MTL library, a glTF file's materials), indexed by
+/// [`Surface::material`](crate::geometry::Surface::material); `None` for shapes that take the
+/// object's material. An object's `material` in the scene replaces them.
+pub struct BuiltGeometry {
+    /// The shape.
+    pub geometry: Box<dyn Geometry>,
+    /// The materials its file defines, if any.
+    pub materials: Option<Arc<[Material]>>,
+}
+
 /// Builds a geometry from its parameters.
-pub type GeometryBuilder = Arc<dyn Fn(&mut Params, &LoadContext) -> Result<Box<dyn Geometry>> + Send + Sync>;
+pub type GeometryBuilder = Arc<dyn Fn(&mut Params, &LoadContext) -> Result<BuiltGeometry> + Send + Sync>;
 /// Builds a texture from its parameters.
 pub type TextureBuilder = Arc<dyn Fn(&mut Params, &LoadContext) -> Result<Arc<dyn Texture>> + Send + Sync>;
 /// Builds a light from its parameters.
@@ -80,6 +92,16 @@ impl Registry {
         &mut self,
         info: PluginInfo,
         build: impl Fn(&mut Params, &LoadContext) -> Result<Box<dyn Geometry>> + Send + Sync + 'static,
+    ) {
+        self.add_geometry_with_materials(info, move |p, ctx| Ok(BuiltGeometry { geometry: build(p, ctx)?, materials: None }));
+    }
+
+    /// Registers a geometry type whose source may define its own materials (a mesh file's);
+    /// replaces any earlier one of the same name.
+    pub fn add_geometry_with_materials(
+        &mut self,
+        info: PluginInfo,
+        build: impl Fn(&mut Params, &LoadContext) -> Result<BuiltGeometry> + Send + Sync + 'static,
     ) {
         self.geometries.insert(info.name, Plugin { info, build: Arc::new(build) });
     }
@@ -178,12 +200,93 @@ impl Registry {
         &self.formats
     }
 
+    /// The options of a sweep's reference render (`raylab sweep --reference auto`): `o` (the base
+    /// options, loading `scene_integrator`) changed to render `integrator` with stratified sampling
+    /// at `reference_spp` samples per pixel (at least the largest `spp` swept), one lens sample, and
+    /// every depth and quality knob of the integrator at its reference value (by role, whatever the
+    /// parameter is called), at least as accurate as any value swept. `swept(name)` gives the
+    /// values a knob is swept over.
+    pub fn reference_options(
+        &self,
+        o: &mut crate::load::context::LoadOptions,
+        scene_integrator: &str,
+        integrator: &str,
+        swept: &dyn Fn(&str) -> Option<Vec<crate::param::value::Value>>,
+        reference_spp: u32,
+    ) {
+        use crate::param::spec::{Reference, Role};
+        let ov = &mut o.overrides;
+        if integrator != scene_integrator {
+            // The swept integrator's parameters and depth mean nothing to another one.
+            ov.integrator = Some(integrator.to_string());
+            ov.integrator_params.clear();
+            ov.depth = None;
+        }
+        let max_spp = swept("spp")
+            .unwrap_or_default()
+            .iter()
+            .filter_map(|v| if let crate::param::value::Value::Int(i) = v { Some(*i) } else { None })
+            .max()
+            .unwrap_or(1);
+        ov.spp = Some(u32::try_from(max_spp).unwrap_or(u32::MAX).max(reference_spp));
+        ov.render_params.retain(|(k, _)| !k.starts_with("aa"));
+        ov.render_params.push((
+            "aa".to_string(),
+            crate::param::value::Node::given("--reference", crate::param::value::Value::Str("stratified".into())),
+        ));
+        ov.render_params
+            .push(("lens_samples".to_string(), crate::param::value::Node::given("--reference", crate::param::value::Value::Int(1))));
+        // Every depth and quality knob of the integrator at its reference value (by role, whatever
+        // the parameter is called), and at least as accurate as any value swept.
+        let params = self.integrator(integrator).map(|p| p.info.params).unwrap_or(&[]);
+        for spec in params {
+            let Some(reference) = spec.role.reference() else { continue };
+            let is_depth = matches!(spec.role, Role::Depth(_));
+            let numbers: Vec<f64> = swept(if is_depth { "depth" } else { spec.name })
+                .unwrap_or_default()
+                .iter()
+                .filter_map(|v| match v {
+                    crate::param::value::Value::Float(f) => Some(*f),
+                    crate::param::value::Value::Int(i) => Some(*i as f64),
+                    _ => None,
+                })
+                .collect();
+            let value = match reference {
+                Reference::Keep => continue,
+                Reference::AtLeast(r) => numbers.iter().copied().fold(r, f64::max),
+                Reference::AtMost(r) => numbers.iter().copied().fold(r, f64::min),
+                Reference::Exactly(d) => match d {
+                    crate::param::spec::Default::Int(i) => i as f64,
+                    crate::param::spec::Default::Float(f) => f,
+                    crate::param::spec::Default::Bool(b) => {
+                        ov.integrator_params.push((
+                            spec.name.to_string(),
+                            crate::param::value::Node::given("--reference", crate::param::value::Value::Bool(b)),
+                        ));
+                        continue;
+                    }
+                    _ => continue,
+                },
+            };
+            let value = if spec.kind == crate::param::spec::ParamKind::Int {
+                crate::param::value::Value::Int(value.round() as i64)
+            } else {
+                crate::param::value::Value::Float(value)
+            };
+            if is_depth {
+                ov.depth = Some(crate::param::value::Node::given("--reference", value));
+            } else {
+                ov.integrator_params.push((spec.name.to_string(), crate::param::value::Node::given("--reference", value)));
+            }
+        }
+    }
+
     /// Every registered type with its parameter table, as JSON (`raylab plugins --json`, and
     /// `raylab.plugins()` in Python): `{"geometries": [{"name", "summary", "params": [{"name",
     /// "type", "default", "required", "doc", "role"}]}], "textures", "lights", "integrators",
     /// "formats": [{"extensions", "summary"}]}`. A default is `null` when there is none.
     pub fn to_json(&self) -> serde_json::Value {
-        use crate::input::spec::{Default, Role};
+        use crate::param::spec::{Default, Role};
         let param = |s: &ParamSpec| {
             let default = match s.default {
                 Default::Required | Default::Optional => serde_json::Value::Null,
