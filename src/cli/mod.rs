@@ -58,7 +58,8 @@ pub(crate) struct SceneArgs {
     /// Integrator type, replacing the scene's (e.g. `path`, `normals`, `depth`).
     #[arg(long)]
     integrator: Option<String>,
-    /// Set an integrator parameter: `--set max_depth=5` (value in TOML syntax; repeatable).
+    /// Set an integrator parameter: `--set max_depth=5`, `--set ambient=first_hit` (value in TOML
+    /// syntax, or a bare word for a string; repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
     /// Anti-aliasing: `stratified` (--spp samples per pixel) or `adaptive` (refinement where
@@ -96,6 +97,7 @@ pub(crate) struct SceneArgs {
     focus_distance: Option<f64>,
     /// Set a camera parameter: `--camera position=[0,0,10]` (value in TOML syntax; repeatable).
     /// Supplies the camera of a scene that has none (e.g. a report XML scene without <camera>).
+    /// `--camera fit` frames the whole scene, replacing the file's position and target.
     #[arg(long = "camera", value_name = "KEY=VALUE")]
     camera: Vec<String>,
     /// 8-bit encoding: `srgb` (default), `linear` (clamped values written straight, as the report)
@@ -200,7 +202,12 @@ impl SceneArgs {
         if let Some(v) = self.lens_samples {
             render_params.push(flag_node("--lens-samples", "lens_samples", Value::Int(v)));
         }
-        let mut camera_params = key_values("--camera", &self.camera)?;
+        // `--camera fit` alone: frame the scene (the camera's `fit = true`).
+        let (fit, camera): (Vec<String>, Vec<String>) = self.camera.iter().cloned().partition(|c| c.trim() == "fit");
+        let mut camera_params = key_values("--camera", &camera)?;
+        if !fit.is_empty() {
+            camera_params.push(flag_node("--camera", "fit", Value::Bool(true)));
+        }
         if let Some(v) = self.aperture {
             camera_params.push(flag_node("--aperture", "aperture", Value::Float(v)));
         }
@@ -279,7 +286,8 @@ pub(crate) fn flag_node(flag: &str, key: &str, value: Value) -> (String, Node) {
     (key.to_string(), Node::given(flag, value))
 }
 
-/// Parses repeated `KEY=VALUE` options (value in TOML syntax) of option `flag`.
+/// Parses repeated `KEY=VALUE` options of option `flag`: the value in TOML syntax, or a bare word
+/// (`--set ambient=first_hit`) taken as a string, as the shell leaves it once it has eaten quotes.
 fn key_values(flag: &str, items: &[String]) -> Result<Vec<(String, Node)>, Failure> {
     Ok(items.iter().map(|s| crate::load::context::key_value(flag, s)).collect::<Result<_, _>>()?)
 }

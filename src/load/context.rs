@@ -41,15 +41,34 @@ pub struct Overrides {
     pub camera_params: Vec<(String, Node)>,
 }
 
-/// Parses one `KEY=VALUE` setting (the value in TOML syntax) given outside the scene file, as
-/// `--set` and `--camera` take them: errors name `origin` (the flag) with the column.
+/// Parses one `KEY=VALUE` setting given outside the scene file, as `--set` and `--camera` take
+/// them: the value in TOML syntax, or a bare word (`--set ambient=first_hit`) taken as a string,
+/// as the shell leaves it once it has eaten quotes. Errors name `origin` (the flag) with the
+/// column.
 pub fn key_value(origin: &str, text: &str) -> Result<(String, Node)> {
     let src = crate::param::error::Source::new(origin, text.to_string());
     let Some(eq) = text.find('=') else {
         return Err(SceneError::at(&Loc::new(&src, 0..text.len()), "expected KEY=VALUE"));
     };
     let key = text[..eq].trim().to_string();
-    Ok((key, crate::param::toml::parse_toml_value(&src, eq + 1..text.len())?))
+    let value = match crate::param::toml::parse_toml_value(&src, eq + 1..text.len()) {
+        Ok(v) => v,
+        Err(_) if is_bare_word(text[eq + 1..].trim()) => {
+            let word = text[eq + 1..].trim();
+            let start = eq + 1 + text[eq + 1..].find(word).unwrap_or(0);
+            Node { value: Value::Str(word.to_string()), loc: Loc::new(&src, start..start + word.len()) }
+        }
+        Err(e) => return Err(e),
+    };
+    Ok((key, value))
+}
+
+/// A word a shell passes unquoted that TOML would need quoted: a letter, then letters, digits,
+/// `_`, `-` or `.` (`first_hit`, `linear-truncated`). Numbers, `true`, `inf`, lists and tables
+/// parse as TOML before this is asked.
+fn is_bare_word(s: &str) -> bool {
+    s.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
+        && s.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'))
 }
 
 /// Sets the quality knob `name` to `value` in `o`, as `raylab sweep --vary NAME=…` does: `spp`
