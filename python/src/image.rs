@@ -159,6 +159,7 @@ impl Rendered {
     /// `.pfm`. A part of a frame is written as a partial EXR for `raylab merge`.
     #[pyo3(signature = (path, *, half=false))]
     fn save(&self, py: Python<'_>, path: PathBuf, half: bool) -> PyResult<()> {
+        let registry = crate::registry()?;
         py.detach(|| -> Result<(), String> {
             if let Some((sums, info)) = &self.part {
                 let info = raylab::image::partial::PartialInfo {
@@ -169,7 +170,7 @@ impl Rendered {
                 };
                 return raylab::image::partial::write_partial(&path, sums, &info).map_err(|e| e.to_string());
             }
-            let format = raylab::image::output::format_for(&path).map_err(|e| e.to_string())?;
+            let format = registry.output_format_for(&path).map_err(|e| e.to_string())?;
             let layers = self.chosen_layers();
             let settings = raylab::image::output::WriteSettings { encoding: self.encoding, grid: None, layers: layers.as_ref(), half };
             format.write(&path, &self.film, &settings).map_err(|e| e.to_string())
