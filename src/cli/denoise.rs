@@ -1,7 +1,7 @@
 //! `raylab denoise`: a finished image (an EXR with `--aov albedo,normal`, or a PFM) denoised by
 //! Intel Open Image Denoise ([`crate::image::denoise`]), e.g. a frame merged from a farm's tiles.
 
-use super::Failure;
+use super::{App, Failure};
 use crate::image::denoise::denoise;
 use crate::render::film::Film;
 use clap::Args;
@@ -17,7 +17,7 @@ pub(crate) struct DenoiseArgs {
     output: PathBuf,
 }
 
-pub(crate) fn run(a: DenoiseArgs) -> Result<(), Failure> {
+pub(crate) fn run(app: &App, a: DenoiseArgs) -> Result<(), Failure> {
     if a.output.exists() && super::convert::same_file(&a.input, &a.output) {
         return Err(Failure::Other(format!(
             "denoise would overwrite its input \"{}\" with \"{}\": write to another file",
@@ -25,7 +25,7 @@ pub(crate) fn run(a: DenoiseArgs) -> Result<(), Failure> {
             a.output.display()
         )));
     }
-    let format = crate::image::output::format_for(&a.output).map_err(|e| e.to_string())?;
+    let format = app.registry.output_format_for(&a.output).map_err(|e| e.to_string())?;
     let ext = a.input.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let bytes = crate::load::context::read_user_file(&a.input, "image", crate::image::tonemap::MAX_FILE_BYTES, None)?;
     let (color, albedo, normal) = read(&a, &ext, &bytes)?;

@@ -80,8 +80,8 @@ where
         Some(Command::Sweep(a)) => sweep::run(&app, *a),
         Some(Command::Convert(a)) => convert::run(&app, a),
         Some(Command::Bench(a)) => bench::run(&app, a),
-        Some(Command::Tonemap(a)) => tonemap::run(a),
-        Some(Command::Denoise(a)) => denoise::run(a),
+        Some(Command::Tonemap(a)) => tonemap::run(&app, a),
+        Some(Command::Denoise(a)) => denoise::run(&app, a),
         #[cfg(feature = "view")]
         Some(Command::View(a)) => view::run(&app, *a),
     };
