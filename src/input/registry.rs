@@ -1,4 +1,5 @@
-//! The plugin registry: geometries, textures, lights, integrators and scene formats, by type name.
+//! The plugin registry: geometries, textures, materials, lights, integrators and scene formats, by
+//! type name.
 //!
 //! Built-in plugins register themselves through exactly this API; a crate outside raylab adds a
 //! geometry the same way (see docs/writing-a-plugin.md).
@@ -9,8 +10,10 @@ use crate::input::description::SceneDescription;
 use crate::input::error::Result;
 use crate::input::params::Params;
 use crate::input::spec::ParamSpec;
+use crate::input::textures::TextureLibrary;
 use crate::render::integrator::Integrator;
 use crate::scene::light::LightSource;
+use crate::scene::material::Material;
 use crate::scene::texture::Texture;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -31,6 +34,8 @@ pub struct PluginInfo {
 pub type GeometryBuilder = Arc<dyn Fn(&mut Params, &LoadContext) -> Result<Box<dyn Geometry>> + Send + Sync>;
 /// Builds a texture from its parameters.
 pub type TextureBuilder = Arc<dyn Fn(&mut Params, &LoadContext) -> Result<Arc<dyn Texture>> + Send + Sync>;
+/// Builds a material from its parameters (colours may name textures of `TextureLibrary`).
+pub type MaterialBuilder = Arc<dyn Fn(&mut Params, &TextureLibrary) -> Result<Material> + Send + Sync>;
 /// Builds a light from its parameters.
 pub type LightBuilder = Arc<dyn Fn(&mut Params, &LoadContext) -> Result<Box<dyn LightSource>> + Send + Sync>;
 /// Builds an integrator from its parameters.
@@ -63,6 +68,7 @@ pub struct SceneFormat {
 pub struct Registry {
     geometries: BTreeMap<&'static str, Plugin<GeometryBuilder>>,
     textures: BTreeMap<&'static str, Plugin<TextureBuilder>>,
+    materials: BTreeMap<&'static str, Plugin<MaterialBuilder>>,
     lights: BTreeMap<&'static str, Plugin<LightBuilder>>,
     integrators: BTreeMap<&'static str, Plugin<IntegratorBuilder>>,
     formats: Vec<SceneFormat>,
@@ -91,6 +97,16 @@ impl Registry {
         build: impl Fn(&mut Params, &LoadContext) -> Result<Arc<dyn Texture>> + Send + Sync + 'static,
     ) {
         self.textures.insert(info.name, Plugin { info, build: Arc::new(build) });
+    }
+
+    /// Registers a material type (`[materials.NAME] type = "…"`); replaces any earlier one of the
+    /// same name. A material table without a `type` is the report's coefficients (`phong`).
+    pub fn add_material(
+        &mut self,
+        info: PluginInfo,
+        build: impl Fn(&mut Params, &TextureLibrary) -> Result<Material> + Send + Sync + 'static,
+    ) {
+        self.materials.insert(info.name, Plugin { info, build: Arc::new(build) });
     }
 
     /// Registers a light type; replaces any earlier one of the same name.
@@ -133,6 +149,11 @@ impl Registry {
         self.textures.get(name)
     }
 
+    /// The material type `name`.
+    pub fn material(&self, name: &str) -> Option<&Plugin<MaterialBuilder>> {
+        self.materials.get(name)
+    }
+
     /// The light type `name`.
     pub fn light(&self, name: &str) -> Option<&Plugin<LightBuilder>> {
         self.lights.get(name)
@@ -161,6 +182,11 @@ impl Registry {
     /// Registered texture types, sorted by name.
     pub fn textures(&self) -> impl Iterator<Item = &PluginInfo> {
         self.textures.values().map(|p| &p.info)
+    }
+
+    /// Registered material types, sorted by name.
+    pub fn materials(&self) -> impl Iterator<Item = &PluginInfo> {
+        self.materials.values().map(|p| &p.info)
     }
 
     /// Registered light types, sorted by name.

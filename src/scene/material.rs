@@ -16,6 +16,7 @@ use crate::input::spec::{Default, ParamKind, ParamSpec};
 use crate::input::textures::TextureLibrary;
 use crate::input::value::{Node, Table, Value};
 use crate::math::color::Color;
+use crate::scene::bsdf::MaterialModel;
 use crate::scene::texture::{Texture, TexturePoint};
 use glam::{DVec2, DVec3};
 use std::collections::BTreeMap;
@@ -52,6 +53,20 @@ pub struct Material {
     pub fresnel: Fresnel,
     /// Textures multiplying the colours above, evaluated at each hit (empty: constants).
     pub textures: Vec<TextureMap>,
+    /// The material plugin's own scattering model (`None`: the coefficients alone, read by each
+    /// integrator in its own way).
+    pub model: Option<Model>,
+}
+
+/// A material plugin's scattering model, shared by every object using the material.
+#[derive(Clone, Debug)]
+pub struct Model(pub Arc<dyn MaterialModel>);
+
+/// Two models are equal when they are the same object.
+impl PartialEq for Model {
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.0, &other.0)
+    }
 }
 
 /// A colour of a material that a texture may vary.
@@ -156,6 +171,7 @@ impl std::default::Default for Material {
             blur: 0.0,
             fresnel: Fresnel::Off,
             textures: Vec::new(),
+            model: None,
         }
     }
 }
@@ -280,10 +296,33 @@ impl Material {
         Ok(m)
     }
 
-    /// Reads a material from a table written at `loc`, checking for unknown keys.
+    /// Reads a material from a table written at `loc`, checking for unknown keys: its `type`'s
+    /// plugin builds it (registered with [`crate::Registry::add_material`]); without a `type`, the
+    /// table is the coefficients themselves (`phong`).
     pub fn from_table(t: &Table, loc: &Loc, what: &str, textures: &TextureLibrary) -> Result<Material> {
-        let mut p = Params::new(what, MATERIAL_PARAMS, t, loc.clone());
-        let m = Material::from_params(&mut p, textures)?;
+        let Some(ty) = t.get("type") else {
+            let mut p = Params::new(what, MATERIAL_PARAMS, t, loc.clone());
+            let m = Material::from_params(&mut p, textures)?;
+            p.finish()?;
+            return Ok(m);
+        };
+        let registry = textures.registry();
+        let Value::Str(name) = &ty.value else {
+            return Err(
+                SceneError::at(&ty.loc, format!("`type` must be a material type name, found {}", ty.value.type_name())).context(what)
+            );
+        };
+        let Some(plugin) = registry.material(name) else {
+            let names: Vec<&str> = registry.materials().map(|p| p.name).collect();
+            let e = SceneError::at(&ty.loc, format!("unknown material type \"{name}\"")).context(what);
+            return Err(e.with_help(match did_you_mean(name, names.iter().copied()) {
+                Some(m) => format!("did you mean \"{m}\"?"),
+                None => format!("material types: {}", names.join(", ")),
+            }));
+        };
+        let what = format!("{what} ({name})");
+        let mut p = Params::new(&what, plugin.info.params, t, loc.clone()).reserving(&["type"]);
+        let m = (plugin.build)(&mut p, textures)?;
         p.finish()?;
         Ok(m)
     }

@@ -2,13 +2,14 @@
 //! the BSDF's sampling against its own density and its energy, closed and white furnaces, and
 //! direct light against `phong`.
 
-use super::bsdf::{Bsdf, Lobe, fresnel_dielectric, lobe_brdf, thin_slab_reflectance};
 use super::*;
+use crate::materials::phong::{PhongBsdf, fresnel_dielectric, lobe_brdf, thin_slab_reflectance};
 use crate::shapes::sphere::Sphere;
 use raylab::glam::{DVec2, DVec3};
 use raylab::input::context::LoadOptions;
 use raylab::input::limits::Limits;
 use raylab::render::sampler::stratified_2d;
+use raylab::scene::bsdf::{Bsdf, Lobe};
 use raylab::scene::object::Object;
 use raylab::{Camera, Material, RenderJob};
 use std::f64::consts::{FRAC_PI_2, TAU};
@@ -65,11 +66,11 @@ fn top_of_sphere(material: Material, theta: f64, inside: bool) -> (Scene, Ray) {
     (scene, ray)
 }
 
-fn bsdf_at(material: Material, theta: f64, inside: bool) -> (Bsdf, DVec3) {
+fn bsdf_at(material: Material, theta: f64, inside: bool) -> (PhongBsdf, DVec3) {
     let (scene, ray) = top_of_sphere(material, theta, inside);
     let si = scene.trace(&ray).expect("the ray meets the sphere");
     assert!((si.point() - DVec3::Y).length() < 1e-9);
-    (Bsdf::new(&si), si.n)
+    (PhongBsdf::new(&si), si.n)
 }
 
 #[test]
@@ -142,7 +143,7 @@ fn hemisphere_integral(n: DVec3, g: impl Fn(DVec3) -> f64) -> f64 {
 }
 
 /// Mean of `Bsdf::sample`'s weights (zero where it returns nothing) over stratified samples.
-fn mean_weight(bsdf: &Bsdf, n: u32) -> (Color, f64) {
+fn mean_weight(bsdf: &PhongBsdf, n: u32) -> (Color, f64) {
     let mut sum = Color::ZERO;
     let mut accepted = 0;
     for i in 0..n {
