@@ -47,13 +47,13 @@
 //! geometric normal is used instead, so no hit turns black.
 
 use raylab::glam::{DVec2, DVec3};
-use raylab::input::error::Result;
-use raylab::input::params::Params;
-use raylab::input::spec::{Default, ParamKind, ParamSpec};
-use raylab::input::textures::TextureLibrary;
-use raylab::input::value::Value;
+use raylab::param::error::Result;
+use raylab::param::params::Params;
+use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::scene::texture::TextureResolver;
+use raylab::param::value::Value;
 use raylab::math::color::max_channel;
-use raylab::render::sampler::{concentric_disc, orthonormal_basis};
+use raylab::math::sampler::{concentric_disc, orthonormal_basis};
 use raylab::scene::bsdf::{Bsdf, Lobe, MaterialModel, Scatter};
 use raylab::scene::interaction::Interaction;
 use raylab::scene::material::{Channel, Model, TextureMap};
@@ -200,7 +200,7 @@ impl std::default::Default for Pbr {
 }
 
 /// A colour parameter that may name a texture: its constant (1 when textured) and the texture.
-fn color_or_texture(p: &mut Params, name: &str, textures: &TextureLibrary) -> Result<Textured<Color>> {
+fn color_or_texture(p: &mut Params, name: &str, textures: &dyn TextureResolver) -> Result<Textured<Color>> {
     match p.node(name)? {
         Some(n) if !matches!(n.value, Value::Int(_) | Value::Float(_) | Value::Array(_)) => {
             let texture = textures.resolve(n, &format!("{}: parameter `{name}`", p.what()))?;
@@ -211,7 +211,7 @@ fn color_or_texture(p: &mut Params, name: &str, textures: &TextureLibrary) -> Re
 }
 
 /// Builds a `pbr` material from its parameters.
-pub fn build(p: &mut Params, textures: &TextureLibrary) -> Result<Material> {
+pub fn build(p: &mut Params, textures: &dyn TextureResolver) -> Result<Material> {
     let base_color = color_or_texture(p, "base_color", textures)?;
     if base_color.value.max_element() > 1.0 {
         return Err(p.error_at("base_color", "expected a colour in [0, 1] (a reflectance)"));

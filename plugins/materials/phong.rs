@@ -32,14 +32,14 @@
 //! OBJ files and the report's XML scenes) is read through this model ([`Phong`]).
 
 use raylab::glam::{DVec2, DVec3};
-use raylab::input::error::Result;
-use raylab::input::params::Params;
-use raylab::input::textures::TextureLibrary;
+use raylab::param::error::Result;
+use raylab::param::params::Params;
 use raylab::math::color::max_channel;
-use raylab::render::sampler::{concentric_disc, orthonormal_basis};
+use raylab::math::sampler::{concentric_disc, orthonormal_basis};
 use raylab::scene::bsdf::{Bsdf, Lobe, MaterialModel, Scatter};
 use raylab::scene::interaction::Interaction;
 use raylab::scene::material::{Fresnel, MATERIAL_PARAMS};
+use raylab::scene::texture::TextureResolver;
 use raylab::{Color, Material, PluginInfo, RayKind};
 use std::f64::consts::{FRAC_1_PI, TAU};
 
@@ -56,7 +56,7 @@ pub const INFO: PluginInfo = PluginInfo {
 };
 
 /// Builds a `phong` material: the coefficients alone, no model of their own.
-pub fn build(p: &mut Params, textures: &TextureLibrary) -> Result<Material> {
+pub fn build(p: &mut Params, textures: &dyn TextureResolver) -> Result<Material> {
     Material::from_params(p, textures)
 }
 

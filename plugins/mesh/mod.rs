@@ -13,12 +13,12 @@ pub mod triangulate;
 use raylab::geometry::transform::{Transform, Transformed};
 use raylab::geometry::{Geometry, Hit, Intersectable, Surface, by_components, face_forward};
 use raylab::glam::{DVec2, DVec3};
-use raylab::input::error::{Loc, Result, SceneError};
-use raylab::input::params::Params;
-use raylab::input::registry::SceneFormat;
-use raylab::input::spec::{Default, ParamKind, ParamSpec};
-use raylab::input::value::Value;
-use raylab::{Aabb, LoadContext, Material, PluginInfo, Ray, Registry};
+use raylab::load::registry::{BuiltGeometry, SceneFormat};
+use raylab::param::error::{Loc, Result, SceneError};
+use raylab::param::params::Params;
+use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::value::Value;
+use raylab::{Aabb, LoadContext, PluginInfo, Ray, Registry};
 use std::sync::Arc;
 use triangle_mesh::{Normals, TriangleMesh};
 
@@ -51,7 +51,7 @@ pub const INFO: PluginInfo = PluginInfo {
 
 /// Registers the `mesh` geometry and the glTF scene format.
 pub fn register(r: &mut Registry) {
-    r.add_geometry(INFO, build);
+    r.add_geometry_with_materials(INFO, build);
     r.add_format(SceneFormat {
         extensions: &["gltf", "glb"],
         summary: "glTF 2.0 as a whole scene: meshes placed by their nodes, PBR materials mapped to Phong, the first camera, KHR_lights_punctual lights",
@@ -59,8 +59,8 @@ pub fn register(r: &mut Registry) {
     });
 }
 
-/// Builds a mesh object from its parameters.
-pub fn build(p: &mut Params, ctx: &LoadContext) -> Result<Box<dyn Geometry>> {
+/// Builds a mesh object from its parameters, with the materials its file defines.
+pub fn build(p: &mut Params, ctx: &LoadContext) -> Result<BuiltGeometry> {
     let (file, loc) = match p.node("file")? {
         Some(n) => match &n.value {
             Value::Str(s) => (s.clone(), n.loc.clone()),
@@ -105,16 +105,18 @@ pub fn build(p: &mut Params, ctx: &LoadContext) -> Result<Box<dyn Geometry>> {
     // material libraries are not read.
     let file_materials = !p.has("material");
     let mesh = load_mesh(ctx, &file, &loc, selection, normals, file_materials).map_err(|e| e.context(p.what()))?;
+    let materials = mesh.materials().cloned();
     let object = MeshObject::new(mesh);
-    Ok(match placement {
+    let geometry: Box<dyn Geometry> = match placement {
         Some(t) => Box::new(Transformed::new(object, t)),
         None => Box::new(object),
-    })
+    };
+    Ok(BuiltGeometry { geometry, materials })
 }
 
 /// Estimated peak bytes per triangle of a mesh while it is indexed and once built: the decoded
 /// data, the stored triangles, shading normals, material ids and the hierarchy with its build's
-/// scratch space (charged to [`raylab::input::limits::Limits::max_memory`] before the index is built;
+/// scratch space (charged to [`raylab::param::limits::Limits::max_memory`] before the index is built;
 /// measured: about 360 for the 1.1 M-triangle bunny).
 pub const MESH_BYTES_PER_TRIANGLE: u64 = 384;
 
@@ -243,9 +245,6 @@ impl Geometry for MeshObject {
     /// coordinates.
     fn uv(&self, at: &Hit) -> DVec2 {
         self.mesh.interpolated_uv(at).unwrap_or(at.uv)
-    }
-    fn materials(&self) -> Option<Arc<[Material]>> {
-        self.mesh.materials().cloned()
     }
     fn bounds(&self) -> Option<Aabb> {
         Some(self.mesh.bounds())

@@ -11,8 +11,8 @@
 use super::image::{ColorSpace, Filter, Wrap, decode};
 use raylab::LoadContext;
 use raylab::glam::DVec2;
-use raylab::input::context::LoadOptions;
-use raylab::input::limits::Limits;
+use raylab::load::context::LoadOptions;
+use raylab::param::limits::Limits;
 
 /// The limits the images are read under: 2²⁰ pixels, 4096 per side, 64 MiB of memory, the
 /// defaults otherwise.

@@ -1,12 +1,12 @@
 //! The pinhole (or thin-lens) camera of the report: eye point, `to` and `up` directions, and a
 //! screen at a distance in front of the eye.
 
-use crate::input::error::Result;
-use crate::input::params::Params;
-use crate::input::spec::{Default, ParamKind, ParamSpec};
-use crate::input::value::{Node, Table};
 use crate::math::float::PARALLEL_TOLERANCE;
 use crate::math::ray::Ray;
+use crate::param::error::Result;
+use crate::param::params::Params;
+use crate::param::spec::{Default, ParamKind, ParamSpec};
+use crate::param::value::{Node, Table};
 use glam::{DVec2, DVec3};
 
 /// A camera. `right = to × up`; `to`, `up` and `right` are unit and mutually orthogonal. Rays
@@ -234,7 +234,7 @@ impl Camera {
     fn lens_ray(&self, dir: DVec3, lens: DVec2) -> Ray {
         let dir = dir.normalize();
         let focus = self.position + dir * (self.focus_distance / dir.dot(self.to));
-        let d = crate::render::sampler::concentric_disc(lens) * self.aperture;
+        let d = crate::math::sampler::concentric_disc(lens) * self.aperture;
         let origin = self.position + d.x * self.right + d.y * self.up;
         Ray::new(origin, focus - origin)
     }
@@ -306,9 +306,9 @@ mod tests {
 
     #[test]
     fn overrides_replace_keys_and_switch_forms() {
-        let src = crate::input::error::Source::new("t", "x");
-        let loc = crate::input::error::Loc::new(&src, 0..1);
-        let node = |v: f64| Node { value: crate::input::value::Value::Float(v), loc: loc.clone() };
+        let src = crate::param::error::Source::new("t", "x");
+        let loc = crate::param::error::Loc::new(&src, 0..1);
+        let node = |v: f64| Node { value: crate::param::value::Value::Float(v), loc: loc.clone() };
         let mut file = Table::default();
         for (k, v) in [("to", 1.0), ("screen_width", 2.0), ("fov", 3.0), ("position", 4.0)] {
             file.set(k, loc.clone(), node(v));
@@ -318,7 +318,7 @@ mod tests {
         assert_eq!(keys(&t), "fov position look_at", "report-form keys dropped");
         let t = apply_overrides(&file, &[("screen_width".into(), node(9.0))]);
         assert_eq!(keys(&t), "to screen_width position", "look-at keys dropped");
-        assert!(matches!(t.get("screen_width").unwrap().value, crate::input::value::Value::Float(9.0)));
+        assert!(matches!(t.get("screen_width").unwrap().value, crate::param::value::Value::Float(9.0)));
         let t = apply_overrides(&file, &[("position".into(), node(9.0))]);
         assert_eq!(keys(&t), "to screen_width fov position", "a shared key changes nothing else");
     }

@@ -10,14 +10,13 @@
 //! mesh file's factor, such as glTF's `baseColorFactor`, is the constant). A material without
 //! textures costs one test per hit more than constants.
 
-use crate::input::error::{Loc, Result, SceneError, did_you_mean};
-use crate::input::params::Params;
-use crate::input::spec::{Default, ParamKind, ParamSpec};
-use crate::input::textures::TextureLibrary;
-use crate::input::value::{Node, Table, Value};
 use crate::math::color::Color;
+use crate::param::error::{Loc, Result, SceneError, did_you_mean};
+use crate::param::params::Params;
+use crate::param::spec::{Default, ParamKind, ParamSpec};
+use crate::param::value::{Node, Table, Value};
 use crate::scene::bsdf::MaterialModel;
-use crate::scene::texture::{Texture, TexturePoint};
+use crate::scene::texture::{Texture, TexturePoint, TextureResolver};
 use glam::{DVec2, DVec3};
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -253,7 +252,7 @@ pub const MATERIAL_PARAMS: &[ParamSpec] = &[
 impl Material {
     /// Reads a material from its parameters; colours naming a texture (a name in `textures`, or
     /// an inline table with a `type`) are textured.
-    pub fn from_params(p: &mut Params, textures: &TextureLibrary) -> Result<Material> {
+    pub fn from_params(p: &mut Params, textures: &dyn TextureResolver) -> Result<Material> {
         let mut m = Material::default();
         for (channel, name) in Channel::ALL {
             let c = match p.node(name)? {
@@ -297,32 +296,14 @@ impl Material {
     }
 
     /// Reads a material from a table written at `loc`, checking for unknown keys: its `type`'s
-    /// plugin builds it (registered with [`crate::Registry::add_material`]); without a `type`, the
-    /// table is the coefficients themselves (`phong`).
-    pub fn from_table(t: &Table, loc: &Loc, what: &str, textures: &TextureLibrary) -> Result<Material> {
-        let Some(ty) = t.get("type") else {
-            let mut p = Params::new(what, MATERIAL_PARAMS, t, loc.clone());
-            let m = Material::from_params(&mut p, textures)?;
-            p.finish()?;
-            return Ok(m);
-        };
-        let registry = textures.registry();
-        let Value::Str(name) = &ty.value else {
-            return Err(
-                SceneError::at(&ty.loc, format!("`type` must be a material type name, found {}", ty.value.type_name())).context(what)
-            );
-        };
-        let Some(plugin) = registry.material(name) else {
-            let names: Vec<&str> = registry.materials().map(|p| p.name).collect();
-            let e = SceneError::at(&ty.loc, format!("unknown material type \"{name}\"")).context(what);
-            return Err(e.with_help(match did_you_mean(name, names.iter().copied()) {
-                Some(m) => format!("did you mean \"{m}\"?"),
-                None => format!("material types: {}", names.join(", ")),
-            }));
-        };
-        let what = format!("{what} ({name})");
-        let mut p = Params::new(&what, plugin.info.params, t, loc.clone()).reserving(&["type"]);
-        let m = (plugin.build)(&mut p, textures)?;
+    /// plugin builds it (through `types`: the loader's registry); without a `type`, the table is
+    /// the coefficients themselves (`phong`).
+    pub fn from_table(t: &Table, loc: &Loc, what: &str, types: &dyn MaterialTypes) -> Result<Material> {
+        if let Some(ty) = t.get("type") {
+            return types.build_material(ty, t, loc, what);
+        }
+        let mut p = Params::new(what, MATERIAL_PARAMS, t, loc.clone());
+        let m = Material::from_params(&mut p, types)?;
         p.finish()?;
         Ok(m)
     }
@@ -427,6 +408,15 @@ impl Material {
     }
 }
 
+/// Where a material table with a `type` is built while a scene loads: the loader's texture
+/// library ([`crate::load::textures::TextureLibrary`]), which builds it through the registry's
+/// material plugins ([`crate::Registry::add_material`]). The scene layer names only this.
+pub trait MaterialTypes: TextureResolver {
+    /// The material of type `ty` (the table's `type` value) whose parameters are the table `t`,
+    /// written at `loc` (`what` names it in messages).
+    fn build_material(&self, ty: &Node, t: &Table, loc: &Loc, what: &str) -> Result<Material>;
+}
+
 /// Named materials of a scene (`[materials.NAME]`). A material named `default` replaces the
 /// built-in default for objects that name no material.
 #[derive(Clone, Debug, std::default::Default)]
@@ -458,7 +448,7 @@ impl MaterialLibrary {
     /// The material a scene value names: the name of one of these materials, or an inline table
     /// of coefficients, whose textures come from `textures` (`what` names the value's owner in
     /// messages).
-    pub fn resolve(&self, node: &Node, what: &str, textures: &TextureLibrary) -> Result<Material> {
+    pub fn resolve(&self, node: &Node, what: &str, textures: &dyn MaterialTypes) -> Result<Material> {
         match &node.value {
             Value::Str(s) => match self.get(s) {
                 Some(m) => Ok(m.clone()),

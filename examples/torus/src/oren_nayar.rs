@@ -13,11 +13,11 @@
 //! the sampling against the density, with raylab's `chi2_test`).
 
 use raylab::glam::{DVec2, DVec3};
-use raylab::input::error::Result;
-use raylab::input::params::Params;
-use raylab::input::spec::{Default, ParamKind, ParamSpec};
-use raylab::input::textures::TextureLibrary;
-use raylab::render::sampler::{concentric_disc, orthonormal_basis};
+use raylab::param::error::Result;
+use raylab::param::params::Params;
+use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::scene::texture::TextureResolver;
+use raylab::math::sampler::{concentric_disc, orthonormal_basis};
 use raylab::scene::bsdf::{Bsdf, Lobe, MaterialModel, Scatter};
 use raylab::scene::interaction::Interaction;
 use raylab::scene::material::Model;
@@ -41,7 +41,7 @@ pub const INFO: PluginInfo = PluginInfo {
 };
 
 /// Builds an `oren_nayar` material.
-pub fn build(p: &mut Params, _: &TextureLibrary) -> Result<Material> {
+pub fn build(p: &mut Params, _: &dyn TextureResolver) -> Result<Material> {
     let albedo = p.color("albedo")?;
     if albedo.max_element() > 1.0 {
         return Err(p.error_at("albedo", "expected a reflectance in [0, 1]"));

@@ -260,9 +260,9 @@ fn thin_transmission_passes_straight_through_a_smooth_sheet() {
 }
 
 fn load(text: &str) -> std::result::Result<raylab::RenderJob, raylab::SceneError> {
-    use raylab::input::{context::LoadOptions, limits::Limits};
+    use raylab::{load::context::LoadOptions, param::limits::Limits};
     let options = LoadOptions { limits: Limits::unlimited(), ..LoadOptions::default() };
-    raylab::input::load::load_str(&crate::registry(), "test.toml", text, std::path::Path::new("."), &options)
+    raylab::load::loader::load_str(&crate::registry(), "test.toml", text, std::path::Path::new("."), &options)
 }
 
 const SCENE: &str = r#"

@@ -4,7 +4,7 @@
 //! materials' tests use them, and so can a third-party crate's.
 
 use crate::math::color::Color;
-use crate::render::sampler::{mix64, orthonormal_basis};
+use crate::math::sampler::{mix64, orthonormal_basis};
 use crate::scene::bsdf::Bsdf;
 use glam::{DVec2, DVec3};
 use std::f64::consts::{PI, TAU};

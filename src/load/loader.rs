@@ -1,23 +1,23 @@
 //! Loading a scene: reading a scene file into raylab's scene description (a located [`Table`]),
 //! then building it, plugin by plugin, through the [`Registry`].
 //!
-//! Every format (raylab's TOML here; others registered as [`crate::input::registry::SceneFormat`])
+//! Every format (raylab's TOML here; others registered as [`crate::load::registry::SceneFormat`])
 //! produces the same description, so validation, limits and error locations work alike for all.
 
 use crate::accel::AccelChoice;
 use crate::geometry::transform::{Transformed, parse_transform};
-use crate::input::context::{LoadContext, LoadOptions, read_user_file, scene_dir};
-use crate::input::description::SceneDescription;
-use crate::input::error::{Loc, Result, SceneError, Source, did_you_mean};
-use crate::input::fingerprint::Fingerprint;
-use crate::input::limits::{OBJECT_BYTES, toml_memory_estimate};
-use crate::input::params::Params;
-use crate::input::registry::Registry;
-use crate::input::spec::{Default, ParamKind, ParamSpec, Role};
-use crate::input::textures::TextureLibrary;
-use crate::input::toml::parse_toml;
-use crate::input::value::{Node, Table, Value};
+use crate::load::context::{LoadContext, LoadOptions, read_user_file, scene_dir};
+use crate::load::registry::{BuiltGeometry, Registry};
+use crate::load::textures::TextureLibrary;
 use crate::math::color::Encoding;
+use crate::param::description::SceneDescription;
+use crate::param::error::{Loc, Result, SceneError, Source, did_you_mean};
+use crate::param::fingerprint::Fingerprint;
+use crate::param::limits::{OBJECT_BYTES, toml_memory_estimate};
+use crate::param::params::Params;
+use crate::param::spec::{Default, ParamKind, ParamSpec, Role};
+use crate::param::toml::parse_toml;
+use crate::param::value::{Node, Table, Value};
 use crate::render::job::{AdaptiveSettings, MAX_ADAPTIVE_COARSE, MAX_CELL_SAMPLES};
 use crate::render::{Antialiasing, MAX_ADAPTIVE_DEPTH, RenderJob, RenderSettings};
 use crate::scene::Scene;
@@ -136,7 +136,7 @@ fn read_with(registry: &Registry, path: &Path, ctx: &LoadContext) -> Result<Scen
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let estimate = if ext == "toml" { toml_memory_estimate(&bytes) } else { bytes.len() as u64 };
     ctx.charge(estimate, "the scene description", None).map_err(|mut e| {
-        e.location = crate::input::error::Location::File { path: path.display().to_string(), line_col: None };
+        e.location = crate::param::error::Location::File { path: path.display().to_string(), line_col: None };
         e
     })?;
     ctx.fingerprint("the scene file", &bytes);
@@ -221,7 +221,7 @@ impl Parts {
 fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) -> Result<Parts> {
     let opts = ctx.options;
     let ov = &opts.overrides;
-    if opts.accel == AccelChoice::Bvh && !crate::accel::bvh::BVH_AVAILABLE {
+    if opts.accel == AccelChoice::Bvh && !crate::accel::build::BVH_AVAILABLE {
         return Err(SceneError::msg("a BVH was asked for, but raylab was built without the `bvh` feature")
             .with_help("rebuild with `--features bvh`, or use --accel auto/list"));
     }
@@ -362,7 +362,7 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         ctx.charge(OBJECT_BYTES, &what, Some(&node.loc))?;
         let transform = params.get("transform").map(|n| parse_transform(n).map_err(|e| e.context(&what))).transpose()?;
         let mut p = Params::new(&what, plugin.info.params, params, node.loc.clone()).reserving(OBJECT_KEYS);
-        let mut g = (plugin.build)(&mut p, ctx)?;
+        let BuiltGeometry { geometry: mut g, materials: own_materials } = (plugin.build)(&mut p, ctx)?;
         p.finish()?;
         if let Some(t) = transform.filter(|t| !t.is_identity()) {
             g = Box::new(Transformed::new(g, t));
@@ -384,7 +384,7 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         // scene's default.
         let materials = match params.get("material") {
             Some(n) => Arc::from([materials.resolve(n, &what, &textures)?]),
-            None => g.materials().unwrap_or_else(|| default_material.clone()),
+            None => own_materials.unwrap_or_else(|| default_material.clone()),
         };
         objects.push(Object::new(names.claim(node, &label, &ty, i)?, g, materials));
     }
@@ -474,7 +474,7 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
     fingerprint.add("camera", format!("{camera:?}").as_bytes());
     fingerprint.add("background", format!("{background:?}").as_bytes());
     fingerprint.add("integrator", ty.as_bytes());
-    fingerprint.add("integrator parameters", crate::input::toml::table_to_toml(&integ_table).as_bytes());
+    fingerprint.add("integrator parameters", crate::param::toml::table_to_toml(&integ_table).as_bytes());
     Ok(Parts {
         name,
         camera,
