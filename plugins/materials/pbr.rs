@@ -47,16 +47,15 @@
 //! geometric normal is used instead, so no hit turns black.
 
 use raylab::glam::{DVec2, DVec3};
+use raylab::math::color::max_channel;
+use raylab::math::sampler::{concentric_disc, orthonormal_basis};
 use raylab::param::error::Result;
 use raylab::param::params::Params;
 use raylab::param::spec::{Default, ParamKind, ParamSpec};
-use raylab::scene::texture::TextureResolver;
 use raylab::param::value::Value;
-use raylab::math::color::max_channel;
-use raylab::math::sampler::{concentric_disc, orthonormal_basis};
-use raylab::scene::bsdf::{Bsdf, Lobe, MaterialModel, Scatter};
-use raylab::scene::interaction::Interaction;
+use raylab::scene::bsdf::{Bsdf, Lobe, MaterialModel, Scatter, Shading};
 use raylab::scene::material::{Channel, Model, TextureMap};
+use raylab::scene::texture::TextureResolver;
 use raylab::scene::texture::{Texture, TexturePoint};
 use raylab::{Color, Material, PluginInfo, RayKind};
 use std::f64::consts::{FRAC_1_PI, PI, TAU};
@@ -371,9 +370,9 @@ pub struct Params1 {
 }
 
 impl MaterialModel for Pbr {
-    fn bsdf(&self, si: &Interaction, f: &mut dyn FnMut(&dyn Bsdf)) {
-        let p = self.at(|| si.texture_point());
-        f(&self.bsdf_with(&p, -si.dir, si.n, si.ns))
+    fn bsdf(&self, at: &dyn Shading, f: &mut dyn FnMut(&dyn Bsdf)) {
+        let p = self.at(|| at.texture_point());
+        f(&self.bsdf_with(&p, at.wo(), at.n(), at.ns()))
     }
 }
 

@@ -29,14 +29,14 @@
 //! strategy, for weighing it against light samples.
 //!
 //! A material with no model of its own (`model` `None`: every `phong` material, and those of
-//! OBJ files and the report's XML scenes) is read through this model ([`Phong`]).
+//! OBJ files and the report's XML scenes) is read by the path tracer through [`PhongBsdf`].
 
 use raylab::glam::{DVec2, DVec3};
-use raylab::param::error::Result;
-use raylab::param::params::Params;
 use raylab::math::color::max_channel;
 use raylab::math::sampler::{concentric_disc, orthonormal_basis};
-use raylab::scene::bsdf::{Bsdf, Lobe, MaterialModel, Scatter};
+use raylab::param::error::Result;
+use raylab::param::params::Params;
+use raylab::scene::bsdf::{Bsdf, Lobe, Scatter};
 use raylab::scene::interaction::Interaction;
 use raylab::scene::material::{Fresnel, MATERIAL_PARAMS};
 use raylab::scene::texture::TextureResolver;
@@ -58,18 +58,6 @@ pub const INFO: PluginInfo = PluginInfo {
 /// Builds a `phong` material: the coefficients alone, no model of their own.
 pub fn build(p: &mut Params, textures: &dyn TextureResolver) -> Result<Material> {
     Material::from_params(p, textures)
-}
-
-/// The coefficients' scattering model: what the path tracer uses for a material with no model
-/// of its own.
-#[derive(Clone, Copy, Debug)]
-pub struct Phong;
-
-impl MaterialModel for Phong {
-    #[inline]
-    fn bsdf(&self, si: &Interaction, f: &mut dyn FnMut(&dyn Bsdf)) {
-        f(&PhongBsdf::new(si))
-    }
 }
 
 /// The scattering model at one hit (see the module docs). Built per hit, on the stack.

@@ -1589,7 +1589,8 @@ mod tests {
     }
 
     /// Extensions a file uses without declaring them in `extensionsUsed`, the transmission
-    /// texture and vertex colours are named in a warning, once each.
+    /// texture (which only the path tracer samples) and vertex colours are named in a warning,
+    /// once each.
     #[test]
     fn undeclared_extensions_transmission_textures_and_vertex_colours_warn() {
         let extra = r#",
@@ -1606,7 +1607,10 @@ mod tests {
         assert_eq!(mesh.unwrap().triangles.len(), 2);
         let has = |s: &str| w.iter().filter(|m| m.contains(s)).count();
         assert_eq!(has("the file uses extensions raylab ignores: EXT_texture_webp, KHR_materials_clearcoat"), 1, "{w:?}");
-        assert_eq!(has("KHR_materials_transmission transmissionTexture, which raylab does not sample"), 1, "{w:?}");
+        assert_eq!(has("KHR_materials_transmission transmissionTexture: the path tracer samples it, phong uses the factors"), 1, "{w:?}");
+        // The texture's image is missing: one warning names it (the transmission texture is read
+        // as data for the `pbr` model).
+        assert_eq!(has("its transmissionTexture is not sampled"), 1, "{w:?}");
         assert_eq!(has("1 primitive(s) have vertex colours (COLOR_0), which raylab ignores"), 1, "{w:?}");
         assert_eq!(has("ignores: KHR_materials_transmission"), 0, "{w:?}");
     }

@@ -49,16 +49,6 @@ impl<'a> TextureLibrary<'a> {
         TextureLibrary { registry, ctx, named: RefCell::new(Vec::new()) }
     }
 
-    /// The registry whose plugins build textures and materials.
-    pub fn registry(&self) -> &'a Registry {
-        self.registry
-    }
-
-    /// The scene's load context (its folder, limits and warnings).
-    pub fn context(&self) -> &'a LoadContext<'a> {
-        self.ctx
-    }
-
     /// Records the scene's `textures` value: a table of `[textures.NAME]` tables. Nothing is
     /// built yet.
     pub fn define(&self, node: &'a Node) -> Result<()> {

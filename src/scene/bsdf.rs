@@ -15,7 +15,7 @@ pub mod testing;
 
 use crate::math::color::Color;
 use crate::math::ray::RayKind;
-use crate::scene::interaction::Interaction;
+use crate::scene::texture::TexturePoint;
 use glam::{DVec2, DVec3};
 use std::fmt::Debug;
 
@@ -92,15 +92,32 @@ pub trait Bsdf {
     fn albedo(&self) -> Color;
 }
 
+/// What a material model reads of a hit: an
+/// [`Interaction`](crate::scene::interaction::Interaction) answers it.
+pub trait Shading {
+    /// Unit direction toward where the ray came from (−ray direction).
+    fn wo(&self) -> DVec3;
+    /// Unit geometric normal facing `wo`.
+    fn n(&self) -> DVec3;
+    /// Unit shading normal facing `wo`.
+    fn ns(&self) -> DVec3;
+    /// True when the ray arrived on the surface's outward side.
+    fn front_face(&self) -> bool;
+    /// Where textures are looked up at the hit (computed on each call).
+    fn texture_point(&self) -> TexturePoint;
+}
+
 /// A material's own scattering model (a plugin's), beside the coefficients every material has.
 pub trait MaterialModel: Send + Sync + Debug {
-    /// Builds the BSDF at `si` (textures looked up there) and hands it to `f`. Called once per
-    /// path vertex; the BSDF lives on this function's stack.
-    fn bsdf(&self, si: &Interaction, f: &mut dyn FnMut(&dyn Bsdf));
+    /// Builds the BSDF at the hit `at` (textures looked up there) and hands it to `f`. Called
+    /// once per path vertex; the BSDF lives on this function's stack.
+    fn bsdf(&self, at: &dyn Shading, f: &mut dyn FnMut(&dyn Bsdf));
 
-    /// Radiance the surface emits at `si` toward the ray (default: the coefficients' `emission`).
-    fn emission(&self, si: &Interaction) -> Color {
-        si.material.emission
+    /// Radiance the surface emits at `at` toward the ray, where the model knows better than the
+    /// coefficients (`None`, the default: the coefficients' `emission`, which every material
+    /// maps its emission onto).
+    fn emission(&self, _at: &dyn Shading) -> Option<Color> {
+        None
     }
 }
 
@@ -126,13 +143,13 @@ impl Bsdf for Black {
     }
 }
 
-/// `f` of `model`'s BSDF at `si` ([`MaterialModel::bsdf`]); a model that hands on none is
+/// `f` of `model`'s BSDF at `at` ([`MaterialModel::bsdf`]); a model that hands on none is
 /// [`Black`]. A model handing on several: the first counts.
 #[inline]
-pub fn with_bsdf<T>(model: &dyn MaterialModel, si: &Interaction, f: impl FnOnce(&dyn Bsdf) -> T) -> T {
+pub fn with_bsdf<T>(model: &dyn MaterialModel, at: &dyn Shading, f: impl FnOnce(&dyn Bsdf) -> T) -> T {
     let mut f = Some(f);
     let mut out = None;
-    model.bsdf(si, &mut |b| {
+    model.bsdf(at, &mut |b| {
         if let Some(f) = f.take() {
             out = Some(f(b));
         }

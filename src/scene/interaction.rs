@@ -4,7 +4,7 @@
 
 use crate::geometry::{Hit, Surface};
 use crate::math::ray::Ray;
-use crate::scene::bsdf::MaterialModel;
+use crate::scene::bsdf::{MaterialModel, Shading};
 use crate::scene::material::{CoefficientsAt, Material};
 use crate::scene::object::Object;
 use crate::scene::texture::TexturePoint;
@@ -107,5 +107,28 @@ impl<'s> Interaction<'s> {
     #[inline(always)]
     pub fn spawn_shadow_ray(&self, dir: DVec3, distance: f64) -> (Ray, f64) {
         self.hit.spawn_shadow_ray(self.n, dir, distance)
+    }
+}
+
+/// What material models read of the hit.
+impl Shading for Interaction<'_> {
+    #[inline]
+    fn wo(&self) -> DVec3 {
+        -self.dir
+    }
+    #[inline]
+    fn n(&self) -> DVec3 {
+        self.n
+    }
+    #[inline]
+    fn ns(&self) -> DVec3 {
+        self.ns
+    }
+    #[inline]
+    fn front_face(&self) -> bool {
+        self.front_face
+    }
+    fn texture_point(&self) -> TexturePoint {
+        Interaction::texture_point(self)
     }
 }

@@ -13,14 +13,13 @@
 //! the sampling against the density, with raylab's `chi2_test`).
 
 use raylab::glam::{DVec2, DVec3};
+use raylab::math::sampler::{concentric_disc, orthonormal_basis};
 use raylab::param::error::Result;
 use raylab::param::params::Params;
 use raylab::param::spec::{Default, ParamKind, ParamSpec};
-use raylab::scene::texture::TextureResolver;
-use raylab::math::sampler::{concentric_disc, orthonormal_basis};
-use raylab::scene::bsdf::{Bsdf, Lobe, MaterialModel, Scatter};
-use raylab::scene::interaction::Interaction;
+use raylab::scene::bsdf::{Bsdf, Lobe, MaterialModel, Scatter, Shading};
 use raylab::scene::material::Model;
+use raylab::scene::texture::TextureResolver;
 use raylab::{Color, Material, PluginInfo, RayKind};
 use std::f64::consts::FRAC_1_PI;
 use std::sync::Arc;
@@ -64,8 +63,8 @@ pub struct OrenNayar {
 }
 
 impl MaterialModel for OrenNayar {
-    fn bsdf(&self, si: &Interaction, f: &mut dyn FnMut(&dyn Bsdf)) {
-        f(&OrenNayarBsdf::new(*self, -si.dir, si.n, si.ns))
+    fn bsdf(&self, at: &dyn Shading, f: &mut dyn FnMut(&dyn Bsdf)) {
+        f(&OrenNayarBsdf::new(*self, at.wo(), at.n(), at.ns()))
     }
 }
 

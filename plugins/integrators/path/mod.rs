@@ -218,7 +218,7 @@ impl PathTracer {
             return radiance;
         };
         rec.hit(si);
-        let emission = si.model().map_or(si.material.emission, |m| m.emission(si));
+        let emission = si.model().and_then(|m| m.emission(si)).unwrap_or(si.material.emission);
         rec.term(|| Term::color("emission", emission));
         radiance += emission;
         if let Some(bsdf) = bsdf {
