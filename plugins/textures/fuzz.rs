@@ -5,7 +5,7 @@
 //! `tests/fuzz_corpus.rs` and `plugins/tests/no_panics.rs`.
 //!
 //! The limits are [`limits`], small enough that a file declaring a large image is refused cheaply
-//! and that the fuzzer's allocation limit (`-malloc_limit_mb`, see the README) catches any
+//! and that the fuzzer's allocation limit (`-malloc_limit_mb`, see docs/robustness.md) catches any
 //! allocation the budget does not cover.
 
 use super::image::{ColorSpace, Filter, Wrap, decode};

@@ -45,7 +45,7 @@ pub const BVH_AVAILABLE: bool = cfg!(feature = "bvh");
 
 /// Fewest bounded scene objects for which `auto` builds a scene-level hierarchy. Below it a list
 /// with a box test per object is as fast, within measurement noise; from about eight objects on
-/// the hierarchy wins (measured: README, "Speed").
+/// the hierarchy wins (measured: docs/performance.md, "Speed of meshes and BVHs").
 pub const SCENE_BVH_THRESHOLD: usize = 8;
 
 /// Fewest triangles for which `auto` builds a mesh hierarchy.

@@ -58,7 +58,8 @@ pub(crate) struct SceneArgs {
     /// Integrator type, replacing the scene's (e.g. `path`, `normals`, `depth`).
     #[arg(long)]
     integrator: Option<String>,
-    /// Set an integrator parameter: `--set max_depth=5` (value in TOML syntax; repeatable).
+    /// Set an integrator parameter: `--set max_depth=5`, `--set ambient=first_hit` (value in TOML
+    /// syntax, or a bare word for a string; repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
     /// Anti-aliasing: `stratified` (--spp samples per pixel) or `adaptive` (refinement where
@@ -96,6 +97,7 @@ pub(crate) struct SceneArgs {
     focus_distance: Option<f64>,
     /// Set a camera parameter: `--camera position=[0,0,10]` (value in TOML syntax; repeatable).
     /// Supplies the camera of a scene that has none (e.g. a report XML scene without <camera>).
+    /// `--camera fit` frames the whole scene, replacing the file's position and target.
     #[arg(long = "camera", value_name = "KEY=VALUE")]
     camera: Vec<String>,
     /// 8-bit encoding: `srgb` (default), `linear` (clamped values written straight, as the report)
@@ -200,7 +202,12 @@ impl SceneArgs {
         if let Some(v) = self.lens_samples {
             render_params.push(flag_node("--lens-samples", "lens_samples", Value::Int(v)));
         }
-        let mut camera_params = key_values("--camera", &self.camera)?;
+        // `--camera fit` alone: frame the scene (the camera's `fit = true`).
+        let (fit, camera): (Vec<String>, Vec<String>) = self.camera.iter().cloned().partition(|c| c.trim() == "fit");
+        let mut camera_params = key_values("--camera", &camera)?;
+        if !fit.is_empty() {
+            camera_params.push(flag_node("--camera", "fit", Value::Bool(true)));
+        }
         if let Some(v) = self.aperture {
             camera_params.push(flag_node("--aperture", "aperture", Value::Float(v)));
         }
@@ -279,7 +286,8 @@ pub(crate) fn flag_node(flag: &str, key: &str, value: Value) -> (String, Node) {
     (key.to_string(), Node::given(flag, value))
 }
 
-/// Parses repeated `KEY=VALUE` options (value in TOML syntax) of option `flag`.
+/// Parses repeated `KEY=VALUE` options of option `flag`: the value in TOML syntax, or a bare word
+/// (`--set ambient=first_hit`) taken as a string, as the shell leaves it once it has eaten quotes.
 fn key_values(flag: &str, items: &[String]) -> Result<Vec<(String, Node)>, Failure> {
     let mut out = Vec::new();
     for s in items {
@@ -288,9 +296,26 @@ fn key_values(flag: &str, items: &[String]) -> Result<Vec<(String, Node)>, Failu
             return Err(SceneError::at(&Loc::new(&src, 0..s.len()), "expected KEY=VALUE").into());
         };
         let key = s[..eq].trim().to_string();
-        out.push((key, crate::param::toml::parse_toml_value(&src, eq + 1..s.len())?));
+        let value = match crate::param::toml::parse_toml_value(&src, eq + 1..s.len()) {
+            Ok(v) => v,
+            Err(_) if is_bare_word(s[eq + 1..].trim()) => {
+                let word = s[eq + 1..].trim();
+                let start = eq + 1 + s[eq + 1..].find(word).unwrap_or(0);
+                Node { value: Value::Str(word.to_string()), loc: Loc::new(&src, start..start + word.len()) }
+            }
+            Err(e) => return Err(e.into()),
+        };
+        out.push((key, value));
     }
     Ok(out)
+}
+
+/// A word a shell passes unquoted that TOML would need quoted: a letter, then letters, digits,
+/// `_`, `-` or `.` (`first_hit`, `linear-truncated`). Numbers, `true`, `inf`, lists and tables
+/// parse as TOML before this is asked.
+fn is_bare_word(s: &str) -> bool {
+    s.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
+        && s.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'))
 }
 
 /// Loads `scene` (or the app's default scene) with the options in `a`; returns the job and a

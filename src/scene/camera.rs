@@ -52,10 +52,36 @@ pub const CAMERA_PARAMS: &[ParamSpec] = &[
         Default::Optional,
         "distance of the plane in focus; default: the look_at point or the screen",
     ),
+    ParamSpec::new(
+        "fit",
+        ParamKind::Bool,
+        Default::Bool(false),
+        "frame the scene: look at the centre of its bounded objects from just far enough to see them all, along look_at → position when both are given (else from the front, right and above); fov and up are kept (`--camera fit` on the command line)",
+    ),
 ];
 
+/// Default direction from a fitted camera's target toward its eye: in front (+z), a little to the
+/// right and above, so a model's three sides show.
+pub const FIT_DIRECTION: DVec3 = DVec3::new(0.35, 0.3, 1.0);
+/// A fitted camera's distance beyond the one at which the bounding sphere touches the frame: a
+/// margin around the model.
+pub const FIT_MARGIN: f64 = 1.1;
+
+/// The eye and target of a camera with vertical field of view `fov_deg`, for a `width × height`
+/// image, that sees all of `bounds` along `direction` (from the target toward the eye; zero or
+/// non-finite: [`FIT_DIRECTION`]): the bounding sphere fits the narrower of the two fields of view.
+pub fn fit(bounds: &crate::math::bounds::Aabb, direction: DVec3, fov_deg: f64, width: u32, height: u32) -> (DVec3, DVec3) {
+    let center = bounds.center();
+    let radius = (bounds.extent().length() * 0.5).max(1e-6 * center.abs().max_element().max(1.0));
+    let dir = direction.try_normalize().filter(|d| d.is_finite()).unwrap_or_else(|| FIT_DIRECTION.normalize());
+    let half_v = (fov_deg.to_radians() * 0.5).clamp(1e-6, std::f64::consts::FRAC_PI_2 - 1e-6);
+    let half_h = (half_v.tan() * f64::from(width.max(1)) / f64::from(height.max(1))).atan();
+    let dist = radius / half_v.min(half_h).sin() * FIT_MARGIN;
+    (center + dir * dist, center)
+}
+
 /// Keys of the look-at form; giving one of them replaces the report form, and vice versa.
-const LOOK_AT_KEYS: &[&str] = &["look_at", "fov"];
+const LOOK_AT_KEYS: &[&str] = &["look_at", "fov", "fit"];
 /// Keys of the report form.
 const REPORT_KEYS: &[&str] = &["to", "screen_distance", "screen_width", "screen_height"];
 
@@ -154,6 +180,8 @@ impl Camera {
 
     /// Reads `[camera]` for an image of `width × height` pixels.
     pub fn from_params(p: &mut Params, width: u32, height: u32) -> Result<Camera> {
+        // `fit` is applied by the loader (it needs the scene's objects) before this is called.
+        p.bool("fit")?;
         let position = p.vec3("position")?;
         let up = p.vec3("up")?;
         let cam = if let Some(target) = p.vec3_opt("look_at")? {
@@ -364,5 +392,27 @@ mod tests {
         let hit_b = b.origin + b.dir * ((-10.0 - b.origin.z) / b.dir.z);
         assert!((hit_a - hit_b).length() < 1e-9, "{pa}");
         assert_ne!(a.origin, b.origin);
+    }
+
+    /// Lens sampling: the rays start uniformly over the lens disc (density `1 / π aperture²`),
+    /// whatever the pixel; a test of the right density on the wrong disc fails.
+    #[test]
+    fn lens_points_pass_the_chi2_test() {
+        use crate::testing::chi2::{Chi2Test, Rect};
+        let mut cam = Camera::look_at(DVec3::new(1.0, 2.0, 3.0), DVec3::new(0.0, 0.5, -10.0), DVec3::Y, 40.0, 64, 48).unwrap();
+        cam.aperture = 0.25;
+        let test = Chi2Test::new(Rect { min: DVec2::splat(-1.0), max: DVec2::ONE }).res(40, 40).tests(3);
+        let disc = |p: DVec2| if p.length_squared() <= 1.0 { 1.0 / std::f64::consts::PI } else { 0.0 };
+        for film in [DVec2::new(32.0, 24.0), DVec2::new(0.5, 47.5)] {
+            test.run(
+                |u| {
+                    let o = cam.ray_through(64, 48, film, u.next_2d()).origin - cam.position;
+                    Some(DVec2::new(o.dot(cam.right), o.dot(cam.up)) / cam.aperture)
+                },
+                disc,
+            )
+            .assert_passes(&format!("lens, pixel {film}"));
+        }
+        test.run(|u| Some(2.0 * u.next_2d() - DVec2::ONE), disc).assert_fails("the square for the disc");
     }
 }
