@@ -245,7 +245,7 @@ fn the_lobe_chi2_test_rejects_a_wrong_normalisation() {
 fn a_blurry_dielectric_passes_the_chi2_test() {
     use crate::integrators::phong::{reflect, refract};
     let glass = Material { kd: Color::ZERO, kt: Color::ONE, ior: 1.5, blur: 0.25, ..Material::default() };
-    let n_lobe = super::bsdf::blur_exponent(0.25);
+    let n_lobe = crate::materials::phong::blur_exponent(0.25);
     // The lobe around `axis`, folded onto the side `side` faces.
     let folded = |w: DVec3, axis: DVec3, side: DVec3| {
         if w.dot(side) < 0.0 { 0.0 } else { lobe_pdf(w.dot(axis), n_lobe) + lobe_pdf(reflect(w, side).dot(axis), n_lobe) }
