@@ -95,6 +95,7 @@ impl std::default::Default for Registry {
         Registry {
             geometries: BTreeMap::new(),
             textures: BTreeMap::new(),
+            materials: BTreeMap::new(),
             lights: BTreeMap::new(),
             integrators: BTreeMap::new(),
             formats: Vec::new(),
