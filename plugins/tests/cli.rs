@@ -151,14 +151,17 @@ fn plugins_lists_every_type_with_its_parameters() {
         "point",
         "spot",
         "phong",
+        "pbr",
         "normals",
         "depth",
     ] {
         assert!(t.contains(&format!("\n  {ty}  — ")), "missing {ty}");
     }
+    assert!(t.contains("MATERIALS ([materials.NAME] type = ..."), "no materials section");
     assert!(t.contains("radius") && t.contains("max_depth") && t.contains("0.001"));
     let md = text(&raylab(&repo(), &["plugins", "--markdown"]).stdout);
     assert!(md.contains("### `sphere`") && md.contains("| `radius` | float | 1 |"));
+    assert!(md.contains("## Materials") && md.contains("### `pbr`") && md.contains("| `roughness` | float | 1 |"));
 }
 
 #[test]

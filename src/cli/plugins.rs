@@ -23,10 +23,11 @@ pub(crate) fn run(app: &App, a: PluginsArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-fn sections(reg: &Registry) -> [(&'static str, &'static str, Vec<&PluginInfo>); 4] {
+fn sections(reg: &Registry) -> [(&'static str, &'static str, Vec<&PluginInfo>); 5] {
     [
         ("GEOMETRIES", "[[object]] type = ...", reg.geometries().collect()),
         ("TEXTURES", "[textures.NAME] type = ..., or inline: kd = { type = ... }", reg.textures().collect()),
+        ("MATERIALS", "[materials.NAME] type = ... (default \"phong\"), or inline: material = { type = ... }", reg.materials().collect()),
         ("LIGHTS", "[[light]] type = ...", reg.lights().collect()),
         ("INTEGRATORS", "[integrator] type = ...", reg.integrators().collect()),
     ]

@@ -1,5 +1,5 @@
-//! The plugin registry: geometries, textures, lights, integrators by type name, and the file
-//! formats of scenes, meshes and output images by extension.
+//! The plugin registry: geometries, textures, materials, lights, integrators by type name, and
+//! the file formats of scenes, meshes and output images by extension.
 //!
 //! Built-in plugins register themselves through exactly this API; a crate outside raylab adds a
 //! geometry the same way (see docs/writing-a-plugin.md).
@@ -15,7 +15,7 @@ use crate::param::spec::ParamSpec;
 use crate::render::integrator::Integrator;
 use crate::scene::light::LightSource;
 use crate::scene::material::Material;
-use crate::scene::texture::Texture;
+use crate::scene::texture::{Texture, TextureResolver};
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::Arc;
@@ -46,6 +46,9 @@ pub struct BuiltGeometry {
 pub type GeometryBuilder = Arc<dyn Fn(&mut Params, &LoadContext) -> Result<BuiltGeometry> + Send + Sync>;
 /// Builds a texture from its parameters.
 pub type TextureBuilder = Arc<dyn Fn(&mut Params, &LoadContext) -> Result<Arc<dyn Texture>> + Send + Sync>;
+/// Builds a material from its parameters (colours may name textures, which `TextureResolver`
+/// finds).
+pub type MaterialBuilder = Arc<dyn Fn(&mut Params, &dyn TextureResolver) -> Result<Material> + Send + Sync>;
 /// Builds a light from its parameters.
 pub type LightBuilder = Arc<dyn Fn(&mut Params, &LoadContext) -> Result<Box<dyn LightSource>> + Send + Sync>;
 /// Builds an integrator from its parameters.
@@ -78,6 +81,7 @@ pub struct SceneFormat {
 pub struct Registry {
     geometries: BTreeMap<&'static str, Plugin<GeometryBuilder>>,
     textures: BTreeMap<&'static str, Plugin<TextureBuilder>>,
+    materials: BTreeMap<&'static str, Plugin<MaterialBuilder>>,
     lights: BTreeMap<&'static str, Plugin<LightBuilder>>,
     integrators: BTreeMap<&'static str, Plugin<IntegratorBuilder>>,
     formats: Vec<SceneFormat>,
@@ -91,6 +95,7 @@ impl std::default::Default for Registry {
         Registry {
             geometries: BTreeMap::new(),
             textures: BTreeMap::new(),
+            materials: BTreeMap::new(),
             lights: BTreeMap::new(),
             integrators: BTreeMap::new(),
             formats: Vec::new(),
@@ -134,6 +139,16 @@ impl Registry {
         build: impl Fn(&mut Params, &LoadContext) -> Result<Arc<dyn Texture>> + Send + Sync + 'static,
     ) {
         self.textures.insert(info.name, Plugin { info, build: Arc::new(build) });
+    }
+
+    /// Registers a material type (`[materials.NAME] type = "…"`); replaces any earlier one of the
+    /// same name. A material table without a `type` is the report's coefficients (`phong`).
+    pub fn add_material(
+        &mut self,
+        info: PluginInfo,
+        build: impl Fn(&mut Params, &dyn TextureResolver) -> Result<Material> + Send + Sync + 'static,
+    ) {
+        self.materials.insert(info.name, Plugin { info, build: Arc::new(build) });
     }
 
     /// Registers a light type; replaces any earlier one of the same name.
@@ -187,6 +202,11 @@ impl Registry {
         self.textures.get(name)
     }
 
+    /// The material type `name`.
+    pub fn material(&self, name: &str) -> Option<&Plugin<MaterialBuilder>> {
+        self.materials.get(name)
+    }
+
     /// The light type `name`.
     pub fn light(&self, name: &str) -> Option<&Plugin<LightBuilder>> {
         self.lights.get(name)
@@ -215,6 +235,11 @@ impl Registry {
     /// Registered texture types, sorted by name.
     pub fn textures(&self) -> impl Iterator<Item = &PluginInfo> {
         self.textures.values().map(|p| &p.info)
+    }
+
+    /// Registered material types, sorted by name.
+    pub fn materials(&self) -> impl Iterator<Item = &PluginInfo> {
+        self.materials.values().map(|p| &p.info)
     }
 
     /// Registered light types, sorted by name.

@@ -1,5 +1,6 @@
 //! The scene model: camera, background, objects, lights; and the ray queries integrators use.
 
+pub mod bsdf;
 pub mod camera;
 pub mod interaction;
 pub mod light;

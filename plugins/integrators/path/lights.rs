@@ -2,12 +2,12 @@
 //! sample of each light) and the lights a sampled ray meets on its way, the two strategies
 //! weighed against each other by the power heuristic where both can find the same light.
 
-use super::bsdf::Bsdf;
 use super::{Ctx, PathTracer, TAG_LIGHTS, counter};
 use raylab::math::color::max_channel;
 use raylab::math::float::SHADOW_EPSILON;
 use raylab::math::sampler::stratified_2d;
 use raylab::render::trace::{Recorder, Term, TraceLight};
+use raylab::scene::bsdf::Bsdf;
 use raylab::scene::interaction::Interaction;
 use raylab::scene::light::LightFacts;
 use raylab::{Color, Intersectable, LightPdf, LightSample, LightSource, Ray, Sampler};
@@ -45,7 +45,7 @@ impl PathTracer {
     /// Next-event estimation at `si`: every light sampled, each sample's contribution through
     /// the smooth lobes of `bsdf`, weighed against `bsdf`'s own sampling when the light has an
     /// extent.
-    pub(super) fn direct<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, bsdf: &Bsdf, sampler: &Sampler, rec: &mut R) -> Color {
+    pub(super) fn direct<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, bsdf: &dyn Bsdf, sampler: &Sampler, rec: &mut R) -> Color {
         let scene = c.scene;
         if !bsdf.has_smooth_lobes() {
             if !scene.lights.is_empty() {
@@ -81,7 +81,7 @@ impl PathTracer {
         &self,
         c: &mut Ctx,
         si: &Interaction,
-        bsdf: &Bsdf,
+        bsdf: &dyn Bsdf,
         (index, light): (usize, &dyn LightSource),
         ls: &LightSample,
         n: u32,

@@ -1,9 +1,10 @@
 //! `path`: a unidirectional path tracer with next-event estimation and multiple importance
-//! sampling, reading the same material coefficients as `phong`.
+//! sampling.
 //!
-//! A camera ray's path scatters at each surface it meets, by the energy-conserving model of
-//! [`bsdf`] (Lambertian `kd`, normalised Phong `ks`, mirror or glossy `kr`, Fresnel dielectric
-//! `kt`). At each vertex with a smooth lobe, every light is sampled with a shadow ray
+//! A camera ray's path scatters at each surface it meets by its material's BSDF
+//! ([`raylab::scene::bsdf`]): a material plugin's own model (`pbr`: the glTF BRDF), or for the
+//! report's coefficients the energy-conserving [`PhongBsdf`] (Lambertian `kd`, normalised Phong
+//! `ks`, mirror or glossy `kr`, Fresnel dielectric `kt`). At each vertex with a smooth lobe, every light is sampled with a shadow ray
 //! (next-event estimation, [`lights`]); the scattered ray also collects the lights it meets and
 //! the emission of the surface it hits. Where both strategies can find the same light (lights
 //! with an extent: `rect`, ball-shaped `point`/`spot`, or any light that answers
@@ -37,10 +38,9 @@
 //! never shifts the numbers used elsewhere. The recursion is written once, generic over a
 //! [`Recorder`]: [`NoRecord`] renders, a [`TraceNode`] explains. No allocation per ray.
 
-pub mod bsdf;
 mod lights;
 
-use bsdf::Bsdf;
+use crate::materials::phong::PhongBsdf;
 use raylab::math::color::max_channel;
 use raylab::param::error::Result;
 use raylab::param::params::Params;
@@ -48,6 +48,7 @@ use raylab::param::spec::{Default, ParamKind, ParamSpec, Reference};
 use raylab::render::aov::Layers;
 use raylab::render::stats::{Counter, CounterKind};
 use raylab::render::trace::{NoRecord, Recorder, Term};
+use raylab::scene::bsdf::{Bsdf, with_bsdf};
 use raylab::scene::interaction::Interaction;
 use raylab::{Color, Integrator, LoadContext, PluginInfo, Ray, RayKind, RayStats, Sampler, Scene, TraceNode};
 
@@ -186,8 +187,10 @@ impl PathTracer {
     /// Radiance arriving along `ray` (its own random stream `sampler`).
     fn li<R: Recorder>(&self, c: &mut Ctx, ray: &Ray, sampler: &Sampler, path: PathState, rec: &mut R) -> Color {
         let hit = c.scene.trace(ray);
-        let bsdf = hit.as_ref().filter(|_| path.depth <= self.max_bounces).map(Bsdf::new);
-        self.arrive(c, ray, hit.as_ref(), bsdf.as_ref(), sampler, path, rec)
+        match hit.as_ref().filter(|_| path.depth <= self.max_bounces) {
+            Some(si) => at_bsdf(si, |bsdf| self.arrive(c, ray, Some(si), Some(bsdf), sampler, path, rec)),
+            None => self.arrive(c, ray, hit.as_ref(), None, sampler, path, rec),
+        }
     }
 
     /// Radiance arriving along `ray`, which meets `hit` (or leaves the scene): the lights met on
@@ -199,7 +202,7 @@ impl PathTracer {
         c: &mut Ctx,
         ray: &Ray,
         hit: Option<&Interaction>,
-        bsdf: Option<&Bsdf>,
+        bsdf: Option<&dyn Bsdf>,
         sampler: &Sampler,
         path: PathState,
         rec: &mut R,
@@ -215,7 +218,7 @@ impl PathTracer {
             return radiance;
         };
         rec.hit(si);
-        let emission = si.material.emission;
+        let emission = si.model().and_then(|m| m.emission(si)).unwrap_or(si.material.emission);
         rec.term(|| Term::color("emission", emission));
         radiance += emission;
         if let Some(bsdf) = bsdf {
@@ -231,7 +234,15 @@ impl PathTracer {
 
     /// The light brought back by one ray scattered at `si` by `bsdf`, times its weight; zero
     /// when the path ends here (absorbed, or by Russian roulette).
-    fn scatter<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, bsdf: &Bsdf, sampler: &Sampler, path: PathState, rec: &mut R) -> Color {
+    fn scatter<R: Recorder>(
+        &self,
+        c: &mut Ctx,
+        si: &Interaction,
+        bsdf: &dyn Bsdf,
+        sampler: &Sampler,
+        path: PathState,
+        rec: &mut R,
+    ) -> Color {
         let mut stream = sampler.fork(TAG_BSDF);
         let (pick, u, fresnel) = (stream.next_1d(), stream.next_2d(), stream.next_1d());
         let Some(s) = bsdf.sample(pick, u, fresnel) else {
@@ -285,11 +296,22 @@ impl PathTracer {
         let c = &mut Ctx { scene, stats };
         let hit = scene.trace(ray);
         // A camera ray is always within the bounce limit (depth 0).
-        let bsdf = hit.as_ref().map(Bsdf::new);
-        if let (Some(si), Some(bsdf)) = (&hit, &bsdf) {
-            *layers = Layers::surface(si, bsdf.albedo());
+        match &hit {
+            Some(si) => at_bsdf(si, |bsdf| {
+                *layers = Layers::surface(si, bsdf.albedo());
+                self.arrive(c, ray, Some(si), Some(bsdf), sampler, PathState::CAMERA, rec)
+            }),
+            None => self.arrive(c, ray, None, None, sampler, PathState::CAMERA, rec),
         }
-        self.arrive(c, ray, hit.as_ref(), bsdf.as_ref(), sampler, PathState::CAMERA, rec)
+    }
+}
+
+/// `f` of the BSDF at `si`: its material's model's, or the coefficients' ([`PhongBsdf`]).
+#[inline]
+fn at_bsdf<T>(si: &Interaction, f: impl FnOnce(&dyn Bsdf) -> T) -> T {
+    match si.model() {
+        Some(m) => with_bsdf(m, si, f),
+        None => f(&PhongBsdf::new(si)),
     }
 }
 
