@@ -57,6 +57,7 @@ impl Rendered {
             depth: l.depth.clone().filter(|_| asked(Aov::Depth)),
             normal: l.normal.clone().filter(|_| asked(Aov::Normal)),
             albedo: l.albedo.clone().filter(|_| asked(Aov::Albedo)),
+            ..Aovs::default()
         })
     }
 }
@@ -124,6 +125,8 @@ impl Rendered {
             Aov::Albedo => {
                 layers.albedo.map(|v| f32_bytes(py, v.len() * 3, v.iter().flat_map(|p| p.to_array())).map(|b| (b, 3))).transpose()?
             }
+            // The error layers come from the sums, which the Python image does not keep yet.
+            Aov::Error => None,
         })
     }
 
