@@ -164,7 +164,9 @@ pub(crate) struct SceneArgs {
     /// estimated before rendering for the costliest output (EXR with every layer).
     #[arg(long, value_name = "BYTES", allow_hyphen_values = true, value_parser = int_in::<u64>(0, u64::MAX.into()))]
     max_image_bytes: Option<u64>,
-    /// Most rays the render may trace in the worst case (the knobs multiplied), checked before it starts.
+    /// Most rays the render may trace: enforced as rays are traced (the render stops with the
+    /// image so far and the count), and checked before it starts (camera rays alone, a bound from
+    /// the scene's materials and pruning, then a pilot of 64 pixels when the bound is over).
     #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = int_in::<u64>(0, u64::MAX.into()))]
     max_rays: Option<u64>,
     /// Most memory (bytes) the whole job may take, as estimated before each large allocation:
@@ -173,9 +175,25 @@ pub(crate) struct SceneArgs {
     max_memory: Option<u64>,
 }
 
-/// Parses `std::env::args` and runs the command.
+/// Parses `std::env::args` and runs the command. Output into a closed pipe (`raylab trace … |
+/// head -5`) ends the process quietly, as it does any Unix filter: killed by SIGPIPE (status 141
+/// in a shell), never a panic on a failed print.
 pub fn run(app: App) -> ExitCode {
+    quiet_on_closed_pipe();
     run_with_args(app, std::env::args_os())
+}
+
+/// Restores SIGPIPE's default action, which the Rust runtime sets to "ignore" (so that `println!`
+/// panics with "failed printing to stdout: Broken pipe"). Sockets are unaffected: the standard
+/// library sends on them with `MSG_NOSIGNAL` (or `SO_NOSIGPIPE`), so a browser or tev that hangs
+/// up is still an error, not a signal.
+fn quiet_on_closed_pipe() {
+    #[cfg(unix)]
+    // SAFETY: called once at the start of `main`, before any thread is started; `signal` with
+    // `SIG_DFL` only changes the process's disposition for SIGPIPE.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
 }
 
 /// Runs the command given by `args` (the first item is the program name). Exit status 0 on
@@ -401,6 +419,26 @@ pub(crate) fn load(
         eprintln!("warning: {}", w.report());
     }
     Ok((job, name))
+}
+
+/// Refuses to run `command` when one of the files it writes (`outputs`) is one of the files it
+/// reads (`inputs`), under any spelling, link or hard link ([`crate::input::files::same_file`]):
+/// the input would be gone once the output is written.
+pub(crate) fn refuse_overwrite<'a>(
+    command: &str,
+    outputs: &[&Path],
+    inputs: impl IntoIterator<Item = &'a Path> + Clone,
+) -> Result<(), Failure> {
+    for out in outputs {
+        if let Some(input) = crate::input::files::overwritten_input(out, inputs.clone()) {
+            return Err(Failure::Other(format!(
+                "{command} would overwrite its input \"{}\" with \"{}\" (the same file): write to another file",
+                input.display(),
+                out.display()
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// `1234567.0` → `1.23 M`.

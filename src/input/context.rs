@@ -105,6 +105,7 @@ pub struct LoadContext<'a> {
     warnings: Mutex<Vec<SceneError>>,
     charged: std::sync::atomic::AtomicU64,
     fingerprint: Mutex<Fingerprint>,
+    read: Mutex<Vec<PathBuf>>,
 }
 
 impl<'a> LoadContext<'a> {
@@ -117,6 +118,7 @@ impl<'a> LoadContext<'a> {
             warnings: Mutex::default(),
             charged: std::sync::atomic::AtomicU64::new(0),
             fingerprint: Mutex::default(),
+            read: Mutex::default(),
         }
     }
 
@@ -171,6 +173,12 @@ impl<'a> LoadContext<'a> {
         let mut f = self.fingerprint.lock().unwrap_or_else(|e| e.into_inner());
         f.add("file name", name.as_bytes());
         f.add("file", bytes);
+    }
+
+    /// Every file read through [`LoadContext::read_file`] so far, as resolved (once each): what a
+    /// command must not overwrite ([`crate::input::files::same_file`]).
+    pub fn files_read(&self) -> Vec<PathBuf> {
+        self.read.lock().unwrap_or_else(|e| e.into_inner()).clone()
     }
 
     /// The fingerprint of the files read so far.
@@ -258,6 +266,11 @@ impl<'a> LoadContext<'a> {
         }
         let bytes = opened.read_to_end(self.options.limits.max_file_bytes).map_err(failed)?;
         self.fingerprint(path, &bytes);
+        let mut read = self.read.lock().unwrap_or_else(|e| e.into_inner());
+        if !read.contains(&full) {
+            read.push(full.clone());
+        }
+        drop(read);
         Ok((full, bytes))
     }
 }
