@@ -648,7 +648,7 @@ fn closed(tris: impl Iterator<Item = [f32; 9]>) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use raylab::render::sampler::mix64;
+    use raylab::math::sampler::mix64;
 
     /// Uniform numbers in [0, 1) from a counter.
     struct Rng(u64);

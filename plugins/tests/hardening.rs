@@ -176,9 +176,9 @@ fn libc_sigpipe() -> i32 {
 }
 
 mod budget {
-    use raylab::input::context::{LoadOptions, Overrides};
-    use raylab::input::load::{load_file, load_str};
-    use raylab::input::value::{Node, Value};
+    use raylab::load::context::{LoadOptions, Overrides};
+    use raylab::load::loader::{load_file, load_str};
+    use raylab::param::value::{Node, Value};
     use raylab::render::budget::{Estimate, check};
     use raylab::render::share::Share;
     use raylab::render::{RenderJob, RenderOptions, render};
@@ -189,8 +189,8 @@ mod budget {
     }
 
     fn node(v: Value) -> Node {
-        let src = raylab::input::error::Source::new("test", "");
-        Node { value: v, loc: raylab::input::error::Loc::new(&src, 0..0) }
+        let src = raylab::param::error::Source::new("test", "");
+        Node { value: v, loc: raylab::param::error::Loc::new(&src, 0..0) }
     }
 
     fn load(path: &Path, overrides: Overrides) -> RenderJob {
@@ -314,7 +314,7 @@ mod budget {
                     [materials.split]\nkd = 0.1\nkr = 0.5\nkt = 0.5\n\
                     [[object]]\ntype = \"sphere\"\ncenter = [0, 0, 0]\nradius = 100\nmaterial = \"split\"\n\
                     [[object]]\ntype = \"sphere\"\ncenter = [0, 0, -3]\nradius = 1\nmaterial = \"split\"\n";
-        let limits = raylab::input::limits::Limits { max_rays: 100_000, ..Default::default() };
+        let limits = raylab::param::limits::Limits { max_rays: 100_000, ..Default::default() };
         let opts = LoadOptions { limits, ..LoadOptions::default() };
         let job = load_str(&raylab_plugins::registry(), "explode.toml", text, Path::new("."), &opts).unwrap();
         let r = render(&job, &RenderOptions::default(), &|_, _| {}).unwrap();
@@ -323,7 +323,7 @@ mod budget {
         assert!(traced > 100_000 && traced <= 100_000 * (1 + rayon::current_num_threads() as u64), "{traced}");
         // Within a budget, the same image as without one.
         let text = text.replace("max_depth = 40", "max_depth = 6");
-        let unlimited = raylab::input::limits::Limits::unlimited();
+        let unlimited = raylab::param::limits::Limits::unlimited();
         let free = load_str(
             &raylab_plugins::registry(),
             "t.toml",

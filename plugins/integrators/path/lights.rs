@@ -6,7 +6,7 @@ use super::bsdf::Bsdf;
 use super::{Ctx, PathTracer, TAG_LIGHTS, counter};
 use raylab::math::color::max_channel;
 use raylab::math::float::SHADOW_EPSILON;
-use raylab::render::sampler::stratified_2d;
+use raylab::math::sampler::stratified_2d;
 use raylab::render::trace::{Recorder, Term, TraceLight};
 use raylab::scene::interaction::Interaction;
 use raylab::scene::light::LightFacts;
