@@ -51,8 +51,14 @@ pub fn text(reg: &Registry) -> String {
             out.push_str(&format!("  .{}  — {}\n", f.extensions.join(", ."), f.summary));
         }
     }
+    if !reg.mesh_formats().is_empty() {
+        out.push_str("\nMESH FORMATS ([[object]] type = \"mesh\", file = ...)\n");
+        for f in reg.mesh_formats() {
+            out.push_str(&format!("  .{}  — {}\n", f.extensions.join(", ."), f.summary));
+        }
+    }
     out.push_str("\nOUTPUT FORMATS (-o NAME.EXT)\n");
-    for f in crate::image::output::OUTPUT_FORMATS {
+    for f in reg.output_formats() {
         out.push_str(&format!("  .{}  — {}\n", f.extensions.join(", ."), f.summary));
     }
     out
@@ -95,8 +101,14 @@ pub fn markdown(reg: &Registry) -> String {
             out.push_str(&format!("| `.{}` | {} |\n", f.extensions.join("`, `."), f.summary));
         }
     }
+    if !reg.mesh_formats().is_empty() {
+        out.push_str("\n## Mesh formats\n\nThe `file` of a `mesh` object, chosen by extension:\n\n| extension | format |\n|---|---|\n");
+        for f in reg.mesh_formats() {
+            out.push_str(&format!("| `.{}` | {} |\n", f.extensions.join("`, `."), f.summary));
+        }
+    }
     out.push_str("\n## Output formats\n\n`-o NAME.EXT`, chosen by extension:\n\n| extension | format |\n|---|---|\n");
-    for f in crate::image::output::OUTPUT_FORMATS {
+    for f in reg.output_formats() {
         out.push_str(&format!("| `.{}` | {} |\n", f.extensions.join("`, `."), f.summary));
     }
     out

@@ -15,7 +15,8 @@ pub(crate) struct RenderArgs {
     /// Scene file (.toml, or any registered format). Omit for the bundled default scene.
     scene: Option<PathBuf>,
     /// Output image: .png, .jpg or .jpeg (8-bit, clamped and encoded), .pfm (linear float, e.g. a
-    /// reference), or .exr (linear HDR floats with optional layers; feature `exr`).
+    /// reference), .exr (linear HDR floats with optional layers; feature `exr`), or a format a
+    /// plugin registers (`raylab plugins` lists them).
     #[arg(short, long, default_value = "render.png")]
     output: PathBuf,
     /// EXR only: store colour (and normal, albedo) as 16-bit half floats instead of 32-bit.
@@ -173,6 +174,15 @@ fn resume(app: &App, given: RenderArgs, file: &Path) -> Result<(), Failure> {
         a.raw = ri.args;
         a.threads = given.threads.or(a.threads);
         a.quiet |= given.quiet;
+        // Say what is being continued: how much was done and what is left.
+        let (done, total, left) = sums.progress();
+        eprintln!(
+            "resuming {}: {done} of {total} samples done ({:.1} %), {left} of {} pixels still to finish; rendering to {}",
+            file.display(),
+            100.0 * done as f64 / total.max(1) as f64,
+            sums.pixels.len(),
+            a.output.display()
+        );
         render(app, a, Some((sums, info.fingerprint)))
     }
 }
@@ -198,8 +208,8 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
         return Err(Failure::Other(format!("--checkpoint-every: expected a number of seconds > 0, found {}", a.checkpoint_every)));
     }
     let parts = a.crop.is_some() || a.tile.is_some() || a.pass.is_some();
-    let format = crate::image::output::format_for(&a.output).map_err(|e| e.to_string())?;
-    let exr = format.kind == crate::image::output::ImageKind::Exr;
+    let format = app.registry.output_format_for(&a.output).map_err(|e| e.to_string())?;
+    let exr = format.name == "exr";
     if !format.layers && (a.half || !a.aov.is_empty()) {
         return Err("--half and --aov apply to .exr output only".to_string().into());
     }
@@ -410,6 +420,11 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
     if a.checkpoint.is_some() && checkpoint_path.exists() {
         // The render is done: its checkpoint has served.
         let _ = std::fs::remove_file(&checkpoint_path);
+    }
+    // The image an interrupted render of this target left beside it is superseded now.
+    let stale = partial_path(&a.output);
+    if !parts && stale.exists() && std::fs::remove_file(&stale).is_ok() {
+        eprintln!("removed {}, the image of an interrupted render of {} (now complete)", stale.display(), a.output.display());
     }
     let write_time = t_write.elapsed();
     let st = rendered.stats;

@@ -3,6 +3,7 @@
 //! read goes through, the memory budget, shared assets and warnings.
 
 use crate::accel::{AccelChoice, BuildStats};
+use crate::load::mesh::{MeshFile, MeshRequest};
 use crate::math::color::Encoding;
 use crate::param::error::{Loc, Result, SceneError};
 use crate::param::files::{OpenLog, ReadError, read_regular};
@@ -12,7 +13,24 @@ use crate::param::value::Node;
 use std::any::Any;
 use std::collections::HashMap;
 use std::path::{Component, Path, PathBuf};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
+
+/// Reads a mesh file ([`crate::load::mesh`]). Unwind-safe, as the load context that carries
+/// it must stay.
+pub type MeshReader = Arc<dyn Fn(&MeshRequest, &LoadContext) -> Result<MeshFile> + Send + Sync + std::panic::RefUnwindSafe>;
+
+/// A mesh file format, chosen by the file's extension.
+#[derive(Clone)]
+pub struct MeshFormat {
+    /// Short name (`"obj"`).
+    pub name: &'static str,
+    /// Lower-case extensions without the dot (`["gltf", "glb"]`).
+    pub extensions: &'static [&'static str],
+    /// One line: what the format is and what of it is read.
+    pub summary: &'static str,
+    /// The reader.
+    pub read: MeshReader,
+}
 
 /// Settings given outside the scene file (command line), which take precedence over it.
 #[derive(Clone, Debug, std::default::Default)]
@@ -110,8 +128,9 @@ pub struct LoadContext<'a> {
     /// 3·10⁵ instance nodes is looked up once, not 6·10⁵ times (each a `getcwd` and `readlink`s).
     resolved: Mutex<HashMap<String, PathBuf>>,
     /// The scene's folder, canonicalised once.
-    canonical_dir: std::sync::OnceLock<PathBuf>,
+    canonical_dir: OnceLock<PathBuf>,
     resolutions: std::sync::atomic::AtomicU64,
+    mesh_formats: OnceLock<Vec<MeshFormat>>,
 }
 
 impl<'a> LoadContext<'a> {
@@ -126,9 +145,26 @@ impl<'a> LoadContext<'a> {
             fingerprint: Mutex::default(),
             read: Mutex::default(),
             resolved: Mutex::default(),
-            canonical_dir: std::sync::OnceLock::new(),
+            canonical_dir: OnceLock::new(),
             resolutions: std::sync::atomic::AtomicU64::new(0),
+            mesh_formats: OnceLock::new(),
         }
+    }
+
+    /// Makes `formats` (a registry's) the mesh formats this load reads; the loader calls it
+    /// before building objects. Only the first call counts.
+    pub fn use_mesh_formats(&self, formats: &[MeshFormat]) {
+        let _ = self.mesh_formats.set(formats.to_vec());
+    }
+
+    /// The mesh formats this load reads ([`Self::use_mesh_formats`]).
+    pub fn mesh_formats(&self) -> &[MeshFormat] {
+        self.mesh_formats.get().map_or(&[], Vec::as_slice)
+    }
+
+    /// The mesh format that reads files with extension `ext` (lower case, no dot).
+    pub fn mesh_format_for(&self, ext: &str) -> Option<&MeshFormat> {
+        self.mesh_formats().iter().rev().find(|f| f.extensions.contains(&ext))
     }
 
     /// Counts `bytes` (an estimate of what is about to be allocated for `what`) against

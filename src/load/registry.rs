@@ -1,10 +1,13 @@
-//! The plugin registry: geometries, textures, lights, integrators and scene formats, by type name.
+//! The plugin registry: geometries, textures, lights, integrators by type name, and the file
+//! formats of scenes, meshes and output images by extension.
 //!
 //! Built-in plugins register themselves through exactly this API; a crate outside raylab adds a
 //! geometry the same way (see docs/writing-a-plugin.md).
 
 use crate::geometry::Geometry;
-use crate::load::context::LoadContext;
+use crate::image::output::{OutputFormat, builtin_formats};
+use crate::image::write::WriteError;
+use crate::load::context::{LoadContext, MeshFormat};
 use crate::param::description::SceneDescription;
 use crate::param::error::Result;
 use crate::param::params::Params;
@@ -70,19 +73,37 @@ pub struct SceneFormat {
     pub read: SceneReader,
 }
 
-/// All known plugins, by type name.
-#[derive(Clone, Default)]
+/// All known plugins, by type name, and file formats.
+#[derive(Clone)]
 pub struct Registry {
     geometries: BTreeMap<&'static str, Plugin<GeometryBuilder>>,
     textures: BTreeMap<&'static str, Plugin<TextureBuilder>>,
     lights: BTreeMap<&'static str, Plugin<LightBuilder>>,
     integrators: BTreeMap<&'static str, Plugin<IntegratorBuilder>>,
     formats: Vec<SceneFormat>,
+    mesh_formats: Vec<MeshFormat>,
+    output_formats: Vec<OutputFormat>,
     default_integrator: Option<&'static str>,
 }
 
+impl std::default::Default for Registry {
+    fn default() -> Self {
+        Registry {
+            geometries: BTreeMap::new(),
+            textures: BTreeMap::new(),
+            lights: BTreeMap::new(),
+            integrators: BTreeMap::new(),
+            formats: Vec::new(),
+            mesh_formats: Vec::new(),
+            output_formats: builtin_formats(),
+            default_integrator: None,
+        }
+    }
+}
+
 impl Registry {
-    /// An empty registry.
+    /// A registry with no plugins, writing the core's own image formats (PNG, JPEG, PFM, and
+    /// OpenEXR with the `exr` feature).
     pub fn new() -> Self {
         Self::default()
     }
@@ -145,6 +166,17 @@ impl Registry {
         self.formats.push(format);
     }
 
+    /// Registers a mesh-file format; its extensions take precedence over any earlier format's.
+    pub fn add_mesh_format(&mut self, format: MeshFormat) {
+        self.mesh_formats.push(format);
+    }
+
+    /// Registers an output image format; its extensions take precedence over any earlier
+    /// format's (a plugin may replace a built-in writer).
+    pub fn add_output_format(&mut self, format: OutputFormat) {
+        self.output_formats.push(format);
+    }
+
     /// The geometry type `name`.
     pub fn geometry(&self, name: &str) -> Option<&Plugin<GeometryBuilder>> {
         self.geometries.get(name)
@@ -198,5 +230,20 @@ impl Registry {
     /// Registered scene formats.
     pub fn formats(&self) -> &[SceneFormat] {
         &self.formats
+    }
+
+    /// Registered mesh formats, in registration order.
+    pub fn mesh_formats(&self) -> &[MeshFormat] {
+        &self.mesh_formats
+    }
+
+    /// Registered output image formats, in registration order (the core's own first).
+    pub fn output_formats(&self) -> &[OutputFormat] {
+        &self.output_formats
+    }
+
+    /// The output format for `path`'s extension (case-insensitive).
+    pub fn output_format_for(&self, path: &Path) -> std::result::Result<&OutputFormat, WriteError> {
+        crate::image::output::format_among(&self.output_formats, path)
     }
 }
