@@ -7,11 +7,18 @@ use clap::Args;
 #[derive(Args, Debug)]
 pub(crate) struct PluginsArgs {
     /// Print Markdown tables (for documentation).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "json")]
     markdown: bool,
+    /// Print JSON (every type, its parameters with their types, defaults and roles).
+    #[arg(long)]
+    json: bool,
 }
 
 pub(crate) fn run(app: &App, a: PluginsArgs) -> Result<(), Failure> {
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&app.registry.to_json()).map_err(|e| e.to_string())?);
+        return Ok(());
+    }
     print!("{}", if a.markdown { markdown(&app.registry) } else { text(&app.registry) });
     Ok(())
 }
