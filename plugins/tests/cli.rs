@@ -332,7 +332,10 @@ fn the_work_budget_refuses_a_render_and_names_the_flag_that_raises_it() {
     let o = raylab(&dir, &["render", "scene.toml", "--spp", "4", "--max-rays", "100"]);
     let err = text(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
-    assert!(err.contains("over the budget of 100: 8×6 pixels × 4 spp") && err.contains("--max-rays"), "{err}");
+    assert!(
+        err.contains("at least 192 camera rays (192 pixel samples), over the work budget of 100 rays") && err.contains("--max-rays"),
+        "{err}"
+    );
     assert!(!dir.join("render.png").exists());
     let o = raylab(&dir, &["render", "scene.toml", "--spp", "4", "--max-rays", "100000000", "-q"]);
     assert!(o.status.success(), "{}", text(&o.stderr));

@@ -18,13 +18,7 @@ pub(crate) struct DenoiseArgs {
 }
 
 pub(crate) fn run(app: &App, a: DenoiseArgs) -> Result<(), Failure> {
-    if a.output.exists() && super::convert::same_file(&a.input, &a.output) {
-        return Err(Failure::Other(format!(
-            "denoise would overwrite its input \"{}\" with \"{}\": write to another file",
-            a.input.display(),
-            a.output.display()
-        )));
-    }
+    super::refuse_overwrite("denoise", &[a.output.as_path()], [a.input.as_path()])?;
     let format = app.registry.output_format_for(&a.output).map_err(|e| e.to_string())?;
     let ext = a.input.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let bytes = crate::load::context::read_user_file(&a.input, "image", crate::image::tonemap::MAX_FILE_BYTES, None)?;

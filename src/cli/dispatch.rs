@@ -44,9 +44,25 @@ enum Command {
     View(Box<view::ViewArgs>),
 }
 
-/// Parses `std::env::args` and runs the command.
+/// Parses `std::env::args` and runs the command. Output into a closed pipe (`raylab trace … |
+/// head -5`) ends the process quietly, as it does any Unix filter: killed by SIGPIPE (status 141
+/// in a shell), never a panic on a failed print.
 pub fn run(app: App) -> ExitCode {
+    quiet_on_closed_pipe();
     run_with_args(app, std::env::args_os())
+}
+
+/// Restores SIGPIPE's default action, which the Rust runtime sets to "ignore" (so that `println!`
+/// panics with "failed printing to stdout: Broken pipe"). Sockets are unaffected: the standard
+/// library sends on them with `MSG_NOSIGNAL` (or `SO_NOSIGPIPE`), so a browser or tev that hangs
+/// up is still an error, not a signal.
+fn quiet_on_closed_pipe() {
+    #[cfg(unix)]
+    // SAFETY: called once at the start of `main`, before any thread is started; `signal` with
+    // `SIG_DFL` only changes the process's disposition for SIGPIPE.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
 }
 
 /// Runs the command given by `args` (the first item is the program name). Exit status 0 on

@@ -141,7 +141,9 @@ pub(crate) struct SceneArgs {
     /// estimated before rendering for the costliest output (EXR with every layer).
     #[arg(long, value_name = "BYTES", allow_hyphen_values = true, value_parser = int_in::<u64>(0, u64::MAX.into()))]
     max_image_bytes: Option<u64>,
-    /// Most rays the render may trace in the worst case (the knobs multiplied), checked before it starts.
+    /// Most rays the render may trace: enforced as rays are traced (the render stops with the
+    /// image so far and the count), and checked before it starts (camera rays alone, a bound from
+    /// the scene's materials and pruning, then a pilot of 64 pixels when the bound is over).
     #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = int_in::<u64>(0, u64::MAX.into()))]
     max_rays: Option<u64>,
     /// Most memory (bytes) the whole job may take, as estimated before each large allocation:
@@ -328,6 +330,26 @@ pub(crate) fn load(
         eprintln!("warning: {}", w.report());
     }
     Ok((job, name))
+}
+
+/// Refuses to run `command` when one of the files it writes (`outputs`) is one of the files it
+/// reads (`inputs`), under any spelling, link or hard link ([`crate::param::files::same_file`]):
+/// the input would be gone once the output is written.
+pub(crate) fn refuse_overwrite<'a>(
+    command: &str,
+    outputs: &[&Path],
+    inputs: impl IntoIterator<Item = &'a Path> + Clone,
+) -> Result<(), Failure> {
+    for out in outputs {
+        if let Some(input) = crate::param::files::overwritten_input(out, inputs.clone()) {
+            return Err(Failure::Other(format!(
+                "{command} would overwrite its input \"{}\" with \"{}\" (the same file): write to another file",
+                input.display(),
+                out.display()
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// `1234567.0` → `1.23 M`.

@@ -251,7 +251,18 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
         half: a.half,
         error: layer("error") || layer("variance"),
     };
+    // Nothing the render reads is written over: checked before loading for the files named on the
+    // command line, and after for those the scene names (meshes, textures).
+    let partial = partial_path(&a.output);
+    let checkpoint = a.checkpoint.clone().unwrap_or_else(|| super::farm::default_checkpoint(&a.output));
+    let mut outputs = vec![a.output.as_path(), partial.as_path()];
+    outputs.extend(a.error_csv.as_deref());
+    // A resumed render rewrites its own checkpoint: that one file is both.
+    outputs.extend(Some(checkpoint.as_path()).filter(|_| resumed.is_none()));
+    let named: Vec<&Path> = a.scene.iter().chain(&a.reference).map(PathBuf::as_path).collect();
+    super::refuse_overwrite("render", &outputs, named.iter().copied())?;
     let (job, scene_name) = super::load(app, a.scene.as_deref(), &a.scene_args, plan)?;
+    super::refuse_overwrite("render", &outputs, job.inputs.iter().map(PathBuf::as_path))?;
     if INTERRUPTED.load(Ordering::SeqCst) {
         return Err(Failure::Interrupted("interrupted while loading: nothing rendered, nothing written".into()));
     }
@@ -384,13 +395,32 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
         } else {
             String::new()
         };
-        let partial = partial_path(&a.output);
         if !parts {
             write(&job, &a, &partial, format, &rendered.film, None, None, grid)?;
         }
         let done = 100.0 * work[0].load(Ordering::Relaxed) as f64 / work[1].load(Ordering::Relaxed) as f64;
-        return Err(Failure::Interrupted(format!(
-            "interrupted at {done:.1} %: {}{}{saved}; {} was not written",
+        let (why, failure): (String, fn(String) -> Failure) = match rendered.budget_stop {
+            Some(rays) => {
+                // What the whole render would take at the rate so far, as a flag value when it is one.
+                let whole = rays as f64 * 100.0 / done.max(1e-9);
+                let advice = match crate::render::budget::flag_value(whole * 1.25).filter(|_| done > 0.0) {
+                    Some(v) => format!("the whole render would trace about {whole:.3e}: raise --max-rays to {v}, or lower the knobs"),
+                    None => "lower the knobs that multiply rays (--spp, --depth, the integrator's)".to_string(),
+                };
+                (
+                    format!(
+                        "stopped by the work budget at {done:.1} %: {rays} rays traced, over --max-rays {} (integrator \"{}\": {}); {advice}",
+                        job.max_rays,
+                        job.integrator_name,
+                        job.integrator.describe(),
+                    ),
+                    Failure::Other,
+                )
+            }
+            None => (format!("interrupted at {done:.1} %"), Failure::Interrupted),
+        };
+        return Err(failure(format!(
+            "{why}: {}{}{saved}; {} was not written",
             if parts { String::new() } else { format!("wrote the image so far to {} (pixels not reached are black)", partial.display()) },
             if cfg!(feature = "exr") {
                 format!("{}saved the state in {}", if parts { "" } else { " and " }, checkpoint_path.display())

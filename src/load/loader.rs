@@ -203,8 +203,6 @@ struct Parts {
     integrator_name: String,
     integrator_params: Table,
     settings: RenderSettings,
-    /// Where the integrator is set, for the work budget's error.
-    integrator_loc: Loc,
     /// The fingerprint of everything above that decides pixels (with the files read).
     fingerprint: Fingerprint,
 }
@@ -214,7 +212,6 @@ impl Parts {
         let mut scene = Scene::with_accel(self.name, self.camera, self.background, self.objects, self.lights, ctx.options.accel);
         scene.record_object_builds(ctx.assets.build_stats());
         let (integrator, ty) = (self.integrator, self.integrator_name);
-        check_work(&self.settings, &scene, integrator.as_ref(), &ty, &self.integrator_loc, ctx.options.limits.max_rays)?;
         let mut fingerprint = self.fingerprint;
         fingerprint.add("files", &ctx.files_fingerprint().hex().into_bytes());
         fingerprint.add("accel", format!("{:?}", ctx.options.accel).as_bytes());
@@ -226,6 +223,8 @@ impl Parts {
             settings: self.settings,
             warnings: ctx.take_warnings(),
             fingerprint: fingerprint.hex(),
+            inputs: ctx.files_read(),
+            max_rays: ctx.options.limits.max_rays,
         })
     }
 }
@@ -575,43 +574,8 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         integrator_name: ty,
         integrator_params: integ_table,
         settings,
-        integrator_loc: integ_loc,
         fingerprint,
     })
-}
-
-/// Refuses a render whose worst-case ray count exceeds `max_rays`, naming each factor.
-fn check_work(s: &RenderSettings, scene: &Scene, integrator: &dyn crate::Integrator, ty: &str, loc: &Loc, max_rays: u64) -> Result<()> {
-    let pixels = f64::from(s.width) * f64::from(s.height);
-    let (samples, what) = match s.aa {
-        Antialiasing::Stratified => (f64::from(s.spp), "spp"),
-        // Every point of the 2^depth lattice in each pixel, corners included.
-        Antialiasing::Adaptive(a) => {
-            let cells = f64::from(1u32 << a.max_depth.min(MAX_ADAPTIVE_DEPTH)).powi(2);
-            (
-                (f64::from(1u32 << a.max_depth.min(MAX_ADAPTIVE_DEPTH)) + 1.0).powi(2) + cells * f64::from(a.cell_samples),
-                "adaptive lattice points and cell samples per pixel",
-            )
-        }
-    };
-    let lens = if scene.camera.aperture > 0.0 { f64::from(s.lens_samples.max(1)) } else { 1.0 };
-    let per_ray = integrator.worst_case_rays(scene);
-    let total = pixels * samples * lens * per_ray;
-    if total.is_nan() || total > max_rays as f64 {
-        let e = SceneError::at(
-            loc,
-            format!(
-                "the render may trace {total:.3e} rays, over the budget of {max_rays}: {}×{} pixels × {samples} {what} × {lens} lens samples × {per_ray:.3e} rays per camera ray (integrator \"{ty}\": {})",
-                s.width,
-                s.height,
-                integrator.describe()
-            ),
-        );
-        return Err(
-            e.with_help("lower the knobs (spp, lens_samples, max_depth, glossy_rays, shadow_rays), or raise the budget with --max-rays")
-        );
-    }
-    Ok(())
 }
 
 /// `table` with `overrides` set over it (unknown keys are reported by the table's reader, at the

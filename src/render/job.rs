@@ -186,6 +186,13 @@ pub struct RenderJob {
     /// ([`crate::param::fingerprint`]): parts of a frame merge, and a checkpoint resumes, only
     /// under the same one.
     pub fingerprint: String,
+    /// The files the scene made raylab read (meshes, textures, glTF buffers, MTL libraries), as
+    /// resolved: a command writing a file checks it is none of them.
+    pub inputs: Vec<std::path::PathBuf>,
+    /// The work budget: the most rays a render of this job may trace (`--max-rays`;
+    /// `u64::MAX` for none), enforced by the render loop ([`crate::render::budget`]). Not part
+    /// of the image: a render within it gives the same bits whatever it is.
+    pub max_rays: u64,
 }
 
 /// Edge of the square tiles the image is split into, pixels.

@@ -19,6 +19,7 @@ pub mod accum;
 pub mod adaptive;
 pub mod aov;
 pub mod aovs;
+pub mod budget;
 pub mod explain;
 pub mod film;
 pub mod integrator;
@@ -101,8 +102,11 @@ pub struct Rendered {
     pub stats: RayStats,
     /// Wall time of tracing (excludes loading and writing).
     pub elapsed: Duration,
-    /// False when cancelled before every pixel had its samples.
+    /// False when cancelled, or stopped by the work budget, before every pixel had its samples.
     pub complete: bool,
+    /// Set when the work budget ([`RenderJob::max_rays`]) stopped the render: the rays traced by
+    /// then (the tiles that ran out are discarded; the image holds the tiles done).
+    pub budget_stop: Option<u64>,
 }
 
 /// The state of a progressive render after one pass.
@@ -250,24 +254,35 @@ fn render_passes(
         }
         Antialiasing::Adaptive(_) => already + (0..sums.pixels.len()).map(|i| u64::from(sums.missing(i))).sum::<u64>(),
     };
+    budget::check(job, share, total - already)?;
     let done = AtomicU64::new(already);
+    // Rays traced so far, against the budget; set once a tile ran out of it.
+    let (traced, over) = (AtomicU64::new(0), AtomicBool::new(false));
     let state = Mutex::new(State { sums, stats: RayStats::new(counters), last_snapshot: Instant::now() });
     let lock = || state.lock().unwrap_or_else(|e| e.into_inner());
     let start = Instant::now();
     let mut complete = true;
     for &end in &ends {
         tiles.par_iter().for_each(|&tile| {
-            if options.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+            if options.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || over.load(Ordering::Relaxed) {
                 return;
             }
             let mut work = TileWork::take(&lock().sums, tile);
             let mut stats = RayStats::new(counters);
+            stats.set_allowance(job.max_rays.saturating_sub(traced.load(Ordering::Relaxed)));
             let before = work.samples();
             work.render(job, end, options.cancel, &mut stats);
             let added = work.samples() - before;
+            traced.fetch_add(stats.rays(), Ordering::Relaxed);
             let mut st = lock();
-            work.put(&mut st.sums);
             st.stats += stats;
+            if stats.exhausted() {
+                // The budget ran out inside this tile: its last sample is cut short, so none of
+                // its work is kept.
+                over.store(true, Ordering::Relaxed);
+                return;
+            }
+            work.put(&mut st.sums);
             if let Some(f) = options.on_tile {
                 f(&TileDone { tile, sums: &st.sums, stats: &st.stats, pass_end: end, elapsed: start.elapsed() });
             }
@@ -281,7 +296,7 @@ fn render_passes(
             progress(done.fetch_add(added, Ordering::Relaxed) + added, total);
         });
         let st = lock();
-        if options.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+        if options.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || over.load(Ordering::Relaxed) {
             complete = st.sums.complete();
             break;
         }
@@ -297,7 +312,8 @@ fn render_passes(
     if complete {
         on_pass(&Pass { film: &film, samples: *ends.last().unwrap_or(&1), elapsed, stats: st.stats });
     }
-    Ok(Rendered { film, layers, sums: st.sums, stats: st.stats, elapsed, complete })
+    let budget_stop = over.load(Ordering::Relaxed).then(|| traced.load(Ordering::Relaxed));
+    Ok(Rendered { film, layers, sums: st.sums, stats: st.stats, elapsed, complete: complete && budget_stop.is_none(), budget_stop })
 }
 
 /// One tile's sums, taken out of the shared state while its samples are traced.
@@ -342,7 +358,8 @@ impl TileWork {
     }
 
     /// Adds the share's samples below index `end` that each pixel lacks (stratified), or
-    /// computes the pixels not done yet (adaptive); stops between pixel rows when cancelled.
+    /// computes the pixels not done yet (adaptive); stops between pixel rows when cancelled or
+    /// when `stats` ran out of its allowance (the integrator stops within a sample).
     fn render(&mut self, job: &RenderJob, end: u32, cancel: Option<&AtomicBool>, stats: &mut RayStats) {
         let s = &job.settings;
         let t = self.tile;
@@ -351,7 +368,7 @@ impl TileWork {
             Antialiasing::Stratified => return self.render_stratified(job, end, cancel, stats),
         };
         for (i, (x, y)) in (t.y0..t.y1).flat_map(|y| (t.x0..t.x1).map(move |x| (x, y))).enumerate() {
-            if x == t.x0 && cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+            if x == t.x0 && (cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || stats.exhausted()) {
                 return;
             }
             let acc = &mut self.pixels[i];
@@ -376,7 +393,7 @@ impl TileWork {
         let frame = image_frame(job);
         let w = t.width() as usize;
         for (row, y) in (t.y0..t.y1).enumerate() {
-            if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+            if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || stats.exhausted() {
                 return;
             }
             let span = row * w..(row + 1) * w;
