@@ -87,6 +87,13 @@ pub fn srgb_decode(v: f32) -> f32 {
     if v <= 0.040_45 { v / 12.92 } else { ((v + 0.055) / 1.055).powf(2.4) }
 }
 
+/// Luminance of linear Rec. 709 / sRGB primaries (Y of CIE XYZ): what importance sampling weighs
+/// colours by (lights by power, environment texels).
+#[inline]
+pub fn luminance(c: Color) -> f64 {
+    0.212_6 * c.x + 0.715_2 * c.y + 0.072_2 * c.z
+}
+
 /// Largest channel: the magnitude used when deciding whether a contribution is negligible.
 #[inline]
 pub fn max_channel(c: Color) -> f64 {

@@ -2,5 +2,6 @@
 
 pub mod bounds;
 pub mod color;
+pub mod distribution;
 pub mod float;
 pub mod ray;

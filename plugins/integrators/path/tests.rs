@@ -429,3 +429,4 @@ fn a_light_that_rays_cannot_meet_is_sampled_in_full() {
         "{met} ± {met_error} vs {unmet} ± {unmet_error}"
     );
 }
+
