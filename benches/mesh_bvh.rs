@@ -1,7 +1,7 @@
 //! Criterion benchmarks of meshes: BVH build time, primary (closest-hit) and shadow (any-hit)
 //! rays per second, on bumpy spheres of 1k to 1M triangles, queried directly and as the one
 //! bounded object of a scene (`scene_primary`, `scene_shadow`: through `ObjectAccel`).
-//! `raylab bench` measures the same on any mesh file, as a table (see the README's "Speed").
+//! `raylab bench` measures the same on any mesh file, as a table (docs/performance.md, "Speed of meshes and BVHs").
 //! The ray groups are named after the traversal copy that runs (`rays-avx2`: 8-lane AVX2 slab
 //! tests; `rays-baseline`: the same hierarchy in SSE2 halves, forced by `RAYLAB_SIMD=baseline`),
 //! so criterion keeps separate histories for the two.

@@ -3,7 +3,7 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use raylab::glam::DVec3;
-use raylab::input::context::{LoadOptions, Overrides};
+use raylab::load::context::{LoadOptions, Overrides};
 use raylab::{Intersectable, Ray};
 use std::hint::black_box;
 use std::path::Path;
@@ -15,7 +15,7 @@ fn frames(c: &mut Criterion) {
     for scene in ["dozen", "showcase", "report-reflection-refraction"] {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("scenes/{scene}.toml"));
         let opts = LoadOptions { overrides: Overrides { width: Some(200), height: Some(150), ..Default::default() }, ..Default::default() };
-        let job = raylab::input::load::load_file(&registry, &path, &opts).expect("scene loads");
+        let job = raylab::load::loader::load_file(&registry, &path, &opts).expect("scene loads");
         g.bench_function(scene, |b| b.iter(|| raylab::render::render(&job, &Default::default(), &|_, _| {}).unwrap()));
     }
     g.finish();

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Every bundled scene rendered at 1 and 16 spp: trace time, rays and rays/s as a Markdown table
-# (the README's "Every bundled scene" table).
+# (docs/performance.md, "Every bundled scene").
 #
 #   benches/scenes.sh [THREADS]     # default 2; builds raylab (release, mesh,bvh) first
 #

@@ -5,7 +5,7 @@
 //!
 //! ```no_run
 //! let registry = raylab_plugins::registry();
-//! let job = raylab::input::load::load_file(&registry, "scenes/showcase.toml".as_ref(), &Default::default()).unwrap();
+//! let job = raylab::load::loader::load_file(&registry, "scenes/showcase.toml".as_ref(), &Default::default()).unwrap();
 //! ```
 
 pub mod formats;

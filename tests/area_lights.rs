@@ -1,8 +1,8 @@
 //! Soft shadows from area lights: the penumbra has the visible fraction of the light, and
 //! adaptive shadow rays save work outside penumbrae.
 
-use raylab::input::context::LoadOptions;
-use raylab::input::load::load_str;
+use raylab::load::context::LoadOptions;
+use raylab::load::loader::load_str;
 use raylab::render::{RenderJob, RenderOptions, render};
 use std::path::Path;
 

@@ -1,8 +1,8 @@
 //! Doing only what a scene requires: the skipped work is counted, and skipping it changes no bit
 //! of the image.
 
-use raylab::input::context::LoadOptions;
-use raylab::input::load::load_str;
+use raylab::load::context::LoadOptions;
+use raylab::load::loader::load_str;
 use raylab::render::{RenderOptions, render};
 use std::path::Path;
 

@@ -7,8 +7,8 @@ use raylab::Ray;
 use raylab::accel::{AccelChoice, ObjectAccel};
 use raylab::geometry::Geometry;
 use raylab::glam::DVec3;
-use raylab::input::context::LoadOptions;
-use raylab::input::load::load_str;
+use raylab::load::context::LoadOptions;
+use raylab::load::loader::load_str;
 use raylab_plugins::shapes::sphere::Sphere;
 use std::path::Path;
 
@@ -29,7 +29,7 @@ fn a_million_identical_spheres_index_in_every_mode() {
     for choice in [AccelChoice::Auto, AccelChoice::Bvh] {
         let (built, _) = ObjectAccel::build(&boxes, |_| true, choice);
         let accel = built.over(&spheres);
-        assert_eq!(built.is_bvh(), raylab::accel::bvh::BVH_AVAILABLE, "{choice:?}");
+        assert_eq!(built.is_bvh(), raylab::accel::build::BVH_AVAILABLE, "{choice:?}");
         let [axis, beside] = rays();
         let hit = accel.intersect(&axis, 0.0, f64::INFINITY).expect("the front sphere");
         assert_eq!((hit.object, hit.t), (n, 7.5), "{choice:?}");
@@ -56,7 +56,7 @@ fn a_scene_of_identical_spheres_loads_and_renders_the_same_hits() {
     let list = load(AccelChoice::List);
     for choice in [AccelChoice::Auto, AccelChoice::Bvh] {
         let job = load(choice);
-        assert_eq!(job.scene.accel_summary().bvh, raylab::accel::bvh::BVH_AVAILABLE, "{choice:?}");
+        assert_eq!(job.scene.accel_summary().bvh, raylab::accel::build::BVH_AVAILABLE, "{choice:?}");
         for ray in rays() {
             let (a, b) = (job.scene.intersect(&ray, 0.0, f64::INFINITY), list.scene.intersect(&ray, 0.0, f64::INFINITY));
             assert_eq!(a.map(|h| h.t), b.map(|h| h.t), "{choice:?} {ray:?}");

@@ -1,13 +1,13 @@
 //! The same scene, settings and seed give the same image, bit for bit, whatever the thread count.
 
-use raylab::input::context::{LoadOptions, Overrides};
+use raylab::load::context::{LoadOptions, Overrides};
 use raylab::render::{RenderOptions, render};
 use std::path::Path;
 
 fn render_with(scene: &str, threads: usize, seed: u64, aa: &str) -> raylab::Film {
     let registry = raylab_plugins::registry();
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(scene);
-    let aa = raylab::input::value::Node::given("test", raylab::input::value::Value::Str(aa.into()));
+    let aa = raylab::param::value::Node::given("test", raylab::param::value::Value::Str(aa.into()));
     let opts = LoadOptions {
         overrides: Overrides {
             width: Some(96),
@@ -19,7 +19,7 @@ fn render_with(scene: &str, threads: usize, seed: u64, aa: &str) -> raylab::Film
         },
         ..Default::default()
     };
-    let job = raylab::input::load::load_file(&registry, &path, &opts).unwrap_or_else(|e| panic!("{}", e.report()));
+    let job = raylab::load::loader::load_file(&registry, &path, &opts).unwrap_or_else(|e| panic!("{}", e.report()));
     render(&job, &RenderOptions { threads: Some(threads), ..RenderOptions::default() }, &|_, _| {}).expect("render").film
 }
 

@@ -2,8 +2,8 @@
 //! encoding, optional half floats, and the depth/normal/albedo layers.
 #![cfg(feature = "exr")]
 
-use raylab::input::context::{LoadOptions, Overrides};
-use raylab::input::load::load_str;
+use raylab::load::context::{LoadOptions, Overrides};
+use raylab::load::loader::load_str;
 use raylab::render::{RenderOptions, render};
 use std::path::Path;
 

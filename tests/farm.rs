@@ -3,9 +3,9 @@
 //! bits of an uninterrupted one; parts that do not belong together are refused.
 
 use proptest::prelude::*;
-use raylab::input::context::{LoadOptions, Overrides};
-use raylab::input::load::load_file;
-use raylab::input::value::{Node, Value};
+use raylab::load::context::{LoadOptions, Overrides};
+use raylab::load::loader::load_file;
+use raylab::param::value::{Node, Value};
 use raylab::render::share::{FrameSums, Part, Rect, Share, merge};
 use raylab::render::{RenderJob, RenderOptions, Snapshots, render};
 use std::path::Path;
@@ -19,8 +19,8 @@ fn job(scene: &str, aa: &str, spp: u32) -> RenderJob {
 /// A bundled scene at `width × height`, with `aa`.
 fn job_sized(scene: &str, aa: &str, spp: u32, width: u32, height: u32) -> RenderJob {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(scene);
-    let src = raylab::input::error::Source::new("test", "");
-    let node = |v: Value| Node { value: v, loc: raylab::input::error::Loc::new(&src, 0..0) };
+    let src = raylab::param::error::Source::new("test", "");
+    let node = |v: Value| Node { value: v, loc: raylab::param::error::Loc::new(&src, 0..0) };
     let mut render_params = vec![("aa".to_string(), node(Value::Str(aa.into())))];
     if aa == "adaptive" {
         render_params.push(("aa_threshold".into(), node(Value::Float(0.03))));

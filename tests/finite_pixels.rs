@@ -5,8 +5,8 @@
 
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
-use raylab::input::context::LoadOptions;
-use raylab::input::load::load_str;
+use raylab::load::context::LoadOptions;
+use raylab::load::loader::load_str;
 use raylab::render::{RenderOptions, render};
 use std::fmt::Write;
 use std::path::Path;
@@ -188,14 +188,14 @@ fn the_path_tracer_renders_every_bundled_scene_finite() {
         if !meshes && std::fs::read_to_string(&scene).is_ok_and(|t| t.contains("type = \"mesh\"")) {
             continue;
         }
-        let overrides = raylab::input::context::Overrides {
+        let overrides = raylab::load::context::Overrides {
             width: Some(40),
             height: Some(30),
             spp: Some(4),
             integrator: Some("path".into()),
             ..Default::default()
         };
-        let job = raylab::input::load::load_file(&registry, &scene, &LoadOptions { overrides, ..LoadOptions::default() })
+        let job = raylab::load::loader::load_file(&registry, &scene, &LoadOptions { overrides, ..LoadOptions::default() })
             .unwrap_or_else(|e| panic!("{}", e.report()));
         let out = render(&job, &RenderOptions::default(), &|_, _| {}).unwrap();
         assert_eq!(out.stats.nonfinite_samples, 0, "{}", scene.display());

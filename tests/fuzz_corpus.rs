@@ -18,7 +18,7 @@ fn scene_toml_corpus_loads_or_fails_cleanly() {
     for f in corpus("scene_toml") {
         let data = std::fs::read(&f).unwrap();
         if let Ok(text) = std::str::from_utf8(&data)
-            && let Err(e) = raylab::input::load::load_str(&registry, "fuzz.toml", text, Path::new("."), &Default::default())
+            && let Err(e) = raylab::load::loader::load_str(&registry, "fuzz.toml", text, Path::new("."), &Default::default())
         {
             assert!(e.where_().is_some(), "{}: error without a location: {e}", f.display());
         }
@@ -33,7 +33,7 @@ fn scene_xml_corpus_loads_or_fails_cleanly() {
     for f in corpus("scene_xml") {
         let data = std::fs::read(&f).unwrap();
         let result = raylab_plugins::formats::report_xml::read(Path::new("fuzz.xml"), &data, &ctx)
-            .and_then(|desc| raylab::input::load::build(&registry, &desc, &ctx));
+            .and_then(|desc| raylab::load::loader::build(&registry, &desc, &ctx));
         if let Err(e) = result {
             assert!(e.where_().is_some(), "{}: error without a location: {e}", f.display());
         }

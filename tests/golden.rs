@@ -6,7 +6,7 @@
 //! `target/golden-diff/<scene>.png` beside the new render. After an intended change in shading,
 //! look at the new images and re-bless with `RAYLAB_BLESS=1 cargo test --test golden`.
 
-use raylab::input::context::{LoadOptions, Overrides};
+use raylab::load::context::{LoadOptions, Overrides};
 use std::path::{Path, PathBuf};
 
 /// Largest per-channel difference (8-bit) tolerated on any pixel.
@@ -33,10 +33,10 @@ fn scenes() -> Vec<PathBuf> {
 /// Renders a scene at 1/SCALE_DIVISOR of its resolution, as 8-bit RGB.
 fn render_small(path: &Path) -> (u32, u32, Vec<u8>) {
     let registry = raylab_plugins::registry();
-    let full = raylab::input::load::load_file(&registry, path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{}", e.report()));
+    let full = raylab::load::loader::load_file(&registry, path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{}", e.report()));
     let (w, h) = ((full.settings.width / SCALE_DIVISOR).max(8), (full.settings.height / SCALE_DIVISOR).max(8));
     let opts = LoadOptions { overrides: Overrides { width: Some(w), height: Some(h), ..Default::default() }, ..Default::default() };
-    let job = raylab::input::load::load_file(&registry, path, &opts).unwrap_or_else(|e| panic!("{}", e.report()));
+    let job = raylab::load::loader::load_file(&registry, path, &opts).unwrap_or_else(|e| panic!("{}", e.report()));
     let out = raylab::render::render(&job, &Default::default(), &|_, _| {}).expect("render");
     assert_eq!(out.stats.nonfinite_samples, 0, "{}: NaN or infinite samples", path.display());
     (w, h, raylab::image::output::to_rgb8(&out.film, job.settings.encoding, None))

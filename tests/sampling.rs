@@ -4,11 +4,11 @@
 
 use raylab::Encoding;
 use raylab::glam::DVec3;
-use raylab::image::film::Film;
 use raylab::image::metrics;
-use raylab::input::context::LoadOptions;
-use raylab::input::load::load_str;
+use raylab::load::context::LoadOptions;
+use raylab::load::loader::load_str;
 use raylab::render::adaptive::Adaptive;
+use raylab::render::film::Film;
 use raylab::render::{AdaptiveSettings, Antialiasing, RenderJob, RenderOptions, Rendered, render, render_progressive};
 use std::path::Path;
 

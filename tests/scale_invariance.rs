@@ -18,10 +18,10 @@
 //! render there.
 
 use raylab::glam::DVec3;
-use raylab::input::context::LoadOptions;
-use raylab::input::description::SceneDescription;
-use raylab::input::toml::parse_toml;
-use raylab::input::value::{Node, Table, Value};
+use raylab::load::context::LoadOptions;
+use raylab::param::description::SceneDescription;
+use raylab::param::toml::parse_toml;
+use raylab::param::value::{Node, Table, Value};
 use raylab::render::{RenderOptions, render};
 use raylab::{LoadContext, Source};
 use std::path::Path;
@@ -144,7 +144,7 @@ fn render_transformed(path: &str, s: f64, offset: DVec3, faulty: bool, width: u3
     options.overrides.width = Some(width);
     options.overrides.height = Some(height);
     let ctx = LoadContext::new(full.parent().unwrap(), &options);
-    let job = raylab::input::load::build(&raylab_plugins::registry(), &desc, &ctx).unwrap_or_else(|e| panic!("{}", e.report()));
+    let job = raylab::load::loader::build(&raylab_plugins::registry(), &desc, &ctx).unwrap_or_else(|e| panic!("{}", e.report()));
     let rendered = render(&job, &RenderOptions::default(), &|_, _| {}).unwrap();
     assert_eq!(rendered.stats.nonfinite_samples, 0, "scale {s:e}, offset {offset}: NaN or infinite samples");
     if let Ok(dir) = std::env::var("RAYLAB_SCALE_PNG") {

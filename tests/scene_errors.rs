@@ -1,8 +1,8 @@
 //! Malformed scenes: each gives a specific, located error (file:line:col) and never panics.
 
 use raylab::SceneError;
-use raylab::input::context::LoadOptions;
-use raylab::input::load::load_str;
+use raylab::load::context::LoadOptions;
+use raylab::load::loader::load_str;
 use std::path::Path;
 
 const CAMERA: &str = "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n";
@@ -115,7 +115,7 @@ fn names_and_materials_are_checked() {
 
 #[test]
 fn command_line_overrides_are_validated_and_do_not_trip_the_unused_check() {
-    use raylab::input::context::Overrides;
+    use raylab::load::context::Overrides;
     let src = format!("{CAMERA}[render]\nwidth = 640\nheight = 480\nspp = 4\nseed = 3\n");
     let opts = LoadOptions {
         overrides: Overrides { width: Some(32), height: Some(24), spp: Some(2), seed: Some(9), ..Default::default() },
@@ -134,7 +134,7 @@ fn scene_paths_cannot_leave_the_scene_folder() {
     let opts = LoadOptions::default();
     let ctx = raylab::LoadContext::new(Path::new(env!("CARGO_MANIFEST_DIR")), &opts);
     let src = raylab::Source::new("t.toml", "file = \"../x\"");
-    let loc = raylab::input::error::Loc::new(&src, 7..13);
+    let loc = raylab::param::error::Loc::new(&src, 7..13);
     assert!(ctx.resolve_path("../etc/passwd", &loc).unwrap_err().message.contains("leaves the scene's folder"));
     assert!(ctx.resolve_path("/etc/passwd", &loc).is_err());
     assert!(ctx.resolve_path("scenes/showcase.toml", &loc).is_ok());
@@ -151,7 +151,7 @@ fn every_bundled_scene_loads() {
         // Scenes with meshes need the `mesh` feature (CI tests with --all-features).
         let needs_mesh = std::fs::read_to_string(&p).is_ok_and(|t| t.contains("type = \"mesh\""));
         if p.extension().is_some_and(|x| x == "toml") && (meshes || !needs_mesh) {
-            raylab::input::load::load_file(&raylab_plugins::registry(), &p, &LoadOptions::default())
+            raylab::load::loader::load_file(&raylab_plugins::registry(), &p, &LoadOptions::default())
                 .unwrap_or_else(|e| panic!("{}", e.report()));
         }
     }
@@ -181,7 +181,7 @@ fn every_scene_in_the_malformed_catalogue_fails_as_its_first_line_says() {
             text.lines().next().and_then(|l| l.strip_prefix("# expect ")).unwrap_or_else(|| panic!("{}: no `# expect` line", f.display()));
         let (want_at, want) = expect.split_once(": ").unwrap();
         let name = f.file_name().unwrap().to_string_lossy();
-        match raylab::input::load::load_file(&registry, f, &LoadOptions::default()) {
+        match raylab::load::loader::load_file(&registry, f, &LoadOptions::default()) {
             Ok(_) => wrong.push(format!("{name}: loaded")),
             Err(e) => {
                 let at = e.where_().unwrap_or_default().replace(&prefix, "");

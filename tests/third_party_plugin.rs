@@ -3,12 +3,12 @@
 //! built-in (parameter table, typo errors with locations, the reusable property checks).
 
 use raylab::glam::{DVec2, DVec3};
-use raylab::input::context::LoadOptions;
-use raylab::input::error::Result;
-use raylab::input::load::load_str;
-use raylab::input::params::Params;
-use raylab::input::spec::{Default, ParamKind, ParamSpec};
+use raylab::load::context::LoadOptions;
+use raylab::load::loader::load_str;
 use raylab::math::float::gamma;
+use raylab::param::error::Result;
+use raylab::param::params::Params;
+use raylab::param::spec::{Default, ParamKind, ParamSpec};
 use raylab::render::{RenderOptions, render};
 use raylab::{Aabb, Geometry, Hit, Intersectable, LoadContext, PluginInfo, Ray, Registry};
 use std::path::Path;

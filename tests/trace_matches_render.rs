@@ -4,9 +4,9 @@
 //! field and area lights (whose random streams must line up too).
 
 use raylab::glam::DVec3;
-use raylab::input::context::{LoadOptions, Overrides};
-use raylab::input::load::load_file;
-use raylab::input::value::{Node, Value};
+use raylab::load::context::{LoadOptions, Overrides};
+use raylab::load::loader::load_file;
+use raylab::param::value::{Node, Value};
 use raylab::render::{RenderOptions, render};
 use raylab::render::{explain_sample, pixel_samples};
 use std::path::Path;
@@ -17,8 +17,8 @@ fn quality(aa: &str) -> raylab::RenderJob {
 
 fn quality_with(aa: &str, integrator: Option<&str>) -> raylab::RenderJob {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/quality.toml");
-    let src = raylab::input::error::Source::new("test", "");
-    let text = |k: &str, v: Value| (k.to_string(), Node { value: v, loc: raylab::input::error::Loc::new(&src, 0..0) });
+    let src = raylab::param::error::Source::new("test", "");
+    let text = |k: &str, v: Value| (k.to_string(), Node { value: v, loc: raylab::param::error::Loc::new(&src, 0..0) });
     let mut render_params = vec![text("aa", Value::Str(aa.into())), text("lens_samples", Value::Int(2))];
     if aa == "adaptive" {
         render_params.push(text("aa_threshold", Value::Float(0.02)));

@@ -11,7 +11,7 @@ fuzz_target!(|data: &[u8]| {
     let options = raylab::LoadOptions::default();
     let ctx = raylab::LoadContext::new(std::path::Path::new("."), &options);
     let src = raylab::Source::new("fuzz.toml", String::new());
-    let loc = raylab::input::error::Loc::new(&src, 0..0);
+    let loc = raylab::param::error::Loc::new(&src, 0..0);
     let path = std::path::Path::new("fuzz.obj");
     let read = |chunk: usize| {
         let r = raylab_plugins::mesh::obj::read_in_chunks(&ctx, "fuzz.obj", path, bytes, false, &loc, chunk);

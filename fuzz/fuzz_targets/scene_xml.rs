@@ -9,6 +9,6 @@ fuzz_target!(|data: &[u8]| {
     let options = raylab::LoadOptions::default();
     let ctx = raylab::LoadContext::new(std::path::Path::new("."), &options);
     if let Ok(desc) = raylab_plugins::formats::report_xml::read(std::path::Path::new("fuzz.xml"), data, &ctx) {
-        let _ = raylab::input::load::build(&registry, &desc, &ctx);
+        let _ = raylab::load::loader::build(&registry, &desc, &ctx);
     }
 });

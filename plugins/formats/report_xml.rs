@@ -36,10 +36,10 @@
 //! element or attribute, a bad number, or a value a plugin rejects) names the line and column.
 
 use raylab::LoadContext;
-use raylab::input::description::SceneDescription;
-use raylab::input::error::{Loc, Result, SceneError, Source, did_you_mean};
-use raylab::input::registry::SceneFormat;
-use raylab::input::value::{Entry, Node, Table, Value};
+use raylab::load::registry::SceneFormat;
+use raylab::param::description::SceneDescription;
+use raylab::param::error::{Loc, Result, SceneError, Source, did_you_mean};
+use raylab::param::value::{Entry, Node, Table, Value};
 use roxmltree::{Attribute, Node as XmlNode};
 use std::ops::Range;
 use std::path::Path;

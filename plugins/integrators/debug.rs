@@ -1,8 +1,8 @@
 //! Debug views: `normals` (the shading normal as a colour) and `depth` (distance as grey).
 
-use raylab::input::error::Result;
-use raylab::input::params::Params;
-use raylab::input::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::error::Result;
+use raylab::param::params::Params;
+use raylab::param::spec::{Default, ParamKind, ParamSpec};
 use raylab::render::aov::Layers;
 use raylab::render::trace::{NoRecord, Recorder};
 use raylab::scene::interaction::Interaction;

@@ -1,9 +1,9 @@
 //! `ambient`: the report's AmbientLight, constant light everywhere: `color × ka`.
 
 use raylab::glam::{DVec2, DVec3};
-use raylab::input::error::Result;
-use raylab::input::params::Params;
-use raylab::input::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::error::Result;
+use raylab::param::params::Params;
+use raylab::param::spec::{Default, ParamKind, ParamSpec};
 use raylab::{Color, LightSample, LightSource, LoadContext, PluginInfo};
 
 /// Ambient light of intensity `color × ka`.

@@ -7,10 +7,10 @@
 //! stays where it is written.
 
 use raylab::glam::{DVec2, DVec3};
-use raylab::input::error::Result;
-use raylab::input::params::Params;
-use raylab::input::spec::{Default, ParamKind, ParamSpec};
-use raylab::render::sampler::{concentric_disc, orthonormal_basis};
+use raylab::math::sampler::{concentric_disc, orthonormal_basis};
+use raylab::param::error::Result;
+use raylab::param::params::Params;
+use raylab::param::spec::{Default, ParamKind, ParamSpec};
 use raylab::scene::light::LightBound;
 use raylab::{Color, LightPdf, LightSample, LightSource, LoadContext, PluginInfo, Ray};
 use std::f64::consts::PI;

@@ -48,9 +48,9 @@ use super::triangle_mesh::MeshData;
 use crate::textures::image::{self as image_texture, ColorSpace, Filter, Image, ImageTexture, Wrap};
 use raylab::geometry::transform::Transform;
 use raylab::glam::{DAffine3, DMat3, DMat4, DQuat, DVec3, Mat4};
-use raylab::input::description::SceneDescription;
-use raylab::input::error::{Loc, Result, SceneError, Source};
-use raylab::input::value::{Entry, Node, Table, Value};
+use raylab::param::description::SceneDescription;
+use raylab::param::error::{Loc, Result, SceneError, Source};
+use raylab::param::value::{Entry, Node, Table, Value};
 use raylab::scene::material::{Channel, TextureMap};
 use raylab::scene::texture::{Coords, Mapping, Texture};
 use raylab::{Aabb, Color, LoadContext, Material};
@@ -101,7 +101,7 @@ pub struct GltfFile {
     name: String,
     doc: gltf::Document,
     buffers: Vec<Vec<u8>>,
-    /// The scene's triangle limit ([`raylab::input::limits::Limits::max_triangles`]).
+    /// The scene's triangle limit ([`raylab::param::limits::Limits::max_triangles`]).
     max_triangles: u64,
     /// The JSON text (the JSON chunk of a `.glb`), for locating errors.
     json: Arc<Source>,
@@ -234,6 +234,17 @@ pub fn parse(ctx: &LoadContext, path: &str, full: &Path, bytes: Vec<u8>, loc: &L
         Ok(Err(e)) => return Err(gltf_error(&name, e)),
         Err(_) => return Err(failed()),
     };
+    // Required extensions first: the crate's validation calls a file that needs one it does not
+    // know invalid, and the file is valid, only unsupported.
+    let unsupported: Vec<&str> = gltf.document.extensions_required().filter(|e| !SUPPORTED.contains(e)).collect();
+    if !unsupported.is_empty() {
+        return Err(SceneError::in_file(
+            &name,
+            None,
+            format!("unsupported glTF extension: the file requires {}, which raylab does not read", unsupported.join(" and ")),
+        )
+        .with_help(format!("supported: {}; re-export the model without it", SUPPORTED.join(", "))));
+    }
     check_accessor_references(&name, gltf.document.as_json())?;
     let blob = gltf.blob;
     let document = match std::panic::catch_unwind(move || gltf::Document::from_json(gltf.document.into_json())) {
@@ -242,12 +253,6 @@ pub fn parse(ctx: &LoadContext, path: &str, full: &Path, bytes: Vec<u8>, loc: &L
         Err(_) => return Err(failed()),
     };
     let gltf = gltf::Gltf { document, blob };
-    for ext in gltf.document.extensions_required() {
-        if !SUPPORTED.contains(&ext) {
-            return Err(SceneError::in_file(&name, None, format!("the file requires the extension {ext}, which raylab does not support"))
-                .with_help(format!("supported: {}; re-export the model without it", SUPPORTED.join(", "))));
-        }
-    }
     let base = Path::new(path).parent().map(Path::to_path_buf).unwrap_or_default();
     let mut blob = gltf.blob;
     let mut buffers = Vec::new();
@@ -515,7 +520,7 @@ impl GltfFile {
         Ok(out)
     }
 
-    /// Refuses more than [`raylab::input::limits::Limits::max_triangles`] triangles.
+    /// Refuses more than [`raylab::param::limits::Limits::max_triangles`] triangles.
     fn check_triangles(&self, count: u64) -> Result<()> {
         if count > self.max_triangles {
             return Err(SceneError::in_file(&self.name, None, format!("{count} triangles, over the limit of {}", self.max_triangles))
@@ -1150,7 +1155,7 @@ impl Located<'_> {
 }
 
 /// Estimated bytes of one mesh instance's table in a glTF scene's description (its located
-/// `type`, `file` and `node` entries), charged to [`raylab::input::limits::Limits::max_memory`] before
+/// `type`, `file` and `node` entries), charged to [`raylab::param::limits::Limits::max_memory`] before
 /// the description is built; each instance is charged again as an object when it is built.
 pub const INSTANCE_DESCRIPTION_BYTES: u64 = 1536;
 
@@ -1186,7 +1191,7 @@ pub fn scene_description(file: &GltfFile, file_name: &str, name: String, ctx: &L
         None,
     )
     .map_err(|mut e| {
-        e.location = raylab::input::error::Location::File { path: file.name.clone(), line_col: None };
+        e.location = raylab::param::error::Location::File { path: file.name.clone(), line_col: None };
         e
     })?;
     let doc = Loc::new(&file.json, 0..0);
@@ -1251,7 +1256,7 @@ pub fn scene_description(file: &GltfFile, file_name: &str, name: String, ctx: &L
             at.table(vec![("position", at.vec3(center + dir * dist)), ("look_at", at.vec3(center)), ("fov", at.float(40.0))])
         }
     };
-    root.push(("render", at.table(vec![("width", at.node(Value::Int(width))), ("height", at.node(Value::Int(height.into())))])));
+    root.push(("render", super::model_scene::render(&super::model_scene::At(&doc), width, height.into())));
     root.push(("camera", camera_table));
 
     // Objects: one per node with a mesh.
@@ -1313,13 +1318,7 @@ pub fn scene_description(file: &GltfFile, file_name: &str, name: String, ctx: &L
     }
     if lights.is_empty() {
         // The file has no KHR_lights_punctual lights: a sun and an ambient term.
-        lights.push(at.table(vec![
-            ("type", at.str("directional")),
-            ("name", at.str("sun")),
-            ("direction", at.vec3(DVec3::new(-0.4, -1.0, -0.6))),
-            ("color", at.float(1.0)),
-        ]));
-        lights.push(at.table(vec![("type", at.str("ambient")), ("name", at.str("sky")), ("ka", at.float(0.15))]));
+        lights = super::model_scene::default_lights(&super::model_scene::At(&doc), &file.name, ctx);
     }
     root.push(("light", at.node(Value::Array(lights))));
     let Value::Table(root) = at.table(root).value else { unreachable!("built as a table") };
@@ -1383,13 +1382,13 @@ mod tests {
     }
 
     /// Writes `text` as `name` in a fresh temporary folder and loads it as a scene.
-    fn load_scene(name: &str, text: &str, limits: raylab::input::limits::Limits) -> (Result<raylab::RenderJob>, std::path::PathBuf) {
+    fn load_scene(name: &str, text: &str, limits: raylab::param::limits::Limits) -> (Result<raylab::RenderJob>, std::path::PathBuf) {
         let dir = std::env::temp_dir().join(format!("raylab-gltf-{}-{name}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join(name);
         std::fs::write(&path, text).unwrap();
         let options = raylab::LoadOptions { limits, ..raylab::LoadOptions::default() };
-        let job = raylab::input::load::load_file(&crate::registry(), &path, &options);
+        let job = raylab::load::loader::load_file(&crate::registry(), &path, &options);
         let _ = std::fs::remove_dir_all(&dir);
         (job, path)
     }
@@ -1412,12 +1411,12 @@ mod tests {
         const N: usize = 300_000;
         let nodes: Vec<String> = (0..N).map(|i| format!("{{\"mesh\":0,\"translation\":[{},{},0]}}", i % 1000, i / 1000)).collect();
         let text = doc(&format!("[{}]", nodes.join(",")), "");
-        let (job, _) = load_scene("many.gltf", &text, raylab::input::limits::Limits::default());
+        let (job, _) = load_scene("many.gltf", &text, raylab::param::limits::Limits::default());
         let job = job.unwrap();
         assert_eq!(job.scene.objects.len(), N);
         let builds = job.scene.accel_summary().object_builds;
         assert!(builds.primitives <= 1, "the triangle was indexed {} times", builds.primitives);
-        let limits = raylab::input::limits::Limits { max_triangles: N as u64 - 1, ..raylab::input::limits::Limits::default() };
+        let limits = raylab::param::limits::Limits { max_triangles: N as u64 - 1, ..raylab::param::limits::Limits::default() };
         let e = load_scene("many.gltf", &text, limits).0.err().unwrap();
         assert!(
             e.message.contains(&format!("{N} mesh instances")) && e.help.as_deref().is_some_and(|h| h.contains("--max-triangles")),
@@ -1451,7 +1450,7 @@ mod tests {
             ),
         ];
         for (i, (text, want, line)) in cases.iter().enumerate() {
-            let (job, path) = load_scene(&format!("bad{i}.gltf"), text, raylab::input::limits::Limits::default());
+            let (job, path) = load_scene(&format!("bad{i}.gltf"), text, raylab::param::limits::Limits::default());
             let e = job.err().unwrap_or_else(|| panic!("case {i} loaded"));
             assert!(e.message.contains(want), "case {i}: {}", e.report());
             let at = e.where_().unwrap();
@@ -1472,7 +1471,7 @@ mod tests {
             r#""meshes":[{"primitives":[{"attributes":{"POSITION":0},"material":0}]},{"primitives":[{"attributes":{"POSITION":0},"mode":1},{"attributes":{"POSITION":0},"mode":0},{"attributes":{"POSITION":0},"material":1}]}]"#,
             1,
         );
-        let job = load_scene("textured.gltf", &text, raylab::input::limits::Limits::default()).0.unwrap();
+        let job = load_scene("textured.gltf", &text, raylab::param::limits::Limits::default()).0.unwrap();
         let w: Vec<String> = job.warnings.iter().map(|w| w.message.clone()).collect();
         let has = |s: &str| w.iter().filter(|m| m.contains(s)).count();
         assert_eq!(has("2 material(s) use a normalTexture"), 1, "{w:?}");
@@ -1487,15 +1486,17 @@ mod tests {
     }
 
     /// The Khronos textured box samples its logo, from the PNG beside the .gltf and from the
-    /// .glb's own buffer alike, without a warning: sky blue at the image's top, green below.
+    /// .glb's own buffer alike, without a warning about them: sky blue at the image's top, green below.
     #[test]
     fn the_textured_box_samples_its_logo() {
         use raylab::scene::texture::TexturePoint;
         let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/assets");
         for file in ["BoxTextured.gltf", "BoxTextured.glb"] {
             let options = raylab::LoadOptions::default();
-            let job = raylab::input::load::load_file(&crate::registry(), &assets.join(file), &options).unwrap();
-            assert!(job.warnings.is_empty(), "{file}: {:?}", job.warnings);
+            let job = raylab::load::loader::load_file(&crate::registry(), &assets.join(file), &options).unwrap();
+            // The one warning: it has no lights of its own (the default rig lights it).
+            let warnings: Vec<_> = job.warnings.iter().filter(|w| !w.message.contains("has no lights")).collect();
+            assert!(warnings.is_empty(), "{file}: {warnings:?}");
             let m = &job.scene.objects[0].materials()[0];
             assert_eq!(m.textures.len(), 1, "{file}: the base colour (a dielectric: kd only)");
             assert_eq!(m.textures[0].channel, Channel::Kd);

@@ -13,12 +13,12 @@ pub mod triangulate;
 use raylab::geometry::transform::{Transform, Transformed};
 use raylab::geometry::{Geometry, Hit, Intersectable, Surface, SurfacePdf, SurfaceSample, by_components, face_forward};
 use raylab::glam::{DVec2, DVec3};
-use raylab::input::error::{Loc, Result, SceneError};
-use raylab::input::params::Params;
-use raylab::input::registry::SceneFormat;
-use raylab::input::spec::{Default, ParamKind, ParamSpec};
-use raylab::input::value::Value;
-use raylab::{Aabb, LoadContext, Material, PluginInfo, Ray, Registry};
+use raylab::load::registry::{BuiltGeometry, SceneFormat};
+use raylab::param::error::{Loc, Result, SceneError};
+use raylab::param::params::Params;
+use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::value::Value;
+use raylab::{Aabb, LoadContext, PluginInfo, Ray, Registry};
 use std::sync::Arc;
 use triangle_mesh::{Normals, TriangleMesh};
 
@@ -51,16 +51,99 @@ pub const INFO: PluginInfo = PluginInfo {
 
 /// Registers the `mesh` geometry and the glTF scene format.
 pub fn register(r: &mut Registry) {
-    r.add_geometry(INFO, build);
+    r.add_geometry_with_materials(INFO, build);
     r.add_format(SceneFormat {
         extensions: &["gltf", "glb"],
         summary: "glTF 2.0 as a whole scene: meshes placed by their nodes, PBR materials mapped to Phong, the first camera, KHR_lights_punctual lights",
         read: Arc::new(gltf::read_scene),
     });
+    r.add_format(SceneFormat {
+        extensions: &["obj"],
+        summary: "an OBJ model (with its .mtl) as a whole scene: the mesh, a camera that frames it, a default sun and sky",
+        read: Arc::new(obj_scene),
+    });
 }
 
-/// Builds a mesh object from its parameters.
-pub fn build(p: &mut Params, ctx: &LoadContext) -> Result<Box<dyn Geometry>> {
+/// What a model file rendered as a scene gets that the file does not say: its `[render]` table
+/// (the showcase's anti-aliasing, so silhouettes are smooth) and, when the file has no lights,
+/// a sun and an ambient sky, announced by a warning.
+pub mod model_scene {
+    use raylab::LoadContext;
+    use raylab::glam::DVec3;
+    use raylab::param::error::{Loc, SceneError};
+    use raylab::param::value::{Entry, Node, Table, Value};
+
+    /// Direction the default sun's light travels.
+    pub const SUN_DIRECTION: DVec3 = DVec3::new(-0.4, -1.0, -0.6);
+    /// The default sky's ambient factor.
+    pub const SKY_KA: f64 = 0.15;
+
+    /// Builds located values (each at `loc`).
+    pub struct At<'a>(pub &'a Loc);
+
+    impl At<'_> {
+        pub fn node(&self, value: Value) -> Node {
+            Node { value, loc: self.0.clone() }
+        }
+        pub fn float(&self, v: f64) -> Node {
+            self.node(Value::Float(v))
+        }
+        pub fn vec3(&self, v: DVec3) -> Node {
+            self.node(Value::Array(v.to_array().into_iter().map(|c| self.float(c)).collect()))
+        }
+        pub fn str(&self, s: &str) -> Node {
+            self.node(Value::Str(s.to_string()))
+        }
+        pub fn table(&self, entries: Vec<(&str, Node)>) -> Node {
+            let entries = entries.into_iter().map(|(key, value)| Entry { key: key.to_string(), key_loc: self.0.clone(), value }).collect();
+            self.node(Value::Table(Table { entries }))
+        }
+    }
+
+    /// `[render]` of a model scene: `width × height`, adaptive anti-aliasing.
+    pub fn render(at: &At, width: i64, height: i64) -> Node {
+        at.table(vec![("width", at.node(Value::Int(width))), ("height", at.node(Value::Int(height))), ("aa", at.str("adaptive"))])
+    }
+
+    /// The default lights of a model without its own, and the one-line warning that says so.
+    pub fn default_lights(at: &At, file: &str, ctx: &LoadContext) -> Vec<Node> {
+        ctx.warn(SceneError::in_file(file, None, "the file has no lights: it is lit by a default sun and an ambient sky"));
+        vec![
+            at.table(vec![
+                ("type", at.str("directional")),
+                ("name", at.str("sun")),
+                ("direction", at.vec3(SUN_DIRECTION)),
+                ("color", at.float(1.0)),
+            ]),
+            at.table(vec![("type", at.str("ambient")), ("name", at.str("sky")), ("ka", at.float(SKY_KA))]),
+        ]
+    }
+}
+
+/// An OBJ file as a scene: the whole file as one `mesh` object (its MTL materials), a camera
+/// fitted to it, the default sun and sky. An OBJ file holds no camera or light.
+pub fn obj_scene(path: &std::path::Path, _bytes: &[u8], ctx: &LoadContext) -> Result<raylab::param::description::SceneDescription> {
+    use model_scene::At;
+    let file_name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let src = raylab::Source::new(path.display().to_string(), String::new());
+    let doc = Loc::new(&src, 0..0);
+    let at = At(&doc);
+    let camera = at.table(vec![("fit", at.node(Value::Bool(true))), ("fov", at.float(40.0))]);
+    let object = at.table(vec![("type", at.str("mesh")), ("file", at.str(&file_name))]);
+    let root = at.table(vec![
+        ("background", at.vec3(raylab::glam::DVec3::splat(0.1))),
+        ("render", model_scene::render(&at, 800, 600)),
+        ("camera", camera),
+        ("object", at.node(Value::Array(vec![object]))),
+        ("light", at.node(Value::Array(model_scene::default_lights(&at, &path.display().to_string(), ctx)))),
+    ]);
+    let Value::Table(root) = root.value else { unreachable!("built as a table") };
+    let name = path.file_stem().map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
+    Ok(raylab::param::description::SceneDescription { name, root, loc: doc })
+}
+
+/// Builds a mesh object from its parameters, with the materials its file defines.
+pub fn build(p: &mut Params, ctx: &LoadContext) -> Result<BuiltGeometry> {
     let (file, loc) = match p.node("file")? {
         Some(n) => match &n.value {
             Value::Str(s) => (s.clone(), n.loc.clone()),
@@ -105,16 +188,18 @@ pub fn build(p: &mut Params, ctx: &LoadContext) -> Result<Box<dyn Geometry>> {
     // material libraries are not read.
     let file_materials = !p.has("material");
     let mesh = load_mesh(ctx, &file, &loc, selection, normals, file_materials).map_err(|e| e.context(p.what()))?;
+    let materials = mesh.materials().cloned();
     let object = MeshObject::new(mesh);
-    Ok(match placement {
+    let geometry: Box<dyn Geometry> = match placement {
         Some(t) => Box::new(Transformed::new(object, t)),
         None => Box::new(object),
-    })
+    };
+    Ok(BuiltGeometry { geometry, materials })
 }
 
 /// Estimated peak bytes per triangle of a mesh while it is indexed and once built: the decoded
 /// data, the stored triangles, shading normals, material ids and the hierarchy with its build's
-/// scratch space (charged to [`raylab::input::limits::Limits::max_memory`] before the index is built;
+/// scratch space (charged to [`raylab::param::limits::Limits::max_memory`] before the index is built;
 /// measured: about 360 for the 1.1 M-triangle bunny).
 pub const MESH_BYTES_PER_TRIANGLE: u64 = 384;
 
@@ -243,9 +328,6 @@ impl Geometry for MeshObject {
     /// coordinates.
     fn uv(&self, at: &Hit) -> DVec2 {
         self.mesh.interpolated_uv(at).unwrap_or(at.uv)
-    }
-    fn materials(&self) -> Option<Arc<[Material]>> {
-        self.mesh.materials().cloned()
     }
     fn bounds(&self) -> Option<Aabb> {
         Some(self.mesh.bounds())

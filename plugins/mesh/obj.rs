@@ -36,7 +36,7 @@ use super::triangle_mesh::MeshData;
 use super::triangulate::triangulate_into;
 use crate::textures::image::{self as image_texture, ColorSpace, Filter, ImageTexture, Wrap};
 use raylab::glam::{DAffine3, DVec3, Vec3};
-use raylab::input::error::{Loc, Result, SceneError};
+use raylab::param::error::{Loc, Result, SceneError};
 use raylab::scene::material::{Channel, TextureMap};
 use raylab::scene::texture::{Coords, Mapping};
 use raylab::{Color, LoadContext, Material};
@@ -1337,7 +1337,7 @@ mod tests {
     use super::*;
 
     fn here() -> Loc {
-        Loc::new(&raylab::input::error::Source::new("scene.toml", "file = \"m.obj\""), 7..14)
+        Loc::new(&raylab::param::error::Source::new("scene.toml", "file = \"m.obj\""), 7..14)
     }
 
     /// A fresh folder under the system's temporary one holding `files`.
@@ -1363,7 +1363,7 @@ mod tests {
         }
         obj.push_str("usemtl wood\nf 1 2 3\n");
         let dir = folder("mtllib", &[("m.mtl", mtl), ("m.obj", obj.as_bytes())]);
-        let options = raylab::input::context::LoadOptions::default();
+        let options = raylab::load::context::LoadOptions::default();
         let ctx = LoadContext::new(&dir, &options);
         let data = read(&ctx, "m.obj", &dir.join("m.obj"), obj.as_bytes(), true, &here()).unwrap();
         assert_eq!(data.materials.len(), 2, "each material once");
@@ -1393,13 +1393,13 @@ mod tests {
             obj.push_str("usemtl a\n");
         }
         obj.push_str(" mtllib m.mtl\n\x0cusemtl b\n");
-        let limits = raylab::input::limits::Limits { max_memory: 1 << 20, ..Default::default() };
-        let options = raylab::input::context::LoadOptions { limits, ..Default::default() };
+        let limits = raylab::param::limits::Limits { max_memory: 1 << 20, ..Default::default() };
+        let options = raylab::load::context::LoadOptions { limits, ..Default::default() };
         let ctx = LoadContext::new(Path::new("."), &options);
         let e = read(&ctx, "m.obj", Path::new("m.obj"), obj.as_bytes(), false, &here()).unwrap_err().report();
         assert!(e.contains("200002 `usemtl` and `mtllib` statements") && e.contains("--max-memory"), "{e}");
         assert_eq!(ctx.charged(), 0, "nothing counted");
-        let options = raylab::input::context::LoadOptions::default();
+        let options = raylab::load::context::LoadOptions::default();
         let ctx = LoadContext::new(Path::new("."), &options);
         read(&ctx, "m.obj", Path::new("m.obj"), obj.as_bytes(), false, &here()).unwrap();
         assert_eq!(ctx.charged(), 200_002 * EVENT_BYTES);
@@ -1438,7 +1438,7 @@ mod tests {
                 }
             }
         }
-        let options = raylab::input::context::LoadOptions::default();
+        let options = raylab::load::context::LoadOptions::default();
         let ctx = LoadContext::new(Path::new("."), &options);
         let read = |chunk: usize| {
             let d = read_in_chunks(&ctx, "m.obj", Path::new("m.obj"), text.as_bytes(), false, &here(), chunk).unwrap();
@@ -1458,7 +1458,7 @@ mod tests {
     fn a_byte_order_mark_keeps_the_first_vertex_and_quads_come_in_file_order() {
         let obj = "\u{feff}v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\nf 1 2 5\nf 1 2 3 5\nv 0 0 1\n";
         let dir = folder("bom", &[("m.obj", obj.as_bytes())]);
-        let options = raylab::input::context::LoadOptions::default();
+        let options = raylab::load::context::LoadOptions::default();
         let ctx = LoadContext::new(&dir, &options);
         let data = read(&ctx, "m.obj", &dir.join("m.obj"), obj.as_bytes(), false, &here()).unwrap();
         assert_eq!(data.positions.len(), 5, "the first line is a vertex");
@@ -1473,7 +1473,7 @@ mod tests {
         let mtl: String = (0..100).map(|i| format!("newmtl m{i}\nmap_Ns t.png\n")).collect();
         let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m3\nf 1 2 3\n";
         let dir = folder("maps", &[("m.mtl", mtl.as_bytes())]);
-        let options = raylab::input::context::LoadOptions::default();
+        let options = raylab::load::context::LoadOptions::default();
         let ctx = LoadContext::new(&dir, &options);
         read(&ctx, "m.obj", &dir.join("m.obj"), obj.as_bytes(), true, &here()).unwrap();
         let warnings: Vec<String> = ctx.take_warnings().iter().map(|w| w.report()).collect();
@@ -1514,7 +1514,7 @@ mod tests {
             "v 0 0 0\nv 1 0 0\nf 1 2 3 4\nv 1 1 0\nv 0 1 0\n",
         ];
         texts.extend(cases.iter().map(|c| c.to_string()));
-        let options = raylab::input::context::LoadOptions::default();
+        let options = raylab::load::context::LoadOptions::default();
         let ctx = LoadContext::new(Path::new("."), &options);
         for t in &texts {
             let read = read(&ctx, "t.obj", Path::new("t.obj"), t.as_bytes(), false, &here());
@@ -1545,7 +1545,7 @@ mod tests {
     #[test]
     fn texture_coordinates_defined_after_the_faces_that_use_them_are_a_warning() {
         let dir = folder("vt-after", &[]);
-        let options = raylab::input::context::LoadOptions::default();
+        let options = raylab::load::context::LoadOptions::default();
         let ctx = LoadContext::new(&dir, &options);
         let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1/1 2/2/1 3/3/1\nvt 0 0\nvt 1 0\nvt 0 1\nvn 0 0 1\nf 1/1/1 2/2/1 3/3/1\n";
         let data = read(&ctx, "m.obj", &dir.join("m.obj"), text.as_bytes(), false, &here()).unwrap();
@@ -1587,7 +1587,7 @@ mod tests {
         let bad_ahead = format!("{good}\nf 1 2 70\n");
         let non_finite = format!("{good}\nv 1 inf 2\n");
         let dir = folder("chunks", &[("m.mtl", mtl.as_bytes())]);
-        let options = raylab::input::context::LoadOptions::default();
+        let options = raylab::load::context::LoadOptions::default();
         let ctx = LoadContext::new(&dir, &options);
         let read = |text: &str, chunk: usize| {
             let r = read_in_chunks(&ctx, "m.obj", &dir.join("m.obj"), text.as_bytes(), true, &here(), chunk);
@@ -1655,7 +1655,7 @@ mod tests {
         std::fs::create_dir_all(dir.join("lib")).unwrap();
         std::fs::write(dir.join("lib/m.mtl"), "newmtl red\nKd 0.5 0.5 0.5\nmap_Kd -s 1 1 tex.png\n").unwrap();
         std::fs::write(dir.join("lib/tex.png"), png).unwrap();
-        let options = raylab::input::context::LoadOptions::default();
+        let options = raylab::load::context::LoadOptions::default();
         let ctx = LoadContext::new(&dir, &options);
         let data = read(&ctx, "m.obj", &dir.join("m.obj"), obj.as_bytes(), true, &here()).unwrap();
         assert!(ctx.take_warnings().is_empty());

@@ -28,8 +28,8 @@ use raylab::accel::bvh::{PAD_SLOT, PrimitiveIndex};
 use raylab::accel::{AccelChoice, BuildStats, MESH_BVH_THRESHOLD};
 use raylab::geometry::Hit;
 use raylab::geometry::sampling::uniform_triangle;
-use raylab::math::distribution::AliasTable;
 use raylab::glam::{BVec4A, DVec2, DVec3, Vec2, Vec3, Vec4};
+use raylab::math::distribution::AliasTable;
 use raylab::math::float::{gamma, on_surface_slack};
 use raylab::{Aabb, Ray};
 use rayon::prelude::*;
@@ -687,7 +687,7 @@ fn closed(tris: impl Iterator<Item = [f32; 9]>) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use raylab::render::sampler::mix64;
+    use raylab::math::sampler::mix64;
 
     /// Uniform numbers in [0, 1) from a counter.
     struct Rng(u64);

@@ -11,12 +11,12 @@
 
 use raylab::geometry::{Geometry, Hit, Intersectable, SurfacePdf, SurfaceSample};
 use raylab::glam::{DVec2, DVec3};
-use raylab::input::error::Result;
-use raylab::input::params::Params;
-use raylab::input::spec::{Default, ParamKind, ParamSpec};
 use raylab::math::bounds::circle_extent;
 use raylab::math::float::{gamma, max_abs, on_surface_slack};
-use raylab::render::sampler::concentric_disc;
+use raylab::math::sampler::concentric_disc;
+use raylab::param::error::Result;
+use raylab::param::params::Params;
+use raylab::param::spec::{Default, ParamKind, ParamSpec};
 use raylab::{Aabb, LoadContext, PluginInfo, Ray};
 use std::f64::consts::TAU;
 

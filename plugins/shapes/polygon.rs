@@ -10,10 +10,10 @@ use super::triangle::barycentric_point;
 use raylab::geometry::sampling::uniform_triangle;
 use raylab::geometry::{Geometry, Hit, Intersectable, SurfacePdf, SurfaceSample};
 use raylab::glam::{DVec2, DVec3};
-use raylab::input::error::Result;
-use raylab::input::params::Params;
-use raylab::input::spec::{Default, ParamKind, ParamSpec};
 use raylab::math::float::DEGENERACY_TOLERANCE;
+use raylab::param::error::Result;
+use raylab::param::params::Params;
+use raylab::param::spec::{Default, ParamKind, ParamSpec};
 use raylab::{Aabb, LoadContext, PluginInfo, Ray};
 
 /// Relative tolerance of the coplanarity check: every vertex must lie within this fraction of

@@ -24,7 +24,7 @@ use super::triangle::{EdgeRule, Triangle};
 use raylab::Ray;
 use raylab::geometry::{Geometry, Hit};
 use raylab::glam::DVec3;
-use raylab::render::sampler::mix64;
+use raylab::math::sampler::mix64;
 use std::f64::consts::TAU;
 
 /// What the geometry of a shape allows a ray leaving it to do.

@@ -7,10 +7,10 @@ use super::hemisphere::Hemisphere;
 use super::polygon::Polygon;
 use super::sphere::Sphere;
 use super::triangle::Triangle;
+use raylab::Geometry;
 use raylab::geometry::sampling::{SamplingCheck, check_surface_sampling};
 use raylab::geometry::transform::{Transform, Transformed};
 use raylab::glam::{DAffine3, DMat3, DQuat, DVec2, DVec3};
-use raylab::Geometry;
 
 /// Significance under which a χ² test fails (fixed seeds: a failure is reproducible).
 const SIGNIFICANCE: f64 = 1e-4;
@@ -51,7 +51,10 @@ fn check_histogram(g: &dyn Geometry, reference: DVec3, seed: u64) -> SamplingChe
 #[test]
 fn a_sphere_is_sampled_by_its_cone_and_from_inside_by_area() {
     let g = Sphere::new(DVec3::new(0.3, 1.0, -0.2), 0.7);
-    for (i, p) in [DVec3::new(0.0, 5.0, 1.0), DVec3::new(1.2, 1.1, -0.3), DVec3::new(0.5, 0.8, 0.0), DVec3::new(40.0, 0.0, 3.0)].into_iter().enumerate() {
+    for (i, p) in [DVec3::new(0.0, 5.0, 1.0), DVec3::new(1.2, 1.1, -0.3), DVec3::new(0.5, 0.8, 0.0), DVec3::new(40.0, 0.0, 3.0)]
+        .into_iter()
+        .enumerate()
+    {
         check(&g, p, i as u64);
     }
 }
@@ -59,11 +62,18 @@ fn a_sphere_is_sampled_by_its_cone_and_from_inside_by_area() {
 #[test]
 fn flat_shapes_are_sampled_by_area() {
     let t = Triangle::new(DVec3::ZERO, DVec3::new(1.0, 0.2, 0.0), DVec3::new(0.3, 0.1, 1.4)).unwrap();
-    let quad = Polygon::new(vec![DVec3::new(-1.0, 0.0, -0.5), DVec3::new(1.0, 0.0, -0.5), DVec3::new(1.0, 0.0, 0.5), DVec3::new(-1.0, 0.0, 0.5)]).unwrap();
-    let hexagon = Polygon::new((0..6).map(|k| {
-        let a = k as f64 * std::f64::consts::TAU / 6.0 + 0.1 * (k % 2) as f64;
-        DVec3::new(a.cos() * (1.0 + 0.3 * (k % 3) as f64), 0.5, a.sin())
-    }).collect()).unwrap();
+    let quad =
+        Polygon::new(vec![DVec3::new(-1.0, 0.0, -0.5), DVec3::new(1.0, 0.0, -0.5), DVec3::new(1.0, 0.0, 0.5), DVec3::new(-1.0, 0.0, 0.5)])
+            .unwrap();
+    let hexagon = Polygon::new(
+        (0..6)
+            .map(|k| {
+                let a = k as f64 * std::f64::consts::TAU / 6.0 + 0.1 * (k % 2) as f64;
+                DVec3::new(a.cos() * (1.0 + 0.3 * (k % 3) as f64), 0.5, a.sin())
+            })
+            .collect(),
+    )
+    .unwrap();
     for (i, p) in [DVec3::new(0.2, 1.0, 0.3), DVec3::new(0.4, -0.6, 2.0), DVec3::new(3.0, 2.0, 0.0)].into_iter().enumerate() {
         check(&t, p, 10 + i as u64);
         check(&quad, p, 20 + i as u64);
@@ -88,10 +98,17 @@ fn curved_open_and_capped_shapes_are_sampled_by_area() {
 fn transformed_shapes_keep_their_densities() {
     let rotate = DMat3::from_quat(DQuat::from_axis_angle(DVec3::new(1.0, 2.0, 0.5).normalize(), 0.8));
     let similar = Transform::new(DAffine3::from_mat3_translation(rotate * 1.7, DVec3::new(0.5, -1.0, 2.0))).unwrap();
-    let stretch = Transform::new(DAffine3::from_mat3_translation(rotate * DMat3::from_diagonal(DVec3::new(2.0, 0.5, 1.0)), DVec3::new(0.0, 1.0, 0.0))).unwrap();
+    let stretch = Transform::new(DAffine3::from_mat3_translation(
+        rotate * DMat3::from_diagonal(DVec3::new(2.0, 0.5, 1.0)),
+        DVec3::new(0.0, 1.0, 0.0),
+    ))
+    .unwrap();
     assert!(similar.is_similarity() && !stretch.is_similarity());
     let sphere = || Sphere::new(DVec3::new(0.1, 0.2, 0.0), 0.6);
-    let quad = || Polygon::new(vec![DVec3::new(-1.0, 0.0, -0.5), DVec3::new(1.0, 0.0, -0.5), DVec3::new(1.0, 0.0, 0.5), DVec3::new(-1.0, 0.0, 0.5)]).unwrap();
+    let quad = || {
+        Polygon::new(vec![DVec3::new(-1.0, 0.0, -0.5), DVec3::new(1.0, 0.0, -0.5), DVec3::new(1.0, 0.0, 0.5), DVec3::new(-1.0, 0.0, 0.5)])
+            .unwrap()
+    };
     for (i, p) in [DVec3::new(3.0, 2.0, 4.0), DVec3::new(0.3, 1.4, 2.2)].into_iter().enumerate() {
         let seed = 60 + 4 * i as u64;
         check(&Transformed::new(sphere(), similar), p, seed);
@@ -136,4 +153,3 @@ fn the_check_rejects_a_wrong_density() {
     let r = check_surface_sampling(&g, DVec3::new(0.0, 0.0, 2.5), SAMPLES, (16, 32), || DVec2::new(next(), next()));
     assert!(r.p_value < SIGNIFICANCE, "{r:?}");
 }
-

@@ -9,10 +9,10 @@
 use raylab::geometry::sampling::{NARROW_CONE_SIN2, cone_solid_angle, uniform_sphere};
 use raylab::geometry::{Geometry, Hit, Intersectable, SurfacePdf, SurfaceSample};
 use raylab::glam::{DVec2, DVec3};
-use raylab::input::error::Result;
-use raylab::input::params::Params;
-use raylab::input::spec::{Default, ParamKind, ParamSpec};
 use raylab::math::float::{gamma, max_abs};
+use raylab::param::error::Result;
+use raylab::param::params::Params;
+use raylab::param::spec::{Default, ParamKind, ParamSpec};
 use raylab::{Aabb, LoadContext, PluginInfo, Ray};
 use std::f64::consts::{PI, TAU};
 
@@ -172,7 +172,7 @@ impl Geometry for Sphere {
         let cos_alpha = sin2_theta / sin_max + cos_theta * (1.0 - sin2_theta / sin2_max).max(0.0).sqrt();
         let sin_alpha = (1.0 - cos_alpha * cos_alpha).max(0.0).sqrt();
         let w = -to_centre / d2.sqrt();
-        let (b1, b2) = raylab::render::sampler::orthonormal_basis(w);
+        let (b1, b2) = raylab::math::sampler::orthonormal_basis(w);
         let (s, c) = (TAU * u.y).sin_cos();
         let n = (b1 * c + b2 * s) * sin_alpha + w * cos_alpha;
         let local = self.radius * n;

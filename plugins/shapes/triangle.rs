@@ -8,12 +8,12 @@
 //! hits, and the test's consistent edge functions then make shared edges watertight.
 
 use raylab::geometry::sampling::uniform_triangle;
-use raylab::geometry::{SurfacePdf, SurfaceSample, Geometry, Hit, Intersectable};
+use raylab::geometry::{Geometry, Hit, Intersectable, SurfacePdf, SurfaceSample};
 use raylab::glam::{DVec2, DVec3};
-use raylab::input::error::Result;
-use raylab::input::params::Params;
-use raylab::input::spec::{Default, ParamKind, ParamSpec};
 use raylab::math::float::{DEGENERACY_TOLERANCE, gamma, on_surface_slack, triangle_normal};
+use raylab::param::error::Result;
+use raylab::param::params::Params;
+use raylab::param::spec::{Default, ParamKind, ParamSpec};
 use raylab::{Aabb, LoadContext, PluginInfo, Ray};
 
 /// Whether a ray exactly through an edge or vertex counts as a hit.

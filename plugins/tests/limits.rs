@@ -3,9 +3,9 @@
 //! by `--max-triangles`; and meshes whose coordinates are too large for a hierarchy.
 #![cfg(feature = "mesh")]
 
-use raylab::input::context::LoadOptions;
-use raylab::input::limits::Limits;
-use raylab::input::load::load_str;
+use raylab::load::context::LoadOptions;
+use raylab::load::loader::load_str;
+use raylab::param::limits::Limits;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -65,7 +65,7 @@ fn a_gltf_scene_with_many_instances_is_refused_by_the_memory_budget() {
     let registry = raylab_plugins::registry();
     let load = |max_memory| {
         let options = LoadOptions { limits: Limits { max_memory, ..Limits::default() }, ..LoadOptions::default() };
-        raylab::input::load::load_file(&registry, &dir.join("many.gltf"), &options)
+        raylab::load::loader::load_file(&registry, &dir.join("many.gltf"), &options)
     };
     let e = load(4 << 20).err().expect("4096 instances over a 4 MiB budget");
     assert!(e.message.contains("4096 mesh instances") && e.message.contains("over the limit of 4 MB"), "{}", e.report());
@@ -82,7 +82,7 @@ fn a_million_spheres_are_refused_by_a_small_memory_budget() {
     for i in 0..1_000_000 {
         text.push_str(&format!("[[object]]\ntype=\"sphere\"\ncenter=[{},{},0]\nradius=0.3\n", i % 1000, i / 1000));
     }
-    let estimate = raylab::input::limits::toml_memory_estimate(text.as_bytes());
+    let estimate = raylab::param::limits::toml_memory_estimate(text.as_bytes());
     assert!(estimate > 2_000_000_000, "a million spheres take about 2.3 GB while parsed, estimated {estimate}");
     let options = LoadOptions { limits: Limits { max_memory: 1 << 30, ..Limits::default() }, ..LoadOptions::default() };
     let e = load_str(&raylab_plugins::registry(), "spheres.toml", &text, Path::new("."), &options).err().expect("over 1 GiB");
@@ -100,14 +100,14 @@ fn objects_are_charged_as_they_are_built() {
     }
     let registry = raylab_plugins::registry();
     let image = raylab::image::output::image_bytes(64, &raylab::image::output::ImagePlan::default());
-    let fits = raylab::input::limits::toml_memory_estimate(text.as_bytes()) + image;
+    let fits = raylab::param::limits::toml_memory_estimate(text.as_bytes()) + image;
     let load = |max_memory| {
         let options = LoadOptions { limits: Limits { max_memory, ..Limits::default() }, ..LoadOptions::default() };
         load_str(&registry, "spheres.toml", &text, Path::new("."), &options)
     };
-    let e = load(fits + 500 * raylab::input::limits::OBJECT_BYTES).err().expect("1000 objects over the budget");
+    let e = load(fits + 500 * raylab::param::limits::OBJECT_BYTES).err().expect("1000 objects over the budget");
     assert!(e.message.contains("object #500 (sphere)"), "{}", e.report());
-    assert!(load(fits + 1000 * raylab::input::limits::OBJECT_BYTES).is_ok());
+    assert!(load(fits + 1000 * raylab::param::limits::OBJECT_BYTES).is_ok());
 }
 
 #[test]

@@ -6,8 +6,8 @@ use proptest::prelude::*;
 use raylab::accel::AccelChoice;
 use raylab::geometry::{Geometry, Intersectable};
 use raylab::glam::DVec3;
-use raylab::input::context::LoadOptions;
-use raylab::input::load::{load_file, load_str};
+use raylab::load::context::LoadOptions;
+use raylab::load::loader::{load_file, load_str};
 use raylab::math::float::offset_ray_origin;
 use raylab::render::RenderJob;
 use raylab::{Color, Ray};
@@ -446,7 +446,7 @@ fn a_million_coincident_triangles_index_in_every_mode() {
     let l = MeshObject::new(Arc::new(list));
     for accel in [AccelChoice::Auto, AccelChoice::Bvh] {
         let mesh = TriangleMesh::new(data.clone(), Normals::Flat, accel).unwrap();
-        assert_eq!(mesh.is_bvh(), raylab::accel::bvh::BVH_AVAILABLE);
+        assert_eq!(mesh.is_bvh(), raylab::accel::build::BVH_AVAILABLE);
         let g = MeshObject::new(Arc::new(mesh));
         for (origin, t) in [(DVec3::new(0.1, 0.1, -5.0), 4.0), (DVec3::new(0.6, 0.2, -5.0), 5.0)] {
             let ray = Ray::new(origin, DVec3::Z);
@@ -468,7 +468,7 @@ fn an_obj_repeating_one_triangle_loads_with_a_hierarchy() {
         let dir = assets();
         let ctx = raylab::LoadContext::new(&dir, &options);
         let mesh = raylab_plugins::mesh::mesh_from_bytes(&ctx, "repeat.obj", "obj", obj.as_bytes()).unwrap();
-        assert_eq!((mesh.triangle_count(), mesh.is_bvh()), (n, raylab::accel::bvh::BVH_AVAILABLE));
+        assert_eq!((mesh.triangle_count(), mesh.is_bvh()), (n, raylab::accel::build::BVH_AVAILABLE));
         let g = MeshObject::new(Arc::new(mesh));
         let hit = g.intersect(&Ray::new(DVec3::new(0.25, 0.25, -2.0), DVec3::Z), 0.0, f64::INFINITY);
         assert_eq!(hit.map(|h| h.t), Some(2.0), "{accel:?}");

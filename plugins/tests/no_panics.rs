@@ -33,7 +33,7 @@ fn no_mesh_or_texture_file_in_the_fuzz_corpora_panics_even_when_caught() {
     };
     #[cfg(feature = "mesh")]
     {
-        let options = raylab::input::context::LoadOptions::default();
+        let options = raylab::load::context::LoadOptions::default();
         let ctx = raylab::LoadContext::new(Path::new("."), &options);
         for (target, ext) in [("mesh_obj", "obj"), ("mesh_gltf", "gltf")] {
             for f in corpus(target) {

@@ -2,10 +2,10 @@
 //! conversion to TOML that renders the same image, and the reference in docs/report-xml.md.
 
 use raylab::glam::DVec3;
-use raylab::input::context::{LoadContext, LoadOptions, Overrides};
-use raylab::input::description::SceneDescription;
-use raylab::input::load::{build, read_file};
-use raylab::input::value::{Node, Value};
+use raylab::load::context::{LoadContext, LoadOptions, Overrides};
+use raylab::load::loader::{build, read_file};
+use raylab::param::description::SceneDescription;
+use raylab::param::value::{Node, Value};
 use raylab::render::{RenderOptions, render};
 use raylab::{Material, RenderJob, Source};
 use raylab_plugins::formats::report_xml::{self, AttrDefault, ELEMENTS, MATERIAL_ATTRS};
@@ -32,7 +32,7 @@ fn small() -> LoadOptions {
 }
 
 fn load_path(p: &Path, opts: &LoadOptions) -> RenderJob {
-    raylab::input::load::load_file(&raylab_plugins::registry(), p, opts).unwrap_or_else(|e| panic!("{}", e.report()))
+    raylab::load::loader::load_file(&raylab_plugins::registry(), p, opts).unwrap_or_else(|e| panic!("{}", e.report()))
 }
 
 /// Parses XML text and builds it; the error when either fails.
@@ -127,7 +127,7 @@ fn converted_scenes_render_the_same_image() {
         let reg = raylab_plugins::registry();
         let a = read_file(&reg, &xml, &LoadOptions::default()).unwrap();
         let b = read_file(&reg, &toml, &LoadOptions::default()).unwrap();
-        assert!(raylab::input::toml::same_values(&a.root, &b.root), "{} converts to a different table", xml.display());
+        assert!(raylab::param::toml::same_values(&a.root, &b.root), "{} converts to a different table", xml.display());
 
         // …and the same pixels, bit for bit.
         let opts = small();
@@ -226,7 +226,7 @@ fn missing_sizes_follow_the_other_pairs_aspect() {
 #[test]
 fn the_command_line_supplies_or_overrides_the_camera() {
     let src = Source::new("--camera", "[0, 0, 50]");
-    let node: Node = raylab::input::toml::parse_toml_value(&src, 0..src.text.len()).unwrap();
+    let node: Node = raylab::param::toml::parse_toml_value(&src, 0..src.text.len()).unwrap();
     let opts = LoadOptions {
         overrides: Overrides { camera_params: vec![("position".into(), node)], ..Overrides::default() },
         ..LoadOptions::default()
@@ -245,8 +245,8 @@ fn the_command_line_supplies_or_overrides_the_camera() {
     // Any scene format: a TOML scene without [camera] takes it from the command line.
     let reg = raylab_plugins::registry();
     let toml = "[[object]]\ntype = \"sphere\"\n";
-    assert!(raylab::input::load::load_str(&reg, "t.toml", toml, Path::new("."), &LoadOptions::default()).is_err());
-    let job = raylab::input::load::load_str(&reg, "t.toml", toml, Path::new("."), &opts).unwrap_or_else(|e| panic!("{}", e.report()));
+    assert!(raylab::load::loader::load_str(&reg, "t.toml", toml, Path::new("."), &LoadOptions::default()).is_err());
+    let job = raylab::load::loader::load_str(&reg, "t.toml", toml, Path::new("."), &opts).unwrap_or_else(|e| panic!("{}", e.report()));
     assert_eq!(job.scene.camera.to, DVec3::NEG_Z);
 }
 
@@ -274,8 +274,8 @@ fn the_binary_renders_an_xml_scene_with_a_camera_from_the_command_line() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-fn src_loc() -> raylab::input::error::Loc {
-    raylab::input::error::Loc::new(&Source::new("test", "x"), 0..1)
+fn src_loc() -> raylab::param::error::Loc {
+    raylab::param::error::Loc::new(&Source::new("test", "x"), 0..1)
 }
 
 fn num(v: f64) -> Node {
@@ -340,9 +340,9 @@ fn the_reference_in_the_docs_is_current() {
 fn a_description_reads_back_from_its_toml_exactly() {
     for xml in report_scenes() {
         let a: SceneDescription = read_file(&raylab_plugins::registry(), &xml, &LoadOptions::default()).unwrap();
-        let text = raylab::input::toml::to_toml(&a, "header");
-        let b = raylab::input::toml::parse_toml(&Source::new("x.toml", text.clone()), "x".into()).unwrap();
-        assert!(raylab::input::toml::same_values(&a.root, &b.root), "{}:\n{text}", xml.display());
+        let text = raylab::param::toml::to_toml(&a, "header");
+        let b = raylab::param::toml::parse_toml(&Source::new("x.toml", text.clone()), "x".into()).unwrap();
+        assert!(raylab::param::toml::same_values(&a.root, &b.root), "{}:\n{text}", xml.display());
     }
 }
 

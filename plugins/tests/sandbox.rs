@@ -4,9 +4,9 @@
 #![cfg(all(feature = "mesh", unix))]
 
 use proptest::prelude::*;
-use raylab::input::context::LoadOptions;
-use raylab::input::files::OpenLog;
-use raylab::input::load::load_file;
+use raylab::load::context::LoadOptions;
+use raylab::load::loader::load_file;
+use raylab::param::files::OpenLog;
 use std::os::unix::fs::symlink;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};

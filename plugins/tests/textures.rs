@@ -2,9 +2,9 @@
 //! however often they are used, through the sandbox and the limits, with errors that name the
 //! file, the texture and the material colour.
 
-use raylab::input::context::LoadOptions;
-use raylab::input::files::OpenLog;
-use raylab::input::load::load_file;
+use raylab::load::context::LoadOptions;
+use raylab::load::loader::load_file;
+use raylab::param::files::OpenLog;
 use raylab::{RenderJob, SceneError};
 use std::path::{Path, PathBuf};
 

@@ -161,14 +161,14 @@ fn the_server_answers_only_its_own_host_and_token() {
 
 #[test]
 fn the_pages_samples_replace_the_command_lines_and_a_bad_count_is_located_at_its_control() {
-    use raylab::input::context::{LoadOptions, Overrides};
+    use raylab::load::context::{LoadOptions, Overrides};
     use raylab::view::knobs::{Settings, options};
     let registry = raylab_plugins::registry();
     let base = LoadOptions { overrides: Overrides { spp: Some(3), ..Overrides::default() }, ..LoadOptions::default() };
     let scene = "[render]\nspp = 2\n[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n";
     let load = |spp| {
         let o = options(&base, &Settings { spp: Some(spp), ..Settings::default() }, &registry).unwrap();
-        raylab::input::load::load_str(&registry, "page.toml", scene, Path::new("."), &o)
+        raylab::load::loader::load_str(&registry, "page.toml", scene, Path::new("."), &o)
     };
     assert_eq!(load(5).ok().map(|job| job.settings.spp), Some(5));
     let Err(e) = load(0) else { panic!("0 samples per pixel loaded") };

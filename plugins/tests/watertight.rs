@@ -9,7 +9,7 @@ use raylab::Ray;
 use raylab::accel::AccelChoice;
 use raylab::geometry::{Geometry, Intersectable};
 use raylab::glam::DVec3;
-use raylab::render::sampler::mix64;
+use raylab::math::sampler::mix64;
 use raylab_plugins::mesh::MeshObject;
 use raylab_plugins::mesh::triangle_mesh::{MeshData, Normals, TriangleMesh};
 use std::f64::consts::TAU;

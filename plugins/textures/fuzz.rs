@@ -5,14 +5,14 @@
 //! `tests/fuzz_corpus.rs` and `plugins/tests/no_panics.rs`.
 //!
 //! The limits are [`limits`], small enough that a file declaring a large image is refused cheaply
-//! and that the fuzzer's allocation limit (`-malloc_limit_mb`, see the README) catches any
+//! and that the fuzzer's allocation limit (`-malloc_limit_mb`, see docs/robustness.md) catches any
 //! allocation the budget does not cover.
 
 use super::image::{ColorSpace, Filter, Wrap, decode};
 use raylab::LoadContext;
 use raylab::glam::DVec2;
-use raylab::input::context::LoadOptions;
-use raylab::input::limits::Limits;
+use raylab::load::context::LoadOptions;
+use raylab::param::limits::Limits;
 
 /// The limits the images are read under: 2²⁰ pixels, 4096 per side, 64 MiB of memory, the
 /// defaults otherwise.

@@ -3,18 +3,18 @@
 //! `v = 0`), filtered bilinearly or by nearest texel, wrapped per axis.
 //!
 //! Files are read through the scene's sandbox and size limit ([`LoadContext::read_file`]).
-//! The header is read first: an image of more than [`raylab::input::limits::Limits::max_pixels`]
+//! The header is read first: an image of more than [`raylab::param::limits::Limits::max_pixels`]
 //! pixels, or wider or taller than `max_side`, is refused before anything is decoded (no
 //! decompression bomb), and the decoded size is charged to the memory budget before it is
 //! allocated. An image named by several textures, materials or mesh files is decoded once per
-//! scene ([`raylab::input::context::AssetCache`]). 8-bit images keep 3 bytes per texel and are
+//! scene ([`raylab::load::context::AssetCache`]). 8-bit images keep 3 bytes per texel and are
 //! decoded to linear through a table; others are kept as linear `f32`. Alpha is ignored.
 
 use raylab::glam::{DVec2, Vec3};
-use raylab::input::error::{Loc, Result, SceneError};
-use raylab::input::params::Params;
-use raylab::input::spec::{Default, ParamKind, ParamSpec};
 use raylab::math::color::srgb_decode;
+use raylab::param::error::{Loc, Result, SceneError};
+use raylab::param::params::Params;
+use raylab::param::spec::{Default, ParamKind, ParamSpec};
 use raylab::scene::texture::{Mapping, TRANSFORM_PARAM, Texture, TexturePoint};
 use raylab::{Color, LoadContext, PluginInfo};
 use std::io::Cursor;
@@ -48,7 +48,7 @@ pub const INFO: PluginInfo = PluginInfo {
 pub fn build(p: &mut Params, ctx: &LoadContext) -> Result<Arc<dyn Texture>> {
     let (file, loc) = match p.node("file")? {
         Some(n) => match &n.value {
-            raylab::input::value::Value::Str(s) => (s.clone(), n.loc.clone()),
+            raylab::param::value::Value::Str(s) => (s.clone(), n.loc.clone()),
             v => return Err(p.error_at("file", format_args!("expected a path (a string), found {}", v.type_name()))),
         },
         None => return Err(p.error("missing required parameter `file` (path)")),
@@ -233,7 +233,7 @@ pub fn load(ctx: &LoadContext, path: &str, loc: &Loc, space: ColorSpace) -> Resu
 /// Decodes image file `bytes` (named `name` in messages): the header is checked against the
 /// size limits and the decoded size charged to the memory budget before decoding. Never panics.
 pub fn decode(bytes: &[u8], name: &str, space: ColorSpace, ctx: &LoadContext) -> Result<Image> {
-    use raylab::input::limits::Limits;
+    use raylab::param::limits::Limits;
     let fail = |msg: String| SceneError::in_file(name, None, msg);
     let reader =
         image::ImageReader::new(Cursor::new(bytes)).with_guessed_format().map_err(|e| fail(format!("cannot read the image: {e}")))?;
@@ -393,7 +393,7 @@ mod tests {
         options.limits.max_memory = 1000;
         let e = ctx_decode(&big, ColorSpace::Auto, &options).unwrap_err();
         assert!(e.report().contains("over the limit"), "{}", e.report());
-        options.limits = raylab::input::limits::Limits { max_pixels: 100, ..std::default::Default::default() };
+        options.limits = raylab::param::limits::Limits { max_pixels: 100, ..std::default::Default::default() };
         let e = ctx_decode(&big, ColorSpace::Auto, &options).unwrap_err();
         assert!(e.report().contains("64×64 = 4096 pixels, over the limit of 100"), "{}", e.report());
     }

@@ -7,9 +7,9 @@
 //! half a cell (`transform = { translate = [0, 0.5, 0] }`) or lay it over uv.
 
 use raylab::glam::DVec3;
-use raylab::input::error::Result;
-use raylab::input::params::Params;
-use raylab::input::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::error::Result;
+use raylab::param::params::Params;
+use raylab::param::spec::{Default, ParamKind, ParamSpec};
 use raylab::scene::texture::{COORDS_PARAM, Mapping, TRANSFORM_PARAM, Texture, TexturePoint};
 use raylab::{Color, LoadContext, PluginInfo};
 use std::sync::Arc;

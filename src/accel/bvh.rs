@@ -10,9 +10,9 @@
 //! - the ray's origin is moved, in `f64`, to where it enters the root box before it is rounded
 //!   to `f32`, so `f32` rounding errors scale with the size of the hierarchy's contents, not with
 //!   the distance of the camera;
-//! - every primitive box is rounded outward to `f32` and padded by [`BOX_PADDING`] of the
-//!   root's magnitude, which bounds the rounding error of the `f32` slab test and of the ray
-//!   itself;
+//! - every primitive box is rounded outward to `f32` and padded by
+//!   [`BOX_PADDING`](crate::accel::build::BOX_PADDING) of the root's magnitude, which bounds the
+//!   rounding error of the `f32` slab test and of the ray itself;
 //! - a direction component of zero gets a large finite reciprocal, never an infinity, so no slab
 //!   test produces NaN.
 //!
@@ -21,92 +21,9 @@
 //! [`PrimitiveIndex::build`]), so a leaf reads them contiguously; [`PrimitiveIndex::query`] hands
 //! whole leaves to callers that test several primitives at once.
 
+use crate::accel::build::BuildStats;
 use crate::math::bounds::Aabb;
 use crate::math::ray::Ray;
-use std::time::Duration;
-
-/// Which spatial index to use: chosen per scene and per mesh by [`AccelChoice::use_bvh`].
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum AccelChoice {
-    /// A hierarchy when there are enough primitives to pay for it, a list otherwise.
-    #[default]
-    Auto,
-    /// Always a flat list.
-    List,
-    /// Always a hierarchy (an error at load time when raylab is built without `bvh`).
-    Bvh,
-}
-
-impl AccelChoice {
-    /// Parses `"auto"`, `"list"` or `"bvh"`.
-    pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "auto" => Some(AccelChoice::Auto),
-            "list" => Some(AccelChoice::List),
-            "bvh" => Some(AccelChoice::Bvh),
-            _ => None,
-        }
-    }
-
-    /// Whether `count` primitives get a hierarchy. `Auto` builds one from `threshold` primitives
-    /// on, and only when raylab is built with the `bvh` feature.
-    pub fn use_bvh(self, count: usize, threshold: usize) -> bool {
-        BVH_AVAILABLE
-            && match self {
-                AccelChoice::Auto => count >= threshold,
-                AccelChoice::List => false,
-                AccelChoice::Bvh => count >= 2,
-            }
-    }
-}
-
-/// True when raylab is built with the `bvh` feature.
-pub const BVH_AVAILABLE: bool = cfg!(feature = "bvh");
-
-/// Fewest bounded scene objects for which `auto` builds a scene-level hierarchy. Below it a list
-/// with a box test per object is as fast, within measurement noise; from about eight objects on
-/// the hierarchy wins (measured: README, "Speed").
-pub const SCENE_BVH_THRESHOLD: usize = 8;
-
-/// Fewest triangles for which `auto` builds a mesh hierarchy.
-pub const MESH_BVH_THRESHOLD: usize = 16;
-
-/// Padding of every primitive box, relative to the magnitude of the root box (its largest
-/// coordinate plus its diagonal). It exceeds the `f32` rounding error of the origin and
-/// direction of a ray near the box (2⁻²⁴ each), of the quantised slab test (≈ 4·2⁻²⁴) and of
-/// the quantisation itself, so the traversal never culls a box the exact ray meets.
-pub const BOX_PADDING: f64 = 1.0 / (1u64 << 18) as f64;
-
-/// Largest reciprocal of a direction component used by the `f32` slab test. A component
-/// smaller than its inverse is treated as that small: the resulting displacement of the ray is
-/// far below [`BOX_PADDING`] of anything the ray can reach.
-#[cfg(feature = "bvh")]
-pub(crate) const MAX_INV_DIR: f32 = 1e15;
-
-/// What building an index cost, for the render summary and `raylab bench`.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct BuildStats {
-    /// Hierarchies built (0 for a list).
-    pub hierarchies: u32,
-    /// Primitives indexed by hierarchies.
-    pub primitives: u64,
-    /// Hierarchy nodes.
-    pub nodes: u64,
-    /// Bytes of the hierarchies' nodes.
-    pub bytes: u64,
-    /// Wall time of building.
-    pub time: Duration,
-}
-
-impl std::ops::AddAssign for BuildStats {
-    fn add_assign(&mut self, o: BuildStats) {
-        self.hierarchies += o.hierarchies;
-        self.primitives += o.primitives;
-        self.nodes += o.nodes;
-        self.bytes += o.bytes;
-        self.time += o.time;
-    }
-}
 
 /// Largest coordinate a hierarchy is built over: the `f32` boxes and slab distances of the
 /// traversal keep their rounding-error bounds far inside `f32`'s range; primitives farther out
@@ -410,6 +327,7 @@ use super::wide;
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::accel::build::BVH_AVAILABLE;
     use glam::DVec3;
 
     /// Unit boxes on a line; a ray along the line hits them in order.

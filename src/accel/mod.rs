@@ -8,13 +8,14 @@
 //! their own triangles, so a scene of meshes is a two-level hierarchy, and a mesh placed several
 //! times is stored once.
 
+pub mod build;
 pub mod bvh;
 #[cfg(feature = "bvh")]
 mod wide;
 
 use crate::accel::bvh::PrimitiveIndex;
 
-pub use crate::accel::bvh::{AccelChoice, BuildStats, MESH_BVH_THRESHOLD, SCENE_BVH_THRESHOLD};
+pub use crate::accel::build::{AccelChoice, BVH_AVAILABLE, BuildStats, MESH_BVH_THRESHOLD, SCENE_BVH_THRESHOLD};
 use crate::geometry::{Hit, Intersectable};
 use crate::math::bounds::Aabb;
 use crate::math::ray::Ray;

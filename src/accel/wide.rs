@@ -25,7 +25,7 @@
 //! [`Shape::group`] > 1 every leaf starts at a multiple of the group and is padded to it, so a
 //! caller can store its primitives in packs of `group` lanes (a mesh's four-triangle packs).
 
-use super::bvh::{BOX_PADDING, BuildStats, MAX_INV_DIR};
+use crate::accel::build::{BOX_PADDING, BuildStats, MAX_INV_DIR};
 use crate::math::bounds::Aabb;
 use glam::{DVec3, Vec3A, Vec4};
 use std::sync::OnceLock;

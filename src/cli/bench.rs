@@ -10,8 +10,8 @@
 use super::{App, Failure, si};
 use crate::accel::AccelChoice;
 use crate::geometry::Intersectable;
-use crate::input::context::LoadOptions;
-use crate::input::load::load_str;
+use crate::load::context::LoadOptions;
+use crate::load::loader::load_str;
 use crate::math::float::offset_ray_origin;
 use crate::math::ray::Ray;
 use clap::Args;
@@ -77,7 +77,7 @@ pub(crate) fn run(app: &App, a: BenchArgs) -> Result<(), Failure> {
         return Err(Failure::Other("`raylab bench` needs the `mesh` geometry: build with `--features mesh` (and `bvh`)".into()));
     }
     let accel = AccelChoice::parse(&a.accel).unwrap_or_default();
-    if accel == AccelChoice::Bvh && !crate::accel::bvh::BVH_AVAILABLE {
+    if accel == AccelChoice::Bvh && !crate::accel::build::BVH_AVAILABLE {
         return Err(Failure::Other("--accel bvh needs raylab built with the `bvh` feature".into()));
     }
     let pool = rayon::ThreadPoolBuilder::new()

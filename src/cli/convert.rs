@@ -3,7 +3,7 @@
 //! written file renders the same image as the original.
 
 use super::{App, Failure};
-use crate::input::context::{LoadContext, LoadOptions};
+use crate::load::context::{LoadContext, LoadOptions};
 use clap::Args;
 use std::path::{Path, PathBuf};
 
@@ -32,11 +32,11 @@ pub(crate) fn run(app: &App, a: ConvertArgs) -> Result<(), Failure> {
         .into());
     }
     let options = LoadOptions { allow_outside_paths: a.allow_outside_paths, ..LoadOptions::default() };
-    let desc = crate::input::load::read_file(&app.registry, &a.scene, &options)?;
-    let job = crate::input::load::build(&app.registry, &desc, &LoadContext::new(crate::input::context::scene_dir(&a.scene), &options))?;
+    let desc = crate::load::loader::read_file(&app.registry, &a.scene, &options)?;
+    let job = crate::load::loader::build(&app.registry, &desc, &LoadContext::new(crate::load::context::scene_dir(&a.scene), &options))?;
     let source_name = a.scene.file_name().map_or_else(|| a.scene.display().to_string(), |n| n.to_string_lossy().into_owned());
     let header = format!("Converted by `raylab convert` from {source_name}.");
-    let text = crate::input::toml::to_toml(&desc, &header);
+    let text = crate::param::toml::to_toml(&desc, &header);
     crate::image::write::write_atomically(&a.output, |w| w.write_all(text.as_bytes()).map_err(|e| e.to_string()))
         .map_err(|e| e.to_string())?;
     println!(

@@ -44,7 +44,7 @@ pub(crate) fn run(_: &App, a: MergeArgs) -> Result<(), Failure> {
         let mut encoding = a.encoding.clone();
         for path in &a.parts {
             let name = path.display().to_string();
-            let bytes = crate::input::context::read_user_file(path, "partial image", a.max_file_bytes, None)?;
+            let bytes = crate::load::context::read_user_file(path, "partial image", a.max_file_bytes, None)?;
             let (sums, info) =
                 crate::image::partial::read_partial(&bytes, &name, a.max_pixels).map_err(|e| Failure::Other(e.to_string()))?;
             encoding.get_or_insert(info.encoding);

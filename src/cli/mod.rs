@@ -4,6 +4,7 @@
 
 mod bench;
 mod convert;
+mod dispatch;
 mod farm;
 mod merge;
 mod plot;
@@ -15,15 +16,15 @@ mod trace;
 #[cfg(feature = "view")]
 mod view;
 
-use crate::input::context::{LoadOptions, Overrides};
-use crate::input::error::{Loc, SceneError, Source};
-use crate::input::registry::Registry;
-use crate::input::value::{Node, Value};
+use crate::load::context::{LoadOptions, Overrides};
+use crate::load::registry::Registry;
+use crate::param::error::{Loc, SceneError, Source};
+use crate::param::value::{Node, Value};
 use crate::render::RenderJob;
-use clap::{Args, Parser, Subcommand};
+use clap::Args;
 use std::path::Path;
-use std::process::ExitCode;
 
+pub use dispatch::{run, run_with_args};
 pub use render::stats_table;
 
 /// What a binary brings to the CLI: its plugins and its default scene.
@@ -32,40 +33,6 @@ pub struct App {
     pub registry: Registry,
     /// The scene rendered when `raylab` runs without arguments: (display name, TOML text).
     pub default_scene: (&'static str, &'static str),
-}
-
-#[derive(Parser, Debug)]
-#[command(name = "raylab", version, about = "raylab: an extensible, plugin-based ray tracer", long_about = None)]
-struct Cli {
-    #[command(subcommand)]
-    command: Option<Command>,
-}
-
-#[derive(Subcommand, Debug)]
-enum Command {
-    /// Render a scene to an image (the bundled default scene when SCENE is omitted).
-    Render(Box<render::RenderArgs>),
-    /// Explain one pixel (or one ray): every hit, light test and child ray, and the final colour.
-    Trace(Box<trace::TraceArgs>),
-    /// List the registered plugins and their parameters.
-    Plugins(plugins::PluginsArgs),
-    /// Measure the speed/accuracy trade: render at many settings of the quality knobs, time each,
-    /// compare with a reference (RMSE, PSNR, SSIM), and plot error against time.
-    Sweep(Box<sweep::SweepArgs>),
-    /// Merge partial images (tiles, crops, sample passes from `render --tile/--crop/--pass`) into
-    /// one image: the same bits as one whole render.
-    Merge(merge::MergeArgs),
-    /// Convert a scene (e.g. the report's XML) to raylab's TOML format.
-    Convert(convert::ConvertArgs),
-    /// Measure mesh loading, BVH building and ray throughput, from 1k to 1M triangles.
-    Bench(bench::BenchArgs),
-    /// Turn an HDR image (OpenEXR, PFM) or one of its layers (depth, normal, albedo) into a
-    /// viewable PNG or JPEG.
-    Tonemap(tonemap::TonemapArgs),
-    /// Watch a scene render live in the browser: quality knobs as controls, and any pixel's ray
-    /// tree on a click (serves a page on 127.0.0.1).
-    #[cfg(feature = "view")]
-    View(Box<view::ViewArgs>),
 }
 
 /// Options shared by every command that loads a scene: overrides of the scene's settings, and
@@ -91,7 +58,8 @@ pub(crate) struct SceneArgs {
     /// Integrator type, replacing the scene's (e.g. `path`, `normals`, `depth`).
     #[arg(long)]
     integrator: Option<String>,
-    /// Set an integrator parameter: `--set max_depth=5` (value in TOML syntax; repeatable).
+    /// Set an integrator parameter: `--set max_depth=5`, `--set ambient=first_hit` (value in TOML
+    /// syntax, or a bare word for a string; repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
     /// Anti-aliasing: `stratified` (--spp samples per pixel) or `adaptive` (refinement where
@@ -129,6 +97,7 @@ pub(crate) struct SceneArgs {
     focus_distance: Option<f64>,
     /// Set a camera parameter: `--camera position=[0,0,10]` (value in TOML syntax; repeatable).
     /// Supplies the camera of a scene that has none (e.g. a report XML scene without <camera>).
+    /// `--camera fit` frames the whole scene, replacing the file's position and target.
     #[arg(long = "camera", value_name = "KEY=VALUE")]
     camera: Vec<String>,
     /// 8-bit encoding: `srgb` (default), `linear` (clamped values written straight, as the report)
@@ -171,59 +140,6 @@ pub(crate) struct SceneArgs {
     /// the parsed scene, objects, meshes with their hierarchies, glTF instances and the image.
     #[arg(long, value_name = "BYTES", allow_hyphen_values = true, value_parser = int_in::<u64>(0, u64::MAX.into()))]
     max_memory: Option<u64>,
-}
-
-/// Parses `std::env::args` and runs the command.
-pub fn run(app: App) -> ExitCode {
-    run_with_args(app, std::env::args_os())
-}
-
-/// Runs the command given by `args` (the first item is the program name). Exit status 0 on
-/// success, 1 when the command fails (the error is printed to stderr), 2 on a usage error, 130
-/// when a render is interrupted by Ctrl-C (its partial image is written beside the target).
-pub fn run_with_args<I, T>(app: App, args: I) -> ExitCode
-where
-    I: IntoIterator<Item = T>,
-    T: Into<std::ffi::OsString> + Clone,
-{
-    let args: Vec<std::ffi::OsString> = args.into_iter().map(Into::into).collect();
-    let cli = match Cli::try_parse_from(&args) {
-        Ok(c) => c,
-        Err(e) => {
-            let _ = e.print();
-            return if e.use_stderr() { ExitCode::from(2) } else { ExitCode::SUCCESS };
-        }
-    };
-    let result = match cli.command {
-        None => render::run(&app, render::RenderArgs::default_scene()),
-        Some(Command::Render(a)) => {
-            let mut a = *a;
-            // The arguments after `render`, for checkpoints to continue the same command.
-            let at = args.iter().position(|x| x == "render").map_or(args.len(), |i| i + 1);
-            a.raw = args[at..].iter().map(|x| x.to_string_lossy().into_owned()).collect();
-            render::run(&app, a)
-        }
-        Some(Command::Merge(a)) => merge::run(&app, a),
-        Some(Command::Trace(a)) => trace::run(&app, *a),
-        Some(Command::Plugins(a)) => plugins::run(&app, a),
-        Some(Command::Sweep(a)) => sweep::run(&app, *a),
-        Some(Command::Convert(a)) => convert::run(&app, a),
-        Some(Command::Bench(a)) => bench::run(&app, a),
-        Some(Command::Tonemap(a)) => tonemap::run(a),
-        #[cfg(feature = "view")]
-        Some(Command::View(a)) => view::run(&app, *a),
-    };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(Failure::Interrupted(message)) => {
-            eprintln!("{message}");
-            ExitCode::from(130)
-        }
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::FAILURE
-        }
-    }
 }
 
 /// A user-facing failure: a located scene error, a plain message, or an interrupted render.
@@ -286,14 +202,19 @@ impl SceneArgs {
         if let Some(v) = self.lens_samples {
             render_params.push(flag_node("--lens-samples", "lens_samples", Value::Int(v)));
         }
-        let mut camera_params = key_values("--camera", &self.camera)?;
+        // `--camera fit` alone: frame the scene (the camera's `fit = true`).
+        let (fit, camera): (Vec<String>, Vec<String>) = self.camera.iter().cloned().partition(|c| c.trim() == "fit");
+        let mut camera_params = key_values("--camera", &camera)?;
+        if !fit.is_empty() {
+            camera_params.push(flag_node("--camera", "fit", Value::Bool(true)));
+        }
         if let Some(v) = self.aperture {
             camera_params.push(flag_node("--aperture", "aperture", Value::Float(v)));
         }
         if let Some(v) = self.focus_distance {
             camera_params.push(flag_node("--focus-distance", "focus_distance", Value::Float(v)));
         }
-        let mut limits = crate::input::limits::Limits::default();
+        let mut limits = crate::param::limits::Limits::default();
         if let Some(v) = self.max_pixels {
             limits.max_pixels = v;
         }
@@ -365,7 +286,8 @@ pub(crate) fn flag_node(flag: &str, key: &str, value: Value) -> (String, Node) {
     (key.to_string(), Node::given(flag, value))
 }
 
-/// Parses repeated `KEY=VALUE` options (value in TOML syntax) of option `flag`.
+/// Parses repeated `KEY=VALUE` options of option `flag`: the value in TOML syntax, or a bare word
+/// (`--set ambient=first_hit`) taken as a string, as the shell leaves it once it has eaten quotes.
 fn key_values(flag: &str, items: &[String]) -> Result<Vec<(String, Node)>, Failure> {
     let mut out = Vec::new();
     for s in items {
@@ -374,9 +296,26 @@ fn key_values(flag: &str, items: &[String]) -> Result<Vec<(String, Node)>, Failu
             return Err(SceneError::at(&Loc::new(&src, 0..s.len()), "expected KEY=VALUE").into());
         };
         let key = s[..eq].trim().to_string();
-        out.push((key, crate::input::toml::parse_toml_value(&src, eq + 1..s.len())?));
+        let value = match crate::param::toml::parse_toml_value(&src, eq + 1..s.len()) {
+            Ok(v) => v,
+            Err(_) if is_bare_word(s[eq + 1..].trim()) => {
+                let word = s[eq + 1..].trim();
+                let start = eq + 1 + s[eq + 1..].find(word).unwrap_or(0);
+                Node { value: Value::Str(word.to_string()), loc: Loc::new(&src, start..start + word.len()) }
+            }
+            Err(e) => return Err(e.into()),
+        };
+        out.push((key, value));
     }
     Ok(out)
+}
+
+/// A word a shell passes unquoted that TOML would need quoted: a letter, then letters, digits,
+/// `_`, `-` or `.` (`first_hit`, `linear-truncated`). Numbers, `true`, `inf`, lists and tables
+/// parse as TOML before this is asked.
+fn is_bare_word(s: &str) -> bool {
+    s.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
+        && s.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'))
 }
 
 /// Loads `scene` (or the app's default scene) with the options in `a`; returns the job and a
@@ -391,10 +330,10 @@ pub(crate) fn load(
 ) -> Result<(RenderJob, String), Failure> {
     let opts = LoadOptions { image, ..a.load_options()? };
     let (job, name) = match scene {
-        Some(p) => (crate::input::load::load_file(&app.registry, p, &opts)?, p.display().to_string()),
+        Some(p) => (crate::load::loader::load_file(&app.registry, p, &opts)?, p.display().to_string()),
         None => {
             let (name, text) = app.default_scene;
-            (crate::input::load::load_str(&app.registry, name, text, Path::new("."), &opts)?, format!("{name} (bundled)"))
+            (crate::load::loader::load_str(&app.registry, name, text, Path::new("."), &opts)?, format!("{name} (bundled)"))
         }
     };
     for w in &job.warnings {

@@ -1,7 +1,7 @@
 //! `raylab plugins`: every registered type with its parameter table (name, type, default, meaning).
 
 use super::{App, Failure};
-use crate::input::registry::{PluginInfo, Registry};
+use crate::load::registry::{PluginInfo, Registry};
 use clap::Args;
 
 #[derive(Args, Debug)]
@@ -66,10 +66,10 @@ pub fn markdown(reg: &Registry) -> String {
     );
     out.push_str("## Scene file\n\nThe tables of a TOML scene around the plugins.\n\n");
     for (title, specs) in [
-        ("The root", crate::input::load::SCENE_PARAMS),
-        ("`[render]`", crate::input::load::RENDER_PARAMS),
+        ("The root", crate::load::loader::SCENE_PARAMS),
+        ("`[render]`", crate::load::loader::RENDER_PARAMS),
         ("`[camera]`", crate::scene::camera::CAMERA_PARAMS),
-        ("Every `[[object]]`", crate::input::load::OBJECT_PARAMS),
+        ("Every `[[object]]`", crate::load::loader::OBJECT_PARAMS),
         ("`[materials.NAME]` and inline materials", crate::scene::material::MATERIAL_PARAMS),
     ] {
         out.push_str(&format!("### {title}\n\n"));
@@ -103,7 +103,7 @@ pub fn markdown(reg: &Registry) -> String {
 }
 
 /// A parameter table as Markdown.
-fn param_table(out: &mut String, specs: &[crate::input::spec::ParamSpec]) {
+fn param_table(out: &mut String, specs: &[crate::param::spec::ParamSpec]) {
     out.push_str("| parameter | type | default | meaning |\n|---|---|---|---|\n");
     for s in specs {
         out.push_str(&format!("| `{}` | {} | {} | {}{} |\n", s.name, s.kind.name(), s.default, s.doc, role(&s.role)));
@@ -111,8 +111,8 @@ fn param_table(out: &mut String, specs: &[crate::input::spec::ParamSpec]) {
 }
 
 /// What a parameter's role adds to its description.
-fn role(r: &crate::input::spec::Role) -> String {
-    use crate::input::spec::{Reference, Role};
+fn role(r: &crate::param::spec::Role) -> String {
+    use crate::param::spec::{Reference, Role};
     let reference = |r: &Reference| match r {
         Reference::Keep => String::new(),
         Reference::AtLeast(v) => format!("; reference renders use ≥ {v}"),

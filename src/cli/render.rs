@@ -151,7 +151,7 @@ fn resume(app: &App, given: RenderArgs, file: &Path) -> Result<(), Failure> {
     #[cfg(feature = "exr")]
     {
         let limits = given.scene_args.load_options()?.limits;
-        let bytes = crate::input::context::read_user_file(file, "checkpoint", u64::MAX, None)?;
+        let bytes = crate::load::context::read_user_file(file, "checkpoint", u64::MAX, None)?;
         let (sums, info) = crate::image::partial::read_partial(&bytes, &file.display().to_string(), limits.max_pixels)
             .map_err(|e| Failure::Other(e.to_string()))?;
         let json = info.resume.ok_or_else(|| {
@@ -159,11 +159,10 @@ fn resume(app: &App, given: RenderArgs, file: &Path) -> Result<(), Failure> {
         })?;
         let ri: super::farm::ResumeInfo =
             serde_json::from_str(&json).map_err(|e| Failure::Other(format!("{}: unreadable resume information ({e})", file.display())))?;
-        let argv = std::iter::once("raylab".to_string()).chain(std::iter::once("render".to_string())).chain(ri.args.iter().cloned());
-        let Ok(super::Cli { command: Some(super::Command::Render(a)) }) = <super::Cli as clap::Parser>::try_parse_from(argv) else {
+        let argv = std::iter::once("raylab render".to_string()).chain(ri.args.iter().cloned());
+        let Ok(SavedCommand { args: mut a }) = <SavedCommand as clap::Parser>::try_parse_from(argv) else {
             return Err(Failure::Other(format!("{}: the saved command `render {}` no longer parses", file.display(), ri.args.join(" "))));
         };
-        let mut a = *a;
         // Relative paths are relative to the folder the render was started in.
         let at = |p: &Path| if p.is_absolute() { p.to_path_buf() } else { ri.cwd.join(p) };
         a.scene = a.scene.as_deref().map(at);
@@ -176,6 +175,14 @@ fn resume(app: &App, given: RenderArgs, file: &Path) -> Result<(), Failure> {
         a.quiet |= given.quiet;
         render(app, a, Some((sums, info.fingerprint)))
     }
+}
+
+/// The arguments of `raylab render` alone: a checkpoint's saved command, parsed again.
+#[cfg(feature = "exr")]
+#[derive(clap::Parser)]
+struct SavedCommand {
+    #[command(flatten)]
+    args: RenderArgs,
 }
 
 /// Renders as `a` asks, continuing `resumed` (a checkpoint's state and fingerprint) if given.
@@ -457,11 +464,11 @@ fn write(
     a: &RenderArgs,
     path: &Path,
     format: &crate::image::output::OutputFormat,
-    film: &crate::image::film::Film,
-    layers: Option<&crate::image::layers::Aovs>,
+    film: &crate::render::film::Film,
+    layers: Option<&crate::render::aovs::Aovs>,
     grid: Option<Grid>,
 ) -> Result<(), Failure> {
-    use crate::image::layers::{Aov, Aovs};
+    use crate::render::aovs::{Aov, Aovs};
     let asked = |l: Aov| a.aov.iter().any(|s| Aov::parse(s) == Some(l));
     let chosen = layers.map(|l| Aovs {
         depth: l.depth.clone().filter(|_| asked(Aov::Depth)),
@@ -498,14 +505,14 @@ pub fn accel_line(s: &crate::scene::AccelSummary) -> String {
 /// they come (flushed, so the file can be watched).
 struct ErrorLog<'a> {
     file: std::io::BufWriter<std::fs::File>,
-    reference: &'a crate::image::film::Film,
+    reference: &'a crate::render::film::Film,
     encoding: crate::math::color::Encoding,
 }
 
 impl<'a> ErrorLog<'a> {
     fn new(
         path: &std::path::Path,
-        reference: &'a crate::image::film::Film,
+        reference: &'a crate::render::film::Film,
         encoding: crate::math::color::Encoding,
     ) -> Result<Self, Failure> {
         let f = std::fs::File::create(path).map_err(|e| Failure::Other(format!("cannot create \"{}\": {e}", path.display())))?;

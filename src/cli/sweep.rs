@@ -4,12 +4,12 @@
 
 use super::plot::{Plot, Series};
 use super::{App, Failure, SceneArgs, si};
-use crate::image::film::Film;
 use crate::image::metrics::ImageError;
-use crate::input::context::LoadOptions;
-use crate::input::error::{Loc, SceneError, Source};
-use crate::input::spec::{Reference, Role};
-use crate::input::value::{Node, Value};
+use crate::load::context::LoadOptions;
+use crate::param::error::{Loc, SceneError, Source};
+use crate::param::spec::{Reference, Role};
+use crate::param::value::{Node, Value};
+use crate::render::film::Film;
 use crate::render::{RenderJob, RenderOptions};
 use clap::Args;
 use serde::Serialize;
@@ -288,7 +288,7 @@ fn parse_vary(s: &str) -> Result<Knob, Failure> {
                 if text.is_empty() {
                     return Err(SceneError::at(&Loc::new(&src, range), format!("--vary {name}: empty value")).into());
                 }
-                let node = match crate::input::toml::parse_toml_value(&src, range.clone()) {
+                let node = match crate::param::toml::parse_toml_value(&src, range.clone()) {
                     Ok(n) => n,
                     Err(_) if text.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') => {
                         Node { value: Value::Str(text.to_string()), loc: Loc::new(&src, range) }
@@ -371,10 +371,10 @@ fn apply(o: &mut LoadOptions, name: &str, value: &Node) -> Result<(), Failure> {
 
 fn load_with(app: &App, scene: Option<&Path>, opts: &LoadOptions) -> Result<RenderJob, Failure> {
     match scene {
-        Some(p) => Ok(crate::input::load::load_file(&app.registry, p, opts)?),
+        Some(p) => Ok(crate::load::loader::load_file(&app.registry, p, opts)?),
         None => {
             let (name, text) = app.default_scene;
-            Ok(crate::input::load::load_str(&app.registry, name, text, Path::new("."), opts)?)
+            Ok(crate::load::loader::load_str(&app.registry, name, text, Path::new("."), opts)?)
         }
     }
 }
@@ -442,16 +442,16 @@ fn reference_plan(app: &App, a: &SweepArgs, base: &LoadOptions, knobs: &[Knob], 
             Reference::AtLeast(r) => numbers.iter().copied().fold(r, f64::max),
             Reference::AtMost(r) => numbers.iter().copied().fold(r, f64::min),
             Reference::Exactly(d) => match d {
-                crate::input::spec::Default::Int(i) => i as f64,
-                crate::input::spec::Default::Float(f) => f,
-                crate::input::spec::Default::Bool(b) => {
+                crate::param::spec::Default::Int(i) => i as f64,
+                crate::param::spec::Default::Float(f) => f,
+                crate::param::spec::Default::Bool(b) => {
                     ov.integrator_params.push(super::flag_node("--reference", spec.name, Value::Bool(b)));
                     continue;
                 }
                 _ => continue,
             },
         };
-        let value = if spec.kind == crate::input::spec::ParamKind::Int { Value::Int(value.round() as i64) } else { Value::Float(value) };
+        let value = if spec.kind == crate::param::spec::ParamKind::Int { Value::Int(value.round() as i64) } else { Value::Float(value) };
         if is_depth {
             ov.depth = Some(super::flag_node("--reference", "depth", value).1);
         } else {
@@ -460,7 +460,7 @@ fn reference_plan(app: &App, a: &SweepArgs, base: &LoadOptions, knobs: &[Knob], 
     }
     let job = load_with(app, a.scene.as_deref(), &o)?;
     let scene_text = match a.scene.as_deref() {
-        Some(p) => crate::input::context::read_user_file(p, "scene file", base.limits.max_file_bytes, None)?,
+        Some(p) => crate::load::context::read_user_file(p, "scene file", base.limits.max_file_bytes, None)?,
         None => app.default_scene.1.as_bytes().to_vec(),
     };
     let settings = format!("{:?}|{}|{:?}|{}", job.settings, job.integrator_name, job.integrator.describe(), env!("CARGO_PKG_VERSION"));
@@ -532,7 +532,7 @@ fn hash(parts: &[&[u8]]) -> u64 {
         for &b in *p {
             h = (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
         }
-        h = crate::render::sampler::mix64(h);
+        h = crate::math::sampler::mix64(h);
     }
     h
 }

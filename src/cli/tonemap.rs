@@ -32,7 +32,7 @@ pub(crate) fn run(a: TonemapArgs) -> Result<(), Failure> {
     let layer = a.layer.as_deref().and_then(Layer::parse).unwrap_or(Layer::Color);
     let ext = a.input.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     check_input(&ext, layer).map_err(|e| Failure::Other(format!("{}: {e}", a.input.display())))?;
-    let bytes = crate::input::context::read_user_file(&a.input, "image", MAX_FILE_BYTES, None)?;
+    let bytes = crate::load::context::read_user_file(&a.input, "image", MAX_FILE_BYTES, None)?;
     let film = read_layer(&bytes, &ext, layer).map_err(|e| Failure::Other(format!("{}: {e}", a.input.display())))?;
     let (w, h) = (film.width, film.height);
     let (film, encoding) = visualise(film, layer, a.exposure);

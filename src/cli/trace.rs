@@ -2,9 +2,9 @@
 
 use super::{App, Failure, SceneArgs};
 use crate::math::ray::Ray;
+use crate::math::sampler::Sampler;
+use crate::render::explain::{SampleRef, explanation_json, sample_color};
 use crate::render::sample::SampleId;
-use crate::render::sampler::Sampler;
-use crate::render::trace::{SampleRef, explanation_json, sample_color};
 use crate::render::{explain_sample, pixel_samples};
 use clap::Args;
 use glam::DVec3;

@@ -12,7 +12,6 @@ pub use sampling::{SurfacePdf, SurfaceSample};
 
 use crate::math::bounds::Aabb;
 use crate::math::ray::Ray;
-use crate::scene::material::Material;
 use glam::{DVec2, DVec3};
 use std::sync::Arc;
 
@@ -81,13 +80,6 @@ pub trait Geometry: Intersectable {
     #[inline]
     fn uv(&self, at: &Hit) -> DVec2 {
         at.uv
-    }
-
-    /// Materials the shape's own source defines (an OBJ's MTL library, a glTF file's materials),
-    /// indexed by [`Surface::material`]; `None` for shapes that take the object's material. An
-    /// object's `material` in the scene replaces them.
-    fn materials(&self) -> Option<Arc<[Material]>> {
-        None
     }
 
     /// A box containing the whole shape, or `None` for unbounded shapes (planes, infinite tubes).
@@ -165,9 +157,6 @@ macro_rules! forward_impls {
             #[inline]
             fn uv(&self, at: &Hit) -> DVec2 {
                 (**self).uv(at)
-            }
-            fn materials(&self) -> Option<Arc<[Material]>> {
-                (**self).materials()
             }
             fn bounds(&self) -> Option<Aabb> {
                 (**self).bounds()

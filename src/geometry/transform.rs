@@ -16,14 +16,12 @@
 //! error, so secondary rays still never re-hit the surface they leave.
 
 use crate::geometry::{Geometry, Hit, Intersectable, Surface, SurfacePdf, SurfaceSample, face_forward};
-use crate::input::error::{Result, SceneError};
-use crate::input::value::{Node, Value, vec3_of};
 use crate::math::bounds::Aabb;
 use crate::math::float::{DEGENERACY_TOLERANCE, gamma};
 use crate::math::ray::Ray;
-use crate::scene::material::Material;
+use crate::param::error::{Result, SceneError};
+use crate::param::value::{Node, Value, vec3_of};
 use glam::{DAffine3, DMat3, DVec2, DVec3};
-use std::sync::Arc;
 
 /// An invertible affine map from an object's own frame to the world.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -247,9 +245,6 @@ impl<G: Geometry> Geometry for Transformed<G> {
     fn uv(&self, at: &Hit) -> DVec2 {
         self.inner.uv(&self.object_hit(at))
     }
-    fn materials(&self) -> Option<Arc<[Material]>> {
-        self.inner.materials()
-    }
     fn bounds(&self) -> Option<Aabb> {
         self.bounds
     }
@@ -313,7 +308,7 @@ fn parse_step(node: &Node) -> Result<DAffine3> {
     };
     for e in &t.entries {
         if !STEP_KEYS.contains(&e.key.as_str()) {
-            let hint = crate::input::error::did_you_mean(&e.key, STEP_KEYS.iter().copied())
+            let hint = crate::param::error::did_you_mean(&e.key, STEP_KEYS.iter().copied())
                 .map_or_else(|| format!("transform keys: {}", STEP_KEYS.join(", ")), |m| format!("did you mean `{m}`?"));
             return Err(SceneError::at(&e.key_loc, format!("unknown transform key `{}`", e.key)).with_help(hint));
         }
@@ -448,8 +443,8 @@ mod tests {
     #[test]
     fn parsing_covers_every_form_and_rejects_nonsense() {
         let parse = |text: &str| {
-            let src = crate::input::error::Source::new("t.toml", format!("t = {text}"));
-            let node = crate::input::toml::parse_toml_value(&src, 4..src.text.len()).unwrap();
+            let src = crate::param::error::Source::new("t.toml", format!("t = {text}"));
+            let node = crate::param::toml::parse_toml_value(&src, 4..src.text.len()).unwrap();
             parse_transform(&node)
         };
         let t = parse("{ scale = 2, rotate = [0, 90, 0], translate = [1, 0, 0] }").unwrap();

@@ -3,9 +3,9 @@
 //! ([`crate::render::aov`]). One part, channels by name, lossless ZIP compression; depth is always 32-bit.
 //! Written atomically, like every raylab image.
 
-use crate::image::film::Film;
-use crate::image::layers::Aovs;
 use crate::image::write::{WriteError, write_atomically};
+use crate::render::aovs::Aovs;
+use crate::render::film::Film;
 use exr::prelude::*;
 use std::path::Path;
 use std::result::Result;

@@ -9,8 +9,8 @@
 //! sigma=1.5, use_sample_covariance=False, data_range=1, channel_axis=-1)`, which the tests
 //! reproduce. 1 − SSIM (DSSIM) is the perceptual error the sweep reports.
 
-use crate::image::film::Film;
 use crate::math::color::Encoding;
+use crate::render::film::Film;
 use serde::Serialize;
 
 /// Errors of one image against a reference.
@@ -144,7 +144,7 @@ mod tests {
             .map(|i| {
                 let (x, y) = ((i % w) as f64, (i / w) as f64);
                 let disc = if (x - 12.0).powi(2) + (y - 9.0).powi(2) < 30.0 { 0.5 } else { 0.0 };
-                let noise = (crate::render::sampler::mix64(i as u64 ^ seed) >> 40) as f64 / (1u64 << 24) as f64;
+                let noise = (crate::math::sampler::mix64(i as u64 ^ seed) >> 40) as f64 / (1u64 << 24) as f64;
                 ((x / w as f64) * 0.4 + disc + 0.1 * noise) as f32
             })
             .collect()

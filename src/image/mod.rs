@@ -1,10 +1,8 @@
-//! Images: the film a render accumulates into, the formats it is written in, reference images
-//! the error metrics that compare two images, and live display in the tev viewer.
+//! Images: the formats a film is written in, reference images, the error metrics that compare
+//! two images, and live display in the tev viewer.
 
 #[cfg(feature = "exr")]
 pub mod exr;
-pub mod film;
-pub mod layers;
 pub mod metrics;
 pub mod output;
 #[cfg(feature = "exr")]

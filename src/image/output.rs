@@ -4,9 +4,9 @@
 //! floats, the reference format). Files are written atomically: to a temporary file beside the
 //! target, then renamed, so a crash never leaves a truncated image where a good one was.
 
-use crate::image::film::Film;
 use crate::image::write::{WriteError, write_atomically};
 use crate::math::color::Encoding;
+use crate::render::film::Film;
 use std::io::Write;
 use std::path::Path;
 
@@ -97,7 +97,7 @@ pub struct WriteSettings<'a> {
     /// Grid lines over an 8-bit image.
     pub grid: Option<Grid>,
     /// The depth, normal and albedo layers (EXR).
-    pub layers: Option<&'a crate::image::layers::Aovs>,
+    pub layers: Option<&'a crate::render::aovs::Aovs>,
     /// 16-bit half floats for colour, normal and albedo (EXR).
     pub half: bool,
 }
@@ -243,13 +243,13 @@ mod tests {
     /// the pixel limit allows (8192², 5.1 GB: raise --max-image-bytes, or split it into tiles).
     #[test]
     fn image_memory_estimates_fit_the_default_budget() {
-        let budget = crate::input::limits::DEFAULT_MAX_IMAGE_BYTES;
+        let budget = crate::param::limits::DEFAULT_MAX_IMAGE_BYTES;
         assert_eq!(image_bytes(1, &ImagePlan::COSTLIEST), 184);
         assert_eq!(image_bytes(1, &ImagePlan::EIGHT_BIT), 76);
         assert!(image_bytes(4096 * 4096, &ImagePlan::COSTLIEST) <= budget);
         assert!(image_bytes(4608 * 4608, &ImagePlan::COSTLIEST) > budget);
         assert!(image_bytes(7680 * 4320, &ImagePlan::EIGHT_BIT) <= budget);
-        assert!(image_bytes(crate::input::limits::Limits::default().max_pixels, &ImagePlan::EIGHT_BIT) > budget);
+        assert!(image_bytes(crate::param::limits::Limits::default().max_pixels, &ImagePlan::EIGHT_BIT) > budget);
         let half = ImagePlan { half: true, ..ImagePlan::COSTLIEST };
         assert!(image_bytes(1, &half) <= image_bytes(1, &ImagePlan::COSTLIEST));
         assert_eq!(image_bytes(u64::MAX, &ImagePlan::COSTLIEST), u64::MAX);
@@ -258,9 +258,9 @@ mod tests {
     /// An allocation that cannot succeed is an error, not an abort.
     #[test]
     fn an_impossible_buffer_is_an_error() {
-        let e = crate::image::write::try_filled(usize::MAX / 2, 0u64, "film").unwrap_err();
+        let e = crate::render::film::try_filled(usize::MAX / 2, 0u64, "film").unwrap_err();
         assert!(e.0.contains("out of memory for the film"), "{e}");
-        assert!(crate::image::film::Film::try_new(u32::MAX, u32::MAX).is_err() || usize::BITS > 64);
+        assert!(crate::render::film::Film::try_new(u32::MAX, u32::MAX).is_err() || usize::BITS > 64);
     }
     use super::*;
     use glam::Vec3;

@@ -6,8 +6,8 @@
 //!   decoded with the render's encoding, so comparing a render with its own PNG measures only the
 //!   quantisation.
 
-use crate::image::film::Film;
 use crate::math::color::{Encoding, srgb_decode};
+use crate::render::film::Film;
 use glam::Vec3;
 use std::path::Path;
 
@@ -21,7 +21,7 @@ pub const MAX_REFERENCE_BYTES: u64 = MAX_REFERENCE_PIXELS * 16 + (1 << 20);
 /// Reads a reference image (`.pfm` or `.png`) as linear RGB; PNG values are decoded with `encoding`.
 pub fn read(path: &Path, encoding: Encoding) -> Result<Film, String> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-    let bytes = crate::input::files::read_regular(path, MAX_REFERENCE_BYTES, None)
+    let bytes = crate::param::files::read_regular(path, MAX_REFERENCE_BYTES, None)
         .map_err(|e| e.message(&format!("reference \"{}\"", path.display())))?;
     let film = match ext.as_str() {
         "pfm" => decode_pfm(&bytes),

@@ -118,7 +118,7 @@ impl Display {
         if addrs.is_empty() {
             return Err(format!("--display-server {address}: the name resolves to no address"));
         }
-        let image = crate::image::write::try_filled(3 * width as usize * height as usize, 0.0f32, "the display server's copy of the image")
+        let image = crate::render::film::try_filled(3 * width as usize * height as usize, 0.0f32, "the display server's copy of the image")
             .map_err(|e| e.to_string())?;
         let (tiles, rx) = channel();
         let mut link = Link {

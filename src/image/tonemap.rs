@@ -6,9 +6,9 @@
 //! Files are untrusted: the file's size is bounded before it is read, and an EXR's header
 //! (pixels, channels) is checked before any pixel is decoded.
 
-use crate::image::film::Film;
 use crate::image::reference::MAX_REFERENCE_BYTES;
 use crate::math::color::Encoding;
+use crate::render::film::Film;
 use glam::Vec3;
 
 /// What to show of the file.
@@ -209,7 +209,7 @@ mod tests {
     #[cfg(feature = "exr")]
     #[test]
     fn an_exr_with_layers_reads_back_each_layer() {
-        use crate::image::layers::Aovs;
+        use crate::render::aovs::Aovs;
         let mut film = Film::new(2, 1);
         film.set(0, 0, Vec3::new(0.1, 0.2, 0.3));
         let aovs = Aovs {

@@ -1,17 +1,9 @@
-//! Writing images safely: files replaced atomically (a failed write leaves the old file), and
-//! image buffers allocated without aborting the process when memory runs out.
+//! Writing images safely: files replaced atomically (a failed write leaves the old file); an
+//! image buffer's memory that could not be had ([`OutOfMemory`]) is reported as a write error.
 
+use crate::render::film::OutOfMemory;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-
-/// A vector of `n` copies of `value`, or an error naming `what` if the memory cannot be had
-/// (instead of aborting the process).
-pub fn try_filled<T: Clone>(n: usize, value: T, what: &str) -> Result<Vec<T>, WriteError> {
-    let mut v = Vec::new();
-    v.try_reserve_exact(n).map_err(|_| WriteError(format!("out of memory for the {what} ({n} values)")))?;
-    v.resize(n, value);
-    Ok(v)
-}
 
 /// Error writing an image.
 #[derive(Debug)]
@@ -24,6 +16,12 @@ impl std::fmt::Display for WriteError {
 }
 
 impl std::error::Error for WriteError {}
+
+impl From<OutOfMemory> for WriteError {
+    fn from(e: OutOfMemory) -> Self {
+        WriteError(e.0)
+    }
+}
 
 /// Runs `write` into a temporary file beside `path`, flushes it to disk and renames it over
 /// `path`. On any failure the temporary file is removed and `path` is untouched.

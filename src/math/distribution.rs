@@ -96,11 +96,8 @@ impl AliasTable {
         let i = (scaled as usize).min(n - 1);
         let frac = below_one(scaled - i as f64);
         let c = self.columns[i];
-        let (item, rest) = if frac < c.threshold {
-            (i, frac / c.threshold)
-        } else {
-            (c.alias as usize, (frac - c.threshold) / (1.0 - c.threshold))
-        };
+        let (item, rest) =
+            if frac < c.threshold { (i, frac / c.threshold) } else { (c.alias as usize, (frac - c.threshold) / (1.0 - c.threshold)) };
         (item, self.pmf[item], below_one(rest))
     }
 }
@@ -271,8 +268,7 @@ fn erfc(x: f64) -> f64 {
                 + t * (0.374_091_96
                     + t * (0.096_784_18
                         + t * (-0.186_288_06
-                            + t * (0.278_868_07
-                                + t * (-1.135_203_98 + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77)))))))))
+                            + t * (0.278_868_07 + t * (-1.135_203_98 + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77)))))))))
             .exp();
     if x >= 0.0 { r } else { 2.0 - r }
 }
@@ -353,8 +349,9 @@ mod tests {
             (0..w * h).map(|i| if i % 5 == 0 { 0.0 } else { 1.0 + ((i * 37) % 11) as f64 * (i as f64).sin().abs() }).collect();
         let d = Piecewise2d::new(&weights, w, h);
         // The density integrates to one (it is constant on each cell).
-        let integral: f64 = (0..w * h).map(|i| d.pdf(DVec2::new(((i % w) as f64 + 0.5) / w as f64, ((i / w) as f64 + 0.5) / h as f64))).sum::<f64>()
-            / (w * h) as f64;
+        let integral: f64 =
+            (0..w * h).map(|i| d.pdf(DVec2::new(((i % w) as f64 + 0.5) / w as f64, ((i / w) as f64 + 0.5) / h as f64))).sum::<f64>()
+                / (w * h) as f64;
         assert!((integral - 1.0).abs() < 1e-12, "{integral}");
         // A histogram finer than the cells.
         let (gx, gy) = (w * 2, h * 3);

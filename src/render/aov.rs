@@ -1,6 +1,6 @@
 //! Arbitrary output variables: per-pixel depth, normal and albedo, the extra layers a denoiser
 //! (Intel Open Image Denoise, OptiX) or a compositor wants beside the colour
-//! ([`crate::image::layers::Aovs`]).
+//! ([`crate::render::aovs::Aovs`]).
 //!
 //! The integrator fills them during the render, from the render's own samples ([`Layers`] per
 //! camera ray), and each is the mean over the pixel's samples (weighted as the colour is, under
@@ -51,6 +51,6 @@ impl Layers {
     /// Folds `what` (e.g. the index of the object a secondary ray hit) into the signature.
     #[inline]
     pub fn mix_signature(&mut self, what: u64) {
-        self.signature = crate::render::sampler::mix64(self.signature ^ what.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        self.signature = crate::math::sampler::mix64(self.signature ^ what.wrapping_mul(0x9E37_79B9_7F4A_7C15));
     }
 }

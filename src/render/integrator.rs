@@ -2,8 +2,8 @@
 
 use crate::math::color::Color;
 use crate::math::ray::Ray;
+use crate::math::sampler::Sampler;
 use crate::render::aov::Layers;
-use crate::render::sampler::Sampler;
 use crate::render::stats::{Counter, RayStats};
 use crate::render::trace::TraceNode;
 use crate::scene::Scene;
@@ -36,7 +36,7 @@ pub trait Integrator: Send + Sync {
 
     /// Most rays (the camera ray, its shadow rays and every secondary ray) one camera ray can
     /// cost in `scene`: the factor of the work budget checked before rendering
-    /// ([`crate::input::limits::Limits::max_rays`]); may be infinite. The default counts the camera
+    /// ([`crate::param::limits::Limits::max_rays`]); may be infinite. The default counts the camera
     /// ray and every light's shadow samples at one hit; an integrator that branches or recurses
     /// must give its own bound.
     fn worst_case_rays(&self, scene: &Scene) -> f64 {

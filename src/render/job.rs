@@ -117,13 +117,13 @@ pub struct RenderJob {
     pub integrator_name: String,
     /// The integrator's parameters as the scene and the overrides gave them (absent ones took
     /// their defaults).
-    pub integrator_params: crate::input::value::Table,
+    pub integrator_params: crate::param::value::Table,
     /// Image and sampling settings.
     pub settings: RenderSettings,
-    /// What loading ignored or approximated, to show the user (see [`crate::input::context::LoadContext::warn`]).
-    pub warnings: Vec<crate::input::error::SceneError>,
+    /// What loading ignored or approximated, to show the user (see [`crate::load::context::LoadContext::warn`]).
+    pub warnings: Vec<crate::param::error::SceneError>,
     /// The fingerprint of the scene, the files it read and the resolved settings
-    /// ([`crate::input::fingerprint`]): parts of a frame merge, and a checkpoint resumes, only
+    /// ([`crate::param::fingerprint`]): parts of a frame merge, and a checkpoint resumes, only
     /// under the same one.
     pub fingerprint: String,
 }

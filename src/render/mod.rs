@@ -18,10 +18,12 @@
 pub mod accum;
 pub mod adaptive;
 pub mod aov;
+pub mod aovs;
+pub mod explain;
+pub mod film;
 pub mod integrator;
 pub mod job;
 pub mod sample;
-pub mod sampler;
 pub mod share;
 pub mod split;
 pub mod stats;
@@ -29,10 +31,10 @@ pub mod trace;
 
 pub use job::{ADAPTIVE_TILE_SIZE, AdaptiveSettings, Antialiasing, MAX_ADAPTIVE_DEPTH, RenderJob, RenderSettings, TILE_SIZE};
 
-use crate::image::film::Film;
-use crate::image::layers::Aovs;
 use crate::render::accum::{LayerSum, PixelSum};
 use crate::render::adaptive::Adaptive;
+use crate::render::aovs::Aovs;
+use crate::render::film::Film;
 use crate::render::sample::{ImageFrame, SampleId, camera_rays, image_frame, trace_sample, trace_sample_in};
 use crate::render::share::{FrameSums, Rect, Sampling, Share};
 use crate::render::stats::RayStats;

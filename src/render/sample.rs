@@ -3,10 +3,10 @@
 //! [`camera_rays`], so an explained sample is exactly the sample the render computed.
 
 use crate::math::ray::Ray;
+use crate::math::sampler::{Sampler, SeedKey, mix64, stratified_2d};
 use crate::render::accum::{LayerSum, PixelSum};
 use crate::render::aov::Layers;
 use crate::render::job::RenderJob;
-use crate::render::sampler::{Sampler, SeedKey, mix64, stratified_2d};
 use crate::render::stats::RayStats;
 use crate::scene::camera::FilmFrame;
 use glam::DVec2;

@@ -6,10 +6,9 @@
 //! lattice point, index and the seed) and the sums are exact ([`crate::render::accum`]), so any
 //! set of disjoint shares that covers the frame merges to the bits of one whole render.
 
-use crate::image::film::Film;
-use crate::image::layers::Aovs;
-use crate::image::write::{WriteError, try_filled};
 use crate::render::accum::{LayerSum, PixelSum};
+use crate::render::aovs::Aovs;
+use crate::render::film::{Film, OutOfMemory, try_filled};
 use crate::render::job::{Antialiasing, RenderSettings};
 use glam::Vec3;
 use serde::Serialize;
@@ -172,7 +171,7 @@ pub struct FrameSums {
 
 impl FrameSums {
     /// Empty sums for `share` of a frame rendered with `settings` (allocated fallibly).
-    pub fn new(settings: &RenderSettings, share: Share, layers: bool) -> Result<Self, WriteError> {
+    pub fn new(settings: &RenderSettings, share: Share, layers: bool) -> Result<Self, OutOfMemory> {
         let n = share.bounds.pixels() as usize;
         Ok(FrameSums {
             width: settings.width,
@@ -197,17 +196,17 @@ impl FrameSums {
 
     /// The image: the mean of each pixel's samples so far, black outside the bounds (or where
     /// none is done).
-    pub fn film(&self) -> Result<Film, WriteError> {
+    pub fn film(&self) -> Result<Film, OutOfMemory> {
         self.film_rows(false)
     }
 
     /// [`Self::film`], rows in parallel on the current rayon pool. Not to be called while holding
     /// a lock that jobs of that pool may take: the waiting thread runs other jobs meanwhile.
-    pub fn film_parallel(&self) -> Result<Film, WriteError> {
+    pub fn film_parallel(&self) -> Result<Film, OutOfMemory> {
         self.film_rows(true)
     }
 
-    fn film_rows(&self, parallel: bool) -> Result<Film, WriteError> {
+    fn film_rows(&self, parallel: bool) -> Result<Film, OutOfMemory> {
         use rayon::prelude::*;
         let mut film = Film::try_new(self.width, self.height)?;
         let b = self.share.bounds;
@@ -231,7 +230,7 @@ impl FrameSums {
     }
 
     /// The depth, normal and albedo layers over the whole frame, when summed.
-    pub fn aovs(&self) -> Result<Option<Aovs>, WriteError> {
+    pub fn aovs(&self) -> Result<Option<Aovs>, OutOfMemory> {
         let Some(sums) = &self.layers else { return Ok(None) };
         let n = self.width as usize * self.height as usize;
         let mut depth = try_filled(n, f32::INFINITY, "depth layer")?;

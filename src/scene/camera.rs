@@ -1,12 +1,12 @@
 //! The pinhole (or thin-lens) camera of the report: eye point, `to` and `up` directions, and a
 //! screen at a distance in front of the eye.
 
-use crate::input::error::Result;
-use crate::input::params::Params;
-use crate::input::spec::{Default, ParamKind, ParamSpec};
-use crate::input::value::{Node, Table};
 use crate::math::float::PARALLEL_TOLERANCE;
 use crate::math::ray::Ray;
+use crate::param::error::Result;
+use crate::param::params::Params;
+use crate::param::spec::{Default, ParamKind, ParamSpec};
+use crate::param::value::{Node, Table};
 use glam::{DVec2, DVec3};
 
 /// A camera. `right = to × up`; `to`, `up` and `right` are unit and mutually orthogonal. Rays
@@ -52,10 +52,36 @@ pub const CAMERA_PARAMS: &[ParamSpec] = &[
         Default::Optional,
         "distance of the plane in focus; default: the look_at point or the screen",
     ),
+    ParamSpec::new(
+        "fit",
+        ParamKind::Bool,
+        Default::Bool(false),
+        "frame the scene: look at the centre of its bounded objects from just far enough to see them all, along look_at → position when both are given (else from the front, right and above); fov and up are kept (`--camera fit` on the command line)",
+    ),
 ];
 
+/// Default direction from a fitted camera's target toward its eye: in front (+z), a little to the
+/// right and above, so a model's three sides show.
+pub const FIT_DIRECTION: DVec3 = DVec3::new(0.35, 0.3, 1.0);
+/// A fitted camera's distance beyond the one at which the bounding sphere touches the frame: a
+/// margin around the model.
+pub const FIT_MARGIN: f64 = 1.1;
+
+/// The eye and target of a camera with vertical field of view `fov_deg`, for a `width × height`
+/// image, that sees all of `bounds` along `direction` (from the target toward the eye; zero or
+/// non-finite: [`FIT_DIRECTION`]): the bounding sphere fits the narrower of the two fields of view.
+pub fn fit(bounds: &crate::math::bounds::Aabb, direction: DVec3, fov_deg: f64, width: u32, height: u32) -> (DVec3, DVec3) {
+    let center = bounds.center();
+    let radius = (bounds.extent().length() * 0.5).max(1e-6 * center.abs().max_element().max(1.0));
+    let dir = direction.try_normalize().filter(|d| d.is_finite()).unwrap_or_else(|| FIT_DIRECTION.normalize());
+    let half_v = (fov_deg.to_radians() * 0.5).clamp(1e-6, std::f64::consts::FRAC_PI_2 - 1e-6);
+    let half_h = (half_v.tan() * f64::from(width.max(1)) / f64::from(height.max(1))).atan();
+    let dist = radius / half_v.min(half_h).sin() * FIT_MARGIN;
+    (center + dir * dist, center)
+}
+
 /// Keys of the look-at form; giving one of them replaces the report form, and vice versa.
-const LOOK_AT_KEYS: &[&str] = &["look_at", "fov"];
+const LOOK_AT_KEYS: &[&str] = &["look_at", "fov", "fit"];
 /// Keys of the report form.
 const REPORT_KEYS: &[&str] = &["to", "screen_distance", "screen_width", "screen_height"];
 
@@ -154,6 +180,8 @@ impl Camera {
 
     /// Reads `[camera]` for an image of `width × height` pixels.
     pub fn from_params(p: &mut Params, width: u32, height: u32) -> Result<Camera> {
+        // `fit` is applied by the loader (it needs the scene's objects) before this is called.
+        p.bool("fit")?;
         let position = p.vec3("position")?;
         let up = p.vec3("up")?;
         let cam = if let Some(target) = p.vec3_opt("look_at")? {
@@ -234,7 +262,7 @@ impl Camera {
     fn lens_ray(&self, dir: DVec3, lens: DVec2) -> Ray {
         let dir = dir.normalize();
         let focus = self.position + dir * (self.focus_distance / dir.dot(self.to));
-        let d = crate::render::sampler::concentric_disc(lens) * self.aperture;
+        let d = crate::math::sampler::concentric_disc(lens) * self.aperture;
         let origin = self.position + d.x * self.right + d.y * self.up;
         Ray::new(origin, focus - origin)
     }
@@ -306,9 +334,9 @@ mod tests {
 
     #[test]
     fn overrides_replace_keys_and_switch_forms() {
-        let src = crate::input::error::Source::new("t", "x");
-        let loc = crate::input::error::Loc::new(&src, 0..1);
-        let node = |v: f64| Node { value: crate::input::value::Value::Float(v), loc: loc.clone() };
+        let src = crate::param::error::Source::new("t", "x");
+        let loc = crate::param::error::Loc::new(&src, 0..1);
+        let node = |v: f64| Node { value: crate::param::value::Value::Float(v), loc: loc.clone() };
         let mut file = Table::default();
         for (k, v) in [("to", 1.0), ("screen_width", 2.0), ("fov", 3.0), ("position", 4.0)] {
             file.set(k, loc.clone(), node(v));
@@ -318,7 +346,7 @@ mod tests {
         assert_eq!(keys(&t), "fov position look_at", "report-form keys dropped");
         let t = apply_overrides(&file, &[("screen_width".into(), node(9.0))]);
         assert_eq!(keys(&t), "to screen_width position", "look-at keys dropped");
-        assert!(matches!(t.get("screen_width").unwrap().value, crate::input::value::Value::Float(9.0)));
+        assert!(matches!(t.get("screen_width").unwrap().value, crate::param::value::Value::Float(9.0)));
         let t = apply_overrides(&file, &[("position".into(), node(9.0))]);
         assert_eq!(keys(&t), "to screen_width fov position", "a shared key changes nothing else");
     }

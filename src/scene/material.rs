@@ -10,13 +10,12 @@
 //! mesh file's factor, such as glTF's `baseColorFactor`, is the constant). A material without
 //! textures costs one test per hit more than constants.
 
-use crate::input::error::{Loc, Result, SceneError, did_you_mean};
-use crate::input::params::Params;
-use crate::input::spec::{Default, ParamKind, ParamSpec};
-use crate::input::textures::TextureLibrary;
-use crate::input::value::{Node, Table, Value};
 use crate::math::color::Color;
-use crate::scene::texture::{Texture, TexturePoint};
+use crate::param::error::{Loc, Result, SceneError, did_you_mean};
+use crate::param::params::Params;
+use crate::param::spec::{Default, ParamKind, ParamSpec};
+use crate::param::value::{Node, Table, Value};
+use crate::scene::texture::{Texture, TexturePoint, TextureResolver};
 use glam::{DVec2, DVec3};
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -237,7 +236,7 @@ pub const MATERIAL_PARAMS: &[ParamSpec] = &[
 impl Material {
     /// Reads a material from its parameters; colours naming a texture (a name in `textures`, or
     /// an inline table with a `type`) are textured.
-    pub fn from_params(p: &mut Params, textures: &TextureLibrary) -> Result<Material> {
+    pub fn from_params(p: &mut Params, textures: &dyn TextureResolver) -> Result<Material> {
         let mut m = Material::default();
         for (channel, name) in Channel::ALL {
             let c = match p.node(name)? {
@@ -281,7 +280,7 @@ impl Material {
     }
 
     /// Reads a material from a table written at `loc`, checking for unknown keys.
-    pub fn from_table(t: &Table, loc: &Loc, what: &str, textures: &TextureLibrary) -> Result<Material> {
+    pub fn from_table(t: &Table, loc: &Loc, what: &str, textures: &dyn TextureResolver) -> Result<Material> {
         let mut p = Params::new(what, MATERIAL_PARAMS, t, loc.clone());
         let m = Material::from_params(&mut p, textures)?;
         p.finish()?;
@@ -419,7 +418,7 @@ impl MaterialLibrary {
     /// The material a scene value names: the name of one of these materials, or an inline table
     /// of coefficients, whose textures come from `textures` (`what` names the value's owner in
     /// messages).
-    pub fn resolve(&self, node: &Node, what: &str, textures: &TextureLibrary) -> Result<Material> {
+    pub fn resolve(&self, node: &Node, what: &str, textures: &dyn TextureResolver) -> Result<Material> {
         match &node.value {
             Value::Str(s) => match self.get(s) {
                 Some(m) => Ok(m.clone()),

@@ -140,7 +140,7 @@ impl Scene {
     }
 
     /// Records the cost of the hierarchies the objects built over their own parts (reported by
-    /// the loader from [`crate::input::context::AssetCache::build_stats`]).
+    /// the loader from [`crate::load::context::AssetCache::build_stats`]).
     pub fn record_object_builds(&mut self, stats: BuildStats) {
         self.object_builds += stats;
     }

@@ -9,11 +9,13 @@
 //! parameters).
 
 use crate::geometry::transform::parse_transform;
-use crate::input::error::Result;
-use crate::input::params::Params;
-use crate::input::spec::{Default, ParamKind, ParamSpec};
 use crate::math::color::Color;
+use crate::param::error::Result;
+use crate::param::params::Params;
+use crate::param::spec::{Default, ParamKind, ParamSpec};
+use crate::param::value::Node;
 use glam::{DAffine3, DVec2, DVec3};
+use std::sync::Arc;
 
 /// Where a texture is looked up.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -33,6 +35,15 @@ pub struct TexturePoint {
 pub trait Texture: Send + Sync + std::fmt::Debug {
     /// The colour (linear RGB, finite, ≥ 0) at `at`.
     fn eval(&self, at: &TexturePoint) -> Color;
+}
+
+/// Where the texture a material's colour names comes from while a scene loads: the loader's
+/// texture library ([`crate::load::textures::TextureLibrary`]), which builds them through the
+/// registry. The scene layer names only this.
+pub trait TextureResolver {
+    /// The texture `node` names: the name of a `[textures.NAME]` table, or an inline table with a
+    /// `type`. `what` names the colour in messages.
+    fn resolve(&self, node: &Node, what: &str) -> Result<Arc<dyn Texture>>;
 }
 
 /// Which coordinates a pattern is laid over.

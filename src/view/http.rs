@@ -15,8 +15,8 @@
 
 use super::knobs::Settings;
 use super::session::{Phase, Session};
+use crate::render::explain::{SampleRef, explanation_json};
 use crate::render::sample::film_position;
-use crate::render::trace::{SampleRef, explanation_json};
 use crate::render::{explain_sample, pixel_samples};
 use std::io::Read;
 use std::sync::Arc;

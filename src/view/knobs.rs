@@ -3,12 +3,12 @@
 //! ([`Role::Depth`], [`Role::Quality`]), so any integrator's knobs appear without the page
 //! knowing their names.
 
-use crate::input::context::LoadOptions;
-use crate::input::error::{Result, SceneError};
-use crate::input::load::RENDER_PARAMS;
-use crate::input::registry::Registry;
-use crate::input::spec::{Default, ParamKind, ParamSpec, Role};
-use crate::input::value::{Node, Value};
+use crate::load::context::LoadOptions;
+use crate::load::loader::RENDER_PARAMS;
+use crate::load::registry::Registry;
+use crate::param::error::{Result, SceneError};
+use crate::param::spec::{Default, ParamKind, ParamSpec, Role};
+use crate::param::value::{Node, Value};
 use crate::render::RenderJob;
 use crate::render::job::{AdaptiveSettings, Antialiasing};
 use serde::{Deserialize, Serialize};

@@ -4,10 +4,10 @@
 //! changes (cancelling the render under way).
 
 use super::knobs::{self, Knob, Settings};
-use crate::image::film::Film;
-use crate::input::context::LoadOptions;
-use crate::input::error::{Location, SceneError};
-use crate::input::registry::Registry;
+use crate::load::context::LoadOptions;
+use crate::load::registry::Registry;
+use crate::param::error::{Location, SceneError};
+use crate::render::film::Film;
 use crate::render::job::{Antialiasing, RenderJob, TILE_SIZE};
 use crate::render::share::Rect;
 use crate::render::{RenderOptions, TileDone};
@@ -484,9 +484,9 @@ impl Session {
     fn load(&self, settings: &Settings) -> Result<(RenderJob, Vec<Knob>), SceneError> {
         let options = knobs::options(&self.base, settings, &self.registry)?;
         let job = match &self.source {
-            SceneSource::File(p) => crate::input::load::load_file(&self.registry, p, &options)?,
+            SceneSource::File(p) => crate::load::loader::load_file(&self.registry, p, &options)?,
             SceneSource::Bundled { name, text } => {
-                crate::input::load::load_str(&self.registry, name, text, std::path::Path::new("."), &options)?
+                crate::load::loader::load_str(&self.registry, name, text, std::path::Path::new("."), &options)?
             }
         };
         let knobs = knobs::describe(&self.registry, &job);

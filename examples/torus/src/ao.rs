@@ -6,11 +6,11 @@
 //! `distance`. Sample directions come from the pixel's [`Sampler`], stratified, so the image is
 //! deterministic and independent of the thread count. No allocation per ray.
 
-use raylab::input::error::Result;
-use raylab::input::params::Params;
-use raylab::input::spec::{Default, ParamKind, ParamSpec};
+use raylab::math::sampler::{concentric_disc, stratified_2d};
+use raylab::param::error::Result;
+use raylab::param::params::Params;
+use raylab::param::spec::{Default, ParamKind, ParamSpec};
 use raylab::render::aov::Layers;
-use raylab::render::sampler::{concentric_disc, stratified_2d};
 use raylab::render::stats::{Counter, CounterKind};
 use raylab::{Color, Integrator, Intersectable, LoadContext, PluginInfo, Ray, RayStats, Sampler, Scene};
 

@@ -11,7 +11,7 @@
 //!
 //! ```no_run
 //! let registry = raylab_torus::registry();
-//! let job = raylab::input::load::load_file(&registry, "examples/torus/scenes/torus.toml".as_ref(), &Default::default()).unwrap();
+//! let job = raylab::load::loader::load_file(&registry, "examples/torus/scenes/torus.toml".as_ref(), &Default::default()).unwrap();
 //! ```
 
 pub mod ao;

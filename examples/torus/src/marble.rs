@@ -3,9 +3,9 @@
 //! noise), comes near its trough.
 
 use raylab::glam::DVec3;
-use raylab::input::error::Result;
-use raylab::input::params::Params;
-use raylab::input::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::error::Result;
+use raylab::param::params::Params;
+use raylab::param::spec::{Default, ParamKind, ParamSpec};
 use raylab::scene::texture::{Mapping, TRANSFORM_PARAM, Texture, TexturePoint};
 use raylab::{Color, LoadContext, PluginInfo};
 use std::sync::Arc;
@@ -79,7 +79,7 @@ impl Perlin {
         let mut state = seed;
         for i in (1..256).rev() {
             state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let j = (raylab::render::sampler::mix64(state) % (i as u64 + 1)) as usize;
+            let j = (raylab::math::sampler::mix64(state) % (i as u64 + 1)) as usize;
             p.swap(i, j);
         }
         Perlin { perm: std::array::from_fn(|i| p[i & 255]) }

@@ -9,9 +9,9 @@
 //! sample back from `intersect`, so a path tracer can weigh its own directions against it.
 
 use raylab::glam::{DVec2, DVec3};
-use raylab::input::error::Result;
-use raylab::input::params::Params;
-use raylab::input::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::error::Result;
+use raylab::param::params::Params;
+use raylab::param::spec::{Default, ParamKind, ParamSpec};
 use raylab::{Color, LightPdf, LightSample, LightSource, LoadContext, PluginInfo, Ray};
 
 /// The `panel` plugin's description.

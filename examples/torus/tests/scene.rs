@@ -2,8 +2,8 @@
 //! integrator and `panel` light work through the same loader as the built-ins.
 
 use raylab::Intersectable;
-use raylab::input::context::{LoadOptions, Overrides};
-use raylab::input::load::load_file;
+use raylab::load::context::{LoadOptions, Overrides};
+use raylab::load::loader::load_file;
 use raylab::render::{RenderOptions, render};
 use std::path::Path;
 
@@ -44,7 +44,7 @@ fn ambient_occlusion_darkens_the_floor_under_the_ring() {
     // A plain floor: occlusion alone, without the marble's veins.
     let text = std::fs::read_to_string(scene()).unwrap().replace("kd = \"marble\"", "kd = 0.45");
     let dir = scene().parent().unwrap().to_path_buf();
-    let job = raylab::input::load::load_str(&raylab_torus::registry(), "torus.toml", &text, &dir, &options(Some("ao"))).unwrap();
+    let job = raylab::load::loader::load_str(&raylab_torus::registry(), "torus.toml", &text, &dir, &options(Some("ao"))).unwrap();
     let film = render(&job, &RenderOptions::default(), &|_, _| {}).unwrap().film;
     // Open floor near the bottom edge versus the floor right beside the gold ring.
     let open = film.get(40, 58).x;

@@ -28,7 +28,7 @@
 
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::color::max_channel;
-use raylab::render::sampler::{concentric_disc, orthonormal_basis};
+use raylab::math::sampler::{concentric_disc, orthonormal_basis};
 use raylab::scene::interaction::Interaction;
 use raylab::scene::material::Fresnel;
 use raylab::{Color, RayKind};

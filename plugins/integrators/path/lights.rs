@@ -4,14 +4,14 @@
 
 use super::bsdf::Bsdf;
 use super::{Ctx, PathTracer, TAG_EMITTERS, TAG_LIGHTS, counter};
+use raylab::glam::DVec3;
 use raylab::math::color::max_channel;
 use raylab::math::float::SHADOW_EPSILON;
-use raylab::render::sampler::stratified_2d;
+use raylab::math::sampler::stratified_2d;
 use raylab::render::trace::{Recorder, Term, TraceLight};
-use raylab::scene::interaction::Interaction;
 use raylab::scene::emitters::EmitterSample;
+use raylab::scene::interaction::Interaction;
 use raylab::scene::light::LightFacts;
-use raylab::glam::DVec3;
 use raylab::{Color, Intersectable, LightPdf, LightSample, LightSource, Ray, Sampler, Scene};
 use std::f64::consts::PI;
 

@@ -47,16 +47,16 @@ pub mod bsdf;
 mod lights;
 
 use bsdf::Bsdf;
-use raylab::input::error::Result;
-use raylab::input::params::Params;
-use raylab::input::spec::{Default, ParamKind, ParamSpec, Reference};
+use raylab::glam::DVec3;
 use raylab::math::color::max_channel;
+use raylab::param::error::Result;
+use raylab::param::params::Params;
+use raylab::param::spec::{Default, ParamKind, ParamSpec, Reference};
 use raylab::render::aov::Layers;
 use raylab::render::stats::{Counter, CounterKind};
 use raylab::render::trace::{NoRecord, Recorder, Term};
 use raylab::scene::emitters::Selection;
 use raylab::scene::interaction::Interaction;
-use raylab::glam::DVec3;
 use raylab::{Color, Integrator, LoadContext, PluginInfo, Ray, RayKind, RayStats, Sampler, Scene, TraceNode};
 
 pub use lights::{IRRADIANCE_PER_INTENSITY, power_heuristic};

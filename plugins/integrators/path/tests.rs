@@ -6,9 +6,9 @@ use super::bsdf::{Bsdf, Lobe, fresnel_dielectric, lobe_brdf, thin_slab_reflectan
 use super::*;
 use crate::shapes::sphere::Sphere;
 use raylab::glam::{DVec2, DVec3};
-use raylab::input::context::LoadOptions;
-use raylab::input::limits::Limits;
-use raylab::render::sampler::stratified_2d;
+use raylab::load::context::LoadOptions;
+use raylab::math::sampler::stratified_2d;
+use raylab::param::limits::Limits;
 use raylab::scene::object::Object;
 use raylab::{Camera, Material, RenderJob};
 use std::f64::consts::{FRAC_PI_2, TAU};
@@ -126,7 +126,7 @@ fn a_materials_fresnel_setting_means_what_it_means_for_phong() {
 
 /// `∫ g(ω) dω` over the hemisphere around unit `n` (midpoint rule in θ, φ).
 fn hemisphere_integral(n: DVec3, g: impl Fn(DVec3) -> f64) -> f64 {
-    let (b1, b2) = raylab::render::sampler::orthonormal_basis(n);
+    let (b1, b2) = raylab::math::sampler::orthonormal_basis(n);
     let (nt, np) = (600, 1200);
     let mut sum = 0.0;
     for i in 0..nt {
@@ -203,7 +203,7 @@ fn the_normalised_phong_lobe_conserves_energy() {
 
 fn load(text: &str) -> RenderJob {
     let options = LoadOptions { limits: Limits::unlimited(), ..LoadOptions::default() };
-    raylab::input::load::load_str(&crate::registry(), "test.toml", text, Path::new("."), &options)
+    raylab::load::loader::load_str(&crate::registry(), "test.toml", text, Path::new("."), &options)
         .unwrap_or_else(|e| panic!("{}", e.report()))
 }
 
@@ -429,4 +429,3 @@ fn a_light_that_rays_cannot_meet_is_sampled_in_full() {
         "{met} ± {met_error} vs {unmet} ± {unmet_error}"
     );
 }
-

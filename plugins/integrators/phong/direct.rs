@@ -6,7 +6,7 @@ use super::fan::reflect;
 use super::{Ctx, Phong, TAG_LIGHTS, counter};
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::color::max_channel;
-use raylab::render::sampler::StratifiedSet;
+use raylab::math::sampler::StratifiedSet;
 use raylab::render::trace::{Recorder, Term, TraceLight};
 use raylab::scene::interaction::Interaction;
 use raylab::{Color, LightSample, LightSource, Sampler};

@@ -5,7 +5,7 @@
 use super::{Ctx, Phong, TAG_REFLECTION, TAG_REFRACTION, counter};
 use raylab::glam::DVec3;
 use raylab::math::color::max_channel;
-use raylab::render::sampler::{StratifiedSet, concentric_disc, orthonormal_basis};
+use raylab::math::sampler::{StratifiedSet, concentric_disc, orthonormal_basis};
 use raylab::render::trace::Recorder;
 use raylab::scene::interaction::Interaction;
 use raylab::scene::material::Fresnel;

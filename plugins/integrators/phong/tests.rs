@@ -240,7 +240,7 @@ fn ambient_at_the_first_hit_only_is_not_added_again_in_reflections() {
     "#;
     let centre = |ambient: &str| {
         let text = format!("{scene}\n[integrator]\ntype = \"phong\"\nambient = \"{ambient}\"\n");
-        let job = raylab::input::load::load_str(&crate::registry(), "t.toml", &text, std::path::Path::new("."), &LoadOptions::default())
+        let job = raylab::load::loader::load_str(&crate::registry(), "t.toml", &text, std::path::Path::new("."), &LoadOptions::default())
             .unwrap_or_else(|e| panic!("{}", e.report()));
         let mut stats = raylab::RayStats::new(job.integrator.counters());
         raylab::render::render_pixel(&job, 1, 1, &mut stats).x
@@ -308,7 +308,7 @@ fn fresnel_glass_passes_on_the_light_behind_it_without_adding_any() {
         )
     };
     let run = |fresnel: &str| {
-        let job = raylab::input::load::load_str(
+        let job = raylab::load::loader::load_str(
             &crate::registry(),
             "t.toml",
             &scene(fresnel),

@@ -5,7 +5,7 @@
 
 use crate::math::color::Color;
 use crate::math::ray::Ray;
-use crate::render::sampler::stratified_2d;
+use crate::math::sampler::stratified_2d;
 use crate::scene::light::{LightPdf, LightSource};
 use glam::DVec3;
 use std::f64::consts::{PI, TAU};

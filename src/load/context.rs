@@ -3,12 +3,12 @@
 //! read goes through, the memory budget, shared assets and warnings.
 
 use crate::accel::{AccelChoice, BuildStats};
-use crate::input::error::{Loc, Result, SceneError};
-use crate::input::files::{OpenLog, ReadError, read_regular};
-use crate::input::fingerprint::Fingerprint;
-use crate::input::limits::Limits;
-use crate::input::value::Node;
 use crate::math::color::Encoding;
+use crate::param::error::{Loc, Result, SceneError};
+use crate::param::files::{OpenLog, ReadError, read_regular};
+use crate::param::fingerprint::Fingerprint;
+use crate::param::limits::Limits;
+use crate::param::value::Node;
 use std::any::Any;
 use std::collections::HashMap;
 use std::path::{Component, Path, PathBuf};
@@ -31,7 +31,7 @@ pub struct Overrides {
     pub integrator: Option<String>,
     /// Integrator parameters, `(name, value)`, applied over the scene's.
     pub integrator_params: Vec<(String, Node)>,
-    /// The integrator's recursion depth (its parameter with [`crate::input::spec::Role::Depth`],
+    /// The integrator's recursion depth (its parameter with [`crate::param::spec::Role::Depth`],
     /// whatever its name), applied before `integrator_params`.
     pub depth: Option<Node>,
     /// `[render]` keys, `(name, value)`, applied over the scene's (e.g. `aa`, `lens_samples`).
@@ -247,7 +247,7 @@ impl<'a> LoadContext<'a> {
                 None => err,
             }
         };
-        let opened = crate::input::files::open_regular(&full, self.options.open_log.as_ref()).map_err(failed)?;
+        let opened = crate::param::files::open_regular(&full, self.options.open_log.as_ref()).map_err(failed)?;
         if !self.options.allow_outside_paths {
             // The file opened is the one checked, even if a link changed in between.
             let dir = self.canonical_dir(loc)?;

@@ -5,10 +5,10 @@
 //! original. Layout: the root's plain values first, then `[table]` sections (nested tables as
 //! `[a.b]`), then `[[array]]` tables, whose nested tables are written inline.
 
-use crate::input::description::SceneDescription;
-use crate::input::error::{Loc, Result, SceneError, Source};
-use crate::input::value::Node;
-use crate::input::value::{Table, Value};
+use crate::param::description::SceneDescription;
+use crate::param::error::{Loc, Result, SceneError, Source};
+use crate::param::value::Node;
+use crate::param::value::{Table, Value};
 use std::fmt::Write;
 use std::sync::Arc;
 
@@ -195,7 +195,7 @@ fn convert_table(t: toml::de::DeTable<'_>, src: &Arc<Source>) -> Result<Table> {
     let mut entries = Vec::with_capacity(t.len());
     for (k, v) in t {
         let key_loc = Loc::new(src, k.span());
-        entries.push(crate::input::value::Entry { key: k.into_inner().into_owned(), key_loc, value: convert_value(v, src)? });
+        entries.push(crate::param::value::Entry { key: k.into_inner().into_owned(), key_loc, value: convert_value(v, src)? });
     }
     Ok(Table { entries })
 }
@@ -238,8 +238,8 @@ fn convert_value(v: toml::Spanned<toml::de::DeValue<'_>>, src: &Arc<Source>) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::input::error::Source;
-    use crate::input::toml::parse_toml;
+    use crate::param::error::Source;
+    use crate::param::toml::parse_toml;
 
     fn parse(text: &str) -> Table {
         parse_toml(&Source::new("t.toml", text), "t".into()).unwrap_or_else(|e| panic!("{}\n---\n{text}", e.report())).root

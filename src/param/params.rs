@@ -6,10 +6,10 @@
 //! it, `raylab plugins` prints it, and a key in the scene that the plugin never read is an error
 //! naming its location (a typo never passes silently).
 
-use crate::input::error::{Loc, Result, SceneError, did_you_mean};
-use crate::input::spec::{Default, ParamKind, ParamSpec};
-use crate::input::value::{Node, Table, Value, color_of, vec3_of};
 use crate::math::color::Color;
+use crate::param::error::{Loc, Result, SceneError, did_you_mean};
+use crate::param::spec::{Default, ParamKind, ParamSpec};
+use crate::param::value::{Node, Table, Value, color_of, vec3_of};
 use glam::DVec3;
 use std::fmt;
 
@@ -321,7 +321,7 @@ impl<'a> Params<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::input::error::Source;
+    use crate::param::error::Source;
 
     fn table(src: &std::sync::Arc<Source>, kv: &[(&str, Value)]) -> Table {
         let mut t = Table::default();

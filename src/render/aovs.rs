@@ -26,7 +26,7 @@ impl Aov {
     }
 }
 
-/// The extra layers of an image, row-major like [`crate::image::film::Film`]; each present if asked for.
+/// The extra layers of an image, row-major like [`crate::render::film::Film`]; each present if asked for.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Aovs {
     /// Distance per pixel (+∞: nothing hit).

@@ -13,12 +13,12 @@
 //! ks = { type = "image", file = "assets/gloss.png" }      # an inline one
 //! ```
 
-use crate::input::context::LoadContext;
-use crate::input::error::{Loc, Result, SceneError, did_you_mean};
-use crate::input::params::Params;
-use crate::input::registry::Registry;
-use crate::input::value::{Node, Table, Value};
-use crate::scene::texture::Texture;
+use crate::load::context::LoadContext;
+use crate::load::registry::Registry;
+use crate::param::error::{Loc, Result, SceneError, did_you_mean};
+use crate::param::params::Params;
+use crate::param::value::{Node, Table, Value};
+use crate::scene::texture::{Texture, TextureResolver};
 use std::cell::RefCell;
 use std::sync::Arc;
 
@@ -118,6 +118,12 @@ impl<'a> TextureLibrary<'a> {
         let texture = (plugin.build)(&mut p, self.ctx)?;
         p.finish()?;
         Ok(texture)
+    }
+}
+
+impl TextureResolver for TextureLibrary<'_> {
+    fn resolve(&self, node: &Node, what: &str) -> Result<Arc<dyn Texture>> {
+        TextureLibrary::resolve(self, node, what)
     }
 }
 

@@ -1,7 +1,7 @@
 //! A scene as read from a file, before it is built: the root table of raylab's format.
 
-use crate::input::error::Loc;
-use crate::input::value::Table;
+use crate::param::error::Loc;
+use crate::param::value::Table;
 
 /// A scene as read from a file, before building: the root table in raylab's format.
 #[derive(Clone, Debug)]

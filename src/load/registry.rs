@@ -4,13 +4,14 @@
 //! geometry the same way (see docs/writing-a-plugin.md).
 
 use crate::geometry::Geometry;
-use crate::input::context::LoadContext;
-use crate::input::description::SceneDescription;
-use crate::input::error::Result;
-use crate::input::params::Params;
-use crate::input::spec::ParamSpec;
+use crate::load::context::LoadContext;
+use crate::param::description::SceneDescription;
+use crate::param::error::Result;
+use crate::param::params::Params;
+use crate::param::spec::ParamSpec;
 use crate::render::integrator::Integrator;
 use crate::scene::light::LightSource;
+use crate::scene::material::Material;
 use crate::scene::texture::Texture;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -27,8 +28,19 @@ pub struct PluginInfo {
     pub params: &'static [ParamSpec],
 }
 
+/// A geometry as its builder made it: the shape, and the materials its own source defines (an
+/// OBJ's MTL library, a glTF file's materials), indexed by
+/// [`Surface::material`](crate::geometry::Surface::material); `None` for shapes that take the
+/// object's material. An object's `material` in the scene replaces them.
+pub struct BuiltGeometry {
+    /// The shape.
+    pub geometry: Box<dyn Geometry>,
+    /// The materials its file defines, if any.
+    pub materials: Option<Arc<[Material]>>,
+}
+
 /// Builds a geometry from its parameters.
-pub type GeometryBuilder = Arc<dyn Fn(&mut Params, &LoadContext) -> Result<Box<dyn Geometry>> + Send + Sync>;
+pub type GeometryBuilder = Arc<dyn Fn(&mut Params, &LoadContext) -> Result<BuiltGeometry> + Send + Sync>;
 /// Builds a texture from its parameters.
 pub type TextureBuilder = Arc<dyn Fn(&mut Params, &LoadContext) -> Result<Arc<dyn Texture>> + Send + Sync>;
 /// Builds a light from its parameters.
@@ -80,6 +92,16 @@ impl Registry {
         &mut self,
         info: PluginInfo,
         build: impl Fn(&mut Params, &LoadContext) -> Result<Box<dyn Geometry>> + Send + Sync + 'static,
+    ) {
+        self.add_geometry_with_materials(info, move |p, ctx| Ok(BuiltGeometry { geometry: build(p, ctx)?, materials: None }));
+    }
+
+    /// Registers a geometry type whose source may define its own materials (a mesh file's);
+    /// replaces any earlier one of the same name.
+    pub fn add_geometry_with_materials(
+        &mut self,
+        info: PluginInfo,
+        build: impl Fn(&mut Params, &LoadContext) -> Result<BuiltGeometry> + Send + Sync + 'static,
     ) {
         self.geometries.insert(info.name, Plugin { info, build: Arc::new(build) });
     }

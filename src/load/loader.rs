@@ -1,23 +1,23 @@
 //! Loading a scene: reading a scene file into raylab's scene description (a located [`Table`]),
 //! then building it, plugin by plugin, through the [`Registry`].
 //!
-//! Every format (raylab's TOML here; others registered as [`crate::input::registry::SceneFormat`])
+//! Every format (raylab's TOML here; others registered as [`crate::load::registry::SceneFormat`])
 //! produces the same description, so validation, limits and error locations work alike for all.
 
 use crate::accel::AccelChoice;
 use crate::geometry::transform::{Transformed, parse_transform};
-use crate::input::context::{LoadContext, LoadOptions, read_user_file, scene_dir};
-use crate::input::description::SceneDescription;
-use crate::input::error::{Loc, Result, SceneError, Source, did_you_mean};
-use crate::input::fingerprint::Fingerprint;
-use crate::input::limits::{OBJECT_BYTES, toml_memory_estimate};
-use crate::input::params::Params;
-use crate::input::registry::Registry;
-use crate::input::spec::{Default, ParamKind, ParamSpec, Role};
-use crate::input::textures::TextureLibrary;
-use crate::input::toml::parse_toml;
-use crate::input::value::{Node, Table, Value};
+use crate::load::context::{LoadContext, LoadOptions, read_user_file, scene_dir};
+use crate::load::registry::{BuiltGeometry, Registry};
+use crate::load::textures::TextureLibrary;
 use crate::math::color::Encoding;
+use crate::param::description::SceneDescription;
+use crate::param::error::{Loc, Result, SceneError, Source, did_you_mean};
+use crate::param::fingerprint::Fingerprint;
+use crate::param::limits::{OBJECT_BYTES, toml_memory_estimate};
+use crate::param::params::Params;
+use crate::param::spec::{Default, ParamKind, ParamSpec, Role};
+use crate::param::toml::parse_toml;
+use crate::param::value::{Node, Table, Value};
 use crate::render::job::{AdaptiveSettings, MAX_ADAPTIVE_COARSE, MAX_CELL_SAMPLES};
 use crate::render::{Antialiasing, MAX_ADAPTIVE_DEPTH, RenderJob, RenderSettings};
 use crate::scene::Scene;
@@ -136,7 +136,7 @@ fn read_with(registry: &Registry, path: &Path, ctx: &LoadContext) -> Result<Scen
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let estimate = if ext == "toml" { toml_memory_estimate(&bytes) } else { bytes.len() as u64 };
     ctx.charge(estimate, "the scene description", None).map_err(|mut e| {
-        e.location = crate::input::error::Location::File { path: path.display().to_string(), line_col: None };
+        e.location = crate::param::error::Location::File { path: path.display().to_string(), line_col: None };
         e
     })?;
     ctx.fingerprint("the scene file", &bytes);
@@ -221,7 +221,7 @@ impl Parts {
 fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) -> Result<Parts> {
     let opts = ctx.options;
     let ov = &opts.overrides;
-    if opts.accel == AccelChoice::Bvh && !crate::accel::bvh::BVH_AVAILABLE {
+    if opts.accel == AccelChoice::Bvh && !crate::accel::build::BVH_AVAILABLE {
         return Err(SceneError::msg("a BVH was asked for, but raylab was built without the `bvh` feature")
             .with_help("rebuild with `--features bvh`, or use --accel auto/list"));
     }
@@ -244,30 +244,48 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
     let max_side = i64::from(limits.max_side.min(i32::MAX as u32));
     // The file's values are read (and validated) even when the command line overrides them.
     let (file_width, file_height) = (rp.int_in("width", 1..=i64::MAX)?, rp.int_in("height", 1..=i64::MAX)?);
-    let width = ov.width.map_or(file_width, i64::from);
-    let height = ov.height.map_or(file_height, i64::from);
+    let (width, height) = image_size((file_width, file_height), (ov.width, ov.height));
+    // An error about the size points at the flag that set it, else at the scene's [render].
+    // (A side the other flag derived names that flag.)
+    let width_flag = ov.width.map(|w| Node::given("--width", Value::Int(w.into())));
+    let height_flag = ov.height.map(|h| Node::given("--height", Value::Int(h.into())));
+    let size_error = |rp: &Params, key: &str, message: String| {
+        let flag =
+            if key == "height" { height_flag.as_ref().or(width_flag.as_ref()) } else { width_flag.as_ref().or(height_flag.as_ref()) };
+        match flag {
+            Some(n) => SceneError::at(&n.loc, message),
+            None if key.is_empty() => rp.error(message),
+            None => rp.error_at(key, message),
+        }
+    };
     for (v, what) in [(width, "width"), (height, "height")] {
         if v < 1 || v > max_side {
-            return Err(rp
-                .error_at(what, format_args!("image {what} {v} is outside 1..={max_side}"))
-                .with_help("raise the limit with --max-side"));
+            return Err(
+                size_error(&rp, what, format!("image {what} {v} is outside 1..={max_side}")).with_help("raise the limit with --max-side")
+            );
         }
     }
     let pixels = width as u64 * height as u64;
     if pixels > limits.max_pixels {
-        return Err(rp
-            .error(format!("image of {width}×{height} = {pixels} pixels exceeds the limit of {} pixels", limits.max_pixels))
-            .with_help("raise the limit with --max-pixels"));
+        return Err(size_error(
+            &rp,
+            "",
+            format!("image of {width}×{height} = {pixels} pixels exceeds the limit of {} pixels", limits.max_pixels),
+        )
+        .with_help("raise the limit with --max-pixels"));
     }
     let bytes = crate::image::output::image_bytes(pixels, &opts.image);
     if bytes > limits.max_image_bytes {
-        return Err(rp
-            .error(format!(
+        return Err(size_error(
+            &rp,
+            "",
+            format!(
                 "image of {width}×{height} pixels needs about {} MB (film, per-pixel sums, layers and encoding), over the limit of {} MB",
                 bytes.div_ceil(1 << 20),
                 limits.max_image_bytes >> 20
-            ))
-            .with_help("raise the limit with --max-image-bytes, or render a smaller image"));
+            ),
+        )
+        .with_help("raise the limit with --max-image-bytes, or render a smaller image"));
     }
     ctx.charge(bytes, &format!("the image of {width}×{height} pixels"), Some(rp.loc()))?;
     let file_spp = rp.int_in("spp", 1..=i64::MAX)?;
@@ -326,9 +344,19 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
     }
     let (cam_table, cam_loc) = sub_table(cam_node, &desc.loc, &empty, "camera")?;
     let cam_table = crate::scene::camera::apply_overrides(cam_table, &ov.camera_params);
-    let mut cp = Params::new("[camera]", CAMERA_PARAMS, &cam_table, cam_loc);
-    let camera = Camera::from_params(&mut cp, settings.width, settings.height)?;
-    cp.finish()?;
+    // `fit = true` needs the objects' bounds: that camera is built after them.
+    let fit = match cam_table.get("fit") {
+        Some(Node { value: Value::Bool(b), loc }) => b.then(|| loc.clone()),
+        Some(n) => return Err(SceneError::at(&n.loc, format!("`fit` must be true or false, found {}", n.value.type_name()))),
+        None => None,
+    };
+    let build_camera = |table: &Table| -> Result<Camera> {
+        let mut cp = Params::new("[camera]", CAMERA_PARAMS, table, cam_loc.clone());
+        let camera = Camera::from_params(&mut cp, settings.width, settings.height)?;
+        cp.finish()?;
+        Ok(camera)
+    };
+    let camera = if fit.is_none() { Some(build_camera(&cam_table)?) } else { None };
 
     // [textures.NAME]: built when a material first names one.
     let textures = TextureLibrary::new(registry, ctx);
@@ -362,7 +390,7 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         ctx.charge(OBJECT_BYTES, &what, Some(&node.loc))?;
         let transform = params.get("transform").map(|n| parse_transform(n).map_err(|e| e.context(&what))).transpose()?;
         let mut p = Params::new(&what, plugin.info.params, params, node.loc.clone()).reserving(OBJECT_KEYS);
-        let mut g = (plugin.build)(&mut p, ctx)?;
+        let BuiltGeometry { geometry: mut g, materials: own_materials } = (plugin.build)(&mut p, ctx)?;
         p.finish()?;
         if let Some(t) = transform.filter(|t| !t.is_identity()) {
             g = Box::new(Transformed::new(g, t));
@@ -384,21 +412,29 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         // scene's default.
         let materials = match params.get("material") {
             Some(n) => Arc::from([materials.resolve(n, &what, &textures)?]),
-            None => g.materials().unwrap_or_else(|| default_material.clone()),
+            None => own_materials.unwrap_or_else(|| default_material.clone()),
         };
         let sides = match params.get("emission_sides") {
             None => EmissionSides::Both,
             Some(n) => match &n.value {
                 Value::Str(s) => EmissionSides::parse(s).ok_or_else(|| {
-                    let hint = did_you_mean(s, EmissionSides::NAMES.iter().copied()).map_or(String::new(), |m| format!(" (did you mean \"{m}\"?)"));
+                    let hint = did_you_mean(s, EmissionSides::NAMES.iter().copied())
+                        .map_or(String::new(), |m| format!(" (did you mean \"{m}\"?)"));
                     SceneError::at(&n.loc, format!("{what}: unknown emission_sides \"{s}\""))
                         .with_help(format!("expected one of: {}{hint}", EmissionSides::NAMES.join(", ")))
                 })?,
-                _ => return Err(SceneError::at(&n.loc, format!("{what}: emission_sides must be a string: \"both\", \"front\" or \"back\""))),
+                _ => {
+                    return Err(SceneError::at(&n.loc, format!("{what}: emission_sides must be a string: \"both\", \"front\" or \"back\"")));
+                }
             },
         };
         objects.push(Object::new(names.claim(node, &label, &ty, i)?, g, materials).with_emission_sides(sides));
     }
+
+    let camera = match (camera, fit) {
+        (Some(c), _) => c,
+        (None, fit) => build_camera(&fitted_camera(cam_table, &objects, &fit.unwrap_or_else(|| desc.loc.clone()), &settings)?)?,
+    };
 
     for (name, loc) in textures.unused() {
         ctx.warn(SceneError::at(&loc, format!("texture \"{name}\" is not used by any material; it was not loaded")));
@@ -416,6 +452,23 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         let l = (plugin.build)(&mut p, ctx)?;
         p.finish()?;
         lights.push((light_names.claim(node, &label, &ty, i)?, l));
+    }
+
+    // A scene nothing lights renders black (or only its background): say so, since the render
+    // itself succeeds.
+    if lights.is_empty()
+        && !objects
+            .iter()
+            .any(|o| o.materials().iter().any(|m| crate::math::color::max_channel(m.emission) > 0.0 || !m.textures.is_empty()))
+    {
+        ctx.warn(
+            SceneError::in_file(
+                &desc.loc.source.name,
+                None,
+                "the scene has no light and nothing in it emits: the image will show only the background",
+            )
+            .with_help("add a [[light]], e.g. type = \"point\" with a `position`, or type = \"ambient\""),
+        );
     }
 
     // [integrator]
@@ -461,8 +514,14 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
     for (k, v) in &ov.integrator_params {
         if !plugin.info.params.iter().any(|s| s.name == k) {
             let names: Vec<&str> = plugin.info.params.iter().map(|s| s.name).collect();
-            return Err(SceneError::at(&v.loc, format!("integrator \"{ty}\" has no parameter `{k}`"))
-                .with_help(format!("its parameters: {}", names.join(", "))));
+            // Point at the key: `--set KEY=VALUE` holds it before the value.
+            let key_at = v.loc.source.text.find(k.as_str()).filter(|&i| i + k.len() <= v.loc.start);
+            let loc = key_at.map_or_else(|| v.loc.clone(), |i| Loc::new(&v.loc.source, i..i + k.len()));
+            let help = match did_you_mean(k, names.iter().copied()) {
+                Some(m) => format!("did you mean `{m}`?  (parameters: {})", names.join(", ")),
+                None => format!("its parameters: {}", names.join(", ")),
+            };
+            return Err(SceneError::at(&loc, format!("integrator \"{ty}\" has no parameter `{k}`")).with_help(help));
         }
         integ_table.set(k, v.loc.clone(), v.clone());
     }
@@ -485,7 +544,7 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
     fingerprint.add("camera", format!("{camera:?}").as_bytes());
     fingerprint.add("background", format!("{background:?}").as_bytes());
     fingerprint.add("integrator", ty.as_bytes());
-    fingerprint.add("integrator parameters", crate::input::toml::table_to_toml(&integ_table).as_bytes());
+    fingerprint.add("integrator parameters", crate::param::toml::table_to_toml(&integ_table).as_bytes());
     Ok(Parts {
         name,
         camera,
@@ -537,6 +596,67 @@ fn check_work(s: &RenderSettings, scene: &Scene, integrator: &dyn crate::Integra
 
 /// `table` with `overrides` set over it (unknown keys are reported by the table's reader, at the
 /// override's location).
+/// The `[camera]` table with `position` and `look_at` chosen to frame the bounded objects (see
+/// [`crate::scene::camera::fit`]), the report form's keys dropped.
+fn fitted_camera(mut table: Table, objects: &[Object], fit: &Loc, settings: &RenderSettings) -> Result<Table> {
+    let bounds = objects
+        .iter()
+        .filter_map(|o| o.geometry().bounds())
+        .filter(|b| !b.is_empty() && b.min.is_finite() && b.max.is_finite())
+        .reduce(|a, b| a.union(b))
+        .ok_or_else(|| SceneError::at(fit, "`fit` frames the scene's bounded objects, and it has none (planes and tubes are unbounded)"))?;
+    let vec3 = |key: &str| match table.get(key).map(|n| &n.value) {
+        Some(Value::Array(a)) if a.len() == 3 => {
+            let c: Vec<f64> = a
+                .iter()
+                .filter_map(|n| {
+                    if let Value::Float(f) = n.value {
+                        Some(f)
+                    } else if let Value::Int(i) = n.value {
+                        Some(i as f64)
+                    } else {
+                        None
+                    }
+                })
+                .collect();
+            (c.len() == 3).then(|| glam::DVec3::new(c[0], c[1], c[2]))
+        }
+        _ => None,
+    };
+    let direction = match (vec3("position"), vec3("look_at")) {
+        (Some(p), Some(t)) => p - t,
+        _ => glam::DVec3::ZERO,
+    };
+    let fov = match table.get("fov").map(|n| &n.value) {
+        Some(Value::Float(f)) => *f,
+        Some(Value::Int(i)) => *i as f64,
+        _ => 45.0,
+    };
+    let (eye, target) = crate::scene::camera::fit(&bounds, direction, fov, settings.width, settings.height);
+    for key in ["to", "screen_distance", "screen_width", "screen_height", "fit"] {
+        table.remove(key);
+    }
+    let at = |v: glam::DVec3| Node {
+        value: Value::Array(v.to_array().into_iter().map(|c| Node { value: Value::Float(c), loc: fit.clone() }).collect()),
+        loc: fit.clone(),
+    };
+    table.set("position", fit.clone(), at(eye));
+    table.set("look_at", fit.clone(), at(target));
+    Ok(table)
+}
+
+/// The image size: the file's, with the command line's width and height over it. One side given
+/// alone keeps the file's aspect ratio (the other side is scaled and rounded, at least 1).
+pub fn image_size(file: (i64, i64), given: (Option<u32>, Option<u32>)) -> (i64, i64) {
+    let scaled = |side: u32, num: i64, den: i64| ((f64::from(side) * num as f64 / den as f64).round() as i64).max(1);
+    match given {
+        (Some(w), Some(h)) => (w.into(), h.into()),
+        (Some(w), None) => (w.into(), scaled(w, file.1, file.0)),
+        (None, Some(h)) => (scaled(h, file.0, file.1), h.into()),
+        (None, None) => file,
+    }
+}
+
 fn with_overrides(table: &Table, overrides: &[(String, Node)]) -> Table {
     let mut t = table.clone();
     for (k, v) in overrides {

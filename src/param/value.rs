@@ -1,8 +1,8 @@
 //! The located value tree every scene format produces (TOML, the report's XML, command-line
 //! overrides): values with where they were written.
 
-use crate::input::error::Loc;
 use crate::math::color::Color;
+use crate::param::error::Loc;
 use glam::DVec3;
 
 /// A value from a scene file, with where it came from.
@@ -25,7 +25,7 @@ impl Node {
             Value::Bool(b) => b.to_string(),
             other => other.type_name().to_string(),
         };
-        let src = crate::input::error::Source::new(origin, text);
+        let src = crate::param::error::Source::new(origin, text);
         let loc = Loc::new(&src, 0..src.text.len());
         Node { value, loc }
     }

@@ -1,0 +1,95 @@
+//! The command line parsed and handed to its subcommand: one file per subcommand, each reading
+//! what they share from the module (`mod.rs`: the app, the scene options, the failure type).
+
+#[cfg(feature = "view")]
+use super::view;
+use super::{App, Failure, bench, convert, merge, plugins, render, sweep, tonemap, trace};
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+#[derive(Parser, Debug)]
+#[command(name = "raylab", version, about = "raylab: an extensible, plugin-based ray tracer", long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Render a scene to an image (the bundled default scene when SCENE is omitted).
+    Render(Box<render::RenderArgs>),
+    /// Explain one pixel (or one ray): every hit, light test and child ray, and the final colour.
+    Trace(Box<trace::TraceArgs>),
+    /// List the registered plugins and their parameters.
+    Plugins(plugins::PluginsArgs),
+    /// Measure the speed/accuracy trade: render at many settings of the quality knobs, time each,
+    /// compare with a reference (RMSE, PSNR, SSIM), and plot error against time.
+    Sweep(Box<sweep::SweepArgs>),
+    /// Merge partial images (tiles, crops, sample passes from `render --tile/--crop/--pass`) into
+    /// one image: the same bits as one whole render.
+    Merge(merge::MergeArgs),
+    /// Convert a scene (e.g. the report's XML) to raylab's TOML format.
+    Convert(convert::ConvertArgs),
+    /// Measure mesh loading, BVH building and ray throughput, from 1k to 1M triangles.
+    Bench(bench::BenchArgs),
+    /// Turn an HDR image (OpenEXR, PFM) or one of its layers (depth, normal, albedo) into a
+    /// viewable PNG or JPEG.
+    Tonemap(tonemap::TonemapArgs),
+    /// Watch a scene render live in the browser: quality knobs as controls, and any pixel's ray
+    /// tree on a click (serves a page on 127.0.0.1).
+    #[cfg(feature = "view")]
+    View(Box<view::ViewArgs>),
+}
+
+/// Parses `std::env::args` and runs the command.
+pub fn run(app: App) -> ExitCode {
+    run_with_args(app, std::env::args_os())
+}
+
+/// Runs the command given by `args` (the first item is the program name). Exit status 0 on
+/// success, 1 when the command fails (the error is printed to stderr), 2 on a usage error, 130
+/// when a render is interrupted by Ctrl-C (its partial image is written beside the target).
+pub fn run_with_args<I, T>(app: App, args: I) -> ExitCode
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    let args: Vec<std::ffi::OsString> = args.into_iter().map(Into::into).collect();
+    let cli = match Cli::try_parse_from(&args) {
+        Ok(c) => c,
+        Err(e) => {
+            let _ = e.print();
+            return if e.use_stderr() { ExitCode::from(2) } else { ExitCode::SUCCESS };
+        }
+    };
+    let result = match cli.command {
+        None => render::run(&app, render::RenderArgs::default_scene()),
+        Some(Command::Render(a)) => {
+            let mut a = *a;
+            // The arguments after `render`, for checkpoints to continue the same command.
+            let at = args.iter().position(|x| x == "render").map_or(args.len(), |i| i + 1);
+            a.raw = args[at..].iter().map(|x| x.to_string_lossy().into_owned()).collect();
+            render::run(&app, a)
+        }
+        Some(Command::Merge(a)) => merge::run(&app, a),
+        Some(Command::Trace(a)) => trace::run(&app, *a),
+        Some(Command::Plugins(a)) => plugins::run(&app, a),
+        Some(Command::Sweep(a)) => sweep::run(&app, *a),
+        Some(Command::Convert(a)) => convert::run(&app, a),
+        Some(Command::Bench(a)) => bench::run(&app, a),
+        Some(Command::Tonemap(a)) => tonemap::run(a),
+        #[cfg(feature = "view")]
+        Some(Command::View(a)) => view::run(&app, *a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(Failure::Interrupted(message)) => {
+            eprintln!("{message}");
+            ExitCode::from(130)
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
