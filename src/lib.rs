@@ -19,6 +19,7 @@ pub mod math;
 pub mod param;
 pub mod render;
 pub mod scene;
+pub mod testing;
 #[cfg(feature = "view")]
 pub mod view;
 

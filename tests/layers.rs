@@ -17,6 +17,7 @@ use std::path::{Path, PathBuf};
 /// The stack, bottom first: each layer may use the ones before it. One line each; the reasons are
 /// in docs/architecture.md.
 const STACK: &[(&str, &str)] = &[
+    ("testing", "support for tests, the crate's and plugins': the χ² test of sampling, CI-aware skips, property seeds"),
     ("math", "numbers, rays, boxes, colours, deterministic sampling"),
     ("param", "the parameter language: located values, parameter tables, errors, TOML, sandboxed files, limits"),
     ("geometry", "what a ray can hit: `Intersectable`, `Geometry`, `Hit`, `Surface`, transforms"),

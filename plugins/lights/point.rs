@@ -291,6 +291,24 @@ mod tests {
         check_light(&PointLight::spot(Color::ONE, at, 1.0, 0.0, 0.3, spot).with_radius(0.4, 16), p, 64, 1500, 0.01);
     }
 
+    /// Balls and spots with a radius: the directions of their samples (a disc facing the shaded
+    /// point) follow the density `pdf` claims, from far, from close by, and from inside a spot's
+    /// cone and outside it (a spot's samples there carry no light but keep their directions).
+    #[test]
+    fn sampling_passes_the_chi2_test() {
+        use raylab::scene::light::testing::chi2_light;
+        use raylab::testing::chi2::{Chi2Test, Sphere};
+        let test = Chi2Test::new(Sphere).res(72, 36).tests(4);
+        let at = DVec3::new(0.5, 1.5, -0.4);
+        let spot = Spot { direction: DVec3::new(0.1, -1.0, 0.2).normalize(), exponent: 4.0, cos_cutoff: 0.9 };
+        let ball = PointLight::new(Color::ONE, at, 1.0, 0.2, 0.1).with_radius(0.9, 16);
+        let spot = PointLight::spot(Color::ONE, at, 1.0, 0.0, 0.3, spot).with_radius(0.6, 16);
+        chi2_light(&ball, DVec3::new(0.2, 0.3, 0.1), &test).assert_passes("ball, close");
+        chi2_light(&ball, DVec3::new(-2.0, -1.0, 1.0), &test).assert_passes("ball, far");
+        chi2_light(&spot, DVec3::new(0.55, 0.5, -0.3), &test).assert_passes("spot, inside its cone");
+        chi2_light(&spot, DVec3::new(-0.5, 1.0, 0.3), &test).assert_passes("spot, outside its cone");
+    }
+
     /// Exponent 1 is `cos` itself; 2 is within `powf`'s half ulp; others are `powf`.
     #[test]
     fn spot_power_matches_powf() {

@@ -165,4 +165,28 @@ mod tests {
             raylab::scene::light::testing::check_light(&l, p, 64, 1500, 0.01);
         }
     }
+
+    /// The directions of the samples follow the density `pdf` claims: a square seen head-on from
+    /// close by, a parallelogram obliquely and nearly edge-on.
+    #[test]
+    fn sampling_passes_the_chi2_test() {
+        use raylab::testing::chi2::{Chi2Test, Sphere};
+        let test = Chi2Test::new(Sphere).res(72, 36).tests(3);
+        let square = RectLight::new(Color::ONE, DVec3::new(0.0, 1.0, 0.0), DVec3::X * 2.0, DVec3::Z * 2.0, (1.0, 0.0, 0.0), 1);
+        let slanted = RectLight::new(
+            Color::ONE,
+            DVec3::new(0.3, 1.0, -0.1),
+            DVec3::new(1.5, 0.6, 0.0),
+            DVec3::new(0.3, 0.1, 1.0),
+            (1.0, 0.0, 0.0),
+            1,
+        );
+        for (name, light, p) in [
+            ("square", &square, DVec3::ZERO),
+            ("parallelogram", &slanted, DVec3::new(-0.4, 0.2, 0.5)),
+            ("edge-on", &slanted, DVec3::new(-1.6, 0.6, 0.0)),
+        ] {
+            raylab::scene::light::testing::chi2_light(light, p, &test).assert_passes(name);
+        }
+    }
 }

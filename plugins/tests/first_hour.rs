@@ -178,3 +178,65 @@ fn a_gltf_needing_an_unknown_extension_is_unsupported_not_invalid() {
     assert!(!err.contains("invalid"), "{err}");
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// `--resume` says what it continues, and the partial image an interrupted render left beside
+/// its target is removed once the target is written (and the removal said).
+#[cfg(feature = "exr")]
+#[test]
+fn a_resume_says_what_it_resumed_and_cleans_up() {
+    let dir = temp_dir("resume");
+    let scene = repo().join("scenes/quality.toml");
+    let s = scene.to_str().unwrap();
+    let size = ["--width", "300", "--spp", "2", "--threads", "2"];
+    let mut said = None;
+    for attempt in 0..4u64 {
+        let _ = std::fs::remove_file(dir.join("out.png"));
+        let mut child = Command::new(env!("CARGO_BIN_EXE_raylab"))
+            .args([&["render", s, "-o", "out.png", "-q", "--checkpoint", "state.exr", "--checkpoint-every", "0.05"][..], &size].concat())
+            .current_dir(&dir)
+            .spawn()
+            .unwrap();
+        let start = std::time::Instant::now();
+        while !dir.join("state.exr").exists() && start.elapsed().as_secs() < 60 && child.try_wait().unwrap().is_none() {
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20 >> attempt));
+        child.kill().unwrap(); // SIGKILL
+        child.wait().unwrap();
+        if dir.join("out.png").exists() {
+            continue; // finished before the kill
+        }
+        // As Ctrl-C leaves it: the image so far beside the target.
+        std::fs::write(dir.join("out.partial.png"), b"the image so far").unwrap();
+        let out = raylab(&dir, &["render", "--resume", "state.exr"]);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        said = Some(text(&out.stderr));
+        break;
+    }
+    let err = said.expect("no attempt killed the render part-way");
+    let first = err.lines().next().unwrap_or("");
+    assert!(
+        first.starts_with("resuming state.exr: ") && first.contains(" samples done (") && first.contains(" pixels still to finish"),
+        "{err}"
+    );
+    assert!(err.contains("out.partial.png, the image of an interrupted render of "), "{err}");
+    assert!(!dir.join("out.partial.png").exists() && !dir.join("state.exr").exists() && dir.join("out.png").exists());
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// `merge --allow-partial` merges an incomplete set of parts, and says how incomplete.
+#[cfg(feature = "exr")]
+#[test]
+fn allow_partial_warns_of_what_is_missing() {
+    let dir = temp_dir("allow-partial");
+    let scene = repo().join("scenes/dozen.toml");
+    let out = raylab(&dir, &["render", scene.to_str().unwrap(), "--width", "40", "--tile", "0/2", "-o", "part-0.exr", "-q"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let out = raylab(&dir, &["merge", "part-0.exr", "-o", "m.png"]);
+    assert!(!out.status.success(), "an incomplete set is refused without --allow-partial");
+    let out = raylab(&dir, &["merge", "part-0.exr", "-o", "m.png", "--allow-partial"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let err = text(&out.stderr);
+    assert!(err.starts_with("warning: --allow-partial: ") && err.contains(" of 1200 pixels lack samples"), "{err}");
+    std::fs::remove_dir_all(dir).unwrap();
+}

@@ -52,6 +52,16 @@ pub(crate) fn run(_: &App, a: MergeArgs) -> Result<(), Failure> {
         }
         let read = t0.elapsed();
         let whole = merge(&parts, a.allow_partial).map_err(Failure::Other)?;
+        if a.allow_partial {
+            let (done, total, left) = whole.progress();
+            if left > 0 {
+                eprintln!(
+                    "warning: --allow-partial: {left} of {} pixels lack samples ({done} of {total} samples present, {:.1} %); the image is incomplete there (black where a pixel has none)",
+                    whole.pixels.len(),
+                    100.0 * done as f64 / total.max(1) as f64
+                );
+            }
+        }
         let film = whole.film().map_err(|e| e.to_string())?;
         let layers = whole.aovs().map_err(|e| e.to_string())?;
         let encoding = encoding.as_deref().and_then(crate::math::color::Encoding::parse).unwrap_or_default();

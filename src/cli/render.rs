@@ -173,6 +173,15 @@ fn resume(app: &App, given: RenderArgs, file: &Path) -> Result<(), Failure> {
         a.raw = ri.args;
         a.threads = given.threads.or(a.threads);
         a.quiet |= given.quiet;
+        // Say what is being continued: how much was done and what is left.
+        let (done, total, left) = sums.progress();
+        eprintln!(
+            "resuming {}: {done} of {total} samples done ({:.1} %), {left} of {} pixels still to finish; rendering to {}",
+            file.display(),
+            100.0 * done as f64 / total.max(1) as f64,
+            sums.pixels.len(),
+            a.output.display()
+        );
         render(app, a, Some((sums, info.fingerprint)))
     }
 }
@@ -380,6 +389,11 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
     if a.checkpoint.is_some() && checkpoint_path.exists() {
         // The render is done: its checkpoint has served.
         let _ = std::fs::remove_file(&checkpoint_path);
+    }
+    // The image an interrupted render of this target left beside it is superseded now.
+    let stale = partial_path(&a.output);
+    if !parts && stale.exists() && std::fs::remove_file(&stale).is_ok() {
+        eprintln!("removed {}, the image of an interrupted render of {} (now complete)", stale.display(), a.output.display());
     }
     let write_time = t_write.elapsed();
     let st = rendered.stats;

@@ -341,17 +341,69 @@ mod tests {
         assert_ne!(a.fork(5).next_1d(), a.fork(6).next_1d());
     }
 
+    /// Elementary intervals: a set of `count` points on an m × n grid (m = ⌈√count⌉, n =
+    /// ⌈count / m⌉) puts exactly one point in each of the `count` rows (y-strata of height
+    /// 1/count), at most one in each of the m·n columns (x-strata of width 1/(m·n)), and, when
+    /// `count` fills the grid (m·n = count), exactly one in each column, each m × n cell, each
+    /// row: every elementary interval of area 1/count of the three shapes.
     #[test]
     fn stratified_points_fill_every_row_and_column_stratum() {
-        for count in [1u32, 2, 3, 5, 7, 16, 33] {
-            let pts: Vec<DVec2> = (0..count).map(|i| stratified_2d(i, count, 12345)).collect();
-            let mut rows = vec![false; count as usize];
-            for p in &pts {
-                assert!((0.0..1.0).contains(&p.x) && (0.0..1.0).contains(&p.y));
-                rows[(p.y * count as f64) as usize] = true;
+        let mut full = 0;
+        for count in (1u32..=300).chain([1024, 1089, 4096]) {
+            let m = ((count as f64).sqrt().ceil() as u32).max(1);
+            let n = count.div_ceil(m);
+            for pattern in [12345u32, 0, 0xdead_beef] {
+                let pts: Vec<DVec2> = (0..count).map(|i| stratified_2d(i, count, pattern)).collect();
+                let (mut rows, mut columns, mut cells) =
+                    (vec![0u32; count as usize], vec![0u32; (m * n) as usize], vec![0u32; (m * n) as usize]);
+                for p in &pts {
+                    assert!((0.0..1.0).contains(&p.x) && (0.0..1.0).contains(&p.y), "count {count}: {p}");
+                    rows[(p.y * f64::from(count)) as usize] += 1;
+                    columns[(p.x * f64::from(m * n)) as usize] += 1;
+                    cells[(p.y * f64::from(n)) as usize * m as usize + (p.x * f64::from(m)) as usize] += 1;
+                }
+                let at = |v: &[u32], want: u32| v.iter().position(|&k| k != want);
+                assert_eq!(at(&rows, 1), None, "count {count}, pattern {pattern}: a row holds no point or two");
+                assert!(columns.iter().all(|&k| k <= 1), "count {count}, pattern {pattern}: a column holds two points");
+                if m * n == count {
+                    assert_eq!(at(&columns, 1), None, "count {count} = {m}×{n}, pattern {pattern}: an empty column");
+                    assert_eq!(at(&cells, 1), None, "count {count} = {m}×{n}, pattern {pattern}: a cell holds no point or two");
+                    full += 1;
+                }
             }
-            assert!(rows.iter().all(|&r| r), "count {count}: a y-stratum is empty");
         }
+        assert!(full > 90, "only {full} full grids checked");
+    }
+
+    /// The points of many sets (and the sampler's plain stream) are uniform over the square.
+    #[test]
+    fn stratified_sets_and_streams_pass_the_chi2_test() {
+        use crate::testing::chi2::{Chi2Test, Rect};
+        let test = Chi2Test::new(Rect { min: DVec2::ZERO, max: DVec2::ONE }).res(32, 32).tests(2);
+        // Sets of 7 to 11 points, each set whole, one after another.
+        let (mut set, mut index) = (0u32, 0u32);
+        test.run(
+            |_| {
+                let count = 7 + set % 5;
+                let p = stratified_2d(index, count, set.wrapping_mul(0x9E37_79B9));
+                index += 1;
+                if index == count {
+                    (set, index) = (set + 1, 0);
+                }
+                Some(p)
+            },
+            |_| 1.0,
+        )
+        .assert_passes("stratified sets");
+        let mut pixel = 0;
+        test.run(
+            |_| {
+                pixel += 1;
+                Some(Sampler::new(pixel, 3, 42).next_2d())
+            },
+            |_| 1.0,
+        )
+        .assert_passes("sampler streams");
     }
 
     /// Kensler's construction written out directly (divisions and all), as `stratified_2d` was
@@ -450,6 +502,17 @@ mod tests {
         {
             assert!(concentric_disc(u).length() <= 1.0 + 1e-15, "{u}");
         }
+    }
+
+    /// The concentric mapping carries uniform points of the square to uniform points of the
+    /// disc (density `1 / π`): the lens's and the diffuse lobe's sampling.
+    #[test]
+    fn concentric_mapping_passes_the_chi2_test() {
+        use crate::testing::chi2::{Chi2Test, Rect};
+        Chi2Test::new(Rect { min: DVec2::splat(-1.0), max: DVec2::ONE })
+            .res(50, 50)
+            .run(|u| Some(concentric_disc(u.next_2d())), |p| if p.length_squared() <= 1.0 { std::f64::consts::FRAC_1_PI } else { 0.0 })
+            .assert_passes("concentric disc");
     }
 
     #[test]

@@ -189,6 +189,20 @@ impl FrameSums {
         self.share.samples_of(self.sampling, self.width, x, y).saturating_sub(self.pixels[i].samples)
     }
 
+    /// How far the share is: (samples done, samples of the whole share, pixels still lacking
+    /// some), for messages about a resumed or partial render.
+    pub fn progress(&self) -> (u64, u64, u64) {
+        let (mut done, mut total, mut left) = (0u64, 0u64, 0u64);
+        for (i, p) in self.pixels.iter().enumerate() {
+            let (x, y) = self.share.bounds.pixel(i);
+            let want = self.share.samples_of(self.sampling, self.width, x, y);
+            done += u64::from(p.samples.min(want));
+            total += u64::from(want);
+            left += u64::from(p.samples < want);
+        }
+        (done, total, left)
+    }
+
     /// Whether every pixel has all the samples of its share.
     pub fn complete(&self) -> bool {
         (0..self.pixels.len()).all(|i| self.missing(i) == 0)

@@ -393,4 +393,26 @@ mod tests {
         assert!((hit_a - hit_b).length() < 1e-9, "{pa}");
         assert_ne!(a.origin, b.origin);
     }
+
+    /// Lens sampling: the rays start uniformly over the lens disc (density `1 / π aperture²`),
+    /// whatever the pixel; a test of the right density on the wrong disc fails.
+    #[test]
+    fn lens_points_pass_the_chi2_test() {
+        use crate::testing::chi2::{Chi2Test, Rect};
+        let mut cam = Camera::look_at(DVec3::new(1.0, 2.0, 3.0), DVec3::new(0.0, 0.5, -10.0), DVec3::Y, 40.0, 64, 48).unwrap();
+        cam.aperture = 0.25;
+        let test = Chi2Test::new(Rect { min: DVec2::splat(-1.0), max: DVec2::ONE }).res(40, 40).tests(3);
+        let disc = |p: DVec2| if p.length_squared() <= 1.0 { 1.0 / std::f64::consts::PI } else { 0.0 };
+        for film in [DVec2::new(32.0, 24.0), DVec2::new(0.5, 47.5)] {
+            test.run(
+                |u| {
+                    let o = cam.ray_through(64, 48, film, u.next_2d()).origin - cam.position;
+                    Some(DVec2::new(o.dot(cam.right), o.dot(cam.up)) / cam.aperture)
+                },
+                disc,
+            )
+            .assert_passes(&format!("lens, pixel {film}"));
+        }
+        test.run(|u| Some(2.0 * u.next_2d() - DVec2::ONE), disc).assert_fails("the square for the disc");
+    }
 }

@@ -137,6 +137,25 @@ fn typed(body: impl Into<Vec<u8>>, content_type: &str) -> Response<std::io::Curs
     secure(Response::from_data(body.into()).with_header(header("Content-Type", content_type)))
 }
 
+/// A sentence for settings the page sent that do not parse: which control, and what it needs
+/// (serde's own message names a Rust type and a JSON column).
+fn settings_error(e: &serde_json::Error) -> String {
+    let text = e.to_string();
+    let field = text.split('`').nth(1).filter(|_| text.starts_with("unknown field")).map(str::to_string);
+    let what = if let Some(f) = field {
+        format!("the page sent a setting raylab does not know (\"{f}\")")
+    } else if text.contains("expected u32") || text.contains("expected i64") || text.contains("expected u64") {
+        "a control that takes a whole number got something else".to_string()
+    } else if text.contains("expected f64") {
+        "a control that takes a number got something else".to_string()
+    } else if text.contains("expected a boolean") {
+        "a switch got something other than on or off".to_string()
+    } else {
+        "the page sent settings raylab cannot read".to_string()
+    };
+    format!("{what}; the render keeps its previous settings. Reload the page if this persists.")
+}
+
 fn json(code: u16, v: &serde_json::Value) -> Response<std::io::Cursor<Vec<u8>>> {
     typed(v.to_string(), "application/json").with_status_code(code)
 }
@@ -188,7 +207,7 @@ fn handle(mut request: Request, session: &Session, hosts: &[String], token: &str
                         session.apply(s);
                         json(200, &serde_json::json!({ "ok": true }))
                     }
-                    Err(e) => json(400, &serde_json::json!({ "error": format!("settings: {e}") })),
+                    Err(e) => json(400, &serde_json::json!({ "error": settings_error(&e) })),
                 },
                 _ => json(400, &serde_json::json!({ "error": "the request body is unreadable or too large" })),
             }
@@ -299,5 +318,29 @@ fn image_png(session: &Session) -> Response<std::io::Cursor<Vec<u8>>> {
     match crate::image::output::encode_rgb8(&mut png, &rgb, w, h, crate::image::output::ImageKind::Png) {
         Ok(()) => typed(png, "image/png").with_header(header("Content-Disposition", "attachment; filename=\"raylab-view.png\"")),
         Err(e) => text(500, &e),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// What the page shows when its settings do not parse is a sentence, not serde's message.
+    #[test]
+    fn unreadable_settings_are_a_sentence() {
+        for (body, start) in [
+            (r#"{"aa_edges": 3}"#, "a switch got something other than on or off"),
+            (r#"{"aa_threshold": "x"}"#, "a control that takes a number got"),
+            (r#"{"aa_depth": 1.5}"#, "a control that takes a whole number got"),
+            (r#"{"sppp": 4}"#, "the page sent a setting raylab does not know (\"sppp\")"),
+        ] {
+            let e = serde_json::from_str::<Settings>(body).unwrap_err();
+            let m = settings_error(&e);
+            assert!(m.starts_with(start), "{body}: {m}");
+            assert!(!m.contains("line 1 column") && !m.contains("expected"), "{body}: {m}");
+        }
+        // A number out of a control's range reaches the loader, which names the control.
+        let s: Settings = serde_json::from_str(r#"{"spp": -1}"#).unwrap();
+        assert_eq!(s.spp, Some(-1));
     }
 }

@@ -18,8 +18,8 @@ use std::collections::BTreeMap;
 #[derive(Clone, Debug, std::default::Default, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Settings {
-    /// Samples per pixel.
-    pub spp: Option<u32>,
+    /// Samples per pixel (any integer: the loader checks it, and an error names the control).
+    pub spp: Option<i64>,
     /// `stratified` or `adaptive`.
     pub aa: Option<String>,
     /// Adaptive threshold.
@@ -61,7 +61,7 @@ pub fn options(base: &LoadOptions, s: &Settings, registry: &Registry) -> Result<
     }
     let mut render = |key: &str, v: Value| ov.render_params.push((key.to_string(), Node::given(&origin(key), v)));
     if let Some(v) = s.spp {
-        render("spp", Value::Int(i64::from(v)));
+        render("spp", Value::Int(v));
     }
     if let Some(v) = &s.aa {
         render("aa", Value::Str(v.clone()));

@@ -66,6 +66,20 @@ fn the_panel_lights_samples_rays_and_densities_agree() {
     assert_eq!((integral, mean), (raylab::Color::ZERO, raylab::Color::ZERO));
 }
 
+/// The panel's samples follow the density it gives the path tracer (a χ² test, as for the
+/// built-in lights), seen from below, close by and obliquely.
+#[test]
+fn the_panel_lights_sampling_passes_the_chi2_test() {
+    use raylab::testing::chi2::{Chi2Test, Sphere};
+    let job = load_file(&raylab_torus::registry(), &scene(), &options(None)).unwrap();
+    let i = job.scene.light_names.iter().position(|n| n == "softbox").expect("the panel");
+    let panel = job.scene.lights[i].as_ref();
+    let test = Chi2Test::new(Sphere).res(72, 36).tests(2);
+    for p in [raylab::glam::DVec3::new(0.0, 3.5, 0.0), raylab::glam::DVec3::new(2.5, 3.0, 1.5)] {
+        raylab::scene::light::testing::chi2_light(panel, p, &test).assert_passes(&format!("panel seen from {p}"));
+    }
+}
+
 #[test]
 fn the_path_tracer_renders_the_crates_scene() {
     // The built-in path tracer meets the crate's panel with its rays (multiple importance

@@ -2,7 +2,7 @@
 //! the BSDF's sampling against its own density and its energy, closed and white furnaces, and
 //! direct light against `phong`.
 
-use super::bsdf::{Bsdf, Lobe, fresnel_dielectric, lobe_brdf, thin_slab_reflectance};
+use super::bsdf::{Bsdf, Lobe, fresnel_dielectric, lobe_brdf, lobe_pdf, thin_slab_reflectance};
 use super::*;
 use crate::shapes::sphere::Sphere;
 use raylab::glam::{DVec2, DVec3};
@@ -10,6 +10,7 @@ use raylab::load::context::LoadOptions;
 use raylab::math::sampler::stratified_2d;
 use raylab::param::limits::Limits;
 use raylab::scene::object::Object;
+use raylab::testing::chi2::{Chi2Test, Sphere as Directions};
 use raylab::{Camera, Material, RenderJob};
 use std::f64::consts::{FRAC_PI_2, TAU};
 use std::path::Path;
@@ -179,6 +180,96 @@ fn sampling_agrees_with_the_density_and_the_brdf() {
         assert!(mass <= 1.0 + 1e-3, "θ {theta}: density mass {mass}");
         assert!((mass - accepted).abs() < 5e-3, "θ {theta}: density mass {mass}, accepted {accepted}");
         assert!((weight - albedo).abs().max_element() < 5e-3, "θ {theta}: E[f cos / pdf] = {weight}, ∫ f cos = {albedo}");
+    }
+}
+
+/// The density of the directions `Bsdf::sample` returns: `Bsdf::pdf` where the model has a
+/// value (elsewhere it declines the direction).
+fn returned_density(bsdf: &Bsdf, w: DVec3) -> f64 {
+    if bsdf.eval(w).max_element() > 0.0 { bsdf.pdf(w) } else { 0.0 }
+}
+
+/// χ² tests of the path tracer's smooth lobes, alone and mixed, at normal, oblique and grazing
+/// incidence (where lobes cross the surface and part of the samples are declined): the
+/// directions follow the density `Bsdf::pdf` gives the integrator's multiple importance sampling.
+#[test]
+fn every_smooth_lobe_and_their_mixture_pass_the_chi2_test() {
+    let plain = Material { kd: Color::ZERO, ks: Color::ZERO, kr: Color::ZERO, kt: Color::ZERO, ..Material::default() };
+    let diffuse = Material { kd: Color::new(0.8, 0.5, 0.3), ..plain.clone() };
+    let specular = |n: f64| Material { ks: Color::splat(0.9), shininess: n, ..plain.clone() };
+    let glossy = Material { kr: Color::splat(0.9), blur: 0.3, ..plain.clone() };
+    let mixture = Material {
+        kd: Color::new(0.3, 0.2, 0.1),
+        ks: Color::splat(0.4),
+        shininess: 20.0,
+        kr: Color::splat(0.2),
+        blur: 0.3,
+        ..plain.clone()
+    };
+    let cases = [
+        ("diffuse, normal incidence", diffuse.clone(), 0.0),
+        ("diffuse, grazing", diffuse, 1.4),
+        ("specular n = 1", specular(1.0), 0.3),
+        ("specular n = 20, oblique", specular(20.0), 0.6),
+        ("specular n = 3, grazing", specular(3.0), 1.3),
+        ("glossy (blur 0.3)", glossy.clone(), 0.5),
+        ("glossy (blur 0.3), grazing", glossy, 1.35),
+        ("mixture, normal incidence", mixture.clone(), 0.0),
+        ("mixture, oblique", mixture.clone(), 0.6),
+        ("mixture, grazing", mixture, 1.3),
+    ];
+    let test = Chi2Test::new(Directions).res(72, 36).tests(cases.len() as u32);
+    for (name, m, theta) in cases {
+        let (bsdf, _) = bsdf_at(m, theta, false);
+        test.run(|u| bsdf.sample(u.next_1d(), u.next_2d(), 0.5).map(|s| s.dir), |w| returned_density(&bsdf, w)).assert_passes(name);
+    }
+}
+
+/// The guard: the same test rejects the Phong lobe when its density is off by one in the exponent
+/// (the classic slip: `(n+2)/2π`, the BRDF's normalisation, used as the density's).
+#[test]
+fn the_lobe_chi2_test_rejects_a_wrong_normalisation() {
+    let (bsdf, _) = bsdf_at(Material { kd: Color::ZERO, ks: Color::splat(0.9), shininess: 20.0, ..Material::default() }, 0.6, false);
+    Chi2Test::new(Directions)
+        .res(72, 36)
+        .run(|u| bsdf.sample(u.next_1d(), u.next_2d(), 0.5).map(|s| s.dir), |w| returned_density(&bsdf, w) * 22.0 / 21.0)
+        .assert_fails("a lobe density normalised as the BRDF");
+}
+
+/// A blurry dielectric's directions (a stochastic specular event: no density reaches the
+/// integrator, but the jitter must still be the lobe it stands for): Fresnel's choice between
+/// the reflected and the refracted direction, each jittered in the Phong lobe of exponent
+/// `4 / blur²` and flipped back onto its side of the surface.
+#[test]
+fn a_blurry_dielectric_passes_the_chi2_test() {
+    use crate::integrators::phong::{reflect, refract};
+    let glass = Material { kd: Color::ZERO, kt: Color::ONE, ior: 1.5, blur: 0.25, ..Material::default() };
+    let n_lobe = super::bsdf::blur_exponent(0.25);
+    // The lobe around `axis`, folded onto the side `side` faces.
+    let folded = |w: DVec3, axis: DVec3, side: DVec3| {
+        if w.dot(side) < 0.0 { 0.0 } else { lobe_pdf(w.dot(axis), n_lobe) + lobe_pdf(reflect(w, side).dot(axis), n_lobe) }
+    };
+    let cases = [(false, 0.2), (false, 1.2), (true, 0.4), (true, 0.9)];
+    let test = Chi2Test::new(Directions).res(72, 36).tests(cases.len() as u32);
+    for (inside, theta) in cases {
+        let (bsdf, n) = bsdf_at(glass.clone(), theta, inside);
+        let (_, ray) = top_of_sphere(glass.clone(), theta, inside);
+        let eta = if inside { 1.0 / 1.5 } else { 1.5 };
+        let f = fresnel_dielectric(theta.cos(), eta);
+        let reflected = reflect(ray.dir, n);
+        let refracted = refract(ray.dir, n, 1.0 / eta);
+        test.run(
+            |u| {
+                let s = bsdf.sample(u.next_1d(), u.next_2d(), u.next_1d())?;
+                assert!(s.pdf.is_none(), "a stochastic specular event");
+                Some(s.dir)
+            },
+            |w| match refracted {
+                Some(t) => f * folded(w, reflected, n) + (1.0 - f) * folded(w, t, -n),
+                None => folded(w, reflected, n),
+            },
+        )
+        .assert_passes(&format!("blurry glass, θ {theta}{}", if inside { ", from inside" } else { "" }));
     }
 }
 

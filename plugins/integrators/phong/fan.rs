@@ -3,7 +3,7 @@
 //! (one ray at a sharp surface; `glossy_rays` jittered in a disc of radius `blur` otherwise).
 
 use super::{Ctx, Phong, TAG_REFLECTION, TAG_REFRACTION, counter};
-use raylab::glam::DVec3;
+use raylab::glam::{DVec2, DVec3};
 use raylab::math::color::max_channel;
 use raylab::math::sampler::{StratifiedSet, concentric_disc, orthonormal_basis};
 use raylab::render::trace::Recorder;
@@ -90,6 +90,18 @@ impl Fan {
     }
 }
 
+impl Fan {
+    /// The fan's ray for `u` ∈ [0, 1)²: the ideal direction jittered by the point of the disc of
+    /// radius `blur` (at unit distance, across the axes `b1`, `b2`) `u` maps to, flipped onto the
+    /// `side` hemisphere if the jitter pushed it through the surface.
+    #[inline]
+    fn jitter(&self, b1: DVec3, b2: DVec3, u: DVec2) -> DVec3 {
+        let d = concentric_disc(u) * self.blur;
+        let dir = (self.ideal + d.x * b1 + d.y * b2).normalize();
+        if dir.dot(self.side) < 0.0 { reflect(dir, self.side) } else { dir }
+    }
+}
+
 impl Phong {
     /// Traces the child ray(s) around `fan.ideal`: one ray, or `glossy_rays` jittered in a disc
     /// of radius `blur`, each flipped onto the `side` hemisphere if jitter pushed it through the
@@ -124,11 +136,7 @@ impl Phong {
         for i in 0..count {
             let mut dir = fan.ideal;
             if let Some(points) = &points {
-                let d = concentric_disc(points.point(i)) * fan.blur;
-                dir = (fan.ideal + d.x * b1 + d.y * b2).normalize();
-                if dir.dot(fan.side) < 0.0 {
-                    dir = reflect(dir, fan.side);
-                }
+                dir = fan.jitter(b1, b2, points.point(i));
             }
             c.stats.add(counter, 1);
             let ray = si.spawn_ray(dir);
@@ -145,6 +153,66 @@ impl Phong {
             mean += (li - mean) / f64::from(i + 1);
         }
         mean
+    }
+}
+
+/// A glossy fan's rays follow the density of its construction: a uniform disc of radius `blur`
+/// in the plane at unit distance along the ideal direction, seen from the hit (`1 / (π blur²
+/// cos³ α)` per steradian, α from the ideal direction, out to `tan α = blur`), plus its part
+/// folded back through the surface.
+#[cfg(test)]
+mod chi2_tests {
+    use super::*;
+    use raylab::testing::chi2::{Chi2Test, Sphere};
+    use std::f64::consts::PI;
+
+    /// The density of the unfolded jitter around `ideal`.
+    fn disc_density(w: DVec3, ideal: DVec3, blur: f64) -> f64 {
+        let c = w.dot(ideal);
+        if !(c > 0.0) {
+            return 0.0;
+        }
+        let tan = (1.0 - c * c).max(0.0).sqrt() / c;
+        if tan > blur { 0.0 } else { 1.0 / (PI * blur * blur * c * c * c) }
+    }
+
+    fn fan(ideal: DVec3, side: DVec3, blur: f64) -> Fan {
+        Fan { ideal: ideal.normalize(), side, blur, kind: RayKind::Reflection, tag: 0 }
+    }
+
+    #[test]
+    fn glossy_fans_pass_the_chi2_test() {
+        let n = DVec3::Z;
+        let cases = [
+            ("reflection, blur 0.2, steep", fan(DVec3::new(0.3, 0.1, 1.0), n, 0.2)),
+            ("reflection, blur 0.6", fan(DVec3::new(0.5, -0.2, 1.0), n, 0.6)),
+            ("reflection, blur 0.5, grazing: folded", fan(DVec3::new(1.0, 0.4, 0.15), n, 0.5)),
+            ("refraction, blur 1.5: wide, folded", fan(DVec3::new(-0.4, 0.3, -1.0), -n, 1.5)),
+        ];
+        let test = Chi2Test::new(Sphere).res(72, 36).tests(cases.len() as u32 + 1);
+        for (name, f) in &cases {
+            let (b1, b2) = orthonormal_basis(f.ideal);
+            let density = |w: DVec3| {
+                if w.dot(f.side) < 0.0 { 0.0 } else { disc_density(w, f.ideal, f.blur) + disc_density(reflect(w, f.side), f.ideal, f.blur) }
+            };
+            test.run(|u| Some(f.jitter(b1, b2, u.next_2d())), density).assert_passes(name);
+        }
+        // As the renderer draws them: the stratified points of one fan's pattern after another.
+        let f = &cases[2].1;
+        let (b1, b2) = orthonormal_basis(f.ideal);
+        let mut k = 0u32;
+        test.run(
+            |_| {
+                let (fan_size, pattern) = (16, k / 16);
+                let u = StratifiedSet::new(fan_size, pattern.wrapping_mul(0x9E37_79B9)).point(k % fan_size);
+                k += 1;
+                Some(f.jitter(b1, b2, u))
+            },
+            |w| {
+                if w.dot(f.side) < 0.0 { 0.0 } else { disc_density(w, f.ideal, f.blur) + disc_density(reflect(w, f.side), f.ideal, f.blur) }
+            },
+        )
+        .assert_passes("stratified fans of 16 rays");
     }
 }
 

@@ -1,13 +1,14 @@
 //! Checks for light plugins' tests: a light's samples, the rays that meet it and its densities
 //! tell one story, so a Monte Carlo integrator can combine its own directions with the light's
 //! ([`LightSource::intersect`], [`LightPdf`]). The built-in lights' tests use it, and so can a
-//! third-party crate's.
+//! third-party crate's; [`chi2_light`] tests a light's sampling against its density.
 
 use crate::math::color::Color;
 use crate::math::ray::Ray;
 use crate::math::sampler::stratified_2d;
 use crate::scene::light::{LightPdf, LightSource};
-use glam::DVec3;
+use crate::testing::chi2::{Chi2Outcome, Chi2Test, Sphere};
+use glam::{DQuat, DVec3};
 use std::f64::consts::{PI, TAU};
 
 /// Relative agreement required between a light's sample and the same point met by a ray.
@@ -85,4 +86,28 @@ pub fn check_light(light: &dyn LightSource, p: DVec3, n: u32, grid: u32, relativ
         "the radiance over all directions, {integral}, is not the samples' mean intensity {mean}"
     );
     (integral, mean)
+}
+
+/// A χ² test ([`crate::testing::chi2`]) of `light`'s sampling as seen from `p`: the directions
+/// of `illuminate(p, u)` for uniform `u` against the density [`LightSource::pdf`] gives the ray
+/// from `p` that meets the light there ([`LightSource::intersect`]; zero where no ray meets it).
+/// The directions are turned so the centre of the light's [`LightSource::bound`] lies on the
+/// sphere's equator, where the histogram's cells are finest (place `p` so the light spans tens
+/// of degrees). A delta light has nothing to test: it panics.
+pub fn chi2_light(light: &dyn LightSource, p: DVec3, test: &Chi2Test<Sphere>) -> Chi2Outcome {
+    let toward = light.bound(p).map_or(DVec3::X, |b| (b.centre - p).normalize_or(DVec3::X));
+    // A rotation taking `toward` to +x (its inverse is its transpose).
+    let turn = DQuat::from_rotation_arc(toward, DVec3::X);
+    let back = turn.inverse();
+    test.run(
+        |u| {
+            let s = light.illuminate(p, u.next_2d())?;
+            assert!(light.pdf(p, &s) != LightPdf::Delta, "a delta light has no density to test");
+            Some(turn * s.dir)
+        },
+        |w| {
+            let dir = back * w;
+            light.intersect(&Ray { origin: p, dir }, f64::INFINITY).and_then(|m| light.pdf(p, &m).solid_angle()).unwrap_or(0.0)
+        },
+    )
 }

@@ -195,9 +195,9 @@ function knob(k) {
     const c = k.choices.find((c) => c.value === k.value);
     if (c) doc = c.doc;
   }
-  // Long descriptions show their first clause; the whole is in the tooltip.
-  const short = doc.length > 120 ? doc.split(/(?<=[.:;])\s/)[0].replace(/[:;]$/, "") + " …" : doc;
-  const line = el("div", "doc", k.note ? k.note : short);
+  // The whole description (a knob's help cut at its first colon said less than it means); a note
+  // on why the knob is inactive comes first.
+  const line = el("div", "doc", k.note ? `${k.note}. ${doc}` : doc);
   line.title = doc;
   wrap.appendChild(line);
   return wrap;
@@ -224,7 +224,15 @@ function change(k, input) {
 
 async function send(settings) {
   const r = await fetch("api/settings", { method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(settings) });
-  if (!r.ok) $("phase").textContent = "The settings were refused: " + (await r.text());
+  if (!r.ok) {
+    // The server answers {"error": "a sentence"}: show the sentence, not the JSON around it.
+    const body = await r.text();
+    let why = body;
+    try {
+      why = JSON.parse(body).error || body;
+    } catch (_) {}
+    $("phase").textContent = "The settings were refused: " + why;
+  }
 }
 
 $("reset").addEventListener("click", () => send({ params: {} }));
