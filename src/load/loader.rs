@@ -424,7 +424,10 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
                         .with_help(format!("expected one of: {}{hint}", EmissionSides::NAMES.join(", ")))
                 })?,
                 _ => {
-                    return Err(SceneError::at(&n.loc, format!("{what}: emission_sides must be a string: \"both\", \"front\" or \"back\"")));
+                    return Err(SceneError::at(
+                        &n.loc,
+                        format!("{what}: emission_sides must be a string: \"both\", \"front\" or \"back\""),
+                    ));
                 }
             },
         };
