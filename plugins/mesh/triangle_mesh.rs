@@ -29,33 +29,12 @@ use raylab::accel::{AccelChoice, BuildStats, MESH_BVH_THRESHOLD};
 use raylab::geometry::Hit;
 use raylab::geometry::sampling::uniform_triangle;
 use raylab::glam::{BVec4A, DVec2, DVec3, Vec2, Vec3, Vec4};
+pub use raylab::load::mesh::MeshData;
 use raylab::math::distribution::AliasTable;
 use raylab::math::float::{gamma, on_surface_slack};
 use raylab::{Aabb, Ray};
 use rayon::prelude::*;
 use std::sync::{Arc, OnceLock};
-
-/// A mesh as a loader produces it: indexed triangles with optional vertex normals and materials.
-#[derive(Clone, Debug, Default)]
-pub struct MeshData {
-    /// Vertex positions.
-    pub positions: Vec<[f32; 3]>,
-    /// Triangles as indices into `positions`; the outward side follows the counter-clockwise
-    /// winding (glTF and OBJ convention).
-    pub triangles: Vec<[u32; 3]>,
-    /// Vertex normals (may be empty).
-    pub normals: Vec<[f32; 3]>,
-    /// Per triangle, indices into `normals` (empty, or one per triangle).
-    pub normal_indices: Vec<[u32; 3]>,
-    /// Vertex texture coordinates, v up (may be empty).
-    pub texcoords: Vec<[f32; 2]>,
-    /// Per triangle, indices into `texcoords` (empty, or one per triangle).
-    pub texcoord_indices: Vec<[u32; 3]>,
-    /// Per triangle, an index into `materials` (empty: all use material 0).
-    pub material_ids: Vec<u32>,
-    /// The file's materials, mapped to raylab's (may be empty).
-    pub materials: Vec<Material>,
-}
 
 /// How a mesh is shaded.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

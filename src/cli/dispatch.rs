@@ -77,7 +77,7 @@ where
         Some(Command::Sweep(a)) => sweep::run(&app, *a),
         Some(Command::Convert(a)) => convert::run(&app, a),
         Some(Command::Bench(a)) => bench::run(&app, a),
-        Some(Command::Tonemap(a)) => tonemap::run(a),
+        Some(Command::Tonemap(a)) => tonemap::run(&app, a),
         #[cfg(feature = "view")]
         Some(Command::View(a)) => view::run(&app, *a),
     };

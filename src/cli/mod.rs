@@ -18,7 +18,7 @@ mod view;
 
 use crate::load::context::{LoadOptions, Overrides};
 use crate::load::registry::Registry;
-use crate::param::error::{Loc, SceneError, Source};
+use crate::param::error::SceneError;
 use crate::param::value::{Node, Value};
 use crate::render::RenderJob;
 use clap::Args;
@@ -289,33 +289,7 @@ pub(crate) fn flag_node(flag: &str, key: &str, value: Value) -> (String, Node) {
 /// Parses repeated `KEY=VALUE` options of option `flag`: the value in TOML syntax, or a bare word
 /// (`--set ambient=first_hit`) taken as a string, as the shell leaves it once it has eaten quotes.
 fn key_values(flag: &str, items: &[String]) -> Result<Vec<(String, Node)>, Failure> {
-    let mut out = Vec::new();
-    for s in items {
-        let src = Source::new(flag, s.clone());
-        let Some(eq) = s.find('=') else {
-            return Err(SceneError::at(&Loc::new(&src, 0..s.len()), "expected KEY=VALUE").into());
-        };
-        let key = s[..eq].trim().to_string();
-        let value = match crate::param::toml::parse_toml_value(&src, eq + 1..s.len()) {
-            Ok(v) => v,
-            Err(_) if is_bare_word(s[eq + 1..].trim()) => {
-                let word = s[eq + 1..].trim();
-                let start = eq + 1 + s[eq + 1..].find(word).unwrap_or(0);
-                Node { value: Value::Str(word.to_string()), loc: Loc::new(&src, start..start + word.len()) }
-            }
-            Err(e) => return Err(e.into()),
-        };
-        out.push((key, value));
-    }
-    Ok(out)
-}
-
-/// A word a shell passes unquoted that TOML would need quoted: a letter, then letters, digits,
-/// `_`, `-` or `.` (`first_hit`, `linear-truncated`). Numbers, `true`, `inf`, lists and tables
-/// parse as TOML before this is asked.
-fn is_bare_word(s: &str) -> bool {
-    s.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
-        && s.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'))
+    Ok(items.iter().map(|s| crate::load::context::key_value(flag, s)).collect::<Result<_, _>>()?)
 }
 
 /// Loads `scene` (or the app's default scene) with the options in `a`; returns the job and a

@@ -15,7 +15,8 @@ pub(crate) struct RenderArgs {
     /// Scene file (.toml, or any registered format). Omit for the bundled default scene.
     scene: Option<PathBuf>,
     /// Output image: .png, .jpg or .jpeg (8-bit, clamped and encoded), .pfm (linear float, e.g. a
-    /// reference), or .exr (linear HDR floats with optional layers; feature `exr`).
+    /// reference), .exr (linear HDR floats with optional layers; feature `exr`), or a format a
+    /// plugin registers (`raylab plugins` lists them).
     #[arg(short, long, default_value = "render.png")]
     output: PathBuf,
     /// EXR only: store colour (and normal, albedo) as 16-bit half floats instead of 32-bit.
@@ -207,8 +208,8 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
         return Err(Failure::Other(format!("--checkpoint-every: expected a number of seconds > 0, found {}", a.checkpoint_every)));
     }
     let parts = a.crop.is_some() || a.tile.is_some() || a.pass.is_some();
-    let format = crate::image::output::format_for(&a.output).map_err(|e| e.to_string())?;
-    let exr = format.kind == crate::image::output::ImageKind::Exr;
+    let format = app.registry.output_format_for(&a.output).map_err(|e| e.to_string())?;
+    let exr = format.name == "exr";
     if !format.layers && (a.half || !a.aov.is_empty()) {
         return Err("--half and --aov apply to .exr output only".to_string().into());
     }

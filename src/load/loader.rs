@@ -219,6 +219,7 @@ impl Parts {
 }
 
 fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) -> Result<Parts> {
+    ctx.use_mesh_formats(registry.mesh_formats());
     let opts = ctx.options;
     let ov = &opts.overrides;
     if opts.accel == AccelChoice::Bvh && !crate::accel::build::BVH_AVAILABLE {

@@ -446,6 +446,34 @@ pub fn explain_sample(job: &RenderJob, id: SampleId) -> Option<Vec<crate::render
     camera_rays(job, id).map(|(ray, mut sampler)| job.integrator.explain(&job.scene, &ray, &mut sampler)).collect()
 }
 
+/// The explanation of one ray of `job`'s scene (`raylab trace --ray`), with the random stream of
+/// pixel (0, 0)'s first sample; `None` when the integrator cannot explain itself.
+pub fn explain_ray(job: &RenderJob, ray: &crate::math::ray::Ray) -> Option<crate::render::trace::TraceNode> {
+    job.integrator.explain(&job.scene, ray, &mut crate::math::sampler::Sampler::new(0, 0, job.settings.seed))
+}
+
+/// The explanation of sample `index` of pixel (`x`, `y`) (0-based, as [`pixel_samples`] lists
+/// them): one ray tree per camera ray, computed as the render computed that sample, bit for bit,
+/// and which sample it is. What `raylab trace --pixel X,Y --sample K` shows; an error when the
+/// pixel or the sample does not exist, or the integrator cannot explain itself.
+pub fn explain_pixel(
+    job: &RenderJob,
+    x: u32,
+    y: u32,
+    index: u32,
+) -> Result<(Vec<crate::render::trace::TraceNode>, crate::render::explain::SampleRef), String> {
+    let s = &job.settings;
+    if x >= s.width || y >= s.height {
+        return Err(format!("pixel ({x}, {y}) is outside the {}×{} image", s.width, s.height));
+    }
+    let samples = pixel_samples(job, x, y);
+    let &(id, weight) = samples
+        .get(index as usize)
+        .ok_or_else(|| format!("sample {index}: pixel ({x}, {y}) has {} samples (0..{})", samples.len(), samples.len()))?;
+    let trees = explain_sample(job, id).ok_or_else(|| format!("the integrator \"{}\" cannot explain rays", job.integrator_name))?;
+    Ok((trees, crate::render::explain::SampleRef { index, of: samples.len(), id, weight }))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
