@@ -23,7 +23,7 @@ use crate::render::{Antialiasing, MAX_ADAPTIVE_DEPTH, RenderJob, RenderSettings}
 use crate::scene::Scene;
 use crate::scene::camera::{CAMERA_PARAMS, Camera};
 use crate::scene::material::{Material, MaterialLibrary};
-use crate::scene::object::Object;
+use crate::scene::object::{EmissionSides, Object};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -447,7 +447,24 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
             Some(n) => Arc::from([materials.resolve(n, &what, &textures)?]),
             None => own_materials.unwrap_or_else(|| default_material.clone()),
         };
-        objects.push(Object::new(names.claim(node, &label, &ty, i)?, g, materials));
+        let sides = match params.get("emission_sides") {
+            None => EmissionSides::Both,
+            Some(n) => match &n.value {
+                Value::Str(s) => EmissionSides::parse(s).ok_or_else(|| {
+                    let hint = did_you_mean(s, EmissionSides::NAMES.iter().copied())
+                        .map_or(String::new(), |m| format!(" (did you mean \"{m}\"?)"));
+                    SceneError::at(&n.loc, format!("{what}: unknown emission_sides \"{s}\""))
+                        .with_help(format!("expected one of: {}{hint}", EmissionSides::NAMES.join(", ")))
+                })?,
+                _ => {
+                    return Err(SceneError::at(
+                        &n.loc,
+                        format!("{what}: emission_sides must be a string: \"both\", \"front\" or \"back\""),
+                    ));
+                }
+            },
+        };
+        objects.push(Object::new(names.claim(node, &label, &ty, i)?, g, materials).with_emission_sides(sides));
     }
 
     let camera = match (camera, fit) {
@@ -688,10 +705,16 @@ pub const OBJECT_PARAMS: &[ParamSpec] = &[
         Default::Str("default"),
         "name of a material in [materials], or an inline table such as { kd = [0.8, 0.2, 0.2] }; replaces the materials a mesh file defines",
     ),
+    ParamSpec::new(
+        "emission_sides",
+        ParamKind::Str,
+        Default::Str("both"),
+        "which sides give off the material's emission: \"both\" (raylab's convention), \"front\" (the outward side: out of a solid, a triangle's winding side; Mitsuba's) or \"back\"",
+    ),
 ];
 
 /// The keys of an `[[object]]` table that are not its plugin's parameters.
-const OBJECT_KEYS: &[&str] = &["type", "name", "transform", "material"];
+const OBJECT_KEYS: &[&str] = &["type", "name", "transform", "material", "emission_sides"];
 
 /// The keys of a `[[light]]` table that are not its plugin's parameters.
 const LIGHT_KEYS: &[&str] = &["type", "name"];

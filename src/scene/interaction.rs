@@ -3,6 +3,7 @@
 //! (textures looked up at the hit's texture coordinates).
 
 use crate::geometry::{Hit, Surface};
+use crate::math::color::Color;
 use crate::math::ray::Ray;
 use crate::scene::bsdf::{MaterialModel, Shading};
 use crate::scene::material::{CoefficientsAt, Material};
@@ -87,6 +88,17 @@ impl<'s> Interaction<'s> {
     /// The texture coordinates at the hit ([`crate::Geometry::uv`]; computed on each call).
     pub fn uv(&self) -> DVec2 {
         self.object.geometry().uv(&self.hit)
+    }
+
+    /// The light the surface gives off back along the ray: its material model's emission (or
+    /// the coefficients' `emission`) if the object emits on the side the ray arrived at
+    /// ([`crate::scene::object::EmissionSides`]).
+    #[inline]
+    pub fn emission(&self) -> Color {
+        if !self.object.emission_sides().emits(self.front_face) {
+            return Color::ZERO;
+        }
+        self.model().and_then(|m| m.emission(self)).unwrap_or(self.material.emission)
     }
 
     /// The hit point.
