@@ -38,7 +38,7 @@ use raylab::param::error::Result;
 use raylab::param::params::Params;
 use raylab::scene::bsdf::{Bsdf, Lobe, Scatter};
 use raylab::scene::interaction::Interaction;
-use raylab::scene::material::{Fresnel, MATERIAL_PARAMS};
+use raylab::scene::material::{Coefficients, Fresnel, MATERIAL_PARAMS};
 use raylab::scene::texture::TextureResolver;
 use raylab::{Color, Material, PluginInfo, RayKind};
 use std::f64::consts::{FRAC_1_PI, TAU};
@@ -116,8 +116,7 @@ pub fn fresnel_dielectric(cos_i: f64, eta: f64) -> f64 {
 /// by `F·kr` and transmission by `(1 − F)·kt`) is honoured here too: with transmission, the
 /// dielectric lobe already reflects `F`, so `kr` adds no mirror of its own (glass given as
 /// `kr = kt = 1, fresnel = "exact"` is the dielectric alone); without it, the mirror is `F·kr`.
-fn fresnel_mirror(si: &Interaction) -> Color {
-    let m = &si.material;
+fn fresnel_mirror(si: &Interaction, m: &Coefficients) -> Color {
     match m.fresnel {
         Fresnel::Off => m.kr,
         _ if max_channel(m.kt) > 0.0 => Color::ZERO,
@@ -163,8 +162,8 @@ fn mean(c: Color) -> f64 {
 impl PhongBsdf {
     /// The model at the hit `si`.
     pub fn new(si: &Interaction) -> PhongBsdf {
-        let m = &si.material;
-        let kr = fresnel_mirror(si);
+        let m = si.coefficients();
+        let kr = fresnel_mirror(si, &m);
         let scale = 1.0 / max_channel(m.kd + m.ks + kr + m.kt).max(1.0);
         let (kd, ks, kr, kt) = (m.kd * scale, m.ks * scale, kr * scale, m.kt * scale);
         let blurred = m.blur > 0.0;

@@ -11,7 +11,7 @@ pub mod triangle_mesh;
 pub mod triangulate;
 
 use raylab::geometry::transform::{Transform, Transformed};
-use raylab::geometry::{Geometry, Hit, Intersectable, Surface, SurfacePdf, SurfaceSample, by_components, face_forward};
+use raylab::geometry::{Geometry, Hit, Intersectable, Surface, SurfacePdf, SurfaceSample, face_forward};
 use raylab::glam::{DVec2, DVec3};
 use raylab::load::context::MeshFormat;
 use raylab::load::mesh::{MeshFile, MeshRequest};
@@ -334,7 +334,6 @@ impl Geometry for MeshObject {
     /// the triangle's material slot.
     #[inline]
     fn surface(&self, at: &Hit, dir: DVec3) -> Surface {
-        let dir = by_components(dir);
         let outward = self.mesh.geometric_normal(at.prim);
         let front_face = outward.dot(dir) < 0.0;
         let n = if front_face { outward } else { -outward };

@@ -54,11 +54,11 @@ fn obj_quads_are_triangulated_and_mtl_materials_mapped() {
     let o = &job.scene.objects[0];
     let si = look(&job, DVec3::new(0.3, 5.0, 0.6), -DVec3::Y).expect("top face");
     assert!((si.hit.t - 4.0).abs() < 1e-12 && (o.geometry().outward_normal(&si.hit) - DVec3::Y).length() < 1e-12);
-    let glass = si.material;
+    let glass = si.coefficients();
     assert_eq!((glass.kt, glass.ior), (Color::splat(0.75), 1.45f32 as f64), "d 0.25 → kt 0.75; Ni → ior");
     assert_eq!(glass.kr, glass.ks, "illum 7 mirrors with Ks");
     assert!((glass.kd - Color::splat(0.25)).length() < 1e-6, "Kd scaled by d");
-    let red = look(&job, DVec3::new(0.3, 0.6, -5.0), DVec3::Z).expect("back face").material;
+    let red = look(&job, DVec3::new(0.3, 0.6, -5.0), DVec3::Z).expect("back face").coefficients();
     assert_eq!((red.kd.x as f32, red.shininess, red.emission.x as f32), (0.8, 40.0, 0.1));
     assert!(o.may_transmit() && o.is_closed(), "a cube of consistently wound quads is closed");
 }
@@ -106,7 +106,7 @@ fn gltf_and_glb_give_the_same_scene_with_camera_light_and_instances() {
         // The parent's scale (×2 in y) reaches the child: its apex is at y = 3.
         let si = look(job, DVec3::new(1.5, 10.0, 0.0), -DVec3::Y).unwrap();
         assert!((si.hit.point.y - 3.0).abs() < 1e-6, "{}", si.hit.point);
-        assert_eq!(si.material.kd, Color::ZERO, "a metal has no diffuse term");
+        assert_eq!(si.coefficients().kd, Color::ZERO, "a metal has no diffuse term");
         assert!(job.scene.objects[0].is_closed());
     }
     for (ga, gb) in a.scene.objects.iter().zip(&b.scene.objects) {

@@ -67,7 +67,6 @@ pub trait Geometry: Intersectable {
     /// or several materials override it.
     #[inline]
     fn surface(&self, at: &Hit, dir: DVec3) -> Surface {
-        let dir = by_components(dir);
         let outward = self.outward_normal(at);
         let front_face = outward.dot(dir) < 0.0;
         let n = if front_face { outward } else { -outward };
@@ -114,15 +113,6 @@ pub trait Geometry: Intersectable {
         let _ = (reference, at);
         SurfacePdf::Area(0.0)
     }
-}
-
-/// `v` read one component at a time. A vector handed by value to a call that is not inlined
-/// (a [`Geometry::surface`] behind `dyn`) travels through memory, stored by the caller in pieces
-/// of its choosing; the callee's 16-byte load of `y, z` then straddled two of the caller's stores
-/// (a store-forwarding stall on every hit). Components read apart always forward. The same value.
-#[inline(always)]
-pub fn by_components(v: DVec3) -> DVec3 {
-    DVec3::new(std::hint::black_box(v.x), std::hint::black_box(v.y), std::hint::black_box(v.z))
 }
 
 /// `n` flipped, if needed, to face against `dir` (`result · dir ≤ 0`).

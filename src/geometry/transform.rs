@@ -233,7 +233,6 @@ impl<G: Geometry> Geometry for Transformed<G> {
     /// carried out once.
     #[inline]
     fn surface(&self, at: &Hit, dir: DVec3) -> Surface {
-        let dir = super::by_components(dir);
         let s = self.inner.surface(&self.object_hit(at), self.transform.to_object.transform_vector3(dir));
         // The inner shape faced its normals against the object-frame direction; the map keeps
         // sides, and `face_forward` keeps them exact under rounding.

@@ -54,7 +54,7 @@
 use crate::math::color::{Color, Encoding, srgb_encode};
 use crate::render::accum::{LayerSum, PixelSum};
 use crate::render::job::{AdaptiveSettings, MAX_ADAPTIVE_COARSE, MAX_ADAPTIVE_DEPTH, MAX_CELL_SAMPLES, RenderJob};
-use crate::render::sample::{ImageFrame, SampleId, image_frame, trace_sample_in};
+use crate::render::sample::{ImageFrame, SampleId, image_frame, trace_sample};
 use crate::render::stats::RayStats;
 use glam::Vec3;
 use std::cell::RefCell;
@@ -331,7 +331,7 @@ impl<'a> Adaptive<'a> {
         for index in 0..n {
             let id = SampleId::Cell { x, y, depth: self.depth, index, count: n };
             let (mut s, mut sums) = (PixelSum::default(), LayerSum::default());
-            trace_sample_in(self.job, &self.frame, id, &mut s, with_layers.then_some(&mut sums), stats);
+            trace_sample(self.job, &self.frame, id, &mut s, with_layers.then_some(&mut sums), stats);
             acc.color += s.mean() * share;
             if with_layers {
                 acc.layers.add_scaled(&WeightedLayers::of(&sums), share as f32);
@@ -516,7 +516,7 @@ impl<'a> Adaptive<'a> {
         }
         let (mut acc, mut sums) = (PixelSum::default(), LayerSum::default());
         let with_layers = !self.layers.is_empty();
-        let signature = trace_sample_in(
+        let signature = trace_sample(
             self.job,
             &self.frame,
             SampleId::Lattice { x, y, depth: self.depth },

@@ -36,7 +36,7 @@ use crate::render::accum::{LayerSum, PixelSum};
 use crate::render::adaptive::Adaptive;
 use crate::render::aovs::Aovs;
 use crate::render::film::Film;
-use crate::render::sample::{ImageFrame, SampleId, camera_rays, image_frame, trace_sample, trace_sample_in};
+use crate::render::sample::{ImageFrame, SampleId, camera_rays, image_frame, trace_sample};
 use crate::render::share::{FrameSums, Rect, Sampling, Share};
 use crate::render::stats::RayStats;
 use glam::Vec3;
@@ -434,7 +434,7 @@ fn add_samples(
             break;
         }
         let index = share.sample_index(acc.samples);
-        trace_sample_in(job, frame, SampleId::Pixel { x, y, index }, acc, layers.as_deref_mut(), stats);
+        trace_sample(job, frame, SampleId::Pixel { x, y, index }, acc, layers.as_deref_mut(), stats);
         acc.samples += 1;
     }
 }
@@ -443,8 +443,9 @@ fn add_samples(
 /// (non-finite samples are counted and dropped). The same bits as [`render`] gives this pixel.
 pub fn render_pixel(job: &RenderJob, x: u32, y: u32, stats: &mut RayStats) -> Vec3 {
     let mut acc = PixelSum::default();
+    let frame = image_frame(job);
     for index in 0..job.settings.spp {
-        trace_sample(job, SampleId::Pixel { x, y, index }, &mut acc, None, stats);
+        trace_sample(job, &frame, SampleId::Pixel { x, y, index }, &mut acc, None, stats);
     }
     acc.mean().as_vec3()
 }

@@ -220,17 +220,13 @@ pub fn film_position(job: &RenderJob, id: SampleId) -> DVec2 {
 
 /// Traces sample `id` of `job` (every camera ray of it) and adds the result to `acc`; non-finite
 /// radiance is counted in `stats` and dropped. With `layers`, each ray's first surface is added
-/// to it too. Returns the sample's signature: its rays' [`Layers::signature`]s combined.
-#[inline]
-pub fn trace_sample(job: &RenderJob, id: SampleId, acc: &mut PixelSum, layers: Option<&mut LayerSum>, stats: &mut RayStats) -> u64 {
-    trace_sample_in(job, &image_frame(job), id, acc, layers, stats)
-}
-
-/// [`trace_sample`] with `job`'s [`image_frame`] computed once by the caller (the same result).
+/// to it too. Returns the sample's signature: its rays' [`Layers::signature`]s combined. `frame`
+/// is `job`'s [`image_frame`], computed once by the caller.
+///
 /// Always inlined: out of line, it read the sample's id as one 8-byte load across the caller's
 /// 4-byte stores (a store-forwarding stall per sample).
 #[inline(always)]
-pub fn trace_sample_in(
+pub fn trace_sample(
     job: &RenderJob,
     frame: &ImageFrame,
     id: SampleId,

@@ -3,7 +3,7 @@
 //! deterministic), so `--tile I/N` on N machines covers the frame exactly once.
 
 use crate::render::job::RenderJob;
-use crate::render::sample::{SampleId, trace_sample};
+use crate::render::sample::{SampleId, image_frame, trace_sample};
 use crate::render::share::Rect;
 use crate::render::stats::RayStats;
 use rayon::prelude::*;
@@ -16,13 +16,21 @@ const PROBE_STEP: u32 = 8;
 pub fn row_costs(job: &RenderJob) -> Vec<f64> {
     let s = &job.settings;
     let probe_rows: Vec<u32> = (0..s.height).step_by(PROBE_STEP as usize).collect();
+    let frame = image_frame(job);
     let costs: Vec<f64> = probe_rows
         .par_iter()
         .map(|&y| {
             let mut stats = RayStats::new(job.integrator.counters());
             let mut acc = crate::render::accum::PixelSum::default();
             for x in (PROBE_STEP / 2..s.width).step_by(PROBE_STEP as usize) {
-                trace_sample(job, SampleId::Pixel { x, y: (y + PROBE_STEP / 2).min(s.height - 1), index: 0 }, &mut acc, None, &mut stats);
+                trace_sample(
+                    job,
+                    &frame,
+                    SampleId::Pixel { x, y: (y + PROBE_STEP / 2).min(s.height - 1), index: 0 },
+                    &mut acc,
+                    None,
+                    &mut stats,
+                );
             }
             // At least one ray per pixel, even where every probe missed.
             stats.total_rays() as f64 * f64::from(PROBE_STEP) + f64::from(s.width)

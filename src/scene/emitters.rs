@@ -143,7 +143,7 @@ impl Emitters {
         let pdf = pmf * s.pdf.solid_angle(reference, s.hit.point, s.normal);
         let hit = Hit { t: distance, object, ..s.hit };
         // The emission as a ray from the reference would see it there (side, textures).
-        let radiance = Interaction::with(&Ray { origin: reference, dir }, &hit, o, |si| si.emission());
+        let radiance = Interaction::new(&Ray { origin: reference, dir }, hit, o).emission();
         Some(EmitterSample { object, hit, dir, radiance, pdf })
     }
 

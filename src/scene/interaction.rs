@@ -1,6 +1,7 @@
 //! [`Interaction`]: what an integrator needs at a hit, computed once: the object, the point and
-//! its error bound, both normals facing the incoming ray, and the material evaluated there
-//! (textures looked up at the hit's texture coordinates).
+//! its error bound, both normals facing the incoming ray; and, on request, the material's
+//! coefficients there ([`Interaction::coefficients`]: textures looked up at the hit's texture
+//! coordinates).
 
 use crate::geometry::{Hit, Surface};
 use crate::math::color::Color;
@@ -12,6 +13,10 @@ use crate::scene::texture::TexturePoint;
 use glam::{DVec2, DVec3};
 
 /// A ray's hit on a scene object, with everything shading reads (see [`crate::Scene::trace`]).
+///
+/// Small on purpose: the material's coefficients are not part of it (a textured material's
+/// block is 176 bytes); an integrator asks for them once per hit ([`Interaction::coefficients`])
+/// and keeps them where it reads them.
 #[derive(Clone, Copy)]
 pub struct Interaction<'s> {
     /// Distance, point and its rounding-error bound, primitive and object index.
@@ -24,45 +29,30 @@ pub struct Interaction<'s> {
     pub n: DVec3,
     /// Unit shading normal facing the incoming ray: lighting.
     pub ns: DVec3,
+    /// The hit point in the shape's own frame ([`Surface::local`]): where solid textures are
+    /// looked up.
+    pub local: DVec3,
     /// True when the ray arrived on the surface's outward side.
     pub front_face: bool,
-    /// The material's coefficients at the hit (borrowed from the object when untextured).
-    pub material: CoefficientsAt<'s>,
     /// Which of the object's materials applies ([`Surface::material`]).
     pub slot: u32,
 }
 
 impl<'s> Interaction<'s> {
-    /// The interaction of `ray` with `object` at `hit`: the shape's surface answered once, the
-    /// material evaluated once (texture coordinates computed only for a textured material).
-    #[inline]
+    /// The interaction of `ray` with `object` at `hit`: the shape's surface answered once.
+    #[inline(always)]
     pub fn new(ray: &Ray, hit: Hit, object: &'s Object) -> Self {
-        Self::with(ray, &hit, object, |si| *si)
+        let s: Surface = object.geometry().surface(&hit, ray.dir);
+        Interaction { hit, object, dir: ray.dir, n: s.n, ns: s.ns, local: s.local, front_face: s.front_face, slot: s.material }
     }
 
-    /// `f` of [`Interaction::new`]'s value, built where `f` reads it: an untextured material's
-    /// interaction is assembled in place, where a returned one costs a copy of its whole
-    /// coefficient block (176 bytes). For integrators' hot paths ([`crate::Scene::with_interaction`]).
-    #[inline(always)]
-    pub fn with<T>(ray: &Ray, hit: &Hit, object: &'s Object, f: impl FnOnce(&Interaction<'s>) -> T) -> T {
-        let g = object.geometry();
-        let s: Surface = g.surface(hit, ray.dir);
-        let at = |material| Interaction {
-            hit: *hit,
-            object,
-            dir: ray.dir,
-            n: s.n,
-            ns: s.ns,
-            front_face: s.front_face,
-            material,
-            slot: s.material,
-        };
-        match object.coefficients_at(s.material, || g.uv(hit), s.local) {
-            // (`black_box` hides that this rebuilds the same value, which the optimiser turned back
-            // into the copy.)
-            CoefficientsAt::Constant(m) => f(&at(CoefficientsAt::Constant(std::hint::black_box(m)))),
-            textured => f(&at(textured)),
-        }
+    /// The material's coefficients at the hit, evaluated on each call: borrowed from the object
+    /// when the material is untextured (nothing computed or copied), else its textures looked up
+    /// at the hit (texture coordinates computed only then). Ask once per hit and keep the value.
+    #[inline]
+    pub fn coefficients(&self) -> CoefficientsAt<'s> {
+        let (object, hit) = (self.object, &self.hit);
+        object.coefficients_at(self.slot, || object.geometry().uv(hit), self.local)
     }
 
     /// The material plugin's scattering model at the hit (`None`: the coefficients alone).
@@ -78,11 +68,11 @@ impl<'s> Interaction<'s> {
     }
 
     /// Where textures are looked up at the hit: its texture coordinates and its point in the
-    /// shape's own frame (both computed on each call: for material models whose textures are
-    /// read at the hit).
+    /// shape's own frame (the coordinates computed on each call: for material models whose
+    /// textures are read at the hit).
     pub fn texture_point(&self) -> TexturePoint {
         let g = self.object.geometry();
-        TexturePoint { uv: g.uv(&self.hit), local: g.surface(&self.hit, self.dir).local }
+        TexturePoint { uv: g.uv(&self.hit), local: self.local }
     }
 
     /// The texture coordinates at the hit ([`crate::Geometry::uv`]; computed on each call).
@@ -98,7 +88,7 @@ impl<'s> Interaction<'s> {
         if !self.object.emission_sides().emits(self.front_face) {
             return Color::ZERO;
         }
-        self.model().and_then(|m| m.emission(self)).unwrap_or(self.material.emission)
+        self.model().and_then(|m| m.emission(self)).unwrap_or_else(|| self.coefficients().emission)
     }
 
     /// The hit point.

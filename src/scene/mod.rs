@@ -159,8 +159,8 @@ impl Scene {
 
     /// The closest surface along `ray` (`0 < t`), with everything shading needs, computed once.
     ///
-    /// Always inlined (the traversal behind it is not), so the large `Interaction` is built in
-    /// the caller's frame instead of being returned through a copy.
+    /// The one way to a hit's [`Interaction`]. Always inlined (the traversal behind it is not):
+    /// the interaction is built in the caller's frame.
     #[inline(always)]
     pub fn trace(&self, ray: &Ray) -> Option<Interaction<'_>> {
         let hit = self.closest_hit(ray)?;
@@ -178,16 +178,6 @@ impl Scene {
     #[inline(always)]
     pub fn interaction(&self, ray: &Ray, hit: Hit) -> Interaction<'_> {
         Interaction::new(ray, hit, &self.objects[hit.object as usize])
-    }
-
-    /// `f` of [`Scene::interaction`]'s value, built where `f` reads it ([`Interaction::with`]):
-    /// no copy of the material's coefficient block per hit. For integrators' hot paths.
-    #[inline(always)]
-    pub fn with_interaction<T>(&self, ray: &Ray, hit: &Hit, f: impl FnOnce(&Interaction<'_>) -> T) -> T {
-        // The indices read on their own: the traversal stored them as 4-byte values, and copying
-        // the hit in 16-byte pieces straddled those stores (a store-forwarding stall per hit).
-        let hit = Hit { prim: std::hint::black_box(hit.prim), object: std::hint::black_box(hit.object), ..*hit };
-        Interaction::with(ray, &hit, &self.objects[hit.object as usize], f)
     }
 
     /// The fraction of light that travels along `ray` for `0 < t < t_max`: the product of the
@@ -220,7 +210,7 @@ impl Scene {
             let Some(h) = list.over(&self.objects).intersect(&r, 0.0, t_max) else { return (tr, first) };
             first.get_or_insert(h.object);
             let si = self.interaction(&r, h);
-            tr *= si.material.kt;
+            tr *= si.coefficients().kt;
             if tr.max_element() <= 0.0 {
                 return (Color::ZERO, first);
             }

@@ -68,8 +68,9 @@ impl Integrator for AmbientOcclusion {
                 open += 1;
             }
         }
-        *layers = Layers::surface(&si, si.material.kd);
-        si.material.kd * (f64::from(open) / f64::from(self.rays))
+        let kd = si.coefficients().kd;
+        *layers = Layers::surface(&si, kd);
+        kd * (f64::from(open) / f64::from(self.rays))
     }
 
     fn counters(&self) -> &'static [Counter] {

@@ -4,13 +4,13 @@
 
 use super::fan::reflect;
 use super::{Ctx, Phong, TAG_LIGHTS, counter};
-use raylab::glam::{DVec2, DVec3};
+use raylab::glam::DVec2;
 use raylab::math::color::max_channel;
 use raylab::math::sampler::StratifiedSet;
 use raylab::render::trace::{Recorder, Term, TraceLight};
 use raylab::scene::interaction::Interaction;
+use raylab::scene::material::Coefficients;
 use raylab::{Color, LightSample, LightSource, Sampler};
-use std::hint::black_box;
 
 /// How one light sample turned out, for the agreement test of adaptive soft shadows. Independent
 /// of `avoid`, so the decision is the same whether or not exact skips happen.
@@ -61,6 +61,8 @@ const PROBE_CORNERS: [DVec2; 4] = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 1.0), D
 /// What one light's samples at a shading point share.
 struct Shade<'a> {
     si: &'a Interaction<'a>,
+    /// The material's coefficients at the hit.
+    m: &'a Coefficients,
     /// The ray's weight in the pixel.
     weight: Color,
     /// The light's full sample count (the pruning share divides by it).
@@ -85,9 +87,17 @@ struct Terms {
 
 impl Phong {
     /// Direct light at `si`: diffuse and specular from every light, shadowed.
-    pub(super) fn direct<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, sampler: &Sampler, weight: Color, rec: &mut R) -> Color {
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn direct<R: Recorder>(
+        &self,
+        c: &mut Ctx,
+        si: &Interaction,
+        m: &Coefficients,
+        sampler: &Sampler,
+        weight: Color,
+        rec: &mut R,
+    ) -> Color {
         let scene = c.scene;
-        let m = &si.material;
         let no_response = max_channel(m.kd) <= 0.0 && max_channel(m.ks) <= 0.0;
         // Random streams only for lights whose samples depend on them (area lights): a point,
         // spot or directional light ignores its sample position, so drawing none changes nothing.
@@ -102,7 +112,7 @@ impl Phong {
             if !area && facts.sample_count <= 1 {
                 // One sample at u = (0, 0), no stream, no probes: the stratified set of one
                 // without its bookkeeping (same numbers, same counters).
-                total += self.single_sample(c, &Shade { si, weight, full: 1, light: li, no_response }, light.as_ref(), rec);
+                total += self.single_sample(c, &Shade { si, m, weight, full: 1, light: li, no_response }, light.as_ref(), rec);
                 continue;
             }
             let full = match area && self.shadow_rays > 0 {
@@ -110,7 +120,7 @@ impl Phong {
                 false => facts.sample_count.max(1),
             };
             let probes = if area && self.shadow_probes > 0 && self.shadow_probes < full { self.shadow_probes } else { 0 };
-            if !no_response && let Some(why) = self.light_out_of_reach(si, light.as_ref(), weight, full) {
+            if !no_response && let Some(why) = self.light_out_of_reach(si, m, light.as_ref(), weight, full) {
                 // What the samples would have counted: the first set, each skipped; its
                 // (agreeing) probes save the full set.
                 let first = if probes > 0 { probes } else { full };
@@ -126,7 +136,7 @@ impl Phong {
             }
             let mut stream = area.then(|| streams.get_or_insert_with(|| sampler.fork(TAG_LIGHTS)).fork(li as u64));
             let mut acc = LightSum { sum: Color::ZERO, n: 0, first: None, agree: true };
-            let shade = Shade { si, weight, full, light: li, no_response };
+            let shade = Shade { si, m, weight, full, light: li, no_response };
             let first_set = if probes > 0 { Samples::Probes(probes) } else { Samples::Stratified(full) };
             let (pattern, u0) = match &mut stream {
                 Some(s) => (s.next_pattern(), s.next_2d()),
@@ -160,7 +170,7 @@ impl Phong {
     /// bound is widened by [`BOUND_SLACK`] relative to the sizes involved, far more than the
     /// few ulp the samples' own arithmetic can err by.
     #[inline]
-    fn light_out_of_reach(&self, si: &Interaction, light: &dyn LightSource, weight: Color, full: u32) -> Option<usize> {
+    fn light_out_of_reach(&self, si: &Interaction, m: &Coefficients, light: &dyn LightSource, weight: Color, full: u32) -> Option<usize> {
         let b = light.bound(si.hit.point)?;
         let to_centre = b.centre - si.hit.point;
         // Every sample point q is within `radius` of the centre: n·(q − p) ≤ n·to_centre + radius.
@@ -171,7 +181,6 @@ impl Phong {
         // Each channel of a sample's unshadowed term is at most (|kd|·|n·l| + |ks|·spec)·|I|, with
         // |n·l| ≤ 1 and spec = (v·r)^shininess ≤ 1 (v·r ≤ 1 + a few ulp, raised to at most
         // MAX_BOUNDED_SHININESS: within the slack).
-        let m = &si.material;
         if self.prune_threshold > 0.0 && m.shininess <= MAX_BOUNDED_SHININESS {
             let most = max_channel((m.kd.abs() + m.ks.abs()) * b.intensity.abs() * weight.abs()) * (1.0 + BOUND_SLACK);
             if most / f64::from(full) < self.prune_threshold {
@@ -187,16 +196,7 @@ impl Phong {
     fn single_sample<R: Recorder>(&self, c: &mut Ctx, sh: &Shade, light: &dyn LightSource, rec: &mut R) -> Color {
         let scene = c.scene;
         let si = sh.si;
-        // Read in place, not moved out of the returned option: the move copied it in 16-byte
-        // pieces straddling the callee's stores (a store-forwarding stall).
-        let sample = light.illuminate(si.hit.point, DVec2::ZERO);
-        let Some(ls) = &sample else { return Color::ZERO };
-        // The direction read one component at a time: the light wrote it in pieces (x and y in
-        // one 16-byte store, z in another), and the dot products loaded y and z as one 16-byte
-        // value straddling both (a store-forwarding stall on every hit). `black_box` keeps the
-        // loads apart; the values are the same.
-        let d = &ls.dir;
-        let ls = &LightSample { dir: DVec3::new(black_box(d.x), black_box(d.y), black_box(d.z)), ..*ls };
+        let Some(ls) = &light.illuminate(si.hit.point, DVec2::ZERO) else { return Color::ZERO };
         if self.avoid && sh.no_response {
             c.stats.add(counter::LIGHTS_NO_RESPONSE, 1);
             rec.note(|| format!("{}: the surface has no diffuse or specular term; no shadow rays", scene.light_names[sh.light]));
@@ -267,8 +267,7 @@ impl Phong {
     #[inline(always)]
     fn unshadowed<R: Recorder>(&self, c: &mut Ctx, sh: &Shade, ls: &LightSample, rec: &mut R) -> Result<Terms, Outcome> {
         let scene = c.scene;
-        let si = sh.si;
-        let m = &si.material;
+        let (si, m) = (sh.si, sh.m);
         // Lit only from the viewer's side of the geometric surface; shaded with `ns`.
         let nl = if si.n.dot(ls.dir) > 0.0 { si.ns.dot(ls.dir) } else { 0.0 };
         let skipped = |why: &str| self.record(scene, sh.light, ls, nl, Some(why), Color::ZERO, None, &[]);

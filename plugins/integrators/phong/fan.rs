@@ -8,7 +8,7 @@ use raylab::math::color::max_channel;
 use raylab::math::sampler::{StratifiedSet, concentric_disc, orthonormal_basis};
 use raylab::render::trace::Recorder;
 use raylab::scene::interaction::Interaction;
-use raylab::scene::material::Fresnel;
+use raylab::scene::material::{Coefficients, Fresnel};
 use raylab::{Color, RayKind, Sampler};
 
 /// Mirror reflection of direction `d` about unit normal `n`: `d − 2(d·n)n`.
@@ -35,8 +35,7 @@ pub fn refract(d: DVec3, n: DVec3, eta: f64) -> Option<DVec3> {
 /// incidence. Light enters a closed solid's inside (index `ior` relative to the outside) or
 /// leaves it; an open surface is a sheet with air on both sides, entered from either.
 #[inline]
-pub(super) fn fresnel_weights<R: Recorder>(si: &Interaction, rec: &mut R) -> (Color, Color) {
-    let m = &si.material;
+pub(super) fn fresnel_weights<R: Recorder>(si: &Interaction, m: &Coefficients, rec: &mut R) -> (Color, Color) {
     if m.fresnel == Fresnel::Off {
         return (m.kr, m.kt);
     }
@@ -70,8 +69,8 @@ impl Fan {
     /// The fan of `kind` at `si`: mirror reflection about the normal facing the ray; refraction
     /// by Snell's law at closed solids (total internal reflection reflects instead), straight
     /// through at open surfaces (thin sheets).
-    pub(super) fn new<R: Recorder>(si: &Interaction, kind: RayKind, rec: &mut R) -> Fan {
-        let (d, n, m) = (si.dir, si.n, &si.material);
+    pub(super) fn new<R: Recorder>(si: &Interaction, m: &Coefficients, kind: RayKind, rec: &mut R) -> Fan {
+        let (d, n) = (si.dir, si.n);
         let (ideal, side, tag) = if kind == RayKind::Reflection {
             (reflect(d, n), n, TAG_REFLECTION)
         } else if si.object.is_closed() {

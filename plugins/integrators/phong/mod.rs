@@ -38,6 +38,7 @@ use raylab::render::aov::Layers;
 use raylab::render::stats::{Counter, CounterKind};
 use raylab::render::trace::{NoRecord, Recorder, Term};
 use raylab::scene::interaction::Interaction;
+use raylab::scene::material::Coefficients;
 use raylab::{Color, Integrator, LoadContext, PluginInfo, Ray, RayKind, RayStats, Sampler, Scene, TraceNode};
 
 pub use fan::{reflect, refract};
@@ -201,7 +202,10 @@ impl Phong {
     /// Radiance along `ray` (with its own random stream `sampler`) and accumulated `weight`.
     fn li<R: Recorder>(&self, c: &mut Ctx, ray: &Ray, sampler: &Sampler, depth: u32, weight: Color, rec: &mut R) -> Color {
         match c.scene.intersect(ray, 0.0, f64::INFINITY) {
-            Some(hit) => c.scene.with_interaction(ray, &hit, |si| self.shade(c, si, sampler, depth, weight, rec)),
+            Some(hit) => {
+                let si = c.scene.interaction(ray, hit);
+                self.shade(c, &si, &si.coefficients(), sampler, depth, weight, rec)
+            }
             None => {
                 rec.color(c.scene.background);
                 c.scene.background
@@ -209,10 +213,19 @@ impl Phong {
         }
     }
 
-    /// Radiance leaving the hit `si` back along its ray: emission, ambient, direct light, and the
-    /// reflected and refracted rays.
-    fn shade<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, sampler: &Sampler, depth: u32, weight: Color, rec: &mut R) -> Color {
-        let m = &si.material;
+    /// Radiance leaving the hit `si` (with its material's coefficients `m`) back along its ray:
+    /// emission, ambient, direct light, and the reflected and refracted rays.
+    #[allow(clippy::too_many_arguments)]
+    fn shade<R: Recorder>(
+        &self,
+        c: &mut Ctx,
+        si: &Interaction,
+        m: &Coefficients,
+        sampler: &Sampler,
+        depth: u32,
+        weight: Color,
+        rec: &mut R,
+    ) -> Color {
         rec.hit(si);
         // The work budget is spent: this sample is discarded, so nothing more is traced for it.
         if c.stats.exhausted() {
@@ -224,8 +237,8 @@ impl Phong {
         rec.term(|| Term::color("emission", m.emission));
         rec.term(|| Term::color("ambient", ambient));
         let mut color = m.emission + ambient;
-        color += self.direct(c, si, sampler, weight, rec);
-        let (kr, kt) = fan::fresnel_weights(si, rec);
+        color += self.direct(c, si, m, sampler, weight, rec);
+        let (kr, kt) = fan::fresnel_weights(si, m, rec);
         for kind in [RayKind::Reflection, RayKind::Refraction] {
             let (coef, what) = if kind == RayKind::Reflection { (kr, "reflection") } else { (kt, "refraction") };
             if self.avoid && max_channel(coef) <= 0.0 {
@@ -243,7 +256,7 @@ impl Phong {
                 rec.note(|| format!("{what} pruned: weight {:.3e} < threshold {}", max_channel(w), self.prune_threshold));
                 continue;
             }
-            let fan = fan::Fan::new(si, kind, rec);
+            let fan = fan::Fan::new(si, m, kind, rec);
             color += coef * self.spread(c, si, &fan, sampler, depth, w, rec);
         }
         rec.color(color);
@@ -265,11 +278,10 @@ impl Phong {
             rec.color(scene.background);
             return scene.background;
         };
-        scene.with_interaction(ray, &hit, |si| {
-            let m = &si.material;
-            *layers = Layers::surface(si, m.kd + m.kr + m.kt);
-            self.shade(c, si, sampler, 0, Color::ONE, rec)
-        })
+        let si = scene.interaction(ray, hit);
+        let m = si.coefficients();
+        *layers = Layers::surface(&si, m.kd + m.kr + m.kt);
+        self.shade(c, &si, &m, sampler, 0, Color::ONE, rec)
     }
 }
 
