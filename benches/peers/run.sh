@@ -2,17 +2,21 @@
 # raylab against its peers, side by side (issue 11). See benches/peers/README.md.
 #
 #   benches/peers/run.sh [RUNS]        # RUNS alternations per workload and thread count (default 3)
+#   SCALE=0.1 benches/peers/run.sh 1   # every image at a tenth of its size: checks the script
 #
 # Builds raylab (release, --features mesh,bvh) and the Embree harness, then, for each workload and
 # thread count, runs raylab and each peer one after the other, RUNS times, and prints the
 # raylab ÷ peer rate ratios (> 1: raylab faster). Peers that are not installed are skipped with a
 # message. Environment: PEERS_VENV (Python venv with embreex/mitsuba, default
 # ~/.cache/raylab-peers-venv), ASSETS (default ../shared/assets beside the repository),
-# DRJIT_LIBLLVM_PATH (found automatically under /usr/lib when unset), THREADS (default "1 2").
+# DRJIT_LIBLLVM_PATH (found automatically under /usr/lib when unset), THREADS (default "1 2"),
+# SCALE (default 1: each shot at its own size; smaller for a quick check that everything runs),
+# RAYLAB (a raylab binary to measure instead of building one).
 set -euo pipefail
 
 RUNS=${1:-${RUNS:-3}}
 THREADS=${THREADS:-"1 2"}
+SCALE=${SCALE:-1}
 HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 ROOT=$(cd "$HERE/../.." && pwd)
 ASSETS=${ASSETS:-$ROOT/../shared/assets}
@@ -57,18 +61,27 @@ if [ "$HAVE_MITSUBA" = 1 ]; then
     if [ -n "${DRJIT_LIBLLVM_PATH:-}" ]; then HAVE_LLVM=1; else say "run.sh: no libLLVM ≥ 16 (apt-get install libllvm19): Mitsuba llvm_ad_rgb skipped"; fi
 fi
 
-say "== building raylab (release, mesh,bvh) and the Embree harness"
-(cd "$ROOT" && nice -n 10 cargo build --release -q -p raylab-plugins --features mesh,bvh)
-RAYLAB=$ROOT/target/release/raylab
+if [ -n "${RAYLAB:-}" ]; then
+    say "== using $RAYLAB; building the Embree harness"
+else
+    say "== building raylab (release, mesh,bvh) and the Embree harness"
+    (cd "$ROOT" && nice -n 10 cargo build --release -q -p raylab-plugins --features mesh,bvh)
+    RAYLAB=$ROOT/target/release/raylab
+fi
 mkdir -p "$ROOT/target/peers"
 EMBREE=$ROOT/target/peers/bunny_embree
 nice -n 10 g++ -O2 -std=c++17 -Wall -Wextra -o "$EMBREE" "$HERE/embree/bunny_embree.cpp" -lembree3 -lpthread
 
 # Scenes read only files in their own folder: the bunny shot and the load test get folders of
 # their own with copies of the meshes.
-mkdir -p "$WORK/bunny" "$WORK/load"
+mkdir -p "$WORK/bunny" "$WORK/load" "$WORK/big" "$WORK/spheres"
 cp "$HERE/bunny/bunny.toml" "$BUNNY" "$WORK/bunny/"
 cp "$BIG" "$WORK/load/"
+cp "$HERE/big/big.toml" "$WORK/big/" && ln "$WORK/load/bunny_loop2.obj" "$WORK/big/bunny_loop2.obj"
+cp "$HERE/spheres/spheres.toml" "$WORK/spheres/"
+# Image sizes: each shot's own, times SCALE.
+scaled() { python3 -c "print(max(1, round($1 * $SCALE)))"; }
+W=$(scaled 800) H=$(scaled 600)
 cat >"$WORK/load/load.toml" <<'EOF'
 # Load and build the 1.1M-triangle OBJ; the 8×6 render is negligible.
 [render]
@@ -81,7 +94,7 @@ look_at = [-0.0168405, 0.110154, -0.001537]
 type = "mesh"
 file = "bunny_loop2.obj"
 EOF
-read -r -a SHOT <<<"$(python3 "$HERE/shot.py" embree-args)"
+read -r -a SHOT <<<"$(python3 "$HERE/shot.py" embree-args) --width $W --height $H"
 # The same shot without the ground plane: `raylab bench`'s workload (camera fitted to the bunny).
 NOPLANE=()
 skip=0
@@ -93,9 +106,12 @@ done
 
 # --- helpers that run one renderer once and record what it printed -----------------------------
 
-# raylab render SCENE OUT THREADS [args…] → "trace_s rays"
+# raylab render SCENE OUT THREADS [args…] → "trace_s rays" (the scene's size times SCALE)
 raylab_render() {
     local scene=$1 out=$2 threads=$3; shift 3
+    local w h
+    w=$(sed -n 's/^width = \([0-9]*\)/\1/p' "$scene" | head -1) h=$(sed -n 's/^height = \([0-9]*\)/\1/p' "$scene" | head -1)
+    if [ -n "$w" ]; then set -- --width "$(scaled "$w")" --height "$(scaled "$h")" "$@"; fi
     local log=$WORK/raylab.log
     "$RAYLAB" render "$scene" -o "$out" --threads "$threads" --stats -q "$@" >"$log" 2>&1 || { cat "$log" >&2; die "raylab failed"; }
     local trace rays
@@ -130,11 +146,27 @@ bunny_round() { # RUN THREADS
         # One thread: Dr.Jit's pool of 1 plus the calling thread, pinned to one core.
         [ "$t" = 1 ] && pin=(taskset -c 0)
         for v in $variants; do
-            (cd "$HERE" && "${pin[@]}" "$PY" mitsuba_bunny.py "$WORK/bunny/stanford-bunny.obj" --variant "$v" --threads "$t") >"$log" 2>&1 \
+            (cd "$HERE" && "${pin[@]}" "$PY" mitsuba_shot.py "$WORK/bunny/bunny.toml" --variant "$v" --threads "$t" --scale "$SCALE") >"$log" 2>&1 \
                 || { tail -3 "$log" >&2; say "run.sh: mitsuba $v failed"; continue; }
             record bunny "$t" "$i" "mitsuba-$v" render_s "$(kv "$log" render_s)"
         done
     fi
+}
+
+mitsuba_round() { # SHOT RUN THREADS: raylab's render of big/ or spheres/ against Mitsuba's (own render times)
+    local sc=$1 i=$2 t=$3 log=$WORK/mitsuba.log pin=() v
+    read -r trace rays <<<"$(raylab_render "$WORK/$sc/$sc.toml" "$WORK/raylab-$sc.png" "$t")"
+    record "$sc" "$t" "$i" raylab trace_s "$trace"
+    record "$sc" "$t" "$i" raylab rays_per_s "$(python3 -c "print($rays / $trace)")"
+    [ "$HAVE_MITSUBA" = 1 ] || return 0
+    local variants=scalar_rgb
+    [ "$HAVE_LLVM" = 1 ] && variants="scalar_rgb llvm_ad_rgb"
+    [ "$t" = 1 ] && pin=(taskset -c 0)
+    for v in $variants; do
+        (cd "$HERE" && "${pin[@]}" "$PY" mitsuba_shot.py "$WORK/$sc/$sc.toml" --variant "$v" --threads "$t" --scale "$SCALE") >"$log" 2>&1 \
+            || { tail -3 "$log" >&2; say "run.sh: mitsuba $v failed on $sc"; continue; }
+        record "$sc" "$t" "$i" "mitsuba-$v" render_s "$(kv "$log" render_s)"
+    done
 }
 
 whitted_round() { # SCENE RUN THREADS
@@ -143,7 +175,7 @@ whitted_round() { # SCENE RUN THREADS
     record "$sc" "$t" "$i" raylab trace_s "$trace"
     record "$sc" "$t" "$i" raylab rays "$rays"
     if [ "$HAVE_POV" = 1 ]; then
-        (cd "$WORK" && povray "+I$ROOT/benches/povray/$sc.pov" +W800 +H600 -A "+O$WORK/pov-$sc.png" -D "+WT$t" Declare=Bailout=0) >/dev/null 2>"$log" || true
+        (cd "$WORK" && povray "+I$ROOT/benches/povray/$sc.pov" "+W$W" "+H$H" -A "+O$WORK/pov-$sc.png" -D "+WT$t" Declare=Bailout=0) >/dev/null 2>"$log" || true
         tr '\r' '\n' <"$log" >"$log.txt"
         record "$sc" "$t" "$i" povray trace_s "$(sed -n 's/.*Trace Time:.*(\([0-9.]*\) seconds).*/\1/p' "$log.txt" | head -1)"
     fi
@@ -167,7 +199,7 @@ maxrss() { sed -n 's/.*Maximum resident set size (kbytes): \([0-9]*\)/\1/p' "$1"
 
 bench_round() { # RUN THREADS
     local i=$1 t=$2 log=$WORK/bench.log
-    (cd "$WORK/bunny" && "$RAYLAB" bench --sizes "" stanford-bunny.obj --threads "$t" --markdown) >"$log" 2>/dev/null
+    (cd "$WORK/bunny" && "$RAYLAB" bench --sizes "" stanford-bunny.obj --threads "$t" --width "$W" --height "$H" --markdown) >"$log" 2>/dev/null
     # | mesh | triangles | index | load | build | cpu | primary | shadow | all | bytes | wall | busy |
     local row
     row=$(grep '^| stanford-bunny' "$log")
@@ -187,7 +219,7 @@ say "== equal work (one render each)"
 {
     echo "### Equal work"
     echo
-    "$RAYLAB" render "$WORK/bunny/bunny.toml" -o "$WORK/raylab-bunny.png" --threads 2 --stats -q >"$WORK/check.log" 2>&1
+    "$RAYLAB" render "$WORK/bunny/bunny.toml" -o "$WORK/raylab-bunny.png" --width "$W" --height "$H" --threads 2 --stats -q >"$WORK/check.log" 2>&1
     echo "bunny, raylab: $(awk '/^  (camera|shadow) rays/ {printf "%s %s %s; ", $1, $2, $NF}' "$WORK/check.log")"
     "$EMBREE" render "$WORK/bunny/stanford-bunny.obj" "${SHOT[@]}" --threads 2 --ppm "$WORK/embree-bunny.ppm" >"$WORK/check-embree.log"
     echo "bunny, Embree: $(grep '^camera_rays ' "$WORK/check-embree.log")"
@@ -196,14 +228,14 @@ say "== equal work (one render each)"
         echo "bunny images, raylab vs Embree: $("$PY" "$HERE/shot.py" compare "$WORK/raylab-bunny.png" "$WORK/embree-bunny.png")"
     fi
     if [ "$HAVE_MITSUBA" = 1 ]; then
-        (cd "$HERE" && "$PY" mitsuba_bunny.py "$WORK/bunny/stanford-bunny.obj" --threads 2 --png "$WORK/mitsuba-bunny.png") >/dev/null 2>&1
+        (cd "$HERE" && "$PY" mitsuba_shot.py "$WORK/bunny/bunny.toml" --threads 2 --scale "$SCALE" --png "$WORK/mitsuba-bunny.png") >/dev/null 2>&1
         echo "bunny images, raylab vs Mitsuba (jittered camera rays, no ambient: its shadows are black, so its non-background count is the hits less the occluded ones): $("$PY" "$HERE/shot.py" compare "$WORK/raylab-bunny.png" "$WORK/mitsuba-bunny.png")"
     fi
     if [ "$HAVE_POV" = 1 ]; then
         for sc in dozen whitted; do
-            "$RAYLAB" render "$ROOT/scenes/$sc.toml" -o "$WORK/raylab-$sc.png" --stats -q --set prune_threshold=0 >"$WORK/check.log" 2>&1
+            "$RAYLAB" render "$ROOT/scenes/$sc.toml" -o "$WORK/raylab-$sc.png" --width "$W" --height "$H" --stats -q --set prune_threshold=0 >"$WORK/check.log" 2>&1
             echo "$sc, raylab: $(awk '/^  (camera|shadow|reflection|refraction) rays/ {printf "%s %s; ", $1, $NF}' "$WORK/check.log")"
-            (cd "$WORK" && povray "+I$ROOT/benches/povray/$sc.pov" +W800 +H600 -A "+O$WORK/pov-$sc.png" -D +WT2 Declare=Bailout=0) >/dev/null 2>"$WORK/pov.log" || true
+            (cd "$WORK" && povray "+I$ROOT/benches/povray/$sc.pov" "+W$W" "+H$H" -A "+O$WORK/pov-$sc.png" -D +WT2 Declare=Bailout=0) >/dev/null 2>"$WORK/pov.log" || true
             tr '\r' '\n' <"$WORK/pov.log" | awk '/^Rays:/ {r = $2} /^Shadow Ray Tests:/ {s = $4} /^Reflected Rays:/ {f = $3} /^Refracted Rays:/ {t = $3}
                 END {printf "%s, POV-Ray: camera+reflected+refracted %s (reflected %s, refracted %s); shadow tests %s\n", "'"$sc"'", r, f, (t == "" ? 0 : t), s}'
             [ "$HAVE_NUMPY" = 1 ] && echo "$sc images, raylab vs POV-Ray: $("$PY" "$HERE/shot.py" compare "$WORK/raylab-$sc.png" "$WORK/pov-$sc.png")"
@@ -243,6 +275,7 @@ for i in $(seq 1 "$RUNS"); do
         say "   run $i, $t thread(s): bunny"; measured bunny "$t" "$i" bunny_round "$i" "$t"
         say "   run $i, $t thread(s): raylab bench vs Embree (no plane)"; measured bench "$t" "$i" bench_round "$i" "$t"
         for sc in dozen whitted; do say "   run $i, $t thread(s): $sc"; measured "$sc" "$t" "$i" whitted_round "$sc" "$i" "$t"; done
+        for sc in big spheres; do say "   run $i, $t thread(s): $sc (Mitsuba)"; measured "$sc" "$t" "$i" mitsuba_round "$sc" "$i" "$t"; done
     done
     say "   run $i: load + build of the 1.1M-triangle OBJ"; measured load 2 "$i" load_round "$i"
 done

@@ -2,7 +2,7 @@
 
 `python3 shot.py embree-args` prints the camera/light/plane options of the Embree harness;
 `python3 shot.py compare A.png B.png` prints how many pixels of two images differ. The other
-peers (embreex_bunny.py, mitsuba_bunny.py) import `load()` and `camera_rays()`.
+peers (embreex_bunny.py, mitsuba_shot.py) import `load()` and `camera_rays()`.
 """
 
 import math

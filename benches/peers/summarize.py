@@ -101,6 +101,22 @@ def main():
         if a in v:
             p(f"| {t} | (Embree 3 per phase, CPU time: camera {fmt(med(a), 'M')}, shadow {fmt(med(b), 'M')} rays/s; shadow ÷ camera {ratio(b, a)}) | | | |")
     p("")
+    p("### Against Mitsuba 3: own render time (raylab's trace time, Mitsuba's second `mi.render`), load excluded")
+    p("")
+    p("| shot | threads | raylab trace s | raylab rays/s | Mitsuba 3 scalar_rgb s | raylab ÷ scalar (rate) | Mitsuba 3 llvm_ad_rgb s | raylab ÷ LLVM (rate) |")
+    p("|---|---:|---:|---:|---:|---:|---:|---:|")
+    shots = (("bunny", "bunny 69k triangles + plane, 1 spp"), ("big", "1.1M triangles + plane, 1024², 1 spp"), ("spheres", "24 spheres + plane, 16 spp"))
+    for w, name in shots:
+        for t in threads:
+            a = (w, t, "raylab", "trace_s")
+            if a not in v:
+                continue
+            sc, ll = (w, t, "mitsuba-scalar_rgb", "render_s"), (w, t, "mitsuba-llvm_ad_rgb", "render_s")
+            p(
+                f"| {name} | {t} | {fmt(med(a), 's')} | {fmt(med((w, t, 'raylab', 'rays_per_s')), 'M')} | {fmt(med(sc), 's')} | "
+                f"{ratio(a, sc, invert=True)} | {fmt(med(ll), 's')} | {ratio(a, ll, invert=True)} |"
+            )
+    p("")
     p("### `raylab bench` on the bunny (no ground plane) against the Embree harness on the same shot, rays/s from the threads' CPU time")
     p("")
     p("| threads | rays | raylab bench | Embree 3 | raylab ÷ Embree | raylab shadow ÷ camera | Embree shadow ÷ camera |")
