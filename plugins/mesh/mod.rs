@@ -11,7 +11,7 @@ pub mod triangle_mesh;
 pub mod triangulate;
 
 use raylab::geometry::transform::{Transform, Transformed};
-use raylab::geometry::{Geometry, Hit, Intersectable, Surface, by_components, face_forward};
+use raylab::geometry::{Geometry, Hit, Intersectable, Surface, SurfacePdf, SurfaceSample, by_components, face_forward};
 use raylab::glam::{DVec2, DVec3};
 use raylab::load::context::MeshFormat;
 use raylab::load::mesh::{MeshFile, MeshRequest};
@@ -354,5 +354,20 @@ impl Geometry for MeshObject {
     }
     fn is_closed(&self) -> bool {
         self.mesh.is_closed()
+    }
+    fn area(&self) -> Option<f64> {
+        Some(self.mesh.area()).filter(|&a| a > 0.0)
+    }
+    /// Uniform by area: a triangle chosen by its area, then a point of it.
+    fn sample_surface(&self, reference: DVec3, u: DVec2) -> Option<SurfaceSample> {
+        let (slot, point, error, b) = self.mesh.sample_point(u)?;
+        let normal = self.mesh.geometric_normal(slot);
+        let mut s = SurfaceSample::new(reference, point, error, normal, SurfacePdf::Area(1.0 / self.mesh.area()));
+        (s.hit.prim, s.hit.uv) = (slot, b);
+        Some(s)
+    }
+    fn surface_pdf(&self, _: DVec3, _: &Hit) -> SurfacePdf {
+        let a = self.mesh.area();
+        SurfacePdf::Area(if a > 0.0 { 1.0 / a } else { 0.0 })
     }
 }

@@ -39,6 +39,7 @@ pub(crate) fn run(app: &App, a: MergeArgs) -> Result<(), Failure> {
     #[cfg(feature = "exr")]
     {
         use crate::render::share::{Part, merge};
+        super::refuse_overwrite("merge", &[a.output.as_path()], a.parts.iter().map(|p| p.as_path()))?;
         let t0 = std::time::Instant::now();
         let mut parts = Vec::with_capacity(a.parts.len());
         let mut encoding = a.encoding.clone();

@@ -7,19 +7,27 @@ use clap::Args;
 #[derive(Args, Debug)]
 pub(crate) struct PluginsArgs {
     /// Print Markdown tables (for documentation).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "json")]
     markdown: bool,
+    /// Print JSON (every type, its parameters with their types, defaults and roles).
+    #[arg(long)]
+    json: bool,
 }
 
 pub(crate) fn run(app: &App, a: PluginsArgs) -> Result<(), Failure> {
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&app.registry.to_json()).map_err(|e| e.to_string())?);
+        return Ok(());
+    }
     print!("{}", if a.markdown { markdown(&app.registry) } else { text(&app.registry) });
     Ok(())
 }
 
-fn sections(reg: &Registry) -> [(&'static str, &'static str, Vec<&PluginInfo>); 4] {
+fn sections(reg: &Registry) -> [(&'static str, &'static str, Vec<&PluginInfo>); 5] {
     [
         ("GEOMETRIES", "[[object]] type = ...", reg.geometries().collect()),
         ("TEXTURES", "[textures.NAME] type = ..., or inline: kd = { type = ... }", reg.textures().collect()),
+        ("MATERIALS", "[materials.NAME] type = ... (default \"phong\"), or inline: material = { type = ... }", reg.materials().collect()),
         ("LIGHTS", "[[light]] type = ...", reg.lights().collect()),
         ("INTEGRATORS", "[integrator] type = ...", reg.integrators().collect()),
     ]

@@ -29,6 +29,7 @@ pub(crate) fn run(app: &App, a: TonemapArgs) -> Result<(), Failure> {
     if format.hdr {
         return Err(Failure::Other(format!("{}: tonemap writes a viewable 8-bit image (.png, .jpg or .jpeg)", a.output.display())));
     }
+    super::refuse_overwrite("tonemap", &[a.output.as_path()], [a.input.as_path()])?;
     let layer = a.layer.as_deref().and_then(Layer::parse).unwrap_or(Layer::Color);
     let ext = a.input.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     check_input(&ext, layer).map_err(|e| Failure::Other(format!("{}: {e}", a.input.display())))?;

@@ -43,13 +43,15 @@ pub struct ImagePlan {
     pub albedo: bool,
     /// EXR colour, normal and albedo as 16-bit floats.
     pub half: bool,
+    /// The EXR's error estimate and sample count layers (computed from the render's sums).
+    pub error: bool,
 }
 
 impl ImagePlan {
     /// The costliest output: 32-bit EXR with every layer.
-    pub const COSTLIEST: ImagePlan = ImagePlan { exr: true, depth: true, normal: true, albedo: true, half: false };
+    pub const COSTLIEST: ImagePlan = ImagePlan { exr: true, depth: true, normal: true, albedo: true, half: false, error: true };
     /// 8-bit PNG or JPEG.
-    pub const EIGHT_BIT: ImagePlan = ImagePlan { exr: false, depth: false, normal: false, albedo: false, half: false };
+    pub const EIGHT_BIT: ImagePlan = ImagePlan { exr: false, depth: false, normal: false, albedo: false, half: false, error: false };
 }
 
 impl std::default::Default for ImagePlan {
@@ -78,7 +80,8 @@ pub fn image_bytes(pixels: u64, plan: &ImagePlan) -> u64 {
     let during_writing = if plan.exr {
         let colour = if plan.half { 2 } else { 4 };
         let layers = if any_layer { 28 } else { 0 };
-        let channels = 3 * colour * (1 + u64::from(plan.normal) + u64::from(plan.albedo)) + 4 * u64::from(plan.depth);
+        let channels =
+            3 * colour * (1 + u64::from(plan.normal) + u64::from(plan.albedo)) + 4 * u64::from(plan.depth) + 8 * u64::from(plan.error);
         layers + 2 * channels
     } else {
         EIGHT_BIT_BYTES_PER_PIXEL
@@ -240,12 +243,12 @@ mod tests {
     /// The estimate counts the film, the render's exact running sums, the layers and the
     /// encoder's copies; the default budget holds 4096² with every layer and refuses the next step
     /// up, and holds 8-bit output of an 8K UHD frame (7680 × 4320) but not of the largest image
-    /// the pixel limit allows (8192², 5.1 GB: raise --max-image-bytes, or split it into tiles).
+    /// the pixel limit allows (8192², 7.2 GB: raise --max-image-bytes, or split it into tiles).
     #[test]
     fn image_memory_estimates_fit_the_default_budget() {
         let budget = crate::param::limits::DEFAULT_MAX_IMAGE_BYTES;
-        assert_eq!(image_bytes(1, &ImagePlan::COSTLIEST), 184);
-        assert_eq!(image_bytes(1, &ImagePlan::EIGHT_BIT), 76);
+        assert_eq!(image_bytes(1, &ImagePlan::COSTLIEST), 216);
+        assert_eq!(image_bytes(1, &ImagePlan::EIGHT_BIT), 108);
         assert!(image_bytes(4096 * 4096, &ImagePlan::COSTLIEST) <= budget);
         assert!(image_bytes(4608 * 4608, &ImagePlan::COSTLIEST) > budget);
         assert!(image_bytes(7680 * 4320, &ImagePlan::EIGHT_BIT) <= budget);

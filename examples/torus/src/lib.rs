@@ -7,7 +7,8 @@
 //!
 //! It adds a [`torus`] geometry (a quartic, solved robustly by [`roots`]), and the other
 //! examples of `docs/writing-a-plugin.md`: a [`panel_light`] area light, an [`ao`] (ambient
-//! occlusion) integrator, a [`marble`] texture and a [`ppm`] image writer.
+//! occlusion) integrator, a [`marble`] texture, an [`oren_nayar`] (rough diffuse) material and a
+//! [`ppm`] image writer.
 //!
 //! ```no_run
 //! let registry = raylab_torus::registry();
@@ -16,6 +17,7 @@
 
 pub mod ao;
 pub mod marble;
+pub mod oren_nayar;
 pub mod panel_light;
 pub mod ppm;
 pub mod roots;
@@ -27,10 +29,11 @@ use raylab::Registry;
 pub const DEFAULT_SCENE: (&str, &str) = ("examples/torus/scenes/torus.toml", include_str!("../scenes/torus.toml"));
 
 /// Adds this crate's plugins to `r`: `torus`, the `panel` light, the `ao` integrator, the
-/// `marble` texture and the `.ppm` output format.
+/// `marble` texture, the `oren_nayar` material and the `.ppm` output format.
 pub fn register(r: &mut Registry) {
     r.add_geometry(torus::INFO, torus::build);
     r.add_texture(marble::INFO, marble::build);
+    r.add_material(oren_nayar::INFO, oren_nayar::build);
     r.add_light(panel_light::INFO, panel_light::build);
     r.add_integrator(ao::INFO, ao::build);
     r.add_output_format(ppm::format());
