@@ -11,6 +11,7 @@
 pub mod formats;
 pub mod integrators;
 pub mod lights;
+pub mod materials;
 #[cfg(feature = "mesh")]
 pub mod mesh;
 pub mod shapes;
@@ -25,6 +26,7 @@ pub const DEFAULT_SCENE: (&str, &str) = ("scenes/showcase.toml", include_str!(".
 pub fn register(r: &mut Registry) {
     shapes::register(r);
     textures::register(r);
+    materials::register(r);
     lights::register(r);
     integrators::register(r);
     formats::register(r);

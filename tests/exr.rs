@@ -67,3 +67,70 @@ fn layers_hold_depth_normal_and_albedo() {
         assert!(names.iter().any(|n| n == expect), "{expect} missing from {names:?}");
     }
 }
+
+/// The layers against closed forms, pixel by pixel: one sample per pixel at its centre, a camera
+/// looking down −z at a plane 5 units away (depth `5 / cos` of the ray's angle to the axis,
+/// normal +z, albedo its `kd`) with a sphere in front of it (depth from the ray–sphere quadratic,
+/// normal `(p − c) / r`, albedo its `kd`; `ks` is no part of phong's albedo).
+#[test]
+fn layers_match_closed_forms_on_a_plane_and_a_sphere() {
+    use raylab::glam::{DVec2, DVec3, Vec3};
+    const SCENE: &str = r#"
+[render]
+width = 40
+height = 30
+spp = 1
+[camera]
+position = [0, 0, 0]
+look_at = [0, 0, -1]
+fov = 60
+[[object]]
+type = "plane"
+point = [0, 0, -5]
+normal = [0, 0, 1]
+material = { kd = [0.2, 0.5, 0.7] }
+[[object]]
+type = "sphere"
+center = [0.8, 0.4, -3]
+radius = 0.9
+material = { kd = [0.9, 0.1, 0.3], ks = 0.5, shininess = 20 }
+[[light]]
+type = "directional"
+direction = [0.2, -0.3, -1]
+"#;
+    let mut job = load_str(&raylab_plugins::registry(), "layers.toml", SCENE, Path::new("."), &LoadOptions::default())
+        .unwrap_or_else(|e| panic!("{}", e.report()));
+    job.settings.aa = raylab::render::Antialiasing::Stratified;
+    job.settings.spp = 1;
+    let (w, h) = (job.settings.width, job.settings.height);
+    let aovs = render(&job, &RenderOptions { layers: true, ..RenderOptions::default() }, &|_, _| {}).unwrap().layers.unwrap();
+    let (depth, normal, albedo) = (aovs.depth.unwrap(), aovs.normal.unwrap(), aovs.albedo.unwrap());
+    let (centre, radius) = (DVec3::new(0.8, 0.4, -3.0), 0.9);
+    let (mut on_sphere, mut on_plane) = (0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let ray = job.scene.camera.ray_through(w, h, DVec2::new(f64::from(x) + 0.5, f64::from(y) + 0.5), DVec2::ZERO);
+            let (o, d) = (ray.origin, ray.dir.normalize());
+            // The sphere: |o + t d − c|² = r², nearest root; rays grazing it are left out.
+            let oc = o - centre;
+            let (b, c) = (oc.dot(d), oc.length_squared() - radius * radius);
+            let disc = b * b - c;
+            let i = (y * w + x) as usize;
+            let (want_depth, want_normal, want_albedo) = if disc > 1e-3 {
+                let t = -b - disc.sqrt();
+                on_sphere += 1;
+                (t, (o + d * t - centre) / radius, Vec3::new(0.9, 0.1, 0.3))
+            } else if disc < -1e-3 {
+                on_plane += 1;
+                ((-5.0 - o.z) / d.z, DVec3::Z, Vec3::new(0.2, 0.5, 0.7))
+            } else {
+                continue;
+            };
+            let at = format!("pixel ({x}, {y})");
+            assert!((f64::from(depth[i]) - want_depth).abs() <= 1e-5 * want_depth, "{at}: depth {} vs {want_depth}", depth[i]);
+            assert!((normal[i].as_dvec3() - want_normal).length() <= 1e-5, "{at}: normal {} vs {want_normal}", normal[i]);
+            assert!((albedo[i] - want_albedo).abs().max_element() <= 1e-6, "{at}: albedo {} vs {want_albedo}", albedo[i]);
+        }
+    }
+    assert!(on_sphere > 50 && on_plane > 500, "{on_sphere} pixels on the sphere, {on_plane} on the plane");
+}

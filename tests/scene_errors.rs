@@ -159,6 +159,7 @@ fn every_bundled_scene_loads() {
 
 /// The catalogue of malformed scenes in tests/malformed/: each file's first line,
 /// `# expect WHERE: MESSAGE`, is the error it must fail with. WHERE is `LINE:COL` in the scene file,
+/// `budget` for a scene that loads but that the work budget stops before rendering,
 /// or a file under tests/malformed (`assets/nan.obj:2:1`, `assets/cycle.gltf`) for errors inside a
 /// mesh file; paths in the message are relative to tests/malformed. Scenes with meshes are checked
 /// when the `mesh` feature is on.
@@ -182,7 +183,17 @@ fn every_scene_in_the_malformed_catalogue_fails_as_its_first_line_says() {
         let (want_at, want) = expect.split_once(": ").unwrap();
         let name = f.file_name().unwrap().to_string_lossy();
         match raylab::load::loader::load_file(&registry, f, &LoadOptions::default()) {
-            Ok(_) => wrong.push(format!("{name}: loaded")),
+            // A scene that loads must be stopped by the work budget before rendering (WHERE is
+            // `budget`): the checks `raylab::render::render` makes first.
+            Ok(job) => {
+                let (w, h) = (job.settings.width, job.settings.height);
+                let units = u64::from(w) * u64::from(h) * u64::from(job.settings.spp);
+                match raylab::render::budget::check(&job, raylab::render::share::Share::whole(w, h), units) {
+                    Ok(()) => wrong.push(format!("{name}: loaded, and the work budget lets it render")),
+                    Err(message) if want_at == "budget" && message == want => {}
+                    Err(message) => wrong.push(format!("{name}: expected {want_at}: {want}\n    got budget: {message}")),
+                }
+            }
             Err(e) => {
                 let at = e.where_().unwrap_or_default().replace(&prefix, "");
                 let at = at.strip_prefix(&format!("{name}:")).unwrap_or(&at).to_string();

@@ -6,7 +6,12 @@
 //! are skipped. A file that *requires* an extension raylab does not implement (mesh compression,
 //! quantisation) is refused with its name.
 //!
-//! PBR metallic-roughness → Phong (base colour `c`, metallic `m`, roughness `r`, α = r²):
+//! Materials become `pbr` materials ([`crate::materials::pbr`]): in the path tracer the glTF
+//! BRDF itself, with `KHR_materials_ior`, `_specular`, `_transmission` (thin-walled) and
+//! `_emissive_strength`, and the `baseColorTexture`, `metallicRoughnessTexture`,
+//! `emissiveTexture` and `transmissionTexture` slots (with `KHR_texture_transform`); for `phong`,
+//! the Phong coefficients of [`crate::materials::pbr::phong_mapping`] (base colour `c`,
+//! metallic `m`, roughness `r`, α = r²):
 //!
 //! | raylab | from glTF |
 //! |---|---|
@@ -27,11 +32,12 @@
 //! mirror direction turns away from the viewer (a hard line across flat faces).
 //! docs/gltf-materials.md compares the mapping with the glTF BRDF on a row of spheres.
 //!
-//! Metallic-roughness, normal, occlusion and transmission textures, vertex colours, animations,
-//! skins, morph targets, points and lines, orthographic cameras and extensions raylab does not
-//! implement (those `extensionsUsed` lists and those found on any element) are ignored with one
-//! warning per kind (with a count, or naming each extension). Sparse accessors are read (the
-//! gltf crate applies their substitutions).
+//! Normal and occlusion textures, vertex colours, animations, skins, morph targets, points and
+//! lines, orthographic cameras and extensions raylab does not implement (those
+//! `extensionsUsed` lists and those found on any element) are ignored with one warning per kind
+//! (with a count, or naming each extension); so are the metallic-roughness and transmission
+//! textures for `phong` (one warning each: the path tracer samples them). Sparse accessors are
+//! read (the gltf crate applies their substitutions).
 //! Non-finite numbers (NaN, or beyond f32) in transforms, cameras, lights and materials are
 //! refused. Errors name the element by its JSON pointer (`/nodes/3/matrix`) at its line and
 //! column in the JSON (the JSON chunk, for `.glb`).
@@ -45,13 +51,14 @@
 //! against `--max-triangles` before anything is built.
 
 use super::triangle_mesh::MeshData;
+use crate::materials::pbr::{Pbr, Textured};
 use crate::textures::image::{self as image_texture, ColorSpace, Filter, Image, ImageTexture, Wrap};
 use raylab::geometry::transform::Transform;
 use raylab::glam::{DAffine3, DMat3, DMat4, DQuat, DVec3, Mat4};
 use raylab::param::description::SceneDescription;
 use raylab::param::error::{Loc, Result, SceneError, Source};
 use raylab::param::value::{Entry, Node, Table, Value};
-use raylab::scene::material::{Channel, TextureMap};
+use raylab::scene::material::{Channel, Model, TextureMap};
 use raylab::scene::texture::{Coords, Mapping, Texture};
 use raylab::{Aabb, Color, LoadContext, Material};
 use std::fmt::Display;
@@ -60,8 +67,14 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 
 /// Extensions a file may require.
-const SUPPORTED: &[&str] =
-    &["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_ior", "KHR_materials_transmission", "KHR_texture_transform"];
+const SUPPORTED: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_specular",
+    "KHR_materials_transmission",
+    "KHR_texture_transform",
+];
 
 /// A parsed glTF file with its buffers loaded.
 /// The triangles `mesh` declares (its accessors' counts; no data decoded): an upper bound for
@@ -116,9 +129,9 @@ pub struct GltfFile {
     textures: std::sync::Mutex<std::collections::HashMap<TextureKey, Option<Arc<dyn Texture>>>>,
 }
 
-/// A texture of a glTF file as a material samples it: its index and `KHR_texture_transform`
-/// (offset, rotation, scale as bits).
-type TextureKey = (usize, Option<[u64; 5]>);
+/// A texture of a glTF file as a material samples it: its index, `KHR_texture_transform`
+/// (offset, rotation, scale as bits) and whether it holds colours or data.
+type TextureKey = (usize, Option<[u64; 5]>, Slot);
 
 /// A texture info's `KHR_texture_transform`, read from its extensions (so that a malformed one is
 /// a warning, not the whole file's error).
@@ -549,19 +562,20 @@ impl GltfFile {
     }
 
     /// Gives the materials `out`'s triangles use the textures they sample (images decoded once
-    /// per scene; those of unused materials are not read): `baseColorTexture` multiplies `kd`
-    /// (and `ks`, `kr` of metals, whose specular colour is the base colour), `emissiveTexture`
-    /// the emission. An image that cannot be read (missing, malformed, over the limits) is a
-    /// warning: the material keeps its factors.
+    /// per scene; those of unused materials are not read). For `phong`, `baseColorTexture`
+    /// multiplies `kd` (and `ks`, `kr` of metals, whose specular colour is the base colour),
+    /// `emissiveTexture` the emission; the `pbr` model samples those and the
+    /// `metallicRoughnessTexture` and `transmissionTexture` (linear data). An image that cannot
+    /// be read (missing, malformed, over the limits) is a warning: the material keeps its
+    /// factors.
     fn attach_textures(&self, ctx: &LoadContext, out: &mut MeshData) {
         let mut used = out.material_ids.clone();
         used.sort_unstable();
         used.dedup();
         for id in used {
             let Some(m) = self.doc.materials().nth(id as usize) else { continue };
-            let pbr = m.pbr_metallic_roughness();
             // Each texture is built (or found unreadable, with one warning) once per file.
-            let sampled = |info: &gltf::texture::Info, kind: &str| {
+            let mut sampled = |info: &gltf::texture::Info, kind: &str, slot: Slot| {
                 let transform = UvTransform::of(info).unwrap_or_else(|e| {
                     ctx.warn(SceneError::in_file(
                         &self.name,
@@ -573,8 +587,8 @@ impl GltfFile {
                 self.textures
                     .lock()
                     .unwrap_or_else(|e| e.into_inner())
-                    .entry((info.texture().index(), transform.map(|t| t.key())))
-                    .or_insert_with(|| match self.texture(ctx, info, transform, id as usize) {
+                    .entry((info.texture().index(), transform.map(|t| t.key()), slot))
+                    .or_insert_with(|| match self.texture(ctx, info, transform, id as usize, slot) {
                         Ok(t) => Some(t),
                         Err(e) => {
                             ctx.warn(e.context(format!("{}: material {id}: its {kind} is not sampled (its factor is used)", self.name)));
@@ -583,18 +597,20 @@ impl GltfFile {
                     })
                     .clone()
             };
+            let model = pbr_model(&m, &mut sampled);
             let mut maps = Vec::new();
-            if let Some(t) = pbr.base_color_texture().and_then(|info| sampled(&info, "baseColorTexture")) {
+            if let Some(t) = model.base_color.texture.clone() {
                 maps.push((Channel::Kd, t.clone()));
-                if pbr.metallic_factor() > 0.0 {
+                if m.pbr_metallic_roughness().metallic_factor() > 0.0 {
                     maps.extend([(Channel::Ks, t.clone()), (Channel::Kr, t)]);
                 }
             }
-            if let Some(t) = m.emissive_texture().and_then(|info| sampled(&info, "emissiveTexture")) {
+            if let Some(t) = model.emission.texture.clone() {
                 maps.push((Channel::Emission, t));
             }
             let material = &mut out.materials[id as usize];
             material.textures.extend(maps.into_iter().map(|(channel, texture)| TextureMap { channel, texture }));
+            material.model = Some(Model(Arc::new(model)));
         }
     }
 
@@ -606,10 +622,15 @@ impl GltfFile {
         info: &gltf::texture::Info,
         transform: Option<UvTransform>,
         material: usize,
+        slot: Slot,
     ) -> Result<Arc<dyn Texture>> {
         use gltf::texture::{MagFilter, WrappingMode};
         let t = info.texture();
-        let image = self.image(ctx, &t.source(), material)?;
+        let space = match slot {
+            Slot::Color => ColorSpace::Srgb,
+            Slot::Data => ColorSpace::Linear,
+        };
+        let image = self.image(ctx, &t.source(), material, space)?;
         let sampler = t.sampler();
         let wrap = |w: WrappingMode| match w {
             WrappingMode::ClampToEdge => Wrap::Clamp,
@@ -624,13 +645,17 @@ impl GltfFile {
         Ok(Arc::new(ImageTexture::new(image, mapping, [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())], filter, Color::ONE)))
     }
 
-    /// Image `img` decoded (sRGB), once per scene: a file beside the glTF (through the sandbox),
-    /// a `data:` URI, or a buffer view. Errors name material `material`.
-    fn image(&self, ctx: &LoadContext, img: &gltf::Image, material: usize) -> Result<Arc<Image>> {
+    /// Image `img` decoded (as `space`: sRGB colours or linear data), once per scene and colour
+    /// space: a file beside the glTF (through the sandbox), a `data:` URI, or a buffer view.
+    /// Errors name material `material`.
+    fn image(&self, ctx: &LoadContext, img: &gltf::Image, material: usize, space: ColorSpace) -> Result<Arc<Image>> {
         let loc = self.loc(Element::Material, material);
         let what = format!("image {}", img.index());
         let embedded = |bytes: Option<&[u8]>| -> Result<Arc<Image>> {
-            let key = format!("gltf-image:{}:{}", self.name, img.index());
+            let key = match space {
+                ColorSpace::Srgb => format!("gltf-image:{}:{}", self.name, img.index()),
+                _ => format!("gltf-image:{}:{}:linear", self.name, img.index()),
+            };
             ctx.assets.get_or_load(&key, || {
                 let bytes = bytes.ok_or_else(|| {
                     SceneError::in_file(
@@ -639,14 +664,14 @@ impl GltfFile {
                         format!("image {}: its data lies outside its buffer or is malformed", img.index()),
                     )
                 })?;
-                image_texture::decode(bytes, &format!("{} ({what})", self.name), ColorSpace::Srgb, ctx)
+                image_texture::decode(bytes, &format!("{} ({what})", self.name), space, ctx)
             })
         };
         match img.source() {
             gltf::image::Source::Uri { uri, .. } if uri.starts_with("data:") => embedded(data_uri(uri).as_deref()),
             gltf::image::Source::Uri { uri, .. } => {
                 let rel = self.base.join(percent_decode(uri));
-                image_texture::load(ctx, &rel.to_string_lossy(), &loc, ColorSpace::Srgb).map_err(|e| e.context(&what))
+                image_texture::load(ctx, &rel.to_string_lossy(), &loc, space).map_err(|e| e.context(&what))
             }
             gltf::image::Source::View { view, .. } => {
                 let bytes =
@@ -822,22 +847,33 @@ impl GltfFile {
         };
         let materials: Vec<gltf::Material> = self.doc.materials().collect();
         type Has = fn(&gltf::Material) -> bool;
-        let textures: [(&str, Has); 4] = [
-            ("metallicRoughnessTexture", |m| m.pbr_metallic_roughness().metallic_roughness_texture().is_some()),
-            ("normalTexture", |m| m.normal_texture().is_some()),
-            ("occlusionTexture", |m| m.occlusion_texture().is_some()),
-            ("KHR_materials_transmission transmissionTexture", |m| m.transmission().is_some_and(|t| t.transmission_texture().is_some())),
-        ];
+        let textures: [(&str, Has); 2] =
+            [("normalTexture", |m| m.normal_texture().is_some()), ("occlusionTexture", |m| m.occlusion_texture().is_some())];
         for (name, has) in textures {
             let n = materials.iter().filter(|m| has(m)).count();
             warn(n, format!("{n} material(s) use a {name}, which raylab does not sample (its factors are used)"));
+        }
+        // Sampled by the `pbr` model (the path tracer); `phong` reads the factors.
+        let phong_only: [(&str, Has); 2] = [
+            ("metallicRoughnessTexture", |m| m.pbr_metallic_roughness().metallic_roughness_texture().is_some()),
+            ("KHR_materials_transmission transmissionTexture", |m| m.transmission().is_some_and(|t| t.transmission_texture().is_some())),
+        ];
+        for (name, has) in phong_only {
+            let n = materials.iter().filter(|m| has(m)).count();
+            warn(n, format!("{n} material(s) use a {name}: the path tracer samples it, phong uses the factors"));
         }
         let second_set = |i: Option<gltf::texture::Info>| {
             i.is_some_and(|i| i.tex_coord() != 0 || UvTransform::of(&i).ok().flatten().and_then(|t| t.tex_coord).is_some_and(|c| c != 0))
         };
         let n = materials
             .iter()
-            .filter(|m| second_set(m.pbr_metallic_roughness().base_color_texture()) || second_set(m.emissive_texture()))
+            .filter(|m| {
+                let pbr = m.pbr_metallic_roughness();
+                second_set(pbr.base_color_texture())
+                    || second_set(m.emissive_texture())
+                    || second_set(pbr.metallic_roughness_texture())
+                    || second_set(m.transmission().and_then(|t| t.transmission_texture()))
+            })
             .count();
         warn(n, format!("{n} material(s) sample a texture with a texture coordinate set other than TEXCOORD_0: TEXCOORD_0 is used"));
         let n = materials
@@ -1067,59 +1103,68 @@ pub fn gltf_uv_transform(offset: [f64; 2], rotation: f64, scale: [f64; 2]) -> DA
     flip * gltf * flip
 }
 
-/// Smallest Phong exponent a glTF material maps to: from 1 up, the lobe `cos^n` falls
-/// continuously to zero where the mirror direction turns 90° from the viewer.
-pub const MIN_SHININESS: f64 = 1.0;
-
-/// Largest Phong exponent a glTF material maps to (a mirror-smooth lobe is narrower than a
-/// pixel anyway).
-pub const MAX_SHININESS: f64 = 1e4;
+pub use crate::materials::pbr::{MAX_SHININESS, MIN_SHININESS, phong_mapping as pbr_to_phong};
 
 fn default_gltf_material() -> Material {
-    pbr_to_phong([1.0, 1.0, 1.0, 1.0], 1.0, 1.0, false, None, None, [0.0; 3])
+    let mut m = pbr_to_phong([1.0, 1.0, 1.0, 1.0], 1.0, 1.0, false, None, None, [0.0; 3]);
+    m.model = Some(Model(Arc::new(Pbr::default())));
+    m
 }
 
-/// A glTF material as a raylab material (see the module's table).
+/// A glTF material as a raylab material: the Phong coefficients of the module's table, with the
+/// `pbr` model of its factors (textures are attached when a mesh samples them).
 pub fn material(m: &gltf::Material) -> Material {
     let pbr = m.pbr_metallic_roughness();
     let blend = m.alpha_mode() == gltf::material::AlphaMode::Blend;
     let transmission = m.transmission().map(|t| t.transmission_factor());
     let emissive = m.emissive_factor().map(|e| e * m.emissive_strength().unwrap_or(1.0));
-    pbr_to_phong(pbr.base_color_factor(), pbr.metallic_factor(), pbr.roughness_factor(), blend, transmission, m.ior(), emissive)
+    let mut out =
+        pbr_to_phong(pbr.base_color_factor(), pbr.metallic_factor(), pbr.roughness_factor(), blend, transmission, m.ior(), emissive);
+    out.model = Some(Model(Arc::new(pbr_model(m, &mut |_, _, _| None))));
+    out
 }
 
-/// The mapping of the module's table.
-pub fn pbr_to_phong(
-    base: [f32; 4],
-    metallic: f32,
-    roughness: f32,
-    blend: bool,
-    transmission: Option<f32>,
-    ior: Option<f32>,
-    emissive: [f32; 3],
-) -> Material {
-    let clamp01 = |v: f32| if v.is_finite() { f64::from(v).clamp(0.0, 1.0) } else { 0.0 };
-    let c = Color::new(clamp01(base[0]), clamp01(base[1]), clamp01(base[2]));
-    let (m, r) = (clamp01(metallic), clamp01(roughness));
-    let alpha = (r * r).max(1e-3);
-    let f0 = Color::splat(0.04 * (1.0 - m)) + c * m;
-    let kr = f0 * m * (1.0 - r) * (1.0 - r);
-    let kt = match transmission {
-        Some(t) => clamp01(t),
-        None if blend => 1.0 - clamp01(base[3]),
-        None => 0.0,
-    };
-    let shininess = ((2.0 / (alpha * alpha) - 2.0) / 4.0).clamp(MIN_SHININESS, MAX_SHININESS);
-    Material {
-        kd: c * (1.0 - m) * (1.0 - kt),
-        ks: f0 * (shininess + 1.0) / 2.0,
-        shininess,
-        kr,
-        kt: Color::splat(kt),
-        ior: ior.filter(|i| i.is_finite() && *i > 0.0).map_or(1.5, f64::from),
-        emission: Color::new(f64::from(emissive[0]), f64::from(emissive[1]), f64::from(emissive[2])).max(Color::ZERO),
-        blur: if kr.max_element() > 0.0 && alpha >= 0.05 { alpha.min(1.0) } else { 0.0 },
-        ..Material::default()
+/// Which colours a glTF texture holds: sRGB-encoded colours or linear data.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum Slot {
+    /// `baseColorTexture`, `emissiveTexture`: sRGB.
+    Color,
+    /// `metallicRoughnessTexture`, `transmissionTexture`: linear.
+    Data,
+}
+
+/// What builds the texture of a material's texture info (`None`: unreadable, or not wanted).
+type TextureOf<'a> = dyn FnMut(&gltf::texture::Info, &str, Slot) -> Option<Arc<dyn Texture>> + 'a;
+
+/// The `pbr` model of glTF material `m` (factors clamped to their ranges), its textures from
+/// `texture` (`None`: the factor alone).
+fn pbr_model(m: &gltf::Material, texture: &mut TextureOf) -> Pbr {
+    let unit = |v: f32| if v.is_finite() { f64::from(v).clamp(0.0, 1.0) } else { 0.0 };
+    let pbr = m.pbr_metallic_roughness();
+    let b = pbr.base_color_factor();
+    let emissive = m.emissive_factor().map(|e| e * m.emissive_strength().unwrap_or(1.0));
+    let emission = Color::new(f64::from(emissive[0]), f64::from(emissive[1]), f64::from(emissive[2])).max(Color::ZERO);
+    let specular = m.specular();
+    let sc = specular.as_ref().map_or([1.0; 3], |s| s.specular_color_factor());
+    Pbr {
+        base_color: Textured {
+            value: Color::new(unit(b[0]), unit(b[1]), unit(b[2])),
+            texture: pbr.base_color_texture().and_then(|i| texture(&i, "baseColorTexture", Slot::Color)),
+        },
+        metallic: unit(pbr.metallic_factor()),
+        roughness: unit(pbr.roughness_factor()),
+        metallic_roughness: pbr.metallic_roughness_texture().and_then(|i| texture(&i, "metallicRoughnessTexture", Slot::Data)),
+        ior: m.ior().filter(|i| i.is_finite() && *i >= 1.0).map_or(1.5, f64::from),
+        specular: specular.as_ref().map_or(1.0, |s| unit(s.specular_factor())),
+        specular_color: Color::new(f64::from(sc[0]), f64::from(sc[1]), f64::from(sc[2])).max(Color::ZERO),
+        transmission: match m.transmission() {
+            Some(t) => Textured {
+                value: unit(t.transmission_factor()),
+                texture: t.transmission_texture().and_then(|i| texture(&i, "transmissionTexture", Slot::Data)),
+            },
+            None => Textured::constant(0.0),
+        },
+        emission: Textured { value: emission, texture: m.emissive_texture().and_then(|i| texture(&i, "emissiveTexture", Slot::Color)) },
     }
 }
 
@@ -1545,7 +1590,8 @@ mod tests {
     }
 
     /// Extensions a file uses without declaring them in `extensionsUsed`, the transmission
-    /// texture and vertex colours are named in a warning, once each.
+    /// texture (which only the path tracer samples) and vertex colours are named in a warning,
+    /// once each.
     #[test]
     fn undeclared_extensions_transmission_textures_and_vertex_colours_warn() {
         let extra = r#",
@@ -1562,7 +1608,10 @@ mod tests {
         assert_eq!(mesh.unwrap().triangles.len(), 2);
         let has = |s: &str| w.iter().filter(|m| m.contains(s)).count();
         assert_eq!(has("the file uses extensions raylab ignores: EXT_texture_webp, KHR_materials_clearcoat"), 1, "{w:?}");
-        assert_eq!(has("KHR_materials_transmission transmissionTexture, which raylab does not sample"), 1, "{w:?}");
+        assert_eq!(has("KHR_materials_transmission transmissionTexture: the path tracer samples it, phong uses the factors"), 1, "{w:?}");
+        // The texture's image is missing: one warning names it (the transmission texture is read
+        // as data for the `pbr` model).
+        assert_eq!(has("its transmissionTexture is not sampled"), 1, "{w:?}");
         assert_eq!(has("1 primitive(s) have vertex colours (COLOR_0), which raylab ignores"), 1, "{w:?}");
         assert_eq!(has("ignores: KHR_materials_transmission"), 0, "{w:?}");
     }

@@ -11,8 +11,10 @@ pub mod triangle_mesh;
 pub mod triangulate;
 
 use raylab::geometry::transform::{Transform, Transformed};
-use raylab::geometry::{Geometry, Hit, Intersectable, Surface, by_components, face_forward};
+use raylab::geometry::{Geometry, Hit, Intersectable, Surface, SurfacePdf, SurfaceSample, by_components, face_forward};
 use raylab::glam::{DVec2, DVec3};
+use raylab::load::context::MeshFormat;
+use raylab::load::mesh::{MeshFile, MeshRequest};
 use raylab::load::registry::{BuiltGeometry, SceneFormat};
 use raylab::param::error::{Loc, Result, SceneError};
 use raylab::param::params::Params;
@@ -25,7 +27,7 @@ use triangle_mesh::{Normals, TriangleMesh};
 /// The `mesh` plugin's description.
 pub const INFO: PluginInfo = PluginInfo {
     name: "mesh",
-    summary: "A triangle mesh from a file: .obj (with its .mtl) or glTF 2.0 (.gltf, .glb). Watertight: a ray through a shared edge or vertex hits exactly one of its triangles. Place it with `transform`; a file used several times is stored once.",
+    summary: "A triangle mesh from a file in a registered mesh format (built in: .obj with its .mtl, glTF 2.0 .gltf and .glb). Watertight: a ray through a shared edge or vertex hits exactly one of its triangles. Place it with `transform`; a file used several times is stored once.",
     params: &[
         ParamSpec::new("file", ParamKind::Path, Default::Required, "the mesh file, relative to the scene file"),
         ParamSpec::new(
@@ -49,9 +51,21 @@ pub const INFO: PluginInfo = PluginInfo {
     ],
 };
 
-/// Registers the `mesh` geometry and the glTF scene format.
+/// Registers the `mesh` geometry, the OBJ and glTF mesh formats and the glTF scene format.
 pub fn register(r: &mut Registry) {
     r.add_geometry_with_materials(INFO, build);
+    r.add_mesh_format(MeshFormat {
+        name: "obj",
+        extensions: &["obj"],
+        summary: "Wavefront OBJ, with its MTL material libraries (read in parallel)",
+        read: Arc::new(read_obj),
+    });
+    r.add_mesh_format(MeshFormat {
+        name: "gltf",
+        extensions: &["gltf", "glb"],
+        summary: "glTF 2.0 (text or binary): one mesh (`mesh`), one node (`node`) or every mesh of the file's scene, placed by its nodes",
+        read: Arc::new(read_gltf),
+    });
     r.add_format(SceneFormat {
         extensions: &["gltf", "glb"],
         summary: "glTF 2.0 as a whole scene: meshes placed by their nodes, PBR materials mapped to Phong, the first camera, KHR_lights_punctual lights",
@@ -221,34 +235,20 @@ pub fn load_mesh(
     // name that leaves the folder is refused).
     ctx.check_written_path(file, loc)?;
     let ext = std::path::Path::new(file).extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-    let unknown = || SceneError::at(loc, format!("unknown mesh format \".{ext}\"; expected .obj, .gltf or .glb"));
-    if !matches!(ext.as_str(), "obj" | "gltf" | "glb") {
-        return Err(unknown());
-    }
+    let Some(format) = ctx.mesh_format_for(&ext) else {
+        let known: Vec<String> = ctx.mesh_formats().iter().flat_map(|f| f.extensions.iter().map(|e| format!(".{e}"))).collect();
+        let expected = match known.split_last() {
+            None => "none is registered".to_string(),
+            Some((last, [])) => last.clone(),
+            Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+        };
+        return Err(SceneError::at(loc, format!("unknown mesh format \".{ext}\"; expected {expected}")));
+    };
     let full = ctx.resolve_path(file, loc)?;
     let key = format!("mesh:{}:{selection:?}:{normals:?}:{with_materials}", full.display());
     ctx.assets.get_or_load(&key, || {
-        let (data, file_bytes) = match ext.as_str() {
-            "obj" => {
-                if selection.is_some() {
-                    return Err(SceneError::at(loc, "`mesh` selects a mesh of a glTF file; an OBJ file is read whole"));
-                }
-                // The file's bytes are freed once read: the index is built without them.
-                let (full, bytes) = ctx.read_file(file, loc)?;
-                (obj::read(ctx, file, &full, &bytes, with_materials, loc)?, bytes.len() as u64)
-            }
-            "gltf" | "glb" => {
-                let g = gltf::open(ctx, file, loc)?;
-                (
-                    match selection {
-                        Some(i) => g.mesh(ctx, i)?,
-                        None => g.whole(ctx)?,
-                    },
-                    0,
-                )
-            }
-            _ => return Err(unknown()),
-        };
+        let request = MeshRequest { file, loc, selection, materials: with_materials };
+        let MeshFile { data, file_bytes } = (format.read)(&request, ctx)?;
         let name = full.display().to_string();
         let limit = ctx.options.limits.max_triangles;
         if data.triangles.len() as u64 > limit {
@@ -262,6 +262,26 @@ pub fn load_mesh(
         ctx.assets.record_build(mesh.build_stats());
         Ok(mesh)
     })
+}
+
+/// The OBJ mesh format's reader: the whole file (no `mesh` selection).
+fn read_obj(r: &MeshRequest, ctx: &LoadContext) -> Result<MeshFile> {
+    if r.selection.is_some() {
+        return Err(SceneError::at(r.loc, "`mesh` selects a mesh of a glTF file; an OBJ file is read whole"));
+    }
+    // The file's bytes are freed once read: the index is built without them.
+    let (full, bytes) = ctx.read_file(r.file, r.loc)?;
+    Ok(MeshFile { data: obj::read(ctx, r.file, &full, &bytes, r.materials, r.loc)?, file_bytes: bytes.len() as u64 })
+}
+
+/// The glTF mesh format's reader: one mesh of the file, or every mesh of its scene.
+fn read_gltf(r: &MeshRequest, ctx: &LoadContext) -> Result<MeshFile> {
+    let g = gltf::open(ctx, r.file, r.loc)?;
+    let data = match r.selection {
+        Some(i) => g.mesh(ctx, i)?,
+        None => g.whole(ctx)?,
+    };
+    Ok(MeshFile { data, file_bytes: 0 })
 }
 
 /// Reads mesh-file `bytes` of format `ext` (`obj`, `gltf`, `glb`) into an indexed mesh, without
@@ -334,5 +354,20 @@ impl Geometry for MeshObject {
     }
     fn is_closed(&self) -> bool {
         self.mesh.is_closed()
+    }
+    fn area(&self) -> Option<f64> {
+        Some(self.mesh.area()).filter(|&a| a > 0.0)
+    }
+    /// Uniform by area: a triangle chosen by its area, then a point of it.
+    fn sample_surface(&self, reference: DVec3, u: DVec2) -> Option<SurfaceSample> {
+        let (slot, point, error, b) = self.mesh.sample_point(u)?;
+        let normal = self.mesh.geometric_normal(slot);
+        let mut s = SurfaceSample::new(reference, point, error, normal, SurfacePdf::Area(1.0 / self.mesh.area()));
+        (s.hit.prim, s.hit.uv) = (slot, b);
+        Some(s)
+    }
+    fn surface_pdf(&self, _: DVec3, _: &Hit) -> SurfacePdf {
+        let a = self.mesh.area();
+        SurfacePdf::Area(if a > 0.0 { 1.0 / a } else { 0.0 })
     }
 }

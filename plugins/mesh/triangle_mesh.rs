@@ -27,33 +27,14 @@ use raylab::Material;
 use raylab::accel::bvh::{PAD_SLOT, PrimitiveIndex};
 use raylab::accel::{AccelChoice, BuildStats, MESH_BVH_THRESHOLD};
 use raylab::geometry::Hit;
+use raylab::geometry::sampling::uniform_triangle;
 use raylab::glam::{BVec4A, DVec2, DVec3, Vec2, Vec3, Vec4};
+pub use raylab::load::mesh::MeshData;
+use raylab::math::distribution::AliasTable;
 use raylab::math::float::{gamma, on_surface_slack};
 use raylab::{Aabb, Ray};
 use rayon::prelude::*;
 use std::sync::{Arc, OnceLock};
-
-/// A mesh as a loader produces it: indexed triangles with optional vertex normals and materials.
-#[derive(Clone, Debug, Default)]
-pub struct MeshData {
-    /// Vertex positions.
-    pub positions: Vec<[f32; 3]>,
-    /// Triangles as indices into `positions`; the outward side follows the counter-clockwise
-    /// winding (glTF and OBJ convention).
-    pub triangles: Vec<[u32; 3]>,
-    /// Vertex normals (may be empty).
-    pub normals: Vec<[f32; 3]>,
-    /// Per triangle, indices into `normals` (empty, or one per triangle).
-    pub normal_indices: Vec<[u32; 3]>,
-    /// Vertex texture coordinates, v up (may be empty).
-    pub texcoords: Vec<[f32; 2]>,
-    /// Per triangle, indices into `texcoords` (empty, or one per triangle).
-    pub texcoord_indices: Vec<[u32; 3]>,
-    /// Per triangle, an index into `materials` (empty: all use material 0).
-    pub material_ids: Vec<u32>,
-    /// The file's materials, mapped to raylab's (may be empty).
-    pub materials: Vec<Material>,
-}
 
 /// How a mesh is shaded.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -162,6 +143,9 @@ pub struct TriangleMesh {
     degenerate: usize,
     bounds: Aabb,
     closed: OnceLock<bool>,
+    /// Triangles by area, for choosing surface points ([`TriangleMesh::sample_point`]): built on
+    /// first use (only emitting meshes are sampled); `None` for a mesh without area.
+    by_area: OnceLock<Option<(AliasTable, f64)>>,
     build: BuildStats,
 }
 
@@ -294,6 +278,7 @@ impl TriangleMesh {
             degenerate,
             bounds,
             closed: OnceLock::new(),
+            by_area: OnceLock::new(),
             build,
         };
         // Reported per triangle: the whole store, not only the hierarchy's nodes.
@@ -482,6 +467,39 @@ impl TriangleMesh {
     /// traverse it in opposite directions (vertices matched by position). Computed on first use.
     pub fn is_closed(&self) -> bool {
         *self.closed.get_or_init(|| closed(self.live_triangles()))
+    }
+
+    /// The slots' areas in an alias table, and their total (built on first use).
+    fn by_area(&self) -> Option<&(AliasTable, f64)> {
+        self.by_area
+            .get_or_init(|| {
+                let areas: Vec<f64> = (0..self.packs.len() as u32 * PACK)
+                    .map(|slot| {
+                        let [p0, p1, p2] = self.vertices(slot).map(DVec3::from);
+                        0.5 * (p1 - p0).cross(p2 - p0).length()
+                    })
+                    .collect();
+                let total = areas.iter().filter(|a| a.is_finite()).sum();
+                AliasTable::new(&areas).map(|t| (t, total))
+            })
+            .as_ref()
+    }
+
+    /// The mesh's surface area (0 for a mesh without triangles).
+    pub fn area(&self) -> f64 {
+        self.by_area().map_or(0.0, |&(_, a)| a)
+    }
+
+    /// A point uniform by area on the mesh for `u` uniform in `[0, 1)²`: a triangle chosen by its
+    /// area (`u.x`, reused within it), then a point of it. Its slot, point, rounding-error bound
+    /// and barycentric coordinates `(b1, b2)` (as [`TriangleMesh::intersect`] reports them).
+    pub fn sample_point(&self, u: DVec2) -> Option<(u32, DVec3, DVec3, DVec2)> {
+        let (table, _) = self.by_area()?;
+        let (slot, _, rest) = table.sample(u.x);
+        let b = uniform_triangle(DVec2::new(rest, u.y));
+        let [p0, p1, p2] = self.vertices(slot as u32).map(DVec3::from);
+        let (point, error) = barycentric_point(DVec3::new(1.0 - b.x - b.y, b.x, b.y), p0, p1, p2);
+        Some((slot as u32, point, error, b))
     }
 
     /// The stored triangles (p0, p1, p2, three `f32` each), padding skipped.

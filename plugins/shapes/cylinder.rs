@@ -9,14 +9,16 @@
 //! to rounding on both sides of it) and never reports one crossing twice. A crossing is reported
 //! only beyond its own rounding-error bound, so a ray starting on the surface does not hit it again.
 
-use raylab::geometry::{Geometry, Hit, Intersectable};
+use raylab::geometry::{Geometry, Hit, Intersectable, SurfacePdf, SurfaceSample};
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::bounds::circle_extent;
 use raylab::math::float::{gamma, max_abs, on_surface_slack};
+use raylab::math::sampler::concentric_disc;
 use raylab::param::error::Result;
 use raylab::param::params::Params;
 use raylab::param::spec::{Default, ParamKind, ParamSpec};
 use raylab::{Aabb, LoadContext, PluginInfo, Ray};
+use std::f64::consts::TAU;
 
 /// `Hit::prim` of a hit on the side.
 pub const SIDE: u32 = 0;
@@ -228,6 +230,39 @@ impl Geometry for Cylinder {
     }
     fn is_closed(&self) -> bool {
         self.height.is_some()
+    }
+    /// The side and both caps (a tube: none, it has no end).
+    fn area(&self) -> Option<f64> {
+        let h = self.height?;
+        Some(TAU * self.radius * (h + self.radius))
+    }
+    /// Uniform by area: the side or a cap chosen by its area (with `u.x`, reused within it).
+    fn sample_surface(&self, reference: DVec3, u: DVec2) -> Option<SurfaceSample> {
+        let h = self.height?;
+        let area = self.area()?;
+        let (x, z) = self.across;
+        // Fractions of the area: the side, then the bottom cap, then the top cap.
+        let side = h / (h + self.radius);
+        let cap = (1.0 - side) / 2.0;
+        let (point, normal, prim) = if u.x < side {
+            let along = h * (u.x / side);
+            let (s, c) = (TAU * u.y).sin_cos();
+            let radial = x * c + z * s;
+            (self.base + along * self.axis + self.radius * radial, radial, SIDE)
+        } else {
+            let top = u.x >= side + cap;
+            let v = if top { (u.x - side - cap) / cap } else { (u.x - side) / cap };
+            let d = self.radius * concentric_disc(DVec2::new(v.min(1.0), u.y));
+            let centre = if top { self.base + h * self.axis } else { self.base };
+            (centre + d.x * x + d.y * z, if top { self.axis } else { -self.axis }, if top { TOP_CAP } else { BOTTOM_CAP })
+        };
+        let error = gamma(10) * (point.abs() + self.base.abs() + DVec3::splat(self.radius + h));
+        let mut s = SurfaceSample::new(reference, point, error, normal, SurfacePdf::Area(1.0 / area));
+        s.hit.prim = prim;
+        Some(s)
+    }
+    fn surface_pdf(&self, _: DVec3, _: &Hit) -> SurfacePdf {
+        SurfacePdf::Area(self.area().map_or(0.0, |a| 1.0 / a))
     }
 }
 

@@ -7,13 +7,14 @@
 //! Points exactly on the rim belong to the bowl.
 
 use super::sphere::sphere_roots;
-use raylab::geometry::{Geometry, Hit, Intersectable};
+use raylab::geometry::{Geometry, Hit, Intersectable, SurfacePdf, SurfaceSample};
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::float::{gamma, on_surface_slack};
 use raylab::param::error::Result;
 use raylab::param::params::Params;
 use raylab::param::spec::{Default, ParamKind, ParamSpec};
 use raylab::{Aabb, LoadContext, PluginInfo, Ray};
+use std::f64::consts::TAU;
 
 /// Half of the sphere (`center`, `radius`): the points `p` with `(p − center) · open ≤ 0`.
 #[derive(Clone, Debug)]
@@ -91,6 +92,24 @@ impl Geometry for Hemisphere {
     }
     fn bounds(&self) -> Option<Aabb> {
         Some(Aabb::new(self.center - DVec3::splat(self.radius), self.center + DVec3::splat(self.radius)))
+    }
+    fn area(&self) -> Option<f64> {
+        Some(TAU * self.radius * self.radius)
+    }
+    /// Uniform by area: the height below the rim is uniform (Archimedes), the longitude too.
+    fn sample_surface(&self, reference: DVec3, u: DVec2) -> Option<SurfaceSample> {
+        let down = u.x;
+        let ring = (1.0 - down * down).max(0.0).sqrt();
+        let (x, z) = super::uv::around_frame(self.open);
+        let (s, c) = (TAU * u.y).sin_cos();
+        let n = (x * c + z * s) * ring - self.open * down;
+        let local = self.radius * n;
+        let point = self.center + local;
+        let pdf = SurfacePdf::Area(1.0 / (TAU * self.radius * self.radius));
+        Some(SurfaceSample::new(reference, point, gamma(6) * (local.abs() + point.abs()), n, pdf))
+    }
+    fn surface_pdf(&self, _: DVec3, _: &Hit) -> SurfacePdf {
+        SurfacePdf::Area(1.0 / (TAU * self.radius * self.radius))
     }
 }
 

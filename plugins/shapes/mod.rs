@@ -14,6 +14,8 @@ pub mod uv;
 #[cfg(test)]
 mod reintersect;
 #[cfg(test)]
+mod sampling;
+#[cfg(test)]
 mod test_support;
 
 use raylab::Registry;

@@ -6,7 +6,9 @@
 //! edge, so no crack; like a lone triangle, a ray exactly on the outline misses.
 
 use super::plane::intersect_plane;
-use raylab::geometry::{Geometry, Hit, Intersectable};
+use super::triangle::barycentric_point;
+use raylab::geometry::sampling::uniform_triangle;
+use raylab::geometry::{Geometry, Hit, Intersectable, SurfacePdf, SurfaceSample};
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::float::DEGENERACY_TOLERANCE;
 use raylab::param::error::Result;
@@ -30,6 +32,9 @@ pub struct Polygon {
     /// relative to the first, for texture coordinates.
     axes: (DVec3, DVec3),
     flat: Vec<DVec2>,
+    /// Running totals of the areas of the fan's triangles `(v0, v[i+1], v[i+2])`: the last is the
+    /// polygon's area. Surface samples choose a triangle by its area.
+    fan: Vec<f64>,
 }
 
 /// Why vertices do not make a valid polygon.
@@ -131,7 +136,13 @@ impl Polygon {
         }
         let axes = super::uv::tangent_frame(normal);
         let flat = vertices.iter().map(|v| DVec2::new((v - origin).dot(axes.0), (v - origin).dot(axes.1))).collect();
-        Ok(Polygon { vertices, edge_normals, normal, axes, flat })
+        let fan = (1..n - 1)
+            .scan(0.0, |sum, i| {
+                *sum += 0.5 * normal.dot((vertices[i] - vertices[0]).cross(vertices[i + 1] - vertices[0]));
+                Some(*sum)
+            })
+            .collect();
+        Ok(Polygon { vertices, edge_normals, normal, axes, flat, fan })
     }
 }
 
@@ -200,6 +211,25 @@ impl Geometry for Polygon {
     }
     fn bounds(&self) -> Option<Aabb> {
         Some(Aabb::from_points(self.vertices.iter().copied()))
+    }
+    fn area(&self) -> Option<f64> {
+        self.fan.last().copied()
+    }
+    /// Uniform by area: a triangle of the fan from the first vertex, chosen by its area (with
+    /// `u.x`, reused within it), then a point of it.
+    fn sample_surface(&self, reference: DVec3, u: DVec2) -> Option<SurfaceSample> {
+        let area = self.area()?;
+        let target = u.x * area;
+        let i = self.fan.partition_point(|&a| a <= target).min(self.fan.len() - 1);
+        let below = if i == 0 { 0.0 } else { self.fan[i - 1] };
+        let ux = ((target - below) / (self.fan[i] - below)).clamp(0.0, 1.0 - f64::EPSILON / 2.0);
+        let b = uniform_triangle(DVec2::new(ux, u.y));
+        let (p0, p1, p2) = (self.vertices[0], self.vertices[i + 1], self.vertices[i + 2]);
+        let (point, error) = barycentric_point(DVec3::new(1.0 - b.x - b.y, b.x, b.y), p0, p1, p2);
+        Some(SurfaceSample::new(reference, point, error, self.normal, SurfacePdf::Area(1.0 / area)))
+    }
+    fn surface_pdf(&self, _: DVec3, _: &Hit) -> SurfacePdf {
+        SurfacePdf::Area(self.area().map_or(0.0, |a| 1.0 / a))
     }
 }
 

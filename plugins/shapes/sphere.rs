@@ -6,13 +6,21 @@
 //! point is re-projected onto the sphere, and a root whose own error bound straddles zero is
 //! rejected, so a ray leaving the surface never reports it again.
 
-use raylab::geometry::{Geometry, Hit, Intersectable};
+use raylab::geometry::sampling::{NARROW_CONE_SIN2, cone_solid_angle, uniform_sphere};
+use raylab::geometry::{Geometry, Hit, Intersectable, SurfacePdf, SurfaceSample};
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::float::{gamma, max_abs};
 use raylab::param::error::Result;
 use raylab::param::params::Params;
 use raylab::param::spec::{Default, ParamKind, ParamSpec};
 use raylab::{Aabb, LoadContext, PluginInfo, Ray};
+use std::f64::consts::{PI, TAU};
+
+/// How far beyond `radius²` (relative) a reference point's squared distance from the centre must
+/// be for [`Geometry::sample_surface`] to choose points in its cone. Closer, the cone's nearest
+/// points collapse onto the reference itself (a point on the sphere sees its own surface at
+/// distance 0 in every direction), so points are chosen by area, which holds from anywhere.
+pub const CONE_MARGIN: f64 = 1e-6;
 
 /// A sphere of `radius` (> 0) around `center`.
 #[derive(Clone, Debug)]
@@ -132,6 +140,54 @@ impl Geometry for Sphere {
     }
     fn is_closed(&self) -> bool {
         true
+    }
+    fn area(&self) -> Option<f64> {
+        Some(4.0 * PI * self.radius * self.radius)
+    }
+    /// Uniform in the cone of directions the sphere covers from `reference` (pbrt-v4 §6.2.4):
+    /// every sample is visible, and the density is `1 / cone's solid angle`; from inside or on
+    /// the sphere ([`CONE_MARGIN`]), uniform by area.
+    fn sample_surface(&self, reference: DVec3, u: DVec2) -> Option<SurfaceSample> {
+        let to_centre = self.center - reference;
+        let d2 = to_centre.length_squared();
+        let r2 = self.radius * self.radius;
+        if !(d2 > r2 * (1.0 + CONE_MARGIN)) {
+            let n = uniform_sphere(u);
+            let point = self.center + self.radius * n;
+            let pdf = SurfacePdf::Area(1.0 / (4.0 * PI * r2));
+            return Some(SurfaceSample::new(reference, point, gamma(6) * (self.radius * n.abs() + point.abs()), n, pdf));
+        }
+        // The cone: sin²θmax = r²/d²; θ uniform in its solid angle, then the point on the sphere
+        // seen at θ (angle α at the centre from the axis toward the reference).
+        let sin2_max = r2 / d2;
+        let cos_max = (1.0 - sin2_max).max(0.0).sqrt();
+        let (cos_theta, sin2_theta) = if sin2_max < NARROW_CONE_SIN2 {
+            let s2 = sin2_max * u.x;
+            ((1.0 - s2).sqrt(), s2)
+        } else {
+            let c = 1.0 - u.x * (1.0 - cos_max);
+            (c, (1.0 - c * c).max(0.0))
+        };
+        let sin_max = sin2_max.sqrt();
+        let cos_alpha = sin2_theta / sin_max + cos_theta * (1.0 - sin2_theta / sin2_max).max(0.0).sqrt();
+        let sin_alpha = (1.0 - cos_alpha * cos_alpha).max(0.0).sqrt();
+        let w = -to_centre / d2.sqrt();
+        let (b1, b2) = raylab::math::sampler::orthonormal_basis(w);
+        let (s, c) = (TAU * u.y).sin_cos();
+        let n = (b1 * c + b2 * s) * sin_alpha + w * cos_alpha;
+        let local = self.radius * n;
+        let point = self.center + local;
+        let pdf = SurfacePdf::SolidAngle(1.0 / cone_solid_angle(cos_max, sin2_max));
+        Some(SurfaceSample::new(reference, point, gamma(6) * (local.abs() + point.abs()), n, pdf))
+    }
+    fn surface_pdf(&self, reference: DVec3, _: &Hit) -> SurfacePdf {
+        let d2 = (self.center - reference).length_squared();
+        let r2 = self.radius * self.radius;
+        if !(d2 > r2 * (1.0 + CONE_MARGIN)) {
+            return SurfacePdf::Area(1.0 / (4.0 * PI * r2));
+        }
+        let sin2_max = r2 / d2;
+        SurfacePdf::SolidAngle(1.0 / cone_solid_angle((1.0 - sin2_max).max(0.0).sqrt(), sin2_max))
     }
 }
 

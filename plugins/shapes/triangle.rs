@@ -7,7 +7,8 @@
 //! along the edge. `edges = "inclusive"` ([`EdgeRule::Inclusive`], what meshes use) counts edge
 //! hits, and the test's consistent edge functions then make shared edges watertight.
 
-use raylab::geometry::{Geometry, Hit, Intersectable};
+use raylab::geometry::sampling::uniform_triangle;
+use raylab::geometry::{Geometry, Hit, Intersectable, SurfacePdf, SurfaceSample};
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::float::{DEGENERACY_TOLERANCE, gamma, on_surface_slack, triangle_normal};
 use raylab::param::error::Result;
@@ -213,6 +214,22 @@ impl Geometry for Triangle {
     }
     fn bounds(&self) -> Option<Aabb> {
         Some(Aabb::from_points(self.p))
+    }
+    fn area(&self) -> Option<f64> {
+        let [p0, p1, p2] = self.p;
+        Some(0.5 * (p1 - p0).cross(p2 - p0).length())
+    }
+    /// Uniform by area.
+    fn sample_surface(&self, reference: DVec3, u: DVec2) -> Option<SurfaceSample> {
+        let [p0, p1, p2] = self.p;
+        let b = uniform_triangle(u);
+        let (point, error) = barycentric_point(DVec3::new(1.0 - b.x - b.y, b.x, b.y), p0, p1, p2);
+        let mut s = SurfaceSample::new(reference, point, error, self.normal, SurfacePdf::Area(1.0 / self.area()?));
+        s.hit.uv = b;
+        Some(s)
+    }
+    fn surface_pdf(&self, _: DVec3, _: &Hit) -> SurfacePdf {
+        SurfacePdf::Area(self.area().map_or(0.0, |a| 1.0 / a))
     }
 }
 

@@ -75,6 +75,23 @@ fn a_gltf_scene_with_many_instances_is_refused_by_the_memory_budget() {
     std::fs::remove_dir_all(dir).unwrap();
 }
 
+/// A glTF rendered as a scene whose 4096 nodes place one mesh: its file is looked up in the file
+/// system once per load, not twice per instance (3·10⁵ instances made 1.2 M `getcwd` calls).
+#[test]
+fn a_file_placed_by_many_instances_is_resolved_once_per_load() {
+    let dir = std::env::temp_dir().join(format!("raylab-limits-resolve-{}", std::process::id()));
+    write_box_placed_4096_times(&dir);
+    let registry = raylab_plugins::registry();
+    let options = LoadOptions::default();
+    let desc = raylab::load::loader::read_file(&registry, &dir.join("many.gltf"), &options).unwrap();
+    let ctx = raylab::load::context::LoadContext::new(&dir, &options);
+    let job = raylab::load::loader::build(&registry, &desc, &ctx).unwrap();
+    assert_eq!(job.scene.objects.len(), 4096);
+    // The glTF file and its buffer.
+    assert!(ctx.path_resolutions() <= 2, "{} resolutions for 4096 instances", ctx.path_resolutions());
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
 /// 10⁶ inline spheres: refused by a small budget before the text is parsed, naming the flag.
 #[test]
 fn a_million_spheres_are_refused_by_a_small_memory_budget() {

@@ -2,7 +2,8 @@
 //! Chromium driven through chromedriver's WebDriver API): it loads, shows the finished image with
 //! the bits `raylab render` writes, restarts when a knob changes, and explains a clicked pixel
 //! with the tree `raylab trace --json` gives. Screenshots go to `target/tmp/view-browser/`.
-//! The browser test is skipped, saying so, when Chromium or chromedriver is missing.
+//! The browser test is skipped, saying so, when Chromium or chromedriver is missing, and fails
+//! then in CI (`CI` set: CI installs them).
 #![cfg(feature = "view")]
 
 use serde_json::{Value, json};
@@ -304,7 +305,11 @@ fn the_page_renders_restarts_on_a_knob_and_explains_a_clicked_pixel() {
     let (Some(chromium), Some(chromedriver)) =
         (which(&["chromium", "chromium-browser", "google-chrome"]), which(&["chromedriver", "chromium-driver"]))
     else {
-        eprintln!("SKIPPED: the browser test needs Chromium and chromedriver (apt-get install chromium chromium-driver); CI installs them");
+        raylab::testing::missing_tool(
+            "the_page_renders_restarts_on_a_knob_and_explains_a_clicked_pixel",
+            "Chromium or chromedriver",
+            "apt-get install chromium chromium-driver",
+        );
         return;
     };
     let dir = temp("browser");

@@ -1076,7 +1076,9 @@ mod tests {
         let (mut bvh, _) = Bvh::<W>::build(bx.len(), total, |i| bx[i], shape);
         let fast = Kernel::fastest();
         if fast == Kernel::Baseline {
-            eprintln!("no AVX2 on this CPU: only the baseline copy runs (the comparison is trivial)");
+            // Nothing to compare: said past the harness's capture, counted by CI as a skip.
+            crate::testing::skipped("kernels_agree", "no AVX2 and FMA on this CPU: the AVX2 copy of the walks is not compared");
+            return;
         }
         let mut met = 0;
         for i in 0..4000 {

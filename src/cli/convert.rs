@@ -5,7 +5,7 @@
 use super::{App, Failure};
 use crate::load::context::{LoadContext, LoadOptions};
 use clap::Args;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 #[derive(Args, Debug)]
 pub(crate) struct ConvertArgs {
@@ -23,14 +23,7 @@ pub(crate) fn run(app: &App, a: ConvertArgs) -> Result<(), Failure> {
     if !a.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml")) {
         return Err(format!("convert writes raylab's TOML format: the output must end in .toml, found \"{}\"", a.output.display()).into());
     }
-    if same_file(&a.scene, &a.output) {
-        return Err(format!(
-            "convert would overwrite its input \"{}\" with \"{}\" (and drop its comments): write to another file",
-            a.scene.display(),
-            a.output.display()
-        )
-        .into());
-    }
+    super::refuse_overwrite("convert", &[a.output.as_path()], [a.scene.as_path()])?;
     let options = LoadOptions { allow_outside_paths: a.allow_outside_paths, ..LoadOptions::default() };
     let desc = crate::load::loader::read_file(&app.registry, &a.scene, &options)?;
     let job = crate::load::loader::build(&app.registry, &desc, &LoadContext::new(crate::load::context::scene_dir(&a.scene), &options))?;
@@ -47,22 +40,4 @@ pub(crate) fn run(app: &App, a: ConvertArgs) -> Result<(), Failure> {
         a.scene.display()
     );
     Ok(())
-}
-
-/// True when `a` and `b` name one existing file: the same canonical path (another spelling, a
-/// symbolic link) or, on Unix, the same inode (a hard link).
-fn same_file(a: &Path, b: &Path) -> bool {
-    if let (Ok(x), Ok(y)) = (a.canonicalize(), b.canonicalize())
-        && x == y
-    {
-        return true;
-    }
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::MetadataExt;
-        if let (Ok(x), Ok(y)) = (std::fs::metadata(a), std::fs::metadata(b)) {
-            return x.dev() == y.dev() && x.ino() == y.ino();
-        }
-    }
-    false
 }

@@ -3,7 +3,7 @@
 
 #[cfg(feature = "view")]
 use super::view;
-use super::{App, Failure, bench, convert, merge, plugins, render, sweep, tonemap, trace};
+use super::{App, Failure, bench, convert, denoise, merge, plugins, render, sweep, tonemap, trace};
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
@@ -35,15 +35,34 @@ enum Command {
     /// Turn an HDR image (OpenEXR, PFM) or one of its layers (depth, normal, albedo) into a
     /// viewable PNG or JPEG.
     Tonemap(tonemap::TonemapArgs),
+    /// Denoise a finished image (an EXR with albedo and normal layers, e.g. a merged farm frame)
+    /// with Intel Open Image Denoise (its `oidnDenoise` tool: `pip install pyoidn`).
+    Denoise(denoise::DenoiseArgs),
     /// Watch a scene render live in the browser: quality knobs as controls, and any pixel's ray
     /// tree on a click (serves a page on 127.0.0.1).
     #[cfg(feature = "view")]
     View(Box<view::ViewArgs>),
 }
 
-/// Parses `std::env::args` and runs the command.
+/// Parses `std::env::args` and runs the command. Output into a closed pipe (`raylab trace … |
+/// head -5`) ends the process quietly, as it does any Unix filter: killed by SIGPIPE (status 141
+/// in a shell), never a panic on a failed print.
 pub fn run(app: App) -> ExitCode {
+    quiet_on_closed_pipe();
     run_with_args(app, std::env::args_os())
+}
+
+/// Restores SIGPIPE's default action, which the Rust runtime sets to "ignore" (so that `println!`
+/// panics with "failed printing to stdout: Broken pipe"). Sockets are unaffected: the standard
+/// library sends on them with `MSG_NOSIGNAL` (or `SO_NOSIGPIPE`), so a browser or tev that hangs
+/// up is still an error, not a signal.
+fn quiet_on_closed_pipe() {
+    #[cfg(unix)]
+    // SAFETY: called once at the start of `main`, before any thread is started; `signal` with
+    // `SIG_DFL` only changes the process's disposition for SIGPIPE.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
 }
 
 /// Runs the command given by `args` (the first item is the program name). Exit status 0 on
@@ -77,7 +96,8 @@ where
         Some(Command::Sweep(a)) => sweep::run(&app, *a),
         Some(Command::Convert(a)) => convert::run(&app, a),
         Some(Command::Bench(a)) => bench::run(&app, a),
-        Some(Command::Tonemap(a)) => tonemap::run(a),
+        Some(Command::Tonemap(a)) => tonemap::run(&app, a),
+        Some(Command::Denoise(a)) => denoise::run(&app, a),
         #[cfg(feature = "view")]
         Some(Command::View(a)) => view::run(&app, *a),
     };

@@ -30,7 +30,7 @@ pub(crate) struct MergeArgs {
     max_file_bytes: u64,
 }
 
-pub(crate) fn run(_: &App, a: MergeArgs) -> Result<(), Failure> {
+pub(crate) fn run(app: &App, a: MergeArgs) -> Result<(), Failure> {
     #[cfg(not(feature = "exr"))]
     {
         let _ = a;
@@ -39,6 +39,7 @@ pub(crate) fn run(_: &App, a: MergeArgs) -> Result<(), Failure> {
     #[cfg(feature = "exr")]
     {
         use crate::render::share::{Part, merge};
+        super::refuse_overwrite("merge", &[a.output.as_path()], a.parts.iter().map(|p| p.as_path()))?;
         let t0 = std::time::Instant::now();
         let mut parts = Vec::with_capacity(a.parts.len());
         let mut encoding = a.encoding.clone();
@@ -66,7 +67,7 @@ pub(crate) fn run(_: &App, a: MergeArgs) -> Result<(), Failure> {
         let layers = whole.aovs().map_err(|e| e.to_string())?;
         let encoding = encoding.as_deref().and_then(crate::math::color::Encoding::parse).unwrap_or_default();
         let settings = crate::image::output::WriteSettings { encoding, layers: layers.as_ref(), ..Default::default() };
-        crate::image::output::format_for(&a.output).and_then(|f| f.write(&a.output, &film, &settings)).map_err(|e| e.to_string())?;
+        app.registry.output_format_for(&a.output).and_then(|f| f.write(&a.output, &film, &settings)).map_err(|e| e.to_string())?;
         println!(
             "wrote {} ({}×{}) from {} part{}: read {:.3} s, merged and written {:.3} s",
             a.output.display(),

@@ -4,6 +4,7 @@
 
 mod bench;
 mod convert;
+mod denoise;
 mod dispatch;
 mod farm;
 mod merge;
@@ -18,7 +19,7 @@ mod view;
 
 use crate::load::context::{LoadOptions, Overrides};
 use crate::load::registry::Registry;
-use crate::param::error::{Loc, SceneError, Source};
+use crate::param::error::SceneError;
 use crate::param::value::{Node, Value};
 use crate::render::RenderJob;
 use clap::Args;
@@ -89,6 +90,13 @@ pub(crate) struct SceneArgs {
     /// Rays through distinct lens points per image sample (depth of field).
     #[arg(long, value_name = "N", allow_hyphen_values = true)]
     lens_samples: Option<i64>,
+    /// Stop each pixel once the estimated relative error of its mean is at most E (e.g. 0.02);
+    /// --spp is then the most samples a pixel takes (stratified sampling).
+    #[arg(long, value_name = "E", allow_hyphen_values = true)]
+    target_error: Option<f64>,
+    /// With --target-error: samples every pixel takes before its error is first tested (≥ 2).
+    #[arg(long, value_name = "N", allow_hyphen_values = true)]
+    target_min_spp: Option<i64>,
     /// Lens radius for depth of field, scene units (overrides the camera's `aperture`).
     #[arg(long, value_name = "R", allow_hyphen_values = true)]
     aperture: Option<f64>,
@@ -133,7 +141,9 @@ pub(crate) struct SceneArgs {
     /// estimated before rendering for the costliest output (EXR with every layer).
     #[arg(long, value_name = "BYTES", allow_hyphen_values = true, value_parser = int_in::<u64>(0, u64::MAX.into()))]
     max_image_bytes: Option<u64>,
-    /// Most rays the render may trace in the worst case (the knobs multiplied), checked before it starts.
+    /// Most rays the render may trace: enforced as rays are traced (the render stops with the
+    /// image so far and the count), and checked before it starts (camera rays alone, a bound from
+    /// the scene's materials and pruning, then a pilot of 64 pixels when the bound is over).
     #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = int_in::<u64>(0, u64::MAX.into()))]
     max_rays: Option<u64>,
     /// Most memory (bytes) the whole job may take, as estimated before each large allocation:
@@ -201,6 +211,12 @@ impl SceneArgs {
         }
         if let Some(v) = self.lens_samples {
             render_params.push(flag_node("--lens-samples", "lens_samples", Value::Int(v)));
+        }
+        if let Some(v) = self.target_error {
+            render_params.push(flag_node("--target-error", "target_error", Value::Float(v)));
+        }
+        if let Some(v) = self.target_min_spp {
+            render_params.push(flag_node("--target-min-spp", "target_min_spp", Value::Int(v)));
         }
         // `--camera fit` alone: frame the scene (the camera's `fit = true`).
         let (fit, camera): (Vec<String>, Vec<String>) = self.camera.iter().cloned().partition(|c| c.trim() == "fit");
@@ -289,33 +305,7 @@ pub(crate) fn flag_node(flag: &str, key: &str, value: Value) -> (String, Node) {
 /// Parses repeated `KEY=VALUE` options of option `flag`: the value in TOML syntax, or a bare word
 /// (`--set ambient=first_hit`) taken as a string, as the shell leaves it once it has eaten quotes.
 fn key_values(flag: &str, items: &[String]) -> Result<Vec<(String, Node)>, Failure> {
-    let mut out = Vec::new();
-    for s in items {
-        let src = Source::new(flag, s.clone());
-        let Some(eq) = s.find('=') else {
-            return Err(SceneError::at(&Loc::new(&src, 0..s.len()), "expected KEY=VALUE").into());
-        };
-        let key = s[..eq].trim().to_string();
-        let value = match crate::param::toml::parse_toml_value(&src, eq + 1..s.len()) {
-            Ok(v) => v,
-            Err(_) if is_bare_word(s[eq + 1..].trim()) => {
-                let word = s[eq + 1..].trim();
-                let start = eq + 1 + s[eq + 1..].find(word).unwrap_or(0);
-                Node { value: Value::Str(word.to_string()), loc: Loc::new(&src, start..start + word.len()) }
-            }
-            Err(e) => return Err(e.into()),
-        };
-        out.push((key, value));
-    }
-    Ok(out)
-}
-
-/// A word a shell passes unquoted that TOML would need quoted: a letter, then letters, digits,
-/// `_`, `-` or `.` (`first_hit`, `linear-truncated`). Numbers, `true`, `inf`, lists and tables
-/// parse as TOML before this is asked.
-fn is_bare_word(s: &str) -> bool {
-    s.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
-        && s.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'))
+    Ok(items.iter().map(|s| crate::load::context::key_value(flag, s)).collect::<Result<_, _>>()?)
 }
 
 /// Loads `scene` (or the app's default scene) with the options in `a`; returns the job and a
@@ -340,6 +330,26 @@ pub(crate) fn load(
         eprintln!("warning: {}", w.report());
     }
     Ok((job, name))
+}
+
+/// Refuses to run `command` when one of the files it writes (`outputs`) is one of the files it
+/// reads (`inputs`), under any spelling, link or hard link ([`crate::param::files::same_file`]):
+/// the input would be gone once the output is written.
+pub(crate) fn refuse_overwrite<'a>(
+    command: &str,
+    outputs: &[&Path],
+    inputs: impl IntoIterator<Item = &'a Path> + Clone,
+) -> Result<(), Failure> {
+    for out in outputs {
+        if let Some(input) = crate::param::files::overwritten_input(out, inputs.clone()) {
+            return Err(Failure::Other(format!(
+                "{command} would overwrite its input \"{}\" with \"{}\" (the same file): write to another file",
+                input.display(),
+                out.display()
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// `1234567.0` → `1.23 M`.

@@ -7,19 +7,27 @@ use clap::Args;
 #[derive(Args, Debug)]
 pub(crate) struct PluginsArgs {
     /// Print Markdown tables (for documentation).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "json")]
     markdown: bool,
+    /// Print JSON (every type, its parameters with their types, defaults and roles).
+    #[arg(long)]
+    json: bool,
 }
 
 pub(crate) fn run(app: &App, a: PluginsArgs) -> Result<(), Failure> {
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&app.registry.to_json()).map_err(|e| e.to_string())?);
+        return Ok(());
+    }
     print!("{}", if a.markdown { markdown(&app.registry) } else { text(&app.registry) });
     Ok(())
 }
 
-fn sections(reg: &Registry) -> [(&'static str, &'static str, Vec<&PluginInfo>); 4] {
+fn sections(reg: &Registry) -> [(&'static str, &'static str, Vec<&PluginInfo>); 5] {
     [
         ("GEOMETRIES", "[[object]] type = ...", reg.geometries().collect()),
         ("TEXTURES", "[textures.NAME] type = ..., or inline: kd = { type = ... }", reg.textures().collect()),
+        ("MATERIALS", "[materials.NAME] type = ... (default \"phong\"), or inline: material = { type = ... }", reg.materials().collect()),
         ("LIGHTS", "[[light]] type = ...", reg.lights().collect()),
         ("INTEGRATORS", "[integrator] type = ...", reg.integrators().collect()),
     ]
@@ -51,8 +59,14 @@ pub fn text(reg: &Registry) -> String {
             out.push_str(&format!("  .{}  — {}\n", f.extensions.join(", ."), f.summary));
         }
     }
+    if !reg.mesh_formats().is_empty() {
+        out.push_str("\nMESH FORMATS ([[object]] type = \"mesh\", file = ...)\n");
+        for f in reg.mesh_formats() {
+            out.push_str(&format!("  .{}  — {}\n", f.extensions.join(", ."), f.summary));
+        }
+    }
     out.push_str("\nOUTPUT FORMATS (-o NAME.EXT)\n");
-    for f in crate::image::output::OUTPUT_FORMATS {
+    for f in reg.output_formats() {
         out.push_str(&format!("  .{}  — {}\n", f.extensions.join(", ."), f.summary));
     }
     out
@@ -95,8 +109,14 @@ pub fn markdown(reg: &Registry) -> String {
             out.push_str(&format!("| `.{}` | {} |\n", f.extensions.join("`, `."), f.summary));
         }
     }
+    if !reg.mesh_formats().is_empty() {
+        out.push_str("\n## Mesh formats\n\nThe `file` of a `mesh` object, chosen by extension:\n\n| extension | format |\n|---|---|\n");
+        for f in reg.mesh_formats() {
+            out.push_str(&format!("| `.{}` | {} |\n", f.extensions.join("`, `."), f.summary));
+        }
+    }
     out.push_str("\n## Output formats\n\n`-o NAME.EXT`, chosen by extension:\n\n| extension | format |\n|---|---|\n");
-    for f in crate::image::output::OUTPUT_FORMATS {
+    for f in reg.output_formats() {
         out.push_str(&format!("| `.{}` | {} |\n", f.extensions.join("`, `."), f.summary));
     }
     out

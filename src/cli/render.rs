@@ -15,14 +15,16 @@ pub(crate) struct RenderArgs {
     /// Scene file (.toml, or any registered format). Omit for the bundled default scene.
     scene: Option<PathBuf>,
     /// Output image: .png, .jpg or .jpeg (8-bit, clamped and encoded), .pfm (linear float, e.g. a
-    /// reference), or .exr (linear HDR floats with optional layers; feature `exr`).
+    /// reference), .exr (linear HDR floats with optional layers; feature `exr`), or a format a
+    /// plugin registers (`raylab plugins` lists them).
     #[arg(short, long, default_value = "render.png")]
     output: PathBuf,
     /// EXR only: store colour (and normal, albedo) as 16-bit half floats instead of 32-bit.
     #[arg(long)]
     half: bool,
-    /// EXR only: extra layers for denoisers, comma-separated: depth, normal, albedo.
-    #[arg(long, value_delimiter = ',', value_parser = ["depth", "normal", "albedo"])]
+    /// EXR only: extra layers, comma-separated: depth, normal, albedo (for denoisers), error (the
+    /// estimated standard error of each pixel's mean luminance, and its samples per pixel).
+    #[arg(long, value_delimiter = ',', value_parser = ["depth", "normal", "albedo", "error", "variance"])]
     aov: Vec<String>,
     /// Worker threads (default: all cores). The image does not depend on it.
     #[arg(long, allow_hyphen_values = true, value_parser = super::int_in::<usize>(1, super::MAX_THREADS))]
@@ -33,6 +35,11 @@ pub(crate) struct RenderArgs {
     /// Grid line colour as R,G,B (0–255).
     #[arg(long, value_name = "R,G,B", allow_hyphen_values = true, default_value = "255,255,255")]
     grid_color: String,
+    /// Denoise the finished image with Intel Open Image Denoise, guided by albedo and normal
+    /// layers the render also takes (needs its `oidnDenoise` tool: `pip install pyoidn`, or
+    /// RAYLAB_OIDN). Not with --tile, --crop or --pass: denoise the merged frame (`raylab denoise`).
+    #[arg(long)]
+    denoise: bool,
     /// Print the counters of traced and avoided work after the summary.
     #[arg(long)]
     stats: bool,
@@ -91,6 +98,7 @@ impl RenderArgs {
             grid: None,
             grid_color: "255,255,255".into(),
             stats: false,
+            denoise: false,
             reference: None,
             error_csv: None,
             quiet: false,
@@ -207,8 +215,8 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
         return Err(Failure::Other(format!("--checkpoint-every: expected a number of seconds > 0, found {}", a.checkpoint_every)));
     }
     let parts = a.crop.is_some() || a.tile.is_some() || a.pass.is_some();
-    let format = crate::image::output::format_for(&a.output).map_err(|e| e.to_string())?;
-    let exr = format.kind == crate::image::output::ImageKind::Exr;
+    let format = app.registry.output_format_for(&a.output).map_err(|e| e.to_string())?;
+    let exr = format.name == "exr";
     if !format.layers && (a.half || !a.aov.is_empty()) {
         return Err("--half and --aov apply to .exr output only".to_string().into());
     }
@@ -217,6 +225,11 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
             "--crop, --tile and --pass write a partial image for `raylab merge`: an OpenEXR file (-o NAME.exr), not {}",
             a.output.display()
         )));
+    }
+    if parts && a.denoise {
+        return Err(Failure::Other(
+            "--denoise applies to a whole image, not to a tile, crop or pass (the filter looks across tile borders): merge the parts, then `raylab denoise`".into(),
+        ));
     }
     if !cfg!(feature = "exr") && (parts || a.checkpoint.is_some()) {
         return Err(Failure::Other(
@@ -230,9 +243,26 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
         );
     }
     let layer = |name: &str| a.aov.iter().any(|s| s == name);
-    let plan =
-        crate::image::output::ImagePlan { exr, depth: layer("depth"), normal: layer("normal"), albedo: layer("albedo"), half: a.half };
+    let plan = crate::image::output::ImagePlan {
+        exr,
+        depth: layer("depth"),
+        normal: layer("normal"),
+        albedo: layer("albedo"),
+        half: a.half,
+        error: layer("error") || layer("variance"),
+    };
+    // Nothing the render reads is written over: checked before loading for the files named on the
+    // command line, and after for those the scene names (meshes, textures).
+    let partial = partial_path(&a.output);
+    let checkpoint = a.checkpoint.clone().unwrap_or_else(|| super::farm::default_checkpoint(&a.output));
+    let mut outputs = vec![a.output.as_path(), partial.as_path()];
+    outputs.extend(a.error_csv.as_deref());
+    // A resumed render rewrites its own checkpoint: that one file is both.
+    outputs.extend(Some(checkpoint.as_path()).filter(|_| resumed.is_none()));
+    let named: Vec<&Path> = a.scene.iter().chain(&a.reference).map(PathBuf::as_path).collect();
+    super::refuse_overwrite("render", &outputs, named.iter().copied())?;
     let (job, scene_name) = super::load(app, a.scene.as_deref(), &a.scene_args, plan)?;
+    super::refuse_overwrite("render", &outputs, job.inputs.iter().map(PathBuf::as_path))?;
     if INTERRUPTED.load(Ordering::SeqCst) {
         return Err(Failure::Interrupted("interrupted while loading: nothing rendered, nothing written".into()));
     }
@@ -251,6 +281,7 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
         None => None,
     };
     let load_time = t0.elapsed();
+    let denoiser = if a.denoise { Some(crate::image::denoise::find_tool().map_err(Failure::Other)?) } else { None };
     let bar = if a.quiet {
         indicatif::ProgressBar::hidden()
     } else {
@@ -304,7 +335,7 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
     let options = RenderOptions {
         threads: a.threads,
         cancel: Some(&INTERRUPTED),
-        layers: !a.aov.is_empty(),
+        layers: plan.depth || plan.normal || plan.albedo || a.denoise,
         share,
         resume: resumed.as_ref().map(|(sums, _)| sums),
         snapshots,
@@ -364,13 +395,32 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
         } else {
             String::new()
         };
-        let partial = partial_path(&a.output);
         if !parts {
-            write(&job, &a, &partial, format, &rendered.film, None, grid)?;
+            write(&job, &a, &partial, format, &rendered.film, None, None, grid)?;
         }
         let done = 100.0 * work[0].load(Ordering::Relaxed) as f64 / work[1].load(Ordering::Relaxed) as f64;
-        return Err(Failure::Interrupted(format!(
-            "interrupted at {done:.1} %: {}{}{saved}; {} was not written",
+        let (why, failure): (String, fn(String) -> Failure) = match rendered.budget_stop {
+            Some(rays) => {
+                // What the whole render would take at the rate so far, as a flag value when it is one.
+                let whole = rays as f64 * 100.0 / done.max(1e-9);
+                let advice = match crate::render::budget::flag_value(whole * 1.25).filter(|_| done > 0.0) {
+                    Some(v) => format!("the whole render would trace about {whole:.3e}: raise --max-rays to {v}, or lower the knobs"),
+                    None => "lower the knobs that multiply rays (--spp, --depth, the integrator's)".to_string(),
+                };
+                (
+                    format!(
+                        "stopped by the work budget at {done:.1} %: {rays} rays traced, over --max-rays {} (integrator \"{}\": {}); {advice}",
+                        job.max_rays,
+                        job.integrator_name,
+                        job.integrator.describe(),
+                    ),
+                    Failure::Other,
+                )
+            }
+            None => (format!("interrupted at {done:.1} %"), Failure::Interrupted),
+        };
+        return Err(failure(format!(
+            "{why}: {}{}{saved}; {} was not written",
             if parts { String::new() } else { format!("wrote the image so far to {} (pixels not reached are black)", partial.display()) },
             if cfg!(feature = "exr") {
                 format!("{}saved the state in {}", if parts { "" } else { " and " }, checkpoint_path.display())
@@ -380,11 +430,18 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
             a.output.display()
         )));
     }
+    let mut rendered = rendered;
+    let t_denoise = Instant::now();
+    if denoiser.is_some() {
+        let film = denoise_film(&rendered).map_err(Failure::Other)?;
+        rendered.film = film;
+    }
+    let denoise_time = denoiser.map(|_| t_denoise.elapsed());
     let t_write = Instant::now();
     if parts {
         save_state(&a.output, &rendered.sums, &job, None).map_err(Failure::Other)?;
     } else {
-        write(&job, &a, &a.output, format, &rendered.film, rendered.layers.as_ref(), grid)?;
+        write(&job, &a, &a.output, format, &rendered.film, rendered.layers.as_ref(), Some(&rendered.sums), grid)?;
     }
     if a.checkpoint.is_some() && checkpoint_path.exists() {
         // The render is done: its checkpoint has served.
@@ -408,7 +465,7 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
         None => String::new(),
     };
     println!(
-        "wrote {} ({what}{}×{}, {}, {}{}) from {scene_name}: trace {:.3} s{} on {threads} thread{}, {} rays, {} rays/s, {} non-finite samples (load {:.3} s, BVH build {:.3} s, write {:.3} s{memory})",
+        "wrote {} ({what}{}×{}, {}, {}{}) from {scene_name}: trace {:.3} s{} on {threads} thread{}, {} rays, {} rays/s, {} non-finite samples (load {:.3} s, BVH build {:.3} s, {}write {:.3} s{memory})",
         a.output.display(),
         s.width,
         s.height,
@@ -423,9 +480,13 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
         st.nonfinite_samples,
         load_time.as_secs_f64() - build_time,
         build_time,
+        denoise_time.map_or_else(String::new, |d| format!("denoise {:.3} s, ", d.as_secs_f64())),
         write_time.as_secs_f64(),
     );
     println!("  {}", accel_line(&accel));
+    if let Some(e) = rendered.sums.error_estimate() {
+        println!("  {}{}", error_line(&e, s.target.is_some()), if a.denoise { " (before denoising)" } else { "" });
+    }
     if st.nonfinite_samples > 0 {
         eprintln!("warning: {} samples were NaN or infinite and were dropped from their pixels", st.nonfinite_samples);
     }
@@ -472,7 +533,27 @@ fn save_state(
     }
 }
 
-/// Writes the image to `path` in `format`, with the layers `--aov` asks for (of `layers`).
+/// The rendered image denoised, guided by its albedo and normal layers.
+fn denoise_film(r: &crate::render::Rendered) -> Result<crate::render::film::Film, String> {
+    let layers = r.layers.as_ref().ok_or("the render took no albedo and normal layers to guide the denoiser")?;
+    let (w, h) = (r.film.width, r.film.height);
+    let film = |v: &Option<Vec<glam::Vec3>>| v.as_ref().map(|p| crate::render::film::Film { width: w, height: h, pixels: p.clone() });
+    crate::image::denoise::denoise(&r.film, film(&layers.albedo).as_ref(), film(&layers.normal).as_ref())
+}
+
+/// The summary's line on the image's estimated error ([`crate::render::share::ErrorEstimate`]).
+pub fn error_line(e: &crate::render::share::ErrorEstimate, target: bool) -> String {
+    format!(
+        "estimated error: relative RMSE {:.3} % (from the spread of each pixel's samples; {}{:.1} spp on average)",
+        100.0 * e.relative_rmse,
+        if target { "an error target: " } else { "" },
+        e.mean_spp
+    )
+}
+
+/// Writes the image to `path` in `format`, with the layers `--aov` asks for (of `layers`, and
+/// the error layers from `sums`).
+#[allow(clippy::too_many_arguments)]
 fn write(
     job: &crate::render::RenderJob,
     a: &RenderArgs,
@@ -480,15 +561,22 @@ fn write(
     format: &crate::image::output::OutputFormat,
     film: &crate::render::film::Film,
     layers: Option<&crate::render::aovs::Aovs>,
+    sums: Option<&crate::render::share::FrameSums>,
     grid: Option<Grid>,
 ) -> Result<(), Failure> {
     use crate::render::aovs::{Aov, Aovs};
     let asked = |l: Aov| a.aov.iter().any(|s| Aov::parse(s) == Some(l));
-    let chosen = layers.map(|l| Aovs {
+    let mut chosen = layers.map(|l| Aovs {
         depth: l.depth.clone().filter(|_| asked(Aov::Depth)),
         normal: l.normal.clone().filter(|_| asked(Aov::Normal)),
         albedo: l.albedo.clone().filter(|_| asked(Aov::Albedo)),
+        ..Aovs::default()
     });
+    if let Some(sums) = sums.filter(|_| asked(Aov::Error)) {
+        let (error, spp) = sums.error_layers().map_err(|e| e.to_string())?;
+        let c = chosen.get_or_insert_with(Aovs::default);
+        (c.error, c.spp) = (Some(error), Some(spp));
+    }
     let settings = crate::image::output::WriteSettings { encoding: job.settings.encoding, grid, layers: chosen.as_ref(), half: a.half };
     format.write(path, film, &settings).map_err(|e| e.to_string().into())
 }

@@ -7,7 +7,6 @@ use super::{App, Failure, SceneArgs, si};
 use crate::image::metrics::ImageError;
 use crate::load::context::LoadOptions;
 use crate::param::error::{Loc, SceneError, Source};
-use crate::param::spec::{Reference, Role};
 use crate::param::value::{Node, Value};
 use crate::render::film::Film;
 use crate::render::{RenderJob, RenderOptions};
@@ -21,6 +20,7 @@ pub(crate) struct SweepArgs {
     scene: Option<PathBuf>,
     /// A knob and the values to try: `spp=1,4,16`, `depth=1,3,5`, `aa_threshold=0.1,0.05`,
     /// `aa_depth=…`, `aa_edges=…`, `aa_signature=…`, `aa_cell_samples=…`, `aa_coarse=…`, `lens_samples=…`,
+    /// `target_error=0.1,0.03` (with spp as the cap), `target_min_spp=…`,
     /// `aperture=…`, `integrator=phong,path`, or any integrator parameter (`glossy_rays`,
     /// `shadow_rays`, `shadow_probes`, `prune_threshold`, …). Repeatable.
     #[arg(long = "vary", value_name = "KNOB=V1,V2,…", required = true)]
@@ -331,42 +331,9 @@ fn one_at_a_time(knobs: &[Knob]) -> Vec<Vec<(usize, usize)>> {
 fn options_for(base: &LoadOptions, knobs: &[Knob], choice: &[(usize, usize)]) -> Result<LoadOptions, Failure> {
     let mut o = base.clone();
     for &(k, v) in choice {
-        apply(&mut o, &knobs[k].name, &knobs[k].values[v].1)?;
+        crate::load::context::apply_knob(&mut o, "--vary", &knobs[k].name, &knobs[k].values[v].1)?;
     }
     Ok(o)
-}
-
-/// Sets knob `name` to `value` in `o`.
-fn apply(o: &mut LoadOptions, name: &str, value: &Node) -> Result<(), Failure> {
-    let ov = &mut o.overrides;
-    let set = |list: &mut Vec<(String, Node)>, key: &str, v: &Node| list.push((key.to_string(), v.clone()));
-    match name {
-        "spp" => match value.value {
-            Value::Int(n) if n >= 1 && n <= i64::from(u32::MAX) => {
-                // Samples per pixel are stratified anti-aliasing's knob (adaptive ignores them).
-                if !ov.render_params.iter().any(|(k, _)| k == "aa") {
-                    ov.render_params.push(super::flag_node("--vary", "aa", Value::Str("stratified".into())));
-                }
-                ov.spp = Some(n as u32)
-            }
-            _ => return Err(SceneError::at(&value.loc, "spp must be a whole number ≥ 1").into()),
-        },
-        "aa_threshold" | "aa_depth" | "aa_edges" | "aa_signature" | "aa_cell_samples" | "aa_coarse" => {
-            if !ov.render_params.iter().any(|(k, _)| k == "aa") {
-                ov.render_params.push(super::flag_node("--vary", "aa", Value::Str("adaptive".into())));
-            }
-            set(&mut ov.render_params, name, value);
-        }
-        "aa" | "lens_samples" => set(&mut ov.render_params, name, value),
-        "aperture" | "focus_distance" => set(&mut ov.camera_params, name, value),
-        "integrator" => match &value.value {
-            Value::Str(t) => ov.integrator = Some(t.clone()),
-            _ => return Err(SceneError::at(&value.loc, "integrator must be a name (phong, path, …)").into()),
-        },
-        "depth" => ov.depth = Some(value.clone()),
-        _ => set(&mut ov.integrator_params, name, value),
-    }
-    Ok(())
 }
 
 fn load_with(app: &App, scene: Option<&Path>, opts: &LoadOptions) -> Result<RenderJob, Failure> {
@@ -406,58 +373,10 @@ fn reference_plan(app: &App, a: &SweepArgs, base: &LoadOptions, knobs: &[Knob], 
     if a.scene_args.max_rays.is_none() && !a.quiet {
         o.limits.max_rays = u64::MAX;
     }
-    let ov = &mut o.overrides;
     let integrator = a.reference_integrator.as_deref().unwrap_or(&base_job.integrator_name);
-    if integrator != base_job.integrator_name {
-        // The swept integrator's parameters and depth mean nothing to another one.
-        ov.integrator = Some(integrator.to_string());
-        ov.integrator_params.clear();
-        ov.depth = None;
-    }
     let swept =
         |name: &str| knobs.iter().find(|k| k.name == name).map(|k| k.values.iter().map(|(_, n)| n.value.clone()).collect::<Vec<_>>());
-    let max_spp =
-        swept("spp").unwrap_or_default().iter().filter_map(|v| if let Value::Int(i) = v { Some(*i) } else { None }).max().unwrap_or(1);
-    ov.spp = Some(u32::try_from(max_spp).unwrap_or(u32::MAX).max(a.reference_spp));
-    ov.render_params.retain(|(k, _)| !k.starts_with("aa"));
-    ov.render_params.push(super::flag_node("--reference", "aa", Value::Str("stratified".into())));
-    ov.render_params.push(super::flag_node("--reference", "lens_samples", Value::Int(1)));
-    // Every depth and quality knob of the integrator at its reference value (by role, whatever
-    // the parameter is called), and at least as accurate as any value swept.
-    let params = app.registry.integrator(integrator).map(|p| p.info.params).unwrap_or(&[]);
-    for spec in params {
-        let Some(reference) = spec.role.reference() else { continue };
-        let is_depth = matches!(spec.role, Role::Depth(_));
-        let numbers: Vec<f64> = swept(if is_depth { "depth" } else { spec.name })
-            .unwrap_or_default()
-            .iter()
-            .filter_map(|v| match v {
-                Value::Float(f) => Some(*f),
-                Value::Int(i) => Some(*i as f64),
-                _ => None,
-            })
-            .collect();
-        let value = match reference {
-            Reference::Keep => continue,
-            Reference::AtLeast(r) => numbers.iter().copied().fold(r, f64::max),
-            Reference::AtMost(r) => numbers.iter().copied().fold(r, f64::min),
-            Reference::Exactly(d) => match d {
-                crate::param::spec::Default::Int(i) => i as f64,
-                crate::param::spec::Default::Float(f) => f,
-                crate::param::spec::Default::Bool(b) => {
-                    ov.integrator_params.push(super::flag_node("--reference", spec.name, Value::Bool(b)));
-                    continue;
-                }
-                _ => continue,
-            },
-        };
-        let value = if spec.kind == crate::param::spec::ParamKind::Int { Value::Int(value.round() as i64) } else { Value::Float(value) };
-        if is_depth {
-            ov.depth = Some(super::flag_node("--reference", "depth", value).1);
-        } else {
-            ov.integrator_params.push(super::flag_node("--reference", spec.name, value));
-        }
-    }
+    app.registry.reference_options(&mut o, &base_job.integrator_name, integrator, &swept, a.reference_spp);
     let job = load_with(app, a.scene.as_deref(), &o)?;
     let scene_text = match a.scene.as_deref() {
         Some(p) => crate::load::context::read_user_file(p, "scene file", base.limits.max_file_bytes, None)?,

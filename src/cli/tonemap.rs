@@ -1,6 +1,6 @@
 //! `raylab tonemap`: an HDR image (OpenEXR or PFM), or one of its layers, as a viewable PNG/JPEG.
 
-use super::Failure;
+use super::{App, Failure};
 use crate::image::tonemap::{Layer, MAX_FILE_BYTES, check_input, read_layer, visualise};
 use clap::Args;
 use std::path::PathBuf;
@@ -21,14 +21,15 @@ pub(crate) struct TonemapArgs {
     layer: Option<String>,
 }
 
-pub(crate) fn run(a: TonemapArgs) -> Result<(), Failure> {
+pub(crate) fn run(app: &App, a: TonemapArgs) -> Result<(), Failure> {
     if !(a.exposure.is_finite() && a.exposure.abs() <= 64.0) {
         return Err(Failure::Other(format!("--exposure: expected stops in -64..=64, found {}", a.exposure)));
     }
-    let format = crate::image::output::format_for(&a.output).map_err(|e| e.to_string())?;
+    let format = app.registry.output_format_for(&a.output).map_err(|e| e.to_string())?;
     if format.hdr {
         return Err(Failure::Other(format!("{}: tonemap writes a viewable 8-bit image (.png, .jpg or .jpeg)", a.output.display())));
     }
+    super::refuse_overwrite("tonemap", &[a.output.as_path()], [a.input.as_path()])?;
     let layer = a.layer.as_deref().and_then(Layer::parse).unwrap_or(Layer::Color);
     let ext = a.input.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     check_input(&ext, layer).map_err(|e| Failure::Other(format!("{}: {e}", a.input.display())))?;
@@ -36,7 +37,8 @@ pub(crate) fn run(a: TonemapArgs) -> Result<(), Failure> {
     let film = read_layer(&bytes, &ext, layer).map_err(|e| Failure::Other(format!("{}: {e}", a.input.display())))?;
     let (w, h) = (film.width, film.height);
     let (film, encoding) = visualise(film, layer, a.exposure);
-    crate::image::output::write_image(&a.output, &film, encoding, None).map_err(|e| e.to_string())?;
+    let settings = crate::image::output::WriteSettings { encoding, ..Default::default() };
+    format.write(&a.output, &film, &settings).map_err(|e| e.to_string())?;
     println!("wrote {} ({w}×{h}, {}) from {}", a.output.display(), a.layer.as_deref().unwrap_or("colour"), a.input.display());
     Ok(())
 }

@@ -2,10 +2,9 @@
 
 use super::{App, Failure, SceneArgs};
 use crate::math::ray::Ray;
-use crate::math::sampler::Sampler;
-use crate::render::explain::{SampleRef, explanation_json, sample_color};
+use crate::render::explain::{explanation_json, sample_color};
 use crate::render::sample::SampleId;
-use crate::render::{explain_sample, pixel_samples};
+use crate::render::{explain_pixel, explain_ray};
 use clap::Args;
 use glam::DVec3;
 use std::path::PathBuf;
@@ -44,29 +43,26 @@ pub(crate) fn run(app: &App, a: TraceArgs) -> Result<(), Failure> {
         if x >= s.width || y >= s.height {
             return Err(bad());
         }
-        let samples = pixel_samples(&job, x, y);
-        let &(id, weight) = samples.get(a.sample as usize).ok_or_else(|| {
-            Failure::Other(format!("--sample {}: pixel ({x}, {y}) has {} samples (0..{})", a.sample, samples.len(), samples.len()))
-        })?;
-        let trees = explain_sample(&job, id).ok_or_else(cannot)?;
-        (trees, Some((x, y)), Some((id, weight, samples.len())))
+        let (trees, sample) =
+            explain_pixel(&job, x, y, a.sample).map_err(|e| Failure::Other(if e.starts_with("sample ") { format!("--{e}") } else { e }))?;
+        (trees, Some((x, y)), Some(sample))
     } else {
         let r = a.ray.as_deref().unwrap_or_default();
         let (o, d) = r.split_once(':').ok_or_else(|| Failure::Other(format!("--ray: expected OX,OY,OZ:DX,DY,DZ, found \"{r}\"")))?;
         let (o, d) = (parse_vec3(o, "--ray origin")?, parse_vec3(d, "--ray direction")?);
         let dir = d.try_normalize().ok_or_else(|| Failure::Other("--ray: the direction must not be zero".into()))?;
-        let tree = job.integrator.explain(&job.scene, &Ray { origin: o, dir }, &mut Sampler::new(0, 0, s.seed)).ok_or_else(cannot)?;
+        let tree = explain_ray(&job, &Ray { origin: o, dir }).ok_or_else(cannot)?;
         (vec![tree], None, None)
     };
     let c = sample_color(&trees);
     let rgb8 = [c.x, c.y, c.z].map(|v| s.encoding.to_u8(v as f32));
     if a.json {
-        let sample = sample.map(|(id, weight, of)| SampleRef { index: a.sample, of, id, weight });
         let out = explanation_json(&job, &a.scene.display().to_string(), pixel, sample, &trees);
         println!("{}", serde_json::to_string_pretty(&out).map_err(|e| e.to_string())?);
     } else {
-        if let (Some((x, y)), Some((id, weight, count))) = (pixel, sample) {
-            let which = match id {
+        if let (Some((x, y)), Some(sample)) = (pixel, sample) {
+            let (weight, count) = (sample.weight, sample.of);
+            let which = match sample.id {
                 SampleId::Pixel { .. } => format!("sample {} of {count}", a.sample),
                 SampleId::Lattice { x, y, depth } => {
                     format!("adaptive lattice point {} of {count} at ({x}, {y})/{}, weight {weight:.4}", a.sample, 1u64 << depth)

@@ -3,10 +3,12 @@
 //! loader attaches materials, as it attaches transforms.
 
 pub mod hit;
+pub mod sampling;
 pub mod testing;
 pub mod transform;
 
 pub use hit::Hit;
+pub use sampling::{SurfacePdf, SurfaceSample};
 
 use crate::math::bounds::Aabb;
 use crate::math::ray::Ray;
@@ -88,6 +90,30 @@ pub trait Geometry: Intersectable {
     fn is_closed(&self) -> bool {
         false
     }
+
+    /// The surface's area, scene units², for shapes that offer [`Geometry::sample_surface`]
+    /// (`None`, the default, for those that do not). Integrators weigh emitters by it (power).
+    fn area(&self) -> Option<f64> {
+        None
+    }
+
+    /// A point on the surface for `u` uniform in `[0, 1)²`, chosen to light `reference` (an
+    /// emitting surface sampled as a light): uniform by area, or better by the solid angle the
+    /// surface covers as seen from `reference` (a sphere's cone). `None`, the default, for shapes
+    /// that offer no sampling (rays still find them) and where no point can be chosen. Shapes
+    /// that sample must answer [`Geometry::area`] and [`Geometry::surface_pdf`] consistently.
+    fn sample_surface(&self, reference: DVec3, u: DVec2) -> Option<SurfaceSample> {
+        let _ = (reference, u);
+        None
+    }
+
+    /// The density with which [`Geometry::sample_surface`]`(reference, u)` chooses the point of
+    /// `at`, a hit of a ray from `reference` (the first along it), in the measure the samples
+    /// come in. `Area(0)`, the default, for shapes that offer no sampling.
+    fn surface_pdf(&self, reference: DVec3, at: &Hit) -> SurfacePdf {
+        let _ = (reference, at);
+        SurfacePdf::Area(0.0)
+    }
 }
 
 /// `v` read one component at a time. A vector handed by value to a call that is not inlined
@@ -137,6 +163,15 @@ macro_rules! forward_impls {
             }
             fn is_closed(&self) -> bool {
                 (**self).is_closed()
+            }
+            fn area(&self) -> Option<f64> {
+                (**self).area()
+            }
+            fn sample_surface(&self, reference: DVec3, u: DVec2) -> Option<SurfaceSample> {
+                (**self).sample_surface(reference, u)
+            }
+            fn surface_pdf(&self, reference: DVec3, at: &Hit) -> SurfacePdf {
+                (**self).surface_pdf(reference, at)
             }
         }
     )*};

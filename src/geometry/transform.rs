@@ -15,7 +15,7 @@
 //! with a conservative error bound, and the ray origin is moved past its own transformation
 //! error, so secondary rays still never re-hit the surface they leave.
 
-use crate::geometry::{Geometry, Hit, Intersectable, Surface, face_forward};
+use crate::geometry::{Geometry, Hit, Intersectable, Surface, SurfacePdf, SurfaceSample, face_forward};
 use crate::math::bounds::Aabb;
 use crate::math::float::{DEGENERACY_TOLERANCE, gamma};
 use crate::math::ray::Ray;
@@ -82,6 +82,25 @@ impl Transform {
         (self.normal_to_world * n).normalize()
     }
 
+    /// True when the map keeps angles (a rotation, reflection and uniform scale, with any
+    /// translation: `Lᵀ·L = s²·I` within [`SIMILARITY_TOLERANCE`]): solid angles seen from a
+    /// point are then the same in both frames.
+    pub fn is_similarity(&self) -> bool {
+        let l = self.to_world.matrix3;
+        let g = l.transpose() * l;
+        let s2 = (g.x_axis.x + g.y_axis.y + g.z_axis.z) / 3.0;
+        let off = g - DMat3::from_diagonal(DVec3::splat(s2));
+        let worst = off.x_axis.abs().max(off.y_axis.abs()).max(off.z_axis.abs()).max_element();
+        worst <= SIMILARITY_TOLERANCE * s2
+    }
+
+    /// How much the map stretches the area of a surface element with unit normal `n` (object
+    /// frame): `|det L|·|L⁻ᵀ·n|`.
+    #[inline]
+    pub fn area_scale(&self, n: DVec3) -> f64 {
+        self.to_world.matrix3.determinant().abs() * (self.normal_to_world * n).length()
+    }
+
     /// A box to the world: the box around its eight transformed corners, widened by their
     /// rounding error.
     pub fn bounds(&self, b: Aabb) -> Aabb {
@@ -101,6 +120,10 @@ impl Transform {
         out
     }
 }
+
+/// Relative deviation of `Lᵀ·L` from a multiple of the identity under which a transform counts
+/// as a similarity ([`Transform::is_similarity`]).
+pub const SIMILARITY_TOLERANCE: f64 = 1e-9;
 
 /// `m·p` for a point `p` with absolute error `err`, and the error bound of the result
 /// (pbrt-v4's `Transform::operator()(Point3fi)`).
@@ -123,13 +146,15 @@ pub struct Transformed<G> {
     inner: G,
     transform: Transform,
     bounds: Option<Aabb>,
+    /// [`Transform::is_similarity`], asked once.
+    similarity: bool,
 }
 
 impl<G: Geometry> Transformed<G> {
     /// `inner` placed by `transform`.
     pub fn new(inner: G, transform: Transform) -> Self {
         let bounds = inner.bounds().map(|b| transform.bounds(b));
-        Transformed { inner, transform, bounds }
+        Transformed { inner, transform, bounds, similarity: transform.is_similarity() }
     }
 
     /// The shape in its own frame.
@@ -164,6 +189,17 @@ impl<G: Geometry> Transformed<G> {
     fn object_hit(&self, at: &Hit) -> Hit {
         let (point, error) = apply_point(&self.transform.to_object, at.point, at.error);
         Hit { point, error, ..*at }
+    }
+
+    /// The world density of a point the inner shape chose with `pdf` at `p` (outward normal `n`),
+    /// seen from `reference` (all in the object's frame): a solid angle density stays one under
+    /// a similarity; otherwise the density per object area divided by the map's area scale there.
+    #[inline]
+    fn world_pdf(&self, reference: DVec3, p: DVec3, n: DVec3, pdf: SurfacePdf) -> SurfacePdf {
+        match pdf {
+            SurfacePdf::SolidAngle(_) if self.similarity => pdf,
+            _ => SurfacePdf::Area(pdf.area(reference, p, n) / self.transform.area_scale(n)),
+        }
     }
 }
 
@@ -214,6 +250,31 @@ impl<G: Geometry> Geometry for Transformed<G> {
     }
     fn is_closed(&self) -> bool {
         self.inner.is_closed()
+    }
+    /// Exact under a similarity; otherwise the inner area times `|det L|^⅔` (the area scale of
+    /// a uniform stretch of the same volume), an estimate that only weighs emitters.
+    fn area(&self) -> Option<f64> {
+        let a = self.inner.area()?;
+        let l = self.transform.to_world.matrix3;
+        let scale = if self.similarity { l.x_axis.length_squared() } else { l.determinant().abs().powf(2.0 / 3.0) };
+        Some(a * scale)
+    }
+    /// The inner shape's sample, seen from the reference carried into its frame, carried out.
+    fn sample_surface(&self, reference: DVec3, u: DVec2) -> Option<SurfaceSample> {
+        let r = self.transform.to_object.transform_point3(reference);
+        let s = self.inner.sample_surface(r, u)?;
+        let (point, error) = apply_point(&self.transform.to_world, s.hit.point, s.hit.error);
+        let pdf = self.world_pdf(r, s.hit.point, s.normal, s.pdf);
+        let hit = Hit { t: (point - reference).length(), point, error, ..s.hit };
+        Some(SurfaceSample { hit, normal: self.transform.normal(s.normal), pdf })
+    }
+    fn surface_pdf(&self, reference: DVec3, at: &Hit) -> SurfacePdf {
+        let r = self.transform.to_object.transform_point3(reference);
+        let h = self.object_hit(at);
+        match self.inner.surface_pdf(r, &h) {
+            pdf @ SurfacePdf::SolidAngle(_) if self.similarity => pdf,
+            pdf => self.world_pdf(r, h.point, self.inner.outward_normal(&h), pdf),
+        }
     }
 }
 

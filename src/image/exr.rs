@@ -1,6 +1,7 @@
 //! OpenEXR output (feature `exr`): the film's linear, unclamped RGB as 32-bit floats (or half
 //! floats), with optional extra layers for denoisers: depth `Z`, `normal.X/Y/Z`, `albedo.R/G/B`
-//! ([`crate::render::aov`]). One part, channels by name, lossless ZIP compression; depth is always 32-bit.
+//! ([`crate::render::aov`]), and the error estimate `error` and samples per pixel `spp`
+//! ([`crate::render::share::FrameSums::error_layers`]). One part, channels by name, lossless ZIP compression; depth is always 32-bit.
 //! Written atomically, like every raylab image.
 
 use crate::image::write::{WriteError, write_atomically};
@@ -49,11 +50,13 @@ pub fn encode_exr(film: &Film, aovs: &Aovs, half: bool) -> Result<Vec<u8>, Strin
     if let Some(a) = &aovs.albedo {
         rgb("albedo.", ["R", "G", "B"], a)?;
     }
-    if let Some(d) = &aovs.depth {
-        let mut z = Vec::new();
-        z.try_reserve_exact(d.len()).map_err(|_| out_of_memory("channel Z"))?;
-        z.extend_from_slice(d);
-        channels.push(AnyChannel::new("Z", FlatSamples::F32(z)));
+    for (name, layer) in [("Z", &aovs.depth), ("error", &aovs.error), ("spp", &aovs.spp)] {
+        if let Some(d) = layer {
+            let mut z = Vec::new();
+            z.try_reserve_exact(d.len()).map_err(|_| out_of_memory(&format!("channel {name}")))?;
+            z.extend_from_slice(d);
+            channels.push(AnyChannel::new(name, FlatSamples::F32(z)));
+        }
     }
     let size = Vec2(film.width as usize, film.height as usize);
     let layer = Layer::new(size, LayerAttributes::default(), Encoding::SMALL_LOSSLESS, AnyChannels::sort(SmallVec::from_vec(channels)));

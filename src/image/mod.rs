@@ -1,6 +1,7 @@
 //! Images: the formats a film is written in, reference images, the error metrics that compare
 //! two images, and live display in the tev viewer.
 
+pub mod denoise;
 #[cfg(feature = "exr")]
 pub mod exr;
 pub mod metrics;

@@ -1,7 +1,8 @@
-//! Writing images, in one table of formats chosen by file extension ([`OUTPUT_FORMATS`]): 8-bit
-//! PNG and JPEG (clamped and encoded, with an optional grid overlay, the report's `printGrid`),
-//! OpenEXR (linear floats with the depth/normal/albedo layers; feature `exr`) and PFM (linear
-//! floats, the reference format). Files are written atomically: to a temporary file beside the
+//! Writing images in formats chosen by file extension: [`OutputFormat`] is a registered kind
+//! (`Registry::add_output_format`), and the core's own are [`builtin_formats`]: 8-bit PNG and
+//! JPEG (clamped and encoded, with an optional grid overlay, the report's `printGrid`), OpenEXR
+//! (linear floats with the depth/normal/albedo layers; feature `exr`) and PFM (linear floats,
+//! the reference format). Files are written atomically: to a temporary file beside the
 //! target, then renamed, so a crash never leaves a truncated image where a good one was.
 
 use crate::image::write::{WriteError, write_atomically};
@@ -9,6 +10,7 @@ use crate::math::color::Encoding;
 use crate::render::film::Film;
 use std::io::Write;
 use std::path::Path;
+use std::sync::Arc;
 
 /// Grid lines drawn over an 8-bit image every `interval` pixels (rows and columns 0, interval, …).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -19,17 +21,13 @@ pub struct Grid {
     pub color: [u8; 3],
 }
 
-/// An image file type raylab can write.
+/// An 8-bit encoding of RGB pixels ([`encode_rgb8`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ImageKind {
     /// PNG, 8 bits per channel.
     Png,
     /// JPEG, 8 bits per channel, quality 95.
     Jpeg,
-    /// OpenEXR: linear, unclamped floating point (feature `exr`; see [`crate::image::exr`]).
-    Exr,
-    /// PFM: linear, unclamped 32-bit floating point ([`crate::image::reference`]).
-    Pfm,
 }
 
 /// What a render will write, for the estimate of the image's memory ([`image_bytes`]).
@@ -45,13 +43,15 @@ pub struct ImagePlan {
     pub albedo: bool,
     /// EXR colour, normal and albedo as 16-bit floats.
     pub half: bool,
+    /// The EXR's error estimate and sample count layers (computed from the render's sums).
+    pub error: bool,
 }
 
 impl ImagePlan {
     /// The costliest output: 32-bit EXR with every layer.
-    pub const COSTLIEST: ImagePlan = ImagePlan { exr: true, depth: true, normal: true, albedo: true, half: false };
+    pub const COSTLIEST: ImagePlan = ImagePlan { exr: true, depth: true, normal: true, albedo: true, half: false, error: true };
     /// 8-bit PNG or JPEG.
-    pub const EIGHT_BIT: ImagePlan = ImagePlan { exr: false, depth: false, normal: false, albedo: false, half: false };
+    pub const EIGHT_BIT: ImagePlan = ImagePlan { exr: false, depth: false, normal: false, albedo: false, half: false, error: false };
 }
 
 impl std::default::Default for ImagePlan {
@@ -80,7 +80,8 @@ pub fn image_bytes(pixels: u64, plan: &ImagePlan) -> u64 {
     let during_writing = if plan.exr {
         let colour = if plan.half { 2 } else { 4 };
         let layers = if any_layer { 28 } else { 0 };
-        let channels = 3 * colour * (1 + u64::from(plan.normal) + u64::from(plan.albedo)) + 4 * u64::from(plan.depth);
+        let channels =
+            3 * colour * (1 + u64::from(plan.normal) + u64::from(plan.albedo)) + 4 * u64::from(plan.depth) + 8 * u64::from(plan.error);
         layers + 2 * channels
     } else {
         EIGHT_BIT_BYTES_PER_PIXEL
@@ -102,8 +103,12 @@ pub struct WriteSettings<'a> {
     pub half: bool,
 }
 
-/// An image file format raylab writes: one row of [`OUTPUT_FORMATS`].
-#[derive(Clone, Copy)]
+/// Writes a film (and what of [`WriteSettings`] the format stores) to a path, atomically
+/// ([`crate::image::write::write_atomically`]).
+pub type ImageWriter = Arc<dyn Fn(&Path, &Film, &WriteSettings) -> Result<(), WriteError> + Send + Sync>;
+
+/// An image file format raylab writes, chosen by the output's extension.
+#[derive(Clone)]
 pub struct OutputFormat {
     /// Short name.
     pub name: &'static str,
@@ -115,9 +120,8 @@ pub struct OutputFormat {
     pub hdr: bool,
     /// Stores the depth, normal and albedo layers.
     pub layers: bool,
-    /// Which kind it is.
-    pub kind: ImageKind,
-    write: fn(&Path, &Film, &WriteSettings) -> Result<(), WriteError>,
+    /// The writer.
+    pub write: ImageWriter,
 }
 
 impl OutputFormat {
@@ -132,51 +136,51 @@ fn write_8bit(path: &Path, film: &Film, s: &WriteSettings, kind: ImageKind) -> R
     write_atomically(path, |w| encode_rgb8(w, &rgb, film.width, film.height, kind))
 }
 
-/// Every output format, chosen by the target's extension ([`format_for`]).
-pub const OUTPUT_FORMATS: &[OutputFormat] = &[
-    OutputFormat {
-        name: "png",
-        extensions: &["png"],
-        summary: "PNG, 8 bits per channel: clamped and encoded (sRGB or linear), with an optional grid",
-        hdr: false,
-        layers: false,
-        kind: ImageKind::Png,
-        write: |p, f, s| write_8bit(p, f, s, ImageKind::Png),
-    },
-    OutputFormat {
-        name: "jpeg",
-        extensions: &["jpg", "jpeg"],
-        summary: "JPEG, 8 bits per channel, quality 95: clamped and encoded, with an optional grid",
-        hdr: false,
-        layers: false,
-        kind: ImageKind::Jpeg,
-        write: |p, f, s| write_8bit(p, f, s, ImageKind::Jpeg),
-    },
+/// The core's own output formats, which every [`crate::load::registry::Registry`] starts with.
+pub fn builtin_formats() -> Vec<OutputFormat> {
+    let mut formats = vec![
+        OutputFormat {
+            name: "png",
+            extensions: &["png"],
+            summary: "PNG, 8 bits per channel: clamped and encoded (sRGB or linear), with an optional grid",
+            hdr: false,
+            layers: false,
+            write: Arc::new(|p, f, s| write_8bit(p, f, s, ImageKind::Png)),
+        },
+        OutputFormat {
+            name: "jpeg",
+            extensions: &["jpg", "jpeg"],
+            summary: "JPEG, 8 bits per channel, quality 95: clamped and encoded, with an optional grid",
+            hdr: false,
+            layers: false,
+            write: Arc::new(|p, f, s| write_8bit(p, f, s, ImageKind::Jpeg)),
+        },
+    ];
     #[cfg(feature = "exr")]
-    OutputFormat {
+    formats.push(OutputFormat {
         name: "exr",
         extensions: &["exr"],
         summary: "OpenEXR: linear, unclamped 32-bit floats (--half: 16-bit), with the depth, normal and albedo layers asked for (--aov)",
         hdr: true,
         layers: true,
-        kind: ImageKind::Exr,
-        write: |p, f, s| crate::image::exr::write_exr(p, f, &s.layers.cloned().unwrap_or_default(), s.half),
-    },
-    OutputFormat {
+        write: Arc::new(|p, f, s| crate::image::exr::write_exr(p, f, &s.layers.cloned().unwrap_or_default(), s.half)),
+    });
+    formats.push(OutputFormat {
         name: "pfm",
         extensions: &["pfm"],
         summary: "PFM: linear, unclamped 32-bit floats (references for `--reference` and `sweep`)",
         hdr: true,
         layers: false,
-        kind: ImageKind::Pfm,
-        write: |p, f, _| crate::image::reference::write_pfm(p, f).map_err(WriteError),
-    },
-];
+        write: Arc::new(|p, f, _| crate::image::reference::write_pfm(p, f).map_err(WriteError)),
+    });
+    formats
+}
 
-/// The output format for `path`'s extension (case-insensitive).
-pub fn format_for(path: &Path) -> Result<&'static OutputFormat, WriteError> {
+/// The format among `formats` for `path`'s extension (case-insensitive); the last registered
+/// wins.
+pub fn format_among<'f>(formats: &'f [OutputFormat], path: &Path) -> Result<&'f OutputFormat, WriteError> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-    if let Some(f) = OUTPUT_FORMATS.iter().find(|f| f.extensions.contains(&ext.as_str())) {
+    if let Some(f) = formats.iter().rev().find(|f| f.extensions.contains(&ext.as_str())) {
         return Ok(f);
     }
     if ext == "exr" {
@@ -185,7 +189,7 @@ pub fn format_for(path: &Path) -> Result<&'static OutputFormat, WriteError> {
             path.display()
         )));
     }
-    let known: Vec<String> = OUTPUT_FORMATS.iter().flat_map(|f| f.extensions.iter().map(|e| format!(".{e}"))).collect();
+    let known: Vec<String> = formats.iter().flat_map(|f| f.extensions.iter().map(|e| format!(".{e}"))).collect();
     Err(WriteError(format!("cannot write \"{}\": unknown image type \".{ext}\"; expected one of {}", path.display(), known.join(", "))))
 }
 
@@ -215,10 +219,10 @@ pub fn try_rgb8(film: &Film, encoding: Encoding, grid: Option<Grid>) -> Result<V
     Ok(out)
 }
 
-/// Writes `film` to `path` in the format its extension names, atomically (no layers, full
-/// precision).
+/// Writes `film` to `path` in the core's own format its extension names
+/// ([`builtin_formats`]), atomically (no layers, full precision).
 pub fn write_image(path: &Path, film: &Film, encoding: Encoding, grid: Option<Grid>) -> Result<(), WriteError> {
-    format_for(path)?.write(path, film, &WriteSettings { encoding, grid, ..WriteSettings::default() })
+    format_among(&builtin_formats(), path)?.write(path, film, &WriteSettings { encoding, grid, ..WriteSettings::default() })
 }
 
 /// Encodes 8-bit RGB into `w`.
@@ -229,7 +233,6 @@ pub fn encode_rgb8(w: &mut dyn Write, rgb: &[u8], width: u32, height: u32, kind:
         ImageKind::Jpeg => {
             image::codecs::jpeg::JpegEncoder::new_with_quality(w, 95).write_image(rgb, width, height, image::ExtendedColorType::Rgb8)
         }
-        ImageKind::Exr | ImageKind::Pfm => return Err("EXR and PFM are not 8-bit formats; write them through their OutputFormat".into()),
     };
     r.map_err(|e| e.to_string())
 }
@@ -240,12 +243,12 @@ mod tests {
     /// The estimate counts the film, the render's exact running sums, the layers and the
     /// encoder's copies; the default budget holds 4096² with every layer and refuses the next step
     /// up, and holds 8-bit output of an 8K UHD frame (7680 × 4320) but not of the largest image
-    /// the pixel limit allows (8192², 5.1 GB: raise --max-image-bytes, or split it into tiles).
+    /// the pixel limit allows (8192², 7.2 GB: raise --max-image-bytes, or split it into tiles).
     #[test]
     fn image_memory_estimates_fit_the_default_budget() {
         let budget = crate::param::limits::DEFAULT_MAX_IMAGE_BYTES;
-        assert_eq!(image_bytes(1, &ImagePlan::COSTLIEST), 184);
-        assert_eq!(image_bytes(1, &ImagePlan::EIGHT_BIT), 76);
+        assert_eq!(image_bytes(1, &ImagePlan::COSTLIEST), 216);
+        assert_eq!(image_bytes(1, &ImagePlan::EIGHT_BIT), 108);
         assert!(image_bytes(4096 * 4096, &ImagePlan::COSTLIEST) <= budget);
         assert!(image_bytes(4608 * 4608, &ImagePlan::COSTLIEST) > budget);
         assert!(image_bytes(7680 * 4320, &ImagePlan::EIGHT_BIT) <= budget);
@@ -295,15 +298,27 @@ mod tests {
 
     #[test]
     fn formats_are_chosen_by_extension_and_unknown_ones_refused() {
-        let e = format_for(Path::new("a.bmp")).err().unwrap();
+        let builtin = builtin_formats();
+        let e = format_among(&builtin, Path::new("a.bmp")).err().unwrap();
         assert!(e.0.contains("unknown image type \".bmp\"") && e.0.contains(".png, .jpg, .jpeg"), "{e}");
-        assert_eq!(format_for(Path::new("a.JPG")).unwrap().kind, ImageKind::Jpeg);
-        assert_eq!(format_for(Path::new("ref.pfm")).unwrap().kind, ImageKind::Pfm);
-        // Every extension names one format.
-        let mut all: Vec<&str> = OUTPUT_FORMATS.iter().flat_map(|f| f.extensions.iter().copied()).collect();
+        assert_eq!(format_among(&builtin, Path::new("a.JPG")).unwrap().name, "jpeg");
+        assert_eq!(format_among(&builtin, Path::new("ref.pfm")).unwrap().name, "pfm");
+        // Every extension names one built-in format.
+        let mut all: Vec<&str> = builtin.iter().flat_map(|f| f.extensions.iter().copied()).collect();
         all.sort_unstable();
         let n = all.len();
         all.dedup();
         assert_eq!(all.len(), n);
+        // A format registered later takes an extension over.
+        let mut formats = builtin.clone();
+        formats.push(OutputFormat {
+            name: "mine",
+            extensions: &["png"],
+            summary: "",
+            hdr: false,
+            layers: false,
+            write: Arc::new(|_, _, _| Ok(())),
+        });
+        assert_eq!(format_among(&formats, Path::new("a.png")).unwrap().name, "mine");
     }
 }

@@ -5,13 +5,16 @@
 //! - Channels `R`, `G`, `B` (`f32`) hold each pixel's mean so far, for viewers; `Z`,
 //!   `normal.X/Y/Z`, `albedo.R/G/B` the layers' means when the render made them.
 //! - What merging needs, exactly: `raylab.sum.{R,G,B}.{0..3}` (each channel's fixed-point sum,
-//!   an `i128` as four `u32` limbs, least significant first), `raylab.n` (rays summed) and
+//!   an `i128` as four `u32` limbs, least significant first), `raylab.sq.{0..3}` (the sum of
+//!   the rays' squared luminance, the same way: the error estimate), `raylab.odd.{0..3}` and
+//!   `raylab.n_odd` (the luminance and rays of odd-numbered samples), `raylab.n` (rays summed) and
 //!   `raylab.samples` (samples of the share done), and with layers `raylab.depth.{0..3}`,
 //!   `raylab.hits`, `raylab.rays`, `raylab.normal.{X,Y,Z}.{0,1}`, `raylab.albedo.{R,G,B}.{0,1}`
 //!   (`i64`s as two limbs).
 //! - Header attributes: `raylab.partial` (the format version), `raylab.fingerprint` (scene, files
 //!   and settings), `raylab.pass` and `raylab.passes` (the sample share), `raylab.sampling` (for
-//!   people), and for checkpoints `raylab.resume` (how to continue: JSON).
+//!   people), with an error target `raylab.target_error` and `raylab.target_min_spp`, and for
+//!   checkpoints `raylab.resume` (how to continue: JSON).
 //!
 //! Reading is hostile-input safe: sizes are checked against the limits from the header before
 //! any pixel is decoded, every channel and attribute is checked, and every error says what was
@@ -25,11 +28,11 @@ use std::path::Path;
 use std::result::Result;
 
 /// The format version written in `raylab.partial`.
-pub const PARTIAL_VERSION: i32 = 1;
+pub const PARTIAL_VERSION: i32 = 2;
 
-/// Most channels a partial image has (colour, layers and their sums: 42); more is refused before
+/// Most channels a partial image has (colour, layers and their sums: 51); more is refused before
 /// decoding, so a file cannot multiply its pixels' memory by claiming thousands of channels.
-const MAX_CHANNELS: usize = 48;
+const MAX_CHANNELS: usize = 56;
 
 /// What a partial file says about itself besides its pixels.
 #[derive(Clone, Debug, PartialEq)]
@@ -92,6 +95,11 @@ pub fn encode_partial(sums: &FrameSums, info: &PartialInfo) -> Result<Vec<u8>, S
             u32s(format!("raylab.sum.{name}.{k}"), sums.pixels.iter().map(|p| limbs(p.sum[c], 4).nth(k).unwrap_or(0)).collect());
         }
     }
+    for k in 0..4 {
+        u32s(format!("raylab.sq.{k}"), sums.pixels.iter().map(|p| limbs(p.sq, 4).nth(k).unwrap_or(0)).collect());
+        u32s(format!("raylab.odd.{k}"), sums.pixels.iter().map(|p| limbs(p.odd, 4).nth(k).unwrap_or(0)).collect());
+    }
+    u32s("raylab.n_odd".into(), sums.pixels.iter().map(|p| p.n_odd).collect());
     u32s("raylab.n".into(), sums.pixels.iter().map(|p| p.n).collect());
     u32s("raylab.samples".into(), sums.pixels.iter().map(|p| p.samples).collect());
     if let Some(l) = &sums.layers {
@@ -121,6 +129,10 @@ pub fn encode_partial(sums: &FrameSums, info: &PartialInfo) -> Result<Vec<u8>, S
     attr("raylab.fingerprint", AttributeValue::Text(Text::from(info.fingerprint.as_str())));
     attr("raylab.spp", AttributeValue::I32(sums.sampling.spp.min(i32::MAX as u32) as i32));
     attr("raylab.adaptive", AttributeValue::I32(i32::from(sums.sampling.adaptive)));
+    if let Some(t) = sums.sampling.target {
+        attr("raylab.target_error", AttributeValue::F64(t.error));
+        attr("raylab.target_min_spp", AttributeValue::I32(t.min_spp.min(i32::MAX as u32) as i32));
+    }
     attr("raylab.pass", AttributeValue::I32(sums.share.pass as i32));
     attr("raylab.passes", AttributeValue::I32(sums.share.passes as i32));
     attr("raylab.sampling", AttributeValue::Text(Text::from(info.sampling.as_str())));
@@ -184,7 +196,18 @@ pub fn read_partial(bytes: &[u8], name: &str, max_pixels: u64) -> Result<(FrameS
     if spp < 1 || !(adaptive == 0 || adaptive == 1) {
         return Err(err(format!("sampling of {spp} spp, adaptive {adaptive}: expected spp ≥ 1 and adaptive 0 or 1")));
     }
-    let sampling = Sampling { spp: spp as u32, adaptive: adaptive == 1 };
+    let target = match attrs.get(&Text::from("raylab.target_error")) {
+        None => None,
+        Some(AttributeValue::F64(e)) if *e > 0.0 && e.is_finite() => {
+            let min_spp = int("raylab.target_min_spp")?;
+            if min_spp < 2 {
+                return Err(err(format!("raylab.target_min_spp is {min_spp}: expected 2 or more")));
+            }
+            Some(crate::render::job::ErrorTarget { error: *e, min_spp: min_spp as u32 })
+        }
+        Some(_) => return Err(err("attribute raylab.target_error is not a number > 0".into())),
+    };
+    let sampling = Sampling { spp: spp as u32, adaptive: adaptive == 1, target };
     let (pass, passes) = (int("raylab.pass")?, int("raylab.passes")?);
     if !(passes >= 1 && pass >= 0 && pass < passes) {
         return Err(err(format!("sample pass {pass}/{passes} is not a pass of 1 or more (0 ≤ pass < passes)")));
@@ -233,8 +256,18 @@ pub fn read_partial(bytes: &[u8], name: &str, max_pixels: u64) -> Result<(FrameS
         Ok((0..n).map(|p| from_limbs(&parts.iter().map(|l| l[p]).collect::<Vec<u32>>())).collect())
     };
     let sum: Vec<Vec<i128>> = COLOR.iter().map(|c| wide(&format!("raylab.sum.{c}"), 4)).collect::<Result<_, _>>()?;
-    let (count, samples) = (channel("raylab.n")?, channel("raylab.samples")?);
-    let pixels = (0..n).map(|p| PixelSum { sum: [sum[0][p], sum[1][p], sum[2][p]], n: count[p], samples: samples[p] }).collect();
+    let (sq, odd) = (wide("raylab.sq", 4)?, wide("raylab.odd", 4)?);
+    let (count, samples, n_odd) = (channel("raylab.n")?, channel("raylab.samples")?, channel("raylab.n_odd")?);
+    let pixels = (0..n)
+        .map(|p| PixelSum {
+            sum: [sum[0][p], sum[1][p], sum[2][p]],
+            sq: sq[p],
+            odd: odd[p],
+            n: count[p],
+            n_odd: n_odd[p],
+            samples: samples[p],
+        })
+        .collect();
     let layers = if layered {
         let depth = wide("raylab.depth", 4)?;
         let (hits, rays) = (channel("raylab.hits")?, channel("raylab.rays")?);
@@ -286,7 +319,14 @@ mod tests {
                 signature: 0,
             });
         }
-        FrameSums { width: 10, height: 8, sampling: Sampling { spp: 12, adaptive: false }, share, pixels, layers: Some(layers) }
+        FrameSums {
+            width: 10,
+            height: 8,
+            sampling: Sampling { spp: 12, adaptive: false, target: None },
+            share,
+            pixels,
+            layers: Some(layers),
+        }
     }
 
     #[test]

@@ -216,6 +216,7 @@ mod tests {
             depth: Some(vec![1.5, f32::INFINITY]),
             normal: Some(vec![Vec3::Z, Vec3::X]),
             albedo: Some(vec![Vec3::splat(0.5), Vec3::ONE]),
+            ..Aovs::default()
         };
         let bytes = crate::image::exr::encode_exr(&film, &aovs, false).unwrap();
         assert_eq!(read_layer(&bytes, "exr", Layer::Color).unwrap().get(0, 0), Vec3::new(0.1, 0.2, 0.3));

@@ -3,16 +3,34 @@
 //! read goes through, the memory budget, shared assets and warnings.
 
 use crate::accel::{AccelChoice, BuildStats};
+use crate::load::mesh::{MeshFile, MeshRequest};
 use crate::math::color::Encoding;
 use crate::param::error::{Loc, Result, SceneError};
 use crate::param::files::{OpenLog, ReadError, read_regular};
 use crate::param::fingerprint::Fingerprint;
 use crate::param::limits::Limits;
-use crate::param::value::Node;
+use crate::param::value::{Node, Value};
 use std::any::Any;
 use std::collections::HashMap;
 use std::path::{Component, Path, PathBuf};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
+
+/// Reads a mesh file ([`crate::load::mesh`]). Unwind-safe, as the load context that carries
+/// it must stay.
+pub type MeshReader = Arc<dyn Fn(&MeshRequest, &LoadContext) -> Result<MeshFile> + Send + Sync + std::panic::RefUnwindSafe>;
+
+/// A mesh file format, chosen by the file's extension.
+#[derive(Clone)]
+pub struct MeshFormat {
+    /// Short name (`"obj"`).
+    pub name: &'static str,
+    /// Lower-case extensions without the dot (`["gltf", "glb"]`).
+    pub extensions: &'static [&'static str],
+    /// One line: what the format is and what of it is read.
+    pub summary: &'static str,
+    /// The reader.
+    pub read: MeshReader,
+}
 
 /// Settings given outside the scene file (command line), which take precedence over it.
 #[derive(Clone, Debug, std::default::Default)]
@@ -39,6 +57,73 @@ pub struct Overrides {
     /// Camera parameters, `(name, value)`, applied over the scene's `[camera]` (see
     /// [`crate::scene::camera::apply_overrides`]); they also supply a camera to a scene that has none.
     pub camera_params: Vec<(String, Node)>,
+}
+
+/// Parses one `KEY=VALUE` setting given outside the scene file, as `--set` and `--camera` take
+/// them: the value in TOML syntax, or a bare word (`--set ambient=first_hit`) taken as a string,
+/// as the shell leaves it once it has eaten quotes. Errors name `origin` (the flag) with the
+/// column.
+pub fn key_value(origin: &str, text: &str) -> Result<(String, Node)> {
+    let src = crate::param::error::Source::new(origin, text.to_string());
+    let Some(eq) = text.find('=') else {
+        return Err(SceneError::at(&Loc::new(&src, 0..text.len()), "expected KEY=VALUE"));
+    };
+    let key = text[..eq].trim().to_string();
+    let value = match crate::param::toml::parse_toml_value(&src, eq + 1..text.len()) {
+        Ok(v) => v,
+        Err(_) if is_bare_word(text[eq + 1..].trim()) => {
+            let word = text[eq + 1..].trim();
+            let start = eq + 1 + text[eq + 1..].find(word).unwrap_or(0);
+            Node { value: Value::Str(word.to_string()), loc: Loc::new(&src, start..start + word.len()) }
+        }
+        Err(e) => return Err(e),
+    };
+    Ok((key, value))
+}
+
+/// A word a shell passes unquoted that TOML would need quoted: a letter, then letters, digits,
+/// `_`, `-` or `.` (`first_hit`, `linear-truncated`). Numbers, `true`, `inf`, lists and tables
+/// parse as TOML before this is asked.
+fn is_bare_word(s: &str) -> bool {
+    s.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
+        && s.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'))
+}
+
+/// Sets the quality knob `name` to `value` in `o`, as `raylab sweep --vary NAME=…` does: `spp`
+/// (and stratified anti-aliasing unless `aa` is set), `depth`, `integrator`, the `[render]` keys
+/// `aa`, `aa_*` (and adaptive anti-aliasing unless `aa` is set) and `lens_samples`, the camera's
+/// `aperture` and `focus_distance`, and any other name as an integrator parameter. Settings it
+/// implies are located at `origin`.
+pub fn apply_knob(o: &mut LoadOptions, origin: &str, name: &str, value: &Node) -> Result<()> {
+    let ov = &mut o.overrides;
+    let set = |list: &mut Vec<(String, Node)>, key: &str, v: &Node| list.push((key.to_string(), v.clone()));
+    match name {
+        "spp" => match value.value {
+            Value::Int(n) if n >= 1 && n <= i64::from(u32::MAX) => {
+                // Samples per pixel are stratified anti-aliasing's knob (adaptive ignores them).
+                if !ov.render_params.iter().any(|(k, _)| k == "aa") {
+                    ov.render_params.push(("aa".to_string(), Node::given(origin, Value::Str("stratified".into()))));
+                }
+                ov.spp = Some(n as u32)
+            }
+            _ => return Err(SceneError::at(&value.loc, "spp must be a whole number ≥ 1")),
+        },
+        "aa_threshold" | "aa_depth" | "aa_edges" | "aa_signature" | "aa_cell_samples" | "aa_coarse" => {
+            if !ov.render_params.iter().any(|(k, _)| k == "aa") {
+                ov.render_params.push(("aa".to_string(), Node::given(origin, Value::Str("adaptive".into()))));
+            }
+            set(&mut ov.render_params, name, value);
+        }
+        "aa" | "lens_samples" | "target_error" | "target_min_spp" => set(&mut ov.render_params, name, value),
+        "aperture" | "focus_distance" => set(&mut ov.camera_params, name, value),
+        "integrator" => match &value.value {
+            Value::Str(t) => ov.integrator = Some(t.clone()),
+            _ => return Err(SceneError::at(&value.loc, "integrator must be a name (phong, path, …)")),
+        },
+        "depth" => ov.depth = Some(value.clone()),
+        _ => set(&mut ov.integrator_params, name, value),
+    }
+    Ok(())
 }
 
 /// How to load a scene.
@@ -105,6 +190,14 @@ pub struct LoadContext<'a> {
     warnings: Mutex<Vec<SceneError>>,
     charged: std::sync::atomic::AtomicU64,
     fingerprint: Mutex<Fingerprint>,
+    read: Mutex<Vec<PathBuf>>,
+    /// Paths as written, resolved once per load ([`LoadContext::resolve_path`]): a glTF placed by
+    /// 3·10⁵ instance nodes is looked up once, not 6·10⁵ times (each a `getcwd` and `readlink`s).
+    resolved: Mutex<HashMap<String, PathBuf>>,
+    /// The scene's folder, canonicalised once.
+    canonical_dir: OnceLock<PathBuf>,
+    resolutions: std::sync::atomic::AtomicU64,
+    mesh_formats: OnceLock<Vec<MeshFormat>>,
 }
 
 impl<'a> LoadContext<'a> {
@@ -117,7 +210,28 @@ impl<'a> LoadContext<'a> {
             warnings: Mutex::default(),
             charged: std::sync::atomic::AtomicU64::new(0),
             fingerprint: Mutex::default(),
+            read: Mutex::default(),
+            resolved: Mutex::default(),
+            canonical_dir: OnceLock::new(),
+            resolutions: std::sync::atomic::AtomicU64::new(0),
+            mesh_formats: OnceLock::new(),
         }
+    }
+
+    /// Makes `formats` (a registry's) the mesh formats this load reads; the loader calls it
+    /// before building objects. Only the first call counts.
+    pub fn use_mesh_formats(&self, formats: &[MeshFormat]) {
+        let _ = self.mesh_formats.set(formats.to_vec());
+    }
+
+    /// The mesh formats this load reads ([`Self::use_mesh_formats`]).
+    pub fn mesh_formats(&self) -> &[MeshFormat] {
+        self.mesh_formats.get().map_or(&[], Vec::as_slice)
+    }
+
+    /// The mesh format that reads files with extension `ext` (lower case, no dot).
+    pub fn mesh_format_for(&self, ext: &str) -> Option<&MeshFormat> {
+        self.mesh_formats().iter().rev().find(|f| f.extensions.contains(&ext))
     }
 
     /// Counts `bytes` (an estimate of what is about to be allocated for `what`) against
@@ -173,6 +287,12 @@ impl<'a> LoadContext<'a> {
         f.add("file", bytes);
     }
 
+    /// Every file read through [`LoadContext::read_file`] so far, as resolved (once each): what a
+    /// command must not overwrite ([`crate::param::files::same_file`]).
+    pub fn files_read(&self) -> Vec<PathBuf> {
+        self.read.lock().unwrap_or_else(|e| e.into_inner()).clone()
+    }
+
     /// The fingerprint of the files read so far.
     pub fn files_fingerprint(&self) -> Fingerprint {
         *self.fingerprint.lock().unwrap_or_else(|e| e.into_inner())
@@ -186,18 +306,41 @@ impl<'a> LoadContext<'a> {
     /// The scene's folder, canonicalised; an error at `loc` if it cannot be (the confinement
     /// check then cannot be made, so nothing is read).
     fn canonical_dir(&self, loc: &Loc) -> Result<PathBuf> {
-        self.dir().canonicalize().map_err(|e| {
+        if let Some(d) = self.canonical_dir.get() {
+            return Ok(d.clone());
+        }
+        let d = self.dir().canonicalize().map_err(|e| {
             SceneError::at(loc, format!("cannot resolve the scene's folder \"{}\": {e}", self.dir().display()))
                 .with_help("files the scene names are read only once its folder is known; pass --allow-outside-paths to skip the check")
-        })
+        })?;
+        Ok(self.canonical_dir.get_or_init(|| d).clone())
+    }
+
+    /// How many paths this load resolved against the file system ([`LoadContext::resolve_path`]
+    /// answers a path it resolved before from memory).
+    pub fn path_resolutions(&self) -> u64 {
+        self.resolutions.load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// Resolves a path written in the scene (at `loc`) against the scene's folder, refusing
     /// absolute paths and paths that leave the folder, through `..` or through symbolic links,
     /// unless `allow_outside_paths` is set. Fails closed: a path whose target or folder cannot be
     /// resolved is refused.
+    /// A path is resolved once per load and remembered (a link changed in between is still caught
+    /// when the file is opened: [`LoadContext::read_file`] checks the descriptor's real path).
     pub fn resolve_path(&self, path: &str, loc: &Loc) -> Result<PathBuf> {
         self.check_written_path(path, loc)?;
+        if let Some(full) = self.resolved.lock().unwrap_or_else(|e| e.into_inner()).get(path) {
+            return Ok(full.clone());
+        }
+        let full = self.resolve_anew(path, loc)?;
+        self.resolved.lock().unwrap_or_else(|e| e.into_inner()).insert(path.to_string(), full.clone());
+        Ok(full)
+    }
+
+    /// [`LoadContext::resolve_path`] against the file system.
+    fn resolve_anew(&self, path: &str, loc: &Loc) -> Result<PathBuf> {
+        self.resolutions.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let p = Path::new(path);
         let full = self.scene_dir.join(p);
         if !self.options.allow_outside_paths {
@@ -258,6 +401,11 @@ impl<'a> LoadContext<'a> {
         }
         let bytes = opened.read_to_end(self.options.limits.max_file_bytes).map_err(failed)?;
         self.fingerprint(path, &bytes);
+        let mut read = self.read.lock().unwrap_or_else(|e| e.into_inner());
+        if !read.contains(&full) {
+            read.push(full.clone());
+        }
+        drop(read);
         Ok((full, bytes))
     }
 }

@@ -23,7 +23,7 @@ use crate::render::{Antialiasing, MAX_ADAPTIVE_DEPTH, RenderJob, RenderSettings}
 use crate::scene::Scene;
 use crate::scene::camera::{CAMERA_PARAMS, Camera};
 use crate::scene::material::{Material, MaterialLibrary};
-use crate::scene::object::Object;
+use crate::scene::object::{EmissionSides, Object};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -110,6 +110,18 @@ pub const RENDER_PARAMS: &[ParamSpec] = &[
         Default::Int(1),
         "rays through distinct lens points per image sample (depth of field only), ≥ 1",
     ),
+    ParamSpec::new(
+        "target_error",
+        ParamKind::Float,
+        Default::Optional,
+        "stop each pixel once the estimated relative standard error of its mean luminance is at most this (e.g. 0.02), tested at target_min_spp samples and each doubling; spp is then the most a pixel takes (stratified only)",
+    ),
+    ParamSpec::new(
+        "target_min_spp",
+        ParamKind::Int,
+        Default::Int(16),
+        "with target_error: samples every pixel takes before its error is first tested, ≥ 2 (fewer lets pixels whose first samples happen to agree stop too early)",
+    ),
 ];
 
 /// Reads and builds the scene file at `path`, choosing the format by extension (`.toml` is
@@ -191,8 +203,6 @@ struct Parts {
     integrator_name: String,
     integrator_params: Table,
     settings: RenderSettings,
-    /// Where the integrator is set, for the work budget's error.
-    integrator_loc: Loc,
     /// The fingerprint of everything above that decides pixels (with the files read).
     fingerprint: Fingerprint,
 }
@@ -202,7 +212,6 @@ impl Parts {
         let mut scene = Scene::with_accel(self.name, self.camera, self.background, self.objects, self.lights, ctx.options.accel);
         scene.record_object_builds(ctx.assets.build_stats());
         let (integrator, ty) = (self.integrator, self.integrator_name);
-        check_work(&self.settings, &scene, integrator.as_ref(), &ty, &self.integrator_loc, ctx.options.limits.max_rays)?;
         let mut fingerprint = self.fingerprint;
         fingerprint.add("files", &ctx.files_fingerprint().hex().into_bytes());
         fingerprint.add("accel", format!("{:?}", ctx.options.accel).as_bytes());
@@ -214,11 +223,14 @@ impl Parts {
             settings: self.settings,
             warnings: ctx.take_warnings(),
             fingerprint: fingerprint.hex(),
+            inputs: ctx.files_read(),
+            max_rays: ctx.options.limits.max_rays,
         })
     }
 }
 
 fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) -> Result<Parts> {
+    ctx.use_mesh_formats(registry.mesh_formats());
     let opts = ctx.options;
     let ov = &opts.overrides;
     if opts.accel == AccelChoice::Bvh && !crate::accel::build::BVH_AVAILABLE {
@@ -332,8 +344,29 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
             )
             .with_help("raise the limit with --max-spp"));
     }
+    let target_min_spp = rp.int_in("target_min_spp", 2..=i64::from(u32::MAX))? as u32;
+    let target = match rp.float_opt("target_error")? {
+        None => None,
+        Some(e) if !(e > 0.0 && e.is_finite()) => {
+            return Err(rp.error_at("target_error", format_args!("expected a relative error > 0, found {e}")));
+        }
+        Some(_) if matches!(aa, Antialiasing::Adaptive(_)) => {
+            return Err(rp
+                .error_at("target_error", "an error target applies to stratified sampling, not to adaptive anti-aliasing")
+                .with_help("use aa = \"stratified\" (--aa stratified) with target_error"));
+        }
+        Some(_) if spp < i64::from(target_min_spp) => {
+            return Err(rp
+                .error_at(
+                    "target_error",
+                    format_args!("with an error target, spp ({spp}) is the most samples a pixel takes: it must be at least target_min_spp ({target_min_spp})"),
+                )
+                .with_help("raise spp (--spp 1024, say) or lower target_min_spp"));
+        }
+        Some(error) => Some(crate::render::job::ErrorTarget { error, min_spp: target_min_spp }),
+    };
     rp.finish()?;
-    let settings = RenderSettings { width: width as u32, height: height as u32, spp: spp as u32, seed, encoding, aa, lens_samples };
+    let settings = RenderSettings { width: width as u32, height: height as u32, spp: spp as u32, seed, encoding, aa, lens_samples, target };
 
     // [camera]
     let cam_node = root.node("camera")?;
@@ -414,7 +447,24 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
             Some(n) => Arc::from([materials.resolve(n, &what, &textures)?]),
             None => own_materials.unwrap_or_else(|| default_material.clone()),
         };
-        objects.push(Object::new(names.claim(node, &label, &ty, i)?, g, materials));
+        let sides = match params.get("emission_sides") {
+            None => EmissionSides::Both,
+            Some(n) => match &n.value {
+                Value::Str(s) => EmissionSides::parse(s).ok_or_else(|| {
+                    let hint = did_you_mean(s, EmissionSides::NAMES.iter().copied())
+                        .map_or(String::new(), |m| format!(" (did you mean \"{m}\"?)"));
+                    SceneError::at(&n.loc, format!("{what}: unknown emission_sides \"{s}\""))
+                        .with_help(format!("expected one of: {}{hint}", EmissionSides::NAMES.join(", ")))
+                })?,
+                _ => {
+                    return Err(SceneError::at(
+                        &n.loc,
+                        format!("{what}: emission_sides must be a string: \"both\", \"front\" or \"back\""),
+                    ));
+                }
+            },
+        };
+        objects.push(Object::new(names.claim(node, &label, &ty, i)?, g, materials).with_emission_sides(sides));
     }
 
     let camera = match (camera, fit) {
@@ -541,43 +591,8 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         integrator_name: ty,
         integrator_params: integ_table,
         settings,
-        integrator_loc: integ_loc,
         fingerprint,
     })
-}
-
-/// Refuses a render whose worst-case ray count exceeds `max_rays`, naming each factor.
-fn check_work(s: &RenderSettings, scene: &Scene, integrator: &dyn crate::Integrator, ty: &str, loc: &Loc, max_rays: u64) -> Result<()> {
-    let pixels = f64::from(s.width) * f64::from(s.height);
-    let (samples, what) = match s.aa {
-        Antialiasing::Stratified => (f64::from(s.spp), "spp"),
-        // Every point of the 2^depth lattice in each pixel, corners included.
-        Antialiasing::Adaptive(a) => {
-            let cells = f64::from(1u32 << a.max_depth.min(MAX_ADAPTIVE_DEPTH)).powi(2);
-            (
-                (f64::from(1u32 << a.max_depth.min(MAX_ADAPTIVE_DEPTH)) + 1.0).powi(2) + cells * f64::from(a.cell_samples),
-                "adaptive lattice points and cell samples per pixel",
-            )
-        }
-    };
-    let lens = if scene.camera.aperture > 0.0 { f64::from(s.lens_samples.max(1)) } else { 1.0 };
-    let per_ray = integrator.worst_case_rays(scene);
-    let total = pixels * samples * lens * per_ray;
-    if total.is_nan() || total > max_rays as f64 {
-        let e = SceneError::at(
-            loc,
-            format!(
-                "the render may trace {total:.3e} rays, over the budget of {max_rays}: {}×{} pixels × {samples} {what} × {lens} lens samples × {per_ray:.3e} rays per camera ray (integrator \"{ty}\": {})",
-                s.width,
-                s.height,
-                integrator.describe()
-            ),
-        );
-        return Err(
-            e.with_help("lower the knobs (spp, lens_samples, max_depth, glossy_rays, shadow_rays), or raise the budget with --max-rays")
-        );
-    }
-    Ok(())
 }
 
 /// `table` with `overrides` set over it (unknown keys are reported by the table's reader, at the
@@ -690,10 +705,16 @@ pub const OBJECT_PARAMS: &[ParamSpec] = &[
         Default::Str("default"),
         "name of a material in [materials], or an inline table such as { kd = [0.8, 0.2, 0.2] }; replaces the materials a mesh file defines",
     ),
+    ParamSpec::new(
+        "emission_sides",
+        ParamKind::Str,
+        Default::Str("both"),
+        "which sides give off the material's emission: \"both\" (raylab's convention), \"front\" (the outward side: out of a solid, a triangle's winding side; Mitsuba's) or \"back\"",
+    ),
 ];
 
 /// The keys of an `[[object]]` table that are not its plugin's parameters.
-const OBJECT_KEYS: &[&str] = &["type", "name", "transform", "material"];
+const OBJECT_KEYS: &[&str] = &["type", "name", "transform", "material", "emission_sides"];
 
 /// The keys of a `[[light]]` table that are not its plugin's parameters.
 const LIGHT_KEYS: &[&str] = &["type", "name"];

@@ -4,5 +4,6 @@
 
 pub mod context;
 pub mod loader;
+pub mod mesh;
 pub mod registry;
 pub mod textures;

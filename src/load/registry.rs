@@ -1,10 +1,13 @@
-//! The plugin registry: geometries, textures, lights, integrators and scene formats, by type name.
+//! The plugin registry: geometries, textures, materials, lights, integrators by type name, and
+//! the file formats of scenes, meshes and output images by extension.
 //!
 //! Built-in plugins register themselves through exactly this API; a crate outside raylab adds a
 //! geometry the same way (see docs/writing-a-plugin.md).
 
 use crate::geometry::Geometry;
-use crate::load::context::LoadContext;
+use crate::image::output::{OutputFormat, builtin_formats};
+use crate::image::write::WriteError;
+use crate::load::context::{LoadContext, MeshFormat};
 use crate::param::description::SceneDescription;
 use crate::param::error::Result;
 use crate::param::params::Params;
@@ -12,7 +15,7 @@ use crate::param::spec::ParamSpec;
 use crate::render::integrator::Integrator;
 use crate::scene::light::LightSource;
 use crate::scene::material::Material;
-use crate::scene::texture::Texture;
+use crate::scene::texture::{Texture, TextureResolver};
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::Arc;
@@ -43,6 +46,9 @@ pub struct BuiltGeometry {
 pub type GeometryBuilder = Arc<dyn Fn(&mut Params, &LoadContext) -> Result<BuiltGeometry> + Send + Sync>;
 /// Builds a texture from its parameters.
 pub type TextureBuilder = Arc<dyn Fn(&mut Params, &LoadContext) -> Result<Arc<dyn Texture>> + Send + Sync>;
+/// Builds a material from its parameters (colours may name textures, which `TextureResolver`
+/// finds).
+pub type MaterialBuilder = Arc<dyn Fn(&mut Params, &dyn TextureResolver) -> Result<Material> + Send + Sync>;
 /// Builds a light from its parameters.
 pub type LightBuilder = Arc<dyn Fn(&mut Params, &LoadContext) -> Result<Box<dyn LightSource>> + Send + Sync>;
 /// Builds an integrator from its parameters.
@@ -70,19 +76,39 @@ pub struct SceneFormat {
     pub read: SceneReader,
 }
 
-/// All known plugins, by type name.
-#[derive(Clone, Default)]
+/// All known plugins, by type name, and file formats.
+#[derive(Clone)]
 pub struct Registry {
     geometries: BTreeMap<&'static str, Plugin<GeometryBuilder>>,
     textures: BTreeMap<&'static str, Plugin<TextureBuilder>>,
+    materials: BTreeMap<&'static str, Plugin<MaterialBuilder>>,
     lights: BTreeMap<&'static str, Plugin<LightBuilder>>,
     integrators: BTreeMap<&'static str, Plugin<IntegratorBuilder>>,
     formats: Vec<SceneFormat>,
+    mesh_formats: Vec<MeshFormat>,
+    output_formats: Vec<OutputFormat>,
     default_integrator: Option<&'static str>,
 }
 
+impl std::default::Default for Registry {
+    fn default() -> Self {
+        Registry {
+            geometries: BTreeMap::new(),
+            textures: BTreeMap::new(),
+            materials: BTreeMap::new(),
+            lights: BTreeMap::new(),
+            integrators: BTreeMap::new(),
+            formats: Vec::new(),
+            mesh_formats: Vec::new(),
+            output_formats: builtin_formats(),
+            default_integrator: None,
+        }
+    }
+}
+
 impl Registry {
-    /// An empty registry.
+    /// A registry with no plugins, writing the core's own image formats (PNG, JPEG, PFM, and
+    /// OpenEXR with the `exr` feature).
     pub fn new() -> Self {
         Self::default()
     }
@@ -115,6 +141,16 @@ impl Registry {
         self.textures.insert(info.name, Plugin { info, build: Arc::new(build) });
     }
 
+    /// Registers a material type (`[materials.NAME] type = "…"`); replaces any earlier one of the
+    /// same name. A material table without a `type` is the report's coefficients (`phong`).
+    pub fn add_material(
+        &mut self,
+        info: PluginInfo,
+        build: impl Fn(&mut Params, &dyn TextureResolver) -> Result<Material> + Send + Sync + 'static,
+    ) {
+        self.materials.insert(info.name, Plugin { info, build: Arc::new(build) });
+    }
+
     /// Registers a light type; replaces any earlier one of the same name.
     pub fn add_light(
         &mut self,
@@ -145,6 +181,17 @@ impl Registry {
         self.formats.push(format);
     }
 
+    /// Registers a mesh-file format; its extensions take precedence over any earlier format's.
+    pub fn add_mesh_format(&mut self, format: MeshFormat) {
+        self.mesh_formats.push(format);
+    }
+
+    /// Registers an output image format; its extensions take precedence over any earlier
+    /// format's (a plugin may replace a built-in writer).
+    pub fn add_output_format(&mut self, format: OutputFormat) {
+        self.output_formats.push(format);
+    }
+
     /// The geometry type `name`.
     pub fn geometry(&self, name: &str) -> Option<&Plugin<GeometryBuilder>> {
         self.geometries.get(name)
@@ -153,6 +200,11 @@ impl Registry {
     /// The texture type `name`.
     pub fn texture(&self, name: &str) -> Option<&Plugin<TextureBuilder>> {
         self.textures.get(name)
+    }
+
+    /// The material type `name`.
+    pub fn material(&self, name: &str) -> Option<&Plugin<MaterialBuilder>> {
+        self.materials.get(name)
     }
 
     /// The light type `name`.
@@ -185,6 +237,11 @@ impl Registry {
         self.textures.values().map(|p| &p.info)
     }
 
+    /// Registered material types, sorted by name.
+    pub fn materials(&self) -> impl Iterator<Item = &PluginInfo> {
+        self.materials.values().map(|p| &p.info)
+    }
+
     /// Registered light types, sorted by name.
     pub fn lights(&self) -> impl Iterator<Item = &PluginInfo> {
         self.lights.values().map(|p| &p.info)
@@ -198,5 +255,144 @@ impl Registry {
     /// Registered scene formats.
     pub fn formats(&self) -> &[SceneFormat] {
         &self.formats
+    }
+
+    /// The options of a sweep's reference render (`raylab sweep --reference auto`): `o` (the base
+    /// options, loading `scene_integrator`) changed to render `integrator` with stratified sampling
+    /// at `reference_spp` samples per pixel (at least the largest `spp` swept), one lens sample, and
+    /// every depth and quality knob of the integrator at its reference value (by role, whatever the
+    /// parameter is called), at least as accurate as any value swept. `swept(name)` gives the
+    /// values a knob is swept over.
+    pub fn reference_options(
+        &self,
+        o: &mut crate::load::context::LoadOptions,
+        scene_integrator: &str,
+        integrator: &str,
+        swept: &dyn Fn(&str) -> Option<Vec<crate::param::value::Value>>,
+        reference_spp: u32,
+    ) {
+        use crate::param::spec::{Reference, Role};
+        let ov = &mut o.overrides;
+        if integrator != scene_integrator {
+            // The swept integrator's parameters and depth mean nothing to another one.
+            ov.integrator = Some(integrator.to_string());
+            ov.integrator_params.clear();
+            ov.depth = None;
+        }
+        let max_spp = swept("spp")
+            .unwrap_or_default()
+            .iter()
+            .filter_map(|v| if let crate::param::value::Value::Int(i) = v { Some(*i) } else { None })
+            .max()
+            .unwrap_or(1);
+        ov.spp = Some(u32::try_from(max_spp).unwrap_or(u32::MAX).max(reference_spp));
+        ov.render_params.retain(|(k, _)| !k.starts_with("aa") && !k.starts_with("target"));
+        ov.render_params.push((
+            "aa".to_string(),
+            crate::param::value::Node::given("--reference", crate::param::value::Value::Str("stratified".into())),
+        ));
+        ov.render_params
+            .push(("lens_samples".to_string(), crate::param::value::Node::given("--reference", crate::param::value::Value::Int(1))));
+        // Every depth and quality knob of the integrator at its reference value (by role, whatever
+        // the parameter is called), and at least as accurate as any value swept.
+        let params = self.integrator(integrator).map(|p| p.info.params).unwrap_or(&[]);
+        for spec in params {
+            let Some(reference) = spec.role.reference() else { continue };
+            let is_depth = matches!(spec.role, Role::Depth(_));
+            let numbers: Vec<f64> = swept(if is_depth { "depth" } else { spec.name })
+                .unwrap_or_default()
+                .iter()
+                .filter_map(|v| match v {
+                    crate::param::value::Value::Float(f) => Some(*f),
+                    crate::param::value::Value::Int(i) => Some(*i as f64),
+                    _ => None,
+                })
+                .collect();
+            let value = match reference {
+                Reference::Keep => continue,
+                Reference::AtLeast(r) => numbers.iter().copied().fold(r, f64::max),
+                Reference::AtMost(r) => numbers.iter().copied().fold(r, f64::min),
+                Reference::Exactly(d) => match d {
+                    crate::param::spec::Default::Int(i) => i as f64,
+                    crate::param::spec::Default::Float(f) => f,
+                    crate::param::spec::Default::Bool(b) => {
+                        ov.integrator_params.push((
+                            spec.name.to_string(),
+                            crate::param::value::Node::given("--reference", crate::param::value::Value::Bool(b)),
+                        ));
+                        continue;
+                    }
+                    _ => continue,
+                },
+            };
+            let value = if spec.kind == crate::param::spec::ParamKind::Int {
+                crate::param::value::Value::Int(value.round() as i64)
+            } else {
+                crate::param::value::Value::Float(value)
+            };
+            if is_depth {
+                ov.depth = Some(crate::param::value::Node::given("--reference", value));
+            } else {
+                ov.integrator_params.push((spec.name.to_string(), crate::param::value::Node::given("--reference", value)));
+            }
+        }
+    }
+
+    /// Every registered type with its parameter table, as JSON (`raylab plugins --json`, and
+    /// `raylab.plugins()` in Python): `{"geometries": [{"name", "summary", "params": [{"name",
+    /// "type", "default", "required", "doc", "role"}]}], "textures", "lights", "integrators",
+    /// "formats": [{"extensions", "summary"}]}`. A default is `null` when there is none.
+    pub fn to_json(&self) -> serde_json::Value {
+        use crate::param::spec::{Default, Role};
+        let param = |s: &ParamSpec| {
+            let default = match s.default {
+                Default::Required | Default::Optional => serde_json::Value::Null,
+                Default::Float(v) => v.into(),
+                Default::Int(v) => v.into(),
+                Default::Bool(v) => v.into(),
+                Default::Str(v) => v.into(),
+                Default::Vec3(v) => v.to_vec().into(),
+            };
+            let role = match s.role {
+                Role::Setting => "setting",
+                Role::Depth(_) => "depth",
+                Role::Quality(_) => "quality",
+            };
+            serde_json::json!({
+                "name": s.name,
+                "type": s.kind.name(),
+                "default": default,
+                "required": s.default == Default::Required,
+                "doc": s.doc,
+                "role": role,
+            })
+        };
+        let plugins = |items: &mut dyn Iterator<Item = &PluginInfo>| -> serde_json::Value {
+            items
+                .map(|p| serde_json::json!({ "name": p.name, "summary": p.summary, "params": p.params.iter().map(param).collect::<Vec<_>>() }))
+                .collect()
+        };
+        serde_json::json!({
+            "geometries": plugins(&mut self.geometries()),
+            "textures": plugins(&mut self.textures()),
+            "lights": plugins(&mut self.lights()),
+            "integrators": plugins(&mut self.integrators()),
+            "formats": self.formats.iter().map(|f| serde_json::json!({ "extensions": f.extensions, "summary": f.summary })).collect::<Vec<_>>(),
+        })
+    }
+
+    /// Registered mesh formats, in registration order.
+    pub fn mesh_formats(&self) -> &[MeshFormat] {
+        &self.mesh_formats
+    }
+
+    /// Registered output image formats, in registration order (the core's own first).
+    pub fn output_formats(&self) -> &[OutputFormat] {
+        &self.output_formats
+    }
+
+    /// The output format for `path`'s extension (case-insensitive).
+    pub fn output_format_for(&self, path: &Path) -> std::result::Result<&OutputFormat, WriteError> {
+        crate::image::output::format_among(&self.output_formats, path)
     }
 }

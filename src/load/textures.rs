@@ -18,12 +18,16 @@ use crate::load::registry::Registry;
 use crate::param::error::{Loc, Result, SceneError, did_you_mean};
 use crate::param::params::Params;
 use crate::param::value::{Node, Table, Value};
+use crate::scene::material::{Material, MaterialTypes};
 use crate::scene::texture::{Texture, TextureResolver};
 use std::cell::RefCell;
 use std::sync::Arc;
 
 /// The keys of a texture table that are not its plugin's parameters.
 const TEXTURE_KEYS: &[&str] = &["type"];
+
+/// The keys of a material table that are not its plugin's parameters.
+const MATERIAL_KEYS: &[&str] = &["type"];
 
 /// One `[textures.NAME]` table and, once a material has named it, the texture.
 struct Named<'a> {
@@ -124,6 +128,30 @@ impl<'a> TextureLibrary<'a> {
 impl TextureResolver for TextureLibrary<'_> {
     fn resolve(&self, node: &Node, what: &str) -> Result<Arc<dyn Texture>> {
         TextureLibrary::resolve(self, node, what)
+    }
+}
+
+/// Material tables with a `type` are built by the registry's material plugins, their colours'
+/// textures resolved by this library.
+impl MaterialTypes for TextureLibrary<'_> {
+    fn build_material(&self, ty: &Node, t: &Table, loc: &Loc, what: &str) -> Result<Material> {
+        let Value::Str(name) = &ty.value else {
+            let e = SceneError::at(&ty.loc, format!("`type` must be a material type name, found {}", ty.value.type_name()));
+            return Err(e.context(what));
+        };
+        let Some(plugin) = self.registry.material(name) else {
+            let names: Vec<&str> = self.registry.materials().map(|p| p.name).collect();
+            let e = SceneError::at(&ty.loc, format!("unknown material type \"{name}\"")).context(what);
+            return Err(e.with_help(match did_you_mean(name, names.iter().copied()) {
+                Some(m) => format!("did you mean \"{m}\"?"),
+                None => format!("material types: {}", names.join(", ")),
+            }));
+        };
+        let what = format!("{what} ({name})");
+        let mut p = Params::new(&what, plugin.info.params, t, loc.clone()).reserving(MATERIAL_KEYS);
+        let m = (plugin.build)(&mut p, self)?;
+        p.finish()?;
+        Ok(m)
     }
 }
 

@@ -93,6 +93,16 @@ pub fn max_channel(c: Color) -> f64 {
     c.max_element()
 }
 
+/// Rec. 709 / sRGB luminance weights of linear R, G, B (they sum to 1).
+pub const LUMINANCE: Color = Color::new(0.2126, 0.7152, 0.0722);
+
+/// Luminance of linear RGB `c` (Rec. 709 / sRGB primaries; Y of CIE XYZ): what importance
+/// sampling weighs colours by (lights by power) and what error estimates measure.
+#[inline]
+pub fn luminance(c: Color) -> f64 {
+    c.dot(LUMINANCE)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -3,6 +3,7 @@
 
 pub mod bounds;
 pub mod color;
+pub mod distribution;
 pub mod float;
 pub mod ray;
 pub mod sampler;

@@ -93,16 +93,46 @@ pub struct StratifiedSet {
     jy: u32,
 }
 
+/// Point `index` of the first two dimensions of the Sobol sequence, a (0, 2)-sequence, each
+/// coordinate scrambled by XOR with a hash of `pattern` (which keeps it a (0, 2)-sequence):
+/// every prefix of 2^k points puts one point in each elementary interval of area 2^-k, so a
+/// pixel that stops after any power of two of samples is stratified as if that were its count.
+#[inline]
+pub fn sobol_02(index: u32, pattern: u32) -> DVec2 {
+    let h = mix64(u64::from(pattern) ^ 0x5851_f42d_4c95_7f2d);
+    let x = index.reverse_bits() ^ (h as u32);
+    // The second dimension's generator matrix: the Pascal triangle mod 2, column by column.
+    let (mut y, mut v, mut k) = (0u32, 1u32 << 31, index);
+    while k != 0 {
+        if k & 1 != 0 {
+            y ^= v;
+        }
+        k >>= 1;
+        v ^= v >> 1;
+    }
+    let y = y ^ ((h >> 32) as u32);
+    let unit = |b: u32| (f64::from(b) * (1.0 / 4_294_967_296.0)).min(ONE_MINUS_EPSILON);
+    DVec2::new(unit(x), unit(y))
+}
+
+/// The `m` columns and `n` rows of strata of a stratified set of `count` points (0 counts as 1):
+/// `m = ⌈√count⌉`, `n = ⌈count / m⌉`; each point of the set lies in its own stratum.
+#[inline]
+pub fn strata(count: u32) -> (u32, u32) {
+    let count = count.max(1);
+    // ⌈√count⌉, without `ceil` (a library call on x86-64 without SSE4.1): the truncation,
+    // plus one where it fell short.
+    let root = (count as f64).sqrt();
+    let m = (root as u32 + u32::from(f64::from(root as u32) < root)).max(1);
+    (m, count.div_ceil(m))
+}
+
 impl StratifiedSet {
     /// The set of `count` points (0 counts as 1) for `pattern`.
     #[inline]
     pub fn new(count: u32, pattern: u32) -> Self {
         let count = count.max(1);
-        // ⌈√count⌉, without `ceil` (a library call on x86-64 without SSE4.1): the truncation,
-        // plus one where it fell short.
-        let root = (count as f64).sqrt();
-        let m = (root as u32 + u32::from(f64::from(root as u32) < root)).max(1);
-        let n = count.div_ceil(m);
+        let (m, n) = strata(count);
         StratifiedSet {
             count: Permutation::new(count, pattern.wrapping_mul(0x51633e2d)),
             m: Permutation::new(m, pattern.wrapping_mul(0x68bc21eb)),
@@ -309,6 +339,27 @@ fn randfloat(mut i: u32, p: u32) -> f64 {
 
 #[cfg(test)]
 mod tests {
+    /// Every prefix of 2^k Sobol points, scrambled, has one point in each elementary interval
+    /// of area 2^-k (every split into 2^a × 2^b cells with a + b = k).
+    #[test]
+    fn sobol_prefixes_are_0_2_nets() {
+        for pattern in [0u32, 1, 0xdead_beef] {
+            for k in 0..=8u32 {
+                let n = 1u32 << k;
+                let points: Vec<DVec2> = (0..n).map(|i| sobol_02(i, pattern)).collect();
+                for a in 0..=k {
+                    let (cols, rows) = (1u32 << a, 1u32 << (k - a));
+                    let mut seen = vec![false; n as usize];
+                    for p in &points {
+                        let cell = (p.y * f64::from(rows)) as u32 * cols + (p.x * f64::from(cols)) as u32;
+                        assert!(!seen[cell as usize], "pattern {pattern:#x}, {n} points, {cols}×{rows} cells: two in cell {cell}");
+                        seen[cell as usize] = true;
+                    }
+                }
+            }
+        }
+    }
+
     use super::*;
 
     #[test]

@@ -101,6 +101,31 @@ pub fn read_regular(path: &Path, limit: u64, log: Option<&OpenLog>) -> Result<Ve
     open_regular(path, log)?.read_to_end(limit)
 }
 
+/// True when `a` and `b` name one existing file, however each is spelled: the same canonical path
+/// (relative or absolute, with `./` or `..`, through a symbolic link) or, on Unix, the same device
+/// and inode (a hard link). A path that does not exist names no file. Every command that writes
+/// a file checks it against each file it reads with this ([`overwritten_input`]).
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    if let (Ok(x), Ok(y)) = (a.canonicalize(), b.canonicalize())
+        && x == y
+    {
+        return true;
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        if let (Ok(x), Ok(y)) = (std::fs::metadata(a), std::fs::metadata(b)) {
+            return x.dev() == y.dev() && x.ino() == y.ino();
+        }
+    }
+    false
+}
+
+/// The first of `inputs` that writing `output` would overwrite ([`same_file`]).
+pub fn overwritten_input<'a>(output: &Path, inputs: impl IntoIterator<Item = &'a Path>) -> Option<&'a Path> {
+    inputs.into_iter().find(|i| same_file(output, i))
+}
+
 /// What a file that is not regular is, in words.
 fn kind(t: &std::fs::FileType) -> &'static str {
     #[cfg(unix)]

@@ -20,8 +20,10 @@ pub struct Limits {
     /// Most memory the image may take, bytes: the film, the extra layers and the encoder's
     /// copies, estimated before rendering ([`crate::image::output::image_bytes`]).
     pub max_image_bytes: u64,
-    /// Most rays a render may trace in the worst case (pixels × camera samples × lens samples ×
-    /// the integrator's [`crate::Integrator::worst_case_rays`]), checked before rendering.
+    /// Most rays a render may trace, enforced while it traces and checked before it starts
+    /// ([`crate::render::budget`]); [`crate::RenderJob::max_rays`] carries it to the render loop.
+    /// `raylab trace` of one pixel is not held to it (its explanation has its own bound,
+    /// [`crate::render::trace::MAX_EXPLAINED_RAYS`]).
     pub max_rays: u64,
     /// Most memory the whole job may take, bytes, as estimated before each large allocation
     /// ([`LoadContext::charge`]): the parsed scene description, every object, every mesh with
@@ -29,22 +31,22 @@ pub struct Limits {
     pub max_memory: u64,
 }
 
-/// Default [`Limits::max_image_bytes`]: 3 GiB, which holds 4096 × 4096 as EXR with every layer
+/// Default [`Limits::max_image_bytes`]: 4 GiB, which holds 4096 × 4096 as EXR with every layer
 /// (the render's exact sums, the layers and the encoder's copies) and an 8K UHD frame as PNG; the
 /// job as a whole stays within [`DEFAULT_MAX_MEMORY`], which the image is charged against too.
-pub const DEFAULT_MAX_IMAGE_BYTES: u64 = 3 << 30;
+pub const DEFAULT_MAX_IMAGE_BYTES: u64 = 4 << 30;
 
-/// Default work budget, rays. The estimate is an upper bound (every fan full, every light
-/// sampled at every hit); the bundled scenes estimate at most 3.4e10 (quality.toml) and render in
-/// minutes, while the catalogue's knobs multiplied (2.3e14) would run for days.
+/// Default work budget, rays. Every bundled and course
+/// scene renders within it (`dozen` at 256 spp traces about 4.7·10⁸), while a scene whose rays
+/// all split without pruning is stopped by the pilot before it starts ([`crate::render::budget`]).
 pub const DEFAULT_MAX_RAYS: u64 = 100_000_000_000;
 
-/// Default [`Limits::max_memory`]: 3.25 GiB of estimated memory, so that with one file read
-/// whole beside it ([`DEFAULT_MAX_FILE_BYTES`]) a job stays under 4 GB.
-pub const DEFAULT_MAX_MEMORY: u64 = 13 << 28;
+/// Default [`Limits::max_memory`]: 4.25 GiB of estimated memory, so that with one file read
+/// whole beside it ([`DEFAULT_MAX_FILE_BYTES`]) a job stays under 5 GB.
+pub const DEFAULT_MAX_MEMORY: u64 = 17 << 28;
 
 /// Default [`Limits::max_file_bytes`]: 64 MiB, the largest single read, which is not part of
-/// the memory estimate while it happens ([`DEFAULT_MAX_MEMORY`] + this < 4 GB), and the largest
+/// the memory estimate while it happens ([`DEFAULT_MAX_MEMORY`] + this < 5 GB), and the largest
 /// input whose linear-time load stays within a minute (10⁶ spheres, 64 MB of TOML: about 20 s).
 /// The 1.1 M-triangle bunny OBJ (42 MB) is within it.
 pub const DEFAULT_MAX_FILE_BYTES: u64 = 1 << 26;

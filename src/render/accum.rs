@@ -8,7 +8,7 @@
 //! resolution at any value it can hold above 10⁻¹⁹), and a pixel's sum saturates at
 //! ±2⁶³ ≈ 9.2·10¹⁸ (it never wraps).
 
-use crate::math::color::Color;
+use crate::math::color::{Color, LUMINANCE, luminance};
 use crate::render::aov::Layers;
 use glam::Vec3;
 
@@ -92,20 +92,48 @@ fn float(s: i128) -> f64 {
 pub struct PixelSum {
     /// Σ radiance per channel, in units of 2⁻⁶⁴.
     pub sum: [i128; 3],
+    /// Σ of each ray's squared luminance (Rec. 709), in units of 2⁻⁶⁴: with `sum`, the sample
+    /// variance behind [`PixelSum::std_error`].
+    pub sq: i128,
+    /// Σ luminance of the rays of the second half of the samples (a checkerboard over the
+    /// pixel's strata), in units of 2⁻⁶⁴: the two halves behind [`PixelSum::half_variance`].
+    pub odd: i128,
     /// Rays whose radiance was finite (the divisor of the mean).
     pub n: u32,
+    /// Of those, rays of the second half.
+    pub n_odd: u32,
     /// Samples of the pixel's share already added (for a resume: which come next).
     pub samples: u32,
 }
 
 impl PixelSum {
-    /// Adds one ray's radiance `c` (finite).
+    /// Adds one ray's radiance `c` (finite), to the first half.
     #[inline]
     pub fn add(&mut self, c: Color) {
+        self.add_luminance(c);
+    }
+
+    /// Adds one ray's radiance `c` (finite), to the second of the two halves of the error
+    /// estimate when `second` ([`PixelSum::half_variance`]).
+    #[inline]
+    pub fn add_sample(&mut self, c: Color, second: bool) {
+        let y = self.add_luminance(c);
+        if second {
+            self.odd = add_saturating(self.odd, fixed_color(y));
+            self.n_odd += 1;
+        }
+    }
+
+    /// Adds `c` to the sums and its squared luminance to `sq`; returns the luminance.
+    #[inline(always)]
+    fn add_luminance(&mut self, c: Color) -> f64 {
         for (s, v) in self.sum.iter_mut().zip(c.to_array()) {
             *s = add_saturating(*s, fixed_color(v));
         }
+        let y = luminance(c);
+        self.sq = add_saturating(self.sq, fixed_color(y * y));
         self.n += 1;
+        y
     }
 
     /// A pixel whose value `c` was computed whole (adaptive anti-aliasing): one unit of weight.
@@ -128,11 +156,60 @@ impl PixelSum {
         if self.n == 1 { c } else { c / f64::from(self.n) }
     }
 
+    /// The mean luminance (0 when no ray counted).
+    pub fn mean_luminance(&self) -> f64 {
+        luminance(self.mean())
+    }
+
+    /// The estimated standard error of the mean luminance, `√(s² / n)` with `s²` the unbiased
+    /// sample variance of the rays' luminance (they are treated as independent: stratification
+    /// makes the true error smaller, never larger). `None` below two rays; +∞ when the squares
+    /// saturated.
+    pub fn std_error(&self) -> Option<f64> {
+        if self.n < 2 {
+            return None;
+        }
+        if self.sq == i128::MAX {
+            return Some(f64::INFINITY);
+        }
+        let n = f64::from(self.n);
+        let sum = (float(self.sum[0]) * LUMINANCE.x + float(self.sum[1]) * LUMINANCE.y + float(self.sum[2]) * LUMINANCE.z) * COLOR_UNIT;
+        let sq = float(self.sq) * COLOR_UNIT;
+        let variance = ((sq - sum * sum / n) / (n - 1.0)).max(0.0);
+        Some((variance / n).sqrt())
+    }
+
+    /// The variance of the mean luminance estimated from two halves of the samples (the black
+    /// and white squares of a checkerboard over the pixel's strata: each half covers every row
+    /// and column of strata, so it is stratified about as the whole is), `(A − B)² / 4`
+    /// for half means `A` and `B`: unlike [`PixelSum::std_error`], it sees what stratification
+    /// gains, but from one pixel it has a single degree of freedom; averaged over many pixels it
+    /// estimates an image's error. `None` unless both halves have rays.
+    pub fn half_variance(&self) -> Option<f64> {
+        let n_even = self.n - self.n_odd;
+        if self.n_odd == 0 || n_even == 0 {
+            return None;
+        }
+        let sum = (float(self.sum[0]) * LUMINANCE.x + float(self.sum[1]) * LUMINANCE.y + float(self.sum[2]) * LUMINANCE.z) * COLOR_UNIT;
+        let odd = float(self.odd) * COLOR_UNIT;
+        let d = (sum - odd) / f64::from(n_even) - odd / f64::from(self.n_odd);
+        Some(d * d / 4.0)
+    }
+
+    /// [`PixelSum::std_error`] relative to the mean luminance, or to `floor` where the pixel is
+    /// darker than that (dark pixels would otherwise never converge).
+    pub fn relative_error(&self, floor: f64) -> Option<f64> {
+        self.std_error().map(|e| e / self.mean_luminance().max(floor))
+    }
+
     /// `o`'s rays and samples added to these.
     pub fn merge(&mut self, o: &PixelSum) {
         for (s, v) in self.sum.iter_mut().zip(o.sum) {
             *s = s.saturating_add(v);
         }
+        self.sq = self.sq.saturating_add(o.sq);
+        self.odd = self.odd.saturating_add(o.odd);
+        self.n_odd = self.n_odd.saturating_add(o.n_odd);
         self.n = self.n.saturating_add(o.n);
         self.samples = self.samples.saturating_add(o.samples);
     }

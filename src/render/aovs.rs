@@ -1,5 +1,6 @@
-//! The extra layers of an image (depth, normal, albedo), as the render produces them and the EXR
-//! writer stores them (see [`crate::render::aov`] for what each means).
+//! The extra layers of an image (depth, normal, albedo; the error estimate and sample counts), as
+//! the render produces them and the EXR writer stores them (see [`crate::render::aov`] for what
+//! the first three mean, [`crate::render::accum::PixelSum::std_error`] for the error).
 
 use glam::Vec3;
 
@@ -12,15 +13,18 @@ pub enum Aov {
     Normal,
     /// Reflectance of the first surface.
     Albedo,
+    /// The estimated standard error of each pixel's mean luminance, and its samples.
+    Error,
 }
 
 impl Aov {
-    /// Parses `depth`, `normal` or `albedo`.
+    /// Parses `depth`, `normal`, `albedo` or `error` (also called `variance`).
     pub fn parse(s: &str) -> Option<Aov> {
         match s {
             "depth" => Some(Aov::Depth),
             "normal" => Some(Aov::Normal),
             "albedo" => Some(Aov::Albedo),
+            "error" | "variance" => Some(Aov::Error),
             _ => None,
         }
     }
@@ -35,4 +39,9 @@ pub struct Aovs {
     pub normal: Option<Vec<Vec3>>,
     /// Mean albedo per pixel.
     pub albedo: Option<Vec<Vec3>>,
+    /// Estimated standard error of each pixel's mean luminance (linear radiance units; NaN where
+    /// fewer than two rays were summed).
+    pub error: Option<Vec<f32>>,
+    /// Samples per pixel (they differ under an error target).
+    pub spp: Option<Vec<f32>>,
 }

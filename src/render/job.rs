@@ -1,6 +1,7 @@
 //! A render job: the scene, its integrator, and the image and sampling settings.
 
 use crate::math::color::Encoding;
+use crate::render::accum::PixelSum;
 use crate::render::integrator::Integrator;
 use crate::scene::Scene;
 
@@ -55,6 +56,51 @@ pub const MAX_ADAPTIVE_COARSE: u32 = 3;
 /// Most stratified samples in one unresolved cell of the adaptive lattice.
 pub const MAX_CELL_SAMPLES: u32 = 64;
 
+/// Adaptive sampling to a noise threshold: a pixel stops taking samples once the estimated
+/// relative error of its mean ([`PixelSum::relative_error`]) is at most `error`. It is tested
+/// at `min_spp` samples and each doubling of them (`min_spp`, `2·min_spp`, `4·min_spp`, …), so
+/// where a pixel stops depends on its own samples alone: the image is the same for any thread
+/// count, tile split or resume.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct ErrorTarget {
+    /// Relative standard error of a pixel's mean luminance to stop at (> 0).
+    pub error: f64,
+    /// Samples a pixel takes before its error is first tested (≥ 2).
+    pub min_spp: u32,
+}
+
+impl ErrorTarget {
+    /// Mean luminance (linear radiance) below which a pixel's error is taken relative to this
+    /// instead of to its own mean: the noise of pixels this dark is absolute, or they would
+    /// never stop.
+    pub const DARK: f64 = 1e-2;
+
+    /// Whether `p` is done: it has a tested sample count and its error there meets the target.
+    #[inline]
+    pub fn converged(&self, p: &PixelSum) -> bool {
+        let n = p.samples;
+        n >= self.min_spp
+            && n.is_multiple_of(self.min_spp)
+            && (n / self.min_spp).is_power_of_two()
+            && p.relative_error(Self::DARK).is_some_and(|e| e <= self.error)
+    }
+}
+
+impl PartialEq for ErrorTarget {
+    fn eq(&self, o: &Self) -> bool {
+        self.error.to_bits() == o.error.to_bits() && self.min_spp == o.min_spp
+    }
+}
+
+impl Eq for ErrorTarget {}
+
+impl std::hash::Hash for ErrorTarget {
+    fn hash<H: std::hash::Hasher>(&self, h: &mut H) {
+        self.error.to_bits().hash(h);
+        self.min_spp.hash(h);
+    }
+}
+
 /// Image and sampling settings of a render.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderSettings {
@@ -74,18 +120,32 @@ pub struct RenderSettings {
     /// Rays through distinct lens points per image sample (≥ 1), stratified over the lens; only
     /// used when the camera has an aperture.
     pub lens_samples: u32,
+    /// Stop each pixel at this error (stratified only); `spp` is then the most a pixel takes.
+    pub target: Option<ErrorTarget>,
 }
 
 impl RenderSettings {
     /// Settings with stratified sampling at `spp`, seed 0, sRGB output and one lens sample.
     pub fn new(width: u32, height: u32, spp: u32) -> Self {
-        RenderSettings { width, height, spp, seed: 0, encoding: Encoding::Srgb, aa: Antialiasing::Stratified, lens_samples: 1 }
+        RenderSettings {
+            width,
+            height,
+            spp,
+            seed: 0,
+            encoding: Encoding::Srgb,
+            aa: Antialiasing::Stratified,
+            lens_samples: 1,
+            target: None,
+        }
     }
 
     /// A short description: `16 spp` or `adaptive (threshold 0.05, depth 3)`, plus lens samples.
     pub fn describe_sampling(&self) -> String {
         let aa = match self.aa {
-            Antialiasing::Stratified => format!("{} spp", self.spp),
+            Antialiasing::Stratified => match self.target {
+                None => format!("{} spp", self.spp),
+                Some(t) => format!("to error {} ({}..{} spp)", t.error, t.min_spp.min(self.spp), self.spp),
+            },
             Antialiasing::Adaptive(a) => {
                 let mut d = format!("adaptive AA (threshold {}, depth {}", a.threshold, a.max_depth);
                 if !a.edges {
@@ -126,6 +186,13 @@ pub struct RenderJob {
     /// ([`crate::param::fingerprint`]): parts of a frame merge, and a checkpoint resumes, only
     /// under the same one.
     pub fingerprint: String,
+    /// The files the scene made raylab read (meshes, textures, glTF buffers, MTL libraries), as
+    /// resolved: a command writing a file checks it is none of them.
+    pub inputs: Vec<std::path::PathBuf>,
+    /// The work budget: the most rays a render of this job may trace (`--max-rays`;
+    /// `u64::MAX` for none), enforced by the render loop ([`crate::render::budget`]). Not part
+    /// of the image: a render within it gives the same bits whatever it is.
+    pub max_rays: u64,
 }
 
 /// Edge of the square tiles the image is split into, pixels.

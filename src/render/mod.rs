@@ -19,6 +19,7 @@ pub mod accum;
 pub mod adaptive;
 pub mod aov;
 pub mod aovs;
+pub mod budget;
 pub mod explain;
 pub mod film;
 pub mod integrator;
@@ -101,8 +102,11 @@ pub struct Rendered {
     pub stats: RayStats,
     /// Wall time of tracing (excludes loading and writing).
     pub elapsed: Duration,
-    /// False when cancelled before every pixel had its samples.
+    /// False when cancelled, or stopped by the work budget, before every pixel had its samples.
     pub complete: bool,
+    /// Set when the work budget ([`RenderJob::max_rays`]) stopped the render: the rays traced by
+    /// then (the tiles that ran out are discarded; the image holds the tiles done).
+    pub budget_stop: Option<u64>,
 }
 
 /// The state of a progressive render after one pass.
@@ -202,6 +206,12 @@ fn render_passes(
     if share.bounds.is_empty() || !share.bounds.within(&Rect::frame(s.width, s.height)) || share.passes == 0 || share.pass >= share.passes {
         return Err(format!("{} is not a share of the {}×{} frame", share.describe(), s.width, s.height));
     }
+    if s.target.is_some() && share.passes > 1 {
+        return Err(format!(
+            "{}: with an error target, where a pixel stops depends on all its samples so far, so its samples cannot be split into passes; split the frame by tiles or crops instead",
+            share.describe()
+        ));
+    }
     let sums = match options.resume {
         Some(r) => {
             if (r.width, r.height, r.share) != (s.width, s.height, share) || r.layers.is_some() != options.layers {
@@ -244,24 +254,35 @@ fn render_passes(
         }
         Antialiasing::Adaptive(_) => already + (0..sums.pixels.len()).map(|i| u64::from(sums.missing(i))).sum::<u64>(),
     };
+    budget::check(job, share, total - already)?;
     let done = AtomicU64::new(already);
+    // Rays traced so far, against the budget; set once a tile ran out of it.
+    let (traced, over) = (AtomicU64::new(0), AtomicBool::new(false));
     let state = Mutex::new(State { sums, stats: RayStats::new(counters), last_snapshot: Instant::now() });
     let lock = || state.lock().unwrap_or_else(|e| e.into_inner());
     let start = Instant::now();
     let mut complete = true;
     for &end in &ends {
         tiles.par_iter().for_each(|&tile| {
-            if options.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+            if options.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || over.load(Ordering::Relaxed) {
                 return;
             }
             let mut work = TileWork::take(&lock().sums, tile);
             let mut stats = RayStats::new(counters);
+            stats.set_allowance(job.max_rays.saturating_sub(traced.load(Ordering::Relaxed)));
             let before = work.samples();
             work.render(job, end, options.cancel, &mut stats);
             let added = work.samples() - before;
+            traced.fetch_add(stats.rays(), Ordering::Relaxed);
             let mut st = lock();
-            work.put(&mut st.sums);
             st.stats += stats;
+            if stats.exhausted() {
+                // The budget ran out inside this tile: its last sample is cut short, so none of
+                // its work is kept.
+                over.store(true, Ordering::Relaxed);
+                return;
+            }
+            work.put(&mut st.sums);
             if let Some(f) = options.on_tile {
                 f(&TileDone { tile, sums: &st.sums, stats: &st.stats, pass_end: end, elapsed: start.elapsed() });
             }
@@ -275,7 +296,7 @@ fn render_passes(
             progress(done.fetch_add(added, Ordering::Relaxed) + added, total);
         });
         let st = lock();
-        if options.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+        if options.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || over.load(Ordering::Relaxed) {
             complete = st.sums.complete();
             break;
         }
@@ -291,7 +312,8 @@ fn render_passes(
     if complete {
         on_pass(&Pass { film: &film, samples: *ends.last().unwrap_or(&1), elapsed, stats: st.stats });
     }
-    Ok(Rendered { film, layers, sums: st.sums, stats: st.stats, elapsed, complete })
+    let budget_stop = over.load(Ordering::Relaxed).then(|| traced.load(Ordering::Relaxed));
+    Ok(Rendered { film, layers, sums: st.sums, stats: st.stats, elapsed, complete: complete && budget_stop.is_none(), budget_stop })
 }
 
 /// One tile's sums, taken out of the shared state while its samples are traced.
@@ -336,7 +358,8 @@ impl TileWork {
     }
 
     /// Adds the share's samples below index `end` that each pixel lacks (stratified), or
-    /// computes the pixels not done yet (adaptive); stops between pixel rows when cancelled.
+    /// computes the pixels not done yet (adaptive); stops between pixel rows when cancelled or
+    /// when `stats` ran out of its allowance (the integrator stops within a sample).
     fn render(&mut self, job: &RenderJob, end: u32, cancel: Option<&AtomicBool>, stats: &mut RayStats) {
         let s = &job.settings;
         let t = self.tile;
@@ -345,7 +368,7 @@ impl TileWork {
             Antialiasing::Stratified => return self.render_stratified(job, end, cancel, stats),
         };
         for (i, (x, y)) in (t.y0..t.y1).flat_map(|y| (t.x0..t.x1).map(move |x| (x, y))).enumerate() {
-            if x == t.x0 && cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+            if x == t.x0 && (cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || stats.exhausted()) {
                 return;
             }
             let acc = &mut self.pixels[i];
@@ -370,7 +393,7 @@ impl TileWork {
         let frame = image_frame(job);
         let w = t.width() as usize;
         for (row, y) in (t.y0..t.y1).enumerate() {
-            if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+            if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || stats.exhausted() {
                 return;
             }
             let span = row * w..(row + 1) * w;
@@ -407,6 +430,9 @@ fn add_samples(
     stats: &mut RayStats,
 ) {
     while acc.samples < want && share.sample_index(acc.samples) < end {
+        if job.settings.target.is_some_and(|t| t.converged(acc)) {
+            break;
+        }
         let index = share.sample_index(acc.samples);
         trace_sample_in(job, frame, SampleId::Pixel { x, y, index }, acc, layers.as_deref_mut(), stats);
         acc.samples += 1;
@@ -444,6 +470,34 @@ pub fn pixel_samples(job: &RenderJob, x: u32, y: u32) -> Vec<(SampleId, f64)> {
 /// cannot explain itself.
 pub fn explain_sample(job: &RenderJob, id: SampleId) -> Option<Vec<crate::render::trace::TraceNode>> {
     camera_rays(job, id).map(|(ray, mut sampler)| job.integrator.explain(&job.scene, &ray, &mut sampler)).collect()
+}
+
+/// The explanation of one ray of `job`'s scene (`raylab trace --ray`), with the random stream of
+/// pixel (0, 0)'s first sample; `None` when the integrator cannot explain itself.
+pub fn explain_ray(job: &RenderJob, ray: &crate::math::ray::Ray) -> Option<crate::render::trace::TraceNode> {
+    job.integrator.explain(&job.scene, ray, &mut crate::math::sampler::Sampler::new(0, 0, job.settings.seed))
+}
+
+/// The explanation of sample `index` of pixel (`x`, `y`) (0-based, as [`pixel_samples`] lists
+/// them): one ray tree per camera ray, computed as the render computed that sample, bit for bit,
+/// and which sample it is. What `raylab trace --pixel X,Y --sample K` shows; an error when the
+/// pixel or the sample does not exist, or the integrator cannot explain itself.
+pub fn explain_pixel(
+    job: &RenderJob,
+    x: u32,
+    y: u32,
+    index: u32,
+) -> Result<(Vec<crate::render::trace::TraceNode>, crate::render::explain::SampleRef), String> {
+    let s = &job.settings;
+    if x >= s.width || y >= s.height {
+        return Err(format!("pixel ({x}, {y}) is outside the {}×{} image", s.width, s.height));
+    }
+    let samples = pixel_samples(job, x, y);
+    let &(id, weight) = samples
+        .get(index as usize)
+        .ok_or_else(|| format!("sample {index}: pixel ({x}, {y}) has {} samples (0..{})", samples.len(), samples.len()))?;
+    let trees = explain_sample(job, id).ok_or_else(|| format!("the integrator \"{}\" cannot explain rays", job.integrator_name))?;
+    Ok((trees, crate::render::explain::SampleRef { index, of: samples.len(), id, weight }))
 }
 
 #[cfg(test)]

@@ -3,7 +3,7 @@
 //! [`camera_rays`], so an explained sample is exactly the sample the render computed.
 
 use crate::math::ray::Ray;
-use crate::math::sampler::{Sampler, SeedKey, mix64, stratified_2d};
+use crate::math::sampler::{Sampler, SeedKey, mix64, sobol_02, stratified_2d};
 use crate::render::accum::{LayerSum, PixelSum};
 use crate::render::aov::Layers;
 use crate::render::job::RenderJob;
@@ -124,6 +124,10 @@ pub struct ImageFrame {
     seed: SeedKey,
     /// The layers of a camera ray that hits nothing.
     miss: Layers,
+    /// A pixel's stratified samples: their count, and the columns `m` of their set's strata.
+    strata: (f64, u32),
+    /// Pixel samples are Sobol points (an error target), not a stratified set.
+    progressive: bool,
 }
 
 /// The [`ImageFrame`] of `job`'s image.
@@ -133,6 +137,8 @@ pub fn image_frame(job: &RenderJob) -> ImageFrame {
         film: job.scene.camera.film_frame(job.settings.width, job.settings.height),
         seed: SeedKey::new(job.settings.seed),
         miss: Layers::miss(job.scene.background),
+        strata: (f64::from(job.settings.spp.max(1)), crate::math::sampler::strata(job.settings.spp).0),
+        progressive: job.settings.target.is_some() && job.settings.spp > 1,
     }
 }
 
@@ -148,7 +154,15 @@ pub fn camera_rays_in<'a>(job: &'a RenderJob, image: &ImageFrame, id: SampleId) 
             // The pixel's pattern key, hashed only when a stratified set (film or lens) uses it.
             let pattern =
                 if s.spp > 1 || job.scene.camera.aperture > 0.0 { (mix64(pixel ^ s.seed.rotate_left(17)) >> 32) as u32 } else { 0 };
-            let jitter = if s.spp == 1 { DVec2::splat(0.5) } else { stratified_2d(index, s.spp, pattern) };
+            // Under an error target a pixel may stop after any power of two of samples: its
+            // positions then come from a sequence whose every such prefix is stratified.
+            let jitter = if s.spp == 1 {
+                DVec2::splat(0.5)
+            } else if s.target.is_some() {
+                sobol_02(index, pattern)
+            } else {
+                stratified_2d(index, s.spp, pattern)
+            };
             CameraRays {
                 job,
                 frame,
@@ -226,6 +240,19 @@ pub fn trace_sample_in(
 ) -> u64 {
     let mut signature = 0u64;
     let rays = camera_rays_in(job, frame, id);
+    // Which half of the error estimate's two the sample joins. Stratified sets: by its stratum
+    // `s` of the pixel's `spp` rows, alternately, flipped on each of the set's m-stratum bands
+    // (so both halves cover every band and every column of the set). The Sobol points of an
+    // error target: by the parity of the index's bits (each pair 2j, 2j + 1, which share all
+    // but the top bit of both coordinates, is split between the halves).
+    let second = match id {
+        SampleId::Pixel { index, .. } if frame.progressive => index.count_ones() & 1 == 1,
+        SampleId::Pixel { y, .. } if frame.strata.1 > 1 => {
+            let s = ((rays.film.y - f64::from(y)) * frame.strata.0) as u32;
+            (s + s / frame.strata.1) & 1 == 1
+        }
+        _ => false,
+    };
     // The rays of the iterator, each built where the integrator reads it: taken from the
     // iterator's `(Ray, Sampler)`, the ray was copied in pieces that straddled its stores (a
     // store-forwarding stall on every camera ray).
@@ -236,7 +263,7 @@ pub fn trace_sample_in(
         stats.camera_rays += 1;
         let c = job.integrator.radiance(&job.scene, &ray, &mut sampler, stats, &mut first);
         if c.is_finite() {
-            acc.add(c);
+            acc.add_sample(c, second);
         } else {
             stats.nonfinite_samples += 1;
         }

@@ -91,12 +91,14 @@ pub struct Sampling {
     pub spp: u32,
     /// Adaptive anti-aliasing: one value per pixel.
     pub adaptive: bool,
+    /// Pixels stop at this error (then `spp` is the most a pixel takes).
+    pub target: Option<crate::render::job::ErrorTarget>,
 }
 
 impl Sampling {
     /// The sampling of `settings`.
     pub fn of(settings: &RenderSettings) -> Self {
-        Sampling { spp: settings.spp.max(1), adaptive: matches!(settings.aa, Antialiasing::Adaptive(_)) }
+        Sampling { spp: settings.spp.max(1), adaptive: matches!(settings.aa, Antialiasing::Adaptive(_)), target: settings.target }
     }
 }
 
@@ -186,7 +188,11 @@ impl FrameSums {
     /// How many samples pixel `i` (of the bounds) lacks to complete its share.
     pub fn missing(&self, i: usize) -> u32 {
         let (x, y) = self.share.bounds.pixel(i);
-        self.share.samples_of(self.sampling, self.width, x, y).saturating_sub(self.pixels[i].samples)
+        let p = &self.pixels[i];
+        if self.sampling.target.is_some_and(|t| t.converged(p)) {
+            return 0;
+        }
+        self.share.samples_of(self.sampling, self.width, x, y).saturating_sub(p.samples)
     }
 
     /// How far the share is: (samples done, samples of the whole share, pixels still lacking
@@ -255,8 +261,55 @@ impl FrameSums {
             let k = y as usize * self.width as usize + x as usize;
             (depth[k], normal[k], albedo[k]) = l.mean();
         }
-        Ok(Some(Aovs { depth: Some(depth), normal: Some(normal), albedo: Some(albedo) }))
+        Ok(Some(Aovs { depth: Some(depth), normal: Some(normal), albedo: Some(albedo), ..Aovs::default() }))
     }
+
+    /// The error estimate of each pixel ([`PixelSum::std_error`]; NaN where there is none) and its
+    /// sample count, over the whole frame (0 outside the share's bounds).
+    pub fn error_layers(&self) -> Result<(Vec<f32>, Vec<f32>), OutOfMemory> {
+        let n = self.width as usize * self.height as usize;
+        let mut error = try_filled(n, 0.0f32, "error layer")?;
+        let mut spp = try_filled(n, 0.0f32, "sample count layer")?;
+        for (i, p) in self.pixels.iter().enumerate() {
+            let (x, y) = self.share.bounds.pixel(i);
+            let k = y as usize * self.width as usize + x as usize;
+            error[k] = p.std_error().map_or(f32::NAN, |e| e as f32);
+            spp[k] = p.samples as f32;
+        }
+        Ok((error, spp))
+    }
+
+    /// The image's estimated error, from its pixels' samples; `None` when no pixel has two samples.
+    pub fn error_estimate(&self) -> Option<ErrorEstimate> {
+        let (mut pixels, mut variance, mut mean, mut samples) = (0u64, 0.0f64, 0.0f64, 0u64);
+        for p in &self.pixels {
+            samples += u64::from(p.samples);
+            if let Some(v) = p.half_variance() {
+                pixels += 1;
+                variance += v;
+                mean += p.mean_luminance();
+            }
+        }
+        (pixels > 0).then(|| ErrorEstimate {
+            relative_rmse: (variance / pixels as f64).sqrt() / (mean / pixels as f64).max(f64::MIN_POSITIVE),
+            pixels,
+            mean_spp: samples as f64 / self.pixels.len().max(1) as f64,
+        })
+    }
+}
+
+/// The estimated error of an image, from the spread of its pixels' samples
+/// ([`PixelSum::std_error`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ErrorEstimate {
+    /// √(mean over pixels of the variance of the mean luminance, from the samples' two
+    /// interleaved halves: [`PixelSum::half_variance`]) ÷ the mean luminance: the expected RMSE
+    /// of the image's luminance against the converged image, relative to its brightness.
+    pub relative_rmse: f64,
+    /// Pixels with an estimate (rays in both halves).
+    pub pixels: u64,
+    /// Mean samples per pixel.
+    pub mean_spp: f64,
 }
 
 /// One part of a frame to merge, named for messages.

@@ -51,6 +51,12 @@ pub struct RayStats {
     /// Samples whose radiance was NaN or infinite; they are dropped from the pixel average.
     pub nonfinite_samples: u64,
     counts: [u64; MAX_COUNTERS],
+    /// Bit `i` set when counter `i` counts rays (kind [`CounterKind::Rays`]).
+    rays_mask: u32,
+    /// Rays counted by those counters so far: [`RayStats::rays`] without walking the table.
+    traced: u64,
+    /// The rays this work may trace ([`RayStats::exhausted`]); `u64::MAX` by default.
+    allowance: u64,
 }
 
 impl Default for RayStats {
@@ -63,7 +69,9 @@ impl RayStats {
     /// Zero counts for an integrator with counters `table` (at most [`MAX_COUNTERS`]; more are
     /// not counted).
     pub fn new(table: &'static [Counter]) -> Self {
-        RayStats { table, camera_rays: 0, nonfinite_samples: 0, counts: [0; MAX_COUNTERS] }
+        let rays_mask =
+            table.iter().take(MAX_COUNTERS).enumerate().filter(|(_, c)| c.kind == CounterKind::Rays).fold(0, |m, (i, _)| m | 1 << i);
+        RayStats { table, camera_rays: 0, nonfinite_samples: 0, counts: [0; MAX_COUNTERS], rays_mask, traced: 0, allowance: u64::MAX }
     }
 
     /// Adds `n` to counter `i` of the table.
@@ -71,7 +79,29 @@ impl RayStats {
     pub fn add(&mut self, i: usize, n: u64) {
         if let Some(c) = self.counts.get_mut(i) {
             *c += n;
+            self.traced += n * u64::from(self.rays_mask >> i & 1);
         }
+    }
+
+    /// All rays traced so far (the same as [`RayStats::total_rays`], kept as they are counted).
+    #[inline]
+    pub fn rays(&self) -> u64 {
+        self.camera_rays + self.traced
+    }
+
+    /// Lets this work trace at most `rays` rays in all (counted from zero): past them,
+    /// [`RayStats::exhausted`] is true. The render loop gives each tile what is left of the work
+    /// budget ([`crate::render::budget`]).
+    pub fn set_allowance(&mut self, rays: u64) {
+        self.allowance = rays;
+    }
+
+    /// True once more rays were traced than allowed ([`RayStats::set_allowance`]). An integrator
+    /// whose rays branch checks it at each hit and stops recursing: the render then discards
+    /// the work and stops (the sample would be wrong), so one camera ray cannot run away.
+    #[inline]
+    pub fn exhausted(&self) -> bool {
+        self.rays() > self.allowance
     }
 
     /// Counter `i` of the table.
@@ -100,8 +130,12 @@ impl AddAssign for RayStats {
         if self.table.is_empty() {
             self.table = o.table;
         }
+        if self.rays_mask == 0 {
+            self.rays_mask = o.rays_mask;
+        }
         self.camera_rays += o.camera_rays;
         self.nonfinite_samples += o.nonfinite_samples;
+        self.traced += o.traced;
         for (a, b) in self.counts.iter_mut().zip(o.counts) {
             *a += b;
         }

@@ -13,6 +13,13 @@ use glam::DVec3;
 use serde::Serialize;
 use std::fmt::{self, Write};
 
+/// Most rays one explanation may trace (`raylab trace`, the live view's ray tree): its tree is
+/// kept in memory, and one beyond this is neither readable nor small. An integrator whose rays
+/// branch gives its explanation this allowance ([`crate::render::stats::RayStats::set_allowance`])
+/// and notes where it stopped. It is no budget of the frame: one pixel is never refused for the
+/// whole render's cost.
+pub const MAX_EXPLAINED_RAYS: u64 = 1 << 16;
+
 /// A named value in an explanation: a colour (a term of the result) or a number (a cosine, a
 /// probability density, a weight). The integrator chooses the names.
 #[derive(Clone, Debug, PartialEq, Serialize)]

@@ -15,6 +15,7 @@ use crate::param::error::{Loc, Result, SceneError, did_you_mean};
 use crate::param::params::Params;
 use crate::param::spec::{Default, ParamKind, ParamSpec};
 use crate::param::value::{Node, Table, Value};
+use crate::scene::bsdf::MaterialModel;
 use crate::scene::texture::{Texture, TexturePoint, TextureResolver};
 use glam::{DVec2, DVec3};
 use std::collections::BTreeMap;
@@ -51,6 +52,20 @@ pub struct Material {
     pub fresnel: Fresnel,
     /// Textures multiplying the colours above, evaluated at each hit (empty: constants).
     pub textures: Vec<TextureMap>,
+    /// The material plugin's own scattering model (`None`: the coefficients alone, read by each
+    /// integrator in its own way).
+    pub model: Option<Model>,
+}
+
+/// A material plugin's scattering model, shared by every object using the material.
+#[derive(Clone, Debug)]
+pub struct Model(pub Arc<dyn MaterialModel>);
+
+/// Two models are equal when they are the same object.
+impl PartialEq for Model {
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.0, &other.0)
+    }
 }
 
 /// A colour of a material that a texture may vary.
@@ -155,6 +170,7 @@ impl std::default::Default for Material {
             blur: 0.0,
             fresnel: Fresnel::Off,
             textures: Vec::new(),
+            model: None,
         }
     }
 }
@@ -279,10 +295,15 @@ impl Material {
         Ok(m)
     }
 
-    /// Reads a material from a table written at `loc`, checking for unknown keys.
-    pub fn from_table(t: &Table, loc: &Loc, what: &str, textures: &dyn TextureResolver) -> Result<Material> {
+    /// Reads a material from a table written at `loc`, checking for unknown keys: its `type`'s
+    /// plugin builds it (through `types`: the loader's registry); without a `type`, the table is
+    /// the coefficients themselves (`phong`).
+    pub fn from_table(t: &Table, loc: &Loc, what: &str, types: &dyn MaterialTypes) -> Result<Material> {
+        if let Some(ty) = t.get("type") {
+            return types.build_material(ty, t, loc, what);
+        }
         let mut p = Params::new(what, MATERIAL_PARAMS, t, loc.clone());
-        let m = Material::from_params(&mut p, textures)?;
+        let m = Material::from_params(&mut p, types)?;
         p.finish()?;
         Ok(m)
     }
@@ -387,6 +408,15 @@ impl Material {
     }
 }
 
+/// Where a material table with a `type` is built while a scene loads: the loader's texture
+/// library ([`crate::load::textures::TextureLibrary`]), which builds it through the registry's
+/// material plugins ([`crate::Registry::add_material`]). The scene layer names only this.
+pub trait MaterialTypes: TextureResolver {
+    /// The material of type `ty` (the table's `type` value) whose parameters are the table `t`,
+    /// written at `loc` (`what` names it in messages).
+    fn build_material(&self, ty: &Node, t: &Table, loc: &Loc, what: &str) -> Result<Material>;
+}
+
 /// Named materials of a scene (`[materials.NAME]`). A material named `default` replaces the
 /// built-in default for objects that name no material.
 #[derive(Clone, Debug, std::default::Default)]
@@ -418,7 +448,7 @@ impl MaterialLibrary {
     /// The material a scene value names: the name of one of these materials, or an inline table
     /// of coefficients, whose textures come from `textures` (`what` names the value's owner in
     /// messages).
-    pub fn resolve(&self, node: &Node, what: &str, textures: &dyn TextureResolver) -> Result<Material> {
+    pub fn resolve(&self, node: &Node, what: &str, textures: &dyn MaterialTypes) -> Result<Material> {
         match &node.value {
             Value::Str(s) => match self.get(s) {
                 Some(m) => Ok(m.clone()),

@@ -1,6 +1,8 @@
 //! The scene model: camera, background, objects, lights; and the ray queries integrators use.
 
+pub mod bsdf;
 pub mod camera;
+pub mod emitters;
 pub mod interaction;
 pub mod light;
 pub mod material;
@@ -14,6 +16,7 @@ use crate::math::color::Color;
 use crate::math::float::offset_ray_origin;
 use crate::math::ray::Ray;
 use crate::scene::camera::Camera;
+use crate::scene::emitters::Emitters;
 use crate::scene::interaction::Interaction;
 use crate::scene::light::{LightFacts, LightSource};
 use crate::scene::object::Object;
@@ -41,6 +44,8 @@ pub struct Scene {
     pub lights: Vec<Box<dyn LightSource>>,
     /// [`LightFacts`] of each light, parallel to `lights`.
     light_facts: Vec<LightFacts>,
+    /// The objects that emit and can be sampled as lights.
+    emitters: Emitters,
     accel: ObjectAccel,
     opaque: ObjectAccel,
     transmissive: ObjectAccel,
@@ -102,6 +107,7 @@ impl Scene {
         let bounds = boxes.iter().flatten().fold(Aabb::EMPTY, |a, b| a.union(*b));
         let ambient = lights.iter().map(|l| l.ambient()).sum();
         let light_facts = lights.iter().map(|l| LightFacts::of(l.as_ref())).collect();
+        let emitters = Emitters::new(&objects);
         Scene {
             name: name.into(),
             camera,
@@ -111,6 +117,7 @@ impl Scene {
             light_names,
             lights,
             light_facts,
+            emitters,
             accel,
             opaque,
             transmissive,
@@ -125,6 +132,12 @@ impl Scene {
     #[inline]
     pub fn light_facts(&self) -> &[LightFacts] {
         &self.light_facts
+    }
+
+    /// The objects that emit and can be sampled as lights ([`Emitters`]).
+    #[inline]
+    pub fn emitters(&self) -> &Emitters {
+        &self.emitters
     }
 
     /// Records the cost of the hierarchies the objects built over their own parts (reported by

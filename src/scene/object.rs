@@ -6,6 +6,50 @@ use crate::scene::material::{Coefficients, CoefficientsAt, Material};
 use glam::{DVec2, DVec3};
 use std::sync::{Arc, OnceLock};
 
+/// Which sides of an object's surface give off its material's `emission`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, std::default::Default)]
+pub enum EmissionSides {
+    /// Both sides (raylab's convention, the report's: an emissive sheet glows on both faces).
+    #[default]
+    Both,
+    /// The outward side only ([`crate::Geometry::outward_normal`]'s: out of a closed solid, a
+    /// triangle's winding side): Mitsuba's and glTF's area emitters (`doubleSided = false`).
+    Front,
+    /// The inward side only (the inside of an emissive dome).
+    Back,
+}
+
+impl EmissionSides {
+    /// The scene file's names, in the order of the variants.
+    pub const NAMES: [&'static str; 3] = ["both", "front", "back"];
+
+    /// The sides a scene file names.
+    pub fn parse(s: &str) -> Option<EmissionSides> {
+        match s {
+            "both" => Some(EmissionSides::Both),
+            "front" => Some(EmissionSides::Front),
+            "back" => Some(EmissionSides::Back),
+            _ => None,
+        }
+    }
+
+    /// Whether light leaves the side a ray arriving on the outward side (`front_face`) sees.
+    #[inline]
+    pub fn emits(self, front_face: bool) -> bool {
+        match self {
+            EmissionSides::Both => true,
+            EmissionSides::Front => front_face,
+            EmissionSides::Back => !front_face,
+        }
+    }
+
+    /// How many sides emit.
+    #[inline]
+    pub fn count(self) -> u32 {
+        if self == EmissionSides::Both { 2 } else { 1 }
+    }
+}
+
 /// A scene object: a shape (already placed by its transform) and the materials its surface uses.
 pub struct Object {
     /// Display name (the scene's `name`, or the type and index when unnamed).
@@ -18,6 +62,7 @@ pub struct Object {
     /// [`Geometry::is_closed`]: for a large mesh a pass over every edge, which only refraction
     /// needs; asked when the object is made if it transmits light, else on first use.
     closed: OnceLock<bool>,
+    sides: EmissionSides,
 }
 
 impl Object {
@@ -31,12 +76,24 @@ impl Object {
             let _ = closed.set(geometry.is_closed());
         }
         let constants = materials.iter().map(Material::constants).collect();
-        Object { name: name.into(), geometry, materials, constants, transmissive, closed }
+        Object { name: name.into(), geometry, materials, constants, transmissive, closed, sides: EmissionSides::Both }
     }
 
     /// `geometry` with one material.
     pub fn with_material(name: impl Into<String>, geometry: Box<dyn Geometry>, material: Material) -> Object {
         Object::new(name, geometry, Arc::from([material]))
+    }
+
+    /// The object with its emission leaving `sides` of the surface.
+    pub fn with_emission_sides(mut self, sides: EmissionSides) -> Object {
+        self.sides = sides;
+        self
+    }
+
+    /// Which sides of the surface emit.
+    #[inline]
+    pub fn emission_sides(&self) -> EmissionSides {
+        self.sides
     }
 
     /// The shape.

@@ -390,7 +390,15 @@ impl Session {
 
         // A coarse preview: the same scene at 1/PREVIEW_FACTOR of the size, one sample per pixel.
         let (pw, ph) = (s.width.div_ceil(PREVIEW_FACTOR), s.height.div_ceil(PREVIEW_FACTOR));
-        job.settings = crate::render::RenderSettings { width: pw, height: ph, spp: 1, aa: Antialiasing::Stratified, lens_samples: 1, ..s };
+        job.settings = crate::render::RenderSettings {
+            width: pw,
+            height: ph,
+            spp: 1,
+            aa: Antialiasing::Stratified,
+            lens_samples: 1,
+            target: None,
+            ..s
+        };
         let preview = crate::render::render(&job, &RenderOptions { threads, cancel: Some(cancel), ..RenderOptions::default() }, &|_, _| {});
         job.settings = s;
         if cancel.load(Ordering::Relaxed) {

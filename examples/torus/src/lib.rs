@@ -7,7 +7,8 @@
 //!
 //! It adds a [`torus`] geometry (a quartic, solved robustly by [`roots`]), and the other
 //! examples of `docs/writing-a-plugin.md`: a [`panel_light`] area light, an [`ao`] (ambient
-//! occlusion) integrator and a [`marble`] texture.
+//! occlusion) integrator, a [`marble`] texture, an [`oren_nayar`] (rough diffuse) material and a
+//! [`ppm`] image writer.
 //!
 //! ```no_run
 //! let registry = raylab_torus::registry();
@@ -16,7 +17,9 @@
 
 pub mod ao;
 pub mod marble;
+pub mod oren_nayar;
 pub mod panel_light;
+pub mod ppm;
 pub mod roots;
 pub mod torus;
 
@@ -25,13 +28,15 @@ use raylab::Registry;
 /// The scene the `raylab-torus` binary renders when run without arguments.
 pub const DEFAULT_SCENE: (&str, &str) = ("examples/torus/scenes/torus.toml", include_str!("../scenes/torus.toml"));
 
-/// Adds this crate's plugins to `r`: `torus`, the `panel` light, the `ao` integrator and the
-/// `marble` texture.
+/// Adds this crate's plugins to `r`: `torus`, the `panel` light, the `ao` integrator, the
+/// `marble` texture, the `oren_nayar` material and the `.ppm` output format.
 pub fn register(r: &mut Registry) {
     r.add_geometry(torus::INFO, torus::build);
     r.add_texture(marble::INFO, marble::build);
+    r.add_material(oren_nayar::INFO, oren_nayar::build);
     r.add_light(panel_light::INFO, panel_light::build);
     r.add_integrator(ao::INFO, ao::build);
+    r.add_output_format(ppm::format());
 }
 
 /// Every built-in plugin plus this crate's.

@@ -46,3 +46,31 @@ fn plugins_lists_the_crates_types_beside_the_built_ins() {
     }
     assert!(text.contains("major_radius") && text.contains("samples"));
 }
+
+/// The crate's one-file image writer: `-o NAME.ppm` writes binary PPM whose pixels are the PNG
+/// path's 8-bit conversion of the same render, and `plugins` lists the format.
+#[test]
+fn the_registered_ppm_writer_writes_the_render() {
+    let out_dir = std::env::temp_dir().join(format!("raylab-torus-ppm-{}", std::process::id()));
+    std::fs::create_dir_all(&out_dir).unwrap();
+    let ppm = out_dir.join("torus.ppm");
+    let args =
+        ["render", "examples/torus/scenes/torus.toml", "-o", ppm.to_str().unwrap(), "--width", "40", "--height", "30", "--spp", "1", "-q"];
+    let out = run(&args);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let bytes = std::fs::read(&ppm).unwrap();
+    let header = b"P6\n40 30\n255\n";
+    assert_eq!(&bytes[..header.len()], header);
+
+    let opts = raylab::LoadOptions {
+        overrides: raylab::load::context::Overrides { width: Some(40), height: Some(30), spp: Some(1), ..Default::default() },
+        ..Default::default()
+    };
+    let job = raylab::load::loader::load_file(&raylab_torus::registry(), &repo().join("examples/torus/scenes/torus.toml"), &opts).unwrap();
+    let film = raylab::render::render(&job, &raylab::render::RenderOptions::default(), &|_, _| {}).unwrap().film;
+    assert_eq!(&bytes[header.len()..], raylab::image::output::to_rgb8(&film, job.settings.encoding, None));
+
+    let text = String::from_utf8_lossy(&run(&["plugins"]).stdout).into_owned();
+    assert!(text.contains("\n  .ppm  — binary PPM"), "{text}");
+    std::fs::remove_dir_all(&out_dir).unwrap();
+}

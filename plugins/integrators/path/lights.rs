@@ -2,15 +2,17 @@
 //! sample of each light) and the lights a sampled ray meets on its way, the two strategies
 //! weighed against each other by the power heuristic where both can find the same light.
 
-use super::bsdf::Bsdf;
-use super::{Ctx, PathTracer, TAG_LIGHTS, counter};
+use super::{Ctx, PathTracer, TAG_EMITTERS, TAG_LIGHTS, counter};
+use raylab::glam::DVec3;
 use raylab::math::color::max_channel;
 use raylab::math::float::SHADOW_EPSILON;
 use raylab::math::sampler::stratified_2d;
 use raylab::render::trace::{Recorder, Term, TraceLight};
+use raylab::scene::bsdf::Bsdf;
+use raylab::scene::emitters::EmitterSample;
 use raylab::scene::interaction::Interaction;
 use raylab::scene::light::LightFacts;
-use raylab::{Color, Intersectable, LightPdf, LightSample, LightSource, Ray, Sampler};
+use raylab::{Color, Intersectable, LightPdf, LightSample, LightSource, Ray, Sampler, Scene};
 use std::f64::consts::PI;
 
 /// Irradiance per unit of a light's `intensity`. raylab's lights follow the report: a white
@@ -42,13 +44,24 @@ impl PathTracer {
         }
     }
 
+    /// Emitter samples at each vertex: [`PathTracer::light_samples`] (at least one).
+    pub(super) fn emitter_samples(&self) -> u32 {
+        self.light_samples.max(1)
+    }
+
+    /// Whether this path tracer samples `scene`'s emitting objects as lights.
+    pub(super) fn samples_emitters(&self, scene: &Scene) -> bool {
+        self.sample_emitters && !scene.emitters().is_empty()
+    }
+
     /// Next-event estimation at `si`: every light sampled, each sample's contribution through
     /// the smooth lobes of `bsdf`, weighed against `bsdf`'s own sampling when the light has an
-    /// extent.
-    pub(super) fn direct<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, bsdf: &Bsdf, sampler: &Sampler, rec: &mut R) -> Color {
+    /// extent; then the emitting objects, [`PathTracer::emitter_samples`] points chosen among
+    /// them by [`PathTracer::light_selection`], each weighed against `bsdf`'s sampling.
+    pub(super) fn direct<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, bsdf: &dyn Bsdf, sampler: &Sampler, rec: &mut R) -> Color {
         let scene = c.scene;
         if !bsdf.has_smooth_lobes() {
-            if !scene.lights.is_empty() {
+            if !scene.lights.is_empty() || self.samples_emitters(scene) {
                 c.stats.add(counter::SPECULAR_VERTICES, 1);
                 rec.note(|| "only specular lobes here: no light samples (lights are found by the scattered ray)".into());
             }
@@ -70,7 +83,113 @@ impl PathTracer {
             }
             total += sum / f64::from(n);
         }
+        if self.samples_emitters(scene) {
+            let n = self.emitter_samples();
+            let mut stream = sampler.fork(TAG_EMITTERS);
+            let mut sum = Color::ZERO;
+            for _ in 0..n {
+                let (pick, u) = (stream.next_1d(), stream.next_2d());
+                if let Some(es) = scene.emitters().sample(&scene.objects, si.point(), pick, u, self.light_selection) {
+                    sum += self.emitter_sample(c, si, bsdf, &es, n, rec);
+                }
+            }
+            total += sum / f64::from(n);
+        }
         total
+    }
+
+    /// One emitter sample's contribution (before dividing by the `n` samples), weighed against
+    /// `bsdf`'s sampling by the power heuristic.
+    fn emitter_sample<R: Recorder>(
+        &self,
+        c: &mut Ctx,
+        si: &Interaction,
+        bsdf: &dyn Bsdf,
+        es: &EmitterSample,
+        n: u32,
+        rec: &mut R,
+    ) -> Color {
+        let scene = c.scene;
+        let cos = if si.n.dot(es.dir) > 0.0 { si.ns.dot(es.dir) } else { 0.0 };
+        let record = |skipped: Option<&str>, visible: bool, occluder: Option<u32>, terms: &[Term]| TraceLight {
+            light: format!("emitter {}", scene.object_name(es.object)),
+            dir: es.dir,
+            distance: es.hit.t,
+            intensity: es.radiance,
+            n_dot_l: cos,
+            transmittance: if visible { Color::ONE } else { Color::ZERO },
+            occluder: occluder.map(|o| scene.object_name(o).to_string()),
+            terms: terms.to_vec(),
+            skipped: skipped.map(str::to_string),
+        };
+        if !(cos > 0.0) {
+            c.stats.add(counter::LIGHTS_BEHIND, 1);
+            rec.light(|| record(Some("the emitter's point is behind the surface as seen from the ray"), false, None, &[]));
+            return Color::ZERO;
+        }
+        if !(max_channel(es.radiance) > 0.0 && es.pdf > 0.0 && es.pdf.is_finite()) {
+            c.stats.add(counter::LIGHTS_UNREACHABLE, 1);
+            rec.light(|| record(Some("no light leaves the emitter's point toward here (its back, or seen edge-on)"), false, None, &[]));
+            return Color::ZERO;
+        }
+        let f = bsdf.eval(es.dir);
+        if !(max_channel(f) > 0.0) {
+            c.stats.add(counter::LIGHTS_NO_RESPONSE, 1);
+            rec.light(|| record(Some("the surface reflects nothing toward this emitter"), false, None, &[]));
+            return Color::ZERO;
+        }
+        let (p, q) = (es.pdf, bsdf.pdf(es.dir));
+        let mis = power_heuristic(f64::from(n) * p, q);
+        c.stats.add(counter::SHADOW_RAYS, 1);
+        let (ray, t_max) = si.spawn_shadow_ray(es.dir, es.hit.t);
+        let visible = !scene.occludes(&ray, 0.0, t_max);
+        let contribution = if visible { f * cos * es.radiance * (mis / p) } else { Color::ZERO };
+        rec.light(|| {
+            let occluder = if visible { None } else { scene.intersect(&ray, 0.0, t_max).map(|h| h.object) };
+            let terms = [
+                Term::color("bsdf", f),
+                Term::color("radiance", es.radiance),
+                Term::number("light pdf", p),
+                Term::number("bsdf pdf", q),
+                Term::number("mis", mis),
+                Term::color("contribution", contribution / f64::from(n)),
+            ];
+            record(None, visible, occluder, &terms)
+        });
+        contribution
+    }
+
+    /// The light `si`'s surface gives off back along the ray (its own side only,
+    /// [`Interaction::emission`]): in full after a camera ray or a specular event, else weighed
+    /// against the emitter samples at the vertex `from` that the ray left, which sampled it with
+    /// density `bsdf_pdf`.
+    pub(super) fn emission<R: Recorder>(&self, c: &mut Ctx, from: DVec3, si: &Interaction, bsdf_pdf: Option<f64>, rec: &mut R) -> Color {
+        let emission = si.emission();
+        if emission == Color::ZERO {
+            return emission;
+        }
+        let scene = c.scene;
+        let weighed = match bsdf_pdf {
+            Some(q) if self.sample_emitters => {
+                let p = f64::from(self.emitter_samples()) * scene.emitters().pdf(from, si, self.light_selection);
+                (p > 0.0).then(|| (power_heuristic(q, p), p, q))
+            }
+            _ => None,
+        };
+        match weighed {
+            Some((mis, p, q)) => {
+                c.stats.add(counter::LIGHT_HITS, 1);
+                rec.term(|| Term::color("emission", emission));
+                rec.term(|| Term::number("light pdf", p));
+                rec.term(|| Term::number("bsdf pdf", q));
+                rec.term(|| Term::number("mis", mis));
+                emission * mis
+            }
+            None => {
+                rec.term(|| Term::color("emission", emission));
+                emission
+            }
+        }
     }
 
     /// One light sample's contribution (before dividing by the light's `n` samples). A sample of
@@ -81,7 +200,7 @@ impl PathTracer {
         &self,
         c: &mut Ctx,
         si: &Interaction,
-        bsdf: &Bsdf,
+        bsdf: &dyn Bsdf,
         (index, light): (usize, &dyn LightSource),
         ls: &LightSample,
         n: u32,

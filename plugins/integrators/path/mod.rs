@@ -1,22 +1,29 @@
 //! `path`: a unidirectional path tracer with next-event estimation and multiple importance
-//! sampling, reading the same material coefficients as `phong`.
+//! sampling.
 //!
-//! A camera ray's path scatters at each surface it meets, by the energy-conserving model of
-//! [`bsdf`] (Lambertian `kd`, normalised Phong `ks`, mirror or glossy `kr`, Fresnel dielectric
-//! `kt`). At each vertex with a smooth lobe, every light is sampled with a shadow ray
-//! (next-event estimation, [`lights`]); the scattered ray also collects the lights it meets and
-//! the emission of the surface it hits. Where both strategies can find the same light (lights
-//! with an extent: `rect`, ball-shaped `point`/`spot`, or any light that answers
-//! [`raylab::LightSource::intersect`]) each is weighed by the power heuristic; point, spot and
-//! directional lights are found only by sampling, emissive surfaces only by rays.
+//! A camera ray's path scatters at each surface it meets by its material's BSDF
+//! ([`raylab::scene::bsdf`]): a material plugin's own model (`pbr`: the glTF BRDF), or for the
+//! report's coefficients the energy-conserving [`PhongBsdf`] (Lambertian `kd`, normalised Phong
+//! `ks`, mirror or glossy `kr`, Fresnel dielectric `kt`). At each vertex with a smooth lobe, every light is sampled with a shadow ray
+//! (next-event estimation, [`lights`]), and so are the emitting objects: `light_samples` points
+//! (at least one) on emitters chosen by `light_selection` (by power through an alias table, or
+//! uniformly), each on its shape's own sampling ([`raylab::Geometry::sample_surface`]: a sphere's
+//! visible cone, flat shapes and meshes by area). The scattered ray also collects the lights it
+//! meets and the emission of the surface it hits. Where both strategies can find the same light
+//! (lights with an extent: `rect`, ball-shaped `point`/`spot`, any light that answers
+//! [`raylab::LightSource::intersect`], and every sampled emitter) each is weighed by the power
+//! heuristic, the ray's side with the density the light samples at the vertex it left would have
+//! had; point, spot and directional lights are found only by sampling, emitters whose shape
+//! offers no sampling (planes, tubes, third-party shapes without it) only by rays.
 //!
 //! How the scene's terms enter a physically based estimate:
 //!
 //! - **Light intensities** keep the report's convention, in which a white diffuse surface facing
 //!   a light shows its intensity: a light sample of intensity `I` is irradiance `π·I`, so `path`
 //!   and `phong` agree on direct diffuse light and differ where the models differ.
-//! - **Emission** (material `emission`) is radiance, from both sides of a surface. Emissive
-//!   surfaces are not sampled as lights (shapes offer no point sampling); rays find them.
+//! - **Emission** (material `emission`) is radiance, leaving the sides the object's
+//!   `emission_sides` names: both by default (raylab's convention, the report's), `front` for
+//!   the outward side only (Mitsuba's area emitters, glTF's single-sided materials).
 //! - **Ambient lights** are the sky: a ray that leaves the scene after a diffuse or glossy
 //!   bounce sees radiance `ambient` (the sum of the ambient lights' `color × ka`) from every
 //!   direction. Rays that leave after only specular events (the camera ray, mirrors, glass) see
@@ -37,10 +44,10 @@
 //! never shifts the numbers used elsewhere. The recursion is written once, generic over a
 //! [`Recorder`]: [`NoRecord`] renders, a [`TraceNode`] explains. No allocation per ray.
 
-pub mod bsdf;
 mod lights;
 
-use bsdf::Bsdf;
+use crate::materials::phong::PhongBsdf;
+use raylab::glam::DVec3;
 use raylab::math::color::max_channel;
 use raylab::param::error::Result;
 use raylab::param::params::Params;
@@ -48,6 +55,8 @@ use raylab::param::spec::{Default, ParamKind, ParamSpec, Reference};
 use raylab::render::aov::Layers;
 use raylab::render::stats::{Counter, CounterKind};
 use raylab::render::trace::{NoRecord, Recorder, Term};
+use raylab::scene::bsdf::{Bsdf, with_bsdf};
+use raylab::scene::emitters::Selection;
 use raylab::scene::interaction::Interaction;
 use raylab::{Color, Integrator, LoadContext, PluginInfo, Ray, RayKind, RayStats, Sampler, Scene, TraceNode};
 
@@ -62,12 +71,16 @@ pub struct PathTracer {
     pub roulette_depth: u32,
     /// Shadow rays per light with an extent at each vertex (0: each light's own `samples`).
     pub light_samples: u32,
+    /// Whether emitting objects are sampled as lights (off: only rays find them).
+    pub sample_emitters: bool,
+    /// How an emitter is chosen for each emitter sample.
+    pub light_selection: Selection,
 }
 
 /// The `path` plugin's description.
 pub const INFO: PluginInfo = PluginInfo {
     name: "path",
-    summary: "A unidirectional path tracer: an energy-conserving BRDF from the material coefficients (Lambertian kd, normalised Phong ks, mirror or glossy kr, Fresnel dielectric kt), next-event estimation to every light with multiple importance sampling for area lights, emissive surfaces found by rays, ambient lights as a uniform sky, Russian roulette.",
+    summary: "A unidirectional path tracer: an energy-conserving BRDF from the material coefficients (Lambertian kd, normalised Phong ks, mirror or glossy kr, Fresnel dielectric kt), next-event estimation to every light and to emitting objects (chosen by power) with multiple importance sampling, ambient lights as a uniform sky, Russian roulette.",
     params: &[
         ParamSpec::new(
             "max_bounces",
@@ -90,6 +103,20 @@ pub const INFO: PluginInfo = PluginInfo {
             "shadow rays per light with an extent at each path vertex (0 = each light's own `samples`); point-like lights take one, 0..4096",
         )
         .quality(Reference::Keep),
+        ParamSpec::new(
+            "sample_emitters",
+            ParamKind::Bool,
+            Default::Bool(true),
+            "sample emitting objects (material emission) as lights at each vertex, weighed against the BSDF's rays by MIS; false: only rays find them",
+        )
+        .quality(Reference::Keep),
+        ParamSpec::new(
+            "light_selection",
+            ParamKind::Str,
+            Default::Str("power"),
+            "how each emitter sample chooses among the emitting objects: \"power\" (emission × area: a dim one among bright ones costs almost nothing) or \"uniform\"",
+        )
+        .quality(Reference::Keep),
     ],
 };
 
@@ -99,12 +126,14 @@ pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Integrator>> {
         max_bounces: p.int_in("max_bounces", 0..=1024)? as u32,
         roulette_depth: p.int_in("roulette_depth", 0..=1024)? as u32,
         light_samples: p.int_in("light_samples", 0..=4096)? as u32,
+        sample_emitters: p.bool("sample_emitters")?,
+        light_selection: Selection::parse(&p.choice("light_selection", &Selection::NAMES)?).unwrap_or_default(),
     }))
 }
 
 impl std::default::Default for PathTracer {
     fn default() -> Self {
-        PathTracer { max_bounces: 8, roulette_depth: 3, light_samples: 1 }
+        PathTracer { max_bounces: 8, roulette_depth: 3, light_samples: 1, sample_emitters: true, light_selection: Selection::Power }
     }
 }
 
@@ -154,6 +183,7 @@ const TAG_LIGHTS: u64 = 1;
 const TAG_BSDF: u64 = 2;
 const TAG_ROULETTE: u64 = 3;
 const TAG_NEXT: u64 = 4;
+const TAG_EMITTERS: u64 = 5;
 
 /// What one camera ray's path shares: the scene and the counters.
 struct Ctx<'a> {
@@ -176,18 +206,26 @@ struct PathState {
     bsdf_pdf: Option<f64>,
     /// Only specular events so far: a ray that leaves the scene sees the background, not the sky.
     specular: bool,
+    /// The point of the vertex that sent this ray (the camera ray: its origin): where its light
+    /// samples were taken from, so an emitter it meets is weighed with the same density.
+    from: DVec3,
 }
 
 impl PathState {
-    const CAMERA: PathState = PathState { depth: 0, beta: Color::ONE, eta_scale: 1.0, bsdf_pdf: None, specular: true };
+    /// The state of a camera ray from `origin`.
+    fn camera(origin: DVec3) -> PathState {
+        PathState { depth: 0, beta: Color::ONE, eta_scale: 1.0, bsdf_pdf: None, specular: true, from: origin }
+    }
 }
 
 impl PathTracer {
     /// Radiance arriving along `ray` (its own random stream `sampler`).
     fn li<R: Recorder>(&self, c: &mut Ctx, ray: &Ray, sampler: &Sampler, path: PathState, rec: &mut R) -> Color {
         let hit = c.scene.trace(ray);
-        let bsdf = hit.as_ref().filter(|_| path.depth <= self.max_bounces).map(Bsdf::new);
-        self.arrive(c, ray, hit.as_ref(), bsdf.as_ref(), sampler, path, rec)
+        match hit.as_ref().filter(|_| path.depth <= self.max_bounces) {
+            Some(si) => at_bsdf(si, |bsdf| self.arrive(c, ray, Some(si), Some(bsdf), sampler, path, rec)),
+            None => self.arrive(c, ray, hit.as_ref(), None, sampler, path, rec),
+        }
     }
 
     /// Radiance arriving along `ray`, which meets `hit` (or leaves the scene): the lights met on
@@ -199,7 +237,7 @@ impl PathTracer {
         c: &mut Ctx,
         ray: &Ray,
         hit: Option<&Interaction>,
-        bsdf: Option<&Bsdf>,
+        bsdf: Option<&dyn Bsdf>,
         sampler: &Sampler,
         path: PathState,
         rec: &mut R,
@@ -215,9 +253,7 @@ impl PathTracer {
             return radiance;
         };
         rec.hit(si);
-        let emission = si.material.emission;
-        rec.term(|| Term::color("emission", emission));
-        radiance += emission;
+        radiance += self.emission(c, path.from, si, path.bsdf_pdf, rec);
         if let Some(bsdf) = bsdf {
             radiance += self.direct(c, si, bsdf, sampler, rec);
             radiance += self.scatter(c, si, bsdf, sampler, path, rec);
@@ -231,7 +267,15 @@ impl PathTracer {
 
     /// The light brought back by one ray scattered at `si` by `bsdf`, times its weight; zero
     /// when the path ends here (absorbed, or by Russian roulette).
-    fn scatter<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, bsdf: &Bsdf, sampler: &Sampler, path: PathState, rec: &mut R) -> Color {
+    fn scatter<R: Recorder>(
+        &self,
+        c: &mut Ctx,
+        si: &Interaction,
+        bsdf: &dyn Bsdf,
+        sampler: &Sampler,
+        path: PathState,
+        rec: &mut R,
+    ) -> Color {
         let mut stream = sampler.fork(TAG_BSDF);
         let (pick, u, fresnel) = (stream.next_1d(), stream.next_2d(), stream.next_1d());
         let Some(s) = bsdf.sample(pick, u, fresnel) else {
@@ -265,6 +309,7 @@ impl PathTracer {
             eta_scale,
             bsdf_pdf: s.pdf,
             specular: path.specular && s.pdf.is_none(),
+            from: si.point(),
         };
         let mut child = rec.child(s.kind, &ray, next.depth, next.beta);
         let li = self.li(c, &ray, &sampler.fork(TAG_NEXT), next, &mut child);
@@ -285,11 +330,22 @@ impl PathTracer {
         let c = &mut Ctx { scene, stats };
         let hit = scene.trace(ray);
         // A camera ray is always within the bounce limit (depth 0).
-        let bsdf = hit.as_ref().map(Bsdf::new);
-        if let (Some(si), Some(bsdf)) = (&hit, &bsdf) {
-            *layers = Layers::surface(si, bsdf.albedo());
+        match &hit {
+            Some(si) => at_bsdf(si, |bsdf| {
+                *layers = Layers::surface(si, bsdf.albedo());
+                self.arrive(c, ray, Some(si), Some(bsdf), sampler, PathState::camera(ray.origin), rec)
+            }),
+            None => self.arrive(c, ray, None, None, sampler, PathState::camera(ray.origin), rec),
         }
-        self.arrive(c, ray, hit.as_ref(), bsdf.as_ref(), sampler, PathState::CAMERA, rec)
+    }
+}
+
+/// `f` of the BSDF at `si`: its material's model's, or the coefficients' ([`PhongBsdf`]).
+#[inline]
+fn at_bsdf<T>(si: &Interaction, f: impl FnOnce(&dyn Bsdf) -> T) -> T {
+    match si.model() {
+        Some(m) => with_bsdf(m, si, f),
+        None => f(&PhongBsdf::new(si)),
     }
 }
 
@@ -313,7 +369,10 @@ impl Integrator for PathTracer {
     /// A path is a chain: the camera ray and at most `max_bounces + 1` scattered rays, and at
     /// each of its `max_bounces + 1` vertices with light samples every light's shadow rays.
     fn worst_case_rays(&self, scene: &Scene) -> f64 {
-        let shadow: f64 = scene.light_facts().iter().map(|&l| f64::from(self.samples_for(l))).sum();
+        let mut shadow: f64 = scene.light_facts().iter().map(|&l| f64::from(self.samples_for(l))).sum();
+        if self.samples_emitters(scene) {
+            shadow += f64::from(self.emitter_samples());
+        }
         let vertices = f64::from(self.max_bounces) + 1.0;
         1.0 + vertices * (1.0 + shadow)
     }
@@ -321,7 +380,12 @@ impl Integrator for PathTracer {
     fn describe(&self) -> String {
         let roulette = if self.roulette_depth >= self.max_bounces { "off".to_string() } else { format!("after {}", self.roulette_depth) };
         let samples = if self.light_samples == 0 { "the lights' own".to_string() } else { self.light_samples.to_string() };
-        format!("max_bounces {}, roulette {roulette}, light samples {samples}", self.max_bounces)
+        let emitters = match (self.sample_emitters, self.light_selection) {
+            (false, _) => "found by rays only",
+            (true, Selection::Power) => "sampled by power",
+            (true, Selection::Uniform) => "sampled uniformly",
+        };
+        format!("max_bounces {}, roulette {roulette}, light samples {samples}, emitters {emitters}", self.max_bounces)
     }
 }
 

@@ -2,13 +2,14 @@
 //! the BSDF's sampling against its own density and its energy, closed and white furnaces, and
 //! direct light against `phong`.
 
-use super::bsdf::{Bsdf, Lobe, fresnel_dielectric, lobe_brdf, lobe_pdf, thin_slab_reflectance};
 use super::*;
+use crate::materials::phong::{PhongBsdf, fresnel_dielectric, lobe_brdf, lobe_pdf, thin_slab_reflectance};
 use crate::shapes::sphere::Sphere;
 use raylab::glam::{DVec2, DVec3};
 use raylab::load::context::LoadOptions;
 use raylab::math::sampler::stratified_2d;
 use raylab::param::limits::Limits;
+use raylab::scene::bsdf::{Bsdf, Lobe};
 use raylab::scene::object::Object;
 use raylab::testing::chi2::{Chi2Test, Sphere as Directions};
 use raylab::{Camera, Material, RenderJob};
@@ -66,11 +67,11 @@ fn top_of_sphere(material: Material, theta: f64, inside: bool) -> (Scene, Ray) {
     (scene, ray)
 }
 
-fn bsdf_at(material: Material, theta: f64, inside: bool) -> (Bsdf, DVec3) {
+fn bsdf_at(material: Material, theta: f64, inside: bool) -> (PhongBsdf, DVec3) {
     let (scene, ray) = top_of_sphere(material, theta, inside);
     let si = scene.trace(&ray).expect("the ray meets the sphere");
     assert!((si.point() - DVec3::Y).length() < 1e-9);
-    (Bsdf::new(&si), si.n)
+    (PhongBsdf::new(&si), si.n)
 }
 
 #[test]
@@ -143,7 +144,7 @@ fn hemisphere_integral(n: DVec3, g: impl Fn(DVec3) -> f64) -> f64 {
 }
 
 /// Mean of `Bsdf::sample`'s weights (zero where it returns nothing) over stratified samples.
-fn mean_weight(bsdf: &Bsdf, n: u32) -> (Color, f64) {
+fn mean_weight(bsdf: &PhongBsdf, n: u32) -> (Color, f64) {
     let mut sum = Color::ZERO;
     let mut accepted = 0;
     for i in 0..n {
@@ -185,7 +186,7 @@ fn sampling_agrees_with_the_density_and_the_brdf() {
 
 /// The density of the directions `Bsdf::sample` returns: `Bsdf::pdf` where the model has a
 /// value (elsewhere it declines the direction).
-fn returned_density(bsdf: &Bsdf, w: DVec3) -> f64 {
+fn returned_density(bsdf: &PhongBsdf, w: DVec3) -> f64 {
     if bsdf.eval(w).max_element() > 0.0 { bsdf.pdf(w) } else { 0.0 }
 }
 
@@ -244,7 +245,7 @@ fn the_lobe_chi2_test_rejects_a_wrong_normalisation() {
 fn a_blurry_dielectric_passes_the_chi2_test() {
     use crate::integrators::phong::{reflect, refract};
     let glass = Material { kd: Color::ZERO, kt: Color::ONE, ior: 1.5, blur: 0.25, ..Material::default() };
-    let n_lobe = super::bsdf::blur_exponent(0.25);
+    let n_lobe = crate::materials::phong::blur_exponent(0.25);
     // The lobe around `axis`, folded onto the side `side` faces.
     let folded = |w: DVec3, axis: DVec3, side: DVec3| {
         if w.dot(side) < 0.0 { 0.0 } else { lobe_pdf(w.dot(axis), n_lobe) + lobe_pdf(reflect(w, side).dot(axis), n_lobe) }

@@ -213,8 +213,14 @@ impl Phong {
     /// reflected and refracted rays.
     fn shade<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, sampler: &Sampler, depth: u32, weight: Color, rec: &mut R) -> Color {
         let m = &si.material;
-        let ambient = if self.ambient_first_hit && depth > 0 { Color::ZERO } else { m.ka * c.scene.ambient };
         rec.hit(si);
+        // The work budget is spent: this sample is discarded, so nothing more is traced for it.
+        if c.stats.exhausted() {
+            rec.note(|| format!("stopped: the rays allowed ({} traced) are spent", c.stats.rays()));
+            rec.color(Color::ZERO);
+            return Color::ZERO;
+        }
+        let ambient = if self.ambient_first_hit && depth > 0 { Color::ZERO } else { m.ka * c.scene.ambient };
         rec.term(|| Term::color("emission", m.emission));
         rec.term(|| Term::color("ambient", ambient));
         let mut color = m.emission + ambient;
@@ -274,6 +280,7 @@ impl Integrator for Phong {
 
     fn explain(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler) -> Option<TraceNode> {
         let mut stats = RayStats::new(COUNTERS);
+        stats.set_allowance(raylab::render::trace::MAX_EXPLAINED_RAYS);
         let mut layers = Layers::miss(scene.background);
         let mut root = TraceNode::new(RayKind::Camera, *ray, 0, Color::ONE);
         self.camera(scene, ray, sampler, &mut stats, &mut layers, &mut root);
@@ -284,11 +291,15 @@ impl Integrator for Phong {
         COUNTERS
     }
 
-    /// Every hit of a path tree up to `max_depth` has a reflection and a refraction fan and
-    /// takes every light's probes and samples. A fan has at most `ceil(glossy_rays × w)` rays for
-    /// its weight `w`, and its rays share `w`, so the weights at one depth sum to at most
-    /// `gain^depth`, `gain` the scene's [`bounce_gain`]; with `avoid` off, every fan has
-    /// `glossy_rays` rays at full weight.
+    /// The rays of a path tree as the scene's materials and the pruning threshold allow them
+    /// ([`Bounces`]): a ray's weight is the product of the coefficients along its path, so with
+    /// pruning no branch goes deeper than the depth at which the largest coefficient's powers
+    /// fall below the threshold; the weights of one depth's fans sum to at most `gain^depth`,
+    /// and with pruning each fan carries at least the threshold, so there are at most
+    /// `gain^depth / threshold` of them; a hit has two fans only where a material both reflects
+    /// and transmits, and a fan has more than one ray only at a blurred material (at most
+    /// `ceil(glossy_rays × w)` for its weight `w`). Every hit takes every light's probes and
+    /// samples. With `avoid` off, every hit has both fans and every fan is `glossy_rays` wide.
     fn worst_case_rays(&self, scene: &Scene) -> f64 {
         let per_hit: f64 = scene
             .lights
@@ -299,20 +310,19 @@ impl Integrator for Phong {
                 f64::from(full) + f64::from(probes)
             })
             .sum();
-        let g = f64::from(self.glossy_rays);
-        let gain = bounce_gain(scene);
-        let (mut hits, mut level, mut weight) = (1.0, 1.0, 1.0);
-        for _ in 0..self.max_depth {
-            let full = 2.0 * g * level;
-            // The fans of one depth share `gain · weight`, each rounded up to a whole ray; a fan
-            // of weight zero is not traced.
-            level = match self.avoid {
-                true if gain > 0.0 => full.min(g * gain * weight + 2.0 * level),
-                true => 0.0,
-                false => full,
-            };
-            weight *= gain;
+        let b = Bounces::of(scene);
+        let g = if b.blurred || !self.avoid { f64::from(self.glossy_rays) } else { 1.0 };
+        let fans_per_hit: f64 = if b.splits || !self.avoid { 2.0 } else { 1.0 };
+        let p = self.prune_threshold;
+        let depth = f64::from(self.max_depth).min(b.reach(p));
+        let (mut hits, mut level, mut mass) = (1.0, 1.0, 1.0);
+        let mut d = 0.0;
+        while d < depth && level > 0.0 {
+            mass *= b.gain;
+            let fans = if p > 0.0 { (fans_per_hit * level).min(mass / p) } else { fans_per_hit * level };
+            level = if g > 1.0 { (g * fans).min(g * mass + fans) } else { fans };
             hits += level;
+            d += 1.0;
         }
         hits * (1.0 + per_hit)
     }
@@ -335,12 +345,57 @@ impl Integrator for Phong {
     }
 }
 
-/// The most weight a hit passes on to its reflected and transmitted rays together: the largest
-/// `kr + kt` (each its largest channel) of the scene's materials. A textured channel is bounded
-/// by its constant (texture values at most 1, as in the whole budget); Fresnel's `F·kr` and
-/// `(1 − F)·kt` stay within it.
-fn bounce_gain(scene: &Scene) -> f64 {
-    scene.objects.iter().flat_map(|o| o.materials()).map(|m| max_channel(m.kr.abs()) + max_channel(m.kt.abs())).fold(0.0, f64::max)
+/// What the scene's materials let a path tree do (textured channels bounded by their
+/// constants, texture values being at most 1).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bounces {
+    /// The most weight a hit passes on to its reflected and transmitted rays together: the
+    /// largest `kr + kt` (each its largest channel), or with Fresnel the largest `max(kr, kt)`
+    /// (`F·kr + (1 − F)·kt` is at most that).
+    pub gain: f64,
+    /// The largest coefficient one child ray gets: the largest `kr` or `kt` (largest channel).
+    pub largest: f64,
+    /// Some material both reflects and transmits: a hit there splits its ray in two.
+    pub splits: bool,
+    /// Some material is blurred (`blur > 0`): its fans hold several rays.
+    pub blurred: bool,
+}
+
+impl Bounces {
+    /// What the materials of `scene` allow.
+    pub fn of(scene: &Scene) -> Bounces {
+        let mut b = Bounces { gain: 0.0, largest: 0.0, splits: false, blurred: false };
+        for m in scene.objects.iter().flat_map(|o| o.materials()) {
+            let (kr, kt) = (max_channel(m.kr.abs()), max_channel(m.kt.abs()));
+            let gain = if m.fresnel == raylab::scene::material::Fresnel::Off { kr + kt } else { kr.max(kt) };
+            b.gain = b.gain.max(gain);
+            b.largest = b.largest.max(kr).max(kt);
+            b.splits |= kr > 0.0 && kt > 0.0;
+            b.blurred |= m.blur > 0.0 && kr + kt > 0.0;
+        }
+        b
+    }
+
+    /// The deepest a branch can go under the pruning threshold `p`: a ray at depth `d` weighs at
+    /// most `largest^d`, and is traced only if that is at least `p`. Infinite without pruning
+    /// or when a coefficient of 1 or more lets a weight keep up.
+    pub fn reach(&self, p: f64) -> f64 {
+        if !(p > 0.0) || self.largest >= 1.0 {
+            return f64::INFINITY;
+        }
+        if self.largest <= 0.0 {
+            return 0.0;
+        }
+        // The largest whole `d` with `largest^d ≥ p`, safe against rounding of the logarithms.
+        let mut d = (p.ln() / self.largest.ln()).floor().max(0.0);
+        while self.largest.powf(d + 1.0) >= p {
+            d += 1.0;
+        }
+        while d > 0.0 && self.largest.powf(d) < p {
+            d -= 1.0;
+        }
+        d
+    }
 }
 
 #[cfg(test)]

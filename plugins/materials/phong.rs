@@ -1,4 +1,6 @@
-//! The path tracer's scattering model at one hit, built from the material's coefficients:
+//! `phong`: the report's coefficients, the default material (`[materials.NAME]` without a
+//! `type`). `phong` the integrator reads them as the report did; the path tracer reads them
+//! through the scattering model below, [`PhongBsdf`]:
 //!
 //! ```text
 //! f(ωo, ωi) = kd/π + ks·(n+2)/(2π)·cos^n α + kr·δ_mirror + kt·δ_dielectric
@@ -23,53 +25,44 @@
 //! The four weights are scaled down together so their sum is at most 1 in every channel: a
 //! material that would reflect more than it receives reflects all of it. Lobes are sampled in
 //! proportion to their weights (mean over channels); the diffuse lobe with cosine-weighted
-//! directions, the Phong lobes with `cos^n α`. [`Bsdf::pdf`] is the density of that whole
+//! directions, the Phong lobes with `cos^n α`. The BSDF's `pdf` is the density of that whole
 //! strategy, for weighing it against light samples.
+//!
+//! A material with no model of its own (`model` `None`: every `phong` material, and those of
+//! OBJ files and the report's XML scenes) is read by the path tracer through [`PhongBsdf`].
 
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::color::max_channel;
 use raylab::math::sampler::{concentric_disc, orthonormal_basis};
+use raylab::param::error::Result;
+use raylab::param::params::Params;
+use raylab::scene::bsdf::{Bsdf, Lobe, Scatter};
 use raylab::scene::interaction::Interaction;
-use raylab::scene::material::Fresnel;
-use raylab::{Color, RayKind};
+use raylab::scene::material::{Fresnel, MATERIAL_PARAMS};
+use raylab::scene::texture::TextureResolver;
+use raylab::{Color, Material, PluginInfo, RayKind};
 use std::f64::consts::{FRAC_1_PI, TAU};
 
 use crate::integrators::phong::{reflect, refract};
 
-/// A component of the scattering model.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Lobe {
-    /// Lambertian reflection (`kd`).
-    Diffuse,
-    /// The normalised Phong highlight (`ks`).
-    Specular,
-    /// A blurry mirror as a Phong lobe (`kr` with `blur > 0`).
-    Glossy,
-    /// A perfect mirror (`kr`).
-    Mirror,
-    /// Fresnel reflection or transmission of a dielectric (`kt`).
-    Dielectric,
-}
-
-impl Lobe {
-    /// The lobe's name in explanations.
-    pub fn name(self) -> &'static str {
-        match self {
-            Lobe::Diffuse => "diffuse",
-            Lobe::Specular => "specular",
-            Lobe::Glossy => "glossy",
-            Lobe::Mirror => "mirror",
-            Lobe::Dielectric => "dielectric",
-        }
-    }
-}
-
-/// The lobes in the order of [`Bsdf::choice`].
+/// The lobes in the order of [`PhongBsdf::choice`].
 const LOBES: [Lobe; 5] = [Lobe::Diffuse, Lobe::Specular, Lobe::Glossy, Lobe::Mirror, Lobe::Dielectric];
+
+/// The `phong` material's description.
+pub const INFO: PluginInfo = PluginInfo {
+    name: "phong",
+    summary: "The report's coefficients (the default material: a [materials.NAME] table without a `type`). `phong` reads them as the report did; the path tracer as an energy-conserving BSDF: Lambertian kd, normalised Phong ks, mirror or glossy kr, Fresnel dielectric kt, scaled down together to reflect at most what arrives.",
+    params: MATERIAL_PARAMS,
+};
+
+/// Builds a `phong` material: the coefficients alone, no model of their own.
+pub fn build(p: &mut Params, textures: &dyn TextureResolver) -> Result<Material> {
+    Material::from_params(p, textures)
+}
 
 /// The scattering model at one hit (see the module docs). Built per hit, on the stack.
 #[derive(Clone, Debug)]
-pub struct Bsdf {
+pub struct PhongBsdf {
     /// Unit direction toward where the ray came from (−ray direction).
     wo: DVec3,
     /// Geometric normal facing `wo`.
@@ -96,24 +89,6 @@ pub struct Bsdf {
     blur_lobe: f64,
     /// Probability of choosing each lobe of [`LOBES`] (sum 1, or all 0 for a black surface).
     choice: [f64; 5],
-}
-
-/// A direction sampled from the model, and what it carries.
-#[derive(Clone, Copy, Debug)]
-pub struct Scatter {
-    /// Unit direction of the new ray.
-    pub dir: DVec3,
-    /// `f·cos θ / pdf`: the factor on the radiance the new ray brings back.
-    pub weight: Color,
-    /// Density of `dir` under the whole sampling strategy (per solid angle), for weighing light
-    /// found by the new ray; `None` after a specular event (mirror, dielectric).
-    pub pdf: Option<f64>,
-    /// The lobe chosen.
-    pub lobe: Lobe,
-    /// Reflected or transmitted.
-    pub kind: RayKind,
-    /// (η_t/η_i)² of a refraction (1 otherwise): transmitted radiance was scaled by its inverse.
-    pub eta_squared: f64,
 }
 
 /// Exponent of the Phong lobe standing for phong's jitter disc of radius `blur` (at unit
@@ -159,19 +134,19 @@ pub fn thin_slab_reflectance(cos_i: f64, eta: f64) -> f64 {
 
 /// Density of a Phong lobe of exponent `n` at cosine `c` from its axis: `(n+1)/(2π)·c^n`.
 #[inline]
-pub(super) fn lobe_pdf(c: f64, n: f64) -> f64 {
+pub fn lobe_pdf(c: f64, n: f64) -> f64 {
     if c > 0.0 { (n + 1.0) / TAU * c.powf(n) } else { 0.0 }
 }
 
 /// The normalised Phong BRDF lobe of exponent `n` at cosine `c`: `(n+2)/(2π)·c^n`.
 #[inline]
-pub(super) fn lobe_brdf(c: f64, n: f64) -> f64 {
+pub fn lobe_brdf(c: f64, n: f64) -> f64 {
     if c > 0.0 { (n + 2.0) / TAU * c.powf(n) } else { 0.0 }
 }
 
 /// A direction in the Phong lobe of exponent `n` around unit `axis`, from `u` ∈ [0, 1)².
 #[inline]
-pub(super) fn sample_lobe(axis: DVec3, n: f64, u: DVec2) -> DVec3 {
+pub fn sample_lobe(axis: DVec3, n: f64, u: DVec2) -> DVec3 {
     let cos = u.x.powf(1.0 / (n + 1.0));
     let sin = (1.0 - cos * cos).max(0.0).sqrt();
     let (b1, b2) = orthonormal_basis(axis);
@@ -185,9 +160,9 @@ fn mean(c: Color) -> f64 {
     (c.x + c.y + c.z) / 3.0
 }
 
-impl Bsdf {
+impl PhongBsdf {
     /// The model at the hit `si`.
-    pub fn new(si: &Interaction) -> Bsdf {
+    pub fn new(si: &Interaction) -> PhongBsdf {
         let m = &si.material;
         let kr = fresnel_mirror(si);
         let scale = 1.0 / max_channel(m.kd + m.ks + kr + m.kt).max(1.0);
@@ -200,7 +175,7 @@ impl Bsdf {
             *p = if total > 0.0 { *p / total } else { 0.0 };
         }
         let wo = -si.dir;
-        Bsdf {
+        PhongBsdf {
             wo,
             n: si.n,
             ns: si.ns,
@@ -218,90 +193,6 @@ impl Bsdf {
             blur_lobe: if blurred { blur_exponent(m.blur) } else { 0.0 },
             choice,
         }
-    }
-
-    /// True when some lobe can be evaluated toward a given direction (diffuse, specular,
-    /// glossy): light samples are worth taking here.
-    pub fn has_smooth_lobes(&self) -> bool {
-        self.choice[0] + self.choice[1] + self.choice[2] > 0.0
-    }
-
-    /// Reflectance as the albedo layer shows it: the sum of the weights.
-    pub fn albedo(&self) -> Color {
-        self.kd + self.ks + self.glossy + self.mirror + self.kt
-    }
-
-    /// `f(ωo, wi)` of the smooth lobes (specular events have no value toward a given direction):
-    /// zero unless `wi` leaves on `wo`'s side of both normals.
-    pub fn eval(&self, wi: DVec3) -> Color {
-        if !(self.n.dot(wi) > 0.0 && self.ns.dot(wi) > 0.0) {
-            return Color::ZERO;
-        }
-        let c = wi.dot(self.axis);
-        // Lobes of weight zero add nothing (their values are finite): no `powf` for them.
-        let mut f = self.kd * FRAC_1_PI;
-        if self.choice[1] > 0.0 {
-            f += self.ks * lobe_brdf(c, self.shininess);
-        }
-        if self.choice[2] > 0.0 {
-            f += self.glossy * lobe_brdf(c, self.blur_lobe);
-        }
-        f
-    }
-
-    /// Density with which [`Bsdf::sample`] picks `wi` (per solid angle), for `wi` on `wo`'s side.
-    pub fn pdf(&self, wi: DVec3) -> f64 {
-        let cos = self.ns.dot(wi);
-        let c = wi.dot(self.axis);
-        let diffuse = if cos > 0.0 { cos * FRAC_1_PI } else { 0.0 };
-        let mut pdf = self.choice[0] * diffuse;
-        if self.choice[1] > 0.0 {
-            pdf += self.choice[1] * lobe_pdf(c, self.shininess);
-        }
-        if self.choice[2] > 0.0 {
-            pdf += self.choice[2] * lobe_pdf(c, self.blur_lobe);
-        }
-        pdf
-    }
-
-    /// A new direction: a lobe chosen by `pick` ∈ [0, 1) in proportion to the weights, a
-    /// direction from `u` ∈ [0, 1)², and (dielectrics) reflection or transmission by `fresnel` ∈
-    /// [0, 1). `None` when the surface is black or the direction carries nothing (it points into
-    /// the surface).
-    pub fn sample(&self, pick: f64, u: DVec2, fresnel: f64) -> Option<Scatter> {
-        let (mut acc, mut lobe) = (0.0, None);
-        for (i, &p) in self.choice.iter().enumerate() {
-            if p > 0.0 {
-                lobe = Some(LOBES[i]);
-                acc += p;
-                if pick < acc {
-                    break;
-                }
-            }
-        }
-        let lobe = lobe?;
-        let dir = match lobe {
-            Lobe::Diffuse => {
-                let d = concentric_disc(u);
-                let (b1, b2) = orthonormal_basis(self.ns);
-                d.x * b1 + d.y * b2 + (1.0 - d.length_squared()).max(0.0).sqrt() * self.ns
-            }
-            Lobe::Specular => sample_lobe(self.axis, self.shininess, u),
-            Lobe::Glossy => sample_lobe(self.axis, self.blur_lobe, u),
-            Lobe::Mirror => {
-                let weight = self.mirror / self.choice[3];
-                let dir = reflect(-self.wo, self.n);
-                return Some(Scatter { dir, weight, pdf: None, lobe, kind: RayKind::Reflection, eta_squared: 1.0 });
-            }
-            Lobe::Dielectric => return Some(self.sample_dielectric(u, fresnel)),
-        };
-        let f = self.eval(dir);
-        let pdf = self.pdf(dir);
-        if max_channel(f) <= 0.0 || !(pdf > 0.0) {
-            return None;
-        }
-        let weight = f * self.ns.dot(dir) / pdf;
-        Some(Scatter { dir, weight, pdf: Some(pdf), lobe, kind: RayKind::Reflection, eta_squared: 1.0 })
     }
 
     /// Fresnel reflection or transmission of the `kt` part, jittered when blurry.
@@ -329,5 +220,92 @@ impl Bsdf {
             }
         }
         Scatter { dir, weight: weight / eta_squared, pdf: None, lobe: Lobe::Dielectric, kind, eta_squared }
+    }
+}
+
+impl Bsdf for PhongBsdf {
+    /// True when some lobe can be evaluated toward a given direction (diffuse, specular,
+    /// glossy): light samples are worth taking here.
+    fn has_smooth_lobes(&self) -> bool {
+        self.choice[0] + self.choice[1] + self.choice[2] > 0.0
+    }
+
+    /// Reflectance as the albedo layer shows it: the sum of the weights.
+    fn albedo(&self) -> Color {
+        self.kd + self.ks + self.glossy + self.mirror + self.kt
+    }
+
+    /// `f(ωo, wi)` of the smooth lobes (specular events have no value toward a given direction):
+    /// zero unless `wi` leaves on `wo`'s side of both normals.
+    fn eval(&self, wi: DVec3) -> Color {
+        if !(self.n.dot(wi) > 0.0 && self.ns.dot(wi) > 0.0) {
+            return Color::ZERO;
+        }
+        let c = wi.dot(self.axis);
+        // Lobes of weight zero add nothing (their values are finite): no `powf` for them.
+        let mut f = self.kd * FRAC_1_PI;
+        if self.choice[1] > 0.0 {
+            f += self.ks * lobe_brdf(c, self.shininess);
+        }
+        if self.choice[2] > 0.0 {
+            f += self.glossy * lobe_brdf(c, self.blur_lobe);
+        }
+        f
+    }
+
+    /// Density with which [`Bsdf::sample`] picks `wi` (per solid angle), for `wi` on `wo`'s side.
+    fn pdf(&self, wi: DVec3) -> f64 {
+        let cos = self.ns.dot(wi);
+        let c = wi.dot(self.axis);
+        let diffuse = if cos > 0.0 { cos * FRAC_1_PI } else { 0.0 };
+        let mut pdf = self.choice[0] * diffuse;
+        if self.choice[1] > 0.0 {
+            pdf += self.choice[1] * lobe_pdf(c, self.shininess);
+        }
+        if self.choice[2] > 0.0 {
+            pdf += self.choice[2] * lobe_pdf(c, self.blur_lobe);
+        }
+        pdf
+    }
+
+    /// A new direction: a lobe chosen by `pick` ∈ [0, 1) in proportion to the weights, a
+    /// direction from `u` ∈ [0, 1)², and (dielectrics) reflection or transmission by `fresnel` ∈
+    /// [0, 1). `None` when the surface is black or the direction carries nothing (it points into
+    /// the surface).
+    fn sample(&self, pick: f64, u: DVec2, fresnel: f64) -> Option<Scatter> {
+        let (mut acc, mut lobe) = (0.0, None);
+        for (i, &p) in self.choice.iter().enumerate() {
+            if p > 0.0 {
+                lobe = Some(LOBES[i]);
+                acc += p;
+                if pick < acc {
+                    break;
+                }
+            }
+        }
+        let lobe = lobe?;
+        let dir = match lobe {
+            Lobe::Diffuse => {
+                let d = concentric_disc(u);
+                let (b1, b2) = orthonormal_basis(self.ns);
+                d.x * b1 + d.y * b2 + (1.0 - d.length_squared()).max(0.0).sqrt() * self.ns
+            }
+            Lobe::Specular => sample_lobe(self.axis, self.shininess, u),
+            Lobe::Glossy => sample_lobe(self.axis, self.blur_lobe, u),
+            Lobe::Mirror => {
+                let weight = self.mirror / self.choice[3];
+                let dir = reflect(-self.wo, self.n);
+                return Some(Scatter { dir, weight, pdf: None, lobe, kind: RayKind::Reflection, eta_squared: 1.0 });
+            }
+            // (Not among `LOBES`.)
+            Lobe::Dielectric | Lobe::Transmission => return Some(self.sample_dielectric(u, fresnel)),
+        };
+        let f = self.eval(dir);
+        let pdf = self.pdf(dir);
+        if max_channel(f) <= 0.0 || !(pdf > 0.0) {
+            return None;
+        }
+        let weight = f * self.ns.dot(dir) / pdf;
+        Some(Scatter { dir, weight, pdf: Some(pdf), lobe, kind: RayKind::Reflection, eta_squared: 1.0 })
     }
 }

@@ -1,0 +1,53 @@
+//! `raylab denoise`: a finished image (an EXR with `--aov albedo,normal`, or a PFM) denoised by
+//! Intel Open Image Denoise ([`crate::image::denoise`]), e.g. a frame merged from a farm's tiles.
+
+use super::{App, Failure};
+use crate::image::denoise::denoise;
+use crate::render::film::Film;
+use clap::Args;
+use std::path::PathBuf;
+
+#[derive(Args, Debug)]
+pub(crate) struct DenoiseArgs {
+    /// The noisy image: .exr (`--features exr`; its `albedo` and `normal` layers guide the
+    /// denoiser when present: render with `--aov albedo,normal`) or .pfm (colour alone).
+    input: PathBuf,
+    /// The denoised image: .exr, .pfm, .png, .jpg or .jpeg.
+    #[arg(short, long)]
+    output: PathBuf,
+}
+
+pub(crate) fn run(app: &App, a: DenoiseArgs) -> Result<(), Failure> {
+    super::refuse_overwrite("denoise", &[a.output.as_path()], [a.input.as_path()])?;
+    let format = app.registry.output_format_for(&a.output).map_err(|e| e.to_string())?;
+    let ext = a.input.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let bytes = crate::load::context::read_user_file(&a.input, "image", crate::image::tonemap::MAX_FILE_BYTES, None)?;
+    let (color, albedo, normal) = read(&a, &ext, &bytes)?;
+    let guides = match (&albedo, &normal) {
+        (Some(_), Some(_)) => "albedo and normal guides",
+        (Some(_), None) => "an albedo guide",
+        _ => "no guides (render with --aov albedo,normal for better results)",
+    };
+    let film = denoise(&color, albedo.as_ref(), normal.as_ref()).map_err(Failure::Other)?;
+    let settings =
+        crate::image::output::WriteSettings { encoding: crate::math::color::Encoding::Srgb, grid: None, layers: None, half: false };
+    format.write(&a.output, &film, &settings).map_err(|e| e.to_string())?;
+    println!("wrote {} ({}×{}, denoised with {guides}) from {}", a.output.display(), film.width, film.height, a.input.display());
+    Ok(())
+}
+
+type Layers = (Film, Option<Film>, Option<Film>);
+
+fn read(a: &DenoiseArgs, ext: &str, bytes: &[u8]) -> Result<Layers, Failure> {
+    match ext {
+        "pfm" => {
+            let film = crate::image::reference::decode_pfm(bytes).map_err(|e| Failure::Other(format!("{}: {e}", a.input.display())))?;
+            Ok((film, None, None))
+        }
+        #[cfg(feature = "exr")]
+        "exr" => crate::image::denoise::read_exr_layers(&a.input, bytes).map_err(Failure::Other),
+        #[cfg(not(feature = "exr"))]
+        "exr" => Err(Failure::Other("reading OpenEXR needs raylab built with `--features exr`".into())),
+        _ => Err(Failure::Other(format!("{}: expected an .exr or .pfm image", a.input.display()))),
+    }
+}

@@ -1,0 +1,177 @@
+//! Denoising with Intel Open Image Denoise (OIDN), the field's standard, run as its
+//! `oidnDenoise` tool on PFM files: the colour (linear HDR) guided by the albedo and normal
+//! layers ([`crate::render::aov`]). raylab neither builds nor links OIDN; the tool is found at
+//! run time (see [`find_tool`]), so the default build needs nothing of it.
+//!
+//! Denoise a whole image, never a tile: the filter looks at each pixel's neighbourhood, so
+//! tiles denoised apart would not merge to the image denoised whole.
+
+use crate::image::reference::{decode_pfm, encode_pfm};
+use crate::render::film::Film;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+/// The environment variable naming the `oidnDenoise` executable.
+pub const TOOL_VAR: &str = "RAYLAB_OIDN";
+
+/// How to get the tool, for messages.
+pub const INSTALL_HINT: &str = "install Intel Open Image Denoise's `oidnDenoise` (`pip install pyoidn` ships it) or name it in RAYLAB_OIDN";
+
+/// The `oidnDenoise` executable: `$RAYLAB_OIDN` if set; else `oidnDenoise` on the `PATH`; else
+/// the one in the `pyoidn` Python package (`pip install pyoidn`), asked of `python3`.
+pub fn find_tool() -> Result<PathBuf, String> {
+    if let Some(p) = std::env::var_os(TOOL_VAR) {
+        let p = PathBuf::from(p);
+        return if p.is_file() { Ok(p) } else { Err(format!("{TOOL_VAR} names {}, which is not a file", p.display())) };
+    }
+    if let Some(path) = std::env::var_os("PATH") {
+        for dir in std::env::split_paths(&path) {
+            let p = dir.join("oidnDenoise");
+            if p.is_file() {
+                return Ok(p);
+            }
+        }
+    }
+    let script = "import os, pyoidn; print(os.path.join(os.path.dirname(pyoidn.__file__), 'oidn', 'bin', 'oidnDenoise'))";
+    if let Ok(out) = Command::new("python3").args(["-c", script]).stdin(Stdio::null()).stderr(Stdio::null()).output()
+        && out.status.success()
+    {
+        let p = PathBuf::from(String::from_utf8_lossy(&out.stdout).trim());
+        if p.is_file() {
+            return Ok(p);
+        }
+    }
+    Err(format!("no denoiser found: {INSTALL_HINT}"))
+}
+
+/// `color` denoised by OIDN's `RT` filter (HDR), guided by `albedo` and `normal` when given
+/// (films of the same size as `color`; the normal guide needs the albedo guide, as OIDN asks).
+pub fn denoise(color: &Film, albedo: Option<&Film>, normal: Option<&Film>) -> Result<Film, String> {
+    for (name, g) in [("albedo", albedo), ("normal", normal)] {
+        if let Some(g) = g
+            && (g.width, g.height) != (color.width, color.height)
+        {
+            return Err(format!("the {name} layer is {}×{}, the image {}×{}", g.width, g.height, color.width, color.height));
+        }
+    }
+    if normal.is_some() && albedo.is_none() {
+        return Err("a normal guide needs an albedo guide too (Open Image Denoise's rule)".into());
+    }
+    let tool = find_tool()?;
+    let dir = TempDir::new()?;
+    let write = |name: &str, film: &Film| -> Result<PathBuf, String> {
+        let p = dir.0.join(name);
+        std::fs::write(&p, encode_pfm(film)).map_err(|e| format!("cannot write {}: {e}", p.display()))?;
+        Ok(p)
+    };
+    let mut cmd = Command::new(&tool);
+    cmd.arg("--hdr").arg(write("color.pfm", color)?);
+    if let Some(a) = albedo {
+        cmd.arg("--alb").arg(write("albedo.pfm", a)?);
+    }
+    if let Some(n) = normal {
+        cmd.arg("--nrm").arg(write("normal.pfm", n)?);
+    }
+    let out_path = dir.0.join("out.pfm");
+    cmd.arg("-o").arg(&out_path).stdin(Stdio::null()).stdout(Stdio::null()).stderr(Stdio::piped());
+    let out = cmd.output().map_err(|e| format!("cannot run {}: {e}", tool.display()))?;
+    if !out.status.success() {
+        let err = String::from_utf8_lossy(&out.stderr);
+        return Err(format!("{} failed ({}): {}", tool.display(), out.status, err.trim()));
+    }
+    let bytes = std::fs::read(&out_path).map_err(|e| format!("{} wrote no image: {e}", tool.display()))?;
+    let film = decode_pfm(&bytes).map_err(|e| format!("{}'s output: {e}", tool.display()))?;
+    if (film.width, film.height) != (color.width, color.height) {
+        return Err(format!(
+            "{} returned a {}×{} image for a {}×{} one",
+            tool.display(),
+            film.width,
+            film.height,
+            color.width,
+            color.height
+        ));
+    }
+    if film.pixels.iter().any(|p| !p.is_finite()) {
+        return Err(format!("{} returned non-finite pixels", tool.display()));
+    }
+    Ok(film)
+}
+
+/// A private folder for the denoiser's files, removed when dropped.
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new() -> Result<TempDir, String> {
+        use std::sync::atomic::{AtomicU64, Ordering};
+        static COUNT: AtomicU64 = AtomicU64::new(0);
+        let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.subsec_nanos());
+        let name = format!("raylab-denoise-{}-{}-{nanos}", std::process::id(), COUNT.fetch_add(1, Ordering::Relaxed));
+        let p = std::env::temp_dir().join(name);
+        // `create_dir` fails if the name exists: the folder is ours alone.
+        std::fs::create_dir(&p)
+            .map_err(|e| format!("cannot create a folder for the denoiser in {}: {e}", std::env::temp_dir().display()))?;
+        Ok(TempDir(p))
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Whether the tool can be found (for tests that need it).
+pub fn available() -> bool {
+    find_tool().is_ok()
+}
+
+/// The film of `path`'s colour, albedo and normal layers for [`denoise`] (an EXR raylab wrote with
+/// `--aov albedo,normal`; the guides are optional).
+#[cfg(feature = "exr")]
+pub fn read_exr_layers(path: &Path, bytes: &[u8]) -> Result<(Film, Option<Film>, Option<Film>), String> {
+    use crate::image::tonemap::{Layer, read_layer};
+    let at = |e: String| format!("{}: {e}", path.display());
+    let color = read_layer(bytes, "exr", Layer::Color).map_err(at)?;
+    let albedo = read_layer(bytes, "exr", Layer::Albedo).ok();
+    let normal = read_layer(bytes, "exr", Layer::Normal).ok();
+    let normal = if albedo.is_some() { normal } else { None };
+    Ok((color, albedo, normal))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    /// A noisy grey image denoised comes closer to its mean (skipped with a message where the
+    /// tool is missing; CI installs it).
+    #[test]
+    fn denoising_reduces_the_noise_of_a_flat_image() {
+        if !available() {
+            assert!(std::env::var_os("CI").is_none(), "CI must have the denoiser: {INSTALL_HINT}");
+            eprintln!("SKIPPED: no oidnDenoise ({INSTALL_HINT})");
+            return;
+        }
+        let (w, h) = (64, 48);
+        let mut noisy = Film::new(w, h);
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        for p in &mut noisy.pixels {
+            state = crate::math::sampler::mix64(state);
+            let u = (state >> 40) as f32 / (1u64 << 24) as f32;
+            *p = Vec3::splat(0.5 + (u - 0.5) * 0.6);
+        }
+        let albedo = Film { width: w, height: h, pixels: vec![Vec3::splat(0.5); (w * h) as usize] };
+        let normal = Film { width: w, height: h, pixels: vec![Vec3::Z; (w * h) as usize] };
+        let clean = denoise(&noisy, Some(&albedo), Some(&normal)).unwrap();
+        let rms = |f: &Film| (f.pixels.iter().map(|p| (p.x - 0.5).powi(2)).sum::<f32>() / f.pixels.len() as f32).sqrt();
+        assert!(rms(&clean) < 0.5 * rms(&noisy), "noise {} → {}", rms(&noisy), rms(&clean));
+    }
+
+    #[test]
+    fn mismatched_guides_are_refused_before_running_anything() {
+        let c = Film::new(4, 4);
+        let a = Film::new(2, 2);
+        assert!(denoise(&c, Some(&a), None).unwrap_err().contains("albedo layer is 2×2"));
+        assert!(denoise(&c, None, Some(&c)).unwrap_err().contains("needs an albedo guide"));
+    }
+}

@@ -1,0 +1,385 @@
+//! Distributions for importance sampling: an [`AliasTable`] (a choice among weighted items in
+//! constant time: lights by power) and piecewise-constant densities over `[0, 1)`
+//! ([`Piecewise1d`]) and `[0, 1)²` ([`Piecewise2d`]: an environment image's texels by luminance).
+//!
+//! Every sampler takes uniform numbers in `[0, 1)` and returns what it chose with its
+//! probability (or density), and the part of its input it did not use, rescaled to `[0, 1)`, so a
+//! caller can draw one number for two decisions. A weight that is negative, NaN or infinite
+//! counts as zero.
+
+/// A weight as the distributions read it: finite and positive, else zero.
+#[inline]
+fn weight(w: f64) -> f64 {
+    if w.is_finite() && w > 0.0 { w } else { 0.0 }
+}
+
+/// `u` kept below one (a rescaled number may round up to exactly 1).
+#[inline]
+fn below_one(u: f64) -> f64 {
+    u.min(1.0 - f64::EPSILON / 2.0)
+}
+
+/// One column of an alias table: keep the column's own item with probability `threshold`, else
+/// take `alias`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Column {
+    threshold: f64,
+    alias: u32,
+}
+
+/// A discrete distribution over `0..n` proportional to weights, sampled in constant time
+/// (Walker 1977, Vose 1991's construction).
+#[derive(Clone, Debug, PartialEq)]
+pub struct AliasTable {
+    columns: Vec<Column>,
+    /// Each item's probability.
+    pmf: Vec<f64>,
+}
+
+impl AliasTable {
+    /// The table for `weights` (see the module docs for invalid weights); `None` when no weight
+    /// is positive (or there are none, or more than `u32::MAX`).
+    pub fn new(weights: &[f64]) -> Option<AliasTable> {
+        let n = weights.len();
+        if n == 0 || n > u32::MAX as usize {
+            return None;
+        }
+        let total: f64 = weights.iter().map(|&w| weight(w)).sum();
+        if !(total > 0.0 && total.is_finite()) {
+            return None;
+        }
+        let pmf: Vec<f64> = weights.iter().map(|&w| weight(w) / total).collect();
+        // Columns of height 1: scaled probabilities split into those under and over one.
+        let mut scaled: Vec<f64> = pmf.iter().map(|p| p * n as f64).collect();
+        let mut columns: Vec<Column> = (0..n).map(|i| Column { threshold: 1.0, alias: i as u32 }).collect();
+        let (mut small, mut large): (Vec<usize>, Vec<usize>) = (0..n).partition(|&i| scaled[i] < 1.0);
+        while let (Some(&s), Some(&l)) = (small.last(), large.last()) {
+            small.pop();
+            columns[s] = Column { threshold: scaled[s], alias: l as u32 };
+            scaled[l] -= 1.0 - scaled[s];
+            if scaled[l] < 1.0 {
+                large.pop();
+                small.push(l);
+            }
+        }
+        // What is left is one up to rounding.
+        for i in small.into_iter().chain(large) {
+            columns[i] = Column { threshold: 1.0, alias: i as u32 };
+        }
+        Some(AliasTable { columns, pmf })
+    }
+
+    /// Number of items.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.pmf.len()
+    }
+
+    /// True when there is no item (never, for a table that was built).
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.pmf.is_empty()
+    }
+
+    /// The probability of item `i` (0 beyond the table).
+    #[inline]
+    pub fn pmf(&self, i: usize) -> f64 {
+        self.pmf.get(i).copied().unwrap_or(0.0)
+    }
+
+    /// An item for `u` uniform in `[0, 1)`: its index, its probability, and `u`'s unused part
+    /// rescaled to `[0, 1)`.
+    #[inline]
+    pub fn sample(&self, u: f64) -> (usize, f64, f64) {
+        let n = self.columns.len();
+        let scaled = below_one(u.max(0.0)) * n as f64;
+        let i = (scaled as usize).min(n - 1);
+        let frac = below_one(scaled - i as f64);
+        let c = self.columns[i];
+        let (item, rest) =
+            if frac < c.threshold { (i, frac / c.threshold) } else { (c.alias as usize, (frac - c.threshold) / (1.0 - c.threshold)) };
+        (item, self.pmf[item], below_one(rest))
+    }
+}
+
+/// A piecewise-constant density over `[0, 1)`: `n` equal bins with the density proportional to
+/// their weights (uniform when every weight is zero).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Piecewise1d {
+    /// Each bin's weight.
+    func: Vec<f64>,
+    /// `cdf[i]` = the probability of bins `0..i`; `n + 1` entries from 0 to 1.
+    cdf: Vec<f64>,
+    /// The mean weight (∫ of the function over `[0, 1)`), 0 when all are zero.
+    integral: f64,
+}
+
+impl Piecewise1d {
+    /// The density for `weights` (at least one).
+    pub fn new(weights: &[f64]) -> Piecewise1d {
+        assert!(!weights.is_empty(), "a piecewise-constant density needs at least one bin");
+        let n = weights.len();
+        let mut func: Vec<f64> = weights.iter().map(|&w| weight(w)).collect();
+        let total: f64 = func.iter().sum();
+        let integral = if total.is_finite() { total / n as f64 } else { 0.0 };
+        if !(integral > 0.0) {
+            func.iter_mut().for_each(|f| *f = 1.0);
+        }
+        let total: f64 = func.iter().sum();
+        let mut cdf = Vec::with_capacity(n + 1);
+        let mut sum = 0.0;
+        cdf.push(0.0);
+        for f in &func {
+            sum += f;
+            cdf.push(sum / total);
+        }
+        cdf[n] = 1.0;
+        Piecewise1d { func, cdf, integral }
+    }
+
+    /// Number of bins.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.func.len()
+    }
+
+    /// True when there is no bin (never).
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.func.is_empty()
+    }
+
+    /// ∫ of the weights as a function over `[0, 1)` (their mean); 0 when all are zero.
+    #[inline]
+    pub fn integral(&self) -> f64 {
+        self.integral
+    }
+
+    /// The density at `x` in `[0, 1)` (of the bin holding it).
+    #[inline]
+    pub fn pdf(&self, x: f64) -> f64 {
+        let n = self.func.len();
+        let i = ((below_one(x.max(0.0)) * n as f64) as usize).min(n - 1);
+        (self.cdf[i + 1] - self.cdf[i]) * n as f64
+    }
+
+    /// A point for `u` uniform in `[0, 1)`: `x` in `[0, 1)`, its density, and its bin.
+    #[inline]
+    pub fn sample(&self, u: f64) -> (f64, f64, usize) {
+        let n = self.func.len();
+        let u = below_one(u.max(0.0));
+        // The last bin whose cdf is ≤ u, among those with a probability.
+        let i = (self.cdf.partition_point(|&c| c <= u).max(1) - 1).min(n - 1);
+        let p = self.cdf[i + 1] - self.cdf[i];
+        let within = if p > 0.0 { (u - self.cdf[i]) / p } else { 0.5 };
+        let x = below_one((i as f64 + within.clamp(0.0, 1.0)) / n as f64);
+        (x, p * n as f64, i)
+    }
+}
+
+/// A piecewise-constant density over `[0, 1)²` from a grid of weights (`width × height`, rows
+/// along `v`): a row chosen by its total, then a column within it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Piecewise2d {
+    rows: Vec<Piecewise1d>,
+    marginal: Piecewise1d,
+}
+
+impl Piecewise2d {
+    /// The density for `weights` in row-major order (`width × height` of them, both ≥ 1).
+    pub fn new(weights: &[f64], width: usize, height: usize) -> Piecewise2d {
+        assert!(width >= 1 && height >= 1 && weights.len() == width * height, "a {width}×{height} grid needs as many weights");
+        let rows: Vec<Piecewise1d> = weights.chunks_exact(width).map(Piecewise1d::new).collect();
+        let marginal = Piecewise1d::new(&rows.iter().map(Piecewise1d::integral).collect::<Vec<_>>());
+        Piecewise2d { rows, marginal }
+    }
+
+    /// The density at `(u, v)` in `[0, 1)²`.
+    #[inline]
+    pub fn pdf(&self, p: glam::DVec2) -> f64 {
+        let h = self.rows.len();
+        let row = ((below_one(p.y.max(0.0)) * h as f64) as usize).min(h - 1);
+        self.marginal.pdf(p.y) * self.rows[row].pdf(p.x)
+    }
+
+    /// A point for `u` uniform in `[0, 1)²`, and its density.
+    #[inline]
+    pub fn sample(&self, u: glam::DVec2) -> (glam::DVec2, f64) {
+        let (v, pv, row) = self.marginal.sample(u.y);
+        let (x, pu, _) = self.rows[row].sample(u.x);
+        (glam::DVec2::new(x, v), pv * pu)
+    }
+}
+
+/// Pearson's χ² statistic of observed counts against expected ones, merging cells whose
+/// expectation is under `min_expected` into one (as Mitsuba's χ² tests do), and the degrees of
+/// freedom (cells after merging less one). For tests of sampling routines against their pdfs.
+pub fn chi_square(observed: &[f64], expected: &[f64], min_expected: f64) -> (f64, usize) {
+    // Cells expected to hold too few samples are pooled; while the pool itself holds too few
+    // (cells of a density's edge that its integration missed), it takes the smallest others.
+    let mut cells: Vec<(f64, f64)> = observed.iter().copied().zip(expected.iter().copied()).collect();
+    cells.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let low = cells.partition_point(|c| c.1 < min_expected);
+    let (mut pool_o, mut pool_e): (f64, f64) = cells[..low].iter().fold((0.0, 0.0), |(o, e), c| (o + c.0, e + c.1));
+    let mut next = low;
+    if low > 0 {
+        while pool_e < min_expected && next < cells.len() {
+            pool_o += cells[next].0;
+            pool_e += cells[next].1;
+            next += 1;
+        }
+    }
+    if pool_e <= 0.0 && pool_o > 0.0 {
+        // Samples where none were expected at all: as far from the density as it gets.
+        return (f64::INFINITY, 1);
+    }
+    let mut stat = 0.0;
+    let mut count = 0usize;
+    if pool_e > 0.0 {
+        stat += (pool_o - pool_e) * (pool_o - pool_e) / pool_e;
+        count += 1;
+    }
+    for &(o, e) in &cells[next..] {
+        stat += (o - e) * (o - e) / e;
+        count += 1;
+    }
+    (stat, count.saturating_sub(1).max(1))
+}
+
+/// The probability that a χ² variable with `dof` degrees of freedom is at least `stat` (the
+/// test's p-value), by the Wilson–Hilferty normal approximation (good to ~1e-3 for dof ≥ 3,
+/// enough to reject at a significance of 1e-3 or so).
+pub fn chi_square_p_value(stat: f64, dof: usize) -> f64 {
+    if !stat.is_finite() {
+        return 0.0;
+    }
+    let k = dof as f64;
+    let z = ((stat / k).cbrt() - (1.0 - 2.0 / (9.0 * k))) / (2.0 / (9.0 * k)).sqrt();
+    0.5 * erfc(z / std::f64::consts::SQRT_2)
+}
+
+/// The complementary error function (Numerical Recipes' `erfcc`, relative error < 1.2e-7).
+fn erfc(x: f64) -> f64 {
+    let z = x.abs();
+    let t = 1.0 / (1.0 + 0.5 * z);
+    let r = t
+        * (-z * z - 1.265_512_23
+            + t * (1.000_023_68
+                + t * (0.374_091_96
+                    + t * (0.096_784_18
+                        + t * (-0.186_288_06
+                            + t * (0.278_868_07 + t * (-1.135_203_98 + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77)))))))))
+            .exp();
+    if x >= 0.0 { r } else { 2.0 - r }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DVec2;
+
+    /// Significance under which a χ² test fails: the tests use fixed seeds, so a failure is
+    /// reproducible, and a right routine fails one in this many seeds.
+    const SIGNIFICANCE: f64 = 1e-4;
+
+    fn rng(seed: u64) -> impl FnMut() -> f64 {
+        let mut s = seed;
+        move || {
+            s = s.wrapping_add(0x9e37_79b9_7f4a_7c15);
+            let mut z = s;
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    #[test]
+    fn alias_table_draws_items_by_weight() {
+        let weights = [3.0, 0.0, 1.0, 0.25, 10.0, f64::NAN, 0.5, 2.0];
+        let t = AliasTable::new(&weights).unwrap();
+        let total: f64 = t.pmf.iter().sum();
+        assert!((total - 1.0).abs() < 1e-12);
+        assert_eq!((t.pmf(1), t.pmf(5)), (0.0, 0.0));
+        let n = 200_000;
+        let mut counts = vec![0.0; weights.len()];
+        let mut next = rng(7);
+        let mut rest_sum = 0.0;
+        for _ in 0..n {
+            let (i, p, rest) = t.sample(next());
+            assert_eq!(p, t.pmf(i));
+            assert!((0.0..1.0).contains(&rest));
+            rest_sum += rest;
+            counts[i] += 1.0;
+        }
+        let expected: Vec<f64> = (0..weights.len()).map(|i| t.pmf(i) * n as f64).collect();
+        let (stat, dof) = chi_square(&counts, &expected, 5.0);
+        assert!(chi_square_p_value(stat, dof) > SIGNIFICANCE, "χ² = {stat} at {dof} dof");
+        // The reused number is uniform too (its mean, at least).
+        assert!((rest_sum / n as f64 - 0.5).abs() < 0.01);
+        assert!(AliasTable::new(&[0.0, -1.0]).is_none() && AliasTable::new(&[]).is_none());
+    }
+
+    #[test]
+    fn chi_square_rejects_a_wrong_density() {
+        // The test can fail: samples of one table judged against another's probabilities.
+        let right = AliasTable::new(&[1.0, 2.0, 3.0, 4.0]).unwrap();
+        let wrong = AliasTable::new(&[1.0, 2.0, 3.2, 3.8]).unwrap();
+        let n = 100_000;
+        let mut counts = [0.0; 4];
+        let mut next = rng(3);
+        for _ in 0..n {
+            counts[right.sample(next()).0] += 1.0;
+        }
+        let expected: Vec<f64> = (0..4).map(|i| wrong.pmf(i) * n as f64).collect();
+        let (stat, dof) = chi_square(&counts, &expected, 5.0);
+        assert!(chi_square_p_value(stat, dof) < SIGNIFICANCE);
+    }
+
+    #[test]
+    fn p_values_match_known_quantiles() {
+        // χ²(0.95 quantile) for 10 dof is 18.307; for 100 dof, 124.342.
+        assert!((chi_square_p_value(18.307, 10) - 0.05).abs() < 2e-3);
+        assert!((chi_square_p_value(124.342, 100) - 0.05).abs() < 1e-3);
+    }
+
+    #[test]
+    fn piecewise_2d_samples_match_its_density() {
+        let (w, h) = (13, 7);
+        let weights: Vec<f64> =
+            (0..w * h).map(|i| if i % 5 == 0 { 0.0 } else { 1.0 + ((i * 37) % 11) as f64 * (i as f64).sin().abs() }).collect();
+        let d = Piecewise2d::new(&weights, w, h);
+        // The density integrates to one (it is constant on each cell).
+        let integral: f64 =
+            (0..w * h).map(|i| d.pdf(DVec2::new(((i % w) as f64 + 0.5) / w as f64, ((i / w) as f64 + 0.5) / h as f64))).sum::<f64>()
+                / (w * h) as f64;
+        assert!((integral - 1.0).abs() < 1e-12, "{integral}");
+        // A histogram finer than the cells.
+        let (gx, gy) = (w * 2, h * 3);
+        let n = 400_000;
+        let mut counts = vec![0.0; gx * gy];
+        let mut next = rng(11);
+        for _ in 0..n {
+            let (p, pdf) = d.sample(DVec2::new(next(), next()));
+            assert!((0.0..1.0).contains(&p.x) && (0.0..1.0).contains(&p.y));
+            assert!((pdf - d.pdf(p)).abs() <= 1e-12 * pdf, "{pdf} vs {}", d.pdf(p));
+            counts[(p.y * gy as f64) as usize * gx + (p.x * gx as f64) as usize] += 1.0;
+        }
+        let expected: Vec<f64> = (0..gx * gy)
+            .map(|i| {
+                let c = DVec2::new(((i % gx) as f64 + 0.5) / gx as f64, ((i / gx) as f64 + 0.5) / gy as f64);
+                d.pdf(c) * n as f64 / (gx * gy) as f64
+            })
+            .collect();
+        let (stat, dof) = chi_square(&counts, &expected, 5.0);
+        assert!(chi_square_p_value(stat, dof) > SIGNIFICANCE, "χ² = {stat} at {dof} dof");
+    }
+
+    #[test]
+    fn an_all_zero_density_is_uniform() {
+        let d = Piecewise1d::new(&[0.0, 0.0, 0.0, 0.0]);
+        assert_eq!(d.integral(), 0.0);
+        assert_eq!(d.pdf(0.3), 1.0);
+        let (x, p, i) = d.sample(0.6);
+        assert!((x - 0.6).abs() < 1e-12 && p == 1.0 && i == 2);
+    }
+}

@@ -1,0 +1,162 @@
+//! Emitting objects as lights: every object whose material emits and whose shape can be sampled
+//! ([`crate::Geometry::sample_surface`]) is an emitter. An integrator picks one (by power, in
+//! constant time, or uniformly), samples a point of it seen from the shaded point, and asks for
+//! the same density when one of its own rays meets the emitter (multiple importance sampling).
+//! Objects whose shape offers no sampling still emit: only rays find them.
+
+use crate::geometry::{Hit, SurfacePdf};
+use crate::math::color::{Color, luminance};
+use crate::math::distribution::AliasTable;
+use crate::math::ray::Ray;
+use crate::scene::interaction::Interaction;
+use crate::scene::object::Object;
+use glam::{DVec2, DVec3};
+use std::f64::consts::PI;
+
+/// How an emitter is chosen for a light sample.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Selection {
+    /// In proportion to each emitter's power (emission × area × sides): a dim emitter among
+    /// bright ones costs almost no samples.
+    #[default]
+    Power,
+    /// Every emitter equally often.
+    Uniform,
+}
+
+impl Selection {
+    /// The names a scene file uses, in the order of the variants.
+    pub const NAMES: [&'static str; 2] = ["power", "uniform"];
+
+    /// The selection a scene file names.
+    pub fn parse(s: &str) -> Option<Selection> {
+        match s {
+            "power" => Some(Selection::Power),
+            "uniform" => Some(Selection::Uniform),
+            _ => None,
+        }
+    }
+}
+
+/// Marks an object that is not an emitter in [`Emitters`]'s index.
+const NOT_AN_EMITTER: u32 = u32::MAX;
+
+/// The scene's emitters (built with the scene, see the module docs).
+#[derive(Clone, Debug, Default)]
+pub struct Emitters {
+    /// The object index of each emitter.
+    objects: Vec<u32>,
+    /// Each emitter's power, `π × luminance of its brightest emission × area × sides`.
+    power: Vec<f64>,
+    /// The emitter index of each object ([`NOT_AN_EMITTER`]: none).
+    of_object: Vec<u32>,
+    /// The emitters by power; `None` when there is none.
+    table: Option<AliasTable>,
+}
+
+/// A point of an emitter chosen to light a point ([`Emitters::sample`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EmitterSample {
+    /// The object chosen.
+    pub object: u32,
+    /// The point as a hit of the ray from the shaded point toward it (`t` its distance).
+    pub hit: Hit,
+    /// Unit direction from the shaded point to the emitter's point.
+    pub dir: DVec3,
+    /// Radiance the point sends toward the shaded point (zero from a side that does not emit).
+    pub radiance: Color,
+    /// Density per unit solid angle of this direction, the emitter's choice included; infinite
+    /// where the emitter is seen edge-on.
+    pub pdf: f64,
+}
+
+impl Emitters {
+    /// The emitters among `objects`.
+    pub fn new(objects: &[Object]) -> Emitters {
+        let mut e = Emitters { of_object: vec![NOT_AN_EMITTER; objects.len()], ..Emitters::default() };
+        for (i, o) in objects.iter().enumerate() {
+            let brightest = o.materials().iter().map(|m| luminance(m.emission.max(Color::ZERO))).fold(0.0, f64::max);
+            let Some(area) = o.geometry().area() else { continue };
+            let power = PI * brightest * area * f64::from(o.emission_sides().count());
+            if power > 0.0 && power.is_finite() && e.objects.len() < NOT_AN_EMITTER as usize {
+                e.of_object[i] = e.objects.len() as u32;
+                e.objects.push(i as u32);
+                e.power.push(power);
+            }
+        }
+        e.table = AliasTable::new(&e.power);
+        e
+    }
+
+    /// Number of emitters.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.objects.len()
+    }
+
+    /// True when no object can be sampled as a light.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.objects.is_empty()
+    }
+
+    /// The object index and power of each emitter.
+    pub fn iter(&self) -> impl Iterator<Item = (u32, f64)> + '_ {
+        self.objects.iter().copied().zip(self.power.iter().copied())
+    }
+
+    /// The probability that `selection` chooses the emitter of object `object` (0 for an object
+    /// that is not an emitter).
+    #[inline]
+    pub fn choice_pmf(&self, object: u32, selection: Selection) -> f64 {
+        let Some(&e) = self.of_object.get(object as usize).filter(|&&e| e != NOT_AN_EMITTER) else { return 0.0 };
+        match (selection, &self.table) {
+            (Selection::Power, Some(t)) => t.pmf(e as usize),
+            (Selection::Power, None) => 0.0,
+            (Selection::Uniform, _) => 1.0 / self.objects.len() as f64,
+        }
+    }
+
+    /// An emitter chosen by `selection` with `pick` uniform in `[0, 1)`, and a point of it seen
+    /// from `reference` for `u` uniform in `[0, 1)²`. `None` when there is no emitter or its shape
+    /// gives no point there.
+    pub fn sample(&self, objects: &[Object], reference: DVec3, pick: f64, u: DVec2, selection: Selection) -> Option<EmitterSample> {
+        let (e, pmf) = match selection {
+            Selection::Power => {
+                let (e, pmf, _) = self.table.as_ref()?.sample(pick);
+                (e, pmf)
+            }
+            Selection::Uniform => {
+                let n = self.objects.len();
+                (((pick * n as f64) as usize).min(n.checked_sub(1)?), 1.0 / n as f64)
+            }
+        };
+        let object = self.objects[e];
+        let o = &objects[object as usize];
+        let s = o.geometry().sample_surface(reference, u)?;
+        let to = s.hit.point - reference;
+        let distance = to.length();
+        if !(distance > 0.0 && distance.is_finite()) {
+            return None;
+        }
+        let dir = to / distance;
+        let pdf = pmf * s.pdf.solid_angle(reference, s.hit.point, s.normal);
+        let hit = Hit { t: distance, object, ..s.hit };
+        // The emission as a ray from the reference would see it there (side, textures).
+        let radiance = Interaction::with(&Ray { origin: reference, dir }, &hit, o, |si| si.emission());
+        Some(EmitterSample { object, hit, dir, radiance, pdf })
+    }
+
+    /// The density per unit solid angle with which [`Emitters::sample`] from `reference` gives the
+    /// point of `si` (a ray's first hit from `reference`), the emitter's choice included; 0 when
+    /// its object is not an emitter.
+    pub fn pdf(&self, reference: DVec3, si: &Interaction, selection: Selection) -> f64 {
+        let pmf = self.choice_pmf(si.hit.object, selection);
+        if !(pmf > 0.0) {
+            return 0.0;
+        }
+        let g = si.object.geometry();
+        let pdf: SurfacePdf = g.surface_pdf(reference, &si.hit);
+        pmf * pdf.solid_angle(reference, si.hit.point, g.outward_normal(&si.hit))
+    }
+}

@@ -1,0 +1,200 @@
+//! The render's estimate of its own error (`PixelSum::std_error`, `half_variance`,
+//! `FrameSums::error_estimate`) and adaptive sampling to an error target.
+
+use raylab::load::context::LoadOptions;
+use raylab::render::{RenderOptions, Rendered, render};
+use std::path::Path;
+
+fn render_str(toml: &str) -> Rendered {
+    let registry = raylab_plugins::registry();
+    let job = raylab::load::loader::load_str(&registry, "test.toml", toml, Path::new("."), &LoadOptions::default())
+        .unwrap_or_else(|e| panic!("{}", e.report()));
+    render(&job, &RenderOptions { threads: Some(2), ..RenderOptions::default() }, &|_, _| {}).expect("render")
+}
+
+/// Nothing but a constant background: every sample of every pixel is the same, so every
+/// estimate of error is exactly zero.
+#[test]
+fn a_constant_image_has_zero_estimated_error() {
+    let r = render_str(
+        r#"
+        background = [0.3, 0.5, 0.7]
+        [render]
+        width = 8
+        height = 6
+        spp = 16
+        [camera]
+        position = [0, 0, 0]
+        look_at = [0, 0, -1]
+        "#,
+    );
+    for p in &r.sums.pixels {
+        assert_eq!(p.std_error(), Some(0.0));
+        assert_eq!(p.half_variance(), Some(0.0));
+    }
+    assert_eq!(r.sums.error_estimate().map(|e| e.relative_rmse), Some(0.0));
+}
+
+/// A pixel split in half by the edge of a black square in front of a white background: `N`
+/// stratified samples put exactly `N/2` on each side, so the sample variance of their luminance
+/// is `N / (4 (N − 1))` and the standard error of the mean `1 / (2 √(N − 1))`, in closed form.
+#[test]
+fn a_half_covered_pixel_has_the_closed_form_standard_error() {
+    for spp in [4u32, 16, 64] {
+        let r = render_str(&format!(
+            r#"
+            background = 1
+            [render]
+            width = 3
+            height = 3
+            spp = {spp}
+            [camera]
+            position = [0, 0, 0]
+            look_at = [0, 0, -1]
+            fov = 60
+            [materials.black]
+            kd = 0
+            [[object]]
+            type = "quadrangle"
+            material = "black"
+            p0 = [-10, -10, -5]
+            p1 = [0, -10, -5]
+            p2 = [0, 10, -5]
+            p3 = [-10, 10, -5]
+            "#
+        ));
+        // The middle pixel of the 3 × 3 image: the square's edge x = 0 runs down its centre.
+        let p = r.sums.pixels[4];
+        let n = f64::from(spp);
+        assert!((p.mean_luminance() - 0.5).abs() < 1e-12, "{spp} spp: mean {}", p.mean_luminance());
+        let expected = 1.0 / (2.0 * (n - 1.0).sqrt());
+        let e = p.std_error().unwrap();
+        assert!((e - expected).abs() < 1e-9 * expected, "{spp} spp: standard error {e}, closed form {expected}");
+        // Pixels wholly on one side have none.
+        assert_eq!(r.sums.pixels[3].std_error(), Some(0.0));
+        assert_eq!(r.sums.pixels[5].std_error(), Some(0.0));
+    }
+}
+
+/// The estimate of the image's error is honest: on the path tracer's Cornell box, against the
+/// spread of 12 renders with other seeds (their RMSE about the mean of all of them), it is
+/// within a factor of 1.5.
+#[test]
+fn the_image_error_estimate_matches_the_spread_between_seeds() {
+    let registry = raylab_plugins::registry();
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/path-cornell.toml");
+    let renders: Vec<Rendered> = (0..12u64)
+        .map(|seed| {
+            let opts = LoadOptions {
+                overrides: raylab::load::context::Overrides {
+                    width: Some(64),
+                    height: Some(64),
+                    spp: Some(16),
+                    seed: Some(seed),
+                    ..Default::default()
+                },
+                ..Default::default()
+            };
+            let job = raylab::load::loader::load_file(&registry, &path, &opts).unwrap_or_else(|e| panic!("{}", e.report()));
+            render(&job, &RenderOptions { threads: Some(2), ..RenderOptions::default() }, &|_, _| {}).expect("render")
+        })
+        .collect();
+    let lum = |r: &Rendered| r.sums.pixels.iter().map(|p| p.mean_luminance()).collect::<Vec<f64>>();
+    let images: Vec<Vec<f64>> = renders.iter().map(lum).collect();
+    let n = images[0].len();
+    let k = images.len() as f64;
+    let mean: Vec<f64> = (0..n).map(|i| images.iter().map(|im| im[i]).sum::<f64>() / k).collect();
+    // Unbiased per-pixel variance across seeds, averaged over pixels.
+    let variance = (0..n).map(|i| images.iter().map(|im| (im[i] - mean[i]).powi(2)).sum::<f64>() / (k - 1.0)).sum::<f64>() / n as f64;
+    let brightness = mean.iter().sum::<f64>() / n as f64;
+    let spread = variance.sqrt() / brightness;
+    let estimated = renders.iter().map(|r| r.sums.error_estimate().unwrap().relative_rmse).sum::<f64>() / k;
+    let ratio = estimated / spread;
+    assert!(
+        (1.0 / 1.5..=1.5).contains(&ratio),
+        "estimated relative RMSE {estimated:.4}, spread between seeds {spread:.4}: ratio {ratio:.2}"
+    );
+}
+
+/// With an error target, a pixel that sees only the constant background stops at the first
+/// test (`target_min_spp`), while pixels on a noisy, softly lit floor take many more samples:
+/// the noisy half of the image gets at least 4× the samples per pixel of the flat half.
+#[test]
+fn an_error_target_spends_samples_where_the_noise_is() {
+    let r = render_str(
+        r#"
+        background = 0.5
+        [render]
+        width = 16
+        height = 8
+        spp = 512
+        target_error = 0.005
+        target_min_spp = 8
+        [camera]
+        position = [0, 1, 4]
+        look_at = [0, 1, 0]
+        fov = 60
+        [integrator]
+        type = "path"
+        max_bounces = 3
+        [materials.white]
+        kd = 0.7
+        [[object]]
+        type = "quadrangle"
+        material = "white"
+        p0 = [0, -10, -10]
+        p1 = [20, -10, -10]
+        p2 = [20, 10, -10]
+        p3 = [0, 10, -10]
+        [[light]]
+        type = "rect"
+        center = [3, 3, -6]
+        edge1 = [1, 0, 0]
+        edge2 = [0, 1, 0]
+        color = 20
+        "#,
+    );
+    let (w, h) = (16usize, 8usize);
+    let spp = |x0: usize, x1: usize| {
+        let mut s = 0u64;
+        for y in 0..h {
+            for x in x0..x1 {
+                s += u64::from(r.sums.pixels[y * w + x].samples);
+            }
+        }
+        s as f64 / ((x1 - x0) * h) as f64
+    };
+    let (flat, noisy) = (spp(0, 6), spp(10, 16));
+    assert_eq!(flat, 8.0, "background pixels stop at the first test");
+    assert!(noisy >= 4.0 * flat, "noisy half {noisy} spp, flat half {flat} spp");
+    assert!(r.complete);
+    // Every pixel either met the target or reached the cap.
+    for p in &r.sums.pixels {
+        let e = p.relative_error(raylab::render::job::ErrorTarget::DARK).unwrap();
+        assert!(e <= 0.005 || p.samples == 512, "{} samples, error {e}", p.samples);
+    }
+}
+
+/// Where pixels stop depends on their own samples alone: the same image from 1 and 3 threads.
+#[test]
+fn an_error_target_is_deterministic() {
+    let registry = raylab_plugins::registry();
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/path-cornell.toml");
+    let target = raylab::param::value::Node::given("test", raylab::param::value::Value::Float(0.2));
+    let opts = LoadOptions {
+        overrides: raylab::load::context::Overrides {
+            width: Some(24),
+            height: Some(24),
+            spp: Some(128),
+            render_params: vec![("target_error".into(), target)],
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let job = raylab::load::loader::load_file(&registry, &path, &opts).unwrap_or_else(|e| panic!("{}", e.report()));
+    let run = |threads| render(&job, &RenderOptions { threads: Some(threads), ..RenderOptions::default() }, &|_, _| {}).expect("render");
+    let (a, b) = (run(1), run(3));
+    assert_eq!(a.sums.pixels, b.sums.pixels);
+    let spp: Vec<u32> = a.sums.pixels.iter().map(|p| p.samples).collect();
+    assert!(spp.iter().min() < spp.iter().max(), "pixels stopped at different counts: {spp:?}");
+}
