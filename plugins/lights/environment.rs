@@ -192,7 +192,7 @@ impl Environment {
 
     /// The world direction of image coordinates `uv` (as [`Environment::to_uv`]), and sin θ.
     #[inline]
-    fn from_uv(&self, uv: DVec2) -> (DVec3, f64) {
+    fn direction_of(&self, uv: DVec2) -> (DVec3, f64) {
         let (sin_phi, cos_phi) = ((uv.x - 0.5) * TAU).sin_cos();
         let (sin_theta, cos_theta) = (uv.y * PI).sin_cos();
         let local = DVec3::new(sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi);
@@ -252,7 +252,7 @@ impl LightSource for Environment {
             }
             Some((_, density)) => {
                 let (uv, pdf_uv) = density.sample(u);
-                let (dir, sin_theta) = self.from_uv(uv);
+                let (dir, sin_theta) = self.direction_of(uv);
                 Some(self.sample(dir, pdf_uv / (2.0 * PI * PI * sin_theta)))
             }
         }

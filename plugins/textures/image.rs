@@ -153,7 +153,7 @@ impl Image {
     /// An image of `width × height` linear RGB texels (`texels`: 3 values each, row 0 at the
     /// top); `None` when the sizes do not match or either is zero.
     pub fn from_linear(width: usize, height: usize, texels: Vec<f32>) -> Option<Image> {
-        (width > 0 && height > 0 && texels.len() == width * height * 3).then(|| Image { width, height, texels: Texels::Float(texels) })
+        (width > 0 && height > 0 && texels.len() == width * height * 3).then_some(Image { width, height, texels: Texels::Float(texels) })
     }
 
     /// Width and height, texels.

@@ -52,12 +52,12 @@ fn directions_map_to_the_image_as_documented() {
     // Turned by 90° counter-clockwise seen from above: what was along −z is now along −x.
     let turned = Environment::constant(Color::ONE, 90f64.to_radians(), 1);
     assert!((turned.to_uv(DVec3::NEG_X).0 - DVec2::new(0.5, 0.5)).length() < 1e-12);
-    // from_uv inverts to_uv.
+    // direction_of inverts to_uv.
     let mut u = Uniform::new(5);
     for env in [&env, &turned] {
         for _ in 0..1000 {
             let p = u.next_2d();
-            let (dir, s) = env.from_uv(p);
+            let (dir, s) = env.direction_of(p);
             let (back, s2) = env.to_uv(dir);
             assert!((dir.length() - 1.0).abs() < 1e-12 && (s - s2).abs() < 1e-12);
             assert!((back - p).length() < 1e-9, "{p} → {dir} → {back}");
