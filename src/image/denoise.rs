@@ -8,7 +8,7 @@
 
 use crate::image::reference::{decode_pfm, encode_pfm};
 use crate::render::film::Film;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::{Command, Stdio};
 
 /// The environment variable naming the `oidnDenoise` executable.
@@ -128,7 +128,7 @@ pub fn available() -> bool {
 /// The film of `path`'s colour, albedo and normal layers for [`denoise`] (an EXR raylab wrote with
 /// `--aov albedo,normal`; the guides are optional).
 #[cfg(feature = "exr")]
-pub fn read_exr_layers(path: &Path, bytes: &[u8]) -> Result<(Film, Option<Film>, Option<Film>), String> {
+pub fn read_exr_layers(path: &std::path::Path, bytes: &[u8]) -> Result<(Film, Option<Film>, Option<Film>), String> {
     use crate::image::tonemap::{Layer, read_layer};
     let at = |e: String| format!("{}: {e}", path.display());
     let color = read_layer(bytes, "exr", Layer::Color).map_err(at)?;
@@ -153,7 +153,7 @@ mod tests {
             return;
         }
         let (w, h) = (64, 48);
-        let mut noisy = Film::new(w, h);
+        let mut noisy = Film::new(w, h).unwrap();
         let mut state = 0x2545_f491_4f6c_dd1du64;
         for p in &mut noisy.pixels {
             state = crate::math::sampler::mix64(state);
@@ -169,8 +169,8 @@ mod tests {
 
     #[test]
     fn mismatched_guides_are_refused_before_running_anything() {
-        let c = Film::new(4, 4);
-        let a = Film::new(2, 2);
+        let c = Film::new(4, 4).unwrap();
+        let a = Film::new(2, 2).unwrap();
         assert!(denoise(&c, Some(&a), None).unwrap_err().contains("albedo layer is 2×2"));
         assert!(denoise(&c, None, Some(&c)).unwrap_err().contains("needs an albedo guide"));
     }
