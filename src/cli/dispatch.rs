@@ -3,7 +3,7 @@
 
 #[cfg(feature = "view")]
 use super::view;
-use super::{App, Failure, bench, convert, denoise, merge, plugins, render, sweep, tonemap, trace};
+use super::{App, Failure, bench, convert, denoise, fingerprint, merge, plugins, render, sweep, tonemap, trace};
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
@@ -35,6 +35,9 @@ enum Command {
     /// Turn an HDR image (OpenEXR, PFM) or one of its layers (depth, normal, albedo) into a
     /// viewable PNG or JPEG.
     Tonemap(tonemap::TonemapArgs),
+    /// Print a render's fingerprint (the scene, every file it reads, the resolved settings)
+    /// without rendering: what partial images carry, and what tells a docs image is current.
+    Fingerprint(Box<fingerprint::FingerprintArgs>),
     /// Denoise a finished image (an EXR with albedo and normal layers, e.g. a merged farm frame)
     /// with Intel Open Image Denoise (its `oidnDenoise` tool: `pip install pyoidn`).
     Denoise(denoise::DenoiseArgs),
@@ -98,6 +101,7 @@ where
         Some(Command::Bench(a)) => bench::run(&app, a),
         Some(Command::Tonemap(a)) => tonemap::run(&app, a),
         Some(Command::Denoise(a)) => denoise::run(&app, a),
+        Some(Command::Fingerprint(a)) => fingerprint::run(&app, *a),
         #[cfg(feature = "view")]
         Some(Command::View(a)) => view::run(&app, *a),
     };
