@@ -28,7 +28,8 @@ fn render_fingerprint(args: &[String]) -> String {
 /// The fingerprint of what makes an image: its renders, their scenes' golden images, its sources.
 fn fingerprint(entry: &toml::Table) -> String {
     let mut f = Fingerprint::default();
-    let mut renders: Vec<Vec<String>> = entry.get("render").map(|r| r.as_array().unwrap().iter().map(strings).collect()).unwrap_or_default();
+    let mut renders: Vec<Vec<String>> =
+        entry.get("render").map(|r| r.as_array().unwrap().iter().map(strings).collect()).unwrap_or_default();
     renders.extend(entry.get("view").map(strings));
     for (k, args) in renders.iter().enumerate() {
         f.add(&format!("render {k}"), render_fingerprint(args).as_bytes());

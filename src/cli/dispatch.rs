@@ -45,6 +45,13 @@ enum Command {
     /// tree on a click (serves a page on 127.0.0.1).
     #[cfg(feature = "view")]
     View(Box<view::ViewArgs>),
+    /// (Built without the `view` feature: says so.)
+    #[cfg(not(feature = "view"))]
+    #[command(hide = true, disable_help_flag = true)]
+    View {
+        #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
+        args: Vec<String>,
+    },
 }
 
 /// Parses `std::env::args` and runs the command. Output into a closed pipe (`raylab trace … |
@@ -104,6 +111,10 @@ where
         Some(Command::Fingerprint(a)) => fingerprint::run(&app, *a),
         #[cfg(feature = "view")]
         Some(Command::View(a)) => view::run(&app, *a),
+        #[cfg(not(feature = "view"))]
+        Some(Command::View { .. }) => {
+            Err(Failure::Other(format!("`raylab view` needs the `view` feature; {}", crate::param::error::built_without("view"))))
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
