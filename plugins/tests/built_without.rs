@@ -76,7 +76,8 @@ fn without_exr_every_exr_input_and_output_names_the_feature() {
     std::fs::write(dir.join("in.exr"), "not read").unwrap();
     for args in [
         vec!["render", s, "-o", "x.exr", "--width", "8"],
-        vec!["render", s, "-o", "x.png", "--tile", "0/2", "--width", "8"],
+        vec!["render", s, "-o", "x.exr", "--tile", "0/2", "--width", "8"],
+        vec!["render", s, "-o", "x.png", "--checkpoint", "state.exr", "--width", "8"],
         vec!["merge", "in.exr", "-o", "x.png"],
         vec!["tonemap", "in.exr", "-o", "x.png"],
     ] {
