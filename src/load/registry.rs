@@ -88,9 +88,21 @@ pub struct Registry {
     mesh_formats: Vec<MeshFormat>,
     output_formats: Vec<OutputFormat>,
     default_integrator: Option<&'static str>,
+    absent: Vec<Absent>,
 }
 
-impl std::default::Default for Registry {
+/// A plugin type or file extension a cargo feature of the binary would add, declared by a
+/// plugin crate built without that feature, so that asking for it names the feature
+/// ([`Registry::add_absent`], [`crate::param::error::built_without`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Absent {
+    /// What would be there: a type name (`mesh`) or a file extension (`obj`, no dot).
+    pub name: &'static str,
+    /// The cargo feature that adds it.
+    pub feature: &'static str,
+}
+
+impl Default for Registry {
     fn default() -> Self {
         Registry {
             geometries: BTreeMap::new(),
@@ -102,6 +114,7 @@ impl std::default::Default for Registry {
             mesh_formats: Vec::new(),
             output_formats: builtin_formats(),
             default_integrator: None,
+            absent: Vec::new(),
         }
     }
 }
@@ -190,6 +203,18 @@ impl Registry {
     /// format's (a plugin may replace a built-in writer).
     pub fn add_output_format(&mut self, format: OutputFormat) {
         self.output_formats.push(format);
+    }
+
+    /// Declares `absent.name` (a type or a file extension) as what the cargo feature
+    /// `absent.feature` would add: a plugin crate built without that feature calls this, and a
+    /// scene or command asking for it is told which feature to build with.
+    pub fn add_absent(&mut self, absent: Absent) {
+        self.absent.push(absent);
+    }
+
+    /// The feature that would add the type or extension `name`, when one was declared absent.
+    pub fn absent_feature(&self, name: &str) -> Option<&'static str> {
+        self.absent.iter().find(|a| a.name.eq_ignore_ascii_case(name)).map(|a| a.feature)
     }
 
     /// The geometry type `name`.
@@ -313,9 +338,9 @@ impl Registry {
                 Reference::AtLeast(r) => numbers.iter().copied().fold(r, f64::max),
                 Reference::AtMost(r) => numbers.iter().copied().fold(r, f64::min),
                 Reference::Exactly(d) => match d {
-                    crate::param::spec::Default::Int(i) => i as f64,
-                    crate::param::spec::Default::Float(f) => f,
-                    crate::param::spec::Default::Bool(b) => {
+                    crate::param::spec::ParamDefault::Int(i) => i as f64,
+                    crate::param::spec::ParamDefault::Float(f) => f,
+                    crate::param::spec::ParamDefault::Bool(b) => {
                         ov.integrator_params.push((
                             spec.name.to_string(),
                             crate::param::value::Node::given("--reference", crate::param::value::Value::Bool(b)),
@@ -343,15 +368,15 @@ impl Registry {
     /// "type", "default", "required", "doc", "role"}]}], "textures", "lights", "integrators",
     /// "formats": [{"extensions", "summary"}]}`. A default is `null` when there is none.
     pub fn to_json(&self) -> serde_json::Value {
-        use crate::param::spec::{Default, Role};
+        use crate::param::spec::{ParamDefault, Role};
         let param = |s: &ParamSpec| {
             let default = match s.default {
-                Default::Required | Default::Optional => serde_json::Value::Null,
-                Default::Float(v) => v.into(),
-                Default::Int(v) => v.into(),
-                Default::Bool(v) => v.into(),
-                Default::Str(v) => v.into(),
-                Default::Vec3(v) => v.to_vec().into(),
+                ParamDefault::Required | ParamDefault::Optional => serde_json::Value::Null,
+                ParamDefault::Float(v) => v.into(),
+                ParamDefault::Int(v) => v.into(),
+                ParamDefault::Bool(v) => v.into(),
+                ParamDefault::Str(v) => v.into(),
+                ParamDefault::Vec3(v) => v.to_vec().into(),
             };
             let role = match s.role {
                 Role::Setting => "setting",
@@ -362,7 +387,7 @@ impl Registry {
                 "name": s.name,
                 "type": s.kind.name(),
                 "default": default,
-                "required": s.default == Default::Required,
+                "required": s.default == ParamDefault::Required,
                 "doc": s.doc,
                 "role": role,
             })
