@@ -23,9 +23,15 @@ pub(crate) struct RenderArgs {
     #[arg(long)]
     half: bool,
     /// EXR only: extra layers, comma-separated: depth, normal, albedo (for denoisers), error (the
-    /// estimated standard error of each pixel's mean luminance, and its samples per pixel).
-    #[arg(long, value_delimiter = ',', value_parser = ["depth", "normal", "albedo", "error", "variance"])]
+    /// estimated standard error of each pixel's mean luminance, and its samples per pixel `spp`;
+    /// `spp` asks for the same two).
+    #[arg(long, value_delimiter = ',', value_parser = ["depth", "normal", "albedo", "error", "variance", "spp"])]
     aov: Vec<String>,
+    /// Repeat a render under --time-budget bit for bit: each pixel takes the samples the `spp`
+    /// layer of FILE (an EXR it wrote with `--aov spp`) says it reached, whatever the clock.
+    /// Give the same command and settings as that render.
+    #[arg(long, value_name = "FILE")]
+    spp_map: Option<PathBuf>,
     /// Worker threads (default: all cores). The image does not depend on it.
     #[arg(long, allow_hyphen_values = true, value_parser = super::int_in::<usize>(1, super::MAX_THREADS))]
     threads: Option<usize>,
@@ -105,6 +111,7 @@ impl RenderArgs {
             display_server: None,
             half: false,
             aov: Vec::new(),
+            spp_map: None,
             crop: None,
             tile: None,
             pass: None,
@@ -177,6 +184,7 @@ fn resume(app: &App, given: RenderArgs, file: &Path) -> Result<(), Failure> {
         a.output = at(&a.output);
         a.reference = a.reference.as_deref().map(at);
         a.error_csv = a.error_csv.as_deref().map(at);
+        a.spp_map = a.spp_map.as_deref().map(at);
         a.checkpoint = Some(file.to_path_buf());
         a.raw = ri.args;
         a.threads = given.threads.or(a.threads);
@@ -259,7 +267,7 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
     outputs.extend(a.error_csv.as_deref());
     // A resumed render rewrites its own checkpoint: that one file is both.
     outputs.extend(Some(checkpoint.as_path()).filter(|_| resumed.is_none()));
-    let named: Vec<&Path> = a.scene.iter().chain(&a.reference).map(PathBuf::as_path).collect();
+    let named: Vec<&Path> = a.scene.iter().chain(&a.reference).chain(&a.spp_map).map(PathBuf::as_path).collect();
     super::refuse_overwrite("render", &outputs, named.iter().copied())?;
     let (job, scene_name) = super::load(app, a.scene.as_deref(), &a.scene_args, plan)?;
     super::refuse_overwrite("render", &outputs, job.inputs.iter().map(PathBuf::as_path))?;
@@ -278,6 +286,10 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
     let s = job.settings;
     let reference = match &a.reference {
         Some(p) => Some(crate::image::reference::read(p, s.encoding)?),
+        None => None,
+    };
+    let spp_map = match &a.spp_map {
+        Some(p) => Some(read_spp_map(p, s.width, s.height)?),
         None => None,
     };
     let load_time = t0.elapsed();
@@ -340,6 +352,7 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
         resume: resumed.as_ref().map(|(sums, _)| sums),
         snapshots,
         on_tile: display.as_ref().map(|_| &show_tile as &(dyn Fn(&crate::render::TileDone) + Sync)),
+        spp_map: spp_map.as_deref(),
     };
     let mut error_log = match (&a.error_csv, &reference) {
         (Some(path), Some(r)) => Some(ErrorLog::new(path, r, s.encoding)?),
@@ -487,6 +500,9 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
     if let Some(e) = rendered.sums.error_estimate() {
         println!("  {}{}", error_line(&e, s.target.is_some()), if a.denoise { " (before denoising)" } else { "" });
     }
+    if let Some(budget) = s.time_budget {
+        println!("  {}", budget_line(&rendered, budget, spp_map.is_some(), a.aov.iter().any(|l| l == "spp" || l == "error" || l == "variance")));
+    }
     if st.nonfinite_samples > 0 {
         eprintln!("warning: {} samples were NaN or infinite and were dropped from their pixels", st.nonfinite_samples);
     }
@@ -549,6 +565,53 @@ pub fn error_line(e: &crate::render::share::ErrorEstimate, target: bool) -> Stri
         if target { "an error target: " } else { "" },
         e.mean_spp
     )
+}
+
+/// The summary's line on a render under a time budget: where it stopped, and how to repeat it.
+fn budget_line(r: &crate::render::Rendered, budget: std::time::Duration, from_map: bool, recorded: bool) -> String {
+    let (lo, hi) = r.sums.pixels.iter().fold((u32::MAX, 0), |(lo, hi), p| (lo.min(p.samples), hi.max(p.samples)));
+    let spp = if lo == hi { format!("{lo} spp") } else { format!("{lo}..{hi} spp") };
+    let how = if from_map {
+        "samples per pixel read from --spp-map (the clock not consulted)".to_string()
+    } else if r.time_stop {
+        format!("stopped by the time budget of {} s", budget.as_secs_f64())
+    } else {
+        format!("every pixel reached its most samples within the time budget of {} s", budget.as_secs_f64())
+    };
+    let repeat = if from_map || !r.time_stop {
+        ""
+    } else if recorded {
+        "; the `spp` layer records it: --spp-map FILE repeats it bit for bit"
+    } else {
+        "; not recorded: with -o NAME.exr --aov spp, --spp-map NAME.exr repeats it bit for bit"
+    };
+    format!("time budget: {how} at {spp}{repeat}")
+}
+
+/// The `spp` layer of an EXR file as a map of samples per pixel for a `width × height` frame.
+fn read_spp_map(path: &Path, width: u32, height: u32) -> Result<Vec<u32>, Failure> {
+    use crate::image::tonemap::{Layer, MAX_FILE_BYTES, check_input, read_layer};
+    let at = |e: String| Failure::Other(format!("--spp-map {}: {e}", path.display()));
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    check_input(&ext, Layer::Spp).map_err(at)?;
+    let bytes = crate::load::context::read_user_file(path, "map of samples per pixel", MAX_FILE_BYTES, None)?;
+    let film = read_layer(&bytes, &ext, Layer::Spp).map_err(at)?;
+    if (film.width, film.height) != (width, height) {
+        return Err(at(format!("its {}×{} pixels are not this render's {width}×{height}", film.width, film.height)));
+    }
+    film.pixels
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let n = p.x;
+            // Whole numbers up to 2^24 are exact in the layer's 32-bit floats.
+            if n.is_finite() && n >= 0.0 && n.fract() == 0.0 && n <= (1u32 << 24) as f32 {
+                Ok(n as u32)
+            } else {
+                Err(at(format!("pixel ({}, {}) has {n} samples: expected a whole number in 0..=2^24", i % width as usize, i / width as usize)))
+            }
+        })
+        .collect()
 }
 
 /// Writes the image to `path` in `format`, with the layers `--aov` asks for (of `layers`, and

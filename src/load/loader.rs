@@ -122,7 +122,16 @@ pub const RENDER_PARAMS: &[ParamSpec] = &[
         Default::Int(16),
         "with target_error: samples every pixel takes before its error is first tested, ≥ 2 (fewer lets pixels whose first samples happen to agree stop too early)",
     ),
+    ParamSpec::new(
+        "time_budget",
+        ParamKind::Float,
+        Default::Optional,
+        "seconds of tracing: the image refines in passes that double each pixel's samples (spp is the most a pixel takes) and stops when the time is up, every pixel keeping the samples it has (stratified only); the `spp` layer (--aov spp) repeats it bit for bit (--spp-map)",
+    ),
 ];
+
+/// The longest time budget, seconds (a year).
+const MAX_TIME_BUDGET: f64 = 365.0 * 24.0 * 3600.0;
 
 /// Reads and builds the scene file at `path`, choosing the format by extension (`.toml` is
 /// raylab's own; others must be registered).
@@ -365,8 +374,21 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         }
         Some(error) => Some(crate::render::job::ErrorTarget { error, min_spp: target_min_spp }),
     };
+    let time_budget = match rp.float_opt("time_budget")? {
+        None => None,
+        Some(t) if !(t > 0.0 && t <= MAX_TIME_BUDGET) => {
+            return Err(rp.error_at("time_budget", format_args!("expected seconds in (0, {MAX_TIME_BUDGET}], found {t}")));
+        }
+        Some(_) if matches!(aa, Antialiasing::Adaptive(_)) => {
+            return Err(rp
+                .error_at("time_budget", "a time budget applies to stratified sampling, not to adaptive anti-aliasing")
+                .with_help("use aa = \"stratified\" (--aa stratified) with time_budget"));
+        }
+        Some(t) => Some(std::time::Duration::from_secs_f64(t)),
+    };
     rp.finish()?;
-    let settings = RenderSettings { width: width as u32, height: height as u32, spp: spp as u32, seed, encoding, aa, lens_samples, target };
+    let settings =
+        RenderSettings { width: width as u32, height: height as u32, spp: spp as u32, seed, encoding, aa, lens_samples, target, time_budget };
 
     // [camera]
     let cam_node = root.node("camera")?;

@@ -65,6 +65,10 @@ pub struct RenderOptions<'a> {
     /// Called as each tile finishes (from a worker thread, while the state is locked): live
     /// displays show the tile at once.
     pub on_tile: Option<&'a (dyn Fn(&TileDone) + Sync)>,
+    /// The samples each pixel of the frame reached in a render under a time budget (row by row,
+    /// the `spp` layer it wrote): with it, a render of the same job stops each pixel there
+    /// instead of at the clock, and repeats that render bit for bit.
+    pub spp_map: Option<&'a [u32]>,
 }
 
 /// A tile that has just finished, with the render's state at that moment.
@@ -107,6 +111,10 @@ pub struct Rendered {
     /// Set when the work budget ([`RenderJob::max_rays`]) stopped the render: the rays traced by
     /// then (the tiles that ran out are discarded; the image holds the tiles done).
     pub budget_stop: Option<u64>,
+    /// Set when the time budget ([`RenderSettings::time_budget`]) ended the render before every
+    /// pixel had `spp` samples (the render is complete all the same: each pixel keeps what it
+    /// has, and the `spp` layer records it).
+    pub time_stop: bool,
 }
 
 /// The state of a progressive render after one pass.
@@ -206,11 +214,28 @@ fn render_passes(
     if share.bounds.is_empty() || !share.bounds.within(&Rect::frame(s.width, s.height)) || share.passes == 0 || share.pass >= share.passes {
         return Err(format!("{} is not a share of the {}×{} frame", share.describe(), s.width, s.height));
     }
-    if s.target.is_some() && share.passes > 1 {
+    if (s.target.is_some() || s.time_budget.is_some()) && share.passes > 1 {
         return Err(format!(
-            "{}: with an error target, where a pixel stops depends on all its samples so far, so its samples cannot be split into passes; split the frame by tiles or crops instead",
+            "{}: with an error target or a time budget, where a pixel stops depends on all its samples so far, so its samples cannot be split into passes; split the frame by tiles or crops instead",
             share.describe()
         ));
+    }
+    if let Some(map) = options.spp_map {
+        let n = s.width as usize * s.height as usize;
+        if s.time_budget.is_none() || !matches!(s.aa, Antialiasing::Stratified) {
+            return Err("a map of samples per pixel repeats a render under a time budget: give the same command, with its time budget".into());
+        }
+        if map.len() != n {
+            return Err(format!("the map of samples per pixel has {} pixels, not the {}×{} of this frame", map.len(), s.width, s.height));
+        }
+        if let Some((i, &m)) = map.iter().enumerate().find(|(_, m)| **m > s.spp.max(1)) {
+            return Err(format!(
+                "the map gives pixel ({}, {}) {m} samples, more than the {} spp this render takes at most: it is of another render",
+                i % s.width as usize,
+                i / s.width as usize,
+                s.spp
+            ));
+        }
     }
     let sums = match options.resume {
         Some(r) => {
@@ -232,9 +257,13 @@ fn render_passes(
         None => FrameSums::new(&s, share, options.layers).map_err(|e| e.to_string())?,
     };
     let ends = match s.aa {
+        // Under a time budget the image refines doubling its samples, so it is whole at any stop.
+        Antialiasing::Stratified if s.time_budget.is_some() => pass_ends(s.spp, &DOUBLING_PASSES),
         Antialiasing::Stratified => pass_ends(s.spp, checkpoints),
         Antialiasing::Adaptive(_) => vec![1],
     };
+    // The clock stops the render only without a map (which repeats where it stopped before).
+    let deadline = s.time_budget.filter(|_| options.spp_map.is_none());
     let counters = job.integrator.counters();
     // Adaptive tiles are larger: the lattice points on a tile's border are traced by both tiles.
     let tiles = tiles(
@@ -250,7 +279,18 @@ fn render_passes(
         // `already + Σ missing`, each pixel's `max(samples, want)`, without asking pixel by pixel.
         Antialiasing::Stratified => {
             let want = share.samples_of(Sampling::of(&s), s.width, share.bounds.x0, share.bounds.y0);
-            sums.pixels.iter().map(|p| u64::from(p.samples.max(want))).sum()
+            match options.spp_map {
+                None => sums.pixels.iter().map(|p| u64::from(p.samples.max(want))).sum(),
+                Some(map) => sums
+                    .pixels
+                    .iter()
+                    .enumerate()
+                    .map(|(i, p)| {
+                        let (x, y) = share.bounds.pixel(i);
+                        u64::from(p.samples.max(want.min(map[y as usize * s.width as usize + x as usize])))
+                    })
+                    .sum(),
+            }
         }
         Antialiasing::Adaptive(_) => already + (0..sums.pixels.len()).map(|i| u64::from(sums.missing(i))).sum::<u64>(),
     };
@@ -262,16 +302,20 @@ fn render_passes(
     let lock = || state.lock().unwrap_or_else(|e| e.into_inner());
     let start = Instant::now();
     let mut complete = true;
-    for &end in &ends {
+    let mut time_stop = false;
+    for (k, &end) in ends.iter().enumerate() {
+        // The first pass always completes, so every pixel has a sample; later ones stop at the
+        // deadline, between pixel rows.
+        let stop = Stop { cancel: options.cancel, deadline: deadline.filter(|_| k > 0).map(|d| start + d) };
         tiles.par_iter().for_each(|&tile| {
-            if options.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || over.load(Ordering::Relaxed) {
+            if stop.now() || over.load(Ordering::Relaxed) {
                 return;
             }
             let mut work = TileWork::take(&lock().sums, tile);
             let mut stats = RayStats::new(counters);
             stats.set_allowance(job.max_rays.saturating_sub(traced.load(Ordering::Relaxed)));
             let before = work.samples();
-            work.render(job, end, options.cancel, &mut stats);
+            work.render(job, end, &stop, options.spp_map, &mut stats);
             let added = work.samples() - before;
             traced.fetch_add(stats.rays(), Ordering::Relaxed);
             let mut st = lock();
@@ -300,6 +344,10 @@ fn render_passes(
             complete = st.sums.complete();
             break;
         }
+        if stop.now() {
+            time_stop = end != *ends.last().unwrap_or(&end) || !st.sums.complete();
+            break;
+        }
         if end != *ends.last().unwrap_or(&end) {
             let film = st.sums.film().map_err(|e| e.to_string())?;
             on_pass(&Pass { film: &film, samples: end, elapsed: start.elapsed(), stats: st.stats });
@@ -313,7 +361,21 @@ fn render_passes(
         on_pass(&Pass { film: &film, samples: *ends.last().unwrap_or(&1), elapsed, stats: st.stats });
     }
     let budget_stop = over.load(Ordering::Relaxed).then(|| traced.load(Ordering::Relaxed));
-    Ok(Rendered { film, layers, sums: st.sums, stats: st.stats, elapsed, complete: complete && budget_stop.is_none(), budget_stop })
+    Ok(Rendered { film, layers, sums: st.sums, stats: st.stats, elapsed, complete: complete && budget_stop.is_none(), budget_stop, time_stop })
+}
+
+/// When a render stops: when cancelled, or at a deadline (a time budget).
+struct Stop<'a> {
+    cancel: Option<&'a AtomicBool>,
+    deadline: Option<Instant>,
+}
+
+impl Stop<'_> {
+    /// Whether the render is to stop now.
+    #[inline]
+    fn now(&self) -> bool {
+        self.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || self.deadline.is_some_and(|d| Instant::now() >= d)
+    }
 }
 
 /// One tile's sums, taken out of the shared state while its samples are traced.
@@ -360,15 +422,15 @@ impl TileWork {
     /// Adds the share's samples below index `end` that each pixel lacks (stratified), or
     /// computes the pixels not done yet (adaptive); stops between pixel rows when cancelled or
     /// when `stats` ran out of its allowance (the integrator stops within a sample).
-    fn render(&mut self, job: &RenderJob, end: u32, cancel: Option<&AtomicBool>, stats: &mut RayStats) {
+    fn render(&mut self, job: &RenderJob, end: u32, stop: &Stop, map: Option<&[u32]>, stats: &mut RayStats) {
         let s = &job.settings;
         let t = self.tile;
         let mut scheme = match s.aa {
             Antialiasing::Adaptive(a) => Adaptive::new(job, a, t.x0, t.width(), self.layers.is_some()),
-            Antialiasing::Stratified => return self.render_stratified(job, end, cancel, stats),
+            Antialiasing::Stratified => return self.render_stratified(job, end, stop, map, stats),
         };
         for (i, (x, y)) in (t.y0..t.y1).flat_map(|y| (t.x0..t.x1).map(move |x| (x, y))).enumerate() {
-            if x == t.x0 && (cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || stats.exhausted()) {
+            if x == t.x0 && (stop.now() || stats.exhausted()) {
                 return;
             }
             let acc = &mut self.pixels[i];
@@ -383,8 +445,9 @@ impl TileWork {
     }
 
     /// [`TileWork::render`] under stratified sampling, row by row, with what is the same for
-    /// every pixel of the tile (the samples it wants, whether layers are summed) decided once.
-    fn render_stratified(&mut self, job: &RenderJob, end: u32, cancel: Option<&AtomicBool>, stats: &mut RayStats) {
+    /// every pixel of the tile (the samples it wants, whether layers are summed) decided once;
+    /// with a map of samples per pixel, each pixel wants at most its entry.
+    fn render_stratified(&mut self, job: &RenderJob, end: u32, stop: &Stop, map: Option<&[u32]>, stats: &mut RayStats) {
         let s = &job.settings;
         let t = self.tile;
         let share = self.share;
@@ -393,20 +456,22 @@ impl TileWork {
         let frame = image_frame(job);
         let w = t.width() as usize;
         for (row, y) in (t.y0..t.y1).enumerate() {
-            if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || stats.exhausted() {
+            if stop.now() || stats.exhausted() {
                 return;
             }
             let span = row * w..(row + 1) * w;
             let pixels = self.pixels[span.clone()].iter_mut().zip(t.x0..t.x1);
+            let row_map = map.map(|m| &m[y as usize * s.width as usize..][..s.width as usize]);
+            let want_at = |x: u32| row_map.map_or(want, |m| want.min(m[x as usize]));
             match self.layers.as_mut() {
                 None => {
                     for (acc, x) in pixels {
-                        add_samples(job, &frame, share, (x, y), want, end, acc, None, stats);
+                        add_samples(job, &frame, share, (x, y), want_at(x), end, acc, None, stats);
                     }
                 }
                 Some(layers) => {
                     for ((acc, x), l) in pixels.zip(&mut layers[span]) {
-                        add_samples(job, &frame, share, (x, y), want, end, acc, Some(l), stats);
+                        add_samples(job, &frame, share, (x, y), want_at(x), end, acc, Some(l), stats);
                     }
                 }
             }
