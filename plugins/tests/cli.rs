@@ -575,7 +575,8 @@ fn a_time_budget_render_repeats_from_its_spp_layer() {
     assert_eq!((a.0, a.1), (b.0, b.1));
     assert_eq!(bits(&a.2), bits(&b.2), "the repeat has the same bits");
     // A map is read only for a render under a time budget.
-    let out = raylab(&dir, &["render", scene.to_str().unwrap(), "--width", "24", "--height", "24", "--spp-map", "first.exr", "-o", "x.png"]);
+    let out =
+        raylab(&dir, &["render", scene.to_str().unwrap(), "--width", "24", "--height", "24", "--spp-map", "first.exr", "-o", "x.png"]);
     assert!(!out.status.success() && text(&out.stderr).contains("time budget"), "{}", text(&out.stderr));
     std::fs::remove_dir_all(dir).unwrap();
 }

@@ -501,7 +501,10 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
         println!("  {}{}", error_line(&e, s.target.is_some()), if a.denoise { " (before denoising)" } else { "" });
     }
     if let Some(budget) = s.time_budget {
-        println!("  {}", budget_line(&rendered, budget, spp_map.is_some(), a.aov.iter().any(|l| l == "spp" || l == "error" || l == "variance")));
+        println!(
+            "  {}",
+            budget_line(&rendered, budget, spp_map.is_some(), a.aov.iter().any(|l| l == "spp" || l == "error" || l == "variance"))
+        );
     }
     if st.nonfinite_samples > 0 {
         eprintln!("warning: {} samples were NaN or infinite and were dropped from their pixels", st.nonfinite_samples);
@@ -608,7 +611,11 @@ fn read_spp_map(path: &Path, width: u32, height: u32) -> Result<Vec<u32>, Failur
             if n.is_finite() && n >= 0.0 && n.fract() == 0.0 && n <= (1u32 << 24) as f32 {
                 Ok(n as u32)
             } else {
-                Err(at(format!("pixel ({}, {}) has {n} samples: expected a whole number in 0..=2^24", i % width as usize, i / width as usize)))
+                Err(at(format!(
+                    "pixel ({}, {}) has {n} samples: expected a whole number in 0..=2^24",
+                    i % width as usize,
+                    i / width as usize
+                )))
             }
         })
         .collect()

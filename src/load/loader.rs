@@ -387,8 +387,17 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         Some(t) => Some(std::time::Duration::from_secs_f64(t)),
     };
     rp.finish()?;
-    let settings =
-        RenderSettings { width: width as u32, height: height as u32, spp: spp as u32, seed, encoding, aa, lens_samples, target, time_budget };
+    let settings = RenderSettings {
+        width: width as u32,
+        height: height as u32,
+        spp: spp as u32,
+        seed,
+        encoding,
+        aa,
+        lens_samples,
+        target,
+        time_budget,
+    };
 
     // [camera]
     let cam_node = root.node("camera")?;

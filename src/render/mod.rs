@@ -223,7 +223,9 @@ fn render_passes(
     if let Some(map) = options.spp_map {
         let n = s.width as usize * s.height as usize;
         if s.time_budget.is_none() || !matches!(s.aa, Antialiasing::Stratified) {
-            return Err("a map of samples per pixel repeats a render under a time budget: give the same command, with its time budget".into());
+            return Err(
+                "a map of samples per pixel repeats a render under a time budget: give the same command, with its time budget".into()
+            );
         }
         if map.len() != n {
             return Err(format!("the map of samples per pixel has {} pixels, not the {}×{} of this frame", map.len(), s.width, s.height));
@@ -361,7 +363,16 @@ fn render_passes(
         on_pass(&Pass { film: &film, samples: *ends.last().unwrap_or(&1), elapsed, stats: st.stats });
     }
     let budget_stop = over.load(Ordering::Relaxed).then(|| traced.load(Ordering::Relaxed));
-    Ok(Rendered { film, layers, sums: st.sums, stats: st.stats, elapsed, complete: complete && budget_stop.is_none(), budget_stop, time_stop })
+    Ok(Rendered {
+        film,
+        layers,
+        sums: st.sums,
+        stats: st.stats,
+        elapsed,
+        complete: complete && budget_stop.is_none(),
+        budget_stop,
+        time_stop,
+    })
 }
 
 /// When a render stops: when cancelled, or at a deadline (a time budget).
