@@ -8,7 +8,7 @@
 
 use crate::image::reference::{decode_pfm, encode_pfm};
 use crate::render::film::Film;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::{Command, Stdio};
 
 /// The environment variable naming the `oidnDenoise` executable.
@@ -120,6 +120,14 @@ impl Drop for TempDir {
     }
 }
 
+/// A finished render's `film` denoised whole, guided by the albedo and normal of its `layers`.
+pub fn denoise_guided(film: &Film, layers: Option<&crate::render::aovs::Aovs>) -> Result<Film, String> {
+    let layers = layers.ok_or("the render took no albedo and normal layers to guide the denoiser")?;
+    let (width, height) = (film.width, film.height);
+    let guide = |v: &Option<Vec<glam::Vec3>>| v.as_ref().map(|p| Film { width, height, pixels: p.clone() });
+    denoise(film, guide(&layers.albedo).as_ref(), guide(&layers.normal).as_ref())
+}
+
 /// Whether the tool can be found (for tests that need it).
 pub fn available() -> bool {
     find_tool().is_ok()
@@ -128,7 +136,7 @@ pub fn available() -> bool {
 /// The film of `path`'s colour, albedo and normal layers for [`denoise`] (an EXR raylab wrote with
 /// `--aov albedo,normal`; the guides are optional).
 #[cfg(feature = "exr")]
-pub fn read_exr_layers(path: &Path, bytes: &[u8]) -> Result<(Film, Option<Film>, Option<Film>), String> {
+pub fn read_exr_layers(path: &std::path::Path, bytes: &[u8]) -> Result<(Film, Option<Film>, Option<Film>), String> {
     use crate::image::tonemap::{Layer, read_layer};
     let at = |e: String| format!("{}: {e}", path.display());
     let color = read_layer(bytes, "exr", Layer::Color).map_err(at)?;
