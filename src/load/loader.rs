@@ -130,7 +130,7 @@ pub const RENDER_PARAMS: &[ParamSpec] = &[
     ParamSpec::new(
         "time_budget",
         ParamKind::Float,
-        Default::Optional,
+        ParamDefault::Optional,
         "seconds of tracing: the image refines in passes that double each pixel's samples (spp is the most a pixel takes) and stops when the time is up, every pixel keeping the samples it has (stratified only); the `spp` layer (--aov spp) repeats it bit for bit (--spp-map)",
     ),
 ];
