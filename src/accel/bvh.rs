@@ -48,7 +48,7 @@ pub struct PrimitiveIndex {
     /// The box a query clips rays to (padded root of a hierarchy; `None`: no clipping).
     bounds: Option<Aabb>,
     #[cfg(feature = "bvh")]
-    bvh: Option<wide::Bvh<{ wide::WIDTH }>>,
+    bvh: Option<wide::Bvh>,
 }
 
 impl std::fmt::Debug for PrimitiveIndex {

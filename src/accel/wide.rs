@@ -1,6 +1,6 @@
 //! raylab's wide bounding-volume hierarchies: built top-down by binned SAH (in parallel, of
-//! bounded depth for any input), laid out as nodes of `W` child boxes in `f32` (structure of
-//! arrays: 256 bytes, four cache lines, for the [`WIDTH`] of 8), traversed with a `W`-lane slab
+//! bounded depth for any input), laid out as nodes of [`WIDTH`] (8) child boxes in `f32`
+//! (structure of arrays: 256 bytes, four cache lines), traversed with an 8-lane slab
 //! test: nearest child first for the closest hit, unsorted for any hit. Meshes' triangles and
 //! scenes' objects use the same width.
 //!
@@ -32,11 +32,10 @@ use std::sync::OnceLock;
 use std::time::Instant;
 
 /// Children per node. Measured against 4 (bunny shot, `raylab bench`, the dozen scene's
-/// objects): 8 is faster on all three. The code is generic over the width, up to [`MAX_WIDTH`].
+/// objects): 8 is faster on all three. The AVX2 slab test takes the 8 in one register, the
+/// baseline one in two halves of four.
 pub const WIDTH: usize = 8;
-
-/// Most children per node of a [`Bvh`] (sizes the deepest traversal stack).
-const MAX_WIDTH: usize = 8;
+const _: () = assert!(WIDTH == 8, "the AVX2 slab test (node_hits_avx2) takes exactly 8 lanes");
 
 /// A slot of the order that holds no primitive (padding of a leaf to its group).
 pub const PAD: u32 = u32::MAX;
@@ -59,8 +58,7 @@ const PARALLEL_RANGE: usize = 1 << 14;
 /// Traversal stack entries for a hierarchy of `levels` levels of `width`-child nodes: each level
 /// leaves at most `width − 1` entries behind. The stack is initialised per ray, so a hierarchy
 /// gets the smallest of a few sizes that holds it: 16, 32, 64, 128 entries (8 children: 2, 4, 9,
-/// 18 levels; 4 children: 5, 10, 21, 42 levels) or enough for [`MAX_DEPTH`] levels of
-/// [`MAX_WIDTH`] children.
+/// 18 levels) or enough for [`MAX_DEPTH`] levels.
 const fn stack_entries(width: usize, levels: usize) -> usize {
     (width - 1) * levels + 1
 }
@@ -68,7 +66,7 @@ const STACK_16: usize = 16;
 const STACK_32: usize = 32;
 const STACK_64: usize = 64;
 const STACK_128: usize = 128;
-const DEEP_STACK: usize = stack_entries(MAX_WIDTH, MAX_DEPTH);
+const DEEP_STACK: usize = stack_entries(WIDTH, MAX_DEPTH);
 
 /// How primitives are grouped into leaves.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -128,22 +126,22 @@ impl Kernel {
     }
 }
 
-/// A node: `W` child boxes, each an inner node or a leaf. An unused lane has an empty box
+/// A node: [`WIDTH`] child boxes, each an inner node or a leaf. An unused lane has an empty box
 /// (min +∞, max −∞), which no ray meets.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
-pub struct Node<const W: usize> {
+pub struct Node {
     /// `bounds[axis][0]`: the children's minima on `axis`, `bounds[axis][1]` their maxima; lane =
     /// child. Rounded outward from `f64` and padded.
-    bounds: [[[f32; W]; 2]; 3],
+    bounds: [[[f32; WIDTH]; 2]; 3],
     /// Child `i`: a node index when `count[i] == 0`, else the first slot of a leaf of `count[i]`
     /// primitives.
-    child: [u32; W],
-    count: [u32; W],
+    child: [u32; WIDTH],
+    count: [u32; WIDTH],
 }
 
-impl<const W: usize> Node<W> {
-    const EMPTY: Node<W> = Node { bounds: [[[f32::INFINITY; W], [f32::NEG_INFINITY; W]]; 3], child: [0; W], count: [0; W] };
+impl Node {
+    const EMPTY: Node = Node { bounds: [[[f32::INFINITY; WIDTH], [f32::NEG_INFINITY; WIDTH]]; 3], child: [0; WIDTH], count: [0; WIDTH] };
 
     fn set_box(&mut self, lane: usize, b: &Box32) {
         for axis in 0..3 {
@@ -199,10 +197,10 @@ pub fn up(x: f64) -> f32 {
     if f64::from(v) < x { v.next_up() } else { v }
 }
 
-/// A hierarchy of `W`-child nodes (`W` ≤ [`MAX_WIDTH`]) with its padded root box.
+/// A hierarchy of [`WIDTH`]-child nodes with its padded root box.
 #[derive(Clone)]
-pub struct Bvh<const W: usize> {
-    nodes: Vec<Node<W>>,
+pub struct Bvh {
+    nodes: Vec<Node>,
     /// The padded root box, in `f64`.
     root: Aabb,
     /// Levels of nodes.
@@ -215,14 +213,14 @@ pub struct Bvh<const W: usize> {
 /// [`PAD`]) and what the build cost.
 pub struct Built {
     /// The hierarchy.
-    pub bvh: Bvh<WIDTH>,
+    pub bvh: Bvh,
     /// Primitive of each slot.
     pub order: Vec<u32>,
     /// Cost of the build.
     pub stats: BuildStats,
 }
 
-impl Bvh<WIDTH> {
+impl Bvh {
     /// [`Bvh::build`], timed, with what it cost.
     pub fn build_timed(count: usize, total: Aabb, box_of: impl Fn(usize) -> Aabb + Sync, shape: Shape) -> Built {
         let start = Instant::now();
@@ -253,26 +251,25 @@ macro_rules! with_stack {
     ($need:expr, $walk:ident, $($arg:expr),*) => {{
         let need = $need;
         if need <= STACK_16 {
-            $walk::<STACK_16, W>($($arg),*)
+            $walk::<STACK_16>($($arg),*)
         } else if need <= STACK_32 {
-            $walk::<STACK_32, W>($($arg),*)
+            $walk::<STACK_32>($($arg),*)
         } else if need <= STACK_64 {
-            $walk::<STACK_64, W>($($arg),*)
+            $walk::<STACK_64>($($arg),*)
         } else if need <= STACK_128 {
-            $walk::<STACK_128, W>($($arg),*)
+            $walk::<STACK_128>($($arg),*)
         } else {
-            $walk::<DEEP_STACK, W>($($arg),*)
+            $walk::<DEEP_STACK>($($arg),*)
         }
     }};
 }
 
-impl<const W: usize> Bvh<W> {
+impl Bvh {
     /// Builds over `count` primitives (at least one) whose boxes (finite, non-empty) `box_of`
     /// gives and whose union is `total`, with leaves shaped by `shape`; returns the hierarchy and
     /// the slot order.
-    pub fn build(count: usize, total: Aabb, box_of: impl Fn(usize) -> Aabb + Sync, shape: Shape) -> (Bvh<W>, Vec<u32>) {
+    pub fn build(count: usize, total: Aabb, box_of: impl Fn(usize) -> Aabb + Sync, shape: Shape) -> (Bvh, Vec<u32>) {
         use rayon::prelude::*;
-        const { assert!(W >= 2 && W <= MAX_WIDTH) };
         let pad = BOX_PADDING * (total.magnitude() + total.extent().length());
         let pad = DVec3::splat(pad.max(f64::MIN_POSITIVE));
         let record = |i: usize| {
@@ -282,14 +279,14 @@ impl<const W: usize> Bvh<W> {
         };
         let prims: Vec<PrimRef> =
             if count >= PARALLEL_RANGE { (0..count).into_par_iter().map(record).collect() } else { (0..count).map(record).collect() };
-        let (nodes, order, depth) = build_nodes::<W>(prims, shape);
+        let (nodes, order, depth) = build_nodes(prims, shape);
         debug_assert!(depth <= MAX_DEPTH, "{depth} levels");
         (Bvh { nodes, root: total.expand(pad * 2.0), depth, kernel: Kernel::detect() }, order)
     }
 
     /// Bytes of the nodes.
     pub fn memory_bytes(&self) -> usize {
-        self.nodes.len() * std::mem::size_of::<Node<W>>()
+        self.nodes.len() * std::mem::size_of::<Node>()
     }
 
     /// Walks the leaves the ray meets (in the shifted frame of `r`, up to `hi`), nearest first,
@@ -298,7 +295,7 @@ impl<const W: usize> Bvh<W> {
     /// taken last lane first.
     #[inline]
     pub fn traverse(&self, r: &NodeRay, hi: &mut f32, leaf: &mut impl FnMut(u32, u32, &mut f32) -> bool) -> bool {
-        with_stack!(stack_entries(W, self.depth), walk_on, self, r, hi, leaf)
+        with_stack!(stack_entries(WIDTH, self.depth), walk_on, self, r, hi, leaf)
     }
 
     /// Walks the leaves the ray meets (in the shifted frame of `r`, up to `hi`) in no particular
@@ -307,85 +304,65 @@ impl<const W: usize> Bvh<W> {
     /// come, with no sorting by distance and no distance check when popped.
     #[inline]
     pub fn traverse_any(&self, r: &NodeRay, hi: f32, leaf: &mut impl FnMut(u32, u32) -> bool) -> bool {
-        with_stack!(stack_entries(W, self.depth), walk_any_on, self, r, hi, leaf)
+        with_stack!(stack_entries(WIDTH, self.depth), walk_any_on, self, r, hi, leaf)
     }
 }
 
 /// [`walk`] in the copy of [`Bvh::kernel`].
 #[inline(always)]
-fn walk_on<const N: usize, const W: usize>(
-    bvh: &Bvh<W>,
-    r: &NodeRay,
-    hi: &mut f32,
-    leaf: &mut impl FnMut(u32, u32, &mut f32) -> bool,
-) -> bool {
+fn walk_on<const N: usize>(bvh: &Bvh, r: &NodeRay, hi: &mut f32, leaf: &mut impl FnMut(u32, u32, &mut f32) -> bool) -> bool {
     #[cfg(target_arch = "x86_64")]
     if bvh.kernel == Kernel::Avx2 {
         // SAFETY: a hierarchy's kernel is `Kernel::Avx2` only when `Kernel::fastest` returned
         // it, after `is_x86_feature_detected!` found AVX2 and FMA on this CPU.
-        return unsafe { walk_avx2::<N, W>(bvh, r, hi, leaf) };
+        return unsafe { walk_avx2::<N>(bvh, r, hi, leaf) };
     }
-    walk_baseline::<N, W>(bvh, r, hi, leaf)
+    walk_baseline::<N>(bvh, r, hi, leaf)
 }
 
 /// [`walk_any`] in the copy of [`Bvh::kernel`].
 #[inline(always)]
-fn walk_any_on<const N: usize, const W: usize>(bvh: &Bvh<W>, r: &NodeRay, hi: f32, leaf: &mut impl FnMut(u32, u32) -> bool) -> bool {
+fn walk_any_on<const N: usize>(bvh: &Bvh, r: &NodeRay, hi: f32, leaf: &mut impl FnMut(u32, u32) -> bool) -> bool {
     #[cfg(target_arch = "x86_64")]
     if bvh.kernel == Kernel::Avx2 {
         // SAFETY: a hierarchy's kernel is `Kernel::Avx2` only when `Kernel::fastest` returned
         // it, after `is_x86_feature_detected!` found AVX2 and FMA on this CPU.
-        return unsafe { walk_any_avx2::<N, W>(bvh, r, hi, leaf) };
+        return unsafe { walk_any_avx2::<N>(bvh, r, hi, leaf) };
     }
-    walk_any_baseline::<N, W>(bvh, r, hi, leaf)
+    walk_any_baseline::<N>(bvh, r, hi, leaf)
 }
 
 /// [`walk`] for any x86-64 CPU, out of line like [`walk_avx2`]: inlined, the stacks of its copies
 /// (one per stack size) made the caller's frame kilobytes deep, probed on every query.
 #[inline(never)]
-fn walk_baseline<const N: usize, const W: usize>(
-    bvh: &Bvh<W>,
-    r: &NodeRay,
-    hi: &mut f32,
-    leaf: &mut impl FnMut(u32, u32, &mut f32) -> bool,
-) -> bool {
-    walk::<N, W, false>(bvh, r, hi, leaf)
+fn walk_baseline<const N: usize>(bvh: &Bvh, r: &NodeRay, hi: &mut f32, leaf: &mut impl FnMut(u32, u32, &mut f32) -> bool) -> bool {
+    walk::<N, false>(bvh, r, hi, leaf)
 }
 
 /// [`walk_any`] for any x86-64 CPU, out of line (see [`walk_baseline`]).
 #[inline(never)]
-fn walk_any_baseline<const N: usize, const W: usize>(bvh: &Bvh<W>, r: &NodeRay, hi: f32, leaf: &mut impl FnMut(u32, u32) -> bool) -> bool {
-    walk_any::<N, W, false>(bvh, r, hi, leaf)
+fn walk_any_baseline<const N: usize>(bvh: &Bvh, r: &NodeRay, hi: f32, leaf: &mut impl FnMut(u32, u32) -> bool) -> bool {
+    walk_any::<N, false>(bvh, r, hi, leaf)
 }
 
 /// [`walk`] compiled for AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-fn walk_avx2<const N: usize, const W: usize>(
-    bvh: &Bvh<W>,
-    r: &NodeRay,
-    hi: &mut f32,
-    leaf: &mut impl FnMut(u32, u32, &mut f32) -> bool,
-) -> bool {
-    walk::<N, W, true>(bvh, r, hi, leaf)
+fn walk_avx2<const N: usize>(bvh: &Bvh, r: &NodeRay, hi: &mut f32, leaf: &mut impl FnMut(u32, u32, &mut f32) -> bool) -> bool {
+    walk::<N, true>(bvh, r, hi, leaf)
 }
 
 /// [`walk_any`] compiled for AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-fn walk_any_avx2<const N: usize, const W: usize>(bvh: &Bvh<W>, r: &NodeRay, hi: f32, leaf: &mut impl FnMut(u32, u32) -> bool) -> bool {
-    walk_any::<N, W, true>(bvh, r, hi, leaf)
+fn walk_any_avx2<const N: usize>(bvh: &Bvh, r: &NodeRay, hi: f32, leaf: &mut impl FnMut(u32, u32) -> bool) -> bool {
+    walk_any::<N, true>(bvh, r, hi, leaf)
 }
 
-/// [`Bvh::traverse_any`] with a stack of `N` ≥ `stack_entries(W, depth)` entries.
+/// [`Bvh::traverse_any`] with a stack of `N` ≥ `stack_entries(WIDTH, depth)` entries.
 #[inline(always)]
-fn walk_any<const N: usize, const W: usize, const AVX: bool>(
-    bvh: &Bvh<W>,
-    r: &NodeRay,
-    hi: f32,
-    leaf: &mut impl FnMut(u32, u32) -> bool,
-) -> bool {
-    // At most (W − 1) entries per level are left behind.
+fn walk_any<const N: usize, const AVX: bool>(bvh: &Bvh, r: &NodeRay, hi: f32, leaf: &mut impl FnMut(u32, u32) -> bool) -> bool {
+    // At most (WIDTH − 1) entries per level are left behind.
     let mut stack = [(0u32, 0u32); N];
     let mut sp = 0usize;
     let (mut child, mut count) = (0u32, 0u32);
@@ -396,7 +373,7 @@ fn walk_any<const N: usize, const W: usize, const AVX: bool>(
             }
         } else {
             let node = &bvh.nodes[child as usize];
-            let (_, mut mask) = node_hits::<W, AVX>(node, r, hi);
+            let (_, mut mask) = node_hits::<AVX>(node, r, hi);
             if mask != 0 {
                 // Continue with the first child met, push the others.
                 let i = mask.trailing_zeros() as usize;
@@ -419,15 +396,10 @@ fn walk_any<const N: usize, const W: usize, const AVX: bool>(
     }
 }
 
-/// [`Bvh::traverse`] with a stack of `N` ≥ `stack_entries(W, depth)` entries.
+/// [`Bvh::traverse`] with a stack of `N` ≥ `stack_entries(WIDTH, depth)` entries.
 #[inline(always)]
-fn walk<const N: usize, const W: usize, const AVX: bool>(
-    bvh: &Bvh<W>,
-    r: &NodeRay,
-    hi: &mut f32,
-    leaf: &mut impl FnMut(u32, u32, &mut f32) -> bool,
-) -> bool {
-    // At most (W − 1) entries per level are left behind.
+fn walk<const N: usize, const AVX: bool>(bvh: &Bvh, r: &NodeRay, hi: &mut f32, leaf: &mut impl FnMut(u32, u32, &mut f32) -> bool) -> bool {
+    // At most (WIDTH − 1) entries per level are left behind.
     let mut stack = [Entry::default(); N];
     let mut sp = 0usize;
     let mut cur = Entry { child: 0, count: 0, near: 0.0 };
@@ -440,7 +412,7 @@ fn walk<const N: usize, const W: usize, const AVX: bool>(
                 break 'descend;
             }
             let node = &bvh.nodes[cur.child as usize];
-            let (near, mut mask) = node_hits::<W, AVX>(node, r, *hi);
+            let (near, mut mask) = node_hits::<AVX>(node, r, *hi);
             if mask == 0 {
                 break 'descend;
             }
@@ -528,11 +500,11 @@ impl NodeRay {
     }
 }
 
-/// The entry distances of the ray into a node's `W` child boxes over `[0, hi]`, and the mask of
+/// The entry distances of the ray into a node's [`WIDTH`] child boxes over `[0, hi]`, and the mask of
 /// the children it meets, in the copy of the traversal `AVX` names. Both copies do the same
 /// lane-wise `f32` operations in the same order, so their results are bit-identical.
 #[inline(always)]
-fn node_hits<const W: usize, const AVX: bool>(node: &Node<W>, r: &NodeRay, hi: f32) -> ([f32; W], u32) {
+fn node_hits<const AVX: bool>(node: &Node, r: &NodeRay, hi: f32) -> ([f32; WIDTH], u32) {
     #[cfg(target_arch = "x86_64")]
     if AVX {
         // SAFETY: `AVX` is true only in the walks compiled by `walk_avx2` and `walk_any_avx2`,
@@ -546,10 +518,10 @@ fn node_hits<const W: usize, const AVX: bool>(node: &Node<W>, r: &NodeRay, hi: f
 /// [`node_hits`] four lanes at a time (glam's `Vec4`: SSE2 on x86-64, NEON or scalar code
 /// elsewhere).
 #[inline(always)]
-fn node_hits_by4<const W: usize>(node: &Node<W>, r: &NodeRay, hi: f32) -> ([f32; W], u32) {
-    let mut near_all = [0.0f32; W];
+fn node_hits_by4(node: &Node, r: &NodeRay, hi: f32) -> ([f32; WIDTH], u32) {
+    let mut near_all = [0.0f32; WIDTH];
     let mut mask = 0u32;
-    for c in (0..W).step_by(4) {
+    for c in (0..WIDTH).step_by(4) {
         let slab = |axis: usize| {
             let n = r.near_plane[axis] & 1;
             let (o, inv) = (Vec4::splat(r.origin[axis]), Vec4::splat(r.inv[axis]));
@@ -576,11 +548,8 @@ fn node_hits_by4<const W: usize>(node: &Node<W>, r: &NodeRay, hi: f32) -> ([f32;
 /// The CPU has AVX2.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-unsafe fn node_hits_avx2<const W: usize>(node: &Node<W>, r: &NodeRay, hi: f32) -> ([f32; W], u32) {
+unsafe fn node_hits_avx2(node: &Node, r: &NodeRay, hi: f32) -> ([f32; WIDTH], u32) {
     use std::arch::x86_64::*;
-    if W != 8 {
-        return node_hits_by4(node, r, hi);
-    }
     // SAFETY: the caller guarantees AVX2; the intrinsics below need only AVX.
     unsafe {
         let mut slab = [(_mm256_setzero_ps(), _mm256_setzero_ps()); 3];
@@ -597,7 +566,7 @@ unsafe fn node_hits_avx2<const W: usize>(node: &Node<W>, r: &NodeRay, hi: f32) -
         let near = _mm256_max_ps(_mm256_max_ps(_mm256_max_ps(nx, ny), nz), _mm256_setzero_ps());
         let far = _mm256_min_ps(_mm256_min_ps(_mm256_min_ps(fx, fy), fz), _mm256_set1_ps(hi));
         let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32;
-        let mut near_all = [0.0f32; W];
+        let mut near_all = [0.0f32; WIDTH];
         Vec4::from(_mm256_castps256_ps128(near)).write_to_slice(&mut near_all[0..4]);
         Vec4::from(_mm256_extractf128_ps::<1>(near)).write_to_slice(&mut near_all[4..8]);
         (near_all, mask)
@@ -671,7 +640,7 @@ fn bounds_of(prims: &[PrimRef]) -> (Box32, Box32) {
 }
 
 /// The nodes over `prims` (root first), the slot order and the number of levels.
-fn build_nodes<const W: usize>(mut prims: Vec<PrimRef>, shape: Shape) -> (Vec<Node<W>>, Vec<u32>, usize) {
+fn build_nodes(mut prims: Vec<PrimRef>, shape: Shape) -> (Vec<Node>, Vec<u32>, usize) {
     let n = prims.len();
     let (bounds, centers) = if n >= PARALLEL_RANGE {
         use rayon::prelude::*;
@@ -689,7 +658,7 @@ fn build_nodes<const W: usize>(mut prims: Vec<PrimRef>, shape: Shape) -> (Vec<No
     let mut todo = vec![(0usize, 1usize)];
     while let Some((i, level)) = todo.pop() {
         depth = depth.max(level);
-        for lane in (0..W).rev() {
+        for lane in (0..WIDTH).rev() {
             let node = &mut nodes[i];
             if !node.is_used(lane) {
                 continue;
@@ -719,8 +688,8 @@ impl Builder {
     /// Appends the nodes over `part` (a range of `prims`, whose first element is position
     /// `offset` of the whole build) to `out`, root first; leaves refer to positions in the whole
     /// build's records.
-    fn subtree<const W: usize>(&self, prims: &mut [PrimRef], offset: usize, part: Part, out: &mut Vec<Node<W>>) {
-        let parts = self.partition::<W>(prims, part);
+    fn subtree(&self, prims: &mut [PrimRef], offset: usize, part: Part, out: &mut Vec<Node>) {
+        let parts = self.partition(prims, part);
         let at = out.len();
         out.push(Node::EMPTY);
         let mut node = Node::EMPTY;
@@ -729,7 +698,7 @@ impl Builder {
             // Disjoint slices of `prims`, built into their own node lists in parallel, then
             // appended in lane order: the result does not depend on the thread count.
             use rayon::prelude::*;
-            let mut slices: Vec<Option<(&mut [PrimRef], Part)>> = Vec::with_capacity(W);
+            let mut slices: Vec<Option<(&mut [PrimRef], Part)>> = Vec::with_capacity(WIDTH);
             let mut rest: &mut [PrimRef] = prims;
             let mut consumed = 0;
             for p in &parts {
@@ -743,7 +712,7 @@ impl Builder {
                 consumed = p.end;
                 slices.push(Some((mine, *p)));
             }
-            let build = |s: Option<(&mut [PrimRef], Part)>| -> Vec<Node<W>> {
+            let build = |s: Option<(&mut [PrimRef], Part)>| -> Vec<Node> {
                 let mut v = Vec::new();
                 if let Some((slice, p)) = s
                     && !self.is_leaf(&p)
@@ -752,7 +721,7 @@ impl Builder {
                 }
                 v
             };
-            let built: Vec<Vec<Node<W>>> = slices.into_par_iter().map(build).collect();
+            let built: Vec<Vec<Node>> = slices.into_par_iter().map(build).collect();
             for (lane, v) in built.into_iter().enumerate() {
                 let Some(p) = parts[lane] else { continue };
                 node.set_box(lane, &p.bounds);
@@ -763,7 +732,7 @@ impl Builder {
                     let base = out.len() as u32;
                     node.child[lane] = base;
                     out.extend(v.into_iter().map(|mut n| {
-                        for l in 0..W {
+                        for l in 0..WIDTH {
                             if n.count[l] == 0 && n.is_used(l) {
                                 n.child[l] += base;
                             }
@@ -789,13 +758,13 @@ impl Builder {
         out[at] = node;
     }
 
-    /// Splits `part` into up to `W` parts (ranges of `prims` in order): the part with the largest
-    /// box that is too big for a leaf is split in two until there are `W`.
-    fn partition<const W: usize>(&self, prims: &mut [PrimRef], part: Part) -> [Option<Part>; W] {
-        let mut parts = [None; W];
+    /// Splits `part` into up to [`WIDTH`] parts (ranges of `prims` in order): the part with the largest
+    /// box that is too big for a leaf is split in two until there are [`WIDTH`].
+    fn partition(&self, prims: &mut [PrimRef], part: Part) -> [Option<Part>; WIDTH] {
+        let mut parts = [None; WIDTH];
         parts[0] = Some(part);
         let mut len = 1;
-        while len < W {
+        while len < WIDTH {
             let mut pick: Option<(usize, f64)> = None;
             for (i, p) in parts.iter().enumerate().take(len) {
                 if let Some(p) = p
@@ -1048,7 +1017,7 @@ mod tests {
     type Visits = (Vec<(u32, u32, u32)>, Vec<(u32, u32)>, bool);
 
     /// The [`Visits`] of ray `r` in `bvh`.
-    fn visits<const W: usize>(bvh: &Bvh<W>, r: &NodeRay) -> Visits {
+    fn visits(bvh: &Bvh, r: &NodeRay) -> Visits {
         let mut closest = Vec::new();
         let mut hi = f32::INFINITY;
         bvh.traverse(r, &mut hi, &mut |first, count, hi: &mut f32| {
@@ -1069,11 +1038,11 @@ mod tests {
 
     /// The AVX2 and baseline copies of the walks visit the same leaves in the same order, with
     /// the same far limits: the hit a ray keeps does not depend on the machine.
-    fn kernels_agree<const W: usize>(shape: Shape) {
+    fn kernels_agree(shape: Shape) {
         let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
         let bx = boxes(20_000, &mut rng);
         let total = bx.iter().fold(Aabb::EMPTY, |a, b| a.union(*b));
-        let (mut bvh, _) = Bvh::<W>::build(bx.len(), total, |i| bx[i], shape);
+        let (mut bvh, _) = Bvh::build(bx.len(), total, |i| bx[i], shape);
         let fast = Kernel::fastest();
         if fast == Kernel::Baseline {
             // Nothing to compare: said past the harness's capture, counted by CI as a skip.
@@ -1095,12 +1064,12 @@ mod tests {
 
     #[test]
     fn kernels_agree_on_eight_wide_packs() {
-        kernels_agree::<WIDTH>(Shape::PACK4);
+        kernels_agree(Shape::PACK4);
     }
 
     #[test]
     fn kernels_agree_on_eight_wide_singles() {
-        kernels_agree::<WIDTH>(Shape::SINGLE);
+        kernels_agree(Shape::SINGLE);
     }
 
     /// Both copies of the any-hit walk visit every leaf whose box the exact (`f64`) ray meets.
@@ -1109,7 +1078,7 @@ mod tests {
         let mut rng = Rng(7);
         let bx = boxes(3000, &mut rng);
         let total = bx.iter().fold(Aabb::EMPTY, |a, b| a.union(*b));
-        let (bvh, order) = Bvh::<WIDTH>::build(bx.len(), total, |i| bx[i], Shape::PACK4);
+        let (bvh, order) = Bvh::build(bx.len(), total, |i| bx[i], Shape::PACK4);
         for i in 0..500 {
             let o = DVec3::new(rng.next(), rng.next(), rng.next());
             let d = DVec3::new(rng.next() - 0.5, rng.next() - 0.5, rng.next() - 0.5).normalize();

@@ -1,6 +1,7 @@
-//! The live view's HTTP server (tiny_http): bound to 127.0.0.1 only, every path under a random
-//! token (`/TOKEN/…`), requests with any other `Host` than this address refused (no DNS
-//! rebinding), and nothing served from disk: the page is three files embedded in the binary.
+//! The live view's routes, served by [`super::server`] (bounded in head, body, connections and
+//! time): bound to 127.0.0.1 only, every path under a random token (`/TOKEN/…`), requests with
+//! any other `Host` than this address refused (no DNS rebinding), and nothing served from disk:
+//! the page is three files embedded in the binary.
 //!
 //! API (all under `/TOKEN/api/`):
 //! - `GET updates?version=V&frame=F&seq=S&knobs=K`: waits until something changed after version
@@ -14,15 +15,14 @@
 //! - `GET image.png`: the finished image, as `raylab render` writes it.
 
 use super::knobs::Settings;
+use super::server::{Body, Method, Request, Response, Server};
 use super::session::{Phase, Session};
 use crate::render::explain::{SampleRef, explanation_json};
 use crate::render::sample::film_position;
 use crate::render::{explain_sample, pixel_samples};
 use std::io::Read;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Duration;
-use tiny_http::{Header, Method, Request, Response, Server};
 
 const INDEX_HTML: &str = include_str!("page/index.html");
 const VIEW_JS: &str = include_str!("page/view.js");
@@ -34,21 +34,6 @@ pub const POLL_TIMEOUT: Duration = Duration::from_secs(20);
 /// After a change, how long a poll waits for more changes to send together (a frame's tiles
 /// finish hundreds a second).
 const COALESCE: Duration = Duration::from_millis(40);
-
-/// Largest request body read (the settings are a few hundred bytes).
-const MAX_BODY: u64 = 64 * 1024;
-
-/// Most requests handled at once (each long poll holds one); more are answered 503.
-const MAX_ACTIVE: usize = 32;
-
-/// One of the [`MAX_ACTIVE`] request slots, given back when dropped.
-struct Slot(Arc<AtomicUsize>);
-
-impl Drop for Slot {
-    fn drop(&mut self) {
-        self.0.fetch_sub(1, Ordering::Relaxed);
-    }
-}
 
 /// A random token of 128 bits, as 32 hex digits: from the operating system's random source where
 /// there is one, else from the standard library's randomly keyed hasher.
@@ -69,7 +54,7 @@ pub fn random_token() -> String {
 
 /// A running server: its address and token.
 pub struct Running {
-    server: Arc<Server>,
+    server: Server,
     /// The port it listens on (127.0.0.1).
     pub port: u16,
     /// The token every path starts with.
@@ -84,57 +69,25 @@ impl Running {
 
     /// Serves requests until the process ends.
     pub fn serve(&self, session: Arc<Session>) {
-        let active = Arc::new(AtomicUsize::new(0));
         let hosts = [format!("127.0.0.1:{}", self.port), format!("localhost:{}", self.port)];
-        for request in self.server.incoming_requests() {
-            if active.load(Ordering::Relaxed) >= MAX_ACTIVE {
-                let _ = request.respond(text(503, "too many requests at once"));
-                continue;
-            }
-            active.fetch_add(1, Ordering::Relaxed);
-            let (session, done, hosts, token) = (session.clone(), active.clone(), hosts.clone(), self.token.clone());
-            let spawned = std::thread::Builder::new().name("raylab-view-request".into()).spawn(move || {
-                // The slot is given back however the handler ends, a panic included.
-                let _slot = Slot(done);
-                handle(request, &session, &hosts, &token);
-            });
-            if spawned.is_err() {
-                active.fetch_sub(1, Ordering::Relaxed);
-            }
-        }
+        let token = self.token.clone();
+        self.server.serve(Arc::new(move |request| handle(request, &session, &hosts, &token)));
     }
 }
 
 /// Binds 127.0.0.1:`port` (0: any free port).
 pub fn bind(port: u16) -> Result<Running, String> {
-    let server = Server::http(("127.0.0.1", port)).map_err(|e| format!("cannot listen on 127.0.0.1:{port}: {e}"))?;
-    let port = server.server_addr().to_ip().map(|a| a.port()).ok_or("the server has no IP address")?;
-    Ok(Running { server: Arc::new(server), port, token: random_token() })
+    let server = Server::bind(port).map_err(|e| format!("cannot listen on 127.0.0.1:{port}: {e}"))?;
+    let port = server.port().map_err(|e| format!("the server has no address: {e}"))?;
+    Ok(Running { server, port, token: random_token() })
 }
 
-fn header(name: &str, value: &str) -> Header {
-    Header::from_bytes(name.as_bytes(), value.as_bytes()).expect("ASCII header")
+fn text(code: u16, body: &str) -> Response {
+    Response::text(code, body)
 }
 
-/// Headers on every answer: no caching, no sniffing, no framing, no referrer (the token is in
-/// the URL), and the page may load only its own scripts and styles.
-fn secure<R: Read>(r: Response<R>) -> Response<R> {
-    r.with_header(header("Cache-Control", "no-store"))
-        .with_header(header("X-Content-Type-Options", "nosniff"))
-        .with_header(header("X-Frame-Options", "DENY"))
-        .with_header(header("Referrer-Policy", "no-referrer"))
-        .with_header(header(
-            "Content-Security-Policy",
-            "default-src 'self'; img-src 'self' data: blob:; connect-src 'self'; style-src 'self'; script-src 'self'; frame-ancestors 'none'",
-        ))
-}
-
-fn text(code: u16, body: &str) -> Response<std::io::Cursor<Vec<u8>>> {
-    secure(Response::from_string(body).with_status_code(code).with_header(header("Content-Type", "text/plain; charset=utf-8")))
-}
-
-fn typed(body: impl Into<Vec<u8>>, content_type: &str) -> Response<std::io::Cursor<Vec<u8>>> {
-    secure(Response::from_data(body.into()).with_header(header("Content-Type", content_type)))
+fn typed(body: impl Into<Vec<u8>>, content_type: &str) -> Response {
+    Response::new(200, content_type, body)
 }
 
 /// A sentence for settings the page sent that do not parse: which control, and what it needs
@@ -156,8 +109,8 @@ fn settings_error(e: &serde_json::Error) -> String {
     format!("{what}; the render keeps its previous settings. Reload the page if this persists.")
 }
 
-fn json(code: u16, v: &serde_json::Value) -> Response<std::io::Cursor<Vec<u8>>> {
-    typed(v.to_string(), "application/json").with_status_code(code)
+fn json(code: u16, v: &serde_json::Value) -> Response {
+    Response::new(code, "application/json", v.to_string())
 }
 
 /// Equal strings, compared in time independent of where they differ.
@@ -175,21 +128,17 @@ fn number<T: std::str::FromStr>(q: &str, key: &str) -> Result<T, String> {
     v.parse().map_err(|_| format!("`{key}`: not a number: {v}"))
 }
 
-fn handle(mut request: Request, session: &Session, hosts: &[String], token: &str) {
-    let host = request.headers().iter().find(|h| h.field.equiv("Host")).map(|h| h.value.as_str().to_string());
-    if !host.as_deref().is_some_and(|h| hosts.iter().any(|a| a.eq_ignore_ascii_case(h))) {
-        let _ = request.respond(text(403, "refused: this server answers only requests for 127.0.0.1 or localhost at its own port"));
-        return;
+fn handle(request: Request, session: &Session, hosts: &[String], token: &str) -> Response {
+    if !request.host.as_deref().is_some_and(|h| hosts.iter().any(|a| a.eq_ignore_ascii_case(h))) {
+        return text(403, "refused: this server answers only requests for 127.0.0.1 or localhost at its own port");
     }
-    let url = request.url().to_string();
-    let (path, q) = url.split_once('?').unwrap_or((&url, ""));
+    let url = request.target.as_str();
+    let (path, q) = url.split_once('?').unwrap_or((url, ""));
     let rest = path.strip_prefix('/').and_then(|p| p.split_once('/')).filter(|(t, _)| same_secret(t, token)).map(|(_, r)| r);
     let Some(rest) = rest else {
-        let _ = request.respond(text(403, "refused: open the address `raylab view` printed (it holds a token)"));
-        return;
+        return text(403, "refused: open the address `raylab view` printed (it holds a token)");
     };
-    let method = request.method().clone();
-    let response = match (method, rest) {
+    match (request.method, rest) {
         (Method::Get, "" | "index.html") => typed(INDEX_HTML, "text/html; charset=utf-8"),
         (Method::Get, "view.js") => typed(VIEW_JS, "text/javascript; charset=utf-8"),
         (Method::Get, "view.css") => typed(VIEW_CSS, "text/css; charset=utf-8"),
@@ -199,25 +148,21 @@ fn handle(mut request: Request, session: &Session, hosts: &[String], token: &str
             Err((code, e)) => json(code, &serde_json::json!({ "error": e })),
         },
         (Method::Get, "api/image.png") => image_png(session),
-        (Method::Post, "api/settings") => {
-            let mut body = String::new();
-            match request.as_reader().take(MAX_BODY + 1).read_to_string(&mut body) {
-                Ok(n) if n as u64 <= MAX_BODY => match serde_json::from_str::<Settings>(&body) {
-                    Ok(s) => {
-                        session.apply(s);
-                        json(200, &serde_json::json!({ "ok": true }))
-                    }
-                    Err(e) => json(400, &serde_json::json!({ "error": settings_error(&e) })),
-                },
-                _ => json(400, &serde_json::json!({ "error": "the request body is unreadable or too large" })),
-            }
-        }
+        (Method::Post, "api/settings") => match &request.body {
+            Body::Read(body) => match serde_json::from_slice::<Settings>(body) {
+                Ok(s) => {
+                    session.apply(s);
+                    json(200, &serde_json::json!({ "ok": true }))
+                }
+                Err(e) => json(400, &serde_json::json!({ "error": settings_error(&e) })),
+            },
+            Body::TooLarge => json(400, &serde_json::json!({ "error": "the request body is too large" })),
+        },
         _ => text(404, "not found"),
-    };
-    let _ = request.respond(response);
+    }
 }
 
-fn updates(session: &Session, q: &str) -> Response<std::io::Cursor<Vec<u8>>> {
+fn updates(session: &Session, q: &str) -> Response {
     let seen: u64 = number(q, "version").unwrap_or(0);
     let frame_id: u64 = number(q, "frame").unwrap_or(0);
     let seq: u64 = number(q, "seq").unwrap_or(0);
@@ -306,7 +251,7 @@ fn explain(session: &Session, q: &str) -> Result<serde_json::Value, (u16, String
     Ok(v)
 }
 
-fn image_png(session: &Session) -> Response<std::io::Cursor<Vec<u8>>> {
+fn image_png(session: &Session) -> Response {
     let st = session.lock();
     let (Some(film), Some(job), Phase::Done) = (&st.film, &st.job, st.status.phase) else {
         return text(409, "the image is not finished yet");
@@ -316,7 +261,7 @@ fn image_png(session: &Session) -> Response<std::io::Cursor<Vec<u8>>> {
     drop(st);
     let mut png = Vec::new();
     match crate::image::output::encode_rgb8(&mut png, &rgb, w, h, crate::image::output::ImageKind::Png) {
-        Ok(()) => typed(png, "image/png").with_header(header("Content-Disposition", "attachment; filename=\"raylab-view.png\"")),
+        Ok(()) => typed(png, "image/png").with_header("Content-Disposition", "attachment; filename=\"raylab-view.png\""),
         Err(e) => text(500, &e),
     }
 }

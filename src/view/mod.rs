@@ -7,9 +7,11 @@
 //! - [`session`]: the render thread, the displayed pixels and the status.
 //! - [`knobs`]: the controls and how the page's settings become load overrides.
 //! - [`overlay`]: an explained sample's rays as marks over the image.
-//! - [`http`]: the server (127.0.0.1 only, a random token, embedded page in `page/`).
+//! - [`http`]: the routes (127.0.0.1 only, a random token, embedded page in `page/`).
+//! - [`server`]: a small HTTP/1.1 server over `std::net`, bounded in everything a client sends.
 
 pub mod http;
 pub mod knobs;
 pub mod overlay;
+pub mod server;
 pub mod session;
