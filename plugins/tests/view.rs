@@ -160,6 +160,86 @@ fn the_server_answers_only_its_own_host_and_token() {
     std::fs::remove_dir_all(dir).unwrap();
 }
 
+/// The status the page polls: waits for a change after `version` (a long poll) and returns the
+/// answer's JSON head.
+fn updates(addr: &str, token: &str, version: u64) -> Value {
+    let (code, body) = http(addr, "GET", &format!("/{token}/api/updates?version={version}&frame=0&seq=0&knobs=0"), addr, None);
+    assert_eq!(code, 200);
+    let n = u32::from_le_bytes(body[4..8].try_into().unwrap()) as usize;
+    serde_json::from_slice(&body[8..8 + n]).unwrap()
+}
+
+/// Polls until `ok` holds of the status (or PATIENCE runs out); returns the last head.
+fn wait_for(addr: &str, token: &str, what: &str, ok: impl Fn(&Value) -> bool) -> Value {
+    let deadline = Instant::now() + PATIENCE;
+    let mut version = 0;
+    loop {
+        let head = updates(addr, token, version);
+        if ok(&head["status"]) {
+            return head;
+        }
+        assert!(Instant::now() < deadline, "{what}: not reached; the status is {}", head["status"]);
+        assert_ne!(head["status"]["phase"], "error", "{what}: {}", head["status"]);
+        version = head["version"].as_u64().unwrap();
+    }
+}
+
+/// The path tracer keeps refining past the scene's samples, pass after pass, and the page's Stop
+/// ends it with the refined image kept (and served by Save PNG); a setting starts it again.
+#[test]
+fn the_path_tracer_keeps_refining_until_stopped() {
+    let dir = temp("refine");
+    let scene = repo().join("scenes/path-cornell.toml");
+    let args = ["--width", "24", "--height", "24", "--spp", "2", "--threads", "2"];
+    let (_view, url) = start_view(&dir, &scene, &args);
+    let (addr, token) = parts(&url);
+    // The scene's 2 samples, then more: a refined pass is shown once it has more than 2.
+    let samples = |s: &Value| s["samples"][0].as_u64().unwrap();
+    let first = wait_for(&addr, &token, "refining", |s| s["phase"] == "refining" && samples(s) > 2);
+    let later = wait_for(&addr, &token, "a later pass", |s| s["phase"] == "refining" && samples(s) > samples(&first["status"]));
+    assert!(samples(&later["status"]) >= 2 * samples(&first["status"]), "passes double: {} then {}", first["status"], later["status"]);
+    let (code, _) = http(&addr, "POST", &format!("/{token}/api/stop"), &addr, None);
+    assert_eq!(code, 200);
+    let done = wait_for(&addr, &token, "the stop", |s| s["phase"] == "done");
+    let ended = done["status"]["ended"].as_str().unwrap();
+    assert!(ended.starts_with("stopped refining, at ") && ended.ends_with(" samples per pixel"), "{ended}");
+    // Save PNG: the refined image, not the scene's 2-spp one.
+    let (code, png) = http(&addr, "GET", &format!("/{token}/api/image.png"), &addr, None);
+    assert_eq!(code, 200);
+    let served = image::load_from_memory(&png).unwrap().to_rgb8();
+    let out = Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args(["render", scene.to_str().unwrap(), "-o", "two.png", "-q"])
+        .args(args)
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let two = image::open(dir.join("two.png")).unwrap().to_rgb8();
+    assert_eq!(served.dimensions(), two.dimensions());
+    assert!(served != two, "the saved image is the refined one");
+    // A setting starts again (and refines again).
+    let (code, _) = http(&addr, "POST", &format!("/{token}/api/settings"), &addr, Some(&json!({ "spp": 4, "params": {} })));
+    assert_eq!(code, 200);
+    wait_for(&addr, &token, "refining after a restart", |s| {
+        s["phase"] == "refining" && s["generation"].as_u64() > done["status"]["generation"].as_u64()
+    });
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// With an error target, refining goes on past the scene's samples (its `spp` cap) until every
+/// pixel meets the target, continuing the scene's own sums, then ends by itself.
+#[test]
+fn refining_ends_when_every_pixel_meets_the_error_target() {
+    let dir = temp("refine-target");
+    let scene = repo().join("scenes/path-cornell.toml");
+    let (_view, url) =
+        start_view(&dir, &scene, &["--width", "16", "--height", "16", "--spp", "16", "--target-error", "0.25", "--threads", "2"]);
+    let (addr, token) = parts(&url);
+    let done = wait_for(&addr, &token, "the end", |s| s["phase"] == "done");
+    assert_eq!(done["status"]["ended"], "every pixel met the error target", "{}", done["status"]);
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
 #[test]
 fn the_pages_samples_replace_the_command_lines_and_a_bad_count_is_located_at_its_control() {
     use raylab::load::context::{LoadOptions, Overrides};
@@ -318,7 +398,8 @@ fn the_page_renders_restarts_on_a_knob_and_explains_a_clicked_pixel() {
     let scene = dir.join("showcase.toml");
     let original = std::fs::read_to_string(repo().join("scenes/showcase.toml")).unwrap();
     std::fs::write(&scene, &original).unwrap();
-    let (_view, url) = start_view(&dir, &scene, &[&SIZE[..], &["--threads", "2"]].concat());
+    // Without refining, each render ends at the scene's samples: the image `raylab render` writes.
+    let (_view, url) = start_view(&dir, &scene, &[&SIZE[..], &["--threads", "2", "--no-refine"]].concat());
     let profile = dir.join("chromium-profile");
     let b = Browser::start(&chromium, &chromedriver, &profile);
     b.call("POST", "/url", Some(json!({ "url": url })));

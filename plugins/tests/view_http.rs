@@ -27,10 +27,22 @@ fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
 }
 
-/// Starts `raylab view` on the showcase at 64 × 48; returns it, `127.0.0.1:PORT` and the token.
+/// Starts `raylab view` on the showcase at 64 × 48, stopping at the scene's samples (no
+/// refining: the finished image is then `raylab render`'s); returns it, `127.0.0.1:PORT` and the
+/// token.
 fn start() -> (Guard, String, String) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_raylab"))
-        .args(["view", repo().join("scenes/showcase.toml").to_str().unwrap(), "--port", "0", "--width", "64", "--height", "48"])
+        .args([
+            "view",
+            repo().join("scenes/showcase.toml").to_str().unwrap(),
+            "--port",
+            "0",
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--no-refine",
+        ])
         .stdout(Stdio::piped())
         .stderr(Stdio::inherit())
         .spawn()

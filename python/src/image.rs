@@ -238,7 +238,7 @@ fn film_of(bytes: &[u8], width: u32, height: u32) -> PyResult<Film> {
     if bytes.len() != n * 12 {
         return Err(PyValueError::new_err(format!("expected {width}×{height}×3 float32 values, found {} bytes", bytes.len())));
     }
-    let mut film = Film::new(width, height);
+    let mut film = Film::new(width, height).map_err(|e| pyo3::exceptions::PyMemoryError::new_err(e.to_string()))?;
     for (p, c) in film.pixels.iter_mut().zip(bytes.chunks_exact(12)) {
         let f = |k: usize| f32::from_ne_bytes([c[k], c[k + 1], c[k + 2], c[k + 3]]);
         *p = glam::Vec3::new(f(0), f(4), f(8));

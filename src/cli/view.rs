@@ -16,6 +16,10 @@ pub(crate) struct ViewArgs {
     /// Worker threads for rendering (default: all cores).
     #[arg(long, allow_hyphen_values = true, value_parser = super::int_in::<usize>(1, super::MAX_THREADS))]
     threads: Option<usize>,
+    /// Stop at the scene's samples (the image `raylab render` writes) instead of refining further
+    /// until the error target, the work budget or the page's Stop button.
+    #[arg(long)]
+    no_refine: bool,
     #[command(flatten)]
     scene_args: SceneArgs,
 }
@@ -34,6 +38,7 @@ pub(crate) fn run(app: &App, a: ViewArgs) -> Result<(), Failure> {
     };
     let running = crate::view::http::bind(a.port)?;
     let session = Session::new(app.registry.clone(), source, base, a.threads);
+    session.set_refine(!a.no_refine);
     session.start();
     let mut out = std::io::stdout();
     let _ = writeln!(out, "raylab view: open {} in a browser (only this machine can; Ctrl-C stops)", running.url());

@@ -153,7 +153,7 @@ mod tests {
             return;
         }
         let (w, h) = (64, 48);
-        let mut noisy = Film::new(w, h);
+        let mut noisy = Film::new(w, h).unwrap();
         let mut state = 0x2545_f491_4f6c_dd1du64;
         for p in &mut noisy.pixels {
             state = crate::math::sampler::mix64(state);
@@ -169,8 +169,8 @@ mod tests {
 
     #[test]
     fn mismatched_guides_are_refused_before_running_anything() {
-        let c = Film::new(4, 4);
-        let a = Film::new(2, 2);
+        let c = Film::new(4, 4).unwrap();
+        let a = Film::new(2, 2).unwrap();
         assert!(denoise(&c, Some(&a), None).unwrap_err().contains("albedo layer is 2×2"));
         assert!(denoise(&c, None, Some(&c)).unwrap_err().contains("needs an albedo guide"));
     }

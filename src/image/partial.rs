@@ -368,7 +368,7 @@ mod tests {
         for cut in [0, 4, 100, bytes.len() / 2, bytes.len() - 1] {
             assert!(read_partial(&bytes[..cut], "p.exr", u64::MAX).is_err(), "cut at {cut}");
         }
-        let mut film = crate::render::film::Film::new(4, 4);
+        let mut film = crate::render::film::Film::new(4, 4).unwrap();
         film.set(1, 1, glam::Vec3::ONE);
         let plain = crate::image::exr::encode_exr(&film, &Default::default(), false).unwrap();
         assert!(read_partial(&plain, "plain.exr", u64::MAX).unwrap_err().0.contains("not a raylab partial image"));

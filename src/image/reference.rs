@@ -93,7 +93,7 @@ pub fn decode_pfm(bytes: &[u8]) -> Result<Film, String> {
         let b = [data[4 * i], data[4 * i + 1], data[4 * i + 2], data[4 * i + 3]];
         if little { f32::from_le_bytes(b) } else { f32::from_be_bytes(b) }
     };
-    let mut film = Film::new(width, height);
+    let mut film = Film::new(width, height).map_err(|e| e.to_string())?;
     for row in 0..height {
         let y = height - 1 - row;
         for x in 0..width {
@@ -113,7 +113,7 @@ pub fn decode_png(bytes: &[u8], encoding: Encoding) -> Result<Film, String> {
         return Err(format!("PNG size {width}×{height} is over {MAX_REFERENCE_PIXELS} pixels"));
     }
     let rgb = img.to_rgb32f();
-    let mut film = Film::new(width, height);
+    let mut film = Film::new(width, height).map_err(|e| e.to_string())?;
     let decode = |v: f32| match encoding {
         Encoding::Srgb => srgb_decode(v),
         Encoding::Linear | Encoding::LinearTruncated => v,
@@ -130,7 +130,7 @@ mod tests {
 
     #[test]
     fn pfm_round_trips_bit_exactly() {
-        let mut film = Film::new(3, 2);
+        let mut film = Film::new(3, 2).unwrap();
         film.set(0, 0, Vec3::new(0.1, 2.5, -0.0));
         film.set(2, 1, Vec3::new(1e-30, 65504.0, f32::MIN_POSITIVE));
         let back = decode_pfm(&encode_pfm(&film)).unwrap();
@@ -146,7 +146,7 @@ mod tests {
 
     #[test]
     fn png_reference_decodes_to_the_rendered_values() {
-        let mut film = Film::new(2, 1);
+        let mut film = Film::new(2, 1).unwrap();
         film.set(0, 0, Vec3::new(0.2, 0.5, 1.0));
         let rgb = crate::image::output::to_rgb8(&film, Encoding::Srgb, None);
         let mut png = Vec::new();

@@ -125,7 +125,7 @@ fn read_exr_layer(bytes: &[u8], layer: Layer) -> Result<Film, String> {
         if v.len() == w * h { Ok(v) } else { Err(format!("channel {name} has {} values for {w}×{h} pixels", v.len())) }
     };
     let planes: Vec<Vec<f32>> = wanted.iter().map(|n| channel(n)).collect::<Result<_, _>>()?;
-    let mut film = Film::try_new(w as u32, h as u32).map_err(|e| e.to_string())?;
+    let mut film = Film::new(w as u32, h as u32).map_err(|e| e.to_string())?;
     for (i, p) in film.pixels.iter_mut().enumerate() {
         *p = match planes.as_slice() {
             [one] => Vec3::splat(one[i]),
@@ -180,7 +180,7 @@ mod tests {
 
     #[test]
     fn depth_goes_from_white_near_to_black_far_and_misses_are_black() {
-        let mut f = Film::new(4, 1);
+        let mut f = Film::new(4, 1).unwrap();
         for (x, d) in [2.0, 4.0, 6.0, f32::INFINITY].into_iter().enumerate() {
             f.set(x as u32, 0, Vec3::splat(d));
         }
@@ -191,7 +191,7 @@ mod tests {
 
     #[test]
     fn normals_map_to_half_plus_half_and_exposure_doubles_per_stop() {
-        let mut f = Film::new(1, 1);
+        let mut f = Film::new(1, 1).unwrap();
         f.set(0, 0, Vec3::new(-1.0, 0.0, 1.0));
         assert_eq!(visualise(f.clone(), Layer::Normal, 0.0).0.get(0, 0), Vec3::new(0.0, 0.5, 1.0));
         f.set(0, 0, Vec3::new(0.25, 0.5, 1.0));
@@ -210,7 +210,7 @@ mod tests {
     #[test]
     fn an_exr_with_layers_reads_back_each_layer() {
         use crate::render::aovs::Aovs;
-        let mut film = Film::new(2, 1);
+        let mut film = Film::new(2, 1).unwrap();
         film.set(0, 0, Vec3::new(0.1, 0.2, 0.3));
         let aovs = Aovs {
             depth: Some(vec![1.5, f32::INFINITY]),

@@ -6,7 +6,10 @@ use glam::Vec3;
 /// (instead of aborting the process): how films, their sums and layers are allocated.
 pub fn try_filled<T: Clone>(n: usize, value: T, what: &str) -> Result<Vec<T>, OutOfMemory> {
     let mut v = Vec::new();
-    v.try_reserve_exact(n).map_err(|_| OutOfMemory(format!("out of memory for the {what} ({n} values)")))?;
+    v.try_reserve_exact(n).map_err(|_| {
+        let bytes = n as f64 * std::mem::size_of::<T>() as f64;
+        OutOfMemory(format!("out of memory for the {what}: {n} values, {:.3} GB", bytes / 1e9))
+    })?;
     v.resize(n, value);
     Ok(v)
 }
@@ -38,15 +41,13 @@ pub struct Film {
 }
 
 impl Film {
-    /// A black film. The caller has checked the size against [`crate::param::limits::Limits`].
-    pub fn new(width: u32, height: u32) -> Self {
-        Film { width, height, pixels: vec![Vec3::ZERO; width as usize * height as usize] }
-    }
-
-    /// A black film, or an error if its memory cannot be had (instead of aborting the process).
-    pub fn try_new(width: u32, height: u32) -> Result<Self, OutOfMemory> {
+    /// A black film, or an error naming its size if its memory cannot be had (never an abort:
+    /// a size within the limits can still be more than the machine has).
+    pub fn new(width: u32, height: u32) -> Result<Self, OutOfMemory> {
         let n = (width as usize).saturating_mul(height as usize);
-        Ok(Film { width, height, pixels: try_filled(n, Vec3::ZERO, "film")? })
+        let pixels =
+            try_filled(n, Vec3::ZERO, "film").map_err(|e| OutOfMemory(e.0.replacen("film:", &format!("{width}×{height} film:"), 1)))?;
+        Ok(Film { width, height, pixels })
     }
 
     /// The pixel at column `x`, row `y`.
@@ -57,5 +58,24 @@ impl Film {
     /// Sets the pixel at column `x`, row `y`.
     pub fn set(&mut self, x: u32, y: u32, c: Vec3) {
         self.pixels[y as usize * self.width as usize + x as usize] = c;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A film larger than the address space is an error naming its size, not an abort; one that
+    /// fits is black.
+    #[test]
+    fn a_film_that_cannot_be_had_is_an_error_with_its_size() {
+        // 2⁴⁶ pixels of 12 bytes: 844 TB, beyond any 64-bit machine's user address space.
+        let e = Film::new(1 << 24, 1 << 22).unwrap_err();
+        assert_eq!(e.0, "out of memory for the 16777216×4194304 film: 70368744177664 values, 844424.930 GB");
+        let e = Film::new(u32::MAX, u32::MAX).unwrap_err();
+        assert!(e.0.starts_with("out of memory for the 4294967295×4294967295 film: "), "{e}");
+        let f = Film::new(3, 2).unwrap();
+        assert_eq!((f.width, f.height, f.pixels.len()), (3, 2, 6));
+        assert!(f.pixels.iter().all(|p| *p == Vec3::ZERO));
     }
 }

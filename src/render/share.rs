@@ -228,7 +228,7 @@ impl FrameSums {
 
     fn film_rows(&self, parallel: bool) -> Result<Film, OutOfMemory> {
         use rayon::prelude::*;
-        let mut film = Film::try_new(self.width, self.height)?;
+        let mut film = Film::new(self.width, self.height)?;
         let b = self.share.bounds;
         let (x0, x1) = (b.x0 as usize, b.x1 as usize);
         if x1 <= x0 {

@@ -9,10 +9,12 @@
 //!   bytes of JSON (status, settings, the tiles that follow, the controls when newer than `K`),
 //!   and each listed tile's RGBA bytes, row by row.
 //! - `POST settings` (JSON [`Settings`]): the page's settings; the render starts again.
+//! - `POST stop`: stops rendering or refining; the image shown stays.
 //! - `GET explain?x=X&y=Y&fx=FX&fy=FY[&sample=K]`: the ray tree of the pixel's sample nearest
 //!   (`FX`, `FY`) (or sample `K`), as `raylab trace --json` gives it, with the rays' marks over the
 //!   image and the pixel's samples.
-//! - `GET image.png`: the finished image, as `raylab render` writes it.
+//! - `GET image.png`: the image shown once the scene's samples are done (then the image
+//!   `raylab render` writes), while refining, and after: the latest refined pass.
 
 use super::knobs::Settings;
 use super::server::{Body, Method, Request, Response, Server};
@@ -148,6 +150,10 @@ fn handle(request: Request, session: &Session, hosts: &[String], token: &str) ->
             Err((code, e)) => json(code, &serde_json::json!({ "error": e })),
         },
         (Method::Get, "api/image.png") => image_png(session),
+        (Method::Post, "api/stop") => {
+            session.stop();
+            json(200, &serde_json::json!({ "ok": true }))
+        }
         (Method::Post, "api/settings") => match &request.body {
             Body::Read(body) => match serde_json::from_slice::<Settings>(body) {
                 Ok(s) => {
@@ -253,7 +259,7 @@ fn explain(session: &Session, q: &str) -> Result<serde_json::Value, (u16, String
 
 fn image_png(session: &Session) -> Response {
     let st = session.lock();
-    let (Some(film), Some(job), Phase::Done) = (&st.film, &st.job, st.status.phase) else {
+    let (Some(film), Some(job), Phase::Done | Phase::Refining) = (&st.film, &st.job, st.status.phase) else {
         return text(409, "the image is not finished yet");
     };
     let rgb = crate::image::output::to_rgb8(film, job.settings.encoding, None);

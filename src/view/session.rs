@@ -2,18 +2,28 @@
 //! worker thread (a coarse preview, then the frame in passes, tile by tile), keeps the displayed
 //! pixels and the status the page polls, and starts again when a setting or the scene file
 //! changes (cancelling the render under way).
+//!
+//! Once the frame has the scene's own samples (the image `raylab render` writes), the view keeps
+//! **refining**, whatever the integrator: it renders the frame again with samples that
+//! accumulate pass after pass (1, 2, 4, … per pixel, at points of a sequence whose every such
+//! prefix is stratified, as an error target's are), and a pass replaces the image on screen once
+//! it has more samples per pixel than the scene's render spent. It goes on until every pixel
+//! meets the error target (the scene's or the page's; without one, until a pixel's samples all
+//! agree exactly), [`REFINE_MAX_SPP`], the work budget (`--max-rays`), the page's Stop button or
+//! a restart. When the scene's render already sampled that sequence (an error target and more
+//! than one sample per pixel), refining continues its sums instead of starting again.
 
 use super::knobs::{self, Knob, Settings};
 use crate::load::context::LoadOptions;
 use crate::load::registry::Registry;
 use crate::param::error::{Location, SceneError};
 use crate::render::film::Film;
-use crate::render::job::{Antialiasing, RenderJob, TILE_SIZE};
-use crate::render::share::Rect;
-use crate::render::{RenderOptions, TileDone};
+use crate::render::job::{Antialiasing, ErrorTarget, RenderJob, TILE_SIZE};
+use crate::render::share::{FrameSums, Rect, Sampling};
+use crate::render::{Pass, RenderOptions, TileDone};
 use serde::Serialize;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::time::{Duration, SystemTime};
 
@@ -55,6 +65,14 @@ const WATCH_INTERVAL: Duration = Duration::from_millis(400);
 /// The preview's pixels are this many of the frame's on a side (a 1/64 of the work).
 const PREVIEW_FACTOR: u32 = 8;
 
+/// Refining stops at this many samples per pixel (a 16th of a second of work per pixel at a
+/// million samples a second: past it, only a stop button would end the render).
+pub const REFINE_MAX_SPP: u32 = 1 << 16;
+
+/// Without an error target, refining first tests a pixel at this many samples, then at each
+/// doubling: a pixel whose samples all agree exactly (the background, an evenly lit wall) stops.
+const REFINE_MIN_SPP: u32 = 16;
+
 /// What the session is doing.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -63,9 +81,11 @@ pub enum Phase {
     Loading,
     /// The coarse preview.
     Preview,
-    /// The frame, in passes.
+    /// The frame, in passes, to the scene's samples.
     Rendering,
-    /// The frame is complete.
+    /// More samples than the scene's, pass after pass, until a target, a limit or a stop.
+    Refining,
+    /// Nothing more will be rendered ([`Status::ended`] says why).
     Done,
     /// The scene or a setting is in error; the last good image stays.
     Error,
@@ -122,8 +142,11 @@ pub struct Status {
     pub sampling: String,
     /// The integrator and its settings, in words.
     pub integrator: String,
-    /// Samples per pixel so far and in all (stratified), or 1 of 1 (adaptive).
+    /// Samples per pixel so far and in all (stratified), or 1 of 1 (adaptive); while refining,
+    /// those of the image shown and [`REFINE_MAX_SPP`].
     pub samples: [u32; 2],
+    /// Why the render ended (phase `done`), in words.
+    pub ended: Option<String>,
     /// Fraction of the frame's work done, 0..1.
     pub progress: f64,
     /// Seconds of tracing so far.
@@ -199,6 +222,8 @@ pub struct State {
     reason: String,
     /// Set to stop the render under way.
     cancel: Arc<AtomicBool>,
+    /// The page asked to stop (the render under way is cancelled, and nothing starts again).
+    stop: bool,
     /// Progress and errors.
     pub status: Status,
     /// The displayed pixels.
@@ -218,12 +243,22 @@ pub struct State {
     frames: u64,
 }
 
+/// What refining continues from: the scene's render.
+struct First {
+    sums: FrameSums,
+    rays: u64,
+    camera_rays: u64,
+    elapsed: Duration,
+}
+
 /// A live render session: the scene, the base options from the command line, and the state.
 pub struct Session {
     registry: Registry,
     source: SceneSource,
     base: LoadOptions,
     threads: Option<usize>,
+    /// Whether to keep refining after the scene's samples (see the module's description).
+    refine: AtomicBool,
     state: Mutex<State>,
     changed: Condvar,
 }
@@ -240,6 +275,7 @@ impl Session {
             sampling: String::new(),
             integrator: String::new(),
             samples: [0, 0],
+            ended: None,
             progress: 0.0,
             seconds: 0.0,
             rays: 0,
@@ -252,11 +288,13 @@ impl Session {
             source,
             base,
             threads,
+            refine: AtomicBool::new(true),
             state: Mutex::new(State {
                 settings: Settings::default(),
                 requested: 1,
                 reason: "start".into(),
                 cancel: Arc::new(AtomicBool::new(false)),
+                stop: false,
                 status,
                 frame: None,
                 job: None,
@@ -269,6 +307,35 @@ impl Session {
             }),
             changed: Condvar::new(),
         })
+    }
+
+    /// Whether to keep refining after the scene's own samples (on unless turned off, as
+    /// `raylab view --no-refine` does).
+    pub fn set_refine(&self, on: bool) {
+        self.refine.store(on, Ordering::Relaxed);
+    }
+
+    /// Stops the render under way, keeping the image shown (the page's Stop button); a setting
+    /// or a save of the scene file starts again.
+    pub fn stop(&self) {
+        let mut st = self.lock();
+        if st.status.phase != Phase::Done && st.status.phase != Phase::Error {
+            st.stop = true;
+            st.cancel.store(true, Ordering::Relaxed);
+            self.bump(&mut st);
+        }
+    }
+
+    /// Ends the render: nothing more comes (the page's Save PNG takes `film` when given, else
+    /// the image it had).
+    fn finish(&self, st: &mut State, film: Option<Film>, why: String) {
+        st.status.phase = Phase::Done;
+        st.status.ended = Some(why);
+        st.status.progress = 1.0;
+        if film.is_some() {
+            st.film = film;
+        }
+        self.bump(st);
     }
 
     /// The scene's name, as the page shows it.
@@ -346,6 +413,8 @@ impl Session {
                 st.status.phase = Phase::Loading;
                 st.status.reason = st.reason.clone();
                 st.status.error = None;
+                st.status.ended = None;
+                st.stop = false;
                 st.film = None;
                 self.bump(&mut st);
                 (st.settings.clone(), cancel)
@@ -402,6 +471,7 @@ impl Session {
         let preview = crate::render::render(&job, &RenderOptions { threads, cancel: Some(cancel), ..RenderOptions::default() }, &|_, _| {});
         job.settings = s;
         if cancel.load(Ordering::Relaxed) {
+            self.on_cancel(None, "during the preview");
             return Ok(());
         }
         if let Ok(p) = preview {
@@ -434,23 +504,7 @@ impl Session {
         let work = [AtomicU64::new(0), AtomicU64::new(1)];
         let on_tile = |t: &TileDone| {
             let mut st = self.lock();
-            st.seq += 1;
-            let seq = st.seq;
-            if let Some(f) = st.frame.as_mut() {
-                let b = t.sums.share.bounds;
-                for y in t.tile.y0..t.tile.y1 {
-                    for x in t.tile.x0..t.tile.x1 {
-                        let p = &t.sums.pixels[b.index(x, y)];
-                        if p.samples == 0 {
-                            continue;
-                        }
-                        let c = p.mean().as_vec3();
-                        let at = 4 * (y as usize * f.width as usize + x as usize);
-                        f.rgba[at..at + 4].copy_from_slice(&[s.encoding.to_u8(c.x), s.encoding.to_u8(c.y), s.encoding.to_u8(c.z), 255]);
-                    }
-                }
-                f.touch(t.tile, seq);
-            }
+            self.show_tile(&mut st, t, &s);
             let secs = t.elapsed.as_secs_f64();
             let rays = t.stats.total_rays();
             st.status.seconds = secs;
@@ -472,17 +526,174 @@ impl Session {
             &mut |_| {},
         )
         .map_err(ErrorInfo::plain)?;
+        if cancel.load(Ordering::Relaxed) {
+            self.on_cancel(Some(rendered.film), "before the scene's samples were done");
+            return Ok(());
+        }
         let mut st = self.lock();
-        if rendered.complete && !cancel.load(Ordering::Relaxed) {
-            let secs = rendered.elapsed.as_secs_f64();
-            st.status.phase = Phase::Done;
-            st.status.progress = 1.0;
-            st.status.seconds = secs;
-            st.status.rays = rendered.stats.total_rays();
-            st.status.rays_per_second = if secs > 0.0 { st.status.rays as f64 / secs } else { 0.0 };
-            st.status.samples[0] = st.status.samples[1];
-            st.film = Some(rendered.film);
+        let secs = rendered.elapsed.as_secs_f64();
+        st.status.seconds = secs;
+        st.status.rays = rendered.stats.total_rays();
+        st.status.rays_per_second = if secs > 0.0 { st.status.rays as f64 / secs } else { 0.0 };
+        if let Some(rays) = rendered.budget_stop {
+            let why = format!("the work budget stopped the render after {rays} rays (--max-rays)");
+            self.finish(&mut st, Some(rendered.film), why);
+            return Ok(());
+        }
+        st.status.samples[0] = st.status.samples[1];
+        st.film = Some(rendered.film);
+        if !self.refine.load(Ordering::Relaxed) {
+            self.finish(&mut st, None, format!("the scene's samples ({})", s.describe_sampling()));
+            return Ok(());
+        }
+        st.status.phase = Phase::Refining;
+        st.status.progress = 0.0;
+        self.bump(&mut st);
+        drop(st);
+        let first = First {
+            sums: rendered.sums,
+            rays: rendered.stats.total_rays(),
+            camera_rays: rendered.stats.camera_rays,
+            elapsed: rendered.elapsed,
+        };
+        self.refine(settings, &s, first, cancel)
+    }
+
+    /// Draws the pixels of a finished tile into the frame shown.
+    fn show_tile(&self, st: &mut State, t: &TileDone, s: &crate::render::RenderSettings) {
+        st.seq += 1;
+        let seq = st.seq;
+        if let Some(f) = st.frame.as_mut() {
+            let b = t.sums.share.bounds;
+            for y in t.tile.y0..t.tile.y1 {
+                for x in t.tile.x0..t.tile.x1 {
+                    let p = &t.sums.pixels[b.index(x, y)];
+                    if p.samples == 0 {
+                        continue;
+                    }
+                    let c = p.mean().as_vec3();
+                    let at = 4 * (y as usize * f.width as usize + x as usize);
+                    f.rgba[at..at + 4].copy_from_slice(&[s.encoding.to_u8(c.x), s.encoding.to_u8(c.y), s.encoding.to_u8(c.z), 255]);
+                }
+            }
+            f.touch(t.tile, seq);
+        }
+    }
+
+    /// After `cancel` was set: a stop from the page ends the render with `film` (the image so
+    /// far, when given); otherwise a restart is under way and the state is left to it.
+    fn on_cancel(&self, film: Option<Film>, when: &str) {
+        let mut st = self.lock();
+        if st.stop {
+            self.finish(&mut st, film, format!("stopped {when}"));
+        }
+    }
+
+    /// Keeps refining the frame after the scene's own samples (`s`, rendered as `first`): see
+    /// the module's description.
+    fn refine(&self, settings: &Settings, s: &crate::render::RenderSettings, first: First, cancel: &AtomicBool) -> Result<(), ErrorInfo> {
+        let stratified = matches!(s.aa, Antialiasing::Stratified);
+        let target = s.target.unwrap_or(ErrorTarget { error: 0.0, min_spp: REFINE_MIN_SPP });
+        if s.target.is_some() && first.sums.pixels.iter().all(|p| target.converged(p)) {
+            let mut st = self.lock();
+            self.finish(&mut st, None, "every pixel met the error target".into());
+            return Ok(());
+        }
+        if stratified && s.spp >= REFINE_MAX_SPP {
+            let mut st = self.lock();
+            self.finish(&mut st, None, format!("the scene's {} samples per pixel, the most the view refines to", s.spp));
+            return Ok(());
+        }
+        // A second job: the displayed render's stays, for explaining pixels as `raylab trace` does.
+        let (mut job, _) = self.load(settings).map_err(|e| ErrorInfo::of(&e))?;
+        job.settings = crate::render::RenderSettings { aa: Antialiasing::Stratified, spp: REFINE_MAX_SPP, target: Some(target), ..*s };
+        // The budget is the whole session's, counted here as tiles finish (the render's own
+        // estimate before it starts would refuse any open-ended refinement).
+        let budget = job.max_rays;
+        job.max_rays = u64::MAX;
+        // Samples per pixel of the image shown; a refined pass is drawn once it has more.
+        let pixels = u64::from(s.width) * u64::from(s.height);
+        let shown = if stratified {
+            s.spp
+        } else {
+            let lens = if job.scene.camera.aperture > 0.0 { u64::from(s.lens_samples.max(1)) } else { 1 };
+            let per_pixel = first.camera_rays.div_ceil((pixels * lens).max(1)).max(1);
+            u32::try_from(per_pixel).unwrap_or(u32::MAX).checked_next_power_of_two().unwrap_or(REFINE_MAX_SPP)
+        };
+        {
+            let mut st = self.lock();
+            st.status.samples = [shown, REFINE_MAX_SPP];
             self.bump(&mut st);
+        }
+        // The scene's own samples are the sequence's first ones when it had an error target.
+        let reuse = stratified && s.target.is_some() && s.spp > 1;
+        let (resume, floor) = if reuse {
+            let mut sums = first.sums;
+            sums.sampling = Sampling::of(&job.settings);
+            (Some(sums), 0)
+        } else {
+            (None, shown)
+        };
+        let tiles = u64::from(s.width.div_ceil(TILE_SIZE) * s.height.div_ceil(TILE_SIZE));
+        let (pass, tiles_done, over) = (AtomicU32::new(0), AtomicU64::new(0), AtomicBool::new(false));
+        let on_tile = |t: &TileDone| {
+            if pass.swap(t.pass_end, Ordering::Relaxed) != t.pass_end {
+                tiles_done.store(0, Ordering::Relaxed);
+            }
+            let done = tiles_done.fetch_add(1, Ordering::Relaxed) + 1;
+            let mut st = self.lock();
+            if t.pass_end > floor {
+                self.show_tile(&mut st, t, s);
+            }
+            let secs = (first.elapsed + t.elapsed).as_secs_f64();
+            let rays = first.rays + t.stats.total_rays();
+            st.status.seconds = secs;
+            st.status.rays = rays;
+            st.status.rays_per_second = if secs > 0.0 { rays as f64 / secs } else { 0.0 };
+            st.status.progress = done as f64 / tiles.max(1) as f64;
+            self.bump(&mut st);
+            if rays >= budget {
+                over.store(true, Ordering::Relaxed);
+                cancel.store(true, Ordering::Relaxed);
+            }
+        };
+        let mut on_pass = |p: &Pass| {
+            if p.samples > floor {
+                let mut st = self.lock();
+                st.status.samples = [p.samples, REFINE_MAX_SPP];
+                st.film = Some(p.film.clone());
+                self.bump(&mut st);
+            }
+        };
+        let options = RenderOptions {
+            threads: self.threads,
+            cancel: Some(cancel),
+            on_tile: Some(&on_tile),
+            resume: resume.as_ref(),
+            ..RenderOptions::default()
+        };
+        let rendered = crate::render::render_progressive(&job, &options, &crate::render::DOUBLING_PASSES, &|_, _| {}, &mut on_pass)
+            .map_err(ErrorInfo::plain)?;
+        // The image on screen: the refined one once a pass past the scene's samples began.
+        let showing = pass.load(Ordering::Relaxed) > floor;
+        let samples = self.lock().status.samples[0];
+        if over.load(Ordering::Relaxed) {
+            let mut st = self.lock();
+            let why = format!("refined to {samples} samples per pixel, when the work budget of {budget} rays was spent (--max-rays)");
+            self.finish(&mut st, showing.then_some(rendered.film), why);
+        } else if cancel.load(Ordering::Relaxed) {
+            self.on_cancel(showing.then_some(rendered.film), &format!("refining, at {samples} samples per pixel"));
+        } else {
+            let converged = rendered.sums.pixels.iter().all(|p| target.converged(p));
+            let mut st = self.lock();
+            let why = if converged && s.target.is_some() {
+                "every pixel met the error target".to_string()
+            } else if converged {
+                "every pixel's samples agree".to_string()
+            } else {
+                format!("{REFINE_MAX_SPP} samples per pixel, the most the view refines to")
+            };
+            self.finish(&mut st, Some(rendered.film), why);
         }
         Ok(())
     }

@@ -113,13 +113,15 @@ function showStatus(s) {
     loading: "Loading the scene…",
     preview: "Coarse preview…",
     rendering: `Rendering ${Math.round(100 * s.progress)} %${pass}`,
-    done: "Done",
+    refining: `Refining: ${s.samples[0]} samples per pixel shown, pass ${Math.round(100 * s.progress)} % (until the error target, ${s.samples[1]}, or Stop)`,
+    done: s.ended ? `Done: ${s.ended}` : "Done",
     error: "Error",
   }[s.phase];
   $("phase").textContent = `${text}  ·  ${s.sampling}  ·  ${s.integrator}`;
   $("stats").textContent = s.rays > 0 ? `${s.seconds.toFixed(2)} s  ·  ${fmt(s.rays)} rays  ·  ${fmt(s.rays_per_second)} rays/s` : "";
   $("bar").style.width = (s.phase === "done" ? 100 : 100 * s.progress) + "%";
-  $("save").classList.toggle("disabled", s.phase !== "done");
+  $("save").classList.toggle("disabled", s.phase !== "done" && s.phase !== "refining");
+  $("stop").disabled = s.phase === "done" || s.phase === "error";
   const err = $("error");
   err.hidden = !s.error;
   if (s.error) {
@@ -236,6 +238,7 @@ async function send(settings) {
 }
 
 $("reset").addEventListener("click", () => send({ params: {} }));
+$("stop").addEventListener("click", () => fetch("api/stop", { method: "POST" }));
 
 // ---- zoom ----
 
