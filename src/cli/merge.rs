@@ -33,7 +33,7 @@ pub(crate) struct MergeArgs {
 pub(crate) fn run(app: &App, a: MergeArgs) -> Result<(), Failure> {
     #[cfg(not(feature = "exr"))]
     {
-        let _ = a;
+        let _ = (app, a);
         Err(Failure::Other("partial images are OpenEXR files: rebuild raylab with `--features exr`".into()))
     }
     #[cfg(feature = "exr")]

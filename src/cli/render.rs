@@ -1,14 +1,17 @@
 //! `raylab render`: render a scene to an image, with a progress bar and a one-line summary.
 
 use super::{App, Failure, SceneArgs, si};
-use crate::image::output::Grid;
-use crate::render::RenderOptions;
+use crate::image::output::{Grid, ImagePlan, OutputFormat};
+use crate::render::aovs::Aovs;
+use crate::render::film::Film;
+use crate::render::share::{FrameSums, Share};
+use crate::render::{RenderJob, RenderOptions, Rendered};
 use clap::Args;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Once;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 #[derive(Args, Debug)]
 pub(crate) struct RenderArgs {
@@ -202,10 +205,33 @@ struct SavedCommand {
     args: RenderArgs,
 }
 
-/// Renders as `a` asks, continuing `resumed` (a checkpoint's state and fingerprint) if given.
-fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::FrameSums, String)>) -> Result<(), Failure> {
+/// Renders as `a` asks, continuing `resumed` (a checkpoint's state and fingerprint) if given:
+/// the arguments checked, the scene loaded and the work planned, the render run, its image
+/// written and the summary printed.
+fn render(app: &App, a: RenderArgs, resumed: Option<(FrameSums, String)>) -> Result<(), Failure> {
     catch_ctrl_c();
     let t0 = Instant::now();
+    let request = validate(app, &a)?;
+    let plan = plan(app, &a, request, resumed.as_ref().map(|(_, fingerprint)| fingerprint.as_str()), t0)?;
+    let run = run_planned(&plan, resumed.as_ref().map(|(sums, _)| sums))?;
+    if !run.rendered.complete {
+        return Err(stopped(&plan, &run));
+    }
+    let written = write_image(&plan, run.rendered)?;
+    summarize(&plan, &written, run.trace_cpu)
+}
+
+/// What the arguments ask for, checked before anything is read.
+struct Request<'a> {
+    grid: Option<Grid>,
+    /// A crop, tile or pass: a partial image.
+    parts: bool,
+    format: &'a OutputFormat,
+    image: ImagePlan,
+}
+
+/// Checks the arguments that need no scene.
+fn validate<'a>(app: &'a App, a: &RenderArgs) -> Result<Request<'a>, Failure> {
     let grid = match a.grid {
         None => None,
         Some(0) => return Err("--grid must be at least 1".to_string().into()),
@@ -243,7 +269,7 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
         );
     }
     let layer = |name: &str| a.aov.iter().any(|s| s == name);
-    let plan = crate::image::output::ImagePlan {
+    let image = ImagePlan {
         exr,
         depth: layer("depth"),
         normal: layer("normal"),
@@ -251,6 +277,31 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
         half: a.half,
         error: layer("error") || layer("variance"),
     };
+    Ok(Request { grid, parts, format, image })
+}
+
+/// A render planned: the scene loaded, the part of the frame to render, where it all goes.
+struct Plan<'a> {
+    a: &'a RenderArgs,
+    request: Request<'a>,
+    job: RenderJob,
+    scene_name: String,
+    share: Option<Share>,
+    reference: Option<Film>,
+    /// The denoiser's tool, when asked for.
+    denoiser: Option<PathBuf>,
+    /// Where the image of an interrupted render goes.
+    partial: PathBuf,
+    /// Where the state is saved to continue from.
+    checkpoint: PathBuf,
+    /// What a checkpoint says of how to continue it.
+    resume_info: String,
+    load_time: Duration,
+}
+
+/// Loads the scene (nothing it reads written over, a resumed render's scene unchanged) and plans
+/// the render. `t0`: when the command started, for the load time.
+fn plan<'a>(app: &App, a: &'a RenderArgs, request: Request<'a>, resumed: Option<&str>, t0: Instant) -> Result<Plan<'a>, Failure> {
     // Nothing the render reads is written over: checked before loading for the files named on the
     // command line, and after for those the scene names (meshes, textures).
     let partial = partial_path(&a.output);
@@ -261,13 +312,13 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
     outputs.extend(Some(checkpoint.as_path()).filter(|_| resumed.is_none()));
     let named: Vec<&Path> = a.scene.iter().chain(&a.reference).map(PathBuf::as_path).collect();
     super::refuse_overwrite("render", &outputs, named.iter().copied())?;
-    let (job, scene_name) = super::load(app, a.scene.as_deref(), &a.scene_args, plan)?;
+    let (job, scene_name) = super::load(app, a.scene.as_deref(), &a.scene_args, request.image)?;
     super::refuse_overwrite("render", &outputs, job.inputs.iter().map(PathBuf::as_path))?;
     if INTERRUPTED.load(Ordering::SeqCst) {
         return Err(Failure::Interrupted("interrupted while loading: nothing rendered, nothing written".into()));
     }
-    if let Some((_, fingerprint)) = &resumed
-        && *fingerprint != job.fingerprint
+    if let Some(fingerprint) = resumed
+        && fingerprint != job.fingerprint
     {
         return Err(Failure::Other(format!(
             "the checkpoint is of another render (fingerprint {fingerprint}, now {}): the scene, a file it reads, or a setting changed since; render it anew",
@@ -275,37 +326,43 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
         )));
     }
     let share = super::farm::share(&job, a.crop.as_deref(), a.tile.as_deref(), a.pass.as_deref())?;
-    let s = job.settings;
     let reference = match &a.reference {
-        Some(p) => Some(crate::image::reference::read(p, s.encoding)?),
+        Some(p) => Some(crate::image::reference::read(p, job.settings.encoding)?),
         None => None,
     };
     let load_time = t0.elapsed();
     let denoiser = if a.denoise { Some(crate::image::denoise::find_tool().map_err(Failure::Other)?) } else { None };
-    let bar = if a.quiet {
-        indicatif::ProgressBar::hidden()
-    } else {
-        let total = u64::from(s.width) * u64::from(s.height);
-        let b = indicatif::ProgressBar::with_draw_target(Some(total), indicatif::ProgressDrawTarget::stderr());
-        if let Ok(style) = indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {percent:>3}% ETA {eta} {msg}") {
-            b.set_style(style.progress_chars("=> "));
-        }
-        b
-    };
-    bar.set_message(match &share {
-        Some(sh) => format!("{scene_name}, {}", sh.describe()),
-        None => scene_name.clone(),
-    });
     // Checkpoints: the state as a partial image, with the command that continues it.
     let resume_info = serde_json::to_string(&super::farm::ResumeInfo {
         cwd: std::env::current_dir().unwrap_or_default(),
         args: a.raw.iter().filter(|r| !r.is_empty()).cloned().collect(),
     })
     .map_err(|e| e.to_string())?;
-    let checkpoint_path = a.checkpoint.clone().unwrap_or_else(|| super::farm::default_checkpoint(&a.output));
+    Ok(Plan { a, request, job, scene_name, share, reference, denoiser, partial, checkpoint, resume_info, load_time })
+}
+
+/// A render run, complete or not.
+struct Run {
+    rendered: Rendered,
+    /// CPU time of every thread while tracing, seconds.
+    trace_cpu: Option<f64>,
+    /// The share of the work done, in per cent.
+    done: f64,
+}
+
+/// Runs the render with a progress bar, checkpoints, a live display and an error log as asked,
+/// continuing `resume`.
+fn run_planned(plan: &Plan, resume: Option<&FrameSums>) -> Result<Run, Failure> {
+    let (a, job) = (plan.a, &plan.job);
+    let s = job.settings;
+    let bar = progress_bar(a.quiet, u64::from(s.width) * u64::from(s.height));
+    bar.set_message(match &plan.share {
+        Some(sh) => format!("{}, {}", plan.scene_name, sh.describe()),
+        None => plan.scene_name.clone(),
+    });
     let checkpoint_failure: std::sync::Mutex<Option<String>> = std::sync::Mutex::new(None);
-    let write_checkpoint = |sums: &crate::render::share::FrameSums| {
-        if let Err(e) = save_state(&checkpoint_path, sums, &job, Some(&resume_info)) {
+    let write_checkpoint = |sums: &FrameSums| {
+        if let Err(e) = save_state(&plan.checkpoint, sums, job, Some(&plan.resume_info)) {
             checkpoint_failure.lock().unwrap_or_else(|e| e.into_inner()).get_or_insert(e);
         }
     };
@@ -332,16 +389,17 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
         .checkpoint
         .as_ref()
         .map(|_| crate::render::Snapshots { every: std::time::Duration::from_secs_f64(a.checkpoint_every), write: &write_checkpoint });
+    let image = plan.request.image;
     let options = RenderOptions {
         threads: a.threads,
         cancel: Some(&INTERRUPTED),
-        layers: plan.depth || plan.normal || plan.albedo || a.denoise,
-        share,
-        resume: resumed.as_ref().map(|(sums, _)| sums),
+        layers: image.depth || image.normal || image.albedo || a.denoise,
+        share: plan.share,
+        resume,
         snapshots,
         on_tile: display.as_ref().map(|_| &show_tile as &(dyn Fn(&crate::render::TileDone) + Sync)),
     };
-    let mut error_log = match (&a.error_csv, &reference) {
+    let mut error_log = match (&a.error_csv, &plan.reference) {
         (Some(path), Some(r)) => Some(ErrorLog::new(path, r, s.encoding)?),
         _ => None,
     };
@@ -351,7 +409,7 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
     let work = [AtomicU64::new(0), AtomicU64::new(1)];
     let cpu0 = crate::render::stats::process_cpu_time();
     let rendered = crate::render::render_progressive(
-        &job,
+        job,
         &options,
         checkpoints,
         &|done, total| {
@@ -386,73 +444,113 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
     if let Some(e) = checkpoint_failure.lock().unwrap_or_else(|e| e.into_inner()).take() {
         eprintln!("warning: a checkpoint could not be written: {e}");
     }
-    if !rendered.complete {
-        // The state, to continue from; and the image so far, in the target's format (a partial
-        // render's output is its state already).
-        let saved = if cfg!(feature = "exr") {
-            save_state(&checkpoint_path, &rendered.sums, &job, Some(&resume_info)).map_err(Failure::Other)?;
-            format!("; continue with `raylab render --resume {}`", checkpoint_path.display())
+    let done = 100.0 * work[0].load(Ordering::Relaxed) as f64 / work[1].load(Ordering::Relaxed) as f64;
+    Ok(Run { rendered, trace_cpu, done })
+}
+
+/// A progress bar on standard error over `total` pixels (hidden when `quiet`).
+fn progress_bar(quiet: bool, total: u64) -> indicatif::ProgressBar {
+    if quiet {
+        return indicatif::ProgressBar::hidden();
+    }
+    let b = indicatif::ProgressBar::with_draw_target(Some(total), indicatif::ProgressDrawTarget::stderr());
+    if let Ok(style) = indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {percent:>3}% ETA {eta} {msg}") {
+        b.set_style(style.progress_chars("=> "));
+    }
+    b
+}
+
+/// A render that stopped early (interrupted, or over the work budget): its state saved to
+/// continue from, the image so far written beside the target, and the failure that says so.
+fn stopped(plan: &Plan, run: &Run) -> Failure {
+    let (a, job, rendered) = (plan.a, &plan.job, &run.rendered);
+    let parts = plan.request.parts;
+    // The state, to continue from; and the image so far, in the target's format (a partial
+    // render's output is its state already).
+    let saved = if cfg!(feature = "exr") {
+        if let Err(e) = save_state(&plan.checkpoint, &rendered.sums, job, Some(&plan.resume_info)) {
+            return Failure::Other(e);
+        }
+        format!("; continue with `raylab render --resume {}`", plan.checkpoint.display())
+    } else {
+        String::new()
+    };
+    if !parts && let Err(e) = write(plan, &plan.partial, &rendered.film, None, None) {
+        return e;
+    }
+    let done = run.done;
+    let (why, failure): (String, fn(String) -> Failure) = match rendered.budget_stop {
+        Some(rays) => {
+            // What the whole render would take at the rate so far, as a flag value when it is one.
+            let whole = rays as f64 * 100.0 / done.max(1e-9);
+            let advice = match crate::render::budget::flag_value(whole * 1.25).filter(|_| done > 0.0) {
+                Some(v) => format!("the whole render would trace about {whole:.3e}: raise --max-rays to {v}, or lower the knobs"),
+                None => "lower the knobs that multiply rays (--spp, --depth, the integrator's)".to_string(),
+            };
+            (
+                format!(
+                    "stopped by the work budget at {done:.1} %: {rays} rays traced, over --max-rays {} (integrator \"{}\": {}); {advice}",
+                    job.max_rays,
+                    job.integrator_name,
+                    job.integrator.describe(),
+                ),
+                Failure::Other,
+            )
+        }
+        None => (format!("interrupted at {done:.1} %"), Failure::Interrupted),
+    };
+    failure(format!(
+        "{why}: {}{}{saved}; {} was not written",
+        if parts { String::new() } else { format!("wrote the image so far to {} (pixels not reached are black)", plan.partial.display()) },
+        if cfg!(feature = "exr") {
+            format!("{}saved the state in {}", if parts { "" } else { " and " }, plan.checkpoint.display())
         } else {
             String::new()
-        };
-        if !parts {
-            write(&job, &a, &partial, format, &rendered.film, None, None, grid)?;
-        }
-        let done = 100.0 * work[0].load(Ordering::Relaxed) as f64 / work[1].load(Ordering::Relaxed) as f64;
-        let (why, failure): (String, fn(String) -> Failure) = match rendered.budget_stop {
-            Some(rays) => {
-                // What the whole render would take at the rate so far, as a flag value when it is one.
-                let whole = rays as f64 * 100.0 / done.max(1e-9);
-                let advice = match crate::render::budget::flag_value(whole * 1.25).filter(|_| done > 0.0) {
-                    Some(v) => format!("the whole render would trace about {whole:.3e}: raise --max-rays to {v}, or lower the knobs"),
-                    None => "lower the knobs that multiply rays (--spp, --depth, the integrator's)".to_string(),
-                };
-                (
-                    format!(
-                        "stopped by the work budget at {done:.1} %: {rays} rays traced, over --max-rays {} (integrator \"{}\": {}); {advice}",
-                        job.max_rays,
-                        job.integrator_name,
-                        job.integrator.describe(),
-                    ),
-                    Failure::Other,
-                )
-            }
-            None => (format!("interrupted at {done:.1} %"), Failure::Interrupted),
-        };
-        return Err(failure(format!(
-            "{why}: {}{}{saved}; {} was not written",
-            if parts { String::new() } else { format!("wrote the image so far to {} (pixels not reached are black)", partial.display()) },
-            if cfg!(feature = "exr") {
-                format!("{}saved the state in {}", if parts { "" } else { " and " }, checkpoint_path.display())
-            } else {
-                String::new()
-            },
-            a.output.display()
-        )));
-    }
-    let mut rendered = rendered;
+        },
+        a.output.display()
+    ))
+}
+
+/// A complete render, written.
+struct Written {
+    rendered: Rendered,
+    denoise_time: Option<Duration>,
+    write_time: Duration,
+}
+
+/// Denoises the image if asked, writes it (a partial render: its state), and removes what an
+/// earlier, interrupted render of the same target left.
+fn write_image(plan: &Plan, mut rendered: Rendered) -> Result<Written, Failure> {
+    let (a, job) = (plan.a, &plan.job);
     let t_denoise = Instant::now();
-    if denoiser.is_some() {
+    if plan.denoiser.is_some() {
         let film = denoise_film(&rendered).map_err(Failure::Other)?;
         rendered.film = film;
     }
-    let denoise_time = denoiser.map(|_| t_denoise.elapsed());
+    let denoise_time = plan.denoiser.as_ref().map(|_| t_denoise.elapsed());
     let t_write = Instant::now();
-    if parts {
-        save_state(&a.output, &rendered.sums, &job, None).map_err(Failure::Other)?;
+    if plan.request.parts {
+        save_state(&a.output, &rendered.sums, job, None).map_err(Failure::Other)?;
     } else {
-        write(&job, &a, &a.output, format, &rendered.film, rendered.layers.as_ref(), Some(&rendered.sums), grid)?;
+        write(plan, &a.output, &rendered.film, rendered.layers.as_ref(), Some(&rendered.sums))?;
     }
-    if a.checkpoint.is_some() && checkpoint_path.exists() {
+    if a.checkpoint.is_some() && plan.checkpoint.exists() {
         // The render is done: its checkpoint has served.
-        let _ = std::fs::remove_file(&checkpoint_path);
+        let _ = std::fs::remove_file(&plan.checkpoint);
     }
     // The image an interrupted render of this target left beside it is superseded now.
-    let stale = partial_path(&a.output);
-    if !parts && stale.exists() && std::fs::remove_file(&stale).is_ok() {
+    let stale = &plan.partial;
+    if !plan.request.parts && stale.exists() && std::fs::remove_file(stale).is_ok() {
         eprintln!("removed {}, the image of an interrupted render of {} (now complete)", stale.display(), a.output.display());
     }
-    let write_time = t_write.elapsed();
+    Ok(Written { rendered, denoise_time, write_time: t_write.elapsed() })
+}
+
+/// Prints the render's summary: what was written, how long each step took, the counters, the
+/// error against a reference.
+fn summarize(plan: &Plan, written: &Written, trace_cpu: Option<f64>) -> Result<(), Failure> {
+    let (a, job, rendered) = (plan.a, &plan.job, &written.rendered);
+    let s = job.settings;
     let st = rendered.stats;
     let secs = rendered.elapsed.as_secs_f64();
     let threads = a.threads.unwrap_or_else(rayon::current_num_threads);
@@ -460,28 +558,29 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
     let accel = job.scene.accel_summary();
     let build_time = (accel.build.time + accel.object_builds.time).as_secs_f64();
     let memory = crate::render::stats::peak_memory_bytes().map_or_else(String::new, |b| format!(", peak memory {}B", si(b as f64)));
-    let what = match &share {
+    let what = match &plan.share {
         Some(sh) => format!("partial image: {}; ", sh.describe()),
         None => String::new(),
     };
     println!(
-        "wrote {} ({what}{}×{}, {}, {}{}) from {scene_name}: trace {:.3} s{} on {threads} thread{}, {} rays, {} rays/s, {} non-finite samples (load {:.3} s, BVH build {:.3} s, {}write {:.3} s{memory})",
+        "wrote {} ({what}{}×{}, {}, {}{}) from {}: trace {:.3} s{} on {threads} thread{}, {} rays, {} rays/s, {} non-finite samples (load {:.3} s, BVH build {:.3} s, {}write {:.3} s{memory})",
         a.output.display(),
         s.width,
         s.height,
         s.describe_sampling(),
         job.integrator_name,
         if describe.is_empty() { String::new() } else { format!(" {describe}") },
+        plan.scene_name,
         secs,
         trace_cpu.map_or_else(String::new, |c| format!(" ({c:.3} CPU s)")),
         if threads == 1 { "" } else { "s" },
         si(st.total_rays() as f64),
         si(st.total_rays() as f64 / secs.max(1e-9)),
         st.nonfinite_samples,
-        load_time.as_secs_f64() - build_time,
+        plan.load_time.as_secs_f64() - build_time,
         build_time,
-        denoise_time.map_or_else(String::new, |d| format!("denoise {:.3} s, ", d.as_secs_f64())),
-        write_time.as_secs_f64(),
+        written.denoise_time.map_or_else(String::new, |d| format!("denoise {:.3} s, ", d.as_secs_f64())),
+        written.write_time.as_secs_f64(),
     );
     println!("  {}", accel_line(&accel));
     if let Some(e) = rendered.sums.error_estimate() {
@@ -490,7 +589,7 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
     if st.nonfinite_samples > 0 {
         eprintln!("warning: {} samples were NaN or infinite and were dropped from their pixels", st.nonfinite_samples);
     }
-    if let Some(r) = &reference {
+    if let Some(r) = &plan.reference {
         let e = crate::image::metrics::compare(&rendered.film, r, s.encoding)?;
         println!(
             "error against {}: RMSE {:.5}, PSNR {:.2} dB, SSIM {:.5}",
@@ -510,12 +609,7 @@ fn render(app: &App, a: RenderArgs, resumed: Option<(crate::render::share::Frame
 }
 
 /// Writes a render's state as a partial image (with `resume`: a checkpoint).
-fn save_state(
-    path: &Path,
-    sums: &crate::render::share::FrameSums,
-    job: &crate::render::RenderJob,
-    resume: Option<&str>,
-) -> Result<(), String> {
+fn save_state(path: &Path, sums: &FrameSums, job: &RenderJob, resume: Option<&str>) -> Result<(), String> {
     #[cfg(feature = "exr")]
     {
         let info = crate::image::partial::PartialInfo {
@@ -534,10 +628,10 @@ fn save_state(
 }
 
 /// The rendered image denoised, guided by its albedo and normal layers.
-fn denoise_film(r: &crate::render::Rendered) -> Result<crate::render::film::Film, String> {
+fn denoise_film(r: &Rendered) -> Result<Film, String> {
     let layers = r.layers.as_ref().ok_or("the render took no albedo and normal layers to guide the denoiser")?;
     let (w, h) = (r.film.width, r.film.height);
-    let film = |v: &Option<Vec<glam::Vec3>>| v.as_ref().map(|p| crate::render::film::Film { width: w, height: h, pixels: p.clone() });
+    let film = |v: &Option<Vec<glam::Vec3>>| v.as_ref().map(|p| Film { width: w, height: h, pixels: p.clone() });
     crate::image::denoise::denoise(&r.film, film(&layers.albedo).as_ref(), film(&layers.normal).as_ref())
 }
 
@@ -551,20 +645,11 @@ pub fn error_line(e: &crate::render::share::ErrorEstimate, target: bool) -> Stri
     )
 }
 
-/// Writes the image to `path` in `format`, with the layers `--aov` asks for (of `layers`, and
-/// the error layers from `sums`).
-#[allow(clippy::too_many_arguments)]
-fn write(
-    job: &crate::render::RenderJob,
-    a: &RenderArgs,
-    path: &Path,
-    format: &crate::image::output::OutputFormat,
-    film: &crate::render::film::Film,
-    layers: Option<&crate::render::aovs::Aovs>,
-    sums: Option<&crate::render::share::FrameSums>,
-    grid: Option<Grid>,
-) -> Result<(), Failure> {
-    use crate::render::aovs::{Aov, Aovs};
+/// Writes the image to `path` in the planned format, with the layers `--aov` asks for (of
+/// `layers`, and the error layers from `sums`).
+fn write(plan: &Plan, path: &Path, film: &Film, layers: Option<&Aovs>, sums: Option<&FrameSums>) -> Result<(), Failure> {
+    use crate::render::aovs::Aov;
+    let a = plan.a;
     let asked = |l: Aov| a.aov.iter().any(|s| Aov::parse(s) == Some(l));
     let mut chosen = layers.map(|l| Aovs {
         depth: l.depth.clone().filter(|_| asked(Aov::Depth)),
@@ -577,8 +662,13 @@ fn write(
         let c = chosen.get_or_insert_with(Aovs::default);
         (c.error, c.spp) = (Some(error), Some(spp));
     }
-    let settings = crate::image::output::WriteSettings { encoding: job.settings.encoding, grid, layers: chosen.as_ref(), half: a.half };
-    format.write(path, film, &settings).map_err(|e| e.to_string().into())
+    let settings = crate::image::output::WriteSettings {
+        encoding: plan.job.settings.encoding,
+        grid: plan.request.grid,
+        layers: chosen.as_ref(),
+        half: a.half,
+    };
+    plan.request.format.write(path, film, &settings).map_err(|e| e.to_string().into())
 }
 
 /// One line saying how the objects and meshes are indexed for ray queries.
@@ -607,16 +697,12 @@ pub fn accel_line(s: &crate::scene::AccelSummary) -> String {
 /// they come (flushed, so the file can be watched).
 struct ErrorLog<'a> {
     file: std::io::BufWriter<std::fs::File>,
-    reference: &'a crate::render::film::Film,
+    reference: &'a Film,
     encoding: crate::math::color::Encoding,
 }
 
 impl<'a> ErrorLog<'a> {
-    fn new(
-        path: &std::path::Path,
-        reference: &'a crate::render::film::Film,
-        encoding: crate::math::color::Encoding,
-    ) -> Result<Self, Failure> {
+    fn new(path: &std::path::Path, reference: &'a Film, encoding: crate::math::color::Encoding) -> Result<Self, Failure> {
         let f = std::fs::File::create(path).map_err(|e| Failure::Other(format!("cannot create \"{}\": {e}", path.display())))?;
         let mut file = std::io::BufWriter::new(f);
         writeln!(file, "spp,seconds,rays,rmse,psnr_db,ssim").map_err(|e| e.to_string())?;

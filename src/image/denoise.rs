@@ -8,7 +8,7 @@
 
 use crate::image::reference::{decode_pfm, encode_pfm};
 use crate::render::film::Film;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::{Command, Stdio};
 
 /// The environment variable naming the `oidnDenoise` executable.
@@ -128,7 +128,7 @@ pub fn available() -> bool {
 /// The film of `path`'s colour, albedo and normal layers for [`denoise`] (an EXR raylab wrote with
 /// `--aov albedo,normal`; the guides are optional).
 #[cfg(feature = "exr")]
-pub fn read_exr_layers(path: &Path, bytes: &[u8]) -> Result<(Film, Option<Film>, Option<Film>), String> {
+pub fn read_exr_layers(path: &std::path::Path, bytes: &[u8]) -> Result<(Film, Option<Film>, Option<Film>), String> {
     use crate::image::tonemap::{Layer, read_layer};
     let at = |e: String| format!("{}: {e}", path.display());
     let color = read_layer(bytes, "exr", Layer::Color).map_err(at)?;

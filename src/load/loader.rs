@@ -198,7 +198,7 @@ struct Parts {
     camera: Camera,
     background: crate::math::color::Color,
     objects: Vec<Object>,
-    lights: Vec<(String, Box<dyn crate::scene::light::LightSource>)>,
+    lights: NamedLights,
     integrator: Box<dyn crate::render::integrator::Integrator>,
     integrator_name: String,
     integrator_params: Table,
@@ -229,11 +229,12 @@ impl Parts {
     }
 }
 
+/// Builds every section of a scene file, in the order of its sections' dependencies: the
+/// render settings (the camera needs the image size), the camera, textures and materials, the
+/// objects (a fitted camera needs their bounds), the lights, the integrator.
 fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) -> Result<Parts> {
     ctx.use_mesh_formats(registry.mesh_formats());
-    let opts = ctx.options;
-    let ov = &opts.overrides;
-    if opts.accel == AccelChoice::Bvh && !crate::accel::build::BVH_AVAILABLE {
+    if ctx.options.accel == AccelChoice::Bvh && !crate::accel::build::BVH_AVAILABLE {
         return Err(SceneError::msg("a BVH was asked for, but raylab was built without the `bvh` feature")
             .with_help("rebuild with `--features bvh`, or use --accel auto/list"));
     }
@@ -246,13 +247,88 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         None => desc.name.clone(),
     };
     let background = root.color("background")?;
+    let settings = render_section(root.node("render")?, desc, ctx)?;
+    let camera = CameraSection::read(root.node("camera")?, desc, ctx.options, &settings)?;
+    // [textures.NAME]: built when a material first names one.
+    let textures = TextureLibrary::new(registry, ctx);
+    if let Some(n) = root.node("textures")? {
+        textures.define(n)?;
+    }
+    let materials = material_section(root.node("materials")?, &textures)?;
+    let objects = object_section(registry, root.node("object")?, ctx, &materials, &textures)?;
+    let camera = camera.build(&objects, desc, &settings)?;
+    for (name, loc) in textures.unused() {
+        ctx.warn(SceneError::at(&loc, format!("texture \"{name}\" is not used by any material; it was not loaded")));
+    }
+    let lights = light_section(registry, root.node("light")?, ctx)?;
+    warn_if_unlit(&objects, &lights, desc, ctx);
+    let integ_node = root.node("integrator")?;
+    root.finish()?;
+    let integ = integrator_section(registry, integ_node, desc, ctx)?;
 
-    // [render]
+    // What decides the pixels besides the files: the resolved settings, camera and integrator.
+    let mut fingerprint = Fingerprint::default();
+    fingerprint.add("raylab", env!("CARGO_PKG_VERSION").as_bytes());
+    fingerprint.add("settings", format!("{settings:?}").as_bytes());
+    fingerprint.add("camera", format!("{camera:?}").as_bytes());
+    fingerprint.add("background", format!("{background:?}").as_bytes());
+    fingerprint.add("integrator", integ.name.as_bytes());
+    fingerprint.add("integrator parameters", crate::param::toml::table_to_toml(&integ.params).as_bytes());
+    Ok(Parts {
+        name,
+        camera,
+        background,
+        objects,
+        lights,
+        integrator: integ.integrator,
+        integrator_name: integ.name,
+        integrator_params: integ.params,
+        settings,
+        fingerprint,
+    })
+}
+
+/// `[render]`, with the command line's settings over the file's, checked against the limits;
+/// the image's memory is charged to the load.
+fn render_section(node: Option<&Node>, desc: &SceneDescription, ctx: &LoadContext) -> Result<RenderSettings> {
+    let opts = ctx.options;
+    let ov = &opts.overrides;
     let empty = Table::default();
-    let (render_table, render_loc) = sub_table(root.node("render")?, &desc.loc, &empty, "render")?;
+    let (render_table, render_loc) = sub_table(node, &desc.loc, &empty, "render")?;
     let render_table = with_overrides(render_table, &ov.render_params);
     let mut rp = Params::new("[render]", RENDER_PARAMS, &render_table, render_loc);
     let limits = &opts.limits;
+    let (width, height) = image_size_checked(&mut rp, ctx)?;
+    let file_spp = rp.int_in("spp", 1..=i64::MAX)?;
+    let spp = ov.spp.map_or(file_spp, i64::from);
+    if spp < 1 || spp > i64::from(limits.max_spp) {
+        return Err(rp
+            .error_at("spp", format_args!("{spp} samples per pixel is outside 1..={}", limits.max_spp))
+            .with_help("raise the limit with --max-spp"));
+    }
+    let file_seed = rp.int_in("seed", 0..=i64::MAX)? as u64;
+    let seed = ov.seed.unwrap_or(file_seed);
+    let file_encoding = Encoding::parse(&rp.choice("encoding", &Encoding::NAMES)?).unwrap_or_default();
+    let encoding = ov.encoding.unwrap_or(file_encoding);
+    let aa = antialiasing(&mut rp)?;
+    let lens_samples = rp.int_in("lens_samples", 1..=i64::from(limits.max_spp))? as u32;
+    if u64::from(lens_samples) * spp as u64 > u64::from(limits.max_spp) {
+        return Err(rp
+            .error_at(
+                "lens_samples",
+                format_args!("{spp} spp × {lens_samples} lens samples exceeds the limit of {} rays per pixel", limits.max_spp),
+            )
+            .with_help("raise the limit with --max-spp"));
+    }
+    let target = error_target(&mut rp, spp, aa)?;
+    rp.finish()?;
+    Ok(RenderSettings { width: width as u32, height: height as u32, spp: spp as u32, seed, encoding, aa, lens_samples, target })
+}
+
+/// The image size of `[render]` with the command line's over it, checked against the limits
+/// (sides, pixels, the image's memory), and that memory charged to the load.
+fn image_size_checked(rp: &mut Params, ctx: &LoadContext) -> Result<(i64, i64)> {
+    let (ov, limits) = (&ctx.options.overrides, &ctx.options.limits);
     let max_side = i64::from(limits.max_side.min(i32::MAX as u32));
     // The file's values are read (and validated) even when the command line overrides them.
     let (file_width, file_height) = (rp.int_in("width", 1..=i64::MAX)?, rp.int_in("height", 1..=i64::MAX)?);
@@ -273,23 +349,23 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
     for (v, what) in [(width, "width"), (height, "height")] {
         if v < 1 || v > max_side {
             return Err(
-                size_error(&rp, what, format!("image {what} {v} is outside 1..={max_side}")).with_help("raise the limit with --max-side")
+                size_error(rp, what, format!("image {what} {v} is outside 1..={max_side}")).with_help("raise the limit with --max-side")
             );
         }
     }
     let pixels = width as u64 * height as u64;
     if pixels > limits.max_pixels {
         return Err(size_error(
-            &rp,
+            rp,
             "",
             format!("image of {width}×{height} = {pixels} pixels exceeds the limit of {} pixels", limits.max_pixels),
         )
         .with_help("raise the limit with --max-pixels"));
     }
-    let bytes = crate::image::output::image_bytes(pixels, &opts.image);
+    let bytes = crate::image::output::image_bytes(pixels, &ctx.options.image);
     if bytes > limits.max_image_bytes {
         return Err(size_error(
-            &rp,
+            rp,
             "",
             format!(
                 "image of {width}×{height} pixels needs about {} MB (film, per-pixel sums, layers and encoding), over the limit of {} MB",
@@ -300,17 +376,11 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         .with_help("raise the limit with --max-image-bytes, or render a smaller image"));
     }
     ctx.charge(bytes, &format!("the image of {width}×{height} pixels"), Some(rp.loc()))?;
-    let file_spp = rp.int_in("spp", 1..=i64::MAX)?;
-    let spp = ov.spp.map_or(file_spp, i64::from);
-    if spp < 1 || spp > i64::from(limits.max_spp) {
-        return Err(rp
-            .error_at("spp", format_args!("{spp} samples per pixel is outside 1..={}", limits.max_spp))
-            .with_help("raise the limit with --max-spp"));
-    }
-    let file_seed = rp.int_in("seed", 0..=i64::MAX)? as u64;
-    let seed = ov.seed.unwrap_or(file_seed);
-    let file_encoding = Encoding::parse(&rp.choice("encoding", &Encoding::NAMES)?).unwrap_or_default();
-    let encoding = ov.encoding.unwrap_or(file_encoding);
+    Ok((width, height))
+}
+
+/// `[render]`'s anti-aliasing keys.
+fn antialiasing(rp: &mut Params) -> Result<Antialiasing> {
     let aa = match rp.choice("aa", &["stratified", "adaptive"])?.as_str() {
         "adaptive" => Antialiasing::Adaptive(AdaptiveSettings {
             threshold: rp.float_in("aa_threshold", 0.0..=1.0)?,
@@ -335,17 +405,14 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
             )
             .with_help("lower aa_coarse or aa_depth"));
     }
-    let lens_samples = rp.int_in("lens_samples", 1..=i64::from(limits.max_spp))? as u32;
-    if u64::from(lens_samples) * spp as u64 > u64::from(limits.max_spp) {
-        return Err(rp
-            .error_at(
-                "lens_samples",
-                format_args!("{spp} spp × {lens_samples} lens samples exceeds the limit of {} rays per pixel", limits.max_spp),
-            )
-            .with_help("raise the limit with --max-spp"));
-    }
+    Ok(aa)
+}
+
+/// `[render]`'s error target (`target_error`, `target_min_spp`), checked against `spp` and the
+/// anti-aliasing.
+fn error_target(rp: &mut Params, spp: i64, aa: Antialiasing) -> Result<Option<crate::render::job::ErrorTarget>> {
     let target_min_spp = rp.int_in("target_min_spp", 2..=i64::from(u32::MAX))? as u32;
-    let target = match rp.float_opt("target_error")? {
+    Ok(match rp.float_opt("target_error")? {
         None => None,
         Some(e) if !(e > 0.0 && e.is_finite()) => {
             return Err(rp.error_at("target_error", format_args!("expected a relative error > 0, found {e}")));
@@ -364,42 +431,61 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
                 .with_help("raise spp (--spp 1024, say) or lower target_min_spp"));
         }
         Some(error) => Some(crate::render::job::ErrorTarget { error, min_spp: target_min_spp }),
-    };
-    rp.finish()?;
-    let settings = RenderSettings { width: width as u32, height: height as u32, spp: spp as u32, seed, encoding, aa, lens_samples, target };
+    })
+}
 
-    // [camera]
-    let cam_node = root.node("camera")?;
-    if cam_node.is_none() && ov.camera_params.is_empty() {
-        return Err(SceneError::at(&desc.loc, "the scene has no [camera]").with_help(
-            "add a [camera] table with `position` and `look_at` (or the report's `to` and `screen_*`), or give one with --camera KEY=VALUE",
-        ));
+/// `[camera]`, with the command line's keys over the file's: built at once, or, with
+/// `fit = true`, once the objects' bounds are known ([`CameraSection::build`]).
+struct CameraSection {
+    table: Table,
+    loc: Loc,
+    /// Where `fit = true` was asked.
+    fit: Option<Loc>,
+    camera: Option<Camera>,
+}
+
+impl CameraSection {
+    fn read(node: Option<&Node>, desc: &SceneDescription, opts: &LoadOptions, settings: &RenderSettings) -> Result<CameraSection> {
+        let ov = &opts.overrides;
+        if node.is_none() && ov.camera_params.is_empty() {
+            return Err(SceneError::at(&desc.loc, "the scene has no [camera]").with_help(
+                "add a [camera] table with `position` and `look_at` (or the report's `to` and `screen_*`), or give one with --camera KEY=VALUE",
+            ));
+        }
+        let empty = Table::default();
+        let (cam_table, loc) = sub_table(node, &desc.loc, &empty, "camera")?;
+        let table = crate::scene::camera::apply_overrides(cam_table, &ov.camera_params);
+        // `fit = true` needs the objects' bounds: that camera is built after them.
+        let fit = match table.get("fit") {
+            Some(Node { value: Value::Bool(b), loc }) => b.then(|| loc.clone()),
+            Some(n) => return Err(SceneError::at(&n.loc, format!("`fit` must be true or false, found {}", n.value.type_name()))),
+            None => None,
+        };
+        let camera = if fit.is_none() { Some(build_camera(&table, &loc, settings)?) } else { None };
+        Ok(CameraSection { table, loc, fit, camera })
     }
-    let (cam_table, cam_loc) = sub_table(cam_node, &desc.loc, &empty, "camera")?;
-    let cam_table = crate::scene::camera::apply_overrides(cam_table, &ov.camera_params);
-    // `fit = true` needs the objects' bounds: that camera is built after them.
-    let fit = match cam_table.get("fit") {
-        Some(Node { value: Value::Bool(b), loc }) => b.then(|| loc.clone()),
-        Some(n) => return Err(SceneError::at(&n.loc, format!("`fit` must be true or false, found {}", n.value.type_name()))),
-        None => None,
-    };
-    let build_camera = |table: &Table| -> Result<Camera> {
-        let mut cp = Params::new("[camera]", CAMERA_PARAMS, table, cam_loc.clone());
-        let camera = Camera::from_params(&mut cp, settings.width, settings.height)?;
-        cp.finish()?;
-        Ok(camera)
-    };
-    let camera = if fit.is_none() { Some(build_camera(&cam_table)?) } else { None };
 
-    // [textures.NAME]: built when a material first names one.
-    let textures = TextureLibrary::new(registry, ctx);
-    if let Some(n) = root.node("textures")? {
-        textures.define(n)?;
+    /// The camera: the one read, or the one that frames `objects`.
+    fn build(self, objects: &[Object], desc: &SceneDescription, settings: &RenderSettings) -> Result<Camera> {
+        let CameraSection { table, loc, fit, camera } = self;
+        match camera {
+            Some(c) => Ok(c),
+            None => build_camera(&fitted_camera(table, objects, &fit.unwrap_or_else(|| desc.loc.clone()), settings)?, &loc, settings),
+        }
     }
+}
 
-    // [materials.NAME]
+fn build_camera(table: &Table, loc: &Loc, settings: &RenderSettings) -> Result<Camera> {
+    let mut cp = Params::new("[camera]", CAMERA_PARAMS, table, loc.clone());
+    let camera = Camera::from_params(&mut cp, settings.width, settings.height)?;
+    cp.finish()?;
+    Ok(camera)
+}
+
+/// `[materials.NAME]`.
+fn material_section(node: Option<&Node>, textures: &TextureLibrary) -> Result<MaterialLibrary> {
     let mut materials = MaterialLibrary::default();
-    if let Some(n) = root.node("materials")? {
+    if let Some(n) = node {
         let Value::Table(t) = &n.value else {
             return Err(SceneError::at(&n.loc, "`materials` must be a table of [materials.NAME] tables"));
         };
@@ -407,15 +493,24 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
             let Value::Table(mt) = &e.value.value else {
                 return Err(SceneError::at(&e.value.loc, format!("material \"{}\" must be a table of coefficients", e.key)));
             };
-            materials.insert(e.key.clone(), Material::from_table(mt, &e.value.loc, &format!("material \"{}\"", e.key), &textures)?);
+            materials.insert(e.key.clone(), Material::from_table(mt, &e.value.loc, &format!("material \"{}\"", e.key), textures)?);
         }
     }
+    Ok(materials)
+}
 
-    // [[object]]
+/// `[[object]]`: each built by its plugin, placed by its `transform`, given its materials.
+fn object_section(
+    registry: &Registry,
+    node: Option<&Node>,
+    ctx: &LoadContext,
+    materials: &MaterialLibrary,
+    textures: &TextureLibrary,
+) -> Result<Vec<Object>> {
     let mut objects = Vec::new();
     let default_material: Arc<[Material]> = Arc::from([materials.default_material()]);
     let mut names = NameSet::default();
-    for (i, node) in array_of_tables(root.node("object")?, "object")?.into_iter().enumerate() {
+    for (i, node) in array_of_tables(node, "object")?.into_iter().enumerate() {
         let (ty, label, params) =
             plugin_header(node, i, "object", |n| registry.geometry(n).is_some(), || registry.geometries().map(|p| p.name).collect())?;
         let plugin = registry.geometry(&ty).expect("checked by plugin_header");
@@ -444,42 +539,41 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         // The object's `material` replaces what the shape's file defines; without either, the
         // scene's default.
         let materials = match params.get("material") {
-            Some(n) => Arc::from([materials.resolve(n, &what, &textures)?]),
+            Some(n) => Arc::from([materials.resolve(n, &what, textures)?]),
             None => own_materials.unwrap_or_else(|| default_material.clone()),
         };
-        let sides = match params.get("emission_sides") {
-            None => EmissionSides::Both,
-            Some(n) => match &n.value {
-                Value::Str(s) => EmissionSides::parse(s).ok_or_else(|| {
-                    let hint = did_you_mean(s, EmissionSides::NAMES.iter().copied())
-                        .map_or(String::new(), |m| format!(" (did you mean \"{m}\"?)"));
-                    SceneError::at(&n.loc, format!("{what}: unknown emission_sides \"{s}\""))
-                        .with_help(format!("expected one of: {}{hint}", EmissionSides::NAMES.join(", ")))
-                })?,
-                _ => {
-                    return Err(SceneError::at(
-                        &n.loc,
-                        format!("{what}: emission_sides must be a string: \"both\", \"front\" or \"back\""),
-                    ));
-                }
-            },
-        };
+        let sides = emission_sides(params, &what)?;
         objects.push(Object::new(names.claim(node, &label, &ty, i)?, g, materials).with_emission_sides(sides));
     }
+    Ok(objects)
+}
 
-    let camera = match (camera, fit) {
-        (Some(c), _) => c,
-        (None, fit) => build_camera(&fitted_camera(cam_table, &objects, &fit.unwrap_or_else(|| desc.loc.clone()), &settings)?)?,
-    };
+/// An object's `emission_sides`.
+fn emission_sides(params: &Table, what: &str) -> Result<EmissionSides> {
+    Ok(match params.get("emission_sides") {
+        None => EmissionSides::Both,
+        Some(n) => match &n.value {
+            Value::Str(s) => EmissionSides::parse(s).ok_or_else(|| {
+                let hint =
+                    did_you_mean(s, EmissionSides::NAMES.iter().copied()).map_or(String::new(), |m| format!(" (did you mean \"{m}\"?)"));
+                SceneError::at(&n.loc, format!("{what}: unknown emission_sides \"{s}\""))
+                    .with_help(format!("expected one of: {}{hint}", EmissionSides::NAMES.join(", ")))
+            })?,
+            _ => {
+                return Err(SceneError::at(&n.loc, format!("{what}: emission_sides must be a string: \"both\", \"front\" or \"back\"")));
+            }
+        },
+    })
+}
 
-    for (name, loc) in textures.unused() {
-        ctx.warn(SceneError::at(&loc, format!("texture \"{name}\" is not used by any material; it was not loaded")));
-    }
+/// A scene's lights, each with its name.
+type NamedLights = Vec<(String, Box<dyn crate::scene::light::LightSource>)>;
 
-    // [[light]]
+/// `[[light]]`: each built by its plugin.
+fn light_section(registry: &Registry, node: Option<&Node>, ctx: &LoadContext) -> Result<NamedLights> {
     let mut lights = Vec::new();
     let mut light_names = NameSet::default();
-    for (i, node) in array_of_tables(root.node("light")?, "light")?.into_iter().enumerate() {
+    for (i, node) in array_of_tables(node, "light")?.into_iter().enumerate() {
         let (ty, label, params) =
             plugin_header(node, i, "light", |n| registry.light(n).is_some(), || registry.lights().map(|p| p.name).collect())?;
         let plugin = registry.light(&ty).expect("checked by plugin_header");
@@ -489,9 +583,12 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         p.finish()?;
         lights.push((light_names.claim(node, &label, &ty, i)?, l));
     }
+    Ok(lights)
+}
 
-    // A scene nothing lights renders black (or only its background): say so, since the render
-    // itself succeeds.
+/// A scene nothing lights renders black (or only its background): say so, since the render
+/// itself succeeds.
+fn warn_if_unlit(objects: &[Object], lights: &NamedLights, desc: &SceneDescription, ctx: &LoadContext) {
     if lights.is_empty()
         && !objects
             .iter()
@@ -506,11 +603,21 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
             .with_help("add a [[light]], e.g. type = \"point\" with a `position`, or type = \"ambient\""),
         );
     }
+}
 
-    // [integrator]
-    let integ_node = root.node("integrator")?;
-    root.finish()?;
-    let (file_table, integ_loc) = sub_table(integ_node, &desc.loc, &empty, "integrator")?;
+/// The integrator a scene renders with: built, with its type name and the parameters it was
+/// built from (the file's, with the command line's over them).
+struct BuiltIntegrator {
+    integrator: Box<dyn crate::render::integrator::Integrator>,
+    name: String,
+    params: Table,
+}
+
+/// `[integrator]`, with the command line's type, depth and `--set` parameters over the file's.
+fn integrator_section(registry: &Registry, node: Option<&Node>, desc: &SceneDescription, ctx: &LoadContext) -> Result<BuiltIntegrator> {
+    let (ov, limits) = (&ctx.options.overrides, &ctx.options.limits);
+    let empty = Table::default();
+    let (file_table, integ_loc) = sub_table(node, &desc.loc, &empty, "integrator")?;
     let mut integ_table = file_table.clone();
     let file_type = match integ_table.remove("type") {
         Some(e) => match e.value.value {
@@ -572,31 +679,9 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
     let mut ip = Params::new(format!("integrator \"{ty}\""), plugin.info.params, &integ_table, integ_loc.clone());
     let integrator = (plugin.build)(&mut ip, ctx)?;
     ip.finish()?;
-
-    // What decides the pixels besides the files: the resolved settings, camera and integrator.
-    let mut fingerprint = Fingerprint::default();
-    fingerprint.add("raylab", env!("CARGO_PKG_VERSION").as_bytes());
-    fingerprint.add("settings", format!("{settings:?}").as_bytes());
-    fingerprint.add("camera", format!("{camera:?}").as_bytes());
-    fingerprint.add("background", format!("{background:?}").as_bytes());
-    fingerprint.add("integrator", ty.as_bytes());
-    fingerprint.add("integrator parameters", crate::param::toml::table_to_toml(&integ_table).as_bytes());
-    Ok(Parts {
-        name,
-        camera,
-        background,
-        objects,
-        lights,
-        integrator,
-        integrator_name: ty,
-        integrator_params: integ_table,
-        settings,
-        fingerprint,
-    })
+    Ok(BuiltIntegrator { integrator, name: ty, params: integ_table })
 }
 
-/// `table` with `overrides` set over it (unknown keys are reported by the table's reader, at the
-/// override's location).
 /// The `[camera]` table with `position` and `look_at` chosen to frame the bounded objects (see
 /// [`crate::scene::camera::fit`]), the report form's keys dropped.
 fn fitted_camera(mut table: Table, objects: &[Object], fit: &Loc, settings: &RenderSettings) -> Result<Table> {
@@ -658,6 +743,8 @@ pub fn image_size(file: (i64, i64), given: (Option<u32>, Option<u32>)) -> (i64, 
     }
 }
 
+/// `table` with `overrides` set over it (unknown keys are reported by the table's reader, at the
+/// override's location).
 fn with_overrides(table: &Table, overrides: &[(String, Node)]) -> Table {
     let mut t = table.clone();
     for (k, v) in overrides {

@@ -107,6 +107,17 @@ pub struct Value {
 }
 
 /// A traced lattice point.
+/// A square of the lattice: its top-left point (`x`, `y`), its side `size`, its corners `c`
+/// (top-left, top-right, bottom-left, bottom-right) and its weight `w` in the pixel.
+#[derive(Clone, Copy)]
+struct Square {
+    x: u64,
+    y: u64,
+    size: u64,
+    c: [Point; 4],
+    w: f64,
+}
+
 #[derive(Clone, Copy, Debug)]
 struct Point {
     /// Global lattice key (`y · row + x`), [`EMPTY`] for a free slot.
@@ -280,14 +291,12 @@ impl<'a> Adaptive<'a> {
         }
         let (x, y, r) = (u64::from(x) * self.res, u64::from(y) * self.res, self.res);
         let c = [self.point(x, y, stats), self.point(x + r, y, stats), self.point(x, y + r, stats), self.point(x + r, y + r, stats)];
-        self.square(x, y, r, self.depth, c, 1.0, stats, acc);
+        self.square(Square { x, y, size: r, c, w: 1.0 }, self.depth, stats, acc);
     }
 
-    /// Adds the square with top-left lattice point (`x`, `y`), side `size` and corners `c`
-    /// (top-left, top-right, bottom-left, bottom-right), allowed `levels` more subdivisions, to
-    /// `acc` with weight `w`.
-    #[allow(clippy::too_many_arguments)]
-    fn square(&mut self, x: u64, y: u64, size: u64, levels: u32, c: [Point; 4], w: f64, stats: &mut RayStats, acc: &mut Acc) {
+    /// Adds the square `sq`, allowed `levels` more subdivisions, to `acc`.
+    fn square(&mut self, sq: Square, levels: u32, stats: &mut RayStats, acc: &mut Acc) {
+        let Square { x, y, size, c, w } = sq;
         let t = self.thresholds[levels as usize];
         if !self.disagree(&c, t) {
             self.corners(&c, w, acc);
@@ -297,7 +306,7 @@ impl<'a> Adaptive<'a> {
             self.cell(x, y, &c, w, stats, acc);
             return;
         }
-        if self.settings.edges && self.edge(x, y, size, &c, t, w, stats, acc) {
+        if self.settings.edges && self.edge(&sq, t, stats, acc) {
             return;
         }
         let h = size / 2;
@@ -307,10 +316,10 @@ impl<'a> Adaptive<'a> {
         let right = self.point(x + size, y + h, stats);
         let bottom = self.point(x + h, y + size, stats);
         let q = 0.25 * w;
-        self.square(x, y, h, levels - 1, [c[0], top, left, mid], q, stats, acc);
-        self.square(x + h, y, h, levels - 1, [top, c[1], mid, right], q, stats, acc);
-        self.square(x, y + h, h, levels - 1, [left, mid, c[2], bottom], q, stats, acc);
-        self.square(x + h, y + h, h, levels - 1, [mid, right, bottom, c[3]], q, stats, acc);
+        self.square(Square { x, y, size: h, c: [c[0], top, left, mid], w: q }, levels - 1, stats, acc);
+        self.square(Square { x: x + h, y, size: h, c: [top, c[1], mid, right], w: q }, levels - 1, stats, acc);
+        self.square(Square { x, y: y + h, size: h, c: [left, mid, c[2], bottom], w: q }, levels - 1, stats, acc);
+        self.square(Square { x: x + h, y: y + h, size: h, c: [mid, right, bottom, c[3]], w: q }, levels - 1, stats, acc);
     }
 
     /// The square as the mean of its corners.
@@ -346,8 +355,8 @@ impl<'a> Adaptive<'a> {
     /// line between the two crossings (found by bisection) into two regions, each integrated
     /// from its samples (see the module docs); false (nothing added) when the square is not cut
     /// by one clean edge.
-    #[allow(clippy::too_many_arguments)]
-    fn edge(&mut self, x: u64, y: u64, size: u64, c: &[Point; 4], t: f32, w: f64, stats: &mut RayStats, acc: &mut Acc) -> bool {
+    fn edge(&mut self, sq: &Square, t: f32, stats: &mut RayStats, acc: &mut Acc) -> bool {
+        let &Square { x, y, size, ref c, w } = sq;
         // Sides clockwise from the top-left corner: (from corner, to corner, start, step).
         let s = size as i64;
         let sides = [(0, 1, (0, 0), (1, 0)), (1, 3, (s, 0), (0, 1)), (3, 2, (s, s), (-1, 0)), (2, 0, (0, s), (0, -1))];

@@ -38,7 +38,7 @@ use crate::render::aovs::Aovs;
 use crate::render::film::Film;
 use crate::render::sample::{ImageFrame, SampleId, camera_rays, image_frame, trace_sample, trace_sample_in};
 use crate::render::share::{FrameSums, Rect, Sampling, Share};
-use crate::render::stats::RayStats;
+use crate::render::stats::{Counter, RayStats};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::Mutex;
@@ -183,13 +183,6 @@ fn pass_ends(spp: u32, checkpoints: &[u32]) -> Vec<u32> {
     ends
 }
 
-/// The render's state: the sums, the counters, and when the state was last handed out.
-struct State {
-    sums: FrameSums,
-    stats: RayStats,
-    last_snapshot: Instant,
-}
-
 /// The passes of a render over its share of the frame (the loop behind [`render_progressive`]).
 /// Never inlined: profiles select the render loop by this name (`benches/peers/README.md`,
 /// "Profiling").
@@ -203,6 +196,62 @@ fn render_passes(
 ) -> Result<Rendered, String> {
     let s = job.settings;
     let share = options.share.unwrap_or_else(|| Share::whole(s.width, s.height));
+    let sums = starting_sums(&s, share, options)?;
+    let ends = match s.aa {
+        Antialiasing::Stratified => pass_ends(s.spp, checkpoints),
+        Antialiasing::Adaptive(_) => vec![1],
+    };
+    // Adaptive tiles are larger: the lattice points on a tile's border are traced by both tiles.
+    let tiles = tiles(
+        share.bounds,
+        match s.aa {
+            Antialiasing::Stratified => TILE_SIZE,
+            Antialiasing::Adaptive(_) => ADAPTIVE_TILE_SIZE,
+        },
+    );
+    let already: u64 = sums.pixels.iter().map(|p| u64::from(p.samples)).sum();
+    let total = total_samples(&s, share, &sums);
+    budget::check(job, share, total - already)?;
+    let counters = job.integrator.counters();
+    let run = Passes {
+        job,
+        counters,
+        options,
+        progress,
+        total,
+        done: AtomicU64::new(already),
+        traced: AtomicU64::new(0),
+        over: AtomicBool::new(false),
+        state: Mutex::new(State { sums, stats: RayStats::new(counters), last_snapshot: Instant::now() }),
+        start: Instant::now(),
+    };
+    let mut complete = true;
+    for &end in &ends {
+        tiles.par_iter().for_each(|&tile| run.tile(tile, end));
+        let st = run.lock();
+        if run.stopped() {
+            complete = st.sums.complete();
+            break;
+        }
+        if end != *ends.last().unwrap_or(&end) {
+            let film = st.sums.film().map_err(|e| e.to_string())?;
+            on_pass(&Pass { film: &film, samples: end, elapsed: run.start.elapsed(), stats: st.stats });
+        }
+    }
+    let st = run.state.into_inner().unwrap_or_else(|e| e.into_inner());
+    let film = st.sums.film_parallel().map_err(|e| e.to_string())?;
+    let layers = st.sums.aovs().map_err(|e| e.to_string())?;
+    let elapsed = run.start.elapsed();
+    if complete {
+        on_pass(&Pass { film: &film, samples: *ends.last().unwrap_or(&1), elapsed, stats: st.stats });
+    }
+    let budget_stop = run.over.load(Ordering::Relaxed).then(|| run.traced.load(Ordering::Relaxed));
+    Ok(Rendered { film, layers, sums: st.sums, stats: st.stats, elapsed, complete: complete && budget_stop.is_none(), budget_stop })
+}
+
+/// The sums a render starts from: `share` checked against the frame, then the saved state it
+/// resumes, or nothing yet.
+fn starting_sums(s: &RenderSettings, share: Share, options: &RenderOptions) -> Result<FrameSums, String> {
     if share.bounds.is_empty() || !share.bounds.within(&Rect::frame(s.width, s.height)) || share.passes == 0 || share.pass >= share.passes {
         return Err(format!("{} is not a share of the {}×{} frame", share.describe(), s.width, s.height));
     }
@@ -212,7 +261,7 @@ fn render_passes(
             share.describe()
         ));
     }
-    let sums = match options.resume {
+    match options.resume {
         Some(r) => {
             if (r.width, r.height, r.share) != (s.width, s.height, share) || r.layers.is_some() != options.layers {
                 return Err(format!(
@@ -227,93 +276,98 @@ fn render_passes(
                     if options.layers { " with layers" } else { "" }
                 ));
             }
-            r.clone()
+            Ok(r.clone())
         }
-        None => FrameSums::new(&s, share, options.layers).map_err(|e| e.to_string())?,
-    };
-    let ends = match s.aa {
-        Antialiasing::Stratified => pass_ends(s.spp, checkpoints),
-        Antialiasing::Adaptive(_) => vec![1],
-    };
-    let counters = job.integrator.counters();
-    // Adaptive tiles are larger: the lattice points on a tile's border are traced by both tiles.
-    let tiles = tiles(
-        share.bounds,
-        match s.aa {
-            Antialiasing::Stratified => TILE_SIZE,
-            Antialiasing::Adaptive(_) => ADAPTIVE_TILE_SIZE,
-        },
-    );
-    let already: u64 = sums.pixels.iter().map(|p| u64::from(p.samples)).sum();
-    let total: u64 = match s.aa {
+        None => FrameSums::new(s, share, options.layers).map_err(|e| e.to_string()),
+    }
+}
+
+/// The samples `share` has when done, counting those `sums` already holds.
+fn total_samples(s: &RenderSettings, share: Share, sums: &FrameSums) -> u64 {
+    match s.aa {
         // Every pixel of a stratified share wants the same samples: its total is
         // `already + Σ missing`, each pixel's `max(samples, want)`, without asking pixel by pixel.
         Antialiasing::Stratified => {
-            let want = share.samples_of(Sampling::of(&s), s.width, share.bounds.x0, share.bounds.y0);
+            let want = share.samples_of(Sampling::of(s), s.width, share.bounds.x0, share.bounds.y0);
             sums.pixels.iter().map(|p| u64::from(p.samples.max(want))).sum()
         }
-        Antialiasing::Adaptive(_) => already + (0..sums.pixels.len()).map(|i| u64::from(sums.missing(i))).sum::<u64>(),
-    };
-    budget::check(job, share, total - already)?;
-    let done = AtomicU64::new(already);
-    // Rays traced so far, against the budget; set once a tile ran out of it.
-    let (traced, over) = (AtomicU64::new(0), AtomicBool::new(false));
-    let state = Mutex::new(State { sums, stats: RayStats::new(counters), last_snapshot: Instant::now() });
-    let lock = || state.lock().unwrap_or_else(|e| e.into_inner());
-    let start = Instant::now();
-    let mut complete = true;
-    for &end in &ends {
-        tiles.par_iter().for_each(|&tile| {
-            if options.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || over.load(Ordering::Relaxed) {
-                return;
-            }
-            let mut work = TileWork::take(&lock().sums, tile);
-            let mut stats = RayStats::new(counters);
-            stats.set_allowance(job.max_rays.saturating_sub(traced.load(Ordering::Relaxed)));
-            let before = work.samples();
-            work.render(job, end, options.cancel, &mut stats);
-            let added = work.samples() - before;
-            traced.fetch_add(stats.rays(), Ordering::Relaxed);
-            let mut st = lock();
-            st.stats += stats;
-            if stats.exhausted() {
-                // The budget ran out inside this tile: its last sample is cut short, so none of
-                // its work is kept.
-                over.store(true, Ordering::Relaxed);
-                return;
-            }
-            work.put(&mut st.sums);
-            if let Some(f) = options.on_tile {
-                f(&TileDone { tile, sums: &st.sums, stats: &st.stats, pass_end: end, elapsed: start.elapsed() });
-            }
-            if let Some(snap) = options.snapshots
-                && st.last_snapshot.elapsed() >= snap.every
-            {
-                (snap.write)(&st.sums);
-                st.last_snapshot = Instant::now();
-            }
-            drop(st);
-            progress(done.fetch_add(added, Ordering::Relaxed) + added, total);
-        });
-        let st = lock();
-        if options.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || over.load(Ordering::Relaxed) {
-            complete = st.sums.complete();
-            break;
-        }
-        if end != *ends.last().unwrap_or(&end) {
-            let film = st.sums.film().map_err(|e| e.to_string())?;
-            on_pass(&Pass { film: &film, samples: end, elapsed: start.elapsed(), stats: st.stats });
+        Antialiasing::Adaptive(_) => {
+            let already: u64 = sums.pixels.iter().map(|p| u64::from(p.samples)).sum();
+            already + (0..sums.pixels.len()).map(|i| u64::from(sums.missing(i))).sum::<u64>()
         }
     }
-    let st = state.into_inner().unwrap_or_else(|e| e.into_inner());
-    let film = st.sums.film_parallel().map_err(|e| e.to_string())?;
-    let layers = st.sums.aovs().map_err(|e| e.to_string())?;
-    let elapsed = start.elapsed();
-    if complete {
-        on_pass(&Pass { film: &film, samples: *ends.last().unwrap_or(&1), elapsed, stats: st.stats });
+}
+
+/// The render's state: the sums, the counters, and when the state was last handed out.
+struct State {
+    sums: FrameSums,
+    stats: RayStats,
+    last_snapshot: Instant,
+}
+
+/// A render in passes, shared by the threads that render its tiles.
+struct Passes<'a> {
+    job: &'a RenderJob,
+    counters: &'static [Counter],
+    options: &'a RenderOptions<'a>,
+    progress: &'a (dyn Fn(u64, u64) + Sync),
+    /// Pixel samples when done.
+    total: u64,
+    /// Pixel samples done.
+    done: AtomicU64,
+    /// Rays traced so far, against the budget.
+    traced: AtomicU64,
+    /// Set once a tile ran out of the budget.
+    over: AtomicBool,
+    state: Mutex<State>,
+    start: Instant,
+}
+
+impl Passes<'_> {
+    fn lock(&self) -> std::sync::MutexGuard<'_, State> {
+        self.state.lock().unwrap_or_else(|e| e.into_inner())
     }
-    let budget_stop = over.load(Ordering::Relaxed).then(|| traced.load(Ordering::Relaxed));
-    Ok(Rendered { film, layers, sums: st.sums, stats: st.stats, elapsed, complete: complete && budget_stop.is_none(), budget_stop })
+
+    /// Cancelled, or over the work budget.
+    fn stopped(&self) -> bool {
+        self.options.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || self.over.load(Ordering::Relaxed)
+    }
+
+    /// Renders `tile` up to sample index `end` and puts it into the state (unless the budget ran
+    /// out inside it), then hands the state to the tile and snapshot callbacks.
+    fn tile(&self, tile: Rect, end: u32) {
+        if self.stopped() {
+            return;
+        }
+        let (job, options) = (self.job, self.options);
+        let mut work = TileWork::take(&self.lock().sums, tile);
+        let mut stats = RayStats::new(self.counters);
+        stats.set_allowance(job.max_rays.saturating_sub(self.traced.load(Ordering::Relaxed)));
+        let before = work.samples();
+        work.render(job, end, options.cancel, &mut stats);
+        let added = work.samples() - before;
+        self.traced.fetch_add(stats.rays(), Ordering::Relaxed);
+        let mut st = self.lock();
+        st.stats += stats;
+        if stats.exhausted() {
+            // The budget ran out inside this tile: its last sample is cut short, so none of
+            // its work is kept.
+            self.over.store(true, Ordering::Relaxed);
+            return;
+        }
+        work.put(&mut st.sums);
+        if let Some(f) = options.on_tile {
+            f(&TileDone { tile, sums: &st.sums, stats: &st.stats, pass_end: end, elapsed: self.start.elapsed() });
+        }
+        if let Some(snap) = options.snapshots
+            && st.last_snapshot.elapsed() >= snap.every
+        {
+            (snap.write)(&st.sums);
+            st.last_snapshot = Instant::now();
+        }
+        drop(st);
+        (self.progress)(self.done.fetch_add(added, Ordering::Relaxed) + added, self.total);
+    }
 }
 
 /// One tile's sums, taken out of the shared state while its samples are traced.
@@ -390,23 +444,23 @@ impl TileWork {
         let share = self.share;
         // The tile lies inside the share's bounds, where every pixel takes the same samples.
         let want = share.samples_of(Sampling::of(s), s.width, t.x0, t.y0);
-        let frame = image_frame(job);
+        let pixels = StratifiedPixels { job, frame: image_frame(job), share, want, end };
         let w = t.width() as usize;
         for (row, y) in (t.y0..t.y1).enumerate() {
             if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || stats.exhausted() {
                 return;
             }
             let span = row * w..(row + 1) * w;
-            let pixels = self.pixels[span.clone()].iter_mut().zip(t.x0..t.x1);
+            let row_sums = self.pixels[span.clone()].iter_mut().zip(t.x0..t.x1);
             match self.layers.as_mut() {
                 None => {
-                    for (acc, x) in pixels {
-                        add_samples(job, &frame, share, (x, y), want, end, acc, None, stats);
+                    for (acc, x) in row_sums {
+                        pixels.add_samples((x, y), acc, None, stats);
                     }
                 }
                 Some(layers) => {
-                    for ((acc, x), l) in pixels.zip(&mut layers[span]) {
-                        add_samples(job, &frame, share, (x, y), want, end, acc, Some(l), stats);
+                    for ((acc, x), l) in row_sums.zip(&mut layers[span]) {
+                        pixels.add_samples((x, y), acc, Some(l), stats);
                     }
                 }
             }
@@ -414,28 +468,31 @@ impl TileWork {
     }
 }
 
-/// Adds the samples of pixel `xy` that `share` takes below index `end` and `acc` lacks (up to
-/// `want`) to `acc` and, when summed, to `layers`.
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn add_samples(
-    job: &RenderJob,
-    frame: &ImageFrame,
+/// What every pixel of a tile shares in one pass of stratified sampling.
+struct StratifiedPixels<'a> {
+    job: &'a RenderJob,
+    frame: ImageFrame,
     share: Share,
-    (x, y): (u32, u32),
+    /// The samples each pixel takes in all.
     want: u32,
+    /// The pass ends at this sample index.
     end: u32,
-    acc: &mut PixelSum,
-    mut layers: Option<&mut LayerSum>,
-    stats: &mut RayStats,
-) {
-    while acc.samples < want && share.sample_index(acc.samples) < end {
-        if job.settings.target.is_some_and(|t| t.converged(acc)) {
-            break;
+}
+
+impl StratifiedPixels<'_> {
+    /// Adds the samples of pixel `xy` that the share takes below the pass's end and `acc` lacks
+    /// (up to `want`) to `acc` and, when summed, to `layers`.
+    #[inline(always)]
+    fn add_samples(&self, (x, y): (u32, u32), acc: &mut PixelSum, mut layers: Option<&mut LayerSum>, stats: &mut RayStats) {
+        let (job, share) = (self.job, self.share);
+        while acc.samples < self.want && share.sample_index(acc.samples) < self.end {
+            if job.settings.target.is_some_and(|t| t.converged(acc)) {
+                break;
+            }
+            let index = share.sample_index(acc.samples);
+            trace_sample_in(job, &self.frame, SampleId::Pixel { x, y, index }, acc, layers.as_deref_mut(), stats);
+            acc.samples += 1;
         }
-        let index = share.sample_index(acc.samples);
-        trace_sample_in(job, frame, SampleId::Pixel { x, y, index }, acc, layers.as_deref_mut(), stats);
-        acc.samples += 1;
     }
 }
 
