@@ -30,6 +30,7 @@ fn one_and_two_threads_give_identical_images() {
         ("scenes/showcase.toml", "adaptive"),
         ("scenes/report-reflection-refraction.toml", "stratified"),
         ("scenes/path-cornell.toml", "stratified"),
+        ("scenes/environment.toml", "stratified"),
     ] {
         let one = render_with(scene, 1, 7, aa);
         let two = render_with(scene, 2, 7, aa);

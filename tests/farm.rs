@@ -82,6 +82,22 @@ proptest! {
     }
 }
 
+/// An environment light (its image, its sampling) splits and merges like any scene: bands of
+/// rows and sample passes merge to the whole render's bits.
+#[test]
+fn an_environment_lit_frame_merges_to_the_whole_render() {
+    let j = job("environment.toml", "stratified", 4);
+    let whole = render(&j, &RenderOptions { threads: Some(3), ..RenderOptions::default() }, &|_, _| {}).unwrap();
+    let parts: Vec<Part> = bands(30, &[0.3, 0.7])
+        .into_iter()
+        .flat_map(|bounds| (0..2).map(move |pass| Share { bounds, pass, passes: 2 }))
+        .map(|share| part(&j, share, false))
+        .collect();
+    let merged = merge(&parts, false).unwrap();
+    assert_eq!(merged.pixels, whole.sums.pixels);
+    assert_eq!(merged.film().unwrap(), whole.film);
+}
+
 #[test]
 fn missing_duplicated_overlapping_and_foreign_parts_are_refused() {
     let j = job("dozen.toml", "stratified", 2);

@@ -1,7 +1,9 @@
-//! The report's lights: ambient, directional, point and spot; and a rectangular area light.
+//! The report's lights: ambient, directional, point and spot; a rectangular area light; and the
+//! environment (the scene's surroundings).
 
 pub mod ambient;
 pub mod directional;
+pub mod environment;
 pub mod point;
 pub mod rect;
 
@@ -14,6 +16,7 @@ pub fn register(r: &mut Registry) {
     r.add_light(point::INFO, point::build);
     r.add_light(point::SPOT_INFO, point::build_spot);
     r.add_light(rect::INFO, rect::build);
+    r.add_light(environment::INFO, environment::build);
 }
 
 #[cfg(test)]

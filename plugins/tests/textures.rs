@@ -103,7 +103,7 @@ fn texture_errors_name_the_texture_the_colour_and_the_file() {
         (sphere("{ kd = { type = \"checker\", evn = 1 } }"), &["unknown parameter `evn`", "did you mean `even`"]),
         (sphere("{ kd = { type = \"image\", file = \"gone.png\" } }"), &["gone.png", "No such file"]),
         (sphere("{ kd = { type = \"image\", file = \"../outside.png\" } }"), &["leaves the scene's folder"]),
-        (sphere("{ kd = { type = \"image\", file = \"notes.png\" } }"), &["notes.png", "not a PNG, JPEG or OpenEXR image"]),
+        (sphere("{ kd = { type = \"image\", file = \"notes.png\" } }"), &["notes.png", "not a PNG, JPEG, OpenEXR or Radiance .hdr image"]),
         (
             sphere("{ kd = { type = \"image\", file = \"notes.png\", wrap = \"tile\" } }"),
             &["unknown value \"tile\"", "repeat, clamp, mirror"],

@@ -1,5 +1,5 @@
-//! `image`: a texture from an image file: PNG or JPEG (8 or 16 bits), or OpenEXR with the `exr`
-//! feature. Looked up at the surface's texture coordinates (`v` up: the image's bottom row at
+//! `image`: a texture from an image file: PNG or JPEG (8 or 16 bits), Radiance `.hdr`, or
+//! OpenEXR with the `exr` feature. Looked up at the surface's texture coordinates (`v` up: the image's bottom row at
 //! `v = 0`), filtered bilinearly or by nearest texel, wrapped per axis.
 //!
 //! Files are read through the scene's sandbox and size limit ([`LoadContext::read_file`]).
@@ -24,7 +24,7 @@ use std::sync::Arc;
 /// The `image` texture's description.
 pub const INFO: PluginInfo = PluginInfo {
     name: "image",
-    summary: "An image file (PNG, JPEG; OpenEXR with the `exr` feature) over the surface's texture coordinates, v up (the image's bottom row at v = 0). 8-bit sRGB is decoded to linear; alpha is ignored. A file used several times is decoded once.",
+    summary: "An image file (PNG, JPEG, Radiance .hdr; OpenEXR with the `exr` feature) over the surface's texture coordinates, v up (the image's bottom row at v = 0). 8-bit sRGB is decoded to linear; alpha is ignored. A file used several times is decoded once.",
     params: &[
         ParamSpec::new("file", ParamKind::Path, Default::Required, "the image, relative to the scene file"),
         ParamSpec::new(
@@ -38,7 +38,7 @@ pub const INFO: PluginInfo = PluginInfo {
             "colorspace",
             ParamKind::Str,
             Default::Str("auto"),
-            "how the file's values become linear: \"auto\" (sRGB for PNG and JPEG, linear for EXR), \"srgb\" or \"linear\" (data such as a gloss map)",
+            "how the file's values become linear: \"auto\" (sRGB for PNG and JPEG, linear for EXR and .hdr), \"srgb\" or \"linear\" (data such as a gloss map)",
         ),
         ParamSpec::new("scale", ParamKind::Color, Default::Float(1.0), "multiplies every texel (e.g. the strength of an emission map)"),
         TRANSFORM_PARAM,
@@ -114,7 +114,7 @@ pub enum Filter {
 /// How a file's values become linear RGB.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum ColorSpace {
-    /// sRGB for PNG and JPEG, linear for OpenEXR.
+    /// sRGB for PNG and JPEG, linear for OpenEXR and Radiance `.hdr`.
     Auto,
     /// The sRGB transfer curve (IEC 61966-2-1).
     Srgb,
@@ -154,6 +154,12 @@ impl std::fmt::Debug for Image {
 }
 
 impl Image {
+    /// An image of `width × height` linear RGB texels (`texels`: 3 values each, row 0 at the
+    /// top); `None` when the sizes do not match or either is zero.
+    pub fn from_linear(width: usize, height: usize, texels: Vec<f32>) -> Option<Image> {
+        (width > 0 && height > 0 && texels.len() == width * height * 3).then_some(Image { width, height, texels: Texels::Float(texels) })
+    }
+
     /// Width and height, texels.
     pub fn size(&self) -> (usize, usize) {
         (self.width, self.height)
@@ -175,6 +181,12 @@ impl Image {
             }
             Texels::Float(t) => Vec3::new(t[i], t[i + 1], t[i + 2]),
         }
+    }
+
+    /// The linear value of texel (`x`, `y`), row 0 at the top; both in range.
+    #[inline]
+    pub fn texel_color(&self, x: usize, y: usize) -> Color {
+        self.texel(x, y).as_dvec3()
     }
 
     /// The filtered value at texture coordinates `uv` (v up), wrapped per axis by `wrap`.
@@ -242,15 +254,15 @@ pub fn decode(bytes: &[u8], name: &str, space: ColorSpace, ctx: &LoadContext) ->
     let reader =
         image::ImageReader::new(Cursor::new(bytes)).with_guessed_format().map_err(|e| fail(format!("cannot read the image: {e}")))?;
     let format = match reader.format() {
-        Some(f @ (image::ImageFormat::Png | image::ImageFormat::Jpeg | image::ImageFormat::OpenExr)) => f,
-        Some(f) => return Err(fail(format!("{f:?} images are not supported; expected PNG, JPEG or OpenEXR"))),
-        None => return Err(fail("not a PNG, JPEG or OpenEXR image (unrecognised signature)".into())),
+        Some(f @ (image::ImageFormat::Png | image::ImageFormat::Jpeg | image::ImageFormat::OpenExr | image::ImageFormat::Hdr)) => f,
+        Some(f) => return Err(fail(format!("{f:?} images are not supported; expected PNG, JPEG, OpenEXR or Radiance .hdr"))),
+        None => return Err(fail("not a PNG, JPEG, OpenEXR or Radiance .hdr image (unrecognised signature)".into())),
     };
     if format == image::ImageFormat::OpenExr && !cfg!(feature = "exr") {
         return Err(fail("OpenEXR textures need raylab built with the `exr` feature (cargo run --features exr)".into()));
     }
     let space = match space {
-        ColorSpace::Auto if format == image::ImageFormat::OpenExr => ColorSpace::Linear,
+        ColorSpace::Auto if matches!(format, image::ImageFormat::OpenExr | image::ImageFormat::Hdr) => ColorSpace::Linear,
         ColorSpace::Auto => ColorSpace::Srgb,
         s => s,
     };

@@ -264,7 +264,7 @@ impl TraceNode {
         writeln!(out, "{kind}  depth {}  weight {}", self.depth, v(self.weight))?;
         writeln!(out, "{indent}  origin {}  dir {}", v(self.ray.origin), v(self.ray.dir))?;
         match &self.hit {
-            None => writeln!(out, "{indent}  miss → background {}", v(self.color))?,
+            None => writeln!(out, "{indent}  miss (leaves the scene) → {}", v(self.color))?,
             Some(h) => {
                 writeln!(
                     out,

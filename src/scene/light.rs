@@ -66,12 +66,20 @@ pub struct LightFacts {
     pub sample_count: u32,
     /// [`LightSource::illuminates`].
     pub illuminates: bool,
+    /// The light is the scene's surroundings ([`LightSource::environment`] answers): rays that
+    /// leave the scene see it instead of the background.
+    pub environment: bool,
 }
 
 impl LightFacts {
     /// The facts `light` reports.
     pub fn of(light: &dyn LightSource) -> LightFacts {
-        LightFacts { is_area: light.is_area(), sample_count: light.sample_count(), illuminates: light.illuminates() }
+        LightFacts {
+            is_area: light.is_area(),
+            sample_count: light.sample_count(),
+            illuminates: light.illuminates(),
+            environment: light.environment(DVec3::Y).is_some(),
+        }
     }
 }
 
@@ -151,6 +159,18 @@ pub trait LightSource: Send + Sync {
         let _ = p;
         None
     }
+
+    /// For a light infinitely far away all around the scene (an environment: a sky, an image of
+    /// surroundings), the radiance arriving along unit direction `-dir`, i.e. seen by a ray
+    /// leaving the scene along `dir`: rays that leave the scene see it in place of the
+    /// scene's background. `None` (the default) for every other light. A light answers for
+    /// every direction or for none. Its samples ([`LightSource::illuminate`]) come from infinitely
+    /// far (`distance` ∞) and its [`LightSource::intersect`] answers rays that leave the scene
+    /// (`t_max` ∞), so a Monte Carlo integrator weighs it like any light with an extent.
+    fn environment(&self, dir: DVec3) -> Option<Color> {
+        let _ = dir;
+        None
+    }
 }
 
 impl<T: LightSource + ?Sized> LightSource for Box<T> {
@@ -177,5 +197,8 @@ impl<T: LightSource + ?Sized> LightSource for Box<T> {
     }
     fn bound(&self, p: DVec3) -> Option<LightBound> {
         (**self).bound(p)
+    }
+    fn environment(&self, dir: DVec3) -> Option<Color> {
+        (**self).environment(dir)
     }
 }

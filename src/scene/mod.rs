@@ -20,6 +20,7 @@ use crate::scene::emitters::Emitters;
 use crate::scene::interaction::Interaction;
 use crate::scene::light::{LightFacts, LightSource};
 use crate::scene::object::Object;
+use glam::DVec3;
 
 /// Most surfaces a shadow ray passes through before it is treated as blocked (guards against
 /// pathological stacks of transparent sheets).
@@ -31,7 +32,8 @@ pub struct Scene {
     pub name: String,
     /// The camera.
     pub camera: Camera,
-    /// Colour of rays that hit nothing (linear RGB).
+    /// Colour of rays that hit nothing (linear RGB), where no environment light is
+    /// ([`Scene::escaped`]).
     pub background: Color,
     /// Sum of the ambient terms of all lights (`colour × ka` of each ambient light).
     pub ambient: Color,
@@ -44,6 +46,8 @@ pub struct Scene {
     pub lights: Vec<Box<dyn LightSource>>,
     /// [`LightFacts`] of each light, parallel to `lights`.
     light_facts: Vec<LightFacts>,
+    /// Indices of the environment lights ([`LightFacts::environment`]).
+    environments: Vec<usize>,
     /// The objects that emit and can be sampled as lights.
     emitters: Emitters,
     accel: ObjectAccel,
@@ -106,7 +110,8 @@ impl Scene {
         };
         let bounds = boxes.iter().flatten().fold(Aabb::EMPTY, |a, b| a.union(*b));
         let ambient = lights.iter().map(|l| l.ambient()).sum();
-        let light_facts = lights.iter().map(|l| LightFacts::of(l.as_ref())).collect();
+        let light_facts: Vec<LightFacts> = lights.iter().map(|l| LightFacts::of(l.as_ref())).collect();
+        let environments = (0..lights.len()).filter(|&i| light_facts[i].environment).collect();
         let emitters = Emitters::new(&objects);
         Scene {
             name: name.into(),
@@ -117,6 +122,7 @@ impl Scene {
             light_names,
             lights,
             light_facts,
+            environments,
             emitters,
             accel,
             opaque,
@@ -132,6 +138,22 @@ impl Scene {
     #[inline]
     pub fn light_facts(&self) -> &[LightFacts] {
         &self.light_facts
+    }
+
+    /// Whether the scene has an environment light ([`crate::LightSource::environment`]).
+    #[inline]
+    pub fn has_environment(&self) -> bool {
+        !self.environments.is_empty()
+    }
+
+    /// What a ray leaving the scene along unit `dir` sees: the environment lights' radiance
+    /// (summed), or the background where the scene has none.
+    #[inline]
+    pub fn escaped(&self, dir: DVec3) -> Color {
+        if self.environments.is_empty() {
+            return self.background;
+        }
+        self.environments.iter().filter_map(|&i| self.lights[i].environment(dir)).sum()
     }
 
     /// The objects that emit and can be sampled as lights ([`Emitters`]).

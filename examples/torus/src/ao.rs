@@ -17,7 +17,7 @@ use raylab::{Color, Integrator, Intersectable, LoadContext, PluginInfo, Ray, Ray
 /// The `ao` plugin's description.
 pub const INFO: PluginInfo = PluginInfo {
     name: "ao",
-    summary: "Ambient occlusion: kd × the fraction of a cosine-weighted hemisphere around the normal that is open within `distance`. Rays that miss show the background.",
+    summary: "Ambient occlusion: kd × the fraction of a cosine-weighted hemisphere around the normal that is open within `distance`. Rays that miss show the background (or the environment light).",
     params: &[
         ParamSpec::new("rays", ParamKind::Int, Default::Int(16), "occlusion rays per camera ray, 1..4096"),
         ParamSpec::new(
@@ -54,7 +54,7 @@ pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Integrator>> {
 
 impl Integrator for AmbientOcclusion {
     fn radiance(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler, stats: &mut RayStats, layers: &mut Layers) -> Color {
-        let Some(si) = scene.trace(ray) else { return scene.background };
+        let Some(si) = scene.trace(ray) else { return scene.escaped(ray.dir) };
         let n = si.n;
         let (t, b) = n.any_orthonormal_pair();
         let pattern = sampler.next_pattern();

@@ -276,11 +276,20 @@ impl PathTracer {
                 continue;
             }
             c.stats.add(counter::LIGHT_HITS, 1);
-            let radiance = IRRADIANCE_PER_INTENSITY * ls.intensity * p;
-            let mis = bsdf_pdf.map_or(1.0, |q| power_heuristic(q, f64::from(self.samples_for(scene.light_facts()[index])) * p));
+            // An environment says its radiance itself (exactly what a camera ray shows of it).
+            let facts = scene.light_facts()[index];
+            let radiance = match facts.environment.then(|| light.environment(ray.dir)).flatten() {
+                Some(r) => r,
+                None => IRRADIANCE_PER_INTENSITY * ls.intensity * p,
+            };
+            let mis = bsdf_pdf.map_or(1.0, |q| power_heuristic(q, f64::from(self.samples_for(facts)) * p));
             rec.note(|| {
                 let (name, r) = (&scene.light_names[index], radiance);
-                let head = format!("meets light {name} at t = {:.4}: radiance ({:.4}, {:.4}, {:.4})", ls.distance, r.x, r.y, r.z);
+                let head = if ls.distance.is_finite() {
+                    format!("meets light {name} at t = {:.4}: radiance ({:.4}, {:.4}, {:.4})", ls.distance, r.x, r.y, r.z)
+                } else {
+                    format!("leaves the scene and sees light {name}: radiance ({:.4}, {:.4}, {:.4})", r.x, r.y, r.z)
+                };
                 match bsdf_pdf {
                     Some(q) => format!("{head}, light pdf {p:.4}, bsdf pdf {q:.4}, mis {mis:.4}"),
                     None => format!("{head}, in full (a camera ray, or after a specular event: no light sample finds this path)"),

@@ -29,6 +29,10 @@
 //!   direction. Rays that leave after only specular events (the camera ray, mirrors, glass) see
 //!   the `background`, as in `phong`. A material's `ka` has no role: surfaces respond to the sky
 //!   through their BRDF, and occluded points get less of it.
+//! - **Environment lights** ([`raylab::LightSource::environment`]) are the surroundings: a ray
+//!   that leaves the scene meets them like any light with an extent (in full after specular
+//!   events, else weighed by MIS against their samples at the vertex it left), and they replace
+//!   the background. Ambient lights still add their sky after diffuse or glossy bounces.
 //! - **Shadow rays** are blocked by every surface, glass included: light through glass arrives
 //!   by refraction (caustics), which light sampling cannot aim at; from point-like lights it
 //!   cannot arrive at all, as in every unidirectional path tracer.
@@ -246,8 +250,15 @@ impl PathTracer {
         let mut radiance = self.emitters(c, ray, t_hit, path.bsdf_pdf, rec);
         let Some(si) = hit else {
             c.stats.add(counter::ESCAPED, 1);
-            let (name, sky) = if path.specular { ("background", c.scene.background) } else { ("ambient sky", c.scene.ambient) };
-            rec.term(|| Term::color(name, sky));
+            // An environment light replaces the background: it was met above, like any light.
+            let (name, sky) = match (path.specular, c.scene.has_environment()) {
+                (true, false) => ("background", c.scene.background),
+                (true, true) => ("background (an environment light instead)", Color::ZERO),
+                (false, _) => ("ambient sky", c.scene.ambient),
+            };
+            if sky != Color::ZERO || !c.scene.has_environment() {
+                rec.term(|| Term::color(name, sky));
+            }
             radiance += sky;
             rec.color(radiance);
             return radiance;

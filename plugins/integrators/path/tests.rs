@@ -521,3 +521,48 @@ fn a_light_that_rays_cannot_meet_is_sampled_in_full() {
         "{met} ± {met_error} vs {unmet} ± {unmet_error}"
     );
 }
+
+/// A white diffuse sphere inside a uniform environment light of radiance 0.5 disappears: every
+/// pixel's expected value is the environment's (the rays that miss see it exactly), with the
+/// environment sampled as a light and weighed against the BSDF's rays.
+#[test]
+fn a_white_diffuse_sphere_inside_a_uniform_environment_disappears() {
+    for samples in [1, 3] {
+        let job = load(&format!(
+            "background = 0.9\n[render]\nwidth = 4\nheight = 4\n[camera]\nposition = [0, 0, 4]\nlook_at = [0, 0, 0]\nfov = 30\n\
+             [integrator]\ntype = \"path\"\nmax_bounces = 1024\nlight_samples = {samples}\n\
+             [[light]]\ntype = \"environment\"\ncolor = [0.5, 0.25, 0.125]\nrotation = 20\n\
+             [[object]]\ntype = \"sphere\"\nradius = 1\nmaterial = {{ kd = 1, ks = 0 }}\n"
+        ));
+        let expected = Color::new(0.5, 0.25, 0.125);
+        let miss = estimates(&job, &Ray::new(DVec3::new(0.0, 0.0, 4.0), DVec3::new(1.0, 0.3, -1.0)), 4);
+        assert!(miss.iter().all(|&v| v == expected), "a ray that misses sees the environment, not the background: {miss:?}");
+        let mut values = Vec::new();
+        for (x, y) in [(0.0, 0.0), (0.5, 0.2), (0.7, -0.69)] {
+            values.extend(estimates(&job, &Ray::new(DVec3::new(0.0, 0.0, 4.0), DVec3::new(x, y, -4.0)), 1 << 14));
+        }
+        let (mean, error) = mean_and_error(&values);
+        for c in 0..3 {
+            assert!((mean[c] - expected[c]).abs() <= 4.0 * error[c], "light_samples {samples}: {mean} ± {error}, expected {expected}");
+            assert!(error[c] < 0.01 * expected[c], "light_samples {samples}: standard error {error}");
+        }
+    }
+}
+
+#[test]
+fn direct_light_from_an_environment_agrees_with_phong() {
+    let light = "type = \"environment\"\ncolor = [0.6, 0.8, 1.0]\nrotation = 30";
+    let ray = Ray::new(DVec3::new(0.0, 3.0, 3.0), DVec3::new(0.1, -3.0, -3.0));
+    let phong = lit_floor(light, "type = \"phong\"\nshadow_rays = 4096\nprune_threshold = 0");
+    let reference = estimates(&phong, &ray, 1)[0];
+    // A floor under a sky of radiance L shows kd × L.
+    let exact = Color::new(0.6, 0.5, 0.4) * Color::new(0.6, 0.8, 1.0);
+    assert!((reference - exact).abs().max_element() < 2e-3, "phong {reference} vs {exact}");
+    for samples in [1, 3] {
+        let path = lit_floor(light, &format!("type = \"path\"\nmax_bounces = 0\nlight_samples = {samples}"));
+        let (mean, error) = mean_and_error(&estimates(&path, &ray, 1 << 15));
+        for c in 0..3 {
+            assert!((mean[c] - exact[c]).abs() <= 4.0 * error[c], "light_samples {samples}: path {mean} ± {error}, exact {exact}");
+        }
+    }
+}

@@ -109,7 +109,9 @@ impl Phong {
                 true => self.shadow_rays,
                 false => facts.sample_count.max(1),
             };
-            let probes = if area && self.shadow_probes > 0 && self.shadow_probes < full { self.shadow_probes } else { 0 };
+            // An environment has no extreme points to probe: its samples are always taken in full.
+            let probes =
+                if area && !facts.environment && self.shadow_probes > 0 && self.shadow_probes < full { self.shadow_probes } else { 0 };
             if !no_response && let Some(why) = self.light_out_of_reach(si, light.as_ref(), weight, full) {
                 // What the samples would have counted: the first set, each skipped; its
                 // (agreeing) probes save the full set.

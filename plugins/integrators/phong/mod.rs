@@ -22,6 +22,15 @@
 //! `prune_threshold`. With `blur > 0` a material spreads `glossy_rays` jittered rays in a disc
 //! around the ideal direction (the report's stage-D blurring).
 //!
+//! A ray that leaves the scene shows the background, or the environment light where the scene
+//! has one ([`raylab::Scene::escaped`]): reflections and refractions see the sky. An environment
+//! also lights the scene as an area light, its `samples` (16 by default, or `shadow_rays`)
+//! stratified directions per shading point drawn by its luminance: each stands for the whole sky
+//! (`I_L` = radiance ÷ (π·pdf)), so the diffuse term's mean is exactly the Lambertian response
+//! to the sky, and 16 keep the noise of soft sky shadows low at a few samples per pixel. It is
+//! never probed (`shadow_probes`): a sky has no extreme points whose agreement would mean that
+//! the rest agrees.
+//!
 //! The recursion lives here ([`Phong::shade`]); the light terms in [`direct`], the reflection and
 //! refraction fans in [`fan`]. Every function is generic over a [`Recorder`]: rendering passes
 //! [`NoRecord`] and pays nothing for `raylab trace`.
@@ -203,8 +212,9 @@ impl Phong {
         match c.scene.intersect(ray, 0.0, f64::INFINITY) {
             Some(hit) => c.scene.with_interaction(ray, &hit, |si| self.shade(c, si, sampler, depth, weight, rec)),
             None => {
-                rec.color(c.scene.background);
-                c.scene.background
+                let seen = c.scene.escaped(ray.dir);
+                rec.color(seen);
+                seen
             }
         }
     }
@@ -262,8 +272,9 @@ impl Phong {
     ) -> Color {
         let c = &mut Ctx { scene, stats };
         let Some(hit) = scene.intersect(ray, 0.0, f64::INFINITY) else {
-            rec.color(scene.background);
-            return scene.background;
+            let seen = scene.escaped(ray.dir);
+            rec.color(seen);
+            return seen;
         };
         scene.with_interaction(ray, &hit, |si| {
             let m = &si.material;

@@ -1,0 +1,309 @@
+#!/usr/bin/env python3
+"""raylab's path tracer side by side with Mitsuba 3's `path` integrator, on scenes lit the ways
+issue 27 is about: an emissive rectangle, an emissive mesh, many small emitters, a constant
+environment and an image environment (scenes/assets/sky.hdr).
+
+Each scene is written once here and given to both renderers (raylab as TOML, Mitsuba as a
+dict): the same camera, two-sided diffuse surfaces (Mitsuba's `diffuse` wrapped in `twosided`),
+area emitters on their normal's side only (raylab's `emission_sides = "front"`), the same
+environment (Mitsuba's `envmap` is turned 180° about +y: its image's centre column looks along
++z, raylab's along −z), a box pixel filter, at most the same number of bounces
+(Mitsuba's max_depth = raylab's max_bounces + 2).
+
+For each scene it prints:
+
+- the ratio of the two images' means (raylab ÷ Mitsuba), from `--spp` samples × `--seeds` seeds;
+- per-block differences against the noise: the frame cut into 8 × 8 blocks, each block's
+  difference of means divided by its standard error (from the spread of the seeds' images);
+  printed as the RMS of these z-scores (≈ 1 when the images agree to within noise) and the
+  count of blocks beyond 4;
+- samples to equal RMSE: each renderer's RMSE against a high-sample reference (Mitsuba, LLVM,
+  `--ref-spp`), and raylab's samples per pixel for Mitsuba's RMSE at the same spp, as a ratio
+  (RMSE falls as 1/√spp, so the ratio is (RMSE_raylab / RMSE_mitsuba)²; < 1: raylab needs
+  fewer samples);
+- wall time per sample of each, labelled "measured under load" (the machine is shared: these
+  are not benchmarks).
+
+Setup: python3 -m venv venv && venv/bin/pip install mitsuba numpy; Mitsuba's LLVM variant needs
+libLLVM (Debian: apt-get install libllvm19). Build raylab with `cargo build --release --features
+mesh,bvh,exr`. Run from the top of the checkout:
+
+    venv/bin/python benches/lights/compare.py [--spp 64] [--seeds 4] [--ref-spp 4096] [--size 64]
+"""
+import argparse
+import math
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+SKY = os.path.join(ROOT, "scenes", "assets", "sky.hdr")
+
+
+# ---------------------------------------------------------------------------------------------
+# Scenes: lists of parts that both writers understand.
+
+
+def box_walls():
+    """The open-fronted box of raylab's path-emitters scene: floor, ceiling, back, red and green
+    walls, two-sided diffuse."""
+    w, r, g = (0.75, 0.75, 0.75), (0.63, 0.065, 0.05), (0.14, 0.45, 0.091)
+    return [
+        ("quad", [(-1, 0, 1), (1, 0, 1), (1, 0, -1), (-1, 0, -1)], w, None),
+        ("quad", [(-1, 2, -1), (1, 2, -1), (1, 2, 1), (-1, 2, 1)], w, None),
+        ("quad", [(-1, 0, -1), (1, 0, -1), (1, 2, -1), (-1, 2, -1)], w, None),
+        ("quad", [(-1, 0, 1), (-1, 0, -1), (-1, 2, -1), (-1, 2, 1)], r, None),
+        ("quad", [(1, 0, -1), (1, 0, 1), (1, 2, 1), (1, 2, -1)], g, None),
+    ]
+
+
+BOX_CAMERA = dict(position=(0, 1, 3.7), look_at=(0, 0.92, 0), fov=37)
+OPEN_CAMERA = dict(position=(0, 1.3, 5.6), look_at=(0, 0.65, 0), fov=34)
+
+
+def icosphere(center, radius, subdivisions=2):
+    """Triangles of an icosphere, outward winding."""
+    t = (1 + 5 ** 0.5) / 2
+    v = [(-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0), (0, -1, t), (0, 1, t), (0, -1, -t), (0, 1, -t), (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1)]
+    v = [tuple(c / math.sqrt(sum(x * x for x in p)) for c in p) for p in v]
+    f = [(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11), (1, 5, 9), (5, 11, 4), (11, 10, 2), (10, 7, 6), (7, 1, 8),
+         (3, 9, 4), (3, 4, 2), (3, 2, 6), (3, 6, 8), (3, 8, 9), (4, 9, 5), (2, 4, 11), (6, 2, 10), (8, 6, 7), (9, 8, 1)]
+    for _ in range(subdivisions):
+        cache, nf = {}, []
+
+        def mid(a, b):
+            key = (min(a, b), max(a, b))
+            if key not in cache:
+                p = [(x + y) / 2 for x, y in zip(v[a], v[b])]
+                n = math.sqrt(sum(x * x for x in p))
+                v.append(tuple(x / n for x in p))
+                cache[key] = len(v) - 1
+            return cache[key]
+
+        for a, b, c in f:
+            ab, bc, ca = mid(a, b), mid(b, c), mid(c, a)
+            nf += [(a, ab, ca), (b, bc, ab), (c, ca, bc), (ab, bc, ca)]
+        f = nf
+    pts = [tuple(center[i] + radius * p[i] for i in range(3)) for p in v]
+    return [(pts[a], pts[b], pts[c]) for a, b, c in f]
+
+
+def many_small(n_side=40):
+    """n_side² small triangles spread over the ceiling, facing down (10⁻⁴ of its area each)."""
+    tris, rng = [], np.random.default_rng(5)
+    s = 2.0 / n_side
+    for i in range(n_side):
+        for j in range(n_side):
+            x, z = -1 + (i + 0.5) * s, -1 + (j + 0.5) * s
+            x, z = x + rng.uniform(-0.3, 0.3) * s, z + rng.uniform(-0.3, 0.3) * s
+            e = 0.25 * s
+            # Winding so the normal points down (−y).
+            tris.append(((x - e, 1.999, z - e), (x + e, 1.999, z - e), (x, 1.999, z + e)))
+    return tris
+
+
+def scenes():
+    white = (0.8, 0.8, 0.8)
+    floor = ("quad", [(-4, 0, 4), (4, 0, 4), (4, 0, -4), (-4, 0, -4)], (0.55, 0.5, 0.45), None)
+    ball = ("sphere", ((-0.6, 0.6, 0.0), 0.6), white, None)
+    glossy_free = ("sphere", ((0.7, 0.5, 0.3), 0.5), (0.3, 0.5, 0.7), None)
+    return {
+        "emissive rectangle": dict(
+            camera=BOX_CAMERA,
+            parts=box_walls() + [
+                ("quad", [(-0.25, 1.999, 0.25), (0.25, 1.999, 0.25), (0.25, 1.999, -0.25), (-0.25, 1.999, -0.25)], (0, 0, 0), (17, 12, 4)),
+                ("sphere", ((-0.4, 0.35, -0.2), 0.35), white, None),
+            ],
+            env=None,
+        ),
+        "emissive mesh": dict(
+            camera=BOX_CAMERA,
+            parts=box_walls() + [("mesh", icosphere((0.2, 1.3, -0.2), 0.18), (0, 0, 0), (12, 10, 8)), ("sphere", ((-0.4, 0.35, -0.2), 0.35), white, None)],
+            env=None,
+        ),
+        "many small emitters": dict(
+            camera=BOX_CAMERA,
+            parts=box_walls()[:1] + box_walls()[2:] + [("mesh", many_small(), (0, 0, 0), (40, 36, 30)), ("sphere", ((-0.4, 0.35, -0.2), 0.35), white, None)],
+            env=None,
+        ),
+        "constant environment": dict(camera=OPEN_CAMERA, parts=[floor, ball, glossy_free], env=("constant", (0.6, 0.7, 0.9))),
+        "image environment": dict(camera=OPEN_CAMERA, parts=[floor, ball, glossy_free], env=("image", SKY)),
+    }
+
+
+# ---------------------------------------------------------------------------------------------
+# raylab
+
+
+def raylab_scene(s, folder, size, spp, bounces):
+    out = [f"background = 0\n[render]\nwidth = {size}\nheight = {size}\nspp = {spp}\n"]
+    c = s["camera"]
+    out.append(f"[camera]\nposition = {list(c['position'])}\nlook_at = {list(c['look_at'])}\nfov = {c['fov']}\n")
+    out.append(f"[integrator]\ntype = \"path\"\nmax_bounces = {bounces}\n")
+    for i, (kind, geo, kd, emission) in enumerate(s["parts"]):
+        mat = f"{{ kd = {list(kd)}, ks = 0" + (f", emission = {list(emission)} }}" if emission else " }")
+        sides = "emission_sides = \"front\"\n" if emission else ""
+        if kind == "quad":
+            p = geo
+            out.append(f"[[object]]\ntype = \"quadrangle\"\np0 = {list(p[0])}\np1 = {list(p[1])}\np2 = {list(p[2])}\np3 = {list(p[3])}\nmaterial = {mat}\n{sides}")
+        elif kind == "sphere":
+            out.append(f"[[object]]\ntype = \"sphere\"\ncenter = {list(geo[0])}\nradius = {geo[1]}\nmaterial = {mat}\n{sides}")
+        elif kind == "mesh":
+            path = os.path.join(folder, f"mesh{i}.obj")
+            write_obj(path, geo)
+            out.append(f"[[object]]\ntype = \"mesh\"\nfile = \"mesh{i}.obj\"\nnormals = \"flat\"\nmaterial = {mat}\n{sides}")
+    if s["env"]:
+        kind, value = s["env"]
+        if kind == "constant":
+            out.append(f"[[light]]\ntype = \"environment\"\ncolor = {list(value)}\n")
+        else:
+            shutil.copy(value, os.path.join(folder, "sky.hdr"))
+            out.append("[[light]]\ntype = \"environment\"\nfile = \"sky.hdr\"\n")
+    return "\n".join(out)
+
+
+def write_obj(path, tris):
+    with open(path, "w") as f:
+        for t in tris:
+            for p in t:
+                f.write("v %r %r %r\n" % p)
+        for i in range(len(tris)):
+            f.write("f %d %d %d\n" % (3 * i + 1, 3 * i + 2, 3 * i + 3))
+
+
+def read_pfm(path):
+    with open(path, "rb") as f:
+        kind = f.readline().strip()
+        w, h = map(int, f.readline().split())
+        scale = float(f.readline())
+        data = np.frombuffer(f.read(), dtype="<f4" if scale < 0 else ">f4")
+    channels = 3 if kind == b"PF" else 1
+    return np.flipud(data.reshape(h, w, channels)).astype(np.float64)
+
+
+def render_raylab(binary, s, size, spp, seed, bounces):
+    with tempfile.TemporaryDirectory() as d:
+        with open(os.path.join(d, "scene.toml"), "w") as f:
+            f.write(raylab_scene(s, d, size, spp, bounces))
+        out = os.path.join(d, "out.pfm")
+        t = time.perf_counter()
+        subprocess.run([binary, "render", os.path.join(d, "scene.toml"), "-o", out, "--threads", "2", "--seed", str(seed)], check=True, capture_output=True)
+        return read_pfm(out), time.perf_counter() - t
+
+
+# ---------------------------------------------------------------------------------------------
+# Mitsuba
+
+
+def build_mitsuba(mi, s, size, bounces):
+    """The Mitsuba scene of `s`; flat shapes and meshes as OBJ files in a temporary folder."""
+    T = mi.ScalarTransform4f
+    c = s["camera"]
+    folder = tempfile.mkdtemp(prefix="raylab-mi-")
+    d = {
+        "type": "scene",
+        "integrator": {"type": "path", "max_depth": bounces + 2},
+        "sensor": {
+            "type": "perspective",
+            "fov": c["fov"],
+            "fov_axis": "y",
+            "to_world": T().look_at(origin=c["position"], target=c["look_at"], up=(0, 1, 0)),
+            "film": {"type": "hdrfilm", "width": size, "height": size, "rfilter": {"type": "box"}, "pixel_format": "rgb"},
+            "sampler": {"type": "independent"},
+        },
+    }
+    for i, (kind, geo, kd, emission) in enumerate(s["parts"]):
+        bsdf = {"type": "twosided", "material": {"type": "diffuse", "reflectance": {"type": "rgb", "value": list(kd)}}}
+        if kind == "sphere":
+            obj = {"type": "sphere", "center": list(geo[0]), "radius": geo[1], "bsdf": bsdf}
+        else:
+            tris = [(geo[0], geo[1], geo[2]), (geo[0], geo[2], geo[3])] if kind == "quad" else geo
+            path = os.path.join(folder, f"m{i}.obj")
+            write_obj(path, tris)
+            obj = {"type": "obj", "filename": path, "face_normals": True, "bsdf": bsdf}
+        if emission:
+            obj["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": list(emission)}}
+        d[f"shape{i}"] = obj
+    if s["env"]:
+        kind, value = s["env"]
+        if kind == "constant":
+            d["env"] = {"type": "constant", "radiance": {"type": "rgb", "value": list(value)}}
+        else:
+            d["env"] = {"type": "envmap", "filename": value, "to_world": T().rotate([0, 1, 0], 180)}
+    return mi.load_dict(d)
+
+
+def render_mitsuba(mi, scene, spp, seed):
+    t = time.perf_counter()
+    img = np.array(mi.render(scene, spp=spp, seed=seed), dtype=np.float64)[:, :, :3]
+    return img, time.perf_counter() - t
+
+
+# ---------------------------------------------------------------------------------------------
+
+
+def blocks(img, n=8):
+    h, w = img.shape[:2]
+    return img[: h - h % n, : w - w % n].reshape(n, h // n, n, w // n, -1).mean(axis=(1, 3))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--binary", default=os.path.join(ROOT, "target", "release", "raylab"))
+    ap.add_argument("--size", type=int, default=64)
+    ap.add_argument("--spp", type=int, default=64)
+    ap.add_argument("--seeds", type=int, default=4)
+    ap.add_argument("--ref-spp", type=int, default=4096)
+    ap.add_argument("--bounces", type=int, default=8)
+    ap.add_argument("--variant", default="llvm_ad_rgb")
+    ap.add_argument("--only", default=None, help="run only scenes whose name contains this")
+    args = ap.parse_args()
+    import mitsuba as mi
+
+    mi.set_variant(args.variant)
+    print(f"raylab {args.binary} vs Mitsuba {mi.__version__} {args.variant}; {args.size}², {args.spp} spp × {args.seeds} seeds, reference {args.ref_spp} spp (Mitsuba)")
+    print("wall times are measured under load (a shared 2-core machine): not benchmarks\n")
+    rows = []
+    for name, s in scenes().items():
+        if args.only and args.only not in name:
+            continue
+        scene = build_mitsuba(mi, s, args.size, args.bounces)
+        ref, _ = render_mitsuba(mi, scene, args.ref_spp, 1000)
+        rl, mt, t_r, t_m = [], [], 0.0, 0.0
+        for k in range(args.seeds):
+            a, ta = render_raylab(args.binary, s, args.size, args.spp, k + 1, args.bounces)
+            b, tb = render_mitsuba(mi, scene, args.spp, k + 1)
+            rl.append(a)
+            mt.append(b)
+            t_r += ta
+            t_m += tb
+        R, M = np.mean(rl, axis=0), np.mean(mt, axis=0)
+        ratio = R.mean() / M.mean()
+        br = np.array([blocks(x) for x in rl])
+        bm = np.array([blocks(x) for x in mt])
+        se = np.sqrt(br.var(axis=0, ddof=1) / args.seeds + bm.var(axis=0, ddof=1) / args.seeds)
+        # Blocks without noise (only the environment in view) are judged at 10⁻⁴ of their value:
+        # the two renderers store it in different precisions.
+        z = (br.mean(axis=0) - bm.mean(axis=0)) / np.maximum(se, 1e-4 * np.abs(bm.mean(axis=0)) + 1e-12)
+        rms_z, beyond = float(np.sqrt(np.mean(z * z))), int(np.sum(np.abs(z) > 4))
+        rmse = lambda x: float(np.sqrt(np.mean((x - ref) ** 2)))
+        e_r, e_m = np.mean([rmse(x) for x in rl]), np.mean([rmse(x) for x in mt])
+        spp_ratio = (e_r / e_m) ** 2
+        ref_ratio = R.mean() / ref.mean()
+        rows.append((name, ratio, ref_ratio, rms_z, beyond, z.size, e_r, e_m, spp_ratio, t_r / t_m))
+        print(f"{name}: mean ratio {ratio:.4f} (vs reference {ref_ratio:.4f}); block z RMS {rms_z:.2f}, {beyond}/{z.size} beyond 4; "
+              f"RMSE at {args.spp} spp raylab {e_r:.4g} Mitsuba {e_m:.4g}: samples for equal error {spp_ratio:.2f}× Mitsuba's; "
+              f"time per render {t_r / t_m:.2f}× Mitsuba's (measured under load)", flush=True)
+    print("\n| scene | mean ratio raylab ÷ Mitsuba | block z RMS (≈1: noise) | blocks beyond 4σ | samples for equal RMSE (raylab ÷ Mitsuba) | time per render, under load |")
+    print("|---|---:|---:|---:|---:|---:|")
+    for name, ratio, _, rms_z, beyond, nb, _, _, spp_ratio, tr in rows:
+        print(f"| {name} | {ratio:.4f} | {rms_z:.2f} | {beyond}/{nb} | {spp_ratio:.2f} | {tr:.2f} |")
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,287 @@
+//! `environment`: the scene's surroundings as a light, infinitely far away all around: one
+//! colour, or an equirectangular (latitude–longitude) image — OpenEXR (feature `exr`), Radiance
+//! `.hdr`, PNG or JPEG — times `strength`, turned about the vertical axis by `rotation`.
+//!
+//! **What sees it.** Rays that leave the scene see it in place of the scene's `background`
+//! (camera rays, mirrors, glass; [`raylab::Scene::escaped`]), in every integrator.
+//!
+//! **What it lights.** It is sampled like an area light. A sample's direction is drawn from a
+//! piecewise-constant density over the image, each cell weighted by its luminance × sin θ (the
+//! solid angle a cell of a latitude–longitude image covers): bright parts of the sky (the sun)
+//! are found by light samples, dark ones cost almost nothing. The grid of that density is the
+//! image's own, or coarser (`resolution`: its width, the height half of it), each cell the mean
+//! luminance of the texels it holds; a small floor keeps every direction possible, so rays
+//! sampled by a BSDF and light samples can always be weighed against each other (MIS). One
+//! colour is sampled uniformly over the sphere. `path` takes `light_samples` samples per vertex
+//! and weighs them against its BSDF's rays by the power heuristic; `phong` takes `samples` (or
+//! its `shadow_rays`) per shading point, stratified, and never probes it (adaptive soft shadows
+//! probe an emitter's extreme points, which a sky has not).
+//!
+//! **Directions.** Up is +y. An image is seen as it is drawn: its centre column along −z (what a
+//! camera on +z looking at the origin sees behind the scene), columns to the right of it toward
+//! +x, its left and right edges along +z (u = ½ + atan2(x, −z)/2π); its top row straight up, its
+//! bottom row straight down. `rotation` (degrees) turns the whole environment about +y,
+//! counter-clockwise seen from above.
+//!
+//! **Units.** The values are radiance: a camera ray sees `strength × color × texel`; a white
+//! diffuse object inside a uniform environment of radiance L shows L (the furnace).
+//!
+//! **Files.** Read through the scene's sandbox and size limits once per scene (the `image`
+//! texture's decoder: the header checked before decoding, the decoded texels and the sampling
+//! grid charged to the memory budget). PNG and JPEG are taken as sRGB, EXR and `.hdr` as
+//! linear.
+
+use crate::textures::image::{ColorSpace, Filter, Image, Wrap};
+use raylab::glam::{DVec2, DVec3};
+use raylab::math::color::luminance;
+use raylab::math::distribution::Piecewise2d;
+use raylab::param::error::{Result, SceneError};
+use raylab::param::params::Params;
+use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::value::Value;
+use raylab::{Color, LightPdf, LightSample, LightSource, LoadContext, PluginInfo, Ray};
+use std::f64::consts::{PI, TAU};
+use std::sync::Arc;
+
+/// The floor added to each cell's luminance in the sampling density, as a fraction of the mean
+/// cell luminance: every direction keeps a density, so MIS can weigh any ray against the light's
+/// samples, at a cost in variance of at most this fraction.
+pub const DENSITY_FLOOR: f64 = 1e-3;
+
+/// The `environment` plugin's description.
+pub const INFO: PluginInfo = PluginInfo {
+    name: "environment",
+    summary: "The scene's surroundings, infinitely far away: one colour or an equirectangular image (OpenEXR with `exr`, Radiance .hdr, PNG, JPEG), times strength, turned by rotation. Rays that leave the scene see it instead of the background; it lights the scene as a light sampled by its luminance (MIS in path).",
+    params: &[
+        ParamSpec::new(
+            "color",
+            ParamKind::Color,
+            Default::Float(1.0),
+            "radiance of the surroundings, linear RGB; with `file`, multiplies the image",
+        ),
+        ParamSpec::new(
+            "file",
+            ParamKind::Path,
+            Default::Optional,
+            "an equirectangular image of the surroundings (2:1; top row straight up, centre column along −z), relative to the scene file",
+        ),
+        ParamSpec::new("strength", ParamKind::Float, Default::Float(1.0), "multiplies the radiance, ≥ 0"),
+        ParamSpec::new(
+            "rotation",
+            ParamKind::Float,
+            Default::Float(0.0),
+            "degrees the surroundings are turned about the up axis (+y), counter-clockwise seen from above",
+        ),
+        ParamSpec::new(
+            "samples",
+            ParamKind::Int,
+            Default::Int(16),
+            "phong's shadow rays toward it per shading point (its shadow_rays may override); path takes its light_samples, 1..65536",
+        ),
+        ParamSpec::new(
+            "resolution",
+            ParamKind::Int,
+            Default::Int(1024),
+            "most columns of the grid its samples are drawn from (rows: half as many; never finer than the image); coarser: less memory, more noise where the image has small bright parts, 1..65536",
+        ),
+    ],
+};
+
+/// Builds an environment light from its parameters.
+pub fn build(p: &mut Params, ctx: &LoadContext) -> Result<Box<dyn LightSource>> {
+    let color = p.color("color")?;
+    let strength = p.non_negative("strength")?;
+    let rotation = p.float("rotation")?.to_radians();
+    let samples = p.int_in("samples", 1..=65536)? as u32;
+    let resolution = p.int_in("resolution", 1..=65536)? as usize;
+    let file = match p.node("file")? {
+        Some(n) => match &n.value {
+            Value::Str(s) => Some((s.clone(), n.loc.clone())),
+            v => return Err(p.error_at("file", format_args!("expected a path (a string), found {}", v.type_name()))),
+        },
+        None => None,
+    };
+    let radiance = color * strength;
+    let Some((file, loc)) = file else {
+        return Ok(Box::new(Environment::constant(radiance, rotation, samples)));
+    };
+    let image = crate::textures::image::load(ctx, &file, &loc, ColorSpace::Auto).map_err(|e| e.context(p.what()))?;
+    let (w, h) = image.size();
+    let (gw, gh) = grid_size(w, h, resolution);
+    // The sampling grid: each cell a weight and its cumulative sums (two f64), per row and once more.
+    let grid_bytes = (gw as u64 * gh as u64 + gh as u64) * 2 * std::mem::size_of::<f64>() as u64;
+    ctx.charge(grid_bytes, &format!("the sampling grid of the environment \"{file}\" ({gw}×{gh})"), Some(&loc))
+        .map_err(|e: SceneError| e.context(p.what()))?;
+    Ok(Box::new(Environment::image(image, radiance, rotation, samples, resolution)))
+}
+
+/// The size of the sampling grid over a `w × h` image for `resolution` columns at most: never
+/// finer than the image, rows half the columns (a 2:1 image's cells stay square).
+fn grid_size(w: usize, h: usize, resolution: usize) -> (usize, usize) {
+    (w.min(resolution).max(1), h.min(resolution.div_ceil(2)).max(1))
+}
+
+/// An environment: radiance from every direction.
+pub struct Environment {
+    /// Radiance (or the image's multiplier).
+    radiance: Color,
+    /// The image and its sampling density; `None`: one colour, sampled uniformly.
+    image: Option<(Arc<Image>, Piecewise2d)>,
+    /// cos and sin of the rotation about +y.
+    rotation: (f64, f64),
+    samples: u32,
+}
+
+impl std::fmt::Debug for Environment {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Environment({}, {:?})", self.radiance, self.image.as_ref().map(|(i, _)| i.size()))
+    }
+}
+
+impl Environment {
+    /// Radiance `radiance` from every direction (`rotation` radians has no visible effect, but
+    /// turns the sampling pattern).
+    pub fn constant(radiance: Color, rotation: f64, samples: u32) -> Environment {
+        Environment { radiance, image: None, rotation: (rotation.cos(), rotation.sin()), samples: samples.max(1) }
+    }
+
+    /// `image` (equirectangular) times `radiance`, turned by `rotation` radians about +y,
+    /// sampled on a grid of at most `resolution` columns.
+    pub fn image(image: Arc<Image>, radiance: Color, rotation: f64, samples: u32, resolution: usize) -> Environment {
+        let (w, h) = image.size();
+        let (gw, gh) = grid_size(w, h, resolution);
+        // Each cell: the mean luminance of the texels whose centres fall in it.
+        let mut sums = vec![0.0f64; gw * gh];
+        let mut counts = vec![0u32; gw * gh];
+        for y in 0..h {
+            let gy = y * gh / h;
+            for x in 0..w {
+                let gx = x * gw / w;
+                sums[gy * gw + gx] += luminance(image.texel_color(x, y) * radiance).max(0.0);
+                counts[gy * gw + gx] += 1;
+            }
+        }
+        let means: Vec<f64> = sums.iter().zip(&counts).map(|(s, &n)| if n > 0 { s / f64::from(n) } else { 0.0 }).collect();
+        let mean = means.iter().sum::<f64>() / means.len() as f64;
+        let floor = if mean.is_finite() { DENSITY_FLOOR * mean } else { 0.0 };
+        let weights: Vec<f64> = means
+            .iter()
+            .enumerate()
+            .map(|(i, m)| {
+                let theta = ((i / gw) as f64 + 0.5) / gh as f64 * PI;
+                (m + floor) * theta.sin()
+            })
+            .collect();
+        let density = Piecewise2d::new(&weights, gw, gh);
+        Environment { radiance, image: Some((image, density)), rotation: (rotation.cos(), rotation.sin()), samples: samples.max(1) }
+    }
+
+    /// The image coordinates (u right, v down from the top row, both in [0, 1]) of world
+    /// direction `dir` (unit), and sin θ (θ from straight up).
+    #[inline]
+    fn to_uv(&self, dir: DVec3) -> (DVec2, f64) {
+        let (c, s) = self.rotation;
+        // Turned back by the rotation: local = R_y(−angle) · world.
+        let local = DVec3::new(c * dir.x - s * dir.z, dir.y, s * dir.x + c * dir.z);
+        let phi = local.x.atan2(-local.z);
+        let cos_theta = local.y.clamp(-1.0, 1.0);
+        let u = 0.5 + phi / TAU;
+        let v = cos_theta.acos() / PI;
+        (DVec2::new(u, v), (local.x * local.x + local.z * local.z).sqrt())
+    }
+
+    /// The world direction of image coordinates `uv` (as [`Environment::to_uv`]), and sin θ.
+    #[inline]
+    fn direction_of(&self, uv: DVec2) -> (DVec3, f64) {
+        let (sin_phi, cos_phi) = ((uv.x - 0.5) * TAU).sin_cos();
+        let (sin_theta, cos_theta) = (uv.y * PI).sin_cos();
+        let local = DVec3::new(sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi);
+        let (c, s) = self.rotation;
+        (DVec3::new(c * local.x + s * local.z, local.y, -s * local.x + c * local.z), sin_theta)
+    }
+
+    /// Radiance arriving from direction `dir` (a ray leaving the scene along it sees this).
+    #[inline]
+    fn radiance(&self, dir: DVec3) -> Color {
+        match &self.image {
+            None => self.radiance,
+            Some((image, _)) => {
+                let (uv, _) = self.to_uv(dir);
+                // The texture lookup's v points up (row 0 at v = 1).
+                image.lookup(DVec2::new(uv.x, 1.0 - uv.y), [Wrap::Repeat, Wrap::Clamp], Filter::Bilinear) * self.radiance
+            }
+        }
+    }
+
+    /// The density (per steradian) with which [`LightSource::illuminate`] picks direction `dir`.
+    #[inline]
+    fn density(&self, dir: DVec3) -> f64 {
+        match &self.image {
+            None => 1.0 / (4.0 * PI),
+            Some((_, density)) => {
+                let (uv, sin_theta) = self.to_uv(dir);
+                // dω = sin θ dθ dφ = 2π² sin θ du dv; straight up or down (a set of no measure,
+                // where the map is singular) is never sampled.
+                if sin_theta > 0.0 { density.pdf(uv) / (2.0 * PI * PI * sin_theta) } else { 0.0 }
+            }
+        }
+    }
+
+    /// The sample for direction `dir` with density `pdf`: the light's whole contribution as one
+    /// sample's intensity (radiance ÷ π·pdf, in the lights' intensity convention), zero where the
+    /// density is not a finite positive number.
+    #[inline]
+    fn sample(&self, dir: DVec3, pdf: f64) -> LightSample {
+        let intensity = if pdf > 0.0 && pdf.is_finite() { self.radiance(dir) / (PI * pdf) } else { Color::ZERO };
+        LightSample { dir, distance: f64::INFINITY, intensity }
+    }
+}
+
+impl LightSource for Environment {
+    fn illuminate(&self, _p: DVec3, u: DVec2) -> Option<LightSample> {
+        match &self.image {
+            None => {
+                // Uniform over the sphere.
+                let z = 1.0 - 2.0 * u.y;
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                let (s, c) = (TAU * u.x).sin_cos();
+                let (cr, sr) = self.rotation;
+                let local = DVec3::new(r * c, z, r * s);
+                let dir = DVec3::new(cr * local.x + sr * local.z, local.y, -sr * local.x + cr * local.z);
+                Some(self.sample(dir, 1.0 / (4.0 * PI)))
+            }
+            Some((_, density)) => {
+                let (uv, pdf_uv) = density.sample(u);
+                let (dir, sin_theta) = self.direction_of(uv);
+                Some(self.sample(dir, pdf_uv / (2.0 * PI * PI * sin_theta)))
+            }
+        }
+    }
+
+    fn pdf(&self, _p: DVec3, sample: &LightSample) -> LightPdf {
+        LightPdf::SolidAngle(self.density(sample.dir))
+    }
+
+    fn intersect(&self, ray: &Ray, t_max: f64) -> Option<LightSample> {
+        // Only a ray that leaves the scene (nothing closer than infinity) reaches it.
+        if t_max.is_finite() {
+            return None;
+        }
+        Some(self.sample(ray.dir, self.density(ray.dir)))
+    }
+
+    fn sample_count(&self) -> u32 {
+        self.samples
+    }
+
+    fn is_area(&self) -> bool {
+        true
+    }
+
+    fn environment(&self, dir: DVec3) -> Option<Color> {
+        Some(self.radiance(dir))
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,194 @@
+//! The environment light: its samples, the rays that leave the scene and its densities agree; its
+//! sampling passes the χ² test; the two strategies' MIS weights sum to one; directions map to the
+//! image as documented.
+
+use super::*;
+use crate::integrators::path::power_heuristic;
+use raylab::scene::light::testing::{check_light, chi2_light};
+use raylab::testing::chi2::{Chi2Test, Sphere, Uniform};
+
+/// A procedural sky, `w × h`: a gradient from a bright horizon to a deep blue zenith, a dark
+/// ground, and a small sun (about 100× the sky) at azimuth `sun_u`, elevation 30°.
+fn sky(w: usize, h: usize, sun_u: f64) -> Arc<Image> {
+    let mut t = Vec::with_capacity(w * h * 3);
+    for y in 0..h {
+        let v = (y as f64 + 0.5) / h as f64;
+        for x in 0..w {
+            let u = (x as f64 + 0.5) / w as f64;
+            let elevation = (0.5 - v) * 180.0;
+            let mut c = if elevation > 0.0 {
+                let k = (elevation / 90.0).powf(0.5);
+                [0.9 - 0.7 * k, 1.0 - 0.6 * k, 1.2 - 0.3 * k]
+            } else {
+                [0.15, 0.12, 0.1]
+            };
+            let d = ((u - sun_u) * 360.0).hypot(elevation - 30.0);
+            if d < 6.0 {
+                c = [120.0, 100.0, 80.0];
+            }
+            t.extend(c.map(|v| v as f32));
+        }
+    }
+    Arc::new(Image::from_linear(w, h, t).unwrap())
+}
+
+fn lights() -> Vec<(&'static str, Environment)> {
+    vec![
+        ("constant", Environment::constant(Color::new(0.5, 0.7, 1.0), 0.4, 16)),
+        ("sky", Environment::image(sky(64, 32, 0.3), Color::ONE, 0.0, 16, 1024)),
+        ("turned sky", Environment::image(sky(64, 32, 0.7), Color::new(1.0, 0.5, 2.0), 1.1, 16, 1024)),
+        ("coarse sky", Environment::image(sky(64, 32, 0.55), Color::ONE, -2.0, 16, 16)),
+    ]
+}
+
+#[test]
+fn directions_map_to_the_image_as_documented() {
+    let env = Environment::constant(Color::ONE, 0.0, 1);
+    let uv = |d: DVec3| env.to_uv(d.normalize()).0;
+    assert!((uv(DVec3::NEG_Z) - DVec2::new(0.5, 0.5)).length() < 1e-12, "−z is the centre");
+    assert!((uv(DVec3::X) - DVec2::new(0.75, 0.5)).length() < 1e-12, "+x is right of the centre");
+    assert!((uv(DVec3::new(0.0, 1.0, -1e-9)).y).abs() < 1e-6, "up is the top row");
+    assert!((uv(DVec3::new(0.0, -1.0, -1e-9)).y - 1.0).abs() < 1e-6, "down is the bottom row");
+    // Turned by 90° counter-clockwise seen from above: what was along −z is now along −x.
+    let turned = Environment::constant(Color::ONE, 90f64.to_radians(), 1);
+    assert!((turned.to_uv(DVec3::NEG_X).0 - DVec2::new(0.5, 0.5)).length() < 1e-12);
+    // direction_of inverts to_uv.
+    let mut u = Uniform::new(5);
+    for env in [&env, &turned] {
+        for _ in 0..1000 {
+            let p = u.next_2d();
+            let (dir, s) = env.direction_of(p);
+            let (back, s2) = env.to_uv(dir);
+            assert!((dir.length() - 1.0).abs() < 1e-12 && (s - s2).abs() < 1e-12);
+            assert!((back - p).length() < 1e-9, "{p} → {dir} → {back}");
+        }
+    }
+}
+
+#[test]
+fn samples_rays_and_densities_agree() {
+    for (name, light) in lights() {
+        for p in [DVec3::ZERO, DVec3::new(3.0, -2.0, 100.0)] {
+            // The image's radiance is bilinear between texels, the density constant on cells: the
+            // grid integral converges slowly at the sun's rim.
+            let (integral, mean) = check_light(&light, p, 1 << 14, 800, 0.02);
+            assert!(mean.max_element() > 0.0, "{name}: {integral} vs {mean}");
+        }
+        // A ray that meets a surface first never reaches it.
+        assert!(light.intersect(&Ray { origin: DVec3::ZERO, dir: DVec3::Y }, 1e30).is_none());
+        assert!(light.is_area() && light.environment(DVec3::Y).is_some() && light.bound(DVec3::ZERO).is_none());
+    }
+}
+
+/// The camera sees the radiance the light's samples and rays imply: `environment(dir)` is
+/// `π × intensity × pdf` of the ray leaving along `dir`.
+#[test]
+fn what_rays_see_is_what_lights_the_scene() {
+    let mut u = Uniform::new(9);
+    for (name, light) in lights() {
+        for _ in 0..2000 {
+            let s = light.illuminate(DVec3::ZERO, u.next_2d()).unwrap();
+            let m = light.intersect(&Ray { origin: DVec3::ZERO, dir: s.dir }, f64::INFINITY).unwrap();
+            let pdf = light.pdf(DVec3::ZERO, &m).solid_angle().unwrap();
+            let implied = m.intensity * PI * pdf;
+            let seen = light.environment(s.dir).unwrap();
+            assert!((implied - seen).abs().max_element() <= 1e-9 * seen.max_element(), "{name}: {implied} vs {seen}");
+        }
+    }
+}
+
+/// A sky with a wide glow instead of a sharp sun: the χ² test integrates the density by
+/// Simpson's rule, which a 100× step between neighbouring cells would defeat (the sharp skies'
+/// densities are checked by [`samples_rays_and_densities_agree`] and the round trip).
+fn glow(w: usize, h: usize, sun_u: f64) -> Arc<Image> {
+    let mut t = Vec::with_capacity(w * h * 3);
+    for y in 0..h {
+        let elevation = (0.5 - (y as f64 + 0.5) / h as f64) * 180.0;
+        for x in 0..w {
+            let u = (x as f64 + 0.5) / w as f64;
+            let d = ((u - sun_u) * 360.0).hypot(elevation - 30.0);
+            let g = 1.0 + 30.0 * (-d * d / (2.0 * 12.0 * 12.0)).exp();
+            let ground = if elevation < 0.0 { 0.3 } else { 1.0 };
+            t.extend([g * ground, 0.8 * g * ground, (0.6 + 0.5 * (elevation / 90.0).abs()) * ground].map(|v| v as f32));
+        }
+    }
+    Arc::new(Image::from_linear(w, h, t).unwrap())
+}
+
+#[test]
+fn sampling_passes_the_chi2_test() {
+    let test = Chi2Test::new(Sphere).res(72, 36).samples(400_000).integration(32).tests(4);
+    let cases = [
+        ("constant", Environment::constant(Color::new(0.5, 0.7, 1.0), 0.4, 16)),
+        ("glow", Environment::image(glow(64, 32, 0.3), Color::ONE, 0.0, 16, 1024)),
+        ("turned glow", Environment::image(glow(64, 32, 0.7), Color::new(1.0, 0.5, 2.0), 1.1, 16, 1024)),
+        ("coarse glow", Environment::image(glow(64, 32, 0.55), Color::ONE, -2.0, 16, 16)),
+    ];
+    for (name, light) in cases {
+        // The histogram's pole (+z) on the map's (+y), where the map is singular: no sub-cell
+        // point of the integration falls next to it, off a cell's edge.
+        let turn = |d: DVec3| DVec3::new(d.x, -d.z, d.y);
+        let back = |w: DVec3| DVec3::new(w.x, w.z, -w.y);
+        test.run(|u| Some(turn(light.illuminate(DVec3::ZERO, u.next_2d())?.dir)), |w| light.density(back(w))).assert_passes(name);
+        // The light's own interface, as chi2_light reads it, agrees with the density.
+        let d = back(DVec3::new(0.3, 0.4, 0.5).normalize());
+        let m = light.intersect(&Ray { origin: DVec3::ZERO, dir: d }, f64::INFINITY).unwrap();
+        assert_eq!(light.pdf(DVec3::ZERO, &m).solid_angle(), Some(light.density(d)));
+    }
+    // Away from the poles, the generic light test (which turns nothing here) passes too.
+    let near = Environment::constant(Color::ONE, 0.0, 1);
+    chi2_light(&near, DVec3::ZERO, &test).assert_passes("constant, through chi2_light");
+}
+
+/// The χ² test can fail: one sky's samples judged against another's density.
+#[test]
+fn the_chi2_test_rejects_another_skys_density() {
+    let test = Chi2Test::new(Sphere).res(72, 36).samples(200_000);
+    let (a, b) =
+        (Environment::image(sky(64, 32, 0.3), Color::ONE, 0.0, 1, 1024), Environment::image(sky(64, 32, 0.35), Color::ONE, 0.0, 1, 1024));
+    test.run(|u| Some(a.illuminate(DVec3::ZERO, u.next_2d())?.dir), |w| b.density(w)).assert_fails("another sky");
+}
+
+/// Light samples and BSDF rays weigh each direction with densities that agree, so their power
+/// heuristic weights sum to one wherever both can find the light.
+#[test]
+fn mis_weights_of_both_strategies_sum_to_one() {
+    let mut u = Uniform::new(17);
+    for (name, light) in lights() {
+        for n in [1u32, 4] {
+            for _ in 0..2000 {
+                // A light sample's direction, and a cosine-distributed "BSDF" direction about +y.
+                let s = light.illuminate(DVec3::ZERO, u.next_2d()).unwrap();
+                let r = u.next_2d();
+                let (sin, cos) = (r.x.sqrt(), (1.0 - r.x).sqrt());
+                let b = DVec3::new(sin * (TAU * r.y).cos(), cos, sin * (TAU * r.y).sin());
+                for dir in [s.dir, b] {
+                    let bsdf_pdf = dir.y.max(0.0) / PI;
+                    let light_pdf = light
+                        .intersect(&Ray { origin: DVec3::ZERO, dir }, f64::INFINITY)
+                        .and_then(|m| light.pdf(DVec3::ZERO, &m).solid_angle())
+                        .unwrap();
+                    let from_light = power_heuristic(f64::from(n) * light_pdf, bsdf_pdf);
+                    let from_bsdf = power_heuristic(bsdf_pdf, f64::from(n) * light_pdf);
+                    assert!((from_light + from_bsdf - 1.0).abs() < 1e-12, "{name}: {from_light} + {from_bsdf}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn a_black_image_is_sampled_uniformly_and_lights_nothing() {
+    let black = Environment::image(Arc::new(Image::from_linear(8, 4, vec![0.0; 96]).unwrap()), Color::ONE, 0.0, 1, 1024);
+    let s = black.illuminate(DVec3::ZERO, DVec2::new(0.3, 0.6)).unwrap();
+    assert_eq!(s.intensity, Color::ZERO);
+    assert!(black.density(s.dir) > 0.0);
+}
+
+#[test]
+fn the_grid_is_never_finer_than_the_image() {
+    assert_eq!(grid_size(4096, 2048, 1024), (1024, 512));
+    assert_eq!(grid_size(64, 32, 1024), (64, 32));
+    assert_eq!(grid_size(64, 32, 1), (1, 1));
+    assert_eq!(grid_size(5, 1, 3), (3, 1));
+}
