@@ -269,7 +269,7 @@ pub fn decode(bytes: &[u8], name: &str, space: ColorSpace, ctx: &LoadContext) ->
         None => return Err(fail("not a PNG, JPEG, OpenEXR or Radiance .hdr image (unrecognised signature)".into())),
     };
     if format == image::ImageFormat::OpenExr && !cfg!(feature = "exr") {
-        return Err(fail("OpenEXR textures need raylab built with the `exr` feature (cargo run --features exr)".into()));
+        return Err(fail(format!("OpenEXR textures need the `exr` feature; {}", raylab::param::error::built_without("exr"))));
     }
     let space = match space {
         ColorSpace::Auto if matches!(format, image::ImageFormat::OpenExr | image::ImageFormat::Hdr) => ColorSpace::Linear,
