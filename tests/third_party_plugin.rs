@@ -8,7 +8,7 @@ use raylab::load::loader::load_str;
 use raylab::math::float::gamma;
 use raylab::param::error::Result;
 use raylab::param::params::Params;
-use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use raylab::render::{RenderOptions, render};
 use raylab::{Aabb, Geometry, Hit, Intersectable, LoadContext, PluginInfo, Ray, Registry};
 use std::path::Path;
@@ -24,9 +24,9 @@ const DISC: PluginInfo = PluginInfo {
     name: "disc",
     summary: "A flat disc of `radius` around `center`, facing `normal`.",
     params: &[
-        ParamSpec::new("center", ParamKind::Vec3, Default::Vec3([0.0, 0.0, 0.0]), "centre"),
-        ParamSpec::new("normal", ParamKind::Vec3, Default::Vec3([0.0, 0.0, 1.0]), "the side it faces"),
-        ParamSpec::new("radius", ParamKind::Float, Default::Float(1.0), "radius, > 0"),
+        ParamSpec::new("center", ParamKind::Vec3, ParamDefault::Vec3([0.0, 0.0, 0.0]), "centre"),
+        ParamSpec::new("normal", ParamKind::Vec3, ParamDefault::Vec3([0.0, 0.0, 1.0]), "the side it faces"),
+        ParamSpec::new("radius", ParamKind::Float, ParamDefault::Float(1.0), "radius, > 0"),
     ],
 };
 

@@ -2,14 +2,14 @@
 
 use raylab::param::error::Result;
 use raylab::param::params::Params;
-use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use raylab::render::aov::Layers;
 use raylab::render::trace::{NoRecord, Recorder};
 use raylab::scene::interaction::Interaction;
 use raylab::{Color, Integrator, LoadContext, PluginInfo, Ray, RayKind, RayStats, Sampler, Scene, TraceNode};
 
 /// Shows the direction-aware normal: `(n + 1) / 2` as RGB (x → red, y → green, z → blue).
-#[derive(Clone, Debug, std::default::Default)]
+#[derive(Clone, Debug, Default)]
 pub struct Normals;
 
 /// The `normals` plugin's description.
@@ -37,7 +37,7 @@ pub const DEPTH_INFO: PluginInfo = PluginInfo {
     params: &[ParamSpec::new(
         "far",
         ParamKind::Float,
-        Default::Optional,
+        ParamDefault::Optional,
         "distance shown as black, scene units; default: the farthest corner of the scene's bounded objects",
     )],
 };

@@ -3,7 +3,7 @@
 use raylab::glam::{DVec2, DVec3};
 use raylab::param::error::Result;
 use raylab::param::params::Params;
-use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use raylab::{Color, LightSample, LightSource, LoadContext, PluginInfo};
 
 /// Ambient light of intensity `color × ka`.
@@ -17,8 +17,8 @@ pub const INFO: PluginInfo = PluginInfo {
     name: "ambient",
     summary: "Ambient light: constant `color × ka` added at every surface point (times the material's ka). No shadows.",
     params: &[
-        ParamSpec::new("color", ParamKind::Color, Default::Float(1.0), "colour, linear RGB"),
-        ParamSpec::new("ka", ParamKind::Float, Default::Float(0.1), "ambient factor (the report fixes it at 0.1), ≥ 0"),
+        ParamSpec::new("color", ParamKind::Color, ParamDefault::Float(1.0), "colour, linear RGB"),
+        ParamSpec::new("ka", ParamKind::Float, ParamDefault::Float(0.1), "ambient factor (the report fixes it at 0.1), ≥ 0"),
     ],
 };
 

@@ -3,7 +3,7 @@
 use raylab::glam::{DVec2, DVec3};
 use raylab::param::error::Result;
 use raylab::param::params::Params;
-use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use raylab::{Color, LightSample, LightSource, LoadContext, PluginInfo};
 
 /// Light of constant `color` travelling along unit `direction`.
@@ -18,11 +18,11 @@ pub const INFO: PluginInfo = PluginInfo {
     name: "directional",
     summary: "Parallel light from infinitely far away, of constant intensity (no attenuation).",
     params: &[
-        ParamSpec::new("color", ParamKind::Color, Default::Float(1.0), "intensity, linear RGB"),
+        ParamSpec::new("color", ParamKind::Color, ParamDefault::Float(1.0), "intensity, linear RGB"),
         ParamSpec::new(
             "direction",
             ParamKind::Vec3,
-            Default::Vec3([0.0, -1.0, 0.0]),
+            ParamDefault::Vec3([0.0, -1.0, 0.0]),
             "direction the light travels (from the light toward the scene)",
         ),
     ],

@@ -37,7 +37,7 @@ use raylab::math::color::luminance;
 use raylab::math::distribution::Piecewise2d;
 use raylab::param::error::{Result, SceneError};
 use raylab::param::params::Params;
-use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use raylab::param::value::Value;
 use raylab::{Color, LightPdf, LightSample, LightSource, LoadContext, PluginInfo, Ray};
 use std::f64::consts::{PI, TAU};
@@ -56,32 +56,32 @@ pub const INFO: PluginInfo = PluginInfo {
         ParamSpec::new(
             "color",
             ParamKind::Color,
-            Default::Float(1.0),
+            ParamDefault::Float(1.0),
             "radiance of the surroundings, linear RGB; with `file`, multiplies the image",
         ),
         ParamSpec::new(
             "file",
             ParamKind::Path,
-            Default::Optional,
+            ParamDefault::Optional,
             "an equirectangular image of the surroundings (2:1; top row straight up, centre column along −z), relative to the scene file",
         ),
-        ParamSpec::new("strength", ParamKind::Float, Default::Float(1.0), "multiplies the radiance, ≥ 0"),
+        ParamSpec::new("strength", ParamKind::Float, ParamDefault::Float(1.0), "multiplies the radiance, ≥ 0"),
         ParamSpec::new(
             "rotation",
             ParamKind::Float,
-            Default::Float(0.0),
+            ParamDefault::Float(0.0),
             "degrees the surroundings are turned about the up axis (+y), counter-clockwise seen from above",
         ),
         ParamSpec::new(
             "samples",
             ParamKind::Int,
-            Default::Int(16),
+            ParamDefault::Int(16),
             "phong's shadow rays toward it per shading point (its shadow_rays may override); path takes its light_samples, 1..65536",
         ),
         ParamSpec::new(
             "resolution",
             ParamKind::Int,
-            Default::Int(1024),
+            ParamDefault::Int(1024),
             "most columns of the grid its samples are drawn from (rows: half as many; never finer than the image); coarser: less memory, more noise where the image has small bright parts, 1..65536",
         ),
     ],

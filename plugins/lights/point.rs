@@ -10,7 +10,7 @@ use raylab::glam::{DVec2, DVec3};
 use raylab::math::sampler::{concentric_disc, orthonormal_basis};
 use raylab::param::error::Result;
 use raylab::param::params::Params;
-use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use raylab::scene::light::LightBound;
 use raylab::{Color, LightPdf, LightSample, LightSource, LoadContext, PluginInfo, Ray};
 use std::f64::consts::PI;
@@ -44,21 +44,21 @@ pub(crate) const AREA: [ParamSpec; 2] = [
     ParamSpec::new(
         "radius",
         ParamKind::Float,
-        Default::Float(0.0),
+        ParamDefault::Float(0.0),
         "radius of the ball-shaped light for soft shadows, scene units (0 = a point), ≥ 0",
     ),
     ParamSpec::new(
         "samples",
         ParamKind::Int,
-        Default::Int(16),
+        ParamDefault::Int(16),
         "shadow rays per shading point when radius > 0 (the integrator's shadow_rays may override), ≥ 1",
     ),
 ];
 
 pub(crate) const ATTENUATION: [ParamSpec; 3] = [
-    ParamSpec::new("kc", ParamKind::Float, Default::Float(1.0), "constant attenuation, ≥ 0"),
-    ParamSpec::new("kl", ParamKind::Float, Default::Float(0.0), "linear attenuation, per scene unit, ≥ 0"),
-    ParamSpec::new("kq", ParamKind::Float, Default::Float(0.0), "quadratic attenuation, per scene unit², ≥ 0 (kc + kl + kq > 0)"),
+    ParamSpec::new("kc", ParamKind::Float, ParamDefault::Float(1.0), "constant attenuation, ≥ 0"),
+    ParamSpec::new("kl", ParamKind::Float, ParamDefault::Float(0.0), "linear attenuation, per scene unit, ≥ 0"),
+    ParamSpec::new("kq", ParamKind::Float, ParamDefault::Float(0.0), "quadratic attenuation, per scene unit², ≥ 0 (kc + kl + kq > 0)"),
 ];
 
 /// The `point` plugin's description.
@@ -66,8 +66,8 @@ pub const INFO: PluginInfo = PluginInfo {
     name: "point",
     summary: "A light bulb at a point: I = color / (kc + kl·d + kq·d²), d the distance to the light.",
     params: &[
-        ParamSpec::new("color", ParamKind::Color, Default::Float(1.0), "intensity I₀, linear RGB"),
-        ParamSpec::new("position", ParamKind::Vec3, Default::Required, "where the light is"),
+        ParamSpec::new("color", ParamKind::Color, ParamDefault::Float(1.0), "intensity I₀, linear RGB"),
+        ParamSpec::new("position", ParamKind::Vec3, ParamDefault::Required, "where the light is"),
         ATTENUATION[0],
         ATTENUATION[1],
         ATTENUATION[2],
@@ -81,19 +81,19 @@ pub const SPOT_INFO: PluginInfo = PluginInfo {
     name: "spot",
     summary: "A spot light: a point light times max(0, D·L)^exponent, where L points from the light to the shaded point; no light beyond the cone angle.",
     params: &[
-        ParamSpec::new("color", ParamKind::Color, Default::Float(1.0), "intensity I₀, linear RGB"),
-        ParamSpec::new("position", ParamKind::Vec3, Default::Required, "where the light is"),
-        ParamSpec::new("direction", ParamKind::Vec3, Default::Required, "axis of the spot (D), from the light outward"),
+        ParamSpec::new("color", ParamKind::Color, ParamDefault::Float(1.0), "intensity I₀, linear RGB"),
+        ParamSpec::new("position", ParamKind::Vec3, ParamDefault::Required, "where the light is"),
+        ParamSpec::new("direction", ParamKind::Vec3, ParamDefault::Required, "axis of the spot (D), from the light outward"),
         ParamSpec::new(
             "exponent",
             ParamKind::Float,
-            Default::Float(1.0),
+            ParamDefault::Float(1.0),
             "narrowing exponent (1 = the report's spot; larger = tighter), ≥ 0",
         ),
         ParamSpec::new(
             "cone_angle",
             ParamKind::Float,
-            Default::Float(90.0),
+            ParamDefault::Float(90.0),
             "half-angle of the cone outside which there is no light, degrees, in (0, 90]",
         ),
         ATTENUATION[0],

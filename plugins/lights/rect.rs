@@ -8,7 +8,7 @@ use super::point::{ATTENUATION, attenuation, samples};
 use raylab::glam::{DVec2, DVec3};
 use raylab::param::error::Result;
 use raylab::param::params::Params;
-use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use raylab::scene::light::LightBound;
 use raylab::{Color, LightPdf, LightSample, LightSource, LoadContext, PluginInfo, Ray};
 
@@ -34,17 +34,17 @@ pub const INFO: PluginInfo = PluginInfo {
     name: "rect",
     summary: "A rectangular area light for soft shadows: a point light spread uniformly over a rectangle (both sides), sampled with `samples` shadow rays.",
     params: &[
-        ParamSpec::new("color", ParamKind::Color, Default::Float(1.0), "intensity I₀ of the whole light, linear RGB"),
-        ParamSpec::new("center", ParamKind::Vec3, Default::Required, "centre of the rectangle"),
-        ParamSpec::new("edge1", ParamKind::Vec3, Default::Required, "first side, as a vector (its length is the side's length)"),
-        ParamSpec::new("edge2", ParamKind::Vec3, Default::Required, "second side, as a vector, not parallel to edge1"),
+        ParamSpec::new("color", ParamKind::Color, ParamDefault::Float(1.0), "intensity I₀ of the whole light, linear RGB"),
+        ParamSpec::new("center", ParamKind::Vec3, ParamDefault::Required, "centre of the rectangle"),
+        ParamSpec::new("edge1", ParamKind::Vec3, ParamDefault::Required, "first side, as a vector (its length is the side's length)"),
+        ParamSpec::new("edge2", ParamKind::Vec3, ParamDefault::Required, "second side, as a vector, not parallel to edge1"),
         ATTENUATION[0],
         ATTENUATION[1],
         ATTENUATION[2],
         ParamSpec::new(
             "samples",
             ParamKind::Int,
-            Default::Int(16),
+            ParamDefault::Int(16),
             "shadow rays per shading point (the integrator's shadow_rays may override), ≥ 1",
         ),
     ],

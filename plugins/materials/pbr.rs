@@ -51,7 +51,7 @@ use raylab::math::color::max_channel;
 use raylab::math::sampler::{concentric_disc, orthonormal_basis};
 use raylab::param::error::Result;
 use raylab::param::params::Params;
-use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use raylab::param::value::Value;
 use raylab::scene::bsdf::{Bsdf, Lobe, MaterialModel, Scatter, Shading};
 use raylab::scene::material::{Channel, Model, TextureMap};
@@ -82,55 +82,55 @@ pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::new(
         "base_color",
         ParamKind::Texture,
-        Default::Float(1.0),
+        ParamDefault::Float(1.0),
         "glTF baseColor: the diffuse colour of dielectrics and the specular colour of metals, linear RGB in [0, 1], or a texture",
     ),
     ParamSpec::new(
         "metallic",
         ParamKind::Float,
-        Default::Float(1.0),
+        ParamDefault::Float(1.0),
         "glTF metallicFactor: 0 = dielectric, 1 = metal (glTF's default), 0..1",
     ),
     ParamSpec::new(
         "roughness",
         ParamKind::Float,
-        Default::Float(1.0),
+        ParamDefault::Float(1.0),
         "glTF roughnessFactor: the GGX width is α = roughness² (glTF's default 1: fully rough), 0..1",
     ),
     ParamSpec::new(
         "metallic_roughness",
         ParamKind::Texture,
-        Default::Optional,
+        ParamDefault::Optional,
         "glTF metallicRoughnessTexture: its blue channel multiplies metallic, its green channel roughness (path tracer only; phong uses the factors)",
     ),
     ParamSpec::new(
         "ior",
         ParamKind::Float,
-        Default::Float(1.5),
+        ParamDefault::Float(1.5),
         "KHR_materials_ior: the dielectric's index of refraction (F0 = ((ior − 1)/(ior + 1))²), ≥ 1",
     ),
     ParamSpec::new(
         "specular",
         ParamKind::Float,
-        Default::Float(1.0),
+        ParamDefault::Float(1.0),
         "KHR_materials_specular specularFactor: the strength of the dielectric's reflection, 0..1",
     ),
     ParamSpec::new(
         "specular_color",
         ParamKind::Color,
-        Default::Float(1.0),
+        ParamDefault::Float(1.0),
         "KHR_materials_specular specularColorFactor: multiplies the dielectric's F0",
     ),
     ParamSpec::new(
         "transmission",
         ParamKind::Texture,
-        Default::Float(0.0),
+        ParamDefault::Float(0.0),
         "KHR_materials_transmission: the fraction of the dielectric's diffuse part that passes through (thin-walled), 0..1, or a texture (its red channel)",
     ),
     ParamSpec::new(
         "emission",
         ParamKind::Texture,
-        Default::Float(0.0),
+        ParamDefault::Float(0.0),
         "emitted radiance, linear RGB (glTF emissiveFactor × KHR_materials_emissive_strength), or a texture",
     ),
 ];
@@ -181,7 +181,7 @@ pub struct Pbr {
     pub emission: Textured<Color>,
 }
 
-impl std::default::Default for Pbr {
+impl Default for Pbr {
     /// glTF's defaults: white, metallic 1, roughness 1.
     fn default() -> Self {
         Pbr {

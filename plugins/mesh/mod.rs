@@ -18,7 +18,7 @@ use raylab::load::mesh::{MeshFile, MeshRequest};
 use raylab::load::registry::{BuiltGeometry, SceneFormat};
 use raylab::param::error::{Loc, Result, SceneError};
 use raylab::param::params::Params;
-use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use raylab::param::value::Value;
 use raylab::{Aabb, LoadContext, PluginInfo, Ray, Registry};
 use std::sync::Arc;
@@ -29,23 +29,23 @@ pub const INFO: PluginInfo = PluginInfo {
     name: "mesh",
     summary: "A triangle mesh from a file in a registered mesh format (built in: .obj with its .mtl, glTF 2.0 .gltf and .glb). Watertight: a ray through a shared edge or vertex hits exactly one of its triangles. Place it with `transform`; a file used several times is stored once.",
     params: &[
-        ParamSpec::new("file", ParamKind::Path, Default::Required, "the mesh file, relative to the scene file"),
+        ParamSpec::new("file", ParamKind::Path, ParamDefault::Required, "the mesh file, relative to the scene file"),
         ParamSpec::new(
             "mesh",
             ParamKind::Int,
-            Default::Optional,
+            ParamDefault::Optional,
             "glTF only: the index of one mesh, in its own frame; default: every mesh of the file's scene, placed by its nodes",
         ),
         ParamSpec::new(
             "node",
             ParamKind::Int,
-            Default::Optional,
+            ParamDefault::Optional,
             "glTF only: the index of one node of the file's scene: its mesh, placed by the node's world matrix (what a glTF rendered as a scene is made of)",
         ),
         ParamSpec::new(
             "normals",
             ParamKind::Str,
-            Default::Str("auto"),
+            ParamDefault::Str("auto"),
             "\"auto\" (the file's vertex normals if any, else flat), \"flat\", or \"smooth\" (the file's, else computed)",
         ),
     ],

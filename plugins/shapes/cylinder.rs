@@ -16,7 +16,7 @@ use raylab::math::float::{gamma, max_abs, on_surface_slack};
 use raylab::math::sampler::concentric_disc;
 use raylab::param::error::Result;
 use raylab::param::params::Params;
-use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use raylab::{Aabb, LoadContext, PluginInfo, Ray};
 use std::f64::consts::TAU;
 
@@ -47,15 +47,15 @@ pub const INFO: PluginInfo = PluginInfo {
     name: "cylinder",
     summary: "A finite cylinder closed by two flat caps: a solid (refraction bends at it).",
     params: &[
-        ParamSpec::new("base", ParamKind::Vec3, Default::Vec3([0.0, 0.0, 0.0]), "centre of the bottom cap"),
+        ParamSpec::new("base", ParamKind::Vec3, ParamDefault::Vec3([0.0, 0.0, 0.0]), "centre of the bottom cap"),
         ParamSpec::new(
             "axis",
             ParamKind::Vec3,
-            Default::Vec3([0.0, 1.0, 0.0]),
+            ParamDefault::Vec3([0.0, 1.0, 0.0]),
             "direction from the bottom cap to the top cap (any length > 0)",
         ),
-        ParamSpec::new("height", ParamKind::Float, Default::Float(1.0), "distance between the caps, scene units, > 0"),
-        ParamSpec::new("radius", ParamKind::Float, Default::Float(1.0), "radius, scene units, > 0"),
+        ParamSpec::new("height", ParamKind::Float, ParamDefault::Float(1.0), "distance between the caps, scene units, > 0"),
+        ParamSpec::new("radius", ParamKind::Float, ParamDefault::Float(1.0), "radius, scene units, > 0"),
     ],
 };
 
@@ -64,9 +64,9 @@ pub const TUBE_INFO: PluginInfo = PluginInfo {
     name: "tube",
     summary: "An infinite open cylinder around an axis (the report's Cylinder: axis point, axis direction, radius). Unbounded; an open surface.",
     params: &[
-        ParamSpec::new("point", ParamKind::Vec3, Default::Vec3([0.0, 0.0, 0.0]), "a point on the axis"),
-        ParamSpec::new("axis", ParamKind::Vec3, Default::Vec3([0.0, 1.0, 0.0]), "axis direction (any length > 0)"),
-        ParamSpec::new("radius", ParamKind::Float, Default::Float(1.0), "radius, scene units, > 0"),
+        ParamSpec::new("point", ParamKind::Vec3, ParamDefault::Vec3([0.0, 0.0, 0.0]), "a point on the axis"),
+        ParamSpec::new("axis", ParamKind::Vec3, ParamDefault::Vec3([0.0, 1.0, 0.0]), "axis direction (any length > 0)"),
+        ParamSpec::new("radius", ParamKind::Float, ParamDefault::Float(1.0), "radius, scene units, > 0"),
     ],
 };
 

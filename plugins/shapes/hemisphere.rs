@@ -12,7 +12,7 @@ use raylab::glam::{DVec2, DVec3};
 use raylab::math::float::{gamma, on_surface_slack};
 use raylab::param::error::Result;
 use raylab::param::params::Params;
-use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use raylab::{Aabb, LoadContext, PluginInfo, Ray};
 use std::f64::consts::TAU;
 
@@ -29,12 +29,12 @@ pub const INFO: PluginInfo = PluginInfo {
     name: "hemisphere",
     summary: "The report's bowl: half a sphere, open toward `open`. Shaded inside and outside; shadows itself. An open surface (transmits as a thin sheet).",
     params: &[
-        ParamSpec::new("center", ParamKind::Vec3, Default::Vec3([0.0, 0.0, 0.0]), "centre of the full sphere, scene units"),
-        ParamSpec::new("radius", ParamKind::Float, Default::Float(1.0), "radius, scene units, > 0"),
+        ParamSpec::new("center", ParamKind::Vec3, ParamDefault::Vec3([0.0, 0.0, 0.0]), "centre of the full sphere, scene units"),
+        ParamSpec::new("radius", ParamKind::Float, ParamDefault::Float(1.0), "radius, scene units, > 0"),
         ParamSpec::new(
             "open",
             ParamKind::Vec3,
-            Default::Vec3([0.0, 1.0, 0.0]),
+            ParamDefault::Vec3([0.0, 1.0, 0.0]),
             "direction from the centre toward the open side; the bottom of the bowl is at center − radius·open",
         ),
     ],

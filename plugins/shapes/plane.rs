@@ -9,7 +9,7 @@ use raylab::glam::{DVec2, DVec3};
 use raylab::math::float::{gamma, max_abs};
 use raylab::param::error::Result;
 use raylab::param::params::Params;
-use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use raylab::{Aabb, LoadContext, PluginInfo, Ray};
 
 /// The plane through `point` with unit `normal` (its outward side).
@@ -27,8 +27,8 @@ pub const INFO: PluginInfo = PluginInfo {
     name: "plane",
     summary: "An infinite plane through a point, with a normal. Unbounded; shaded on both sides.",
     params: &[
-        ParamSpec::new("point", ParamKind::Vec3, Default::Vec3([0.0, 0.0, 0.0]), "a point on the plane (the report's Q)"),
-        ParamSpec::new("normal", ParamKind::Vec3, Default::Vec3([0.0, 1.0, 0.0]), "normal (any length > 0): the plane's outward side"),
+        ParamSpec::new("point", ParamKind::Vec3, ParamDefault::Vec3([0.0, 0.0, 0.0]), "a point on the plane (the report's Q)"),
+        ParamSpec::new("normal", ParamKind::Vec3, ParamDefault::Vec3([0.0, 1.0, 0.0]), "normal (any length > 0): the plane's outward side"),
     ],
 };
 

@@ -13,7 +13,7 @@ use raylab::glam::{DVec2, DVec3};
 use raylab::math::float::DEGENERACY_TOLERANCE;
 use raylab::param::error::Result;
 use raylab::param::params::Params;
-use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use raylab::{Aabb, LoadContext, PluginInfo, Ray};
 
 /// Relative tolerance of the coplanarity check: every vertex must lie within this fraction of
@@ -153,7 +153,7 @@ pub const INFO: PluginInfo = PluginInfo {
     params: &[ParamSpec::new(
         "vertices",
         ParamKind::Vec3List,
-        Default::Required,
+        ParamDefault::Required,
         "the corners, in order around the outline, at least 3, coplanar",
     )],
 };
@@ -163,10 +163,10 @@ pub const QUADRANGLE_INFO: PluginInfo = PluginInfo {
     name: "quadrangle",
     summary: "The report's quadrangle: a flat convex four-sided polygon p0 p1 p2 p3 (in order around the outline). No crack along the diagonal.",
     params: &[
-        ParamSpec::new("p0", ParamKind::Vec3, Default::Required, "first corner"),
-        ParamSpec::new("p1", ParamKind::Vec3, Default::Required, "second corner"),
-        ParamSpec::new("p2", ParamKind::Vec3, Default::Required, "third corner (opposite p0)"),
-        ParamSpec::new("p3", ParamKind::Vec3, Default::Required, "fourth corner"),
+        ParamSpec::new("p0", ParamKind::Vec3, ParamDefault::Required, "first corner"),
+        ParamSpec::new("p1", ParamKind::Vec3, ParamDefault::Required, "second corner"),
+        ParamSpec::new("p2", ParamKind::Vec3, ParamDefault::Required, "third corner (opposite p0)"),
+        ParamSpec::new("p3", ParamKind::Vec3, ParamDefault::Required, "fourth corner"),
     ],
 };
 

@@ -12,7 +12,7 @@ use raylab::glam::{DVec2, DVec3};
 use raylab::math::float::{gamma, max_abs};
 use raylab::param::error::Result;
 use raylab::param::params::Params;
-use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use raylab::{Aabb, LoadContext, PluginInfo, Ray};
 use std::f64::consts::{PI, TAU};
 
@@ -36,8 +36,8 @@ pub const INFO: PluginInfo = PluginInfo {
     name: "sphere",
     summary: "A sphere given by its centre and radius. A closed solid: refraction bends rays at its surface.",
     params: &[
-        ParamSpec::new("center", ParamKind::Vec3, Default::Vec3([0.0, 0.0, 0.0]), "centre, scene units"),
-        ParamSpec::new("radius", ParamKind::Float, Default::Float(1.0), "radius, scene units, > 0"),
+        ParamSpec::new("center", ParamKind::Vec3, ParamDefault::Vec3([0.0, 0.0, 0.0]), "centre, scene units"),
+        ParamSpec::new("radius", ParamKind::Float, ParamDefault::Float(1.0), "radius, scene units, > 0"),
     ],
 };
 

@@ -13,7 +13,7 @@ use raylab::glam::{DVec2, DVec3};
 use raylab::math::float::{DEGENERACY_TOLERANCE, gamma, on_surface_slack, triangle_normal};
 use raylab::param::error::Result;
 use raylab::param::params::Params;
-use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use raylab::{Aabb, LoadContext, PluginInfo, Ray};
 
 /// Whether a ray exactly through an edge or vertex counts as a hit.
@@ -174,13 +174,13 @@ pub const INFO: PluginInfo = PluginInfo {
     name: "triangle",
     summary: "A triangle. Its outward normal follows the winding (p1 − p0) × (p2 − p0). As in the report, a ray exactly through an edge or vertex misses it, unless edges = \"inclusive\" (use that for triangles sharing edges: no crack).",
     params: &[
-        ParamSpec::new("p0", ParamKind::Vec3, Default::Required, "first vertex"),
-        ParamSpec::new("p1", ParamKind::Vec3, Default::Required, "second vertex"),
-        ParamSpec::new("p2", ParamKind::Vec3, Default::Required, "third vertex"),
+        ParamSpec::new("p0", ParamKind::Vec3, ParamDefault::Required, "first vertex"),
+        ParamSpec::new("p1", ParamKind::Vec3, ParamDefault::Required, "second vertex"),
+        ParamSpec::new("p2", ParamKind::Vec3, ParamDefault::Required, "third vertex"),
         ParamSpec::new(
             "edges",
             ParamKind::Str,
-            Default::Str("exclusive"),
+            ParamDefault::Str("exclusive"),
             "\"exclusive\": an edge or vertex hit is a miss (the report); \"inclusive\": it is a hit (watertight between triangles)",
         ),
     ],

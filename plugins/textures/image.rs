@@ -14,7 +14,7 @@ use raylab::glam::{DVec2, Vec3};
 use raylab::math::color::srgb_decode;
 use raylab::param::error::{Loc, Result, SceneError};
 use raylab::param::params::Params;
-use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use raylab::scene::texture::{Mapping, TRANSFORM_PARAM, Texture, TexturePoint};
 use raylab::{Color, LoadContext, PluginInfo};
 use std::io::Cursor;
@@ -25,21 +25,31 @@ pub const INFO: PluginInfo = PluginInfo {
     name: "image",
     summary: "An image file (PNG, JPEG, Radiance .hdr; OpenEXR with the `exr` feature) over the surface's texture coordinates, v up (the image's bottom row at v = 0). 8-bit sRGB is decoded to linear; alpha is ignored. A file used several times is decoded once.",
     params: &[
-        ParamSpec::new("file", ParamKind::Path, Default::Required, "the image, relative to the scene file"),
+        ParamSpec::new("file", ParamKind::Path, ParamDefault::Required, "the image, relative to the scene file"),
         ParamSpec::new(
             "wrap",
             ParamKind::Str,
-            Default::Str("repeat"),
+            ParamDefault::Str("repeat"),
             "outside uv [0, 1]: \"repeat\" (tiles), \"clamp\" (the edge texels) or \"mirror\" (tiles flipped every other time)",
         ),
-        ParamSpec::new("filter", ParamKind::Str, Default::Str("bilinear"), "\"bilinear\" (blend of the 4 nearest texels) or \"nearest\""),
+        ParamSpec::new(
+            "filter",
+            ParamKind::Str,
+            ParamDefault::Str("bilinear"),
+            "\"bilinear\" (blend of the 4 nearest texels) or \"nearest\"",
+        ),
         ParamSpec::new(
             "colorspace",
             ParamKind::Str,
-            Default::Str("auto"),
+            ParamDefault::Str("auto"),
             "how the file's values become linear: \"auto\" (sRGB for PNG and JPEG, linear for EXR and .hdr), \"srgb\" or \"linear\" (data such as a gloss map)",
         ),
-        ParamSpec::new("scale", ParamKind::Color, Default::Float(1.0), "multiplies every texel (e.g. the strength of an emission map)"),
+        ParamSpec::new(
+            "scale",
+            ParamKind::Color,
+            ParamDefault::Float(1.0),
+            "multiplies every texel (e.g. the strength of an emission map)",
+        ),
         TRANSFORM_PARAM,
     ],
 };
@@ -405,7 +415,7 @@ mod tests {
         options.limits.max_memory = 1000;
         let e = ctx_decode(&big, ColorSpace::Auto, &options).unwrap_err();
         assert!(e.report().contains("over the limit"), "{}", e.report());
-        options.limits = raylab::param::limits::Limits { max_pixels: 100, ..std::default::Default::default() };
+        options.limits = raylab::param::limits::Limits { max_pixels: 100, ..Default::default() };
         let e = ctx_decode(&big, ColorSpace::Auto, &options).unwrap_err();
         assert!(e.report().contains("64×64 = 4096 pixels, over the limit of 100"), "{}", e.report());
     }

@@ -9,13 +9,13 @@
 use raylab::glam::DVec3;
 use raylab::param::error::Result;
 use raylab::param::params::Params;
-use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use raylab::scene::texture::{COORDS_PARAM, Mapping, TRANSFORM_PARAM, Texture, TexturePoint};
 use raylab::{Color, LoadContext, PluginInfo};
 use std::sync::Arc;
 
-const EVEN: ParamSpec = ParamSpec::new("even", ParamKind::Color, Default::Float(0.8), "colour of the even cells, linear RGB");
-const ODD: ParamSpec = ParamSpec::new("odd", ParamKind::Color, Default::Float(0.1), "colour of the odd cells, linear RGB");
+const EVEN: ParamSpec = ParamSpec::new("even", ParamKind::Color, ParamDefault::Float(0.8), "colour of the even cells, linear RGB");
+const ODD: ParamSpec = ParamSpec::new("odd", ParamKind::Color, ParamDefault::Float(0.1), "colour of the odd cells, linear RGB");
 /// The parameters of every cell pattern (`checker`, `stripes`, `ring`).
 const CELL_PARAMS: &[ParamSpec] = &[EVEN, ODD, COORDS_PARAM, TRANSFORM_PARAM];
 
@@ -45,12 +45,12 @@ pub const GRADIENT_INFO: PluginInfo = PluginInfo {
     name: "gradient",
     summary: "A linear blend along x (along u over uv): `from` at x = 0 to `to` at x = 1, then clamped, repeated or mirrored.",
     params: &[
-        ParamSpec::new("from", ParamKind::Color, Default::Float(0.0), "colour at x = 0, linear RGB"),
-        ParamSpec::new("to", ParamKind::Color, Default::Float(1.0), "colour at x = 1, linear RGB"),
+        ParamSpec::new("from", ParamKind::Color, ParamDefault::Float(0.0), "colour at x = 0, linear RGB"),
+        ParamSpec::new("to", ParamKind::Color, ParamDefault::Float(1.0), "colour at x = 1, linear RGB"),
         ParamSpec::new(
             "repeat",
             ParamKind::Str,
-            Default::Str("clamp"),
+            ParamDefault::Str("clamp"),
             "beyond [0, 1]: \"clamp\" (the end colours), \"repeat\" (sawtooth) or \"mirror\" (back and forth)",
         ),
         COORDS_PARAM,

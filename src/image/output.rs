@@ -54,7 +54,7 @@ impl ImagePlan {
     pub const EIGHT_BIT: ImagePlan = ImagePlan { exr: false, depth: false, normal: false, albedo: false, half: false, error: false };
 }
 
-impl std::default::Default for ImagePlan {
+impl Default for ImagePlan {
     fn default() -> Self {
         ImagePlan::COSTLIEST
     }

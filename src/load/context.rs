@@ -33,7 +33,7 @@ pub struct MeshFormat {
 }
 
 /// Settings given outside the scene file (command line), which take precedence over it.
-#[derive(Clone, Debug, std::default::Default)]
+#[derive(Clone, Debug, Default)]
 pub struct Overrides {
     /// Image width, pixels.
     pub width: Option<u32>,
@@ -127,7 +127,7 @@ pub fn apply_knob(o: &mut LoadOptions, origin: &str, name: &str, value: &Node) -
 }
 
 /// How to load a scene.
-#[derive(Clone, Debug, std::default::Default)]
+#[derive(Clone, Debug, Default)]
 pub struct LoadOptions {
     /// Command-line settings over the file's.
     pub overrides: Overrides,

@@ -15,7 +15,7 @@ use crate::param::error::{Loc, Result, SceneError, Source, did_you_mean};
 use crate::param::fingerprint::Fingerprint;
 use crate::param::limits::{OBJECT_BYTES, toml_memory_estimate};
 use crate::param::params::Params;
-use crate::param::spec::{Default, ParamKind, ParamSpec, Role};
+use crate::param::spec::{ParamDefault, ParamKind, ParamSpec, Role};
 use crate::param::toml::parse_toml;
 use crate::param::value::{Node, Table, Value};
 use crate::render::job::{AdaptiveSettings, MAX_ADAPTIVE_COARSE, MAX_CELL_SAMPLES};
@@ -29,97 +29,102 @@ use std::sync::Arc;
 
 /// The keys of a scene file's root.
 pub const SCENE_PARAMS: &[ParamSpec] = &[
-    ParamSpec::new("name", ParamKind::Str, Default::Optional, "scene name (default: the file name)"),
-    ParamSpec::new("background", ParamKind::Color, Default::Float(0.0), "colour of rays that hit nothing, linear RGB"),
-    ParamSpec::new("render", ParamKind::Any, Default::Optional, "[render] table: image size, samples, seed, encoding"),
-    ParamSpec::new("camera", ParamKind::Any, Default::Required, "[camera] table"),
-    ParamSpec::new("integrator", ParamKind::Any, Default::Optional, "[integrator] table: `type` and its parameters"),
+    ParamSpec::new("name", ParamKind::Str, ParamDefault::Optional, "scene name (default: the file name)"),
+    ParamSpec::new("background", ParamKind::Color, ParamDefault::Float(0.0), "colour of rays that hit nothing, linear RGB"),
+    ParamSpec::new("render", ParamKind::Any, ParamDefault::Optional, "[render] table: image size, samples, seed, encoding"),
+    ParamSpec::new("camera", ParamKind::Any, ParamDefault::Required, "[camera] table"),
+    ParamSpec::new("integrator", ParamKind::Any, ParamDefault::Optional, "[integrator] table: `type` and its parameters"),
     ParamSpec::new(
         "textures",
         ParamKind::Any,
-        Default::Optional,
+        ParamDefault::Optional,
         "[textures.NAME] tables: `type` and its parameters; a material colour names one (kd = \"NAME\"); read only when a material uses it",
     ),
-    ParamSpec::new("materials", ParamKind::Any, Default::Optional, "[materials.NAME] tables"),
+    ParamSpec::new("materials", ParamKind::Any, ParamDefault::Optional, "[materials.NAME] tables"),
     ParamSpec::new(
         "object",
         ParamKind::Any,
-        Default::Optional,
+        ParamDefault::Optional,
         "[[object]] tables: `type`, optional `name` and `transform`, and the type's parameters",
     ),
-    ParamSpec::new("light", ParamKind::Any, Default::Optional, "[[light]] tables: `type`, optional `name`, and the type's parameters"),
+    ParamSpec::new("light", ParamKind::Any, ParamDefault::Optional, "[[light]] tables: `type`, optional `name`, and the type's parameters"),
 ];
 
 /// The keys of `[render]`.
 pub const RENDER_PARAMS: &[ParamSpec] = &[
-    ParamSpec::new("width", ParamKind::Int, Default::Int(800), "image width, pixels"),
-    ParamSpec::new("height", ParamKind::Int, Default::Int(600), "image height, pixels"),
-    ParamSpec::new("spp", ParamKind::Int, Default::Int(1), "samples per pixel (1 = through the pixel centre, more = stratified jitter)"),
-    ParamSpec::new("seed", ParamKind::Int, Default::Int(0), "random seed; same seed, same image"),
+    ParamSpec::new("width", ParamKind::Int, ParamDefault::Int(800), "image width, pixels"),
+    ParamSpec::new("height", ParamKind::Int, ParamDefault::Int(600), "image height, pixels"),
+    ParamSpec::new(
+        "spp",
+        ParamKind::Int,
+        ParamDefault::Int(1),
+        "samples per pixel (1 = through the pixel centre, more = stratified jitter)",
+    ),
+    ParamSpec::new("seed", ParamKind::Int, ParamDefault::Int(0), "random seed; same seed, same image"),
     ParamSpec::new(
         "encoding",
         ParamKind::Str,
-        Default::Str("srgb"),
+        ParamDefault::Str("srgb"),
         "8-bit encoding: \"srgb\", \"linear\" (clamped values written straight, as the report) or \"linear-truncated\" (straight, truncated to 0–255 as the course's Java renderer did; its test images bit for bit)",
     ),
     ParamSpec::new(
         "aa",
         ParamKind::Str,
-        Default::Str("stratified"),
+        ParamDefault::Str("stratified"),
         "anti-aliasing: \"stratified\" (spp samples per pixel) or \"adaptive\" (rays through pixel corners, more only where they disagree: edges located by bisection, squares subdivided)",
     ),
     ParamSpec::new(
         "aa_threshold",
         ParamKind::Float,
-        Default::Float(0.02),
+        ParamDefault::Float(0.02),
         "adaptive: refine a pixel whose corners' displayed values (0..1) differ by more than this (a square of side s pixels: more than this / s^1.5), in [0, 1]",
     ),
     ParamSpec::new(
         "aa_depth",
         ParamKind::Int,
-        Default::Int(3),
+        ParamDefault::Int(3),
         "adaptive: most subdivision levels per pixel, 0..=8 (edges are located to 1/2^depth of a pixel)",
     ),
     ParamSpec::new(
         "aa_edges",
         ParamKind::Bool,
-        Default::Bool(true),
+        ParamDefault::Bool(true),
         "adaptive: where two sides of a square cross an edge, locate it by bisection and split the square along it instead of subdividing",
     ),
     ParamSpec::new(
         "aa_signature",
         ParamKind::Bool,
-        Default::Bool(false),
+        ParamDefault::Bool(false),
         "adaptive: also refine where the corners' rays saw different objects (the integrator's sample signature)",
     ),
     ParamSpec::new(
         "aa_cell_samples",
         ParamKind::Int,
-        Default::Int(0),
+        ParamDefault::Int(0),
         "adaptive: stratified samples added inside each finest cell whose corners still disagree, 0..=64",
     ),
     ParamSpec::new(
         "aa_coarse",
         ParamKind::Int,
-        Default::Int(0),
+        ParamDefault::Int(0),
         "adaptive: levels above the pixel tested first, 0..=3: blocks of 2^n pixels whose corners agree are interpolated from four rays (features narrower than a block can be missed)",
     ),
     ParamSpec::new(
         "lens_samples",
         ParamKind::Int,
-        Default::Int(1),
+        ParamDefault::Int(1),
         "rays through distinct lens points per image sample (depth of field only), ≥ 1",
     ),
     ParamSpec::new(
         "target_error",
         ParamKind::Float,
-        Default::Optional,
+        ParamDefault::Optional,
         "stop each pixel once the estimated relative standard error of its mean luminance is at most this (e.g. 0.02), tested at target_min_spp samples and each doubling; spp is then the most a pixel takes (stratified only)",
     ),
     ParamSpec::new(
         "target_min_spp",
         ParamKind::Int,
-        Default::Int(16),
+        ParamDefault::Int(16),
         "with target_error: samples every pixel takes before its error is first tested, ≥ 2 (fewer lets pixels whose first samples happen to agree stop too early)",
     ),
 ];
@@ -778,24 +783,24 @@ fn array_of_tables<'a>(node: Option<&'a Node>, what: &str) -> Result<Vec<&'a Nod
 
 /// The keys every `[[object]]` takes besides its type's parameters.
 pub const OBJECT_PARAMS: &[ParamSpec] = &[
-    ParamSpec::new("type", ParamKind::Str, Default::Required, "the geometry type (see Geometries below)"),
-    ParamSpec::new("name", ParamKind::Str, Default::Optional, "a name for messages and `raylab trace` (default: the type and index)"),
+    ParamSpec::new("type", ParamKind::Str, ParamDefault::Required, "the geometry type (see Geometries below)"),
+    ParamSpec::new("name", ParamKind::Str, ParamDefault::Optional, "a name for messages and `raylab trace` (default: the type and index)"),
     ParamSpec::new(
         "transform",
         ParamKind::Any,
-        Default::Optional,
+        ParamDefault::Optional,
         "placement: { scale, rotate, translate }, a list of them, or { matrix = 4×4 } (README, \"Placing objects\")",
     ),
     ParamSpec::new(
         "material",
         ParamKind::Material,
-        Default::Str("default"),
+        ParamDefault::Str("default"),
         "name of a material in [materials], or an inline table such as { kd = [0.8, 0.2, 0.2] }; replaces the materials a mesh file defines",
     ),
     ParamSpec::new(
         "emission_sides",
         ParamKind::Str,
-        Default::Str("both"),
+        ParamDefault::Str("both"),
         "which sides give off the material's emission: \"both\" (raylab's convention), \"front\" (the outward side: out of a solid, a triangle's winding side; Mitsuba's) or \"back\"",
     ),
 ];

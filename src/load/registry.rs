@@ -90,7 +90,7 @@ pub struct Registry {
     default_integrator: Option<&'static str>,
 }
 
-impl std::default::Default for Registry {
+impl Default for Registry {
     fn default() -> Self {
         Registry {
             geometries: BTreeMap::new(),
@@ -313,9 +313,9 @@ impl Registry {
                 Reference::AtLeast(r) => numbers.iter().copied().fold(r, f64::max),
                 Reference::AtMost(r) => numbers.iter().copied().fold(r, f64::min),
                 Reference::Exactly(d) => match d {
-                    crate::param::spec::Default::Int(i) => i as f64,
-                    crate::param::spec::Default::Float(f) => f,
-                    crate::param::spec::Default::Bool(b) => {
+                    crate::param::spec::ParamDefault::Int(i) => i as f64,
+                    crate::param::spec::ParamDefault::Float(f) => f,
+                    crate::param::spec::ParamDefault::Bool(b) => {
                         ov.integrator_params.push((
                             spec.name.to_string(),
                             crate::param::value::Node::given("--reference", crate::param::value::Value::Bool(b)),
@@ -343,15 +343,15 @@ impl Registry {
     /// "type", "default", "required", "doc", "role"}]}], "textures", "lights", "integrators",
     /// "formats": [{"extensions", "summary"}]}`. A default is `null` when there is none.
     pub fn to_json(&self) -> serde_json::Value {
-        use crate::param::spec::{Default, Role};
+        use crate::param::spec::{ParamDefault, Role};
         let param = |s: &ParamSpec| {
             let default = match s.default {
-                Default::Required | Default::Optional => serde_json::Value::Null,
-                Default::Float(v) => v.into(),
-                Default::Int(v) => v.into(),
-                Default::Bool(v) => v.into(),
-                Default::Str(v) => v.into(),
-                Default::Vec3(v) => v.to_vec().into(),
+                ParamDefault::Required | ParamDefault::Optional => serde_json::Value::Null,
+                ParamDefault::Float(v) => v.into(),
+                ParamDefault::Int(v) => v.into(),
+                ParamDefault::Bool(v) => v.into(),
+                ParamDefault::Str(v) => v.into(),
+                ParamDefault::Vec3(v) => v.to_vec().into(),
             };
             let role = match s.role {
                 Role::Setting => "setting",
@@ -362,7 +362,7 @@ impl Registry {
                 "name": s.name,
                 "type": s.kind.name(),
                 "default": default,
-                "required": s.default == Default::Required,
+                "required": s.default == ParamDefault::Required,
                 "doc": s.doc,
                 "role": role,
             })

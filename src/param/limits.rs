@@ -79,7 +79,7 @@ pub const TOML_BYTES_PER_BYTE: u64 = 3;
 /// geometry box, an optional transform wrapper, its name and its share of the scenes' hierarchies.
 pub const OBJECT_BYTES: u64 = 400;
 
-impl std::default::Default for Limits {
+impl Default for Limits {
     fn default() -> Self {
         Limits {
             max_pixels: 1 << 26,

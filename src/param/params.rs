@@ -8,7 +8,7 @@
 
 use crate::math::color::Color;
 use crate::param::error::{Loc, Result, SceneError, did_you_mean};
-use crate::param::spec::{Default, ParamKind, ParamSpec};
+use crate::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use crate::param::value::{Node, Table, Value, color_of, vec3_of};
 use glam::DVec3;
 use std::fmt;
@@ -25,6 +25,17 @@ pub struct Params<'a> {
     used: Vec<bool>,
     /// Keys the caller reads itself (an object's `type`, `name`, `transform`): never reported.
     reserved: &'static [&'static str],
+}
+
+/// What `build` makes of no parameters at all: every one at its default in `specs`. A plugin's
+/// `Default` is this, so its defaults are written once, in its parameter table. Panics when a
+/// parameter is required or a default fails `build`'s checks: a bug in the plugin's table, which
+/// the first use of `Default` shows.
+pub fn from_defaults<T>(what: &str, specs: &[ParamSpec], build: impl FnOnce(&mut Params) -> Result<T>) -> T {
+    let empty = Table::default();
+    let source = crate::param::error::Source::new(format!("the defaults of {what}"), "");
+    let mut p = Params::new(what, specs, &empty, Loc::new(&source, 0..0));
+    build(&mut p).unwrap_or_else(|e| panic!("{what}: its parameter table's defaults do not build: {e}"))
 }
 
 impl<'a> Params<'a> {
@@ -111,8 +122,8 @@ impl<'a> Params<'a> {
         match self.take(name) {
             Some(n) => self.as_float(name, n),
             None => match spec.default {
-                Default::Float(v) => Ok(v),
-                Default::Int(v) => Ok(v as f64),
+                ParamDefault::Float(v) => Ok(v),
+                ParamDefault::Int(v) => Ok(v as f64),
                 _ => Err(self.missing(name, ParamKind::Float)),
             },
         }
@@ -164,7 +175,7 @@ impl<'a> Params<'a> {
                 _ => return Err(self.wrong_type(name, n, "an integer")),
             },
             None => match spec.default {
-                Default::Int(v) => v,
+                ParamDefault::Int(v) => v,
                 _ => return Err(self.missing(name, ParamKind::Int)),
             },
         };
@@ -189,7 +200,7 @@ impl<'a> Params<'a> {
                 _ => Err(self.wrong_type(name, n, "true or false")),
             },
             None => match spec.default {
-                Default::Bool(b) => Ok(b),
+                ParamDefault::Bool(b) => Ok(b),
                 _ => Err(self.missing(name, ParamKind::Bool)),
             },
         }
@@ -204,7 +215,7 @@ impl<'a> Params<'a> {
                 _ => Err(self.wrong_type(name, n, "a string")),
             },
             None => match spec.default {
-                Default::Str(s) => Ok(s.to_string()),
+                ParamDefault::Str(s) => Ok(s.to_string()),
                 _ => Err(self.missing(name, ParamKind::Str)),
             },
         }
@@ -230,7 +241,7 @@ impl<'a> Params<'a> {
         match self.take(name) {
             Some(n) => self.as_vec3(name, n),
             None => match spec.default {
-                Default::Vec3(v) => Ok(DVec3::from(v)),
+                ParamDefault::Vec3(v) => Ok(DVec3::from(v)),
                 _ => Err(self.missing(name, ParamKind::Vec3)),
             },
         }
@@ -268,8 +279,8 @@ impl<'a> Params<'a> {
         match self.take(name) {
             Some(n) => color_of(n).map_err(|m| self.error_at(name, m)),
             None => match spec.default {
-                Default::Vec3(v) => Ok(DVec3::from(v)),
-                Default::Float(v) => Ok(DVec3::splat(v)),
+                ParamDefault::Vec3(v) => Ok(DVec3::from(v)),
+                ParamDefault::Float(v) => Ok(DVec3::splat(v)),
                 _ => Err(self.missing(name, ParamKind::Color)),
             },
         }
@@ -332,8 +343,8 @@ mod tests {
     }
 
     const SPECS: &[ParamSpec] = &[
-        ParamSpec::new("radius", ParamKind::Float, Default::Float(1.0), "radius"),
-        ParamSpec::new("center", ParamKind::Vec3, Default::Required, "centre"),
+        ParamSpec::new("radius", ParamKind::Float, ParamDefault::Float(1.0), "radius"),
+        ParamSpec::new("center", ParamKind::Vec3, ParamDefault::Required, "centre"),
     ];
 
     #[test]

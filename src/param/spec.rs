@@ -50,7 +50,7 @@ impl ParamKind {
 
 /// The default of a plugin parameter.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Default {
+pub enum ParamDefault {
     /// The parameter must be given.
     Required,
     /// The parameter may be absent; the plugin handles absence (`*_opt` getters).
@@ -67,16 +67,16 @@ pub enum Default {
     Vec3([f64; 3]),
 }
 
-impl fmt::Display for Default {
+impl fmt::Display for ParamDefault {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Default::Required => write!(f, "required"),
-            Default::Optional => write!(f, "—"),
-            Default::Float(v) => write!(f, "{v}"),
-            Default::Int(v) => write!(f, "{v}"),
-            Default::Bool(v) => write!(f, "{v}"),
-            Default::Str(v) => write!(f, "\"{v}\""),
-            Default::Vec3([x, y, z]) => write!(f, "[{x}, {y}, {z}]"),
+            ParamDefault::Required => write!(f, "required"),
+            ParamDefault::Optional => write!(f, "—"),
+            ParamDefault::Float(v) => write!(f, "{v}"),
+            ParamDefault::Int(v) => write!(f, "{v}"),
+            ParamDefault::Bool(v) => write!(f, "{v}"),
+            ParamDefault::Str(v) => write!(f, "\"{v}\""),
+            ParamDefault::Vec3([x, y, z]) => write!(f, "[{x}, {y}, {z}]"),
         }
     }
 }
@@ -89,7 +89,7 @@ pub struct ParamSpec {
     /// Its type.
     pub kind: ParamKind,
     /// Its default.
-    pub default: Default,
+    pub default: ParamDefault,
     /// What it means, its units and its valid range.
     pub doc: &'static str,
     /// What the rest of raylab may do with it (`--depth`, the limits, `sweep`, the live view).
@@ -98,7 +98,7 @@ pub struct ParamSpec {
 
 impl ParamSpec {
     /// A row of a parameter table (an ordinary setting).
-    pub const fn new(name: &'static str, kind: ParamKind, default: Default, doc: &'static str) -> Self {
+    pub const fn new(name: &'static str, kind: ParamKind, default: ParamDefault, doc: &'static str) -> Self {
         ParamSpec { name, kind, default, doc, role: Role::Setting }
     }
 
@@ -151,5 +151,5 @@ pub enum Reference {
     /// At most this, and at most every value swept (smaller is more accurate).
     AtMost(f64),
     /// Exactly this value (e.g. an approximation switched off).
-    Exactly(Default),
+    Exactly(ParamDefault),
 }

@@ -2,10 +2,11 @@
 
 use crate::math::color::Color;
 use crate::math::ray::Ray;
+use crate::math::ray::RayKind;
 use crate::math::sampler::Sampler;
 use crate::render::aov::Layers;
 use crate::render::stats::{Counter, RayStats};
-use crate::render::trace::TraceNode;
+use crate::render::trace::{MAX_EXPLAINED_RAYS, TraceNode};
 use crate::scene::Scene;
 
 /// A light-transport algorithm: the recursive Phong model, a path tracer, a debug view…
@@ -47,4 +48,23 @@ pub trait Integrator: Send + Sync {
     fn describe(&self) -> String {
         String::new()
     }
+}
+
+/// [`Integrator::explain`] for an integrator written as one recursion over a
+/// [`crate::render::trace::Recorder`]: `camera` is that recursion for a camera ray (the one
+/// [`Integrator::radiance`] runs with [`crate::render::trace::NoRecord`]), run here with the ray
+/// tree's root as its recorder, counters of its own (`counters`, allowed
+/// [`MAX_EXPLAINED_RAYS`]) and layers nobody reads.
+pub fn explain_recursion(
+    scene: &Scene,
+    ray: &Ray,
+    counters: &'static [Counter],
+    camera: impl FnOnce(&mut RayStats, &mut Layers, &mut TraceNode) -> Color,
+) -> Option<TraceNode> {
+    let mut stats = RayStats::new(counters);
+    stats.set_allowance(MAX_EXPLAINED_RAYS);
+    let mut layers = Layers::miss(scene.background);
+    let mut root = TraceNode::new(RayKind::Camera, *ray, 0, Color::ONE);
+    camera(&mut stats, &mut layers, &mut root);
+    Some(root)
 }

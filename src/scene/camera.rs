@@ -5,7 +5,7 @@ use crate::math::float::PARALLEL_TOLERANCE;
 use crate::math::ray::Ray;
 use crate::param::error::Result;
 use crate::param::params::Params;
-use crate::param::spec::{Default, ParamKind, ParamSpec};
+use crate::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use crate::param::value::{Node, Table};
 use glam::{DVec2, DVec3};
 
@@ -37,25 +37,25 @@ pub struct Camera {
 /// The camera's parameter table (`[camera]`). Two forms: the report's (`to`, `screen_*`) and
 /// look-at (`look_at`, `fov`).
 pub const CAMERA_PARAMS: &[ParamSpec] = &[
-    ParamSpec::new("position", ParamKind::Vec3, Default::Vec3([0.0, 0.0, 0.0]), "eye point (P0)"),
-    ParamSpec::new("up", ParamKind::Vec3, Default::Vec3([0.0, 1.0, 0.0]), "up direction (vUp); made orthogonal to the view direction"),
-    ParamSpec::new("to", ParamKind::Vec3, Default::Optional, "report form: viewing direction (vTo)"),
-    ParamSpec::new("screen_distance", ParamKind::Float, Default::Float(100.0), "report form: eye-to-screen distance, scene units"),
-    ParamSpec::new("screen_width", ParamKind::Float, Default::Optional, "report form: screen width, scene units (required)"),
-    ParamSpec::new("screen_height", ParamKind::Float, Default::Optional, "report form: screen height, scene units (required)"),
-    ParamSpec::new("look_at", ParamKind::Vec3, Default::Optional, "look-at form: the point the camera looks at"),
-    ParamSpec::new("fov", ParamKind::Float, Default::Float(45.0), "look-at form: vertical field of view, degrees, in (0, 180)"),
-    ParamSpec::new("aperture", ParamKind::Float, Default::Float(0.0), "lens radius for depth of field, scene units (0 = pinhole)"),
+    ParamSpec::new("position", ParamKind::Vec3, ParamDefault::Vec3([0.0, 0.0, 0.0]), "eye point (P0)"),
+    ParamSpec::new("up", ParamKind::Vec3, ParamDefault::Vec3([0.0, 1.0, 0.0]), "up direction (vUp); made orthogonal to the view direction"),
+    ParamSpec::new("to", ParamKind::Vec3, ParamDefault::Optional, "report form: viewing direction (vTo)"),
+    ParamSpec::new("screen_distance", ParamKind::Float, ParamDefault::Float(100.0), "report form: eye-to-screen distance, scene units"),
+    ParamSpec::new("screen_width", ParamKind::Float, ParamDefault::Optional, "report form: screen width, scene units (required)"),
+    ParamSpec::new("screen_height", ParamKind::Float, ParamDefault::Optional, "report form: screen height, scene units (required)"),
+    ParamSpec::new("look_at", ParamKind::Vec3, ParamDefault::Optional, "look-at form: the point the camera looks at"),
+    ParamSpec::new("fov", ParamKind::Float, ParamDefault::Float(45.0), "look-at form: vertical field of view, degrees, in (0, 180)"),
+    ParamSpec::new("aperture", ParamKind::Float, ParamDefault::Float(0.0), "lens radius for depth of field, scene units (0 = pinhole)"),
     ParamSpec::new(
         "focus_distance",
         ParamKind::Float,
-        Default::Optional,
+        ParamDefault::Optional,
         "distance of the plane in focus; default: the look_at point or the screen",
     ),
     ParamSpec::new(
         "fit",
         ParamKind::Bool,
-        Default::Bool(false),
+        ParamDefault::Bool(false),
         "frame the scene: look at the centre of its bounded objects from just far enough to see them all, along look_at → position when both are given (else from the front, right and above); fov and up are kept (`--camera fit` on the command line)",
     ),
 ];

@@ -13,7 +13,7 @@
 use crate::math::color::Color;
 use crate::param::error::{Loc, Result, SceneError, did_you_mean};
 use crate::param::params::Params;
-use crate::param::spec::{Default, ParamKind, ParamSpec};
+use crate::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use crate::param::value::{Node, Table, Value};
 use crate::scene::bsdf::MaterialModel;
 use crate::scene::texture::{Texture, TexturePoint, TextureResolver};
@@ -118,7 +118,7 @@ impl PartialEq for TextureMap {
 /// the material's `ior`, reflected light is weighted `F·kr` and transmitted light `(1 − F)·kt`,
 /// so `kr` and `kt` become filters (1 and 1 for clear glass). Total internal reflection has
 /// `F = 1`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, std::default::Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Fresnel {
     /// Fixed `kr` and `kt` (the report).
     #[default]
@@ -156,7 +156,7 @@ impl Fresnel {
     }
 }
 
-impl std::default::Default for Material {
+impl Default for Material {
     fn default() -> Self {
         Material {
             ka: Color::ONE,
@@ -232,19 +232,24 @@ impl std::ops::Deref for CoefficientsAt<'_> {
 
 /// The material parameter table (the keys of `[materials.NAME]` and of inline materials).
 pub const MATERIAL_PARAMS: &[ParamSpec] = &[
-    ParamSpec::new("ka", ParamKind::Texture, Default::Float(1.0), "response to ambient light (1 = the report: ambient added unfiltered)"),
-    ParamSpec::new("kd", ParamKind::Texture, Default::Float(0.8), "diffuse coefficient (colour)"),
-    ParamSpec::new("ks", ParamKind::Texture, Default::Float(0.0), "specular (Phong highlight) coefficient"),
-    ParamSpec::new("kr", ParamKind::Texture, Default::Float(0.0), "mirror reflection coefficient"),
-    ParamSpec::new("kt", ParamKind::Texture, Default::Float(0.0), "transmission coefficient (also attenuates shadows)"),
-    ParamSpec::new("shininess", ParamKind::Float, Default::Float(32.0), "Phong exponent, ≥ 0"),
-    ParamSpec::new("ior", ParamKind::Float, Default::Float(1.5), "index of refraction of a closed solid's inside, > 0"),
-    ParamSpec::new("emission", ParamKind::Texture, Default::Float(0.0), "emitted light, linear RGB"),
-    ParamSpec::new("blur", ParamKind::Float, Default::Float(0.0), "glossiness: jitter-disc radius at unit distance (0 = sharp), 0..1"),
+    ParamSpec::new(
+        "ka",
+        ParamKind::Texture,
+        ParamDefault::Float(1.0),
+        "response to ambient light (1 = the report: ambient added unfiltered)",
+    ),
+    ParamSpec::new("kd", ParamKind::Texture, ParamDefault::Float(0.8), "diffuse coefficient (colour)"),
+    ParamSpec::new("ks", ParamKind::Texture, ParamDefault::Float(0.0), "specular (Phong highlight) coefficient"),
+    ParamSpec::new("kr", ParamKind::Texture, ParamDefault::Float(0.0), "mirror reflection coefficient"),
+    ParamSpec::new("kt", ParamKind::Texture, ParamDefault::Float(0.0), "transmission coefficient (also attenuates shadows)"),
+    ParamSpec::new("shininess", ParamKind::Float, ParamDefault::Float(32.0), "Phong exponent, ≥ 0"),
+    ParamSpec::new("ior", ParamKind::Float, ParamDefault::Float(1.5), "index of refraction of a closed solid's inside, > 0"),
+    ParamSpec::new("emission", ParamKind::Texture, ParamDefault::Float(0.0), "emitted light, linear RGB"),
+    ParamSpec::new("blur", ParamKind::Float, ParamDefault::Float(0.0), "glossiness: jitter-disc radius at unit distance (0 = sharp), 0..1"),
     ParamSpec::new(
         "fresnel",
         ParamKind::Str,
-        Default::Str("off"),
+        ParamDefault::Str("off"),
         "\"off\" (fixed kr, kt: the report), \"schlick\" or \"exact\" (true = \"exact\"): reflection F·kr and transmission (1 − F)·kt with F the dielectric reflectance for the angle and `ior`; clear glass is kr = kt = 1",
     ),
 ];
@@ -419,7 +424,7 @@ pub trait MaterialTypes: TextureResolver {
 
 /// Named materials of a scene (`[materials.NAME]`). A material named `default` replaces the
 /// built-in default for objects that name no material.
-#[derive(Clone, Debug, std::default::Default)]
+#[derive(Clone, Debug, Default)]
 pub struct MaterialLibrary {
     by_name: BTreeMap<String, Material>,
 }

@@ -7,7 +7,7 @@ use glam::{DVec2, DVec3};
 use std::sync::{Arc, OnceLock};
 
 /// Which sides of an object's surface give off its material's `emission`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, std::default::Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum EmissionSides {
     /// Both sides (raylab's convention, the report's: an emissive sheet glows on both faces).
     #[default]

@@ -12,7 +12,7 @@ use crate::geometry::transform::parse_transform;
 use crate::math::color::Color;
 use crate::param::error::Result;
 use crate::param::params::Params;
-use crate::param::spec::{Default, ParamKind, ParamSpec};
+use crate::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use crate::param::value::Node;
 use glam::{DAffine3, DVec2, DVec3};
 use std::sync::Arc;
@@ -59,7 +59,7 @@ pub enum Coords {
 pub const COORDS_PARAM: ParamSpec = ParamSpec::new(
     "coords",
     ParamKind::Str,
-    Default::Str("uv"),
+    ParamDefault::Str("uv"),
     "\"uv\": over the surface's texture coordinates, as the point (u, v, 0); \"object\": through the shape's own frame (a solid pattern)",
 );
 
@@ -67,7 +67,7 @@ pub const COORDS_PARAM: ParamSpec = ParamSpec::new(
 pub const TRANSFORM_PARAM: ParamSpec = ParamSpec::new(
     "transform",
     ParamKind::Any,
-    Default::Optional,
+    ParamDefault::Optional,
     "places the pattern, as an object's transform places a shape: { scale = 0.25 } makes it four times smaller (tiles it 4× over uv [0, 1])",
 );
 

@@ -7,7 +7,7 @@ use crate::load::context::LoadOptions;
 use crate::load::loader::RENDER_PARAMS;
 use crate::load::registry::Registry;
 use crate::param::error::{Result, SceneError};
-use crate::param::spec::{Default, ParamKind, ParamSpec, Role};
+use crate::param::spec::{ParamDefault, ParamKind, ParamSpec, Role};
 use crate::param::value::{Node, Value};
 use crate::render::RenderJob;
 use crate::render::job::{AdaptiveSettings, Antialiasing};
@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 /// What the page asks for, over the scene and the command line (absent: keep theirs).
-#[derive(Clone, Debug, std::default::Default, Deserialize, Serialize, PartialEq)]
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Settings {
     /// Samples per pixel (any integer: the loader checks it, and an error names the control).
@@ -158,12 +158,12 @@ fn doc_of(table: &[ParamSpec], name: &str) -> String {
     table.iter().find(|s| s.name == name).map_or_else(String::new, |s| s.doc.to_string())
 }
 
-fn default_json(d: Default) -> serde_json::Value {
+fn default_json(d: ParamDefault) -> serde_json::Value {
     match d {
-        Default::Float(v) => v.into(),
-        Default::Int(v) => v.into(),
-        Default::Bool(v) => v.into(),
-        Default::Str(v) => v.into(),
+        ParamDefault::Float(v) => v.into(),
+        ParamDefault::Int(v) => v.into(),
+        ParamDefault::Bool(v) => v.into(),
+        ParamDefault::Str(v) => v.into(),
         _ => serde_json::Value::Null,
     }
 }

@@ -9,7 +9,7 @@
 use raylab::math::sampler::{concentric_disc, stratified_2d};
 use raylab::param::error::Result;
 use raylab::param::params::Params;
-use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use raylab::render::aov::Layers;
 use raylab::render::stats::{Counter, CounterKind};
 use raylab::{Color, Integrator, Intersectable, LoadContext, PluginInfo, Ray, RayStats, Sampler, Scene};
@@ -19,11 +19,11 @@ pub const INFO: PluginInfo = PluginInfo {
     name: "ao",
     summary: "Ambient occlusion: kd × the fraction of a cosine-weighted hemisphere around the normal that is open within `distance`. Rays that miss show the background (or the environment light).",
     params: &[
-        ParamSpec::new("rays", ParamKind::Int, Default::Int(16), "occlusion rays per camera ray, 1..4096"),
+        ParamSpec::new("rays", ParamKind::Int, ParamDefault::Int(16), "occlusion rays per camera ray, 1..4096"),
         ParamSpec::new(
             "distance",
             ParamKind::Float,
-            Default::Optional,
+            ParamDefault::Optional,
             "only occluders closer than this count, scene units (> 0); default: any",
         ),
     ],

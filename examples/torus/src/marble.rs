@@ -5,7 +5,7 @@
 use raylab::glam::DVec3;
 use raylab::param::error::Result;
 use raylab::param::params::Params;
-use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use raylab::scene::texture::{Mapping, TRANSFORM_PARAM, Texture, TexturePoint};
 use raylab::{Color, LoadContext, PluginInfo};
 use std::sync::Arc;
@@ -15,15 +15,15 @@ pub const INFO: PluginInfo = PluginInfo {
     name: "marble",
     summary: "Solid marble: veins of `vein` in `base`, one across every unit of the pattern's x, wandering by `turbulence`. Place and size it with `transform`.",
     params: &[
-        ParamSpec::new("base", ParamKind::Color, Default::Vec3([0.9, 0.88, 0.84]), "the stone's colour, linear RGB"),
-        ParamSpec::new("vein", ParamKind::Color, Default::Vec3([0.2, 0.18, 0.24]), "the veins' colour, linear RGB"),
-        ParamSpec::new("turbulence", ParamKind::Float, Default::Float(3.0), "how far the veins wander, in vein spacings, ≥ 0"),
-        ParamSpec::new("octaves", ParamKind::Int, Default::Int(5), "noise octaves summed for the turbulence, 1..=12"),
-        ParamSpec::new("seed", ParamKind::Int, Default::Int(0), "which noise: another seed, another stone"),
+        ParamSpec::new("base", ParamKind::Color, ParamDefault::Vec3([0.9, 0.88, 0.84]), "the stone's colour, linear RGB"),
+        ParamSpec::new("vein", ParamKind::Color, ParamDefault::Vec3([0.2, 0.18, 0.24]), "the veins' colour, linear RGB"),
+        ParamSpec::new("turbulence", ParamKind::Float, ParamDefault::Float(3.0), "how far the veins wander, in vein spacings, ≥ 0"),
+        ParamSpec::new("octaves", ParamKind::Int, ParamDefault::Int(5), "noise octaves summed for the turbulence, 1..=12"),
+        ParamSpec::new("seed", ParamKind::Int, ParamDefault::Int(0), "which noise: another seed, another stone"),
         ParamSpec::new(
             "coords",
             ParamKind::Str,
-            Default::Str("object"),
+            ParamDefault::Str("object"),
             "\"object\": through the shape's own frame (a solid texture); \"uv\": over texture coordinates",
         ),
         TRANSFORM_PARAM,

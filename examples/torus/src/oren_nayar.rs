@@ -16,7 +16,7 @@ use raylab::glam::{DVec2, DVec3};
 use raylab::math::sampler::{concentric_disc, orthonormal_basis};
 use raylab::param::error::Result;
 use raylab::param::params::Params;
-use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use raylab::scene::bsdf::{Bsdf, Lobe, MaterialModel, Scatter, Shading};
 use raylab::scene::material::Model;
 use raylab::scene::texture::TextureResolver;
@@ -29,11 +29,11 @@ pub const INFO: PluginInfo = PluginInfo {
     name: "oren_nayar",
     summary: "Rough diffuse (Oren–Nayar): clay, concrete, the Moon, which stay bright toward their rims where Lambert darkens. phong sees it as kd = albedo.",
     params: &[
-        ParamSpec::new("albedo", ParamKind::Color, Default::Float(0.8), "the reflectance, linear RGB in [0, 1]"),
+        ParamSpec::new("albedo", ParamKind::Color, ParamDefault::Float(0.8), "the reflectance, linear RGB in [0, 1]"),
         ParamSpec::new(
             "sigma",
             ParamKind::Float,
-            Default::Float(20.0),
+            ParamDefault::Float(20.0),
             "standard deviation of the facets' slope, degrees, 0..90 (0: Lambert)",
         ),
     ],

@@ -11,7 +11,7 @@
 use raylab::glam::{DVec2, DVec3};
 use raylab::param::error::Result;
 use raylab::param::params::Params;
-use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use raylab::{Color, LightPdf, LightSample, LightSource, LoadContext, PluginInfo, Ray};
 
 /// The `panel` plugin's description.
@@ -19,19 +19,24 @@ pub const INFO: PluginInfo = PluginInfo {
     name: "panel",
     summary: "A one-sided rectangular area light, corner + a·edge1 + b·edge2, emitting toward edge1 × edge2: soft shadows. Each sample: color · cos θ / (kc + kl·d + kq·d²).",
     params: &[
-        ParamSpec::new("color", ParamKind::Color, Default::Float(1.0), "intensity, linear RGB"),
-        ParamSpec::new("corner", ParamKind::Vec3, Default::Required, "one corner of the rectangle"),
-        ParamSpec::new("edge1", ParamKind::Vec3, Default::Required, "first edge from the corner, scene units"),
+        ParamSpec::new("color", ParamKind::Color, ParamDefault::Float(1.0), "intensity, linear RGB"),
+        ParamSpec::new("corner", ParamKind::Vec3, ParamDefault::Required, "one corner of the rectangle"),
+        ParamSpec::new("edge1", ParamKind::Vec3, ParamDefault::Required, "first edge from the corner, scene units"),
         ParamSpec::new(
             "edge2",
             ParamKind::Vec3,
-            Default::Required,
+            ParamDefault::Required,
             "second edge from the corner, perpendicular to edge1; light leaves toward edge1 × edge2",
         ),
-        ParamSpec::new("samples", ParamKind::Int, Default::Int(16), "shadow samples per shaded point (more: smoother penumbrae), 1..4096"),
-        ParamSpec::new("kc", ParamKind::Float, Default::Float(1.0), "constant attenuation, ≥ 0"),
-        ParamSpec::new("kl", ParamKind::Float, Default::Float(0.0), "linear attenuation, per scene unit, ≥ 0"),
-        ParamSpec::new("kq", ParamKind::Float, Default::Float(0.0), "quadratic attenuation, per scene unit², ≥ 0"),
+        ParamSpec::new(
+            "samples",
+            ParamKind::Int,
+            ParamDefault::Int(16),
+            "shadow samples per shaded point (more: smoother penumbrae), 1..4096",
+        ),
+        ParamSpec::new("kc", ParamKind::Float, ParamDefault::Float(1.0), "constant attenuation, ≥ 0"),
+        ParamSpec::new("kl", ParamKind::Float, ParamDefault::Float(0.0), "linear attenuation, per scene unit, ≥ 0"),
+        ParamSpec::new("kq", ParamKind::Float, ParamDefault::Float(0.0), "quadratic attenuation, per scene unit², ≥ 0"),
     ],
 };
 

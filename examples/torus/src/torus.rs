@@ -24,7 +24,7 @@ use raylab::math::bounds::circle_extent;
 use raylab::math::float::gamma;
 use raylab::param::error::Result;
 use raylab::param::params::Params;
-use raylab::param::spec::{Default, ParamKind, ParamSpec};
+use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use raylab::{Aabb, LoadContext, PluginInfo, Ray};
 use std::f64::consts::TAU;
 
@@ -33,10 +33,15 @@ pub const INFO: PluginInfo = PluginInfo {
     name: "torus",
     summary: "A ring torus (a doughnut): the points at distance minor_radius from a circle of major_radius around axis through center. A closed solid. uv = (angle around the axis, angle around the tube) / 2π.",
     params: &[
-        ParamSpec::new("center", ParamKind::Vec3, Default::Vec3([0.0, 0.0, 0.0]), "centre of the hole, scene units"),
-        ParamSpec::new("axis", ParamKind::Vec3, Default::Vec3([0.0, 1.0, 0.0]), "axis of symmetry through the hole (any length > 0)"),
-        ParamSpec::new("major_radius", ParamKind::Float, Default::Float(1.0), "radius R of the tube's centre circle, scene units, > 0"),
-        ParamSpec::new("minor_radius", ParamKind::Float, Default::Float(0.25), "radius r of the tube, scene units, 0 < r < R"),
+        ParamSpec::new("center", ParamKind::Vec3, ParamDefault::Vec3([0.0, 0.0, 0.0]), "centre of the hole, scene units"),
+        ParamSpec::new("axis", ParamKind::Vec3, ParamDefault::Vec3([0.0, 1.0, 0.0]), "axis of symmetry through the hole (any length > 0)"),
+        ParamSpec::new(
+            "major_radius",
+            ParamKind::Float,
+            ParamDefault::Float(1.0),
+            "radius R of the tube's centre circle, scene units, > 0",
+        ),
+        ParamSpec::new("minor_radius", ParamKind::Float, ParamDefault::Float(0.25), "radius r of the tube, scene units, 0 < r < R"),
     ],
 };
 

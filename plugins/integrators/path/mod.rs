@@ -54,15 +54,16 @@ use crate::materials::phong::PhongBsdf;
 use raylab::glam::DVec3;
 use raylab::math::color::max_channel;
 use raylab::param::error::Result;
-use raylab::param::params::Params;
-use raylab::param::spec::{Default, ParamKind, ParamSpec, Reference};
+use raylab::param::params::{Params, from_defaults};
+use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec, Reference};
 use raylab::render::aov::Layers;
+use raylab::render::integrator::explain_recursion;
 use raylab::render::stats::{Counter, CounterKind};
 use raylab::render::trace::{NoRecord, Recorder, Term};
 use raylab::scene::bsdf::{Bsdf, with_bsdf};
 use raylab::scene::emitters::Selection;
 use raylab::scene::interaction::Interaction;
-use raylab::{Color, Integrator, LoadContext, PluginInfo, Ray, RayKind, RayStats, Sampler, Scene, TraceNode};
+use raylab::{Color, Integrator, LoadContext, PluginInfo, Ray, RayStats, Sampler, Scene, TraceNode};
 
 pub use lights::{IRRADIANCE_PER_INTENSITY, power_heuristic};
 
@@ -89,35 +90,35 @@ pub const INFO: PluginInfo = PluginInfo {
         ParamSpec::new(
             "max_bounces",
             ParamKind::Int,
-            Default::Int(8),
+            ParamDefault::Int(8),
             "most scattering events light passes through after the first surface (0 = direct light only), 0..1024",
         )
         .depth(Reference::AtLeast(32.0)),
         ParamSpec::new(
             "roulette_depth",
             ParamKind::Int,
-            Default::Int(3),
+            ParamDefault::Int(3),
             "bounces before Russian roulette may end a path (survivors are reweighted: no bias, more noise); ≥ max_bounces turns it off, 0..1024",
         )
         .quality(Reference::Keep),
         ParamSpec::new(
             "light_samples",
             ParamKind::Int,
-            Default::Int(1),
+            ParamDefault::Int(1),
             "shadow rays per light with an extent at each path vertex (0 = each light's own `samples`); point-like lights take one, 0..4096",
         )
         .quality(Reference::Keep),
         ParamSpec::new(
             "sample_emitters",
             ParamKind::Bool,
-            Default::Bool(true),
+            ParamDefault::Bool(true),
             "sample emitting objects (material emission) as lights at each vertex, weighed against the BSDF's rays by MIS; false: only rays find them",
         )
         .quality(Reference::Keep),
         ParamSpec::new(
             "light_selection",
             ParamKind::Str,
-            Default::Str("power"),
+            ParamDefault::Str("power"),
             "how each emitter sample chooses among the emitting objects: \"power\" (emission × area: a dim one among bright ones costs almost nothing) or \"uniform\"",
         )
         .quality(Reference::Keep),
@@ -126,18 +127,26 @@ pub const INFO: PluginInfo = PluginInfo {
 
 /// Builds the integrator from its parameters.
 pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Integrator>> {
-    Ok(Box::new(PathTracer {
-        max_bounces: p.int_in("max_bounces", 0..=1024)? as u32,
-        roulette_depth: p.int_in("roulette_depth", 0..=1024)? as u32,
-        light_samples: p.int_in("light_samples", 0..=4096)? as u32,
-        sample_emitters: p.bool("sample_emitters")?,
-        light_selection: Selection::parse(&p.choice("light_selection", &Selection::NAMES)?).unwrap_or_default(),
-    }))
+    Ok(Box::new(PathTracer::from_params(p)?))
 }
 
-impl std::default::Default for PathTracer {
+impl PathTracer {
+    /// The integrator its parameters describe.
+    pub fn from_params(p: &mut Params) -> Result<PathTracer> {
+        Ok(PathTracer {
+            max_bounces: p.int_in("max_bounces", 0..=1024)? as u32,
+            roulette_depth: p.int_in("roulette_depth", 0..=1024)? as u32,
+            light_samples: p.int_in("light_samples", 0..=4096)? as u32,
+            sample_emitters: p.bool("sample_emitters")?,
+            light_selection: Selection::parse(&p.choice("light_selection", &Selection::NAMES)?).unwrap_or_default(),
+        })
+    }
+}
+
+/// The defaults of [`INFO`]'s parameter table.
+impl Default for PathTracer {
     fn default() -> Self {
-        PathTracer { max_bounces: 8, roulette_depth: 3, light_samples: 1, sample_emitters: true, light_selection: Selection::Power }
+        from_defaults("path", INFO.params, PathTracer::from_params)
     }
 }
 
@@ -366,11 +375,7 @@ impl Integrator for PathTracer {
     }
 
     fn explain(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler) -> Option<TraceNode> {
-        let mut stats = RayStats::new(COUNTERS);
-        let mut layers = Layers::miss(scene.background);
-        let mut root = TraceNode::new(RayKind::Camera, *ray, 0, Color::ONE);
-        self.camera(scene, ray, sampler, &mut stats, &mut layers, &mut root);
-        Some(root)
+        explain_recursion(scene, ray, COUNTERS, |stats, layers, root| self.camera(scene, ray, sampler, stats, layers, root))
     }
 
     fn counters(&self) -> &'static [Counter] {

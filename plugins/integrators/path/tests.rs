@@ -5,6 +5,7 @@
 use super::*;
 use crate::materials::phong::{PhongBsdf, fresnel_dielectric, lobe_brdf, lobe_pdf, thin_slab_reflectance};
 use crate::shapes::sphere::Sphere;
+use raylab::RayKind;
 use raylab::glam::{DVec2, DVec3};
 use raylab::load::context::LoadOptions;
 use raylab::math::sampler::stratified_2d;

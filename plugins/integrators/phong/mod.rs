@@ -41,9 +41,10 @@ mod fan;
 use raylab::Intersectable;
 use raylab::math::color::max_channel;
 use raylab::param::error::Result;
-use raylab::param::params::Params;
-use raylab::param::spec::{Default, ParamKind, ParamSpec, Reference};
+use raylab::param::params::{Params, from_defaults};
+use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec, Reference};
 use raylab::render::aov::Layers;
+use raylab::render::integrator::explain_recursion;
 use raylab::render::stats::{Counter, CounterKind};
 use raylab::render::trace::{NoRecord, Recorder, Term};
 use raylab::scene::interaction::Interaction;
@@ -78,46 +79,46 @@ pub const INFO: PluginInfo = PluginInfo {
     name: "phong",
     summary: "The report's recursive Phong model: emission, ambient, diffuse and specular per light with shadows (attenuated by transparent occluders), mirror reflection and Snell refraction with total internal reflection, glossy/blurry rays, soft shadows from area lights, recursion pruning.",
     params: &[
-        ParamSpec::new("max_depth", ParamKind::Int, Default::Int(3), "most reflection/refraction bounces along a path (the report: 3), ≥ 0")
+        ParamSpec::new("max_depth", ParamKind::Int, ParamDefault::Int(3), "most reflection/refraction bounces along a path (the report: 3), ≥ 0")
             .depth(Reference::AtLeast(12.0)),
         ParamSpec::new(
             "prune_threshold",
             ParamKind::Float,
-            Default::Float(0.001),
+            ParamDefault::Float(0.001),
             "skip rays and light samples whose weight in the pixel is below this (0 = never), 0..1",
         )
         .quality(Reference::AtMost(1e-4)),
         ParamSpec::new(
             "glossy_rays",
             ParamKind::Int,
-            Default::Int(16),
+            ParamDefault::Int(16),
             "rays per glossy reflection / blurry refraction (materials with blur > 0), scaled by the fan's weight in the pixel (at least 1), ≥ 1",
         )
         .quality(Reference::Keep),
         ParamSpec::new(
             "shadow_rays",
             ParamKind::Int,
-            Default::Int(0),
+            ParamDefault::Int(0),
             "shadow rays per area light and shading point (0 = each light's own `samples`), ≥ 0",
         )
         .quality(Reference::Keep),
         ParamSpec::new(
             "shadow_probes",
             ParamKind::Int,
-            Default::Int(0),
+            ParamDefault::Int(0),
             "adaptive soft shadows: probe rays per area light (its corners or rim first); the full set only where they disagree (0 = off), ≥ 0",
         )
-        .quality(Reference::Exactly(Default::Int(0))),
+        .quality(Reference::Exactly(ParamDefault::Int(0))),
         ParamSpec::new(
             "avoid",
             ParamKind::Bool,
-            Default::Bool(true),
+            ParamDefault::Bool(true),
             "skip work that cannot change the image; false traces it anyway (same image, for measuring the saving)",
         ),
         ParamSpec::new(
             "ambient",
             ParamKind::Str,
-            Default::Str("every_hit"),
+            ParamDefault::Str("every_hit"),
             "where ambient light is added: \"every_hit\" of the recursion (the report) or only the camera ray's \"first_hit\" (the course from 2020 on)",
         ),
     ],
@@ -125,28 +126,28 @@ pub const INFO: PluginInfo = PluginInfo {
 
 /// Builds the integrator from its parameters.
 pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Integrator>> {
-    Ok(Box::new(Phong {
-        max_depth: p.int_in("max_depth", 0..=1024)? as u32,
-        prune_threshold: p.float_in("prune_threshold", 0.0..=1.0)?,
-        glossy_rays: p.int_in("glossy_rays", 1..=65536)? as u32,
-        shadow_rays: p.int_in("shadow_rays", 0..=65536)? as u32,
-        shadow_probes: p.int_in("shadow_probes", 0..=65536)? as u32,
-        avoid: p.bool("avoid")?,
-        ambient_first_hit: p.choice("ambient", &["every_hit", "first_hit"])? == "first_hit",
-    }))
+    Ok(Box::new(Phong::from_params(p)?))
 }
 
-impl std::default::Default for Phong {
+impl Phong {
+    /// The integrator its parameters describe.
+    pub fn from_params(p: &mut Params) -> Result<Phong> {
+        Ok(Phong {
+            max_depth: p.int_in("max_depth", 0..=1024)? as u32,
+            prune_threshold: p.float_in("prune_threshold", 0.0..=1.0)?,
+            glossy_rays: p.int_in("glossy_rays", 1..=65536)? as u32,
+            shadow_rays: p.int_in("shadow_rays", 0..=65536)? as u32,
+            shadow_probes: p.int_in("shadow_probes", 0..=65536)? as u32,
+            avoid: p.bool("avoid")?,
+            ambient_first_hit: p.choice("ambient", &["every_hit", "first_hit"])? == "first_hit",
+        })
+    }
+}
+
+/// The defaults of [`INFO`]'s parameter table.
+impl Default for Phong {
     fn default() -> Self {
-        Phong {
-            max_depth: 3,
-            prune_threshold: 0.001,
-            glossy_rays: 16,
-            shadow_rays: 0,
-            shadow_probes: 0,
-            avoid: true,
-            ambient_first_hit: false,
-        }
+        from_defaults("phong", INFO.params, Phong::from_params)
     }
 }
 
@@ -290,12 +291,7 @@ impl Integrator for Phong {
     }
 
     fn explain(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler) -> Option<TraceNode> {
-        let mut stats = RayStats::new(COUNTERS);
-        stats.set_allowance(raylab::render::trace::MAX_EXPLAINED_RAYS);
-        let mut layers = Layers::miss(scene.background);
-        let mut root = TraceNode::new(RayKind::Camera, *ray, 0, Color::ONE);
-        self.camera(scene, ray, sampler, &mut stats, &mut layers, &mut root);
-        Some(root)
+        explain_recursion(scene, ray, COUNTERS, |stats, layers, root| self.camera(scene, ray, sampler, stats, layers, root))
     }
 
     fn counters(&self) -> &'static [Counter] {
