@@ -7,6 +7,7 @@ mod convert;
 mod denoise;
 mod dispatch;
 mod farm;
+mod fingerprint;
 mod merge;
 mod plot;
 mod plugins;

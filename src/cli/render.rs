@@ -157,7 +157,7 @@ fn resume(app: &App, given: RenderArgs, file: &Path) -> Result<(), Failure> {
     #[cfg(not(feature = "exr"))]
     {
         let _ = (app, given, file);
-        Err(Failure::Other("--resume reads a checkpoint (an OpenEXR file): rebuild raylab with `--features exr`".into()))
+        Err(Failure::Other(format!("--resume reads a checkpoint (an OpenEXR file); {}", crate::param::error::built_without("exr"))))
     }
     #[cfg(feature = "exr")]
     {
@@ -258,9 +258,10 @@ fn validate<'a>(app: &'a App, a: &RenderArgs) -> Result<Request<'a>, Failure> {
         ));
     }
     if !cfg!(feature = "exr") && (parts || a.checkpoint.is_some()) {
-        return Err(Failure::Other(
-            "--crop, --tile, --pass and --checkpoint write OpenEXR files: rebuild raylab with `--features exr`".into(),
-        ));
+        return Err(Failure::Other(format!(
+            "--crop, --tile, --pass and --checkpoint write OpenEXR files; {}",
+            crate::param::error::built_without("exr")
+        )));
     }
     if !parts && a.tile.is_none() && super::farm::TILE_INDEX_VARS.iter().any(|v| std::env::var_os(v).is_some()) {
         eprintln!(
@@ -623,7 +624,7 @@ fn save_state(path: &Path, sums: &FrameSums, job: &RenderJob, resume: Option<&st
     #[cfg(not(feature = "exr"))]
     {
         let _ = (path, sums, job, resume);
-        Err("partial images and checkpoints are OpenEXR files: rebuild raylab with `--features exr`".into())
+        Err(format!("partial images and checkpoints are OpenEXR files; {}", crate::param::error::built_without("exr")))
     }
 }
 

@@ -76,17 +76,19 @@ pub fn check_input(ext: &str, layer: Layer) -> Result<(), String> {
         "pfm" if layer != Layer::Color => Err("a PFM file holds colour only; --layer needs an OpenEXR file".into()),
         "pfm" => Ok(()),
         "exr" if cfg!(feature = "exr") => Ok(()),
-        "exr" => Err(EXR_NEEDS_FEATURE.into()),
+        "exr" => Err(exr_needs_feature()),
         _ => Err(format!("unknown image type \".{ext}\"; expected .exr or .pfm")),
     }
 }
 
 /// Why an OpenEXR file cannot be read by this build.
-const EXR_NEEDS_FEATURE: &str = "reading OpenEXR needs raylab built with `--features exr`";
+fn exr_needs_feature() -> String {
+    format!("reading OpenEXR needs the `exr` feature; {}", crate::param::error::built_without("exr"))
+}
 
 #[cfg(not(feature = "exr"))]
 fn read_exr_layer(_: &[u8], _: Layer) -> Result<Film, String> {
-    Err(EXR_NEEDS_FEATURE.into())
+    Err(exr_needs_feature())
 }
 
 #[cfg(feature = "exr")]

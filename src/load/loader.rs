@@ -165,6 +165,11 @@ fn read_with(registry: &Registry, path: &Path, ctx: &LoadContext) -> Result<Scen
     }
     match registry.format_for(&ext) {
         Some(f) => (f.read)(path, &bytes, ctx),
+        None if registry.absent_feature(&ext).is_some() => {
+            let feature = registry.absent_feature(&ext).unwrap_or_default();
+            Err(SceneError::in_file(path, None, format!("reading \".{ext}\" files needs the `{feature}` feature"))
+                .with_help(crate::param::error::built_without(feature)))
+        }
         None => {
             let known: Vec<String> = std::iter::once("toml".to_string())
                 .chain(registry.formats().iter().flat_map(|f| f.extensions.iter().map(|e| e.to_string())))
@@ -240,8 +245,8 @@ impl Parts {
 fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) -> Result<Parts> {
     ctx.use_mesh_formats(registry.mesh_formats());
     if ctx.options.accel == AccelChoice::Bvh && !crate::accel::build::BVH_AVAILABLE {
-        return Err(SceneError::msg("a BVH was asked for, but raylab was built without the `bvh` feature")
-            .with_help("rebuild with `--features bvh`, or use --accel auto/list"));
+        return Err(SceneError::msg("a BVH was asked for (--accel bvh), but it needs the `bvh` feature")
+            .with_help(format!("{}; or use --accel auto or list", crate::param::error::built_without("bvh"))));
     }
     let mut root = Params::new(format!("scene {}", desc.name), SCENE_PARAMS, &desc.root, desc.loc.clone());
     let name = match root.node("name")? {
@@ -516,8 +521,14 @@ fn object_section(
     let default_material: Arc<[Material]> = Arc::from([materials.default_material()]);
     let mut names = NameSet::default();
     for (i, node) in array_of_tables(node, "object")?.into_iter().enumerate() {
-        let (ty, label, params) =
-            plugin_header(node, i, "object", |n| registry.geometry(n).is_some(), || registry.geometries().map(|p| p.name).collect())?;
+        let (ty, label, params) = plugin_header(
+            registry,
+            node,
+            i,
+            "object",
+            |n| registry.geometry(n).is_some(),
+            || registry.geometries().map(|p| p.name).collect(),
+        )?;
         let plugin = registry.geometry(&ty).expect("checked by plugin_header");
         let what = format!("object #{i} {label}({ty})");
         ctx.charge(OBJECT_BYTES, &what, Some(&node.loc))?;
@@ -580,7 +591,7 @@ fn light_section(registry: &Registry, node: Option<&Node>, ctx: &LoadContext) ->
     let mut light_names = NameSet::default();
     for (i, node) in array_of_tables(node, "light")?.into_iter().enumerate() {
         let (ty, label, params) =
-            plugin_header(node, i, "light", |n| registry.light(n).is_some(), || registry.lights().map(|p| p.name).collect())?;
+            plugin_header(registry, node, i, "light", |n| registry.light(n).is_some(), || registry.lights().map(|p| p.name).collect())?;
         let plugin = registry.light(&ty).expect("checked by plugin_header");
         let what = format!("light #{i} {label}({ty})");
         let mut p = Params::new(&what, plugin.info.params, params, node.loc.clone()).reserving(LIGHT_KEYS);
@@ -814,6 +825,7 @@ const LIGHT_KEYS: &[&str] = &["type", "name"];
 /// Reads `type` and `name` of a plugin table (without copying it); returns (type, "\"name\" "
 /// or "", the table).
 fn plugin_header<'a>(
+    registry: &Registry,
     node: &'a Node,
     i: usize,
     what: &str,
@@ -828,6 +840,11 @@ fn plugin_header<'a>(
         }
         Some(n) => match &n.value {
             Value::Str(s) if known(s) => s.clone(),
+            Value::Str(s) if registry.absent_feature(s).is_some() => {
+                let feature = registry.absent_feature(s).unwrap_or_default();
+                return Err(SceneError::at(&n.loc, format!("{what} type \"{s}\" needs the `{feature}` feature"))
+                    .with_help(crate::param::error::built_without(feature)));
+            }
             Value::Str(s) => {
                 return Err(SceneError::at(&n.loc, format!("unknown {what} type \"{s}\"")).with_help(suggest(s, &names())));
             }
