@@ -127,6 +127,12 @@ pub const RENDER_PARAMS: &[ParamSpec] = &[
         ParamDefault::Int(16),
         "with target_error: samples every pixel takes before its error is first tested, ≥ 2 (fewer lets pixels whose first samples happen to agree stop too early)",
     ),
+    ParamSpec::new(
+        "time_budget",
+        ParamKind::Float,
+        ParamDefault::Optional,
+        "seconds of tracing: the image refines in passes that double each pixel's samples (spp is the most a pixel takes) and stops when the time is up, every pixel keeping the samples it has (stratified only); the `spp` layer (--aov spp) repeats it bit for bit (--spp-map)",
+    ),
 ];
 
 /// Reads and builds the scene file at `path`, choosing the format by extension (`.toml` is
@@ -331,8 +337,19 @@ fn render_section(node: Option<&Node>, desc: &SceneDescription, ctx: &LoadContex
             .with_help("raise the limit with --max-spp"));
     }
     let target = error_target(&mut rp, spp, aa)?;
+    let time_budget = time_budget(&mut rp, aa)?;
     rp.finish()?;
-    Ok(RenderSettings { width: width as u32, height: height as u32, spp: spp as u32, seed, encoding, aa, lens_samples, target })
+    Ok(RenderSettings {
+        width: width as u32,
+        height: height as u32,
+        spp: spp as u32,
+        seed,
+        encoding,
+        aa,
+        lens_samples,
+        target,
+        time_budget,
+    })
 }
 
 /// The image size of `[render]` with the command line's over it, checked against the limits
@@ -441,6 +458,25 @@ fn error_target(rp: &mut Params, spp: i64, aa: Antialiasing) -> Result<Option<cr
                 .with_help("raise spp (--spp 1024, say) or lower target_min_spp"));
         }
         Some(error) => Some(crate::render::job::ErrorTarget { error, min_spp: target_min_spp }),
+    })
+}
+
+/// The longest time budget, seconds (a year).
+const MAX_TIME_BUDGET: f64 = 365.0 * 24.0 * 3600.0;
+
+/// `[render]`'s time budget, checked against the anti-aliasing.
+fn time_budget(rp: &mut Params, aa: Antialiasing) -> Result<Option<std::time::Duration>> {
+    Ok(match rp.float_opt("time_budget")? {
+        None => None,
+        Some(t) if !(t > 0.0 && t <= MAX_TIME_BUDGET) => {
+            return Err(rp.error_at("time_budget", format_args!("expected seconds in (0, {MAX_TIME_BUDGET}], found {t}")));
+        }
+        Some(_) if matches!(aa, Antialiasing::Adaptive(_)) => {
+            return Err(rp
+                .error_at("time_budget", "a time budget applies to stratified sampling, not to adaptive anti-aliasing")
+                .with_help("use aa = \"stratified\" (--aa stratified) with time_budget"));
+        }
+        Some(t) => Some(std::time::Duration::from_secs_f64(t)),
     })
 }
 
