@@ -1200,6 +1200,21 @@ pub fn read_scene(path: &Path, _bytes: &[u8], ctx: &LoadContext) -> Result<Scene
     scene_description(&file, &file_name, stem, ctx)
 }
 
+/// The sides a mesh's emission leaves, from its emissive materials' `doubleSided`: `"front"`
+/// when every emissive material of its primitives is single-sided (glTF's default: a
+/// single-sided surface is not seen from behind, so it sends no light there), `None` (raylab's
+/// default, both sides) when any of them is double-sided or nothing emits. The front is the side
+/// of the triangles' counter-clockwise winding, as glTF's.
+fn emission_sides(mesh: &gltf::Mesh) -> Option<&'static str> {
+    let emissive: Vec<bool> = mesh
+        .primitives()
+        .map(|p| p.material())
+        .filter(|m| m.emissive_factor().iter().any(|&e| e > 0.0) && m.emissive_strength().unwrap_or(1.0) > 0.0)
+        .map(|m| m.double_sided())
+        .collect();
+    (!emissive.is_empty() && !emissive.iter().any(|&double| double)).then_some("front")
+}
+
 /// Builds located scene values (each at the glTF element it comes from).
 struct Located<'a>(&'a Loc);
 
@@ -1327,13 +1342,17 @@ pub fn scene_description(file: &GltfFile, file_name: &str, name: String, ctx: &L
     root.push(("render", super::model_scene::render(&super::model_scene::At(&doc), width, height.into())));
     root.push(("camera", camera_table));
 
-    // Objects: one per node with a mesh.
+    // Objects: one per node with a mesh; emitting from the front only where glTF says so.
     let mut objects = Vec::with_capacity(instances as usize);
     for &i in &placed.order {
-        if nodes[i].mesh().is_some() {
+        if let Some(mesh) = nodes[i].mesh() {
             let loc = file.loc(Element::Node, i);
             let n = Located(&loc);
-            objects.push(n.table(vec![("type", n.str("mesh")), ("file", n.str(file_name)), ("node", n.node(Value::Int(i as i64)))]));
+            let mut t = vec![("type", n.str("mesh")), ("file", n.str(file_name)), ("node", n.node(Value::Int(i as i64)))];
+            if let Some(sides) = emission_sides(&mesh) {
+                t.push(("emission_sides", n.str(sides)));
+            }
+            objects.push(n.table(t));
         }
     }
     root.push(("object", at.node(Value::Array(objects))));
@@ -1588,6 +1607,24 @@ mod tests {
         // A quarter turn: glTF (u, v) ↦ (u cos − v sin, u sin + v cos) = (−v, u).
         let q = gltf_uv_transform([0.0, 0.0], std::f64::consts::FRAC_PI_2, [1.0, 1.0]);
         close(at(q, 0.2, 1.0 - 0.6), DVec3::new(-0.6, 1.0 - 0.2, 0.0));
+    }
+
+    /// glTF's `doubleSided` decides the sides an emissive mesh gives light from: a single-sided
+    /// emissive material (the default) emits from its front only, a double-sided one from both.
+    #[test]
+    fn emission_follows_double_sided() {
+        use raylab::scene::object::EmissionSides;
+        let with_material = |material: &str| {
+            doc(r#"[{"mesh":0}]"#, &format!(",\n\"materials\":[{material}]"))
+                .replace(r#"{"attributes":{"POSITION":0}}"#, r#"{"attributes":{"POSITION":0},"material":0}"#)
+        };
+        let sides = |material: &str| {
+            let (job, _) = load_scene("e.gltf", &with_material(material), raylab::param::limits::Limits::default());
+            job.unwrap_or_else(|e| panic!("{}", e.report())).scene.objects[0].emission_sides()
+        };
+        assert_eq!(sides(r#"{"emissiveFactor":[1,1,1]}"#), EmissionSides::Front);
+        assert_eq!(sides(r#"{"emissiveFactor":[1,1,1],"doubleSided":true}"#), EmissionSides::Both);
+        assert_eq!(sides(r#"{"emissiveFactor":[0,0,0]}"#), EmissionSides::Both);
     }
 
     /// Standard base64 (for `data:` URIs in test documents).

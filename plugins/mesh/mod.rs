@@ -80,7 +80,7 @@ pub fn register(r: &mut Registry) {
 
 /// What a model file rendered as a scene gets that the file does not say: its `[render]` table
 /// (the showcase's anti-aliasing, so silhouettes are smooth) and, when the file has no lights,
-/// a sun and an ambient sky, announced by a warning.
+/// a sun and a uniform sky, announced by a warning.
 pub mod model_scene {
     use raylab::LoadContext;
     use raylab::glam::DVec3;
@@ -89,8 +89,9 @@ pub mod model_scene {
 
     /// Direction the default sun's light travels.
     pub const SUN_DIRECTION: DVec3 = DVec3::new(-0.4, -1.0, -0.6);
-    /// The default sky's ambient factor.
-    pub const SKY_KA: f64 = 0.15;
+    /// The default sky's radiance: a uniform `environment` light (so occluded parts of a model
+    /// are darker, and mirrors and glass reflect it), which the background shows too.
+    pub const SKY_RADIANCE: f64 = 0.3;
 
     /// Builds located values (each at `loc`).
     pub struct At<'a>(pub &'a Loc);
@@ -121,7 +122,7 @@ pub mod model_scene {
 
     /// The default lights of a model without its own, and the one-line warning that says so.
     pub fn default_lights(at: &At, file: &str, ctx: &LoadContext) -> Vec<Node> {
-        ctx.warn(SceneError::in_file(file, None, "the file has no lights: it is lit by a default sun and an ambient sky"));
+        ctx.warn(SceneError::in_file(file, None, "the file has no lights: it is lit by a default sun and a uniform sky"));
         vec![
             at.table(vec![
                 ("type", at.str("directional")),
@@ -129,7 +130,7 @@ pub mod model_scene {
                 ("direction", at.vec3(SUN_DIRECTION)),
                 ("color", at.float(1.0)),
             ]),
-            at.table(vec![("type", at.str("ambient")), ("name", at.str("sky")), ("ka", at.float(SKY_KA))]),
+            at.table(vec![("type", at.str("environment")), ("name", at.str("sky")), ("color", at.float(SKY_RADIANCE))]),
         ]
     }
 }

@@ -136,7 +136,7 @@ fn an_obj_file_is_a_scene_framed_and_lit_by_default() {
     assert!(out.status.success(), "{}", text(&out.stderr));
     let err = text(&out.stderr);
     assert_eq!(err.matches("warning:").count(), 1, "{err}");
-    assert!(err.contains("knot.obj: the file has no lights: it is lit by a default sun and an ambient sky"), "{err}");
+    assert!(err.contains("knot.obj: the file has no lights: it is lit by a default sun and a uniform sky"), "{err}");
     let stdout = text(&out.stdout);
     assert!(stdout.starts_with("wrote k.png (80×60, adaptive AA"), "anti-aliased as every model scene: {stdout}");
     // Framed: the knot covers the middle and leaves a border of background.
