@@ -75,3 +75,20 @@ fn texture_image_corpus_decodes_within_the_limits_or_fails_cleanly() {
         }
     }
 }
+
+/// The live view's request parsers: a request's head, the page's settings (applied and loaded),
+/// explain queries (`raylab::view::http::fuzz_request`, as the `view_request` target runs them).
+#[cfg(feature = "view")]
+#[test]
+fn view_request_corpus_parses_or_fails_cleanly() {
+    let registry = raylab_plugins::registry();
+    let scene = include_str!("assets/view-fuzz.toml");
+    let load = |o: &raylab::LoadOptions| raylab::load::loader::load_str(&registry, "view-fuzz.toml", scene, Path::new("."), o);
+    let job = load(&Default::default()).unwrap_or_else(|e| panic!("{}", e.report()));
+    for f in corpus("view_request") {
+        let data = std::fs::read(&f).unwrap();
+        if let Err(e) = raylab::view::http::fuzz_request(&data, &registry, &Default::default(), &load, &job) {
+            panic!("{}: {e}", f.display());
+        }
+    }
+}

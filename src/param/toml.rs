@@ -156,15 +156,122 @@ pub fn string(s: &str) -> String {
 
 /// Parses raylab's TOML scene format into a description.
 pub fn parse_toml(source: &Arc<Source>, name: String) -> Result<SceneDescription> {
+    let loc = Loc::new(source, 0..source.text.len());
+    let root = match parse_in_parts(source) {
+        Some(root) => root,
+        None => parse_whole(source)?,
+    };
+    Ok(SceneDescription { name, root, loc })
+}
+
+/// The whole text parsed at once.
+fn parse_whole(source: &Arc<Source>) -> Result<Table> {
     let doc = toml::de::DeTable::parse(&source.text).map_err(|e| {
         let span = e.span().unwrap_or(0..0);
         SceneError::at(&Loc::new(source, span), format!("TOML syntax error: {}", e.message().trim()))
     })?;
-    let loc = Loc::new(source, 0..source.text.len());
     // Consumed as it is converted: each part of the parser's tree is freed once copied, so the
-    // two trees never coexist whole (10⁶ inline objects would need both at once).
-    let root = convert_table(doc.into_inner(), source)?;
-    Ok(SceneDescription { name, root, loc })
+    // two trees never coexist whole.
+    convert_table(doc.into_inner(), source, 0)
+}
+
+/// Scene text longer than this is parsed a part at a time ([`parse_in_parts`]).
+pub const PART_BYTES: usize = 1 << 20;
+
+/// A long scene parsed a part at a time, so that the parser's tree (its tokens and tables, about
+/// 40 times the text) exists for one part of about [`PART_BYTES`] at once, not for the whole
+/// file: the text is cut before top-level `[[KEY]]` headers (one bare key: `[[object]]`,
+/// `[[light]]`), found by the TOML lexer outside strings, arrays and inline tables; each part is
+/// parsed and converted, and its tables appended to the arrays the parts before opened. `None`
+/// when the text is short, has no place to cut, or when anything is not plain: a part that does
+/// not parse or convert, or a part defining a top-level key an earlier part defined otherwise
+/// than as a `[[KEY]]` array. The caller then parses the whole text, which gives exactly the
+/// result and the errors it always gave; a scene cut in parts gives the same tree, locations
+/// included.
+fn parse_in_parts(source: &Arc<Source>) -> Option<Table> {
+    let text = source.text.as_str();
+    if text.len() <= PART_BYTES {
+        return None;
+    }
+    let parts = cut(text);
+    if parts.len() < 2 {
+        return None;
+    }
+    let mut root = Table::default();
+    // Keys an earlier part opened as `[[KEY]]` arrays: a later part may append to them.
+    let mut arrays: Vec<&str> = Vec::new();
+    for (i, (start, keys)) in parts.iter().enumerate() {
+        let end = parts.get(i + 1).map_or(text.len(), |p| p.0);
+        let doc = toml::de::DeTable::parse(&text[*start..end]).ok()?;
+        let part = convert_table(doc.into_inner(), source, *start).ok()?;
+        for e in part.entries {
+            match root.entries.iter_mut().find(|r| r.key == e.key) {
+                None => root.entries.push(e),
+                Some(r) => match (&mut r.value.value, e.value.value) {
+                    (Value::Array(items), Value::Array(more)) if arrays.contains(&e.key.as_str()) => items.extend(more),
+                    _ => return None,
+                },
+            }
+        }
+        arrays.extend(keys.iter().copied());
+    }
+    Some(root)
+}
+
+/// Where to cut `text` for [`parse_in_parts`]: the start of each part (the first is 0, each
+/// other a top-level `[[KEY]]` header at least [`PART_BYTES`] after the part before), with the
+/// keys of the `[[KEY]]` headers in the part.
+fn cut(text: &str) -> Vec<(usize, Vec<&str>)> {
+    use toml_parser::lexer::TokenKind as K;
+    let mut parts: Vec<(usize, Vec<&str>)> = vec![(0, Vec::new())];
+    let mut lexer = toml_parser::Source::new(text).lex().filter(|t| !matches!(t.kind(), K::Whitespace | K::Comment)).peekable();
+    let (mut depth, mut line_start) = (0usize, true);
+    while let Some(t) = lexer.next() {
+        let kind = t.kind();
+        if line_start && depth == 0 && kind == K::LeftSquareBracket {
+            // A header: `[a.b]` or `[[a.b]]`. Only `[[KEY]]`, with `[[` adjacent, is a place to cut.
+            let start = t.span().start();
+            let double = lexer.peek().is_some_and(|n| n.kind() == K::LeftSquareBracket && n.span().start() == start + 1);
+            let mut key_tokens = Vec::new();
+            for n in lexer.by_ref() {
+                if matches!(n.kind(), K::Newline | K::Eof) {
+                    break;
+                }
+                key_tokens.push(n);
+            }
+            line_start = true;
+            let key = match key_tokens.as_slice() {
+                [open, atom, c1, c2] if double && open.kind() == K::LeftSquareBracket && atom.kind() == K::Atom => {
+                    let adjacent =
+                        c1.kind() == K::RightSquareBracket && c2.kind() == K::RightSquareBracket && c2.span().start() == c1.span().end();
+                    let key = &text[atom.span().start()..atom.span().end()];
+                    (adjacent && key.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-')).then_some(key)
+                }
+                _ => None,
+            };
+            let Some(key) = key else { continue };
+            let last = parts.last_mut().expect("a first part");
+            if start >= last.0 + PART_BYTES {
+                parts.push((start, vec![key]));
+            } else if !last.1.contains(&key) {
+                last.1.push(key);
+            }
+            continue;
+        }
+        match kind {
+            K::Newline => line_start = depth == 0,
+            K::LeftSquareBracket | K::LeftCurlyBracket => {
+                depth += 1;
+                line_start = false;
+            }
+            K::RightSquareBracket | K::RightCurlyBracket => {
+                depth = depth.saturating_sub(1);
+                line_start = false;
+            }
+            _ => line_start = false,
+        }
+    }
+    parts
 }
 
 /// Parses one TOML value written on the command line (`--set key=VALUE`).
@@ -172,7 +279,7 @@ pub fn parse_toml_value(source: &Arc<Source>, range: std::ops::Range<usize>) -> 
     let text = &source.text[range.clone()];
     let v = toml::de::DeValue::parse(text)
         .map_err(|e| SceneError::at(&Loc::new(source, range.clone()), format!("expected a TOML value: {}", e.message().trim())))?;
-    let mut n = convert_value(v, source)?;
+    let mut n = convert_value(v, source, 0)?;
     shift_locs(&mut n, range.start);
     Ok(n)
 }
@@ -191,18 +298,21 @@ fn shift_locs(n: &mut Node, by: usize) {
     }
 }
 
-fn convert_table(t: toml::de::DeTable<'_>, src: &Arc<Source>) -> Result<Table> {
+/// Converts the parser's table of text starting at byte `at` of `src`.
+fn convert_table(t: toml::de::DeTable<'_>, src: &Arc<Source>, at: usize) -> Result<Table> {
     let mut entries = Vec::with_capacity(t.len());
     for (k, v) in t {
-        let key_loc = Loc::new(src, k.span());
-        entries.push(crate::param::value::Entry { key: k.into_inner().into_owned(), key_loc, value: convert_value(v, src)? });
+        let span = k.span();
+        let key_loc = Loc::new(src, span.start + at..span.end + at);
+        entries.push(crate::param::value::Entry { key: k.into_inner().into_owned(), key_loc, value: convert_value(v, src, at)? });
     }
     Ok(Table { entries })
 }
 
-fn convert_value(v: toml::Spanned<toml::de::DeValue<'_>>, src: &Arc<Source>) -> Result<Node> {
+fn convert_value(v: toml::Spanned<toml::de::DeValue<'_>>, src: &Arc<Source>, at: usize) -> Result<Node> {
     use toml::de::DeValue;
-    let loc = Loc::new(src, v.span());
+    let span = v.span();
+    let loc = Loc::new(src, span.start + at..span.end + at);
     let value = match v.into_inner() {
         DeValue::String(s) => Value::Str(s.into_owned()),
         DeValue::Boolean(b) => Value::Bool(b),
@@ -229,8 +339,8 @@ fn convert_value(v: toml::Spanned<toml::de::DeValue<'_>>, src: &Arc<Source>) -> 
             Value::Float(s.parse::<f64>().map_err(|_| SceneError::at(&loc, format!("malformed number {s}")))?)
         }
         DeValue::Datetime(_) => return Err(SceneError::at(&loc, "dates and times are not valid in a scene")),
-        DeValue::Array(items) => Value::Array(items.into_iter().map(|i| convert_value(i, src)).collect::<Result<_>>()?),
-        DeValue::Table(t) => Value::Table(convert_table(t, src)?),
+        DeValue::Array(items) => Value::Array(items.into_iter().map(|i| convert_value(i, src, at)).collect::<Result<_>>()?),
+        DeValue::Table(t) => Value::Table(convert_table(t, src, at)?),
     };
     Ok(Node { value, loc })
 }
@@ -297,6 +407,92 @@ mod tests {
             nested = [[1, 2], [3]]
             "#,
         );
+    }
+
+    /// Every location in `a` equals `b`'s (the values are compared by `same_values`).
+    fn same_locations(a: &Table, b: &Table) -> bool {
+        fn node(a: &Node, b: &Node) -> bool {
+            (a.loc.start, a.loc.end) == (b.loc.start, b.loc.end)
+                && match (&a.value, &b.value) {
+                    (Value::Array(x), Value::Array(y)) => x.len() == y.len() && x.iter().zip(y).all(|(p, q)| node(p, q)),
+                    (Value::Table(x), Value::Table(y)) => same_locations(x, y),
+                    _ => true,
+                }
+        }
+        a.entries.len() == b.entries.len()
+            && a.entries.iter().zip(&b.entries).all(|(x, y)| {
+                x.key == y.key && (x.key_loc.start, x.key_loc.end) == (y.key_loc.start, y.key_loc.end) && node(&x.value, &y.value)
+            })
+    }
+
+    /// A scene of `n` objects and lights with every construct that could confuse the cut:
+    /// sub-tables and arrays of an `[[object]]`, `[[...]]` in strings, comments and multi-line
+    /// arrays, quoted and dotted keys, and `tail` at the end.
+    fn long_scene(n: usize, tail: &str) -> String {
+        let mut t = String::from("background = [0.1, 0.1, 0.1]\n[render]\nwidth = 8\n[camera]\nposition = [0, 0, -10]\n");
+        for i in 0..n {
+            t.push_str(&format!("[[object]] # [[light]]\ntype = \"sphere\"\ncenter = [{i}, 0,\n[[0]]]\nradius = 0.3\n"));
+            match i % 7 {
+                0 => t.push_str("[object.material]\nkd = 0.5\n[[object.extra]]\nx = 1\n"),
+                1 => t.push_str("note = \"\"\"\n[[object]]\n\"\"\"\n"),
+                2 => t.push_str("[[light]]\ntype = \"point\"\nposition = [0, 1, 2]\n"),
+                3 => t.push_str("material = { kd = [0.1,\n 0.2, 0.3] }\n"),
+                4 => t.push_str("[[ object ]]\ntype = \"plane\"\n[[\"object\"]]\ntype = \"plane\"\n"),
+                5 => t.push_str("[[object.a.b]]\ny = 'x'\n"),
+                _ => {}
+            }
+        }
+        t.push_str(tail);
+        t
+    }
+
+    /// A long scene parsed in parts gives the tree the whole parse gives, locations included.
+    #[test]
+    fn a_long_scene_in_parts_is_the_whole_parse() {
+        let text = long_scene(40_000, "");
+        assert!(text.len() > 3 * PART_BYTES);
+        let src = Source::new("long.toml", text);
+        assert!(cut(&src.text).len() >= 3, "the scene is cut");
+        let parts = parse_in_parts(&src).expect("parsed in parts");
+        let whole = parse_whole(&src).unwrap();
+        assert!(same_values(&parts, &whole), "the parts differ from the whole");
+        assert!(same_locations(&parts, &whole), "the locations differ");
+        let Some(Value::Array(objects)) = parts.get("object").map(|n| &n.value) else { panic!("no objects") };
+        assert_eq!(objects.len(), 40_000 + 2 * (0..40_000).filter(|i| i % 7 == 4).count());
+    }
+
+    /// Where the parts do not simply add up, the whole text is parsed: what TOML allows across
+    /// parts (a table's sub-table long after it) is read, and what it refuses (a table or key
+    /// defined twice, an inline array appended to, a syntax error far down) is the whole parse's
+    /// error, at its place.
+    #[test]
+    fn a_long_scene_that_does_not_cut_cleanly_is_parsed_whole() {
+        for (tail, ok) in [
+            ("[render.more]\nx = 1\n", true),
+            ("[render]\nheight = 8\n", false),
+            ("[[object]]\ntype = \"sphere\"\n[camera]\nfov = 30\n", false),
+            ("[[background]]\nx = 1\n", false),
+            ("[[object]]\ntype = = 1\n", false),
+            ("[[object]]\nradius = 99999999999999999999\n", false),
+        ] {
+            let src = Source::new("long.toml", long_scene(15_000, tail));
+            assert!(src.text.len() > PART_BYTES);
+            let got = parse_toml(&src, "long".into());
+            let whole = parse_whole(&src);
+            match (got, whole) {
+                (Ok(a), Ok(b)) => {
+                    assert!(ok, "{tail:?} parsed");
+                    assert!(same_values(&a.root, &b) && same_locations(&a.root, &b), "{tail:?}");
+                }
+                (Err(a), Err(b)) => {
+                    assert!(!ok, "{tail:?}: {}", a.report());
+                    assert_eq!(a.report(), b.report(), "{tail:?}");
+                    let line: usize = a.where_().and_then(|w| w.split(':').nth(1).and_then(|l| l.parse().ok())).unwrap_or(0);
+                    assert!(line > src.text[..PART_BYTES].matches('\n').count(), "{tail:?}: not far down: {}", a.report());
+                }
+                (a, b) => panic!("{tail:?}: in parts {:?}, whole {:?}", a.map(|_| ()), b.map(|_| ())),
+            }
+        }
     }
 
     #[test]

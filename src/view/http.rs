@@ -19,6 +19,7 @@
 use super::knobs::Settings;
 use super::server::{Body, Method, Request, Response, Server};
 use super::session::{Phase, Session};
+use crate::render::RenderJob;
 use crate::render::explain::{SampleRef, explanation_json};
 use crate::render::sample::film_position;
 use crate::render::{explain_sample, pixel_samples};
@@ -223,6 +224,14 @@ fn explain(session: &Session, q: &str) -> Result<serde_json::Value, (u16, String
         (st.job.clone(), st.status.generation)
     };
     let job = job.ok_or((409, "nothing is rendered yet".to_string()))?;
+    let mut v = explain_job(&job, &session.scene_name(), q)?;
+    v["generation"] = generation.into();
+    Ok(v)
+}
+
+/// The answer to `api/explain?QUERY` for `job`: the query read (any text: an error with the
+/// status to answer otherwise), the pixel's sample explained, its samples and the overlay's marks.
+pub fn explain_job(job: &RenderJob, scene_name: &str, q: &str) -> Result<serde_json::Value, (u16, String)> {
     let bad = |e: String| (400, e);
     let (x, y): (u32, u32) = (number(q, "x").map_err(bad)?, number(q, "y").map_err(bad)?);
     let s = job.settings;
@@ -233,8 +242,8 @@ fn explain(session: &Session, q: &str) -> Result<serde_json::Value, (u16, String
         number::<f64>(q, "fx").ok().filter(|v| v.is_finite()).unwrap_or(f64::from(x) + 0.5),
         number::<f64>(q, "fy").ok().filter(|v| v.is_finite()).unwrap_or(f64::from(y) + 0.5),
     );
-    let samples = pixel_samples(&job, x, y);
-    let at: Vec<glam::DVec2> = samples.iter().map(|(id, _)| film_position(&job, *id)).collect();
+    let samples = pixel_samples(job, x, y);
+    let at: Vec<glam::DVec2> = samples.iter().map(|(id, _)| film_position(job, *id)).collect();
     let index =
         match query(q, "sample") {
             Some(k) => k.parse::<usize>().ok().filter(|&k| k < samples.len()).ok_or_else(|| {
@@ -243,10 +252,9 @@ fn explain(session: &Session, q: &str) -> Result<serde_json::Value, (u16, String
             None => (0..at.len()).min_by(|&a, &b| at[a].distance_squared(cursor).total_cmp(&at[b].distance_squared(cursor))).unwrap_or(0),
         };
     let (id, weight) = *samples.get(index).ok_or((500, "the pixel has no samples".to_string()))?;
-    let trees = explain_sample(&job, id).ok_or_else(|| (422, format!("the integrator \"{}\" cannot explain rays", job.integrator_name)))?;
+    let trees = explain_sample(job, id).ok_or_else(|| (422, format!("the integrator \"{}\" cannot explain rays", job.integrator_name)))?;
     let sample = SampleRef { index: index as u32, of: samples.len(), id, weight };
-    let mut v = explanation_json(&job, &session.scene_name(), Some((x, y)), Some(sample), &trees);
-    v["generation"] = generation.into();
+    let mut v = explanation_json(job, scene_name, Some((x, y)), Some(sample), &trees);
     v["samples"] = samples
         .iter()
         .zip(&at)
@@ -270,6 +278,48 @@ fn image_png(session: &Session) -> Response {
         Ok(()) => typed(png, "image/png").with_header("Content-Disposition", "attachment; filename=\"raylab-view.png\""),
         Err(e) => text(500, &e),
     }
+}
+
+/// What the fuzz target `view_request` (and the replay of its corpus in `tests/fuzz_corpus.rs`)
+/// checks of arbitrary bytes: the first byte picks the parser, the rest is its input. 0: a
+/// request's head ([`super::server::parse_head`]); 1: the page's settings (JSON, then over
+/// `base`, then the scene `scene` loaded with them through `load`); 2: an explain query against
+/// `job` (an answer, or 400 or 422). Never a panic; `Err` names what broke.
+pub fn fuzz_request(
+    data: &[u8],
+    registry: &crate::load::registry::Registry,
+    base: &crate::load::context::LoadOptions,
+    load: &dyn Fn(&crate::load::context::LoadOptions) -> crate::param::error::Result<RenderJob>,
+    job: &RenderJob,
+) -> Result<(), String> {
+    let Some((&which, rest)) = data.split_first() else { return Ok(()) };
+    match which % 3 {
+        0 => {
+            if let Ok((r, _)) = super::server::parse_head(rest)
+                && (r.target.is_empty()
+                    || !rest.starts_with(r.target.as_bytes()) && !rest.windows(r.target.len()).any(|w| w == r.target.as_bytes()))
+            {
+                return Err(format!("parsed to {r:?}, a target not in the request"));
+            }
+        }
+        1 => {
+            if let Ok(settings) = serde_json::from_slice::<Settings>(rest)
+                && let Ok(options) = super::knobs::options(base, &settings, registry)
+            {
+                let _ = load(&options);
+            }
+        }
+        _ => {
+            let q = String::from_utf8_lossy(rest);
+            if let Err((code, e)) = explain_job(job, "fuzz", &q)
+                && code != 400
+                && code != 422
+            {
+                return Err(format!("explain?{q}: {code} {e}"));
+            }
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]
