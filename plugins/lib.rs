@@ -32,6 +32,11 @@ pub fn register(r: &mut Registry) {
     formats::register(r);
     #[cfg(feature = "mesh")]
     mesh::register(r);
+    // Built without `mesh`: a `mesh` object or a model file says which feature it needs.
+    #[cfg(not(feature = "mesh"))]
+    for name in ["mesh", "obj", "gltf", "glb"] {
+        r.add_absent(raylab::load::registry::Absent { name, feature: "mesh" });
+    }
 }
 
 /// A registry holding every built-in plugin.

@@ -78,11 +78,19 @@ fn a_half_covered_pixel_has_the_closed_form_standard_error() {
 
 /// The estimate of the image's error is honest: on the path tracer's Cornell box, against the
 /// spread of 12 renders with other seeds (their RMSE about the mean of all of them), it is
-/// within a factor of 1.5.
+/// within a factor of 1.5, for a stratified set and for the Sobol points of a time budget (or
+/// an error target).
 #[test]
 fn the_image_error_estimate_matches_the_spread_between_seeds() {
+    estimate_matches_spread(false);
+    estimate_matches_spread(true);
+}
+
+fn estimate_matches_spread(sobol: bool) {
     let registry = raylab_plugins::registry();
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/path-cornell.toml");
+    // A budget no render here reaches: every pixel takes its 16 samples.
+    let budget = raylab::param::value::Node::given("test", raylab::param::value::Value::Float(1e6));
     let renders: Vec<Rendered> = (0..12u64)
         .map(|seed| {
             let opts = LoadOptions {
@@ -91,6 +99,7 @@ fn the_image_error_estimate_matches_the_spread_between_seeds() {
                     height: Some(64),
                     spp: Some(16),
                     seed: Some(seed),
+                    render_params: if sobol { vec![("time_budget".into(), budget.clone())] } else { vec![] },
                     ..Default::default()
                 },
                 ..Default::default()
@@ -112,7 +121,8 @@ fn the_image_error_estimate_matches_the_spread_between_seeds() {
     let ratio = estimated / spread;
     assert!(
         (1.0 / 1.5..=1.5).contains(&ratio),
-        "estimated relative RMSE {estimated:.4}, spread between seeds {spread:.4}: ratio {ratio:.2}"
+        "{}: estimated relative RMSE {estimated:.4}, spread between seeds {spread:.4}: ratio {ratio:.2}",
+        if sobol { "Sobol points" } else { "stratified" }
     );
 }
 
@@ -197,4 +207,40 @@ fn an_error_target_is_deterministic() {
     assert_eq!(a.sums.pixels, b.sums.pixels);
     let spp: Vec<u32> = a.sums.pixels.iter().map(|p| p.samples).collect();
     assert!(spp.iter().min() < spp.iter().max(), "pixels stopped at different counts: {spp:?}");
+}
+
+/// A render under a time budget stops where the clock says; the samples each pixel reached
+/// repeat it bit for bit, whatever the budget reached on this machine (no timing is asserted).
+#[test]
+fn a_time_budget_render_repeats_bit_for_bit_from_its_samples_per_pixel() {
+    let registry = raylab_plugins::registry();
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/path-cornell.toml");
+    let budget = raylab::param::value::Node::given("test", raylab::param::value::Value::Float(0.05));
+    let opts = LoadOptions {
+        overrides: raylab::load::context::Overrides {
+            width: Some(24),
+            height: Some(24),
+            spp: Some(4096),
+            render_params: vec![("time_budget".into(), budget)],
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let job = raylab::load::loader::load_file(&registry, &path, &opts).unwrap_or_else(|e| panic!("{}", e.report()));
+    let first = render(&job, &RenderOptions { threads: Some(2), layers: true, ..RenderOptions::default() }, &|_, _| {}).expect("render");
+    assert!(first.complete, "a time budget ends a render complete");
+    let map: Vec<u32> = first.sums.pixels.iter().map(|p| p.samples).collect();
+    // The image refines by doubling: every pixel stops at a power of two, at least one sample.
+    assert!(map.iter().all(|&n| n.is_power_of_two() && n <= 4096), "{map:?}");
+    let again =
+        render(&job, &RenderOptions { threads: Some(3), layers: true, spp_map: Some(&map), ..RenderOptions::default() }, &|_, _| {})
+            .expect("repeat");
+    assert!(!again.time_stop, "a repeat stops where the map says, not at the clock");
+    assert_eq!(first.sums, again.sums);
+    let bits = |r: &Rendered| r.film.pixels.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+    assert_eq!(bits(&first), bits(&again));
+    // A map of another frame, or over the cap, is refused.
+    assert!(render(&job, &RenderOptions { spp_map: Some(&map[1..]), ..RenderOptions::default() }, &|_, _| {}).is_err());
+    let over = vec![8192; map.len()];
+    assert!(render(&job, &RenderOptions { spp_map: Some(&over), ..RenderOptions::default() }, &|_, _| {}).is_err());
 }

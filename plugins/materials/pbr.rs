@@ -246,7 +246,7 @@ pub fn build(p: &mut Params, textures: &dyn TextureResolver) -> Result<Material>
 /// | `ks` | `F0 · (n + 1) / 2`, `F0 = 0.04·(1 − m) + c·m` (the specular colour at normal incidence) |
 /// | `kr` | `F0 · m · (1 − r)²`: smooth metals mirror; rough ones and dielectrics do not |
 /// | `blur` | `α` where `kr > 0` and α ≥ 0.05 (sharper lobes are mirrors) |
-/// | `kt` | the transmission factor (glTF's loader: or `1 − alpha` for `alphaMode = BLEND`) |
+/// | `kt` | the transmission factor (alpha is not transmission: glTF's `alphaMode` is a [`Cutout`](raylab::scene::material::Cutout)) |
 /// | `ior` | `ior` (1.5 when not finite and positive) |
 /// | `emission` | `emission` (negative parts clamped to 0) |
 ///
@@ -257,7 +257,6 @@ pub fn phong_mapping(
     base: [f32; 4],
     metallic: f32,
     roughness: f32,
-    blend: bool,
     transmission: Option<f32>,
     ior: Option<f32>,
     emissive: [f32; 3],
@@ -268,11 +267,7 @@ pub fn phong_mapping(
     let alpha = (r * r).max(1e-3);
     let f0 = Color::splat(0.04 * (1.0 - m)) + c * m;
     let kr = f0 * m * (1.0 - r) * (1.0 - r);
-    let kt = match transmission {
-        Some(t) => clamp01(t),
-        None if blend => 1.0 - clamp01(base[3]),
-        None => 0.0,
-    };
+    let kt = transmission.map_or(0.0, clamp01);
     let shininess = ((2.0 / (alpha * alpha) - 2.0) / 4.0).clamp(MIN_SHININESS, MAX_SHININESS);
     Material {
         kd: c * (1.0 - m) * (1.0 - kt),
@@ -298,7 +293,6 @@ impl Pbr {
             [r, g, b, 1.0],
             self.metallic as f32,
             self.roughness as f32,
-            false,
             transmission,
             Some(self.ior as f32),
             f32s(self.emission.value),

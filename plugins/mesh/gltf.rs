@@ -20,7 +20,7 @@
 //! | `ks` | `F0 · (n + 1) / 2`, `F0 = 0.04·(1 − m) + c·m` (the specular colour at normal incidence) |
 //! | `kr` | `F0 · m · (1 − r)²`: smooth metals mirror; rough ones and dielectrics do not |
 //! | `blur` | `α` where `kr > 0` and α ≥ 0.05 (sharper lobes are mirrors) |
-//! | `kt` | `KHR_materials_transmission` factor, or `1 − alpha` for `alphaMode = BLEND` |
+//! | `kt` | `KHR_materials_transmission` factor |
 //! | `ior` | `KHR_materials_ior` (default 1.5) |
 //! | `emission` | `emissiveFactor × KHR_materials_emissive_strength` |
 //! | textures | `baseColorTexture` multiplies `kd` (and `ks`, `kr` when `m > 0`), `emissiveTexture` the emission |
@@ -31,6 +31,12 @@
 //! exponent stays ≥ 1 ([`MIN_SHININESS`]): below it the lobe is cut off by a step where the
 //! mirror direction turns away from the viewer (a hard line across flat faces).
 //! docs/gltf-materials.md compares the mapping with the glTF BRDF on a row of spheres.
+//!
+//! `alphaMode = MASK` (with `alphaCutoff`) and `BLEND` make the material a cut-out
+//! ([`raylab::scene::material::Cutout`]), for every renderer and every ray: coverage is the base
+//! colour factor's alpha times the base colour texture's alpha; MASK keeps the surface where
+//! coverage ≥ the cutoff, BLEND keeps it with probability equal to the coverage (stochastic
+//! transparency, decided by a hash of the ray, so images stay deterministic).
 //!
 //! Normal and occlusion textures, vertex colours, animations, skins, morph targets, points and
 //! lines, orthographic cameras and extensions raylab does not implement (those
@@ -58,7 +64,7 @@ use raylab::glam::{DAffine3, DMat3, DMat4, DQuat, DVec3, Mat4};
 use raylab::param::description::SceneDescription;
 use raylab::param::error::{Loc, Result, SceneError, Source};
 use raylab::param::value::{Entry, Node, Table, Value};
-use raylab::scene::material::{Channel, Model, TextureMap};
+use raylab::scene::material::{AlphaMode, Channel, Cutout, Model, TextureMap};
 use raylab::scene::texture::{Coords, Mapping, Texture};
 use raylab::{Aabb, Color, LoadContext, Material};
 use std::fmt::Display;
@@ -608,7 +614,14 @@ impl GltfFile {
             if let Some(t) = model.emission.texture.clone() {
                 maps.push((Channel::Emission, t));
             }
+            let alpha = match (m.alpha_mode(), m.pbr_metallic_roughness().base_color_texture()) {
+                (gltf::material::AlphaMode::Opaque, _) | (_, None) => None,
+                (_, Some(info)) => sampled(&info, "baseColorTexture's alpha", Slot::Alpha),
+            };
             let material = &mut out.materials[id as usize];
+            if alpha.is_some() {
+                material.cutout = cutout(&m, alpha);
+            }
             material.textures.extend(maps.into_iter().map(|(channel, texture)| TextureMap { channel, texture }));
             material.model = Some(Model(Arc::new(model)));
         }
@@ -629,6 +642,7 @@ impl GltfFile {
         let space = match slot {
             Slot::Color => ColorSpace::Srgb,
             Slot::Data => ColorSpace::Linear,
+            Slot::Alpha => ColorSpace::Alpha,
         };
         let image = self.image(ctx, &t.source(), material, space)?;
         let sampler = t.sampler();
@@ -654,6 +668,7 @@ impl GltfFile {
         let embedded = |bytes: Option<&[u8]>| -> Result<Arc<Image>> {
             let key = match space {
                 ColorSpace::Srgb => format!("gltf-image:{}:{}", self.name, img.index()),
+                ColorSpace::Alpha => format!("gltf-image:{}:{}:alpha", self.name, img.index()),
                 _ => format!("gltf-image:{}:{}:linear", self.name, img.index()),
             };
             ctx.assets.get_or_load(&key, || {
@@ -876,16 +891,6 @@ impl GltfFile {
             })
             .count();
         warn(n, format!("{n} material(s) sample a texture with a texture coordinate set other than TEXCOORD_0: TEXCOORD_0 is used"));
-        let n = materials
-            .iter()
-            .filter(|m| m.alpha_mode() != gltf::material::AlphaMode::Opaque && m.pbr_metallic_roughness().base_color_texture().is_some())
-            .count();
-        warn(
-            n,
-            format!("{n} material(s) blend or mask by their baseColorTexture's alpha, which raylab ignores (the alpha factor is used)"),
-        );
-        let n = materials.iter().filter(|m| m.alpha_mode() == gltf::material::AlphaMode::Mask).count();
-        warn(n, format!("{n} material(s) use alphaMode MASK: the cutoff is ignored (they are opaque)"));
         let unsupported: Vec<String> = self.extensions().into_iter().filter(|e| !SUPPORTED.contains(&e.as_str())).collect();
         warn(unsupported.len(), format!("the file uses extensions raylab ignores: {}", unsupported.join(", ")));
         let prims = || self.doc.meshes().flat_map(|m| m.primitives().collect::<Vec<_>>());
@@ -1106,7 +1111,7 @@ pub fn gltf_uv_transform(offset: [f64; 2], rotation: f64, scale: [f64; 2]) -> DA
 pub use crate::materials::pbr::{MAX_SHININESS, MIN_SHININESS, phong_mapping as pbr_to_phong};
 
 fn default_gltf_material() -> Material {
-    let mut m = pbr_to_phong([1.0, 1.0, 1.0, 1.0], 1.0, 1.0, false, None, None, [0.0; 3]);
+    let mut m = pbr_to_phong([1.0, 1.0, 1.0, 1.0], 1.0, 1.0, None, None, [0.0; 3]);
     m.model = Some(Model(Arc::new(Pbr::default())));
     m
 }
@@ -1115,13 +1120,29 @@ fn default_gltf_material() -> Material {
 /// `pbr` model of its factors (textures are attached when a mesh samples them).
 pub fn material(m: &gltf::Material) -> Material {
     let pbr = m.pbr_metallic_roughness();
-    let blend = m.alpha_mode() == gltf::material::AlphaMode::Blend;
     let transmission = m.transmission().map(|t| t.transmission_factor());
     let emissive = m.emissive_factor().map(|e| e * m.emissive_strength().unwrap_or(1.0));
-    let mut out =
-        pbr_to_phong(pbr.base_color_factor(), pbr.metallic_factor(), pbr.roughness_factor(), blend, transmission, m.ior(), emissive);
+    let mut out = pbr_to_phong(pbr.base_color_factor(), pbr.metallic_factor(), pbr.roughness_factor(), transmission, m.ior(), emissive);
     out.model = Some(Model(Arc::new(pbr_model(m, &mut |_, _, _| None))));
+    out.cutout = cutout(m, None);
     out
+}
+
+/// Where glTF material `m` is cut away: `alphaMode` MASK (coverage ≥ `alphaCutoff`, 0.5 by
+/// default) or BLEND (stochastic transparency), coverage being the base colour factor's alpha
+/// times `alpha_texture` (the base colour texture's alpha). `None` for OPAQUE, and where
+/// nothing is cut away.
+fn cutout(m: &gltf::Material, alpha_texture: Option<Arc<dyn Texture>>) -> Option<Cutout> {
+    let alpha = f64::from(m.pbr_metallic_roughness().base_color_factor()[3]);
+    let mode = match m.alpha_mode() {
+        gltf::material::AlphaMode::Opaque => return None,
+        gltf::material::AlphaMode::Mask => {
+            let cutoff = m.alpha_cutoff().unwrap_or(0.5);
+            AlphaMode::Mask { cutoff: if cutoff.is_finite() { f64::from(cutoff) } else { 0.5 } }
+        }
+        gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+    };
+    Cutout::new(alpha, alpha_texture, mode)
 }
 
 /// Which colours a glTF texture holds: sRGB-encoded colours or linear data.
@@ -1131,6 +1152,8 @@ enum Slot {
     Color,
     /// `metallicRoughnessTexture`, `transmissionTexture`: linear.
     Data,
+    /// The base colour texture's alpha: coverage of a cut-out.
+    Alpha,
 }
 
 /// What builds the texture of a material's texture info (`None`: unreadable, or not wanted).
@@ -1384,14 +1407,14 @@ mod tests {
 
     #[test]
     fn smooth_metal_mirrors_and_rough_plastic_does_not() {
-        let gold = pbr_to_phong([1.0, 0.8, 0.3, 1.0], 1.0, 0.0, false, None, None, [0.0; 3]);
+        let gold = pbr_to_phong([1.0, 0.8, 0.3, 1.0], 1.0, 0.0, None, None, [0.0; 3]);
         assert_eq!(gold.kd, Color::ZERO);
         assert!(gold.kr.x > 0.9 && gold.blur < 0.01 && gold.shininess >= 1e3);
-        let plastic = pbr_to_phong([0.2, 0.4, 0.8, 1.0], 0.0, 0.5, false, None, None, [0.0; 3]);
+        let plastic = pbr_to_phong([0.2, 0.4, 0.8, 1.0], 0.0, 0.5, None, None, [0.0; 3]);
         assert_eq!(plastic.kr, Color::ZERO);
         assert!((plastic.kd - Color::new(0.2, 0.4, 0.8)).length() < 1e-6 && (plastic.ks.x - 0.04 * 8.5 / 2.0).abs() < 1e-9);
         assert!((plastic.shininess - 7.5).abs() < 1e-9);
-        let glass = pbr_to_phong([1.0; 4], 0.0, 0.0, false, Some(1.0), Some(1.33), [0.0; 3]);
+        let glass = pbr_to_phong([1.0; 4], 0.0, 0.0, Some(1.0), Some(1.33), [0.0; 3]);
         assert_eq!((glass.kt, glass.ior), (Color::ONE, 1.33f32 as f64));
     }
 
@@ -1400,12 +1423,12 @@ mod tests {
     #[test]
     fn the_highlight_keeps_its_reflectance_and_never_ends_in_a_step() {
         for r in [0.0, 0.1, 0.3, 0.5, 0.7, 0.9, 1.0] {
-            let plastic = pbr_to_phong([0.8, 0.2, 0.1, 1.0], 0.0, r, false, None, None, [0.0; 3]);
+            let plastic = pbr_to_phong([0.8, 0.2, 0.1, 1.0], 0.0, r, None, None, [0.0; 3]);
             assert!(plastic.shininess >= MIN_SHININESS, "roughness {r}: exponent {}", plastic.shininess);
             let reflectance = 2.0 * plastic.ks / (plastic.shininess + 1.0);
             assert!((reflectance - Color::splat(0.04)).abs().max_element() < 1e-9, "roughness {r}: {reflectance}");
         }
-        let rough = pbr_to_phong([1.0; 4], 0.0, 1.0, false, None, None, [0.0; 3]);
+        let rough = pbr_to_phong([1.0; 4], 0.0, 1.0, None, None, [0.0; 3]);
         assert_eq!(rough.shininess, MIN_SHININESS);
     }
 

@@ -17,12 +17,13 @@
 //! | `Kd` | `kd` | scaled by the dissolve `d` |
 //! | `Ks` | `ks` | also `kr` (mirror) under `illum` 3, 5 and 7 |
 //! | `Ns` | `shininess` | the Phong exponent |
-//! | `d`, `Tr` (= 1 − d) | `kt = 1 − d` | transparency; `Tf` is ignored |
+//! | `d`, `Tr` (= 1 − d) | `kt = 1 − d` | transparency (a thin transmitting sheet); `Tf` is ignored |
+//! | `map_d` | a cut-out ([`Cutout`]) | coverage `d` × the image's alpha (its grey value without alpha), stochastic: rays pass through where it is 0, and through a fraction 1 − coverage elsewhere; `kt` and the `d` scaling of `kd` are then dropped |
 //! | `Ni` | `ior` | values ≤ 0 keep the default 1.5 |
 //! | `Ke` | `emission` | |
 //! | `Ka` | — | ignored: exporters write it inconsistently; `ka` keeps its default |
 //! | `map_Kd`, `map_Ks`, `map_Ke` | textures multiplying `kd`, `ks`, `emission` | sRGB images, over the file's `vt`; options `-o` and `-s` (offset and scale of the texture coordinates) and `-clamp on`; others ignored with a warning |
-//! | `bump`, `map_d`, … | — | other maps: ignored with a warning per material |
+//! | `bump`, … | — | other maps: ignored with a warning per material |
 //!
 //! Texture files are read relative to their MTL file, through the sandbox, once per scene, and
 //! only for materials some face uses; one that cannot be read is a warning (the constant colour
@@ -37,7 +38,7 @@ use super::triangulate::triangulate_into;
 use crate::textures::image::{self as image_texture, ColorSpace, Filter, ImageTexture, Wrap};
 use raylab::glam::{DAffine3, DVec3, Vec3};
 use raylab::param::error::{Loc, Result, SceneError};
-use raylab::scene::material::{Channel, TextureMap};
+use raylab::scene::material::{AlphaMode, Channel, Cutout, TextureMap};
 use raylab::scene::texture::{Coords, Mapping};
 use raylab::{Color, LoadContext, Material};
 use std::collections::HashMap;
@@ -1080,10 +1081,12 @@ fn sampled_maps(m: &tobj::Material) -> [(&'static str, Option<&String>, Channel)
 }
 
 /// Gives `out` (the raylab material of MTL material `m`, defined in the library in `folder`)
-/// the textures of its `map_Kd`, `map_Ks` and `map_Ke`; a map that cannot be read, and options
-/// raylab ignores, are warnings.
+/// the textures of its `map_Kd`, `map_Ks` and `map_Ke`, and its cut-out (`map_d`); a map that
+/// cannot be read, and options raylab ignores, are warnings.
 fn attach_maps(ctx: &LoadContext, m: &tobj::Material, folder: &Path, loc: &Loc, out: &mut Material) {
-    for (key, statement, channel) in sampled_maps(m) {
+    let coverage = m.dissolve_texture.as_ref().map(|s| ("map_d", Some(s), None));
+    let colours = sampled_maps(m).map(|(key, statement, channel)| (key, statement, Some(channel)));
+    for (key, statement, channel) in colours.into_iter().chain(coverage) {
         let Some(statement) = statement else { continue };
         let map = MapStatement::parse(statement);
         let what = || format!("material \"{}\": {key} {statement}", m.name);
@@ -1095,12 +1098,18 @@ fn attach_maps(ctx: &LoadContext, m: &tobj::Material, folder: &Path, loc: &Loc, 
             continue;
         };
         let path = folder.join(&file);
-        match image_texture::load(ctx, &path.to_string_lossy(), loc, ColorSpace::Srgb) {
+        let space = if channel.is_some() { ColorSpace::Srgb } else { ColorSpace::Alpha };
+        match image_texture::load(ctx, &path.to_string_lossy(), loc, space) {
             Ok(image) => {
                 let wrap = if map.clamp { Wrap::Clamp } else { Wrap::Repeat };
                 let mapping = Mapping::with_inverse(Coords::Uv, map.lookup);
                 let texture = std::sync::Arc::new(ImageTexture::new(image, mapping, [wrap; 2], Filter::Bilinear, Color::ONE));
-                out.textures.push(TextureMap { channel, texture });
+                match channel {
+                    Some(channel) => out.textures.push(TextureMap { channel, texture }),
+                    // The dissolve `d` is the coverage constant (`material` left `kd` and `kt`
+                    // alone for it).
+                    None => out.cutout = Cutout::new(dissolve(m), Some(texture), AlphaMode::Blend),
+                }
             }
             Err(e) => ctx.warn(e.context(format!("{} is not sampled (the constant colour is used)", what()))),
         }
@@ -1193,7 +1202,8 @@ fn text_of<'a>(bytes: &'a [u8], name: &str) -> Result<&'a str> {
 fn material(m: &tobj::Material) -> Material {
     let rgb = |c: Option<[f32; 3]>| c.map(|c| Vec3::from(c).as_dvec3()).filter(|c| c.is_finite()).map(|c| c.max(DVec3::ZERO));
     let mut out = Material::default();
-    let d = f64::from(m.dissolve.unwrap_or(1.0)).clamp(0.0, 1.0);
+    // With `map_d`, the dissolve is the cut-out's coverage ([`attach_maps`]), not transmission.
+    let d = if m.dissolve_texture.is_some() { 1.0 } else { dissolve(m) };
     if let Some(kd) = rgb(m.diffuse) {
         out.kd = kd * d;
     }
@@ -1216,6 +1226,11 @@ fn material(m: &tobj::Material) -> Material {
     out
 }
 
+/// The dissolve `d` of an MTL material in [0, 1] (1: opaque).
+fn dissolve(m: &tobj::Material) -> f64 {
+    f64::from(m.dissolve.unwrap_or(1.0)).clamp(0.0, 1.0)
+}
+
 /// Most materials of one MTL library warned about by name for their ignored texture maps; the
 /// rest are counted in one more warning.
 pub const MAX_MAP_WARNINGS: usize = 8;
@@ -1225,8 +1240,7 @@ pub const MAX_MAP_WARNINGS: usize = 8;
 fn warn_ignored_maps(ctx: &LoadContext, file: &str, materials: &[tobj::Material]) {
     let mut warned = 0;
     for m in materials {
-        let known =
-            [("map_Ka", &m.ambient_texture), ("map_Ns", &m.shininess_texture), ("bump", &m.normal_texture), ("map_d", &m.dissolve_texture)];
+        let known = [("map_Ka", &m.ambient_texture), ("map_Ns", &m.shininess_texture), ("bump", &m.normal_texture)];
         let mut maps: Vec<String> = known.iter().filter_map(|(k, v)| v.as_ref().map(|v| format!("{k} {v}"))).collect();
         let mut other: Vec<String> = m
             .unknown_param

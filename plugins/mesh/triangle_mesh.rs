@@ -32,6 +32,9 @@ use raylab::glam::{BVec4A, DVec2, DVec3, Vec2, Vec3, Vec4};
 pub use raylab::load::mesh::MeshData;
 use raylab::math::distribution::AliasTable;
 use raylab::math::float::{gamma, on_surface_slack};
+use raylab::math::sampler::mix64;
+use raylab::scene::material::Cutout;
+use raylab::scene::texture::TexturePoint;
 use raylab::{Aabb, Ray};
 use rayon::prelude::*;
 use std::sync::{Arc, OnceLock};
@@ -139,6 +142,9 @@ pub struct TriangleMesh {
     material_ids: Vec<u32>,
     /// The file's materials (empty: none), shared by every object placing the mesh.
     materials: Option<Arc<[Material]>>,
+    /// Per material, where its surface is cut away; `None` when no material cuts anything (the
+    /// ray queries then never test coverage).
+    cutouts: Option<Box<[Option<Cutout>]>>,
     /// Input triangles that were dropped as degenerate.
     degenerate: usize,
     bounds: Aabb,
@@ -263,6 +269,8 @@ impl TriangleMesh {
         } else {
             (Vec::new(), materials)
         };
+        let cutouts: Box<[Option<Cutout>]> = materials.iter().map(|m| m.cutout.clone()).collect();
+        let cutouts = cutouts.iter().any(Option::is_some).then_some(cutouts);
         let materials = (!materials.is_empty()).then(|| Arc::from(materials));
         let filter_scale = bounds.magnitude() + bounds.extent().max_element();
         let mut mesh = TriangleMesh {
@@ -275,6 +283,7 @@ impl TriangleMesh {
             texcoords,
             material_ids,
             materials,
+            cutouts,
             degenerate,
             bounds,
             closed: OnceLock::new(),
@@ -346,9 +355,43 @@ impl TriangleMesh {
     }
 
     /// The closest hit in `(t_min, t_max)`: `prim` is the triangle's slot, `uv` its barycentric
-    /// coordinates (b1, b2).
+    /// coordinates (b1, b2). Triangles whose material cuts the surface away at the hit
+    /// ([`Cutout`]) are passed through.
     #[inline]
     pub fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<Hit> {
+        match &self.cutouts {
+            None => self.intersect_kept(ray, t_min, t_max, |_, _| true),
+            Some(c) => self.intersect_kept(ray, t_min, t_max, |slot, b| self.keeps(c, ray, slot, b)),
+        }
+    }
+
+    /// Whether any triangle is hit in `(t_min, t_max)`; stops at the first (cut-away parts are
+    /// passed through, as by [`TriangleMesh::intersect`]).
+    #[inline]
+    pub fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
+        match &self.cutouts {
+            None => self.occludes_kept(ray, t_min, t_max, |_, _| true),
+            Some(c) => self.occludes_kept(ray, t_min, t_max, |slot, b| self.keeps(c, ray, slot, b)),
+        }
+    }
+
+    /// Whether the surface of the triangle at `slot` is there at barycentrics `b` for `ray` (its
+    /// material's cut-out, if any, at the hit's texture coordinates; stochastic coverage decided
+    /// by a hash of the ray and the triangle: the same ray always gets the same answer).
+    #[inline(never)]
+    fn keeps(&self, cutouts: &[Option<Cutout>], ray: &Ray, slot: u32, b: DVec3) -> bool {
+        let Some(Some(c)) = cutouts.get(self.material_id(slot)) else { return true };
+        let at = || {
+            let hit = Hit { uv: DVec2::new(b.y, b.z), prim: slot, ..Hit::new(0.0, DVec3::ZERO, DVec3::ZERO) };
+            let [p0, p1, p2] = self.vertices(slot).map(DVec3::from);
+            TexturePoint { uv: self.interpolated_uv(&hit).unwrap_or(hit.uv), local: b.x * p0 + b.y * p1 + b.z * p2 }
+        };
+        c.keeps(at, || ray_hash(ray, slot))
+    }
+
+    /// [`TriangleMesh::intersect`], keeping only hits `keep(slot, barycentrics)` accepts.
+    #[inline(always)]
+    fn intersect_kept(&self, ray: &Ray, t_min: f64, t_max: f64, keep: impl Fn(u32, DVec3) -> bool) -> Option<Hit> {
         let q = self.index.query(ray, t_min, t_max)?;
         let base = q.base();
         // Prepared at the first leaf: a ray through the box's empty corners reaches none.
@@ -365,6 +408,7 @@ impl TriangleMesh {
                 let [p0, p1, p2] = self.vertices(slot);
                 if let Some(h) = tr.intersect(p0, p1, p2, t_min, t_max, EdgeRule::Inclusive)
                     && !on_surface(ray, h.t, p0, p1, p2)
+                    && keep(slot, h.b)
                 {
                     t_max = h.t;
                     found = Some(h.t);
@@ -380,9 +424,9 @@ impl TriangleMesh {
         Some(Hit { t, point, error, uv: DVec2::new(b.y, b.z), prim: slot, object: 0 })
     }
 
-    /// Whether any triangle is hit in `(t_min, t_max)`; stops at the first.
-    #[inline]
-    pub fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
+    /// [`TriangleMesh::occludes`], counting only hits `keep(slot, barycentrics)` accepts.
+    #[inline(always)]
+    fn occludes_kept(&self, ray: &Ray, t_min: f64, t_max: f64, keep: impl Fn(u32, DVec3) -> bool) -> bool {
         let Some(q) = self.index.query(ray, t_min, t_max) else { return false };
         let base = q.base();
         // Prepared at the first leaf, as for the closest hit: many rays that enter the box reach none.
@@ -394,7 +438,8 @@ impl TriangleMesh {
             });
             self.candidates(pr, first, count, |slot| {
                 let [p0, p1, p2] = self.vertices(slot);
-                tr.intersect(p0, p1, p2, t_min, t_max, EdgeRule::Inclusive).is_some_and(|h| !on_surface(ray, h.t, p0, p1, p2))
+                tr.intersect(p0, p1, p2, t_min, t_max, EdgeRule::Inclusive)
+                    .is_some_and(|h| !on_surface(ray, h.t, p0, p1, p2) && keep(slot, h.b))
             })
         })
     }
@@ -607,6 +652,18 @@ impl PackRay {
     }
 }
 
+/// A number in [0, 1) that is a function of the ray (its origin's and direction's bits) and the
+/// triangle: what decides stochastic coverage ([`AlphaMode::Blend`](raylab::scene::material::AlphaMode)).
+/// Deterministic, so an image does not depend on threads, tiles or passes.
+#[inline]
+fn ray_hash(ray: &Ray, slot: u32) -> f64 {
+    let mut h = u64::from(slot) ^ 0x243f_6a88_85a3_08d3;
+    for c in [ray.origin.x, ray.origin.y, ray.origin.z, ray.dir.x, ray.dir.y, ray.dir.z] {
+        h = mix64(h ^ c.to_bits());
+    }
+    (h >> 11) as f64 / (1u64 << 53) as f64
+}
+
 /// Rounds toward +∞ to `f32`.
 #[inline]
 fn up32(x: f64) -> f32 {
@@ -666,7 +723,6 @@ fn closed(tris: impl Iterator<Item = [f32; 9]>) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use raylab::math::sampler::mix64;
 
     /// Uniform numbers in [0, 1) from a counter.
     struct Rng(u64);

@@ -529,3 +529,38 @@ fn an_error_target_from_the_command_line() {
     assert!(!out.status.success() && text(&out.stderr).contains("the most samples a pixel takes"), "{}", text(&out.stderr));
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// `--time-budget` records the samples each pixel reached in the `spp` layer, and the same
+/// command with `--spp-map` repeats the image bit for bit, whatever the budget reached.
+#[cfg(feature = "exr")]
+#[test]
+fn a_time_budget_render_repeats_from_its_spp_layer() {
+    let dir = temp_dir("time-budget");
+    let scene = repo().join("scenes/path-cornell.toml");
+    let args = |out: &str| -> Vec<String> {
+        let s = ["render", scene.to_str().unwrap(), "--width", "24", "--height", "24", "--spp", "4096", "--time-budget", "0.1", "-q"];
+        let mut v: Vec<String> = s.iter().map(|a| a.to_string()).collect();
+        v.extend(["--aov", "spp", "-o", out].map(String::from));
+        v
+    };
+    let run = |v: Vec<String>| raylab(&dir, &v.iter().map(String::as_str).collect::<Vec<_>>());
+    let out = run(args("first.exr"));
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    assert!(stdout.contains("≤ 4096 spp within 0.1 s") && stdout.contains("time budget:"), "{stdout}");
+    let mut repeat = args("again.exr");
+    repeat.extend(["--spp-map", "first.exr"].map(String::from));
+    let out = run(repeat);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(text(&out.stdout).contains("read from --spp-map"), "{}", text(&out.stdout));
+    let read = |f: &str| raylab::image::exr::read_exr_rgb(&std::fs::read(dir.join(f)).unwrap()).unwrap();
+    let (a, b) = (read("first.exr"), read("again.exr"));
+    let bits = |v: &[[f32; 3]]| v.iter().flat_map(|p| p.map(f32::to_bits)).collect::<Vec<_>>();
+    assert_eq!((a.0, a.1), (b.0, b.1));
+    assert_eq!(bits(&a.2), bits(&b.2), "the repeat has the same bits");
+    // A map is read only for a render under a time budget.
+    let out =
+        raylab(&dir, &["render", scene.to_str().unwrap(), "--width", "24", "--height", "24", "--spp-map", "first.exr", "-o", "x.png"]);
+    assert!(!out.status.success() && text(&out.stderr).contains("time budget"), "{}", text(&out.stderr));
+    std::fs::remove_dir_all(dir).unwrap();
+}

@@ -168,3 +168,22 @@ fn the_tutorials_error_is_what_raylab_prints() {
     assert_eq!(stderr.lines().next().unwrap_or(""), shown, "full message:\n{stderr}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The README's length limit: history and details go to `docs/`.
+const MAX_README_LINES: usize = 400;
+
+/// The README stays short, and every file it links to exists.
+#[test]
+fn the_readme_is_short_and_its_links_resolve() {
+    let text = readme();
+    let n = text.lines().count();
+    assert!(n < MAX_README_LINES, "README.md has {n} lines; keep it under {MAX_README_LINES} (move details to docs/)");
+    for link in text.split("](").skip(1) {
+        let target = link.split(')').next().unwrap_or("");
+        let file = target.split('#').next().unwrap_or("");
+        if file.is_empty() || file.contains("://") {
+            continue;
+        }
+        assert!(repo().join(file).exists(), "README.md links to {target}, which does not exist");
+    }
+}

@@ -8,7 +8,8 @@
 //! decompression bomb), and the decoded size is charged to the memory budget before it is
 //! allocated. An image named by several textures, materials or mesh files is decoded once per
 //! scene ([`raylab::load::context::AssetCache`]). 8-bit images keep 3 bytes per texel and are
-//! decoded to linear through a table; others are kept as linear `f32`. Alpha is ignored.
+//! decoded to linear through a table; others are kept as linear `f32`. Alpha is ignored, except by
+//! cut-outs ([`ColorSpace::Alpha`]: a glTF base colour's alpha, an MTL `map_d`).
 
 use raylab::glam::{DVec2, Vec3};
 use raylab::math::color::srgb_decode;
@@ -129,6 +130,9 @@ pub enum ColorSpace {
     Srgb,
     /// Values taken as they are (data maps; EXR).
     Linear,
+    /// Coverage for cut-outs: the image's alpha channel (its grey value when it has none), in
+    /// every channel.
+    Alpha,
 }
 
 /// Texels of a decoded image, row by row, 3 values (R, G, B) a texel: the decoder's buffer
@@ -265,7 +269,7 @@ pub fn decode(bytes: &[u8], name: &str, space: ColorSpace, ctx: &LoadContext) ->
         None => return Err(fail("not a PNG, JPEG, OpenEXR or Radiance .hdr image (unrecognised signature)".into())),
     };
     if format == image::ImageFormat::OpenExr && !cfg!(feature = "exr") {
-        return Err(fail("OpenEXR textures need raylab built with the `exr` feature (cargo run --features exr)".into()));
+        return Err(fail(format!("OpenEXR textures need the `exr` feature; {}", raylab::param::error::built_without("exr"))));
     }
     let space = match space {
         ColorSpace::Auto if matches!(format, image::ImageFormat::OpenExr | image::ImageFormat::Hdr) => ColorSpace::Linear,
@@ -303,7 +307,20 @@ pub fn decode(bytes: &[u8], name: &str, space: ColorSpace, ctx: &LoadContext) ->
     };
     let (width, height) = (img.width() as usize, img.height() as usize);
     let eight = img.color().bytes_per_pixel() == img.color().channel_count();
-    let texels = if eight {
+    let texels = if space == ColorSpace::Alpha {
+        // Kept as 8 bits whatever the file's depth (coverage needs no more).
+        let alpha: Vec<u8> = if img.color().has_alpha() {
+            img.into_rgba8().into_raw().chunks_exact(4).map(|p| p[3]).collect()
+        } else {
+            img.into_luma8().into_raw()
+        };
+        let rgb = alpha.iter().flat_map(|&a| [a; 3]).collect();
+        let mut linear = Box::new([0.0f32; 256]);
+        for (i, v) in linear.iter_mut().enumerate() {
+            *v = i as f32 / 255.0;
+        }
+        Texels::Eight { rgb, linear }
+    } else if eight {
         let rgb = img.into_rgb8().into_raw();
         let mut linear = Box::new([0.0f32; 256]);
         for (i, v) in linear.iter_mut().enumerate() {

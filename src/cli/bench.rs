@@ -74,11 +74,14 @@ fn thread_time() -> std::time::Duration {
 
 pub(crate) fn run(app: &App, a: BenchArgs) -> Result<(), Failure> {
     if app.registry.geometry("mesh").is_none() {
-        return Err(Failure::Other("`raylab bench` needs the `mesh` geometry: build with `--features mesh` (and `bvh`)".into()));
+        return Err(Failure::Other(format!(
+            "`raylab bench` needs the `mesh` geometry (and a BVH, feature `bvh`); {}",
+            crate::param::error::built_without("mesh")
+        )));
     }
     let accel = AccelChoice::parse(&a.accel).unwrap_or_default();
     if accel == AccelChoice::Bvh && !crate::accel::build::BVH_AVAILABLE {
-        return Err(Failure::Other("--accel bvh needs raylab built with the `bvh` feature".into()));
+        return Err(Failure::Other(format!("--accel bvh needs the `bvh` feature; {}", crate::param::error::built_without("bvh"))));
     }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(a.threads.unwrap_or(0))

@@ -47,7 +47,7 @@ fn read(a: &DenoiseArgs, ext: &str, bytes: &[u8]) -> Result<Layers, Failure> {
         #[cfg(feature = "exr")]
         "exr" => crate::image::denoise::read_exr_layers(&a.input, bytes).map_err(Failure::Other),
         #[cfg(not(feature = "exr"))]
-        "exr" => Err(Failure::Other("reading OpenEXR needs raylab built with `--features exr`".into())),
+        "exr" => Err(Failure::Other(format!("reading OpenEXR needs the `exr` feature; {}", crate::param::error::built_without("exr")))),
         _ => Err(Failure::Other(format!("{}: expected an .exr or .pfm image", a.input.display()))),
     }
 }

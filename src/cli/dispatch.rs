@@ -3,7 +3,7 @@
 
 #[cfg(feature = "view")]
 use super::view;
-use super::{App, Failure, bench, convert, denoise, merge, plugins, render, sweep, tonemap, trace};
+use super::{App, Failure, bench, convert, denoise, fingerprint, merge, plugins, render, sweep, tonemap, trace};
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
@@ -35,6 +35,9 @@ enum Command {
     /// Turn an HDR image (OpenEXR, PFM) or one of its layers (depth, normal, albedo) into a
     /// viewable PNG or JPEG.
     Tonemap(tonemap::TonemapArgs),
+    /// Print a render's fingerprint (the scene, every file it reads, the resolved settings)
+    /// without rendering: what partial images carry, and what tells a docs image is current.
+    Fingerprint(Box<fingerprint::FingerprintArgs>),
     /// Denoise a finished image (an EXR with albedo and normal layers, e.g. a merged farm frame)
     /// with Intel Open Image Denoise (its `oidnDenoise` tool: `pip install pyoidn`).
     Denoise(denoise::DenoiseArgs),
@@ -42,6 +45,13 @@ enum Command {
     /// tree on a click (serves a page on 127.0.0.1).
     #[cfg(feature = "view")]
     View(Box<view::ViewArgs>),
+    /// (Built without the `view` feature: says so.)
+    #[cfg(not(feature = "view"))]
+    #[command(hide = true, disable_help_flag = true)]
+    View {
+        #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
+        args: Vec<String>,
+    },
 }
 
 /// Parses `std::env::args` and runs the command. Output into a closed pipe (`raylab trace … |
@@ -98,8 +108,13 @@ where
         Some(Command::Bench(a)) => bench::run(&app, a),
         Some(Command::Tonemap(a)) => tonemap::run(&app, a),
         Some(Command::Denoise(a)) => denoise::run(&app, a),
+        Some(Command::Fingerprint(a)) => fingerprint::run(&app, *a),
         #[cfg(feature = "view")]
         Some(Command::View(a)) => view::run(&app, *a),
+        #[cfg(not(feature = "view"))]
+        Some(Command::View { .. }) => {
+            Err(Failure::Other(format!("`raylab view` needs the `view` feature; {}", crate::param::error::built_without("view"))))
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

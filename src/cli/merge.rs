@@ -34,7 +34,7 @@ pub(crate) fn run(app: &App, a: MergeArgs) -> Result<(), Failure> {
     #[cfg(not(feature = "exr"))]
     {
         let _ = (app, a);
-        Err(Failure::Other("partial images are OpenEXR files: rebuild raylab with `--features exr`".into()))
+        Err(Failure::Other(format!("partial images are OpenEXR files; {}", crate::param::error::built_without("exr"))))
     }
     #[cfg(feature = "exr")]
     {

@@ -7,6 +7,7 @@ mod convert;
 mod denoise;
 mod dispatch;
 mod farm;
+mod fingerprint;
 mod merge;
 mod plot;
 mod plugins;
@@ -97,6 +98,11 @@ pub(crate) struct SceneArgs {
     /// With --target-error: samples every pixel takes before its error is first tested (≥ 2).
     #[arg(long, value_name = "N", allow_hyphen_values = true)]
     target_min_spp: Option<i64>,
+    /// Trace for at most this many seconds: the image refines in passes that double each pixel's
+    /// samples (--spp is the most a pixel takes) and keeps what it has when the time is up. With
+    /// `--aov spp` (EXR) the samples each pixel reached are recorded: `--spp-map FILE` repeats it.
+    #[arg(long, value_name = "SECONDS", allow_hyphen_values = true)]
+    time_budget: Option<f64>,
     /// Lens radius for depth of field, scene units (overrides the camera's `aperture`).
     #[arg(long, value_name = "R", allow_hyphen_values = true)]
     aperture: Option<f64>,
@@ -217,6 +223,9 @@ impl SceneArgs {
         }
         if let Some(v) = self.target_min_spp {
             render_params.push(flag_node("--target-min-spp", "target_min_spp", Value::Int(v)));
+        }
+        if let Some(v) = self.time_budget {
+            render_params.push(flag_node("--time-budget", "time_budget", Value::Float(v)));
         }
         // `--camera fit` alone: frame the scene (the camera's `fit = true`).
         let (fit, camera): (Vec<String>, Vec<String>) = self.camera.iter().cloned().partition(|c| c.trim() == "fit");

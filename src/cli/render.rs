@@ -26,9 +26,15 @@ pub(crate) struct RenderArgs {
     #[arg(long)]
     half: bool,
     /// EXR only: extra layers, comma-separated: depth, normal, albedo (for denoisers), error (the
-    /// estimated standard error of each pixel's mean luminance, and its samples per pixel).
-    #[arg(long, value_delimiter = ',', value_parser = ["depth", "normal", "albedo", "error", "variance"])]
+    /// estimated standard error of each pixel's mean luminance, and its samples per pixel `spp`;
+    /// `spp` asks for the same two).
+    #[arg(long, value_delimiter = ',', value_parser = ["depth", "normal", "albedo", "error", "variance", "spp"])]
     aov: Vec<String>,
+    /// Repeat a render under --time-budget bit for bit: each pixel takes the samples the `spp`
+    /// layer of FILE (an EXR it wrote with `--aov spp`) says it reached, whatever the clock.
+    /// Give the same command and settings as that render.
+    #[arg(long, value_name = "FILE")]
+    spp_map: Option<PathBuf>,
     /// Worker threads (default: all cores). The image does not depend on it.
     #[arg(long, allow_hyphen_values = true, value_parser = super::int_in::<usize>(1, super::MAX_THREADS))]
     threads: Option<usize>,
@@ -108,6 +114,7 @@ impl RenderArgs {
             display_server: None,
             half: false,
             aov: Vec::new(),
+            spp_map: None,
             crop: None,
             tile: None,
             pass: None,
@@ -157,7 +164,7 @@ fn resume(app: &App, given: RenderArgs, file: &Path) -> Result<(), Failure> {
     #[cfg(not(feature = "exr"))]
     {
         let _ = (app, given, file);
-        Err(Failure::Other("--resume reads a checkpoint (an OpenEXR file): rebuild raylab with `--features exr`".into()))
+        Err(Failure::Other(format!("--resume reads a checkpoint (an OpenEXR file); {}", crate::param::error::built_without("exr"))))
     }
     #[cfg(feature = "exr")]
     {
@@ -180,6 +187,7 @@ fn resume(app: &App, given: RenderArgs, file: &Path) -> Result<(), Failure> {
         a.output = at(&a.output);
         a.reference = a.reference.as_deref().map(at);
         a.error_csv = a.error_csv.as_deref().map(at);
+        a.spp_map = a.spp_map.as_deref().map(at);
         a.checkpoint = Some(file.to_path_buf());
         a.raw = ri.args;
         a.threads = given.threads.or(a.threads);
@@ -258,9 +266,10 @@ fn validate<'a>(app: &'a App, a: &RenderArgs) -> Result<Request<'a>, Failure> {
         ));
     }
     if !cfg!(feature = "exr") && (parts || a.checkpoint.is_some()) {
-        return Err(Failure::Other(
-            "--crop, --tile, --pass and --checkpoint write OpenEXR files: rebuild raylab with `--features exr`".into(),
-        ));
+        return Err(Failure::Other(format!(
+            "--crop, --tile, --pass and --checkpoint write OpenEXR files; {}",
+            crate::param::error::built_without("exr")
+        )));
     }
     if !parts && a.tile.is_none() && super::farm::TILE_INDEX_VARS.iter().any(|v| std::env::var_os(v).is_some()) {
         eprintln!(
@@ -288,6 +297,8 @@ struct Plan<'a> {
     scene_name: String,
     share: Option<Share>,
     reference: Option<Film>,
+    /// The samples per pixel of `--spp-map`, row by row.
+    spp_map: Option<Vec<u32>>,
     /// The denoiser's tool, when asked for.
     denoiser: Option<PathBuf>,
     /// Where the image of an interrupted render goes.
@@ -310,7 +321,7 @@ fn plan<'a>(app: &App, a: &'a RenderArgs, request: Request<'a>, resumed: Option<
     outputs.extend(a.error_csv.as_deref());
     // A resumed render rewrites its own checkpoint: that one file is both.
     outputs.extend(Some(checkpoint.as_path()).filter(|_| resumed.is_none()));
-    let named: Vec<&Path> = a.scene.iter().chain(&a.reference).map(PathBuf::as_path).collect();
+    let named: Vec<&Path> = a.scene.iter().chain(&a.reference).chain(&a.spp_map).map(PathBuf::as_path).collect();
     super::refuse_overwrite("render", &outputs, named.iter().copied())?;
     let (job, scene_name) = super::load(app, a.scene.as_deref(), &a.scene_args, request.image)?;
     super::refuse_overwrite("render", &outputs, job.inputs.iter().map(PathBuf::as_path))?;
@@ -330,6 +341,10 @@ fn plan<'a>(app: &App, a: &'a RenderArgs, request: Request<'a>, resumed: Option<
         Some(p) => Some(crate::image::reference::read(p, job.settings.encoding)?),
         None => None,
     };
+    let spp_map = match &a.spp_map {
+        Some(p) => Some(read_spp_map(p, job.settings.width, job.settings.height)?),
+        None => None,
+    };
     let load_time = t0.elapsed();
     let denoiser = if a.denoise { Some(crate::image::denoise::find_tool().map_err(Failure::Other)?) } else { None };
     // Checkpoints: the state as a partial image, with the command that continues it.
@@ -338,7 +353,7 @@ fn plan<'a>(app: &App, a: &'a RenderArgs, request: Request<'a>, resumed: Option<
         args: a.raw.iter().filter(|r| !r.is_empty()).cloned().collect(),
     })
     .map_err(|e| e.to_string())?;
-    Ok(Plan { a, request, job, scene_name, share, reference, denoiser, partial, checkpoint, resume_info, load_time })
+    Ok(Plan { a, request, job, scene_name, share, reference, spp_map, denoiser, partial, checkpoint, resume_info, load_time })
 }
 
 /// A render run, complete or not.
@@ -398,6 +413,7 @@ fn run_planned(plan: &Plan, resume: Option<&FrameSums>) -> Result<Run, Failure> 
         resume,
         snapshots,
         on_tile: display.as_ref().map(|_| &show_tile as &(dyn Fn(&crate::render::TileDone) + Sync)),
+        spp_map: plan.spp_map.as_deref(),
     };
     let mut error_log = match (&a.error_csv, &plan.reference) {
         (Some(path), Some(r)) => Some(ErrorLog::new(path, r, s.encoding)?),
@@ -524,7 +540,7 @@ fn write_image(plan: &Plan, mut rendered: Rendered) -> Result<Written, Failure> 
     let (a, job) = (plan.a, &plan.job);
     let t_denoise = Instant::now();
     if plan.denoiser.is_some() {
-        let film = denoise_film(&rendered).map_err(Failure::Other)?;
+        let film = crate::image::denoise::denoise_guided(&rendered.film, rendered.layers.as_ref()).map_err(Failure::Other)?;
         rendered.film = film;
     }
     let denoise_time = plan.denoiser.as_ref().map(|_| t_denoise.elapsed());
@@ -586,6 +602,10 @@ fn summarize(plan: &Plan, written: &Written, trace_cpu: Option<f64>) -> Result<(
     if let Some(e) = rendered.sums.error_estimate() {
         println!("  {}{}", error_line(&e, s.target.is_some()), if a.denoise { " (before denoising)" } else { "" });
     }
+    if let Some(budget) = s.time_budget {
+        let recorded = a.aov.iter().any(|l| l == "spp" || l == "error" || l == "variance");
+        println!("  {}", budget_line(rendered, budget, plan.spp_map.is_some(), recorded));
+    }
     if st.nonfinite_samples > 0 {
         eprintln!("warning: {} samples were NaN or infinite and were dropped from their pixels", st.nonfinite_samples);
     }
@@ -623,16 +643,8 @@ fn save_state(path: &Path, sums: &FrameSums, job: &RenderJob, resume: Option<&st
     #[cfg(not(feature = "exr"))]
     {
         let _ = (path, sums, job, resume);
-        Err("partial images and checkpoints are OpenEXR files: rebuild raylab with `--features exr`".into())
+        Err(format!("partial images and checkpoints are OpenEXR files; {}", crate::param::error::built_without("exr")))
     }
-}
-
-/// The rendered image denoised, guided by its albedo and normal layers.
-fn denoise_film(r: &Rendered) -> Result<Film, String> {
-    let layers = r.layers.as_ref().ok_or("the render took no albedo and normal layers to guide the denoiser")?;
-    let (w, h) = (r.film.width, r.film.height);
-    let film = |v: &Option<Vec<glam::Vec3>>| v.as_ref().map(|p| Film { width: w, height: h, pixels: p.clone() });
-    crate::image::denoise::denoise(&r.film, film(&layers.albedo).as_ref(), film(&layers.normal).as_ref())
 }
 
 /// The summary's line on the image's estimated error ([`crate::render::share::ErrorEstimate`]).
@@ -643,6 +655,57 @@ pub fn error_line(e: &crate::render::share::ErrorEstimate, target: bool) -> Stri
         if target { "an error target: " } else { "" },
         e.mean_spp
     )
+}
+
+/// The summary's line on a render under a time budget: where it stopped, and how to repeat it.
+fn budget_line(r: &Rendered, budget: std::time::Duration, from_map: bool, recorded: bool) -> String {
+    let (lo, hi) = r.sums.pixels.iter().fold((u32::MAX, 0), |(lo, hi), p| (lo.min(p.samples), hi.max(p.samples)));
+    let spp = if lo == hi { format!("{lo} spp") } else { format!("{lo}..{hi} spp") };
+    let how = if from_map {
+        "samples per pixel read from --spp-map (the clock not consulted)".to_string()
+    } else if r.time_stop {
+        format!("stopped by the time budget of {} s", budget.as_secs_f64())
+    } else {
+        format!("every pixel reached its most samples within the time budget of {} s", budget.as_secs_f64())
+    };
+    let repeat = if from_map || !r.time_stop {
+        ""
+    } else if recorded {
+        "; the `spp` layer records it: --spp-map FILE repeats it bit for bit"
+    } else {
+        "; not recorded: with -o NAME.exr --aov spp, --spp-map NAME.exr repeats it bit for bit"
+    };
+    format!("time budget: {how} at {spp}{repeat}")
+}
+
+/// The `spp` layer of an EXR file as a map of samples per pixel for a `width × height` frame.
+fn read_spp_map(path: &Path, width: u32, height: u32) -> Result<Vec<u32>, Failure> {
+    use crate::image::tonemap::{Layer, MAX_FILE_BYTES, check_input, read_layer};
+    let at = |e: String| Failure::Other(format!("--spp-map {}: {e}", path.display()));
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    check_input(&ext, Layer::Spp).map_err(at)?;
+    let bytes = crate::load::context::read_user_file(path, "map of samples per pixel", MAX_FILE_BYTES, None)?;
+    let film = read_layer(&bytes, &ext, Layer::Spp).map_err(at)?;
+    if (film.width, film.height) != (width, height) {
+        return Err(at(format!("its {}×{} pixels are not this render's {width}×{height}", film.width, film.height)));
+    }
+    film.pixels
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let n = p.x;
+            // Whole numbers up to 2^24 are exact in the layer's 32-bit floats.
+            if n.is_finite() && n >= 0.0 && n.fract() == 0.0 && n <= (1u32 << 24) as f32 {
+                Ok(n as u32)
+            } else {
+                Err(at(format!(
+                    "pixel ({}, {}) has {n} samples: expected a whole number in 0..=2^24",
+                    i % width as usize,
+                    i / width as usize
+                )))
+            }
+        })
+        .collect()
 }
 
 /// Writes the image to `path` in the planned format, with the layers `--aov` asks for (of

@@ -120,6 +120,14 @@ impl Drop for TempDir {
     }
 }
 
+/// A finished render's `film` denoised whole, guided by the albedo and normal of its `layers`.
+pub fn denoise_guided(film: &Film, layers: Option<&crate::render::aovs::Aovs>) -> Result<Film, String> {
+    let layers = layers.ok_or("the render took no albedo and normal layers to guide the denoiser")?;
+    let (width, height) = (film.width, film.height);
+    let guide = |v: &Option<Vec<glam::Vec3>>| v.as_ref().map(|p| Film { width, height, pixels: p.clone() });
+    denoise(film, guide(&layers.albedo).as_ref(), guide(&layers.normal).as_ref())
+}
+
 /// Whether the tool can be found (for tests that need it).
 pub fn available() -> bool {
     find_tool().is_ok()

@@ -185,8 +185,9 @@ pub fn format_among<'f>(formats: &'f [OutputFormat], path: &Path) -> Result<&'f 
     }
     if ext == "exr" {
         return Err(WriteError(format!(
-            "cannot write \"{}\": EXR output needs raylab built with the `exr` feature (cargo run --features exr)",
-            path.display()
+            "cannot write \"{}\": EXR output needs the `exr` feature; {}",
+            path.display(),
+            crate::param::error::built_without("exr")
         )));
     }
     let known: Vec<String> = formats.iter().flat_map(|f| f.extensions.iter().map(|e| format!(".{e}"))).collect();

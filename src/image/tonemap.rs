@@ -22,6 +22,8 @@ pub enum Layer {
     Normal,
     /// Albedo (`albedo.R/G/B`).
     Albedo,
+    /// Samples per pixel (`spp`).
+    Spp,
 }
 
 impl Layer {
@@ -32,6 +34,7 @@ impl Layer {
             "depth" => Some(Layer::Depth),
             "normal" => Some(Layer::Normal),
             "albedo" => Some(Layer::Albedo),
+            "spp" => Some(Layer::Spp),
             _ => None,
         }
     }
@@ -44,6 +47,7 @@ impl Layer {
             Layer::Depth => &["Z"],
             Layer::Normal => &["normal.X", "normal.Y", "normal.Z"],
             Layer::Albedo => &["albedo.R", "albedo.G", "albedo.B"],
+            Layer::Spp => &["spp"],
         }
     }
 }
@@ -76,17 +80,19 @@ pub fn check_input(ext: &str, layer: Layer) -> Result<(), String> {
         "pfm" if layer != Layer::Color => Err("a PFM file holds colour only; --layer needs an OpenEXR file".into()),
         "pfm" => Ok(()),
         "exr" if cfg!(feature = "exr") => Ok(()),
-        "exr" => Err(EXR_NEEDS_FEATURE.into()),
+        "exr" => Err(exr_needs_feature()),
         _ => Err(format!("unknown image type \".{ext}\"; expected .exr or .pfm")),
     }
 }
 
 /// Why an OpenEXR file cannot be read by this build.
-const EXR_NEEDS_FEATURE: &str = "reading OpenEXR needs raylab built with `--features exr`";
+fn exr_needs_feature() -> String {
+    format!("reading OpenEXR needs the `exr` feature; {}", crate::param::error::built_without("exr"))
+}
 
 #[cfg(not(feature = "exr"))]
 fn read_exr_layer(_: &[u8], _: Layer) -> Result<Film, String> {
-    Err(EXR_NEEDS_FEATURE.into())
+    Err(exr_needs_feature())
 }
 
 #[cfg(feature = "exr")]
@@ -137,8 +143,8 @@ fn read_exr_layer(bytes: &[u8], layer: Layer) -> Result<Film, String> {
 }
 
 /// `film` (of `layer`) as viewable values and the encoding that writes them: colour and albedo
-/// scaled by 2^`exposure` and sRGB-encoded; depth and normals as visualisation values written
-/// straight.
+/// scaled by 2^`exposure` and sRGB-encoded; depth, normals and samples per pixel (grey by
+/// log₂ spp, white at the most) as visualisation values written straight.
 pub fn visualise(mut film: Film, layer: Layer, exposure: f64) -> (Film, Encoding) {
     match layer {
         Layer::Color | Layer::Albedo => {
@@ -151,6 +157,14 @@ pub fn visualise(mut film: Film, layer: Layer, exposure: f64) -> (Film, Encoding
         Layer::Normal => {
             for p in &mut film.pixels {
                 *p = if p.is_finite() { (*p + Vec3::ONE) * 0.5 } else { Vec3::ZERO };
+            }
+            (film, Encoding::Linear)
+        }
+        Layer::Spp => {
+            let most = film.pixels.iter().map(|p| p.x).filter(|n| n.is_finite()).fold(1.0f32, f32::max);
+            for p in &mut film.pixels {
+                let n = if p.x.is_finite() { p.x.max(0.0) } else { 0.0 };
+                *p = Vec3::splat((1.0 + n).log2() / (1.0 + most).log2());
             }
             (film, Encoding::Linear)
         }

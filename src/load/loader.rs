@@ -127,6 +127,12 @@ pub const RENDER_PARAMS: &[ParamSpec] = &[
         ParamDefault::Int(16),
         "with target_error: samples every pixel takes before its error is first tested, ≥ 2 (fewer lets pixels whose first samples happen to agree stop too early)",
     ),
+    ParamSpec::new(
+        "time_budget",
+        ParamKind::Float,
+        ParamDefault::Optional,
+        "seconds of tracing: the image refines in passes that double each pixel's samples (spp is the most a pixel takes) and stops when the time is up, every pixel keeping the samples it has (stratified only); the `spp` layer (--aov spp) repeats it bit for bit (--spp-map)",
+    ),
 ];
 
 /// Reads and builds the scene file at `path`, choosing the format by extension (`.toml` is
@@ -165,6 +171,11 @@ fn read_with(registry: &Registry, path: &Path, ctx: &LoadContext) -> Result<Scen
     }
     match registry.format_for(&ext) {
         Some(f) => (f.read)(path, &bytes, ctx),
+        None if registry.absent_feature(&ext).is_some() => {
+            let feature = registry.absent_feature(&ext).unwrap_or_default();
+            Err(SceneError::in_file(path, None, format!("reading \".{ext}\" files needs the `{feature}` feature"))
+                .with_help(crate::param::error::built_without(feature)))
+        }
         None => {
             let known: Vec<String> = std::iter::once("toml".to_string())
                 .chain(registry.formats().iter().flat_map(|f| f.extensions.iter().map(|e| e.to_string())))
@@ -240,8 +251,8 @@ impl Parts {
 fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) -> Result<Parts> {
     ctx.use_mesh_formats(registry.mesh_formats());
     if ctx.options.accel == AccelChoice::Bvh && !crate::accel::build::BVH_AVAILABLE {
-        return Err(SceneError::msg("a BVH was asked for, but raylab was built without the `bvh` feature")
-            .with_help("rebuild with `--features bvh`, or use --accel auto/list"));
+        return Err(SceneError::msg("a BVH was asked for (--accel bvh), but it needs the `bvh` feature")
+            .with_help(format!("{}; or use --accel auto or list", crate::param::error::built_without("bvh"))));
     }
     let mut root = Params::new(format!("scene {}", desc.name), SCENE_PARAMS, &desc.root, desc.loc.clone());
     let name = match root.node("name")? {
@@ -326,8 +337,19 @@ fn render_section(node: Option<&Node>, desc: &SceneDescription, ctx: &LoadContex
             .with_help("raise the limit with --max-spp"));
     }
     let target = error_target(&mut rp, spp, aa)?;
+    let time_budget = time_budget(&mut rp, aa)?;
     rp.finish()?;
-    Ok(RenderSettings { width: width as u32, height: height as u32, spp: spp as u32, seed, encoding, aa, lens_samples, target })
+    Ok(RenderSettings {
+        width: width as u32,
+        height: height as u32,
+        spp: spp as u32,
+        seed,
+        encoding,
+        aa,
+        lens_samples,
+        target,
+        time_budget,
+    })
 }
 
 /// The image size of `[render]` with the command line's over it, checked against the limits
@@ -439,6 +461,25 @@ fn error_target(rp: &mut Params, spp: i64, aa: Antialiasing) -> Result<Option<cr
     })
 }
 
+/// The longest time budget, seconds (a year).
+const MAX_TIME_BUDGET: f64 = 365.0 * 24.0 * 3600.0;
+
+/// `[render]`'s time budget, checked against the anti-aliasing.
+fn time_budget(rp: &mut Params, aa: Antialiasing) -> Result<Option<std::time::Duration>> {
+    Ok(match rp.float_opt("time_budget")? {
+        None => None,
+        Some(t) if !(t > 0.0 && t <= MAX_TIME_BUDGET) => {
+            return Err(rp.error_at("time_budget", format_args!("expected seconds in (0, {MAX_TIME_BUDGET}], found {t}")));
+        }
+        Some(_) if matches!(aa, Antialiasing::Adaptive(_)) => {
+            return Err(rp
+                .error_at("time_budget", "a time budget applies to stratified sampling, not to adaptive anti-aliasing")
+                .with_help("use aa = \"stratified\" (--aa stratified) with time_budget"));
+        }
+        Some(t) => Some(std::time::Duration::from_secs_f64(t)),
+    })
+}
+
 /// `[camera]`, with the command line's keys over the file's: built at once, or, with
 /// `fit = true`, once the objects' bounds are known ([`CameraSection::build`]).
 struct CameraSection {
@@ -516,8 +557,14 @@ fn object_section(
     let default_material: Arc<[Material]> = Arc::from([materials.default_material()]);
     let mut names = NameSet::default();
     for (i, node) in array_of_tables(node, "object")?.into_iter().enumerate() {
-        let (ty, label, params) =
-            plugin_header(node, i, "object", |n| registry.geometry(n).is_some(), || registry.geometries().map(|p| p.name).collect())?;
+        let (ty, label, params) = plugin_header(
+            registry,
+            node,
+            i,
+            "object",
+            |n| registry.geometry(n).is_some(),
+            || registry.geometries().map(|p| p.name).collect(),
+        )?;
         let plugin = registry.geometry(&ty).expect("checked by plugin_header");
         let what = format!("object #{i} {label}({ty})");
         ctx.charge(OBJECT_BYTES, &what, Some(&node.loc))?;
@@ -580,7 +627,7 @@ fn light_section(registry: &Registry, node: Option<&Node>, ctx: &LoadContext) ->
     let mut light_names = NameSet::default();
     for (i, node) in array_of_tables(node, "light")?.into_iter().enumerate() {
         let (ty, label, params) =
-            plugin_header(node, i, "light", |n| registry.light(n).is_some(), || registry.lights().map(|p| p.name).collect())?;
+            plugin_header(registry, node, i, "light", |n| registry.light(n).is_some(), || registry.lights().map(|p| p.name).collect())?;
         let plugin = registry.light(&ty).expect("checked by plugin_header");
         let what = format!("light #{i} {label}({ty})");
         let mut p = Params::new(&what, plugin.info.params, params, node.loc.clone()).reserving(LIGHT_KEYS);
@@ -814,6 +861,7 @@ const LIGHT_KEYS: &[&str] = &["type", "name"];
 /// Reads `type` and `name` of a plugin table (without copying it); returns (type, "\"name\" "
 /// or "", the table).
 fn plugin_header<'a>(
+    registry: &Registry,
     node: &'a Node,
     i: usize,
     what: &str,
@@ -828,6 +876,11 @@ fn plugin_header<'a>(
         }
         Some(n) => match &n.value {
             Value::Str(s) if known(s) => s.clone(),
+            Value::Str(s) if registry.absent_feature(s).is_some() => {
+                let feature = registry.absent_feature(s).unwrap_or_default();
+                return Err(SceneError::at(&n.loc, format!("{what} type \"{s}\" needs the `{feature}` feature"))
+                    .with_help(crate::param::error::built_without(feature)));
+            }
             Value::Str(s) => {
                 return Err(SceneError::at(&n.loc, format!("unknown {what} type \"{s}\"")).with_help(suggest(s, &names())));
             }

@@ -88,6 +88,18 @@ pub struct Registry {
     mesh_formats: Vec<MeshFormat>,
     output_formats: Vec<OutputFormat>,
     default_integrator: Option<&'static str>,
+    absent: Vec<Absent>,
+}
+
+/// A plugin type or file extension a cargo feature of the binary would add, declared by a
+/// plugin crate built without that feature, so that asking for it names the feature
+/// ([`Registry::add_absent`], [`crate::param::error::built_without`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Absent {
+    /// What would be there: a type name (`mesh`) or a file extension (`obj`, no dot).
+    pub name: &'static str,
+    /// The cargo feature that adds it.
+    pub feature: &'static str,
 }
 
 impl Default for Registry {
@@ -102,6 +114,7 @@ impl Default for Registry {
             mesh_formats: Vec::new(),
             output_formats: builtin_formats(),
             default_integrator: None,
+            absent: Vec::new(),
         }
     }
 }
@@ -190,6 +203,18 @@ impl Registry {
     /// format's (a plugin may replace a built-in writer).
     pub fn add_output_format(&mut self, format: OutputFormat) {
         self.output_formats.push(format);
+    }
+
+    /// Declares `absent.name` (a type or a file extension) as what the cargo feature
+    /// `absent.feature` would add: a plugin crate built without that feature calls this, and a
+    /// scene or command asking for it is told which feature to build with.
+    pub fn add_absent(&mut self, absent: Absent) {
+        self.absent.push(absent);
+    }
+
+    /// The feature that would add the type or extension `name`, when one was declared absent.
+    pub fn absent_feature(&self, name: &str) -> Option<&'static str> {
+        self.absent.iter().find(|a| a.name.eq_ignore_ascii_case(name)).map(|a| a.feature)
     }
 
     /// The geometry type `name`.

@@ -191,6 +191,15 @@ fn edit_distance(a: &str, b: &str) -> usize {
     prev[b.len()]
 }
 
+/// The sentence that says raylab lacks the cargo feature `feature`, and how to build it in:
+/// every error about something a feature would add (a mesh file, EXR output, a BVH) ends with it.
+pub fn built_without(feature: &str) -> String {
+    format!(
+        "raylab was built without the `{feature}` feature: rebuild with `--features {feature}` \
+         (`cargo install --path plugins --features mesh,bvh,exr` installs every feature)"
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -96,7 +96,8 @@ pub struct PixelSum {
     /// variance behind [`PixelSum::std_error`].
     pub sq: i128,
     /// Σ luminance of the rays of the second half of the samples (a checkerboard over the
-    /// pixel's strata), in units of 2⁻⁶⁴: the two halves behind [`PixelSum::half_variance`].
+    /// pixel's strata; for Sobol points, the samples from the last power of two on), in units of
+    /// 2⁻⁶⁴: the two halves behind [`PixelSum::half_variance`].
     pub odd: i128,
     /// Rays whose radiance was finite (the divisor of the mean).
     pub n: u32,
@@ -179,12 +180,14 @@ impl PixelSum {
         Some((variance / n).sqrt())
     }
 
-    /// The variance of the mean luminance estimated from two halves of the samples (the black
-    /// and white squares of a checkerboard over the pixel's strata: each half covers every row
-    /// and column of strata, so it is stratified about as the whole is), `(A − B)² / 4`
-    /// for half means `A` and `B`: unlike [`PixelSum::std_error`], it sees what stratification
-    /// gains, but from one pixel it has a single degree of freedom; averaged over many pixels it
-    /// estimates an image's error. `None` unless both halves have rays.
+    /// The variance of the mean luminance estimated from two halves of the samples (for a
+    /// stratified set, the black and white squares of a checkerboard over the pixel's strata;
+    /// for Sobol points, the first and the second half of the samples, each a (0, 2)-net: either
+    /// way each half is stratified about as the whole is), `(A − B)² · n_A · n_B / n²` for half
+    /// means `A` and `B` of `n_A` and `n_B` rays (`(A − B)² / 4` for equal halves): unlike
+    /// [`PixelSum::std_error`], it sees what stratification gains, but from one pixel it has a
+    /// single degree of freedom; averaged over many pixels it estimates an image's error. `None`
+    /// unless both halves have rays.
     pub fn half_variance(&self) -> Option<f64> {
         let n_even = self.n - self.n_odd;
         if self.n_odd == 0 || n_even == 0 {
@@ -193,7 +196,16 @@ impl PixelSum {
         let sum = (float(self.sum[0]) * LUMINANCE.x + float(self.sum[1]) * LUMINANCE.y + float(self.sum[2]) * LUMINANCE.z) * COLOR_UNIT;
         let odd = float(self.odd) * COLOR_UNIT;
         let d = (sum - odd) / f64::from(n_even) - odd / f64::from(self.n_odd);
-        Some(d * d / 4.0)
+        let n = f64::from(self.n);
+        Some(d * d * (f64::from(n_even) / n) * (f64::from(self.n_odd) / n))
+    }
+
+    /// Empties the second half: the samples so far become the first half of the estimate in
+    /// [`PixelSum::half_variance`] (for Sobol points, at each power of two of samples).
+    #[inline]
+    pub fn restart_second_half(&mut self) {
+        self.odd = 0;
+        self.n_odd = 0;
     }
 
     /// [`PixelSum::std_error`] relative to the mean luminance, or to `floor` where the pixel is

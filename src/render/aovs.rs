@@ -18,13 +18,14 @@ pub enum Aov {
 }
 
 impl Aov {
-    /// Parses `depth`, `normal`, `albedo` or `error` (also called `variance`).
+    /// Parses `depth`, `normal`, `albedo` or `error` (also called `variance`, and `spp`: the
+    /// error layer comes with the samples per pixel).
     pub fn parse(s: &str) -> Option<Aov> {
         match s {
             "depth" => Some(Aov::Depth),
             "normal" => Some(Aov::Normal),
             "albedo" => Some(Aov::Albedo),
-            "error" | "variance" => Some(Aov::Error),
+            "error" | "variance" | "spp" => Some(Aov::Error),
             _ => None,
         }
     }

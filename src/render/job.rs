@@ -122,6 +122,11 @@ pub struct RenderSettings {
     pub lens_samples: u32,
     /// Stop each pixel at this error (stratified only); `spp` is then the most a pixel takes.
     pub target: Option<ErrorTarget>,
+    /// Stop the render after this much tracing (stratified only): the image refines in passes
+    /// that double each pixel's samples (`spp` is the most a pixel takes), and where the time
+    /// runs out each pixel keeps the samples it has. The samples each pixel reached (the `spp`
+    /// layer) repeat the render bit for bit ([`crate::render::RenderOptions::spp_map`]).
+    pub time_budget: Option<std::time::Duration>,
 }
 
 impl RenderSettings {
@@ -136,16 +141,32 @@ impl RenderSettings {
             aa: Antialiasing::Stratified,
             lens_samples: 1,
             target: None,
+            time_budget: None,
         }
+    }
+
+    /// Whether a pixel may stop after any power of two of its samples (an error target or a time
+    /// budget): its positions are then Sobol (0,2) points, whose every such prefix is
+    /// stratified, instead of one stratified set of `spp`.
+    #[inline]
+    pub fn progressive(&self) -> bool {
+        self.spp > 1 && (self.target.is_some() || self.time_budget.is_some())
     }
 
     /// A short description: `16 spp` or `adaptive (threshold 0.05, depth 3)`, plus lens samples.
     pub fn describe_sampling(&self) -> String {
         let aa = match self.aa {
-            Antialiasing::Stratified => match self.target {
-                None => format!("{} spp", self.spp),
-                Some(t) => format!("to error {} ({}..{} spp)", t.error, t.min_spp.min(self.spp), self.spp),
-            },
+            Antialiasing::Stratified => {
+                let spp = match self.target {
+                    None if self.time_budget.is_some() => format!("≤ {} spp", self.spp),
+                    None => format!("{} spp", self.spp),
+                    Some(t) => format!("to error {} ({}..{} spp)", t.error, t.min_spp.min(self.spp), self.spp),
+                };
+                match self.time_budget {
+                    Some(b) => format!("{spp} within {} s", b.as_secs_f64()),
+                    None => spp,
+                }
+            }
             Antialiasing::Adaptive(a) => {
                 let mut d = format!("adaptive AA (threshold {}, depth {}", a.threshold, a.max_depth);
                 if !a.edges {

@@ -65,6 +65,10 @@ pub struct RenderOptions<'a> {
     /// Called as each tile finishes (from a worker thread, while the state is locked): live
     /// displays show the tile at once.
     pub on_tile: Option<&'a (dyn Fn(&TileDone) + Sync)>,
+    /// The samples each pixel of the frame reached in a render under a time budget (row by row,
+    /// the `spp` layer it wrote): with it, a render of the same job stops each pixel there
+    /// instead of at the clock, and repeats that render bit for bit.
+    pub spp_map: Option<&'a [u32]>,
 }
 
 /// A tile that has just finished, with the render's state at that moment.
@@ -107,6 +111,10 @@ pub struct Rendered {
     /// Set when the work budget ([`RenderJob::max_rays`]) stopped the render: the rays traced by
     /// then (the tiles that ran out are discarded; the image holds the tiles done).
     pub budget_stop: Option<u64>,
+    /// Set when the time budget ([`RenderSettings::time_budget`]) ended the render before every
+    /// pixel had `spp` samples (the render is complete all the same: each pixel keeps what it
+    /// has, and the `spp` layer records it).
+    pub time_stop: bool,
 }
 
 /// The state of a progressive render after one pass.
@@ -198,9 +206,13 @@ fn render_passes(
     let share = options.share.unwrap_or_else(|| Share::whole(s.width, s.height));
     let sums = starting_sums(&s, share, options)?;
     let ends = match s.aa {
+        // Under a time budget the image refines doubling its samples, so it is whole at any stop.
+        Antialiasing::Stratified if s.time_budget.is_some() => pass_ends(s.spp, &DOUBLING_PASSES),
         Antialiasing::Stratified => pass_ends(s.spp, checkpoints),
         Antialiasing::Adaptive(_) => vec![1],
     };
+    // The clock stops the render only without a map (which repeats where it stopped before).
+    let deadline = s.time_budget.filter(|_| options.spp_map.is_none());
     // Adaptive tiles are larger: the lattice points on a tile's border are traced by both tiles.
     let tiles = tiles(
         share.bounds,
@@ -210,7 +222,7 @@ fn render_passes(
         },
     );
     let already: u64 = sums.pixels.iter().map(|p| u64::from(p.samples)).sum();
-    let total = total_samples(&s, share, &sums);
+    let total = total_samples(&s, share, &sums, options.spp_map);
     budget::check(job, share, total - already)?;
     let counters = job.integrator.counters();
     let run = Passes {
@@ -226,11 +238,19 @@ fn render_passes(
         start: Instant::now(),
     };
     let mut complete = true;
-    for &end in &ends {
-        tiles.par_iter().for_each(|&tile| run.tile(tile, end));
+    let mut time_stop = false;
+    for (k, &end) in ends.iter().enumerate() {
+        // The first pass always completes, so every pixel has a sample; later ones stop at the
+        // deadline, between pixel rows.
+        let stop = Stop { cancel: options.cancel, deadline: deadline.filter(|_| k > 0).map(|d| run.start + d) };
+        tiles.par_iter().for_each(|&tile| run.tile(tile, end, &stop));
         let st = run.lock();
         if run.stopped() {
             complete = st.sums.complete();
+            break;
+        }
+        if stop.now() {
+            time_stop = end != *ends.last().unwrap_or(&end) || !st.sums.complete();
             break;
         }
         if end != *ends.last().unwrap_or(&end) {
@@ -246,7 +266,16 @@ fn render_passes(
         on_pass(&Pass { film: &film, samples: *ends.last().unwrap_or(&1), elapsed, stats: st.stats });
     }
     let budget_stop = run.over.load(Ordering::Relaxed).then(|| run.traced.load(Ordering::Relaxed));
-    Ok(Rendered { film, layers, sums: st.sums, stats: st.stats, elapsed, complete: complete && budget_stop.is_none(), budget_stop })
+    Ok(Rendered {
+        film,
+        layers,
+        sums: st.sums,
+        stats: st.stats,
+        elapsed,
+        complete: complete && budget_stop.is_none(),
+        budget_stop,
+        time_stop,
+    })
 }
 
 /// The sums a render starts from: `share` checked against the frame, then the saved state it
@@ -255,11 +284,29 @@ fn starting_sums(s: &RenderSettings, share: Share, options: &RenderOptions) -> R
     if share.bounds.is_empty() || !share.bounds.within(&Rect::frame(s.width, s.height)) || share.passes == 0 || share.pass >= share.passes {
         return Err(format!("{} is not a share of the {}×{} frame", share.describe(), s.width, s.height));
     }
-    if s.target.is_some() && share.passes > 1 {
+    if (s.target.is_some() || s.time_budget.is_some()) && share.passes > 1 {
         return Err(format!(
-            "{}: with an error target, where a pixel stops depends on all its samples so far, so its samples cannot be split into passes; split the frame by tiles or crops instead",
+            "{}: with an error target or a time budget, where a pixel stops depends on all its samples so far, so its samples cannot be split into passes; split the frame by tiles or crops instead",
             share.describe()
         ));
+    }
+    if let Some(map) = options.spp_map {
+        if s.time_budget.is_none() || !matches!(s.aa, Antialiasing::Stratified) {
+            return Err(
+                "a map of samples per pixel repeats a render under a time budget: give the same command, with its time budget".into()
+            );
+        }
+        if map.len() != s.width as usize * s.height as usize {
+            return Err(format!("the map of samples per pixel has {} pixels, not the {}×{} of this frame", map.len(), s.width, s.height));
+        }
+        if let Some((i, &m)) = map.iter().enumerate().find(|(_, m)| **m > s.spp.max(1)) {
+            return Err(format!(
+                "the map gives pixel ({}, {}) {m} samples, more than the {} spp this render takes at most: it is of another render",
+                i % s.width as usize,
+                i / s.width as usize,
+                s.spp
+            ));
+        }
     }
     match options.resume {
         Some(r) => {
@@ -282,14 +329,25 @@ fn starting_sums(s: &RenderSettings, share: Share, options: &RenderOptions) -> R
     }
 }
 
-/// The samples `share` has when done, counting those `sums` already holds.
-fn total_samples(s: &RenderSettings, share: Share, sums: &FrameSums) -> u64 {
+/// The samples `share` has when done, counting those `sums` already holds (at most `map`'s).
+fn total_samples(s: &RenderSettings, share: Share, sums: &FrameSums, map: Option<&[u32]>) -> u64 {
     match s.aa {
         // Every pixel of a stratified share wants the same samples: its total is
         // `already + Σ missing`, each pixel's `max(samples, want)`, without asking pixel by pixel.
         Antialiasing::Stratified => {
             let want = share.samples_of(Sampling::of(s), s.width, share.bounds.x0, share.bounds.y0);
-            sums.pixels.iter().map(|p| u64::from(p.samples.max(want))).sum()
+            match map {
+                None => sums.pixels.iter().map(|p| u64::from(p.samples.max(want))).sum(),
+                Some(map) => sums
+                    .pixels
+                    .iter()
+                    .enumerate()
+                    .map(|(i, p)| {
+                        let (x, y) = share.bounds.pixel(i);
+                        u64::from(p.samples.max(want.min(map[y as usize * s.width as usize + x as usize])))
+                    })
+                    .sum(),
+            }
         }
         Antialiasing::Adaptive(_) => {
             let already: u64 = sums.pixels.iter().map(|p| u64::from(p.samples)).sum();
@@ -333,10 +391,11 @@ impl Passes<'_> {
         self.options.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || self.over.load(Ordering::Relaxed)
     }
 
-    /// Renders `tile` up to sample index `end` and puts it into the state (unless the budget ran
-    /// out inside it), then hands the state to the tile and snapshot callbacks.
-    fn tile(&self, tile: Rect, end: u32) {
-        if self.stopped() {
+    /// Renders `tile` up to sample index `end` (or until `stop`) and puts it into the state
+    /// (unless the budget ran out inside it), then hands the state to the tile and snapshot
+    /// callbacks.
+    fn tile(&self, tile: Rect, end: u32, stop: &Stop) {
+        if self.stopped() || stop.now() {
             return;
         }
         let (job, options) = (self.job, self.options);
@@ -344,7 +403,7 @@ impl Passes<'_> {
         let mut stats = RayStats::new(self.counters);
         stats.set_allowance(job.max_rays.saturating_sub(self.traced.load(Ordering::Relaxed)));
         let before = work.samples();
-        work.render(job, end, options.cancel, &mut stats);
+        work.render(job, end, stop, options.spp_map, &mut stats);
         let added = work.samples() - before;
         self.traced.fetch_add(stats.rays(), Ordering::Relaxed);
         let mut st = self.lock();
@@ -367,6 +426,20 @@ impl Passes<'_> {
         }
         drop(st);
         (self.progress)(self.done.fetch_add(added, Ordering::Relaxed) + added, self.total);
+    }
+}
+
+/// When a render stops: when cancelled, or at a deadline (a time budget).
+struct Stop<'a> {
+    cancel: Option<&'a AtomicBool>,
+    deadline: Option<Instant>,
+}
+
+impl Stop<'_> {
+    /// Whether the render is to stop now.
+    #[inline]
+    fn now(&self) -> bool {
+        self.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || self.deadline.is_some_and(|d| Instant::now() >= d)
     }
 }
 
@@ -414,15 +487,15 @@ impl TileWork {
     /// Adds the share's samples below index `end` that each pixel lacks (stratified), or
     /// computes the pixels not done yet (adaptive); stops between pixel rows when cancelled or
     /// when `stats` ran out of its allowance (the integrator stops within a sample).
-    fn render(&mut self, job: &RenderJob, end: u32, cancel: Option<&AtomicBool>, stats: &mut RayStats) {
+    fn render(&mut self, job: &RenderJob, end: u32, stop: &Stop, map: Option<&[u32]>, stats: &mut RayStats) {
         let s = &job.settings;
         let t = self.tile;
         let mut scheme = match s.aa {
             Antialiasing::Adaptive(a) => Adaptive::new(job, a, t.x0, t.width(), self.layers.is_some()),
-            Antialiasing::Stratified => return self.render_stratified(job, end, cancel, stats),
+            Antialiasing::Stratified => return self.render_stratified(job, end, stop, map, stats),
         };
         for (i, (x, y)) in (t.y0..t.y1).flat_map(|y| (t.x0..t.x1).map(move |x| (x, y))).enumerate() {
-            if x == t.x0 && (cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || stats.exhausted()) {
+            if x == t.x0 && (stop.now() || stats.exhausted()) {
                 return;
             }
             let acc = &mut self.pixels[i];
@@ -437,19 +510,21 @@ impl TileWork {
     }
 
     /// [`TileWork::render`] under stratified sampling, row by row, with what is the same for
-    /// every pixel of the tile (the samples it wants, whether layers are summed) decided once.
-    fn render_stratified(&mut self, job: &RenderJob, end: u32, cancel: Option<&AtomicBool>, stats: &mut RayStats) {
+    /// every pixel of the tile (the samples it wants, whether layers are summed) decided once;
+    /// with a map of samples per pixel, each pixel wants at most its entry.
+    fn render_stratified(&mut self, job: &RenderJob, end: u32, stop: &Stop, map: Option<&[u32]>, stats: &mut RayStats) {
         let s = &job.settings;
         let t = self.tile;
         let share = self.share;
         // The tile lies inside the share's bounds, where every pixel takes the same samples.
         let want = share.samples_of(Sampling::of(s), s.width, t.x0, t.y0);
-        let pixels = StratifiedPixels { job, frame: image_frame(job), share, want, end };
+        let mut pixels = StratifiedPixels { job, frame: image_frame(job), share, want, end, row_map: None };
         let w = t.width() as usize;
         for (row, y) in (t.y0..t.y1).enumerate() {
-            if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || stats.exhausted() {
+            if stop.now() || stats.exhausted() {
                 return;
             }
+            pixels.row_map = map.map(|m| &m[y as usize * s.width as usize..][..s.width as usize]);
             let span = row * w..(row + 1) * w;
             let row_sums = self.pixels[span.clone()].iter_mut().zip(t.x0..t.x1);
             match self.layers.as_mut() {
@@ -477,6 +552,8 @@ struct StratifiedPixels<'a> {
     want: u32,
     /// The pass ends at this sample index.
     end: u32,
+    /// The current row's entries of a map of samples per pixel (each pixel wants at most its own).
+    row_map: Option<&'a [u32]>,
 }
 
 impl StratifiedPixels<'_> {
@@ -485,7 +562,8 @@ impl StratifiedPixels<'_> {
     #[inline(always)]
     fn add_samples(&self, (x, y): (u32, u32), acc: &mut PixelSum, mut layers: Option<&mut LayerSum>, stats: &mut RayStats) {
         let (job, share) = (self.job, self.share);
-        while acc.samples < self.want && share.sample_index(acc.samples) < self.end {
+        let want = self.row_map.map_or(self.want, |m| self.want.min(m[x as usize]));
+        while acc.samples < want && share.sample_index(acc.samples) < self.end {
             if job.settings.target.is_some_and(|t| t.converged(acc)) {
                 break;
             }

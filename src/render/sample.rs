@@ -126,7 +126,7 @@ pub struct ImageFrame {
     miss: Layers,
     /// A pixel's stratified samples: their count, and the columns `m` of their set's strata.
     strata: (f64, u32),
-    /// Pixel samples are Sobol points (an error target), not a stratified set.
+    /// Pixel samples are Sobol points (an error target, a time budget), not a stratified set.
     progressive: bool,
 }
 
@@ -138,7 +138,7 @@ pub fn image_frame(job: &RenderJob) -> ImageFrame {
         seed: SeedKey::new(job.settings.seed),
         miss: Layers::miss(job.scene.background),
         strata: (f64::from(job.settings.spp.max(1)), crate::math::sampler::strata(job.settings.spp).0),
-        progressive: job.settings.target.is_some() && job.settings.spp > 1,
+        progressive: job.settings.progressive(),
     }
 }
 
@@ -154,11 +154,12 @@ pub fn camera_rays_in<'a>(job: &'a RenderJob, image: &ImageFrame, id: SampleId) 
             // The pixel's pattern key, hashed only when a stratified set (film or lens) uses it.
             let pattern =
                 if s.spp > 1 || job.scene.camera.aperture > 0.0 { (mix64(pixel ^ s.seed.rotate_left(17)) >> 32) as u32 } else { 0 };
-            // Under an error target a pixel may stop after any power of two of samples: its
-            // positions then come from a sequence whose every such prefix is stratified.
+            // Under an error target or a time budget a pixel may stop after any power of two of
+            // samples: its positions then come from a sequence whose every such prefix is
+            // stratified.
             let jitter = if s.spp == 1 {
                 DVec2::splat(0.5)
-            } else if s.target.is_some() {
+            } else if s.progressive() {
                 sobol_02(index, pattern)
             } else {
                 stratified_2d(index, s.spp, pattern)
@@ -242,11 +243,18 @@ pub fn trace_sample_in(
     let rays = camera_rays_in(job, frame, id);
     // Which half of the error estimate's two the sample joins. Stratified sets: by its stratum
     // `s` of the pixel's `spp` rows, alternately, flipped on each of the set's m-stratum bands
-    // (so both halves cover every band and every column of the set). The Sobol points of an
-    // error target: by the parity of the index's bits (each pair 2j, 2j + 1, which share all
-    // but the top bit of both coordinates, is split between the halves).
+    // (so both halves cover every band and every column of the set). Sobol points (an error
+    // target, a time budget): a pixel stopping at `n` samples (a power of two) has halves
+    // [0, n/2) and [n/2, n), each a (0, 2)-net; so at each power of two the second half starts
+    // again, the samples before it becoming the first. (The parity of the index's bits split
+    // the pixel in two along y: the Sobol y's top bit is that parity.)
     let second = match id {
-        SampleId::Pixel { index, .. } if frame.progressive => index.count_ones() & 1 == 1,
+        SampleId::Pixel { index, .. } if frame.progressive => {
+            if index.is_power_of_two() {
+                acc.restart_second_half();
+            }
+            index > 0
+        }
         SampleId::Pixel { y, .. } if frame.strata.1 > 1 => {
             let s = ((rays.film.y - f64::from(y)) * frame.strata.0) as u32;
             (s + s / frame.strata.1) & 1 == 1

@@ -55,6 +55,86 @@ pub struct Material {
     /// The material plugin's own scattering model (`None`: the coefficients alone, read by each
     /// integrator in its own way).
     pub model: Option<Model>,
+    /// Where the surface is cut away (glTF `alphaMode` MASK and BLEND, MTL `map_d`): rays pass
+    /// through those parts as if nothing were there. `None`: the surface is everywhere.
+    pub cutout: Option<Cutout>,
+}
+
+/// A surface's coverage (alpha): where it is there for rays and where it is a hole. Shapes that
+/// support it (meshes) test it at each hit they find, for every kind of ray (camera, secondary,
+/// shadow), and go on to the next hit when the surface is not there.
+#[derive(Clone, Debug)]
+pub struct Cutout {
+    /// The coverage constant in [0, 1] (glTF's `baseColorFactor` alpha, MTL `d`), multiplied by
+    /// the texture's first channel.
+    pub alpha: f64,
+    /// The coverage texture (its red channel: an image's alpha, or its grey value).
+    pub texture: Option<Arc<dyn Texture>>,
+    /// How coverage decides.
+    pub mode: AlphaMode,
+}
+
+/// How a [`Cutout`]'s coverage decides whether a ray meets the surface.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AlphaMode {
+    /// Present where coverage ≥ `cutoff` (glTF `MASK`, default cutoff 0.5).
+    Mask {
+        /// The threshold.
+        cutoff: f64,
+    },
+    /// Present with probability equal to the coverage (stochastic transparency; glTF `BLEND`,
+    /// MTL `map_d`): `u`, the ray's own hash, decides, so the same ray always gets the same
+    /// answer and an image is the same whatever the threads or tiles.
+    Blend,
+}
+
+/// Equal when the constants are and the texture is the same object.
+impl PartialEq for Cutout {
+    fn eq(&self, other: &Self) -> bool {
+        self.alpha == other.alpha
+            && self.mode == other.mode
+            && match (&self.texture, &other.texture) {
+                (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+                (None, None) => true,
+                _ => false,
+            }
+    }
+}
+
+impl Cutout {
+    /// The cut-out, or `None` when it cuts nothing away (an untextured coverage that keeps the
+    /// whole surface): such a surface costs rays nothing.
+    pub fn new(alpha: f64, texture: Option<Arc<dyn Texture>>, mode: AlphaMode) -> Option<Cutout> {
+        let alpha = if alpha.is_finite() { alpha.clamp(0.0, 1.0) } else { 1.0 };
+        let whole = match mode {
+            AlphaMode::Mask { cutoff } => alpha >= cutoff,
+            AlphaMode::Blend => alpha >= 1.0,
+        };
+        (texture.is_some() || !whole).then_some(Cutout { alpha, texture, mode })
+    }
+
+    /// The coverage in [0, 1] at `at`.
+    #[inline]
+    pub fn coverage(&self, at: impl FnOnce() -> TexturePoint) -> f64 {
+        match &self.texture {
+            Some(t) => {
+                let a = self.alpha * t.eval(&at()).x;
+                if a.is_finite() { a.clamp(0.0, 1.0) } else { 1.0 }
+            }
+            None => self.alpha,
+        }
+    }
+
+    /// Whether the surface is there at `at` for a ray whose hash is `u` ∈ [0, 1) (read only in
+    /// [`AlphaMode::Blend`]).
+    #[inline]
+    pub fn keeps(&self, at: impl FnOnce() -> TexturePoint, u: impl FnOnce() -> f64) -> bool {
+        let a = self.coverage(at);
+        match self.mode {
+            AlphaMode::Mask { cutoff } => a >= cutoff,
+            AlphaMode::Blend => a >= 1.0 || (a > 0.0 && u() < a),
+        }
+    }
 }
 
 /// A material plugin's scattering model, shared by every object using the material.
@@ -171,6 +251,7 @@ impl Default for Material {
             fresnel: Fresnel::Off,
             textures: Vec::new(),
             model: None,
+            cutout: None,
         }
     }
 }

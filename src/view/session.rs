@@ -543,7 +543,7 @@ impl Session {
         st.status.samples[0] = st.status.samples[1];
         st.film = Some(rendered.film);
         if !self.refine.load(Ordering::Relaxed) {
-            self.finish(&mut st, None, format!("the scene's samples ({})", s.describe_sampling()));
+            self.finish(&mut st, None, "at the scene's samples (--no-refine)".into());
             return Ok(());
         }
         st.status.phase = Phase::Refining;

@@ -284,7 +284,7 @@ fn a_scene_names_pbr_by_type_and_its_parameters_are_checked() {
     let m = &job.scene.objects[0].materials()[0];
     assert!(m.model.is_some(), "a pbr material has its model");
     // Its Phong coefficients are the mapping's.
-    let mapped = phong_mapping([0.9, 0.1, 0.1, 1.0], 0.0, 0.4, false, None, Some(1.5), [0.0; 3]);
+    let mapped = phong_mapping([0.9, 0.1, 0.1, 1.0], 0.0, 0.4, None, Some(1.5), [0.0; 3]);
     assert_eq!((m.kd, m.ks, m.shininess, m.kr), (mapped.kd, mapped.ks, mapped.shininess, mapped.kr));
     // Without a type, a material is phong's coefficients, with no model.
     let job = load(&format!("{SCENE}[materials.m]\nkd = 0.5\n")).unwrap_or_else(|e| panic!("{}", e.report()));
