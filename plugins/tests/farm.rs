@@ -7,9 +7,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn raylab(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_raylab")).args(args).current_dir(dir).output().expect("raylab runs")
-}
+mod common;
+use common::raylab;
 
 fn scene(name: &str) -> String {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes").join(name).display().to_string()

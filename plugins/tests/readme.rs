@@ -5,16 +5,15 @@
 //! build what this test already runs.
 #![cfg(all(feature = "mesh", feature = "bvh", feature = "exr"))]
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
+
+mod common;
+use common::repo;
 
 /// The image width the README's render commands are run at (the height follows the scene's
 /// aspect ratio).
 const SMALL_WIDTH: &str = "48";
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
-}
 
 fn readme() -> String {
     std::fs::read_to_string(repo().join("README.md")).unwrap()

@@ -13,6 +13,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+mod common;
+use common::repo;
+
 /// How long the page may take to reach a state (a loaded machine renders slowly).
 const PATIENCE: Duration = Duration::from_secs(180);
 
@@ -21,10 +24,6 @@ fn temp(name: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
-}
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
 }
 
 /// Kills the process when dropped (a failed assertion must not leave a server behind).

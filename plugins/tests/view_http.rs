@@ -6,9 +6,11 @@
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
-use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
+
+mod common;
+use common::repo;
 
 /// How long a state may take to come (a loaded machine renders slowly).
 const PATIENCE: Duration = Duration::from_secs(180);
@@ -21,10 +23,6 @@ impl Drop for Guard {
         let _ = self.0.kill();
         let _ = self.0.wait();
     }
-}
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
 }
 
 /// Starts `raylab view` on the showcase at 64 × 48, stopping at the scene's samples (no
