@@ -41,15 +41,19 @@ def render(raylab, args, out):
     run([raylab, "render", *args, "-o", out, "-q"])
 
 
-def beside(paths, out):
+def beside(paths, out, above=False):
+    """The renders side by side, GAP white pixels apart (or one above the other)."""
     images = [Image.open(p).convert("RGB") for p in paths]
-    w = sum(i.width for i in images) + GAP * (len(images) - 1)
-    h = max(i.height for i in images)
-    canvas = Image.new("RGB", (w, h), (255, 255, 255))
-    x = 0
+    gaps = GAP * (len(images) - 1)
+    if above:
+        size = (max(i.width for i in images), sum(i.height for i in images) + gaps)
+    else:
+        size = (sum(i.width for i in images) + gaps, max(i.height for i in images))
+    canvas = Image.new("RGB", size, (255, 255, 255))
+    at = 0
     for i in images:
-        canvas.paste(i, (x, 0))
-        x += i.width + GAP
+        canvas.paste(i, (0, at) if above else (at, 0))
+        at += (i.height if above else i.width) + GAP
     canvas.save(out)
 
 
@@ -145,7 +149,7 @@ def main():
                     parts = [os.path.join(tmp, f"{k}.png") for k in range(len(i["render"]))]
                     for args, part in zip(i["render"], parts):
                         render(raylab, args, part)
-                    beside(parts, out)
+                    beside(parts, out, above=i.get("layout") == "above")
             elif "view" in i:
                 screenshot(raylab, i["view"], out)
             elif "run" in i:
