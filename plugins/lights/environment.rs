@@ -121,6 +121,9 @@ fn grid_size(w: usize, h: usize, resolution: usize) -> (usize, usize) {
     (w.min(resolution).max(1), h.min(resolution.div_ceil(2)).max(1))
 }
 
+/// The density (per steradian) of directions drawn uniformly over the sphere.
+const UNIFORM_DENSITY: f64 = 1.0 / (4.0 * PI);
+
 /// An environment: radiance from every direction.
 pub struct Environment {
     /// Radiance (or the image's multiplier).
@@ -205,34 +208,43 @@ impl Environment {
     fn radiance(&self, dir: DVec3) -> Color {
         match &self.image {
             None => self.radiance,
-            Some((image, _)) => {
-                let (uv, _) = self.to_uv(dir);
-                // The texture lookup's v points up (row 0 at v = 1).
-                image.lookup(DVec2::new(uv.x, 1.0 - uv.y), [Wrap::Repeat, Wrap::Clamp], Filter::Bilinear) * self.radiance
-            }
+            Some((image, _)) => self.radiance_at(image, self.to_uv(dir).0),
         }
+    }
+
+    /// The image's radiance at image coordinates `uv` (as [`Environment::to_uv`]).
+    #[inline]
+    fn radiance_at(&self, image: &Image, uv: DVec2) -> Color {
+        // The texture lookup's v points up (row 0 at v = 1).
+        image.lookup(DVec2::new(uv.x, 1.0 - uv.y), [Wrap::Repeat, Wrap::Clamp], Filter::Bilinear) * self.radiance
     }
 
     /// The density (per steradian) with which [`LightSource::illuminate`] picks direction `dir`.
     #[inline]
     fn density(&self, dir: DVec3) -> f64 {
         match &self.image {
-            None => 1.0 / (4.0 * PI),
+            None => UNIFORM_DENSITY,
             Some((_, density)) => {
                 let (uv, sin_theta) = self.to_uv(dir);
-                // dω = sin θ dθ dφ = 2π² sin θ du dv; straight up or down (a set of no measure,
-                // where the map is singular) is never sampled.
-                if sin_theta > 0.0 { density.pdf(uv) / (2.0 * PI * PI * sin_theta) } else { 0.0 }
+                Self::density_at(density, uv, sin_theta)
             }
         }
+    }
+
+    /// The image's sampling density per steradian at image coordinates `uv`, where sin θ is `sin_theta`.
+    #[inline]
+    fn density_at(density: &Piecewise2d, uv: DVec2, sin_theta: f64) -> f64 {
+        // dω = sin θ dθ dφ = 2π² sin θ du dv; straight up or down (a set of no measure, where the
+        // map is singular) is never sampled.
+        if sin_theta > 0.0 { density.pdf(uv) / (2.0 * PI * PI * sin_theta) } else { 0.0 }
     }
 
     /// The sample for direction `dir` with density `pdf`: the light's whole contribution as one
     /// sample's intensity (radiance ÷ π·pdf, in the lights' intensity convention), zero where the
     /// density is not a finite positive number.
     #[inline]
-    fn sample(&self, dir: DVec3, pdf: f64) -> LightSample {
-        let intensity = if pdf > 0.0 && pdf.is_finite() { self.radiance(dir) / (PI * pdf) } else { Color::ZERO };
+    fn sample(&self, dir: DVec3, radiance: Color, pdf: f64) -> LightSample {
+        let intensity = if pdf > 0.0 && pdf.is_finite() { radiance / (PI * pdf) } else { Color::ZERO };
         LightSample { dir, distance: f64::INFINITY, intensity }
     }
 }
@@ -248,12 +260,13 @@ impl LightSource for Environment {
                 let (cr, sr) = self.rotation;
                 let local = DVec3::new(r * c, z, r * s);
                 let dir = DVec3::new(cr * local.x + sr * local.z, local.y, -sr * local.x + cr * local.z);
-                Some(self.sample(dir, 1.0 / (4.0 * PI)))
+                Some(self.sample(dir, self.radiance, UNIFORM_DENSITY))
             }
-            Some((_, density)) => {
+            Some((image, density)) => {
+                // The radiance at the drawn texel's coordinates: no round trip through the direction.
                 let (uv, pdf_uv) = density.sample(u);
                 let (dir, sin_theta) = self.direction_of(uv);
-                Some(self.sample(dir, pdf_uv / (2.0 * PI * PI * sin_theta)))
+                Some(self.sample(dir, self.radiance_at(image, uv), pdf_uv / (2.0 * PI * PI * sin_theta)))
             }
         }
     }
@@ -267,7 +280,14 @@ impl LightSource for Environment {
         if t_max.is_finite() {
             return None;
         }
-        Some(self.sample(ray.dir, self.density(ray.dir)))
+        Some(match &self.image {
+            None => self.sample(ray.dir, self.radiance, UNIFORM_DENSITY),
+            Some((image, density)) => {
+                // One turn into image coordinates serves both the radiance and the density.
+                let (uv, sin_theta) = self.to_uv(ray.dir);
+                self.sample(ray.dir, self.radiance_at(image, uv), Self::density_at(density, uv, sin_theta))
+            }
+        })
     }
 
     fn sample_count(&self) -> u32 {
