@@ -368,6 +368,10 @@ impl MaterialModel for Pbr {
         let p = self.at(|| at.texture_point());
         f(&self.bsdf_with(&p, at.wo(), at.n(), at.ns()))
     }
+
+    fn is_textured(&self) -> bool {
+        self.base_color.texture.is_some() || self.metallic_roughness.is_some() || self.transmission.texture.is_some()
+    }
 }
 
 /// GGX's distribution of normals `D(h)` for `cos_h` = n·h (> 0) and width `alpha`.

@@ -645,6 +645,9 @@ impl GltfFile {
             Slot::Alpha => ColorSpace::Alpha,
         };
         let image = self.image(ctx, &t.source(), material, space)?;
+        if space != ColorSpace::Alpha {
+            image_texture::with_mip_maps(&image, ctx)?;
+        }
         let sampler = t.sampler();
         let wrap = |w: WrappingMode| match w {
             WrappingMode::ClampToEdge => Wrap::Clamp,
@@ -1587,7 +1590,7 @@ mod tests {
             let m = &job.scene.objects[0].materials()[0];
             assert_eq!(m.textures.len(), 1, "{file}: the base colour (a dielectric: kd only)");
             assert_eq!(m.textures[0].channel, Channel::Kd);
-            let at = |u, v| m.textures[0].texture.eval(&TexturePoint { uv: raylab::glam::DVec2::new(u, v), local: DVec3::ZERO });
+            let at = |u, v| m.textures[0].texture.eval(&TexturePoint::new(raylab::glam::DVec2::new(u, v), DVec3::ZERO));
             let (sky, hill) = (at(0.5, 0.9), at(0.5, 0.15));
             assert!(sky.z > sky.x && sky.z > sky.y, "{file}: {sky}");
             assert!(hill.y > hill.x && hill.y > hill.z, "{file}: {hill}");

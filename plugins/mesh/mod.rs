@@ -11,7 +11,7 @@ pub mod triangle_mesh;
 pub mod triangulate;
 
 use raylab::geometry::transform::{Transform, Transformed};
-use raylab::geometry::{Geometry, Hit, Intersectable, Surface, SurfacePdf, SurfaceSample, face_forward};
+use raylab::geometry::{Geometry, Hit, Intersectable, Surface, SurfaceDerivatives, SurfacePdf, SurfaceSample, face_forward};
 use raylab::glam::{DVec2, DVec3};
 use raylab::load::context::MeshFormat;
 use raylab::load::mesh::{MeshFile, MeshRequest};
@@ -348,6 +348,10 @@ impl Geometry for MeshObject {
     /// coordinates.
     fn uv(&self, at: &Hit) -> DVec2 {
         self.mesh.interpolated_uv(at).unwrap_or(at.uv)
+    }
+    /// Flat triangles (the normal's turn across a smooth mesh is not followed).
+    fn derivatives(&self, at: &Hit) -> Option<SurfaceDerivatives> {
+        self.mesh.uv_derivatives(at).map(|(u, v)| SurfaceDerivatives::flat(u, v))
     }
     fn bounds(&self) -> Option<Aabb> {
         Some(self.mesh.bounds())

@@ -1101,6 +1101,12 @@ fn attach_maps(ctx: &LoadContext, m: &tobj::Material, folder: &Path, loc: &Loc, 
         let space = if channel.is_some() { ColorSpace::Srgb } else { ColorSpace::Alpha };
         match image_texture::load(ctx, &path.to_string_lossy(), loc, space) {
             Ok(image) => {
+                // Over the memory budget: a warning, and the map is looked up at points.
+                if space != ColorSpace::Alpha {
+                    if let Err(e) = image_texture::with_mip_maps(&image, ctx) {
+                        ctx.warn(e);
+                    }
+                }
                 let wrap = if map.clamp { Wrap::Clamp } else { Wrap::Repeat };
                 let mapping = Mapping::with_inverse(Coords::Uv, map.lookup);
                 let texture = std::sync::Arc::new(ImageTexture::new(image, mapping, [wrap; 2], Filter::Bilinear, Color::ONE));
@@ -1678,7 +1684,7 @@ mod tests {
         let m = &data.materials[0];
         assert_eq!((m.kd, m.textures.len(), m.textures[0].channel), (DVec3::splat(0.5), 1, Channel::Kd));
         let at = |u: f64| {
-            m.textures[0].texture.eval(&raylab::scene::texture::TexturePoint { uv: raylab::glam::DVec2::new(u, 0.5), local: DVec3::ZERO })
+            m.textures[0].texture.eval(&raylab::scene::texture::TexturePoint::new(raylab::glam::DVec2::new(u, 0.5), DVec3::ZERO))
         };
         assert_eq!((at(0.25), at(0.75)), (DVec3::X, DVec3::Z), "left texel red, right blue");
         let _ = std::fs::remove_dir_all(&dir);

@@ -384,7 +384,7 @@ impl TriangleMesh {
         let at = || {
             let hit = Hit { uv: DVec2::new(b.y, b.z), prim: slot, ..Hit::new(0.0, DVec3::ZERO, DVec3::ZERO) };
             let [p0, p1, p2] = self.vertices(slot).map(DVec3::from);
-            TexturePoint { uv: self.interpolated_uv(&hit).unwrap_or(hit.uv), local: b.x * p0 + b.y * p1 + b.z * p2 }
+            TexturePoint::new(self.interpolated_uv(&hit).unwrap_or(hit.uv), b.x * p0 + b.y * p1 + b.z * p2)
         };
         c.keeps(at, || ray_hash(ray, slot))
     }
@@ -506,6 +506,29 @@ impl TriangleMesh {
         let [i0, i1, i2] = *t.indices.get(at.prim as usize)?;
         let (b1, b2) = (at.uv.x, at.uv.y);
         Some((1.0 - b1 - b2) * t.uv[i0 as usize].as_dvec2() + b1 * t.uv[i1 as usize].as_dvec2() + b2 * t.uv[i2 as usize].as_dvec2())
+    }
+
+    /// How the point moves with the texture coordinates on triangle `at.prim` (`∂p/∂u`, `∂p/∂v`):
+    /// from the file's texture coordinates (pbrt-v4 §6.5.3), or the barycentric ones without
+    /// them; `None` where the triangle's texture coordinates are degenerate.
+    pub fn uv_derivatives(&self, at: &Hit) -> Option<(DVec3, DVec3)> {
+        if (at.prim / PACK) as usize >= self.packs.len() {
+            return None;
+        }
+        let [p0, p1, p2] = self.vertices(at.prim).map(DVec3::from);
+        let Some(t) = self.texcoords.as_ref() else { return Some((p1 - p0, p2 - p0)) };
+        let [i0, i1, i2] = *t.indices.get(at.prim as usize)?;
+        let uv = |i: u32| t.uv.get(i as usize).map(|v| v.as_dvec2());
+        let (uv0, uv1, uv2) = (uv(i0)?, uv(i1)?, uv(i2)?);
+        let (duv02, duv12) = (uv0 - uv2, uv1 - uv2);
+        let (dp02, dp12) = (p0 - p2, p1 - p2);
+        let det = duv02.x * duv12.y - duv02.y * duv12.x;
+        if !(det.abs() > 1e-12) {
+            return None;
+        }
+        let dpdu = (duv12.y * dp02 - duv02.y * dp12) / det;
+        let dpdv = (duv02.x * dp12 - duv12.x * dp02) / det;
+        (dpdu.is_finite() && dpdv.is_finite()).then_some((dpdu, dpdv))
     }
 
     /// True when the mesh encloses a volume: every edge is shared by exactly two triangles that

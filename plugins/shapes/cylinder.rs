@@ -9,7 +9,7 @@
 //! to rounding on both sides of it) and never reports one crossing twice. A crossing is reported
 //! only beyond its own rounding-error bound, so a ray starting on the surface does not hit it again.
 
-use raylab::geometry::{Geometry, Hit, Intersectable, SurfacePdf, SurfaceSample};
+use raylab::geometry::{Geometry, Hit, Intersectable, SurfaceDerivatives, SurfacePdf, SurfaceSample};
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::bounds::circle_extent;
 use raylab::math::float::{gamma, max_abs, on_surface_slack};
@@ -220,6 +220,21 @@ impl Geometry for Cylinder {
                 DVec2::new(super::uv::longitude(radial, self.across), self.height.map_or(along, |h| along / h))
             }
         }
+    }
+    fn derivatives(&self, at: &Hit) -> Option<SurfaceDerivatives> {
+        let (x, z) = self.across;
+        let d = 2.0 * self.radius;
+        Some(match at.prim {
+            TOP_CAP => SurfaceDerivatives::flat(d * x, -d * z),
+            BOTTOM_CAP => SurfaceDerivatives::flat(d * x, d * z),
+            _ => {
+                let rel = at.point - self.base;
+                let radial = (rel - rel.dot(self.axis) * self.axis).normalize();
+                let dpdu = TAU * self.radius * (radial.dot(z) * x - radial.dot(x) * z);
+                let dpdv = self.axis * self.height.unwrap_or(1.0);
+                SurfaceDerivatives { dpdu, dpdv, dndu: dpdu / self.radius, dndv: DVec3::ZERO }
+            }
+        })
     }
     fn bounds(&self) -> Option<Aabb> {
         let h = self.height?;

@@ -7,7 +7,7 @@
 //! Points exactly on the rim belong to the bowl.
 
 use super::sphere::sphere_roots;
-use raylab::geometry::{Geometry, Hit, Intersectable, SurfacePdf, SurfaceSample};
+use raylab::geometry::{Geometry, Hit, Intersectable, SurfaceDerivatives, SurfacePdf, SurfaceSample};
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::float::{gamma, on_surface_slack};
 use raylab::param::error::Result;
@@ -89,6 +89,17 @@ impl Geometry for Hemisphere {
         let d = (at.point - self.center).normalize();
         let from_bottom = (-d.dot(self.open)).clamp(-1.0, 1.0).acos() / std::f64::consts::FRAC_PI_2;
         DVec2::new(super::uv::longitude(d, super::uv::around_frame(self.open)), from_bottom.min(1.0))
+    }
+    /// Around `open` as the sphere's around +y; from the bottom by the angle from `-open`.
+    fn derivatives(&self, at: &Hit) -> Option<SurfaceDerivatives> {
+        let d = (at.point - self.center).normalize();
+        let (x, z) = super::uv::around_frame(self.open);
+        let dpdu = TAU * self.radius * (d.dot(z) * x - d.dot(x) * z);
+        let radial = d - d.dot(self.open) * self.open;
+        let sin = radial.length();
+        let e = if sin > 0.0 { radial / sin } else { DVec3::ZERO };
+        let dpdv = std::f64::consts::FRAC_PI_2 * self.radius * (sin * self.open - d.dot(self.open) * e);
+        Some(SurfaceDerivatives { dpdu, dpdv, dndu: dpdu / self.radius, dndv: dpdv / self.radius })
     }
     fn bounds(&self) -> Option<Aabb> {
         Some(Aabb::new(self.center - DVec3::splat(self.radius), self.center + DVec3::splat(self.radius)))

@@ -4,7 +4,7 @@
 //! origin is within [`raylab::math::float::on_surface_slack`] of the plane (it starts on the
 //! plane) does not hit it.
 
-use raylab::geometry::{Geometry, Hit, Intersectable};
+use raylab::geometry::{Geometry, Hit, Intersectable, SurfaceDerivatives};
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::float::{gamma, max_abs};
 use raylab::param::error::Result;
@@ -175,6 +175,9 @@ impl Geometry for Plane {
     fn uv(&self, at: &Hit) -> DVec2 {
         let d = at.point - self.point;
         DVec2::new(d.dot(self.axes.0), d.dot(self.axes.1))
+    }
+    fn derivatives(&self, _: &Hit) -> Option<SurfaceDerivatives> {
+        Some(SurfaceDerivatives::flat(self.axes.0, self.axes.1))
     }
     fn bounds(&self) -> Option<Aabb> {
         None

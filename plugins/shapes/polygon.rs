@@ -8,7 +8,7 @@
 use super::plane::intersect_plane;
 use super::triangle::barycentric_point;
 use raylab::geometry::sampling::uniform_triangle;
-use raylab::geometry::{Geometry, Hit, Intersectable, SurfacePdf, SurfaceSample};
+use raylab::geometry::{Geometry, Hit, Intersectable, SurfaceDerivatives, SurfacePdf, SurfaceSample};
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::float::DEGENERACY_TOLERANCE;
 use raylab::param::error::Result;
@@ -208,6 +208,19 @@ impl Geometry for Polygon {
         }
         let (lo, hi) = self.flat.iter().fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
         (p - lo) / (hi - lo).max(DVec2::splat(f64::MIN_POSITIVE))
+    }
+    /// Four corners: the bilinear map's partial derivatives; more or fewer: the rectangle's
+    /// sides.
+    fn derivatives(&self, at: &Hit) -> Option<SurfaceDerivatives> {
+        let lift = |v: DVec2| v.x * self.axes.0 + v.y * self.axes.1;
+        if let [a, b, c, e] = self.flat[..] {
+            let uv = self.uv(at);
+            let g = a - b + c - e;
+            return Some(SurfaceDerivatives::flat(lift(b - a + g * uv.y), lift(e - a + g * uv.x)));
+        }
+        let (lo, hi) = self.flat.iter().fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+        let size = hi - lo;
+        Some(SurfaceDerivatives::flat(size.x * self.axes.0, size.y * self.axes.1))
     }
     fn bounds(&self) -> Option<Aabb> {
         Some(Aabb::from_points(self.vertices.iter().copied()))

@@ -7,7 +7,7 @@
 //! rejected, so a ray leaving the surface never reports it again.
 
 use raylab::geometry::sampling::{NARROW_CONE_SIN2, cone_solid_angle, uniform_sphere};
-use raylab::geometry::{Geometry, Hit, Intersectable, SurfacePdf, SurfaceSample};
+use raylab::geometry::{Geometry, Hit, Intersectable, SurfaceDerivatives, SurfacePdf, SurfaceSample};
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::float::{gamma, max_abs};
 use raylab::param::error::Result;
@@ -134,6 +134,10 @@ impl Geometry for Sphere {
     /// Longitude around +y and latitude ([`super::uv`]).
     fn uv(&self, at: &Hit) -> DVec2 {
         super::uv::spherical((at.point - self.center).normalize())
+    }
+    fn derivatives(&self, at: &Hit) -> Option<SurfaceDerivatives> {
+        let d = (at.point - self.center).normalize();
+        Some(super::uv::spherical_derivatives(d, self.radius))
     }
     fn bounds(&self) -> Option<Aabb> {
         Some(Aabb::new(self.center - DVec3::splat(self.radius), self.center + DVec3::splat(self.radius)))

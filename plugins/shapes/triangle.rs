@@ -8,7 +8,7 @@
 //! hits, and the test's consistent edge functions then make shared edges watertight.
 
 use raylab::geometry::sampling::uniform_triangle;
-use raylab::geometry::{Geometry, Hit, Intersectable, SurfacePdf, SurfaceSample};
+use raylab::geometry::{Geometry, Hit, Intersectable, SurfaceDerivatives, SurfacePdf, SurfaceSample};
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::float::{DEGENERACY_TOLERANCE, gamma, on_surface_slack, triangle_normal};
 use raylab::param::error::Result;
@@ -211,6 +211,11 @@ impl Intersectable for Triangle {
 impl Geometry for Triangle {
     fn outward_normal(&self, _: &Hit) -> DVec3 {
         self.normal
+    }
+    /// Barycentric: `u` toward `p1`, `v` toward `p2`.
+    fn derivatives(&self, _: &Hit) -> Option<SurfaceDerivatives> {
+        let [p0, p1, p2] = self.p;
+        Some(SurfaceDerivatives::flat(p1 - p0, p2 - p0))
     }
     fn bounds(&self) -> Option<Aabb> {
         Some(Aabb::from_points(self.p))

@@ -52,6 +52,16 @@ pub fn spherical(d: DVec3) -> DVec2 {
     DVec2::new(0.5 + d.x.atan2(d.z) / TAU, 0.5 + d.y.clamp(-1.0, 1.0).asin() / PI)
 }
 
+/// The derivatives of [`spherical`] coordinates on a sphere of `radius` at unit direction `d`
+/// from its centre: `∂p/∂u` along the parallel (2π r cos θ long), `∂p/∂v` along the meridian
+/// (π r long), the outward normal turning as `∂p/r`.
+pub fn spherical_derivatives(d: DVec3, radius: f64) -> raylab::geometry::SurfaceDerivatives {
+    let cos = d.x.hypot(d.z);
+    let dpdu = TAU * radius * DVec3::new(d.z, 0.0, -d.x);
+    let dpdv = if cos > 0.0 { PI * radius * DVec3::new(-d.y * d.x / cos, cos, -d.y * d.z / cos) } else { DVec3::ZERO };
+    raylab::geometry::SurfaceDerivatives { dpdu, dpdv, dndu: dpdu / radius, dndv: dpdv / radius }
+}
+
 /// Texture coordinates of point `p` (2-D, in the quad's plane) in the convex quadrangle
 /// `a b c d` mapped bilinearly onto a(0, 0), b(1, 0), c(1, 1), d(0, 1): the inverse of
 /// `a + u(b − a) + v(d − a) + uv(a − b + c − d)`. Parallelograms have one root; otherwise the

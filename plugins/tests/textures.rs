@@ -79,10 +79,10 @@ material = { emission = { type = "image", file = "red.png", scale = 2 } }
     assert!(warnings[0].contains("texture \"unused\" is not used by any material"), "{}", warnings[0]);
     // The textured material multiplies its constant (1 for a named texture) by the texels.
     let m = &job.scene.objects[0].materials()[0];
-    let c = m.at(|| raylab::glam::DVec2::new(0.5, 0.5), raylab::glam::DVec3::ZERO);
+    let c = m.at(|| raylab::scene::texture::TexturePoint::new(raylab::glam::DVec2::new(0.5, 0.5), raylab::glam::DVec3::ZERO));
     assert_eq!(c.kd, raylab::glam::DVec3::X);
     let e = &job.scene.objects[1].materials()[0];
-    assert_eq!(e.at(|| raylab::glam::DVec2::ZERO, raylab::glam::DVec3::ZERO).emission, raylab::glam::DVec3::new(2.0, 0.0, 0.0));
+    assert_eq!(e.at(|| raylab::scene::texture::TexturePoint::new(raylab::glam::DVec2::ZERO, raylab::glam::DVec3::ZERO)).emission, raylab::glam::DVec3::new(2.0, 0.0, 0.0));
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -2,6 +2,10 @@
 //! OpenEXR with the `exr` feature. Looked up at the surface's texture coordinates (`v` up: the image's bottom row at
 //! `v = 0`), filtered bilinearly or by nearest texel, wrapped per axis.
 //!
+//! Over a pixel's footprint ([`TexturePoint::footprint`]) it is MIP-mapped: levels of half the
+//! size each, box-filtered in linear values when the texture is built (their memory charged to
+//! the budget like the image's), read trilinearly ([`Image::lookup_filtered`]).
+//!
 //! Files are read through the scene's sandbox and size limit ([`LoadContext::read_file`]).
 //! The header is read first: an image of more than [`raylab::param::limits::Limits::max_pixels`]
 //! pixels, or wider or taller than `max_side`, is refused before anything is decoded (no
@@ -19,7 +23,7 @@ use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use raylab::scene::texture::{Mapping, TRANSFORM_PARAM, Texture, TexturePoint};
 use raylab::{Color, LoadContext, PluginInfo};
 use std::io::Cursor;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 /// The `image` texture's description.
 pub const INFO: PluginInfo = PluginInfo {
@@ -81,6 +85,7 @@ pub fn build(p: &mut Params, ctx: &LoadContext) -> Result<Arc<dyn Texture>> {
     let scale = p.color("scale")?;
     let mapping = Mapping::from_params(p)?;
     let image = load(ctx, &file, &loc, space).map_err(|e| e.context(p.what()))?;
+    with_mip_maps(&image, ctx).map_err(|e| e.context(p.what()))?;
     Ok(Arc::new(ImageTexture { image, mapping, wrap: [wrap; 2], filter, scale }))
 }
 
@@ -149,11 +154,15 @@ fn kept_bytes(pixels: u64, eight: bool) -> u64 {
     if eight { pixels * 3 + std::mem::size_of::<[f32; 256]>() as u64 } else { pixels * 3 * std::mem::size_of::<f32>() as u64 }
 }
 
-/// A decoded image: linear RGB texels, row 0 at the top.
+/// A decoded image: linear RGB texels, row 0 at the top; and, once built for a texture
+/// ([`with_mip_maps`]), its MIP levels.
 pub struct Image {
     width: usize,
     height: usize,
     texels: Texels,
+    /// Levels 1, 2, … of the MIP pyramid (each half the size of the one before, down to 1×1),
+    /// texels kept as level 0's (8-bit through the same table, or `f32`).
+    mips: OnceLock<Box<[Image]>>,
 }
 
 impl std::fmt::Debug for Image {
@@ -167,7 +176,11 @@ impl Image {
     /// An image of `width × height` linear RGB texels (`texels`: 3 values each, row 0 at the
     /// top); `None` when the sizes do not match or either is zero.
     pub fn from_linear(width: usize, height: usize, texels: Vec<f32>) -> Option<Image> {
-        (width > 0 && height > 0 && texels.len() == width * height * 3).then_some(Image { width, height, texels: Texels::Float(texels) })
+        (width > 0 && height > 0 && texels.len() == width * height * 3).then(|| Image::new(width, height, Texels::Float(texels)))
+    }
+
+    fn new(width: usize, height: usize, texels: Texels) -> Image {
+        Image { width, height, texels, mips: OnceLock::new() }
     }
 
     /// Width and height, texels.
@@ -199,6 +212,45 @@ impl Image {
         self.texel(x, y).as_dvec3()
     }
 
+    /// The value at texture coordinates `uv` (v up) averaged over the footprint `(duv_dx,
+    /// duv_dy)` (the uv moves one pixel over): trilinear MIP mapping (pbrt-v3 §10.4.3) once the
+    /// footprint is wider than a texel and the levels are built ([`with_mip_maps`]); below a
+    /// texel, or without levels, [`Image::lookup`] at level 0, exactly.
+    #[inline]
+    pub fn lookup_filtered(&self, uv: DVec2, (duv_dx, duv_dy): (DVec2, DVec2), wrap: [Wrap; 2], filter: Filter) -> Color {
+        let (Some(mips), true) = (self.mips.get(), duv_dx != DVec2::ZERO || duv_dy != DVec2::ZERO) else {
+            return self.lookup(uv, wrap, filter);
+        };
+        let level = self.mip_level((duv_dx, duv_dy));
+        if !(level > 0.0) {
+            return self.lookup(uv, wrap, filter);
+        }
+        let at = |l: usize| if l == 0 { self.lookup(uv, wrap, filter) } else { mips[(l - 1).min(mips.len() - 1)].lookup(uv, wrap, filter) };
+        let top = mips.len() as f64;
+        if filter == Filter::Nearest || level >= top {
+            return at(level.round().min(top) as usize);
+        }
+        let l0 = level.floor();
+        let t = level - l0;
+        let l0 = l0 as usize;
+        at(l0) * (1.0 - t) + at(l0 + 1) * t
+    }
+
+    /// The MIP level a footprint `(duv_dx, duv_dy)` reads (fractional; ≤ 0: level 0): the log2 of
+    /// the footprint's width in texels, its longer side (a pixel covering `k` texels reads level
+    /// `log2 k`, where texels are as large as the pixel).
+    #[inline]
+    pub fn mip_level(&self, (duv_dx, duv_dy): (DVec2, DVec2)) -> f64 {
+        let size = DVec2::new(self.width as f64, self.height as f64);
+        let width = (duv_dx * size).length().max((duv_dy * size).length());
+        if width.is_finite() { width.log2() } else { 0.0 }
+    }
+
+    /// The number of MIP levels built beyond level 0 (0 before [`with_mip_maps`]).
+    pub fn mip_levels(&self) -> usize {
+        self.mips.get().map_or(0, |m| m.len())
+    }
+
     /// The filtered value at texture coordinates `uv` (v up), wrapped per axis by `wrap`.
     #[inline]
     pub fn lookup(&self, uv: DVec2, wrap: [Wrap; 2], filter: Filter) -> Color {
@@ -222,6 +274,78 @@ impl Image {
     }
 }
 
+/// Bytes the MIP levels of a `width × height` image take, as [`with_mip_maps`] keeps them.
+fn mip_bytes(mut width: usize, mut height: usize, eight: bool) -> u64 {
+    let mut total = 0;
+    while width > 1 || height > 1 {
+        (width, height) = ((width / 2).max(1), (height / 2).max(1));
+        total += if eight { width * height * 3 } else { width * height * 12 };
+    }
+    total as u64
+}
+
+/// The level after `image`: half its size (a side of 1 stays 1), each texel the box-filtered
+/// mean of the 2 × 2 texels it covers, in linear values; along an odd side the last texel takes
+/// the mean of three (so every texel of the level above counts). Inside the image: no wrapping.
+fn half_level(image: &Image) -> Image {
+    let (w, h) = ((image.width / 2).max(1), (image.height / 2).max(1));
+    // The source texels and weights of output index `i` along a side of `n`.
+    let taps = |i: usize, n: usize, out: usize| -> (usize, usize) {
+        if n == 1 {
+            (0, 1)
+        } else if i == out - 1 && n % 2 == 1 {
+            (2 * i, 3)
+        } else {
+            (2 * i, 2)
+        }
+    };
+    let mut sums = Vec::with_capacity(w * h);
+    for y in 0..h {
+        let (y0, ny) = taps(y, image.height, h);
+        for x in 0..w {
+            let (x0, nx) = taps(x, image.width, w);
+            let mut s = Vec3::ZERO;
+            for j in y0..y0 + ny {
+                for i in x0..x0 + nx {
+                    s += image.texel(i, j);
+                }
+            }
+            sums.push(s / (nx * ny) as f32);
+        }
+    }
+    let texels = match &image.texels {
+        Texels::Eight { linear, .. } => {
+            // Back to 8 bits through the same table: the nearest of its (increasing) values.
+            let code = |v: f32| {
+                let i = linear.partition_point(|&t| t < v).min(255);
+                if i > 0 && (v - linear[i - 1]) <= (linear[i] - v) { (i - 1) as u8 } else { i as u8 }
+            };
+            let rgb = sums.iter().flat_map(|s| [code(s.x), code(s.y), code(s.z)]).collect();
+            Texels::Eight { rgb, linear: linear.clone() }
+        }
+        Texels::Float(_) => Texels::Float(sums.iter().flat_map(|s| [s.x, s.y, s.z]).collect()),
+    };
+    Image::new(w, h, texels)
+}
+
+/// Builds `image`'s MIP levels once (a file shared by several textures shares them), charging
+/// their memory to the scene's budget first. Levels are what a footprint wider than a texel
+/// reads ([`Image::lookup_filtered`]).
+pub fn with_mip_maps(image: &Image, ctx: &LoadContext) -> Result<()> {
+    if image.mips.get().is_some() {
+        return Ok(());
+    }
+    let eight = matches!(image.texels, Texels::Eight { .. });
+    ctx.charge(mip_bytes(image.width, image.height, eight), &format!("the MIP maps of a {}×{} image", image.width, image.height), None)?;
+    let mut levels: Vec<Image> = Vec::new();
+    while levels.last().unwrap_or(image).size() != (1, 1) {
+        let next = half_level(levels.last().unwrap_or(image));
+        levels.push(next);
+    }
+    let _ = image.mips.set(levels.into_boxed_slice());
+    Ok(())
+}
+
 /// An image over a surface's texture coordinates.
 #[derive(Clone, Debug)]
 pub struct ImageTexture {
@@ -242,7 +366,11 @@ impl ImageTexture {
 impl Texture for ImageTexture {
     #[inline]
     fn eval(&self, at: &TexturePoint) -> Color {
-        self.image.lookup(self.mapping.uv(at), self.wrap, self.filter) * self.scale
+        let uv = self.mapping.uv(at);
+        if at.footprint.is_point() {
+            return self.image.lookup(uv, self.wrap, self.filter) * self.scale;
+        }
+        self.image.lookup_filtered(uv, self.mapping.uv_footprint(at), self.wrap, self.filter) * self.scale
     }
 }
 
@@ -337,7 +465,7 @@ pub fn decode(bytes: &[u8], name: &str, space: ColorSpace, ctx: &LoadContext) ->
         rgb.iter_mut().for_each(|v| *v = to_linear(*v));
         Texels::Float(rgb)
     };
-    Ok(Image { width, height, texels })
+    Ok(Image::new(width, height, texels))
 }
 
 #[cfg(test)]

@@ -2,6 +2,10 @@
 //! coordinates or through the shape's own frame ([`Mapping`]), each with unit-sized cells
 //! placed and sized by its `transform`.
 //!
+//! Each is band-limited: over a pixel's footprint ([`TexturePoint::footprint`]) it returns its
+//! box-filtered mean in closed form (the share of odd cells, the blend's integral), so a
+//! checkerboard toward the horizon turns to the mean of its colours instead of moiré.
+//!
 //! Cells are decided by `floor`, so a surface lying exactly on a cell boundary in object
 //! coordinates (a plane at y = 0 under a solid checker) shows rounding noise: move the pattern by
 //! half a cell (`transform = { translate = [0, 0.5, 0] }`) or lay it over uv.
@@ -100,8 +104,70 @@ impl Cells {
 impl Texture for Cells {
     #[inline]
     fn eval(&self, at: &TexturePoint) -> Color {
-        if self.cell(self.mapping.point(at)) & 1 == 0 { self.even } else { self.odd }
+        let p = self.mapping.point(at);
+        if !at.footprint.is_point() {
+            // The share of odd cells in the pixel's footprint: the pattern box-filtered.
+            let odd = self.odd_share(p, self.mapping.point_footprint(at));
+            if let Some(f) = odd {
+                return self.even * (1.0 - f) + self.odd * f;
+            }
+        }
+        if self.cell(p) & 1 == 0 { self.even } else { self.odd }
     }
+}
+
+impl Cells {
+    /// The share of odd cells over the footprint of pattern point `p` (its moves `dx`, `dy` one
+    /// pixel over): the cells' parity box-filtered over the footprint's bounding box, in closed
+    /// form (pbrt-v3 §10.5.1; Apodaca and Gritz): a checker's parity is the product of its axes'
+    /// `±1` parities, and a box is separable, so each axis is filtered alone. `None` when the
+    /// footprint lies in one cell (the point's colour, exactly).
+    #[inline]
+    fn odd_share(&self, p: DVec3, (dx, dy): (DVec3, DVec3)) -> Option<f64> {
+        // Half the footprint's extent along each axis.
+        let half = 0.5 * (dx.abs() + dy.abs());
+        let sign = match self.kind {
+            CellKind::Checker => {
+                let (sx, sy, sz) = (box_parity(p.x, half.x)?, box_parity(p.y, half.y)?, box_parity(p.z, half.z)?);
+                if sx.is_none() && sy.is_none() && sz.is_none() {
+                    return None;
+                }
+                let exact = |s: Option<f64>, v: f64| s.unwrap_or(if (v.floor() as i64) & 1 == 0 { 1.0 } else { -1.0 });
+                exact(sx, p.x) * exact(sy, p.y) * exact(sz, p.z)
+            }
+            CellKind::Stripes => box_parity(p.x, half.x)??,
+            CellKind::Ring => {
+                let r = p.x.hypot(p.y);
+                if !(r > 0.0) {
+                    return None;
+                }
+                let grad = DVec3::new(p.x / r, p.y / r, 0.0);
+                box_parity(r, 0.5 * (grad.dot(dx).abs() + grad.dot(dy).abs()))??
+            }
+        };
+        Some((0.5 * (1.0 - sign)).clamp(0.0, 1.0))
+    }
+}
+
+/// The mean of the parity `(−1)^⌊x⌋` over `[x − half, x + half]`: `Some(None)` when the box lies
+/// in one cell (the parity is exact there), `None` when the input is not finite (the caller
+/// falls back to the point's cell).
+#[inline]
+fn box_parity(x: f64, half: f64) -> Option<Option<f64>> {
+    if !(x.is_finite() && half.is_finite()) {
+        return None;
+    }
+    let (a, b) = (x - half, x + half);
+    if a.floor() == b.floor() {
+        return Some(None);
+    }
+    // ∫ (−1)^⌊t⌋ dt: a triangle wave between 0 and 1, rising on even cells.
+    let integral = |t: f64| {
+        let m = t - 2.0 * (0.5 * t).floor();
+        if m < 1.0 { m } else { 2.0 - m }
+    };
+    let mean = (integral(b) - integral(a)) / (b - a);
+    Some(Some(if mean.is_finite() { mean.clamp(-1.0, 1.0) } else { 0.0 }))
 }
 
 fn build_cells(kind: CellKind, p: &mut Params) -> Result<Arc<dyn Texture>> {
@@ -155,6 +221,12 @@ impl Texture for Gradient {
     #[inline]
     fn eval(&self, at: &TexturePoint) -> Color {
         let x = self.mapping.point(at).x;
+        if !at.footprint.is_point() {
+            let (dx, dy) = self.mapping.point_footprint(at);
+            if let Some(t) = self.box_mean(x, 0.5 * (dx.x.abs() + dy.x.abs())) {
+                return self.from + (self.to - self.from) * t;
+            }
+        }
         let t = match self.repeat {
             Repeat::Clamp => x.clamp(0.0, 1.0),
             Repeat::Repeat => x - x.floor(),
@@ -163,6 +235,41 @@ impl Texture for Gradient {
         // NaN (a degenerate hit) and what rounding leaves outside [0, 1] go to the ends.
         let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };
         self.from + (self.to - self.from) * t
+    }
+}
+
+impl Gradient {
+    /// The blend's mean over `[x − half, x + half]` (box-filtered, in closed form); `None` for an
+    /// empty or non-finite box (the point's value is used).
+    #[inline]
+    fn box_mean(&self, x: f64, half: f64) -> Option<f64> {
+        if !(half > 0.0 && half.is_finite() && x.is_finite()) {
+            return None;
+        }
+        // The blend's antiderivative.
+        let integral = |t: f64| match self.repeat {
+            Repeat::Clamp => {
+                if t <= 0.0 {
+                    0.0
+                } else if t >= 1.0 {
+                    t - 0.5
+                } else {
+                    0.5 * t * t
+                }
+            }
+            Repeat::Repeat => {
+                let (k, f) = (t.floor(), t - t.floor());
+                0.5 * k + 0.5 * f * f
+            }
+            Repeat::Mirror => {
+                let (k, f) = ((0.5 * t).floor(), t - 2.0 * (0.5 * t).floor());
+                let within = if f < 1.0 { 0.5 * f * f } else { 0.5 + (f - 1.0) - 0.5 * (f - 1.0) * (f - 1.0) };
+                k + within
+            }
+        };
+        let (a, b) = (x - half, x + half);
+        let mean = (integral(b) - integral(a)) / (b - a);
+        mean.is_finite().then(|| mean.clamp(0.0, 1.0))
     }
 }
 
@@ -184,11 +291,11 @@ mod tests {
     use raylab::scene::texture::Coords;
 
     fn at_uv(u: f64, v: f64) -> TexturePoint {
-        TexturePoint { uv: DVec2::new(u, v), local: DVec3::ZERO }
+        TexturePoint::new(DVec2::new(u, v), DVec3::ZERO)
     }
 
     fn at_local(p: DVec3) -> TexturePoint {
-        TexturePoint { uv: DVec2::ZERO, local: p }
+        TexturePoint::new(DVec2::ZERO, p)
     }
 
     #[test]

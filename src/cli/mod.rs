@@ -78,6 +78,10 @@ pub(crate) struct SceneArgs {
     /// Adaptive anti-aliasing: locate edges by bisection (true, the default) or only subdivide.
     #[arg(long, value_name = "BOOL")]
     aa_edges: Option<bool>,
+    /// Filter textures over each pixel's footprint (true) or look them up at a point (false,
+    /// the default for now): `[render] texture_filter`.
+    #[arg(long, value_name = "BOOL")]
+    texture_filter: Option<bool>,
     /// Adaptive anti-aliasing: also refine where the corners' rays saw different objects.
     #[arg(long, value_name = "BOOL")]
     aa_signature: Option<bool>,
@@ -205,6 +209,9 @@ impl SceneArgs {
         }
         if let Some(v) = self.aa_edges {
             render_params.push(flag_node("--aa-edges", "aa_edges", Value::Bool(v)));
+        }
+        if let Some(v) = self.texture_filter {
+            render_params.push(flag_node("--texture-filter", "texture_filter", Value::Bool(v)));
         }
         if let Some(v) = self.aa_signature {
             render_params.push(flag_node("--aa-signature", "aa_signature", Value::Bool(v)));

@@ -2,11 +2,13 @@
 //! (it has a surface: bounds and the direction-aware normal). Shapes are pure geometry: the
 //! loader attaches materials, as it attaches transforms.
 
+pub mod differential;
 pub mod hit;
 pub mod sampling;
 pub mod testing;
 pub mod transform;
 
+pub use differential::{Footprint, SurfaceDerivatives};
 pub use hit::Hit;
 pub use sampling::{SurfacePdf, SurfaceSample};
 
@@ -81,6 +83,25 @@ pub trait Geometry: Intersectable {
         at.uv
     }
 
+    /// How the point and the outward normal move with the texture coordinates at `at`
+    /// ([`SurfaceDerivatives`]), in the frame `at` is in. Asked for only where a texture is
+    /// filtered over a pixel's footprint or a ray differential is carried through a mirror; `None`
+    /// (the default): unknown, and textures over uv are then looked up at a point.
+    fn derivatives(&self, at: &Hit) -> Option<SurfaceDerivatives> {
+        let _ = at;
+        None
+    }
+    /// The texture [`Footprint`] at `at` of a pixel whose hit moves by `dpdx`, `dpdy` on the
+    /// tangent plane from one pixel to the next. The default solves [`Geometry::derivatives`]
+    /// for the uv change (zero without them) and takes the shape's frame as the world's; a
+    /// wrapper that moves the shape carries the moves into its frame first.
+    fn footprint(&self, at: &Hit, dpdx: DVec3, dpdy: DVec3) -> Footprint {
+        match self.derivatives(at) {
+            Some(d) => d.footprint(dpdx, dpdy),
+            None => Footprint { dlocal_dx: dpdx, dlocal_dy: dpdy, ..Footprint::POINT },
+        }
+        .finite()
+    }
     /// A box containing the whole shape, or `None` for unbounded shapes (planes, infinite tubes).
     fn bounds(&self) -> Option<Aabb>;
 
@@ -147,6 +168,12 @@ macro_rules! forward_impls {
             #[inline]
             fn uv(&self, at: &Hit) -> DVec2 {
                 (**self).uv(at)
+            }
+            fn derivatives(&self, at: &Hit) -> Option<SurfaceDerivatives> {
+                (**self).derivatives(at)
+            }
+            fn footprint(&self, at: &Hit, dpdx: DVec3, dpdy: DVec3) -> Footprint {
+                (**self).footprint(at, dpdx, dpdy)
             }
             fn bounds(&self) -> Option<Aabb> {
                 (**self).bounds()

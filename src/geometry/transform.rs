@@ -15,7 +15,7 @@
 //! with a conservative error bound, and the ray origin is moved past its own transformation
 //! error, so secondary rays still never re-hit the surface they leave.
 
-use crate::geometry::{Geometry, Hit, Intersectable, Surface, SurfacePdf, SurfaceSample, face_forward};
+use crate::geometry::{Footprint, Geometry, Hit, Intersectable, Surface, SurfaceDerivatives, SurfacePdf, SurfaceSample, face_forward};
 use crate::math::bounds::Aabb;
 use crate::math::float::{DEGENERACY_TOLERANCE, gamma};
 use crate::math::ray::Ray;
@@ -243,6 +243,27 @@ impl<G: Geometry> Geometry for Transformed<G> {
     #[inline]
     fn uv(&self, at: &Hit) -> DVec2 {
         self.inner.uv(&self.object_hit(at))
+    }
+    /// The inner shape's, carried out: tangents by the linear part, the normal's change by the
+    /// derivative of the normalised inverse transpose.
+    fn derivatives(&self, at: &Hit) -> Option<SurfaceDerivatives> {
+        let h = self.object_hit(at);
+        let d = self.inner.derivatives(&h)?;
+        let l = self.transform.to_world.matrix3;
+        let nm = self.transform.normal_to_world;
+        let m = nm * self.inner.outward_normal(&h);
+        let len = m.length();
+        let n = m / len;
+        let turn = |dn: DVec3| {
+            let v = nm * dn;
+            (v - n * n.dot(v)) / len
+        };
+        Some(SurfaceDerivatives { dpdu: l * d.dpdu, dpdv: l * d.dpdv, dndu: turn(d.dndu), dndv: turn(d.dndv) })
+    }
+    /// The inner shape's footprint of the moves carried into its frame.
+    fn footprint(&self, at: &Hit, dpdx: DVec3, dpdy: DVec3) -> Footprint {
+        let m = &self.transform.to_object;
+        self.inner.footprint(&self.object_hit(at), m.transform_vector3(dpdx), m.transform_vector3(dpdy))
     }
     fn bounds(&self) -> Option<Aabb> {
         self.bounds

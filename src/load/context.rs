@@ -114,7 +114,9 @@ pub fn apply_knob(o: &mut LoadOptions, origin: &str, name: &str, value: &Node) -
             }
             set(&mut ov.render_params, name, value);
         }
-        "aa" | "lens_samples" | "target_error" | "target_min_spp" | "time_budget" => set(&mut ov.render_params, name, value),
+        "aa" | "lens_samples" | "target_error" | "target_min_spp" | "time_budget" | "texture_filter" => {
+            set(&mut ov.render_params, name, value)
+        }
         "aperture" | "focus_distance" => set(&mut ov.camera_params, name, value),
         "integrator" => match &value.value {
             Value::Str(t) => ov.integrator = Some(t.clone()),

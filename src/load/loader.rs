@@ -133,6 +133,12 @@ pub const RENDER_PARAMS: &[ParamSpec] = &[
         ParamDefault::Optional,
         "seconds of tracing: the image refines in passes that double each pixel's samples (spp is the most a pixel takes) and stops when the time is up, every pixel keeping the samples it has (stratified only); the `spp` layer (--aov spp) repeats it bit for bit (--spp-map)",
     ),
+    ParamSpec::new(
+        "texture_filter",
+        ParamKind::Bool,
+        ParamDefault::Bool(false),
+        "filter textures over each pixel's footprint (ray differentials: MIP maps for images, band-limited patterns); false: look them up at a point",
+    ),
 ];
 
 /// Reads and builds the scene file at `path`, choosing the format by extension (`.toml` is
@@ -219,6 +225,8 @@ struct Parts {
     integrator_name: String,
     integrator_params: Table,
     settings: RenderSettings,
+    /// Whether textures are filtered over pixel footprints (`[render] texture_filter`).
+    texture_filter: bool,
     /// The fingerprint of everything above that decides pixels (with the files read).
     fingerprint: Fingerprint,
 }
@@ -227,6 +235,11 @@ impl Parts {
     fn assemble(self, ctx: &LoadContext) -> Result<RenderJob> {
         let mut scene = Scene::with_accel(self.name, self.camera, self.background, self.objects, self.lights, ctx.options.accel);
         scene.record_object_builds(ctx.assets.build_stats());
+        // Footprints shrink with stratified samples; adaptive sampling's rays each stand for
+        // a pixel's area at most.
+        let s = &self.settings;
+        let spp = if s.aa == Antialiasing::Stratified { s.spp } else { 1 };
+        scene.set_texture_filter(self.texture_filter, s.width, s.height, spp);
         let (integrator, ty) = (self.integrator, self.integrator_name);
         let mut fingerprint = self.fingerprint;
         fingerprint.add("files", &ctx.files_fingerprint().hex().into_bytes());
@@ -263,7 +276,7 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         None => desc.name.clone(),
     };
     let background = root.color("background")?;
-    let settings = render_section(root.node("render")?, desc, ctx)?;
+    let (texture_filter, settings) = render_section(root.node("render")?, desc, ctx)?;
     let camera = CameraSection::read(root.node("camera")?, desc, ctx.options, &settings)?;
     // [textures.NAME]: built when a material first names one.
     let textures = TextureLibrary::new(registry, ctx);
@@ -290,6 +303,10 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
     fingerprint.add("background", format!("{background:?}").as_bytes());
     fingerprint.add("integrator", integ.name.as_bytes());
     fingerprint.add("integrator parameters", crate::param::toml::table_to_toml(&integ.params).as_bytes());
+    if texture_filter {
+        // Only when on (not the default yet), so other renders keep their fingerprints.
+        fingerprint.add("texture filter", b"on");
+    }
     Ok(Parts {
         name,
         camera,
@@ -300,13 +317,15 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         integrator_name: integ.name,
         integrator_params: integ.params,
         settings,
+        texture_filter,
         fingerprint,
     })
 }
 
 /// `[render]`, with the command line's settings over the file's, checked against the limits;
 /// the image's memory is charged to the load.
-fn render_section(node: Option<&Node>, desc: &SceneDescription, ctx: &LoadContext) -> Result<RenderSettings> {
+/// `[render]`: the render settings, and whether textures are filtered (`texture_filter`).
+fn render_section(node: Option<&Node>, desc: &SceneDescription, ctx: &LoadContext) -> Result<(bool, RenderSettings)> {
     let opts = ctx.options;
     let ov = &opts.overrides;
     let empty = Table::default();
@@ -338,8 +357,9 @@ fn render_section(node: Option<&Node>, desc: &SceneDescription, ctx: &LoadContex
     }
     let target = error_target(&mut rp, spp, aa)?;
     let time_budget = time_budget(&mut rp, aa)?;
+    let texture_filter = rp.bool("texture_filter")?;
     rp.finish()?;
-    Ok(RenderSettings {
+    Ok((texture_filter, RenderSettings {
         width: width as u32,
         height: height as u32,
         spp: spp as u32,
@@ -349,7 +369,7 @@ fn render_section(node: Option<&Node>, desc: &SceneDescription, ctx: &LoadContex
         lens_samples,
         target,
         time_budget,
-    })
+    }))
 }
 
 /// The image size of `[render]` with the command line's over it, checked against the limits

@@ -119,6 +119,13 @@ pub trait MaterialModel: Send + Sync + Debug {
     fn emission(&self, _at: &dyn Shading) -> Option<Color> {
         None
     }
+
+    /// Whether the model looks textures up ([`Shading::texture_point`]): a scene computes ray
+    /// differentials for texture filtering only when some material does. `false` (the default):
+    /// a model that reads textures without saying so gets point lookups.
+    fn is_textured(&self) -> bool {
+        false
+    }
 }
 
 /// A surface that scatters nothing: what [`with_bsdf`] hands on when a model gives no BSDF.

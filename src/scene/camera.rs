@@ -1,6 +1,7 @@
 //! The pinhole (or thin-lens) camera of the report: eye point, `to` and `up` directions, and a
 //! screen at a distance in front of the eye.
 
+use crate::geometry::differential::{CameraSpread, RayDifferential};
 use crate::math::float::PARALLEL_TOLERANCE;
 use crate::math::ray::Ray;
 use crate::param::error::Result;
@@ -267,6 +268,42 @@ impl Camera {
         Ray::new(origin, focus - origin)
     }
 
+    /// How the film moves on the screen (scene units) one pixel right (`.0`) and one pixel down
+    /// (`.1`) in an `nx × ny` image, times `scale` (the spread of a pixel's samples).
+    pub fn pixel_step(&self, nx: u32, ny: u32, scale: f64) -> (DVec3, DVec3) {
+        let f = self.film_frame(nx, ny);
+        (self.right * (f.rx * scale), -self.up * (f.ry * scale))
+    }
+
+    /// The ray differential of `ray`, a ray this camera made ([`Camera::ray_in`]), for the film
+    /// moves `step` ([`Camera::pixel_step`]): for a pinhole the ray through the moved point of
+    /// the screen, for a thin lens the ray from the same lens point through the moved point of
+    /// the plane in focus (pbrt-v3 §6.2.3). The origin does not move.
+    #[inline]
+    pub fn differential(&self, ray: &Ray, (dx, dy): (DVec3, DVec3)) -> RayDifferential {
+        let along = ray.dir.dot(self.to);
+        // The distance along the ray to the plane the film's moves are taken on, and how far
+        // they move there.
+        let (dist, s) = if self.aperture <= 0.0 {
+            (self.screen_distance / along, 1.0)
+        } else {
+            let f = self.focus_distance / self.screen_distance;
+            (self.focus_distance / along, f)
+        };
+        let turn = |d: DVec3| {
+            let d = d * s;
+            let v = (d - ray.dir * ray.dir.dot(d)) / dist;
+            if v.is_finite() { v } else { DVec3::ZERO }
+        };
+        RayDifferential { dodx: DVec3::ZERO, dody: DVec3::ZERO, dddx: turn(dx), dddy: turn(dy) }
+    }
+
+    /// The camera's spread for approximate footprints after diffuse bounces: how the direction
+    /// of its central ray turns with the film moves `step`.
+    pub fn spread(&self, (dx, dy): (DVec3, DVec3)) -> CameraSpread {
+        CameraSpread { eye: self.position, dddx: dx / self.screen_distance, dddy: dy / self.screen_distance }
+    }
+
     /// The inverse of [`Camera::ray_through`] through the lens centre: the continuous image
     /// position of an `nx × ny` image where `point` appears, or `None` when it is not in front of
     /// the eye (on or behind the plane through the eye facing `to`). For a thin lens this is where
@@ -378,6 +415,32 @@ mod tests {
         let r = cam.ray_through(320, 200, film, DVec2::new(0.8, 0.1));
         let on_focus = r.at((cam.focus_distance - (r.origin - cam.position).dot(cam.to)) / r.dir.dot(cam.to));
         assert!((cam.project(320, 200, on_focus).unwrap() - film).length() < 1e-9);
+    }
+
+    /// The differential of a camera ray matches finite differences of the camera's ray
+    /// generation, for a pinhole and for a thin lens (the same lens point).
+    #[test]
+    fn differentials_match_finite_differences_of_ray_generation() {
+        for aperture in [0.0, 0.3] {
+            let mut c = Camera::look_at(DVec3::new(1.0, 2.0, 6.0), DVec3::new(-0.5, 0.3, 0.0), DVec3::Y, 50.0, 64, 48).unwrap();
+            c.aperture = aperture;
+            c.focus_distance = 4.0;
+            let (nx, ny) = (64, 48);
+            let step = c.pixel_step(nx, ny, 1.0);
+            let lens = DVec2::new(0.3, 0.8);
+            for film in [DVec2::new(32.0, 24.0), DVec2::new(3.5, 40.25), DVec2::new(60.0, 1.0)] {
+                let ray = c.ray_through(nx, ny, film, lens);
+                let d = c.differential(&ray, step);
+                let h = 1e-4;
+                let rx = c.ray_through(nx, ny, film + DVec2::new(h, 0.0), lens);
+                let ry = c.ray_through(nx, ny, film + DVec2::new(0.0, h), lens);
+                for (moved, dd, dod) in [(rx, d.dddx, d.dodx), (ry, d.dddy, d.dody)] {
+                    let fd = (moved.dir - ray.dir) / h;
+                    assert!((fd - dd).length() < 1e-6 + 1e-4 * fd.length(), "aperture {aperture}, {film}: {fd} vs {dd}");
+                    assert!(((moved.origin - ray.origin) / h - dod).length() < 1e-9, "the origin stays");
+                }
+            }
+        }
     }
 
     #[test]

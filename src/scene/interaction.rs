@@ -3,6 +3,7 @@
 //! coefficients there ([`Interaction::coefficients`]: textures looked up at the hit's texture
 //! coordinates).
 
+use crate::geometry::differential::RaySpread;
 use crate::geometry::{Hit, Surface};
 use crate::math::color::Color;
 use crate::math::ray::Ray;
@@ -36,6 +37,10 @@ pub struct Interaction<'s> {
     pub front_face: bool,
     /// Which of the object's materials applies ([`Surface::material`]).
     pub slot: u32,
+    /// What the incoming ray knows of its spread over the image ([`RaySpread::Off`] unless the
+    /// integrator gave it one, [`Interaction::with_spread`]): texture lookups filter over the
+    /// footprint it gives.
+    pub spread: RaySpread,
 }
 
 impl<'s> Interaction<'s> {
@@ -43,16 +48,81 @@ impl<'s> Interaction<'s> {
     #[inline(always)]
     pub fn new(ray: &Ray, hit: Hit, object: &'s Object) -> Self {
         let s: Surface = object.geometry().surface(&hit, ray.dir);
-        Interaction { hit, object, dir: ray.dir, n: s.n, ns: s.ns, local: s.local, front_face: s.front_face, slot: s.material }
+        Interaction {
+            hit,
+            object,
+            dir: ray.dir,
+            n: s.n,
+            ns: s.ns,
+            local: s.local,
+            front_face: s.front_face,
+            slot: s.material,
+            spread: RaySpread::Off,
+        }
+    }
+
+    /// This interaction with the incoming ray's `spread` (its ray differential, or the camera's
+    /// approximation): texture lookups then filter over the pixel's footprint.
+    #[inline(always)]
+    pub fn with_spread(mut self, spread: RaySpread) -> Self {
+        self.spread = spread;
+        self
     }
 
     /// The material's coefficients at the hit, evaluated on each call: borrowed from the object
     /// when the material is untextured (nothing computed or copied), else its textures looked up
-    /// at the hit (texture coordinates computed only then). Ask once per hit and keep the value.
+    /// at the hit (texture coordinates and footprint computed only then). Ask once per hit and
+    /// keep the value.
     #[inline]
     pub fn coefficients(&self) -> CoefficientsAt<'s> {
-        let (object, hit) = (self.object, &self.hit);
-        object.coefficients_at(self.slot, || object.geometry().uv(hit), self.local)
+        self.object.coefficients_at(self.slot, || self.texture_point())
+    }
+
+    /// How the hit moves on its tangent plane from one pixel to the next (`∂p/∂x`, `∂p/∂y`), from
+    /// the incoming ray's spread; `None` when it has none.
+    #[inline]
+    pub fn pixel_moves(&self) -> Option<(DVec3, DVec3)> {
+        self.spread.on_surface(self.hit.point, self.dir, self.hit.t, self.n)
+    }
+
+    /// The spread of the ray mirrored at the hit into unit direction `wi`: the incoming ray's
+    /// differential reflected (Igehy), with the normal's turn where the shape gives it; a ray
+    /// without an exact differential keeps what it has.
+    #[inline]
+    pub fn reflected_spread(&self, wi: DVec3) -> RaySpread {
+        let _ = wi;
+        match self.spread {
+            RaySpread::Differential(d) => {
+                let dp = d.on_plane(self.dir, self.hit.t, self.n);
+                RaySpread::Differential(d.reflect(self.dir, self.ns, dp, self.normal_turn(dp)))
+            }
+            s => s,
+        }
+    }
+
+    /// The spread of the ray refracted at the hit into unit direction `wi`, `eta` being the ratio
+    /// of refractive indices (incident over transmitted side; 1 through a thin sheet).
+    #[inline]
+    pub fn refracted_spread(&self, wi: DVec3, eta: f64) -> RaySpread {
+        match self.spread {
+            RaySpread::Differential(d) => {
+                let dp = d.on_plane(self.dir, self.hit.t, self.n);
+                RaySpread::Differential(d.refract(self.dir, self.ns, wi, eta, dp, self.normal_turn(dp)))
+            }
+            s => s,
+        }
+    }
+
+    /// How the facing normal turns with the moves `dp` ([`crate::Geometry::derivatives`]; zero
+    /// where the shape does not say).
+    fn normal_turn(&self, (dpdx, dpdy): (DVec3, DVec3)) -> (DVec3, DVec3) {
+        match self.object.geometry().derivatives(&self.hit) {
+            Some(d) => {
+                let s = if self.front_face { 1.0 } else { -1.0 };
+                (s * d.normal_change(dpdx), s * d.normal_change(dpdy))
+            }
+            None => (DVec3::ZERO, DVec3::ZERO),
+        }
     }
 
     /// The material plugin's scattering model at the hit (`None`: the coefficients alone).
@@ -67,12 +137,16 @@ impl<'s> Interaction<'s> {
         self.object.material(self.slot)
     }
 
-    /// Where textures are looked up at the hit: its texture coordinates and its point in the
-    /// shape's own frame (the coordinates computed on each call: for material models whose
-    /// textures are read at the hit).
+    /// Where textures are looked up at the hit: its texture coordinates, its point in the
+    /// shape's own frame and, when the ray has a spread, the pixel's footprint (computed on each
+    /// call: for material models whose textures are read at the hit).
     pub fn texture_point(&self) -> TexturePoint {
         let g = self.object.geometry();
-        TexturePoint { uv: g.uv(&self.hit), local: self.local }
+        let at = TexturePoint::new(g.uv(&self.hit), self.local);
+        match self.pixel_moves() {
+            Some((dpdx, dpdy)) => at.with_footprint(g.footprint(&self.hit, dpdx, dpdy)),
+            None => at,
+        }
     }
 
     /// The texture coordinates at the hit ([`crate::Geometry::uv`]; computed on each call).

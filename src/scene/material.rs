@@ -17,7 +17,7 @@ use crate::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use crate::param::value::{Node, Table, Value};
 use crate::scene::bsdf::MaterialModel;
 use crate::scene::texture::{Texture, TexturePoint, TextureResolver};
-use glam::{DVec2, DVec3};
+use glam::DVec3;
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
@@ -418,13 +418,13 @@ impl Material {
         !self.textures.is_empty()
     }
 
-    /// The coefficients at a surface point whose texture coordinates `uv` gives (asked for only
-    /// when the material is textured) and whose position in the shape's own frame is `local`.
+    /// The coefficients at the surface point `at` gives (asked for only when the material is
+    /// textured: texture coordinates and footprint are computed only then).
     #[inline]
-    pub fn at(&self, uv: impl FnOnce() -> DVec2, local: DVec3) -> Coefficients {
+    pub fn at(&self, at: impl FnOnce() -> TexturePoint) -> Coefficients {
         let mut c = self.constants();
         if self.is_textured() {
-            self.apply_textures(&mut c, &TexturePoint { uv: uv(), local });
+            self.apply_textures(&mut c, &at());
         }
         c
     }
@@ -563,6 +563,7 @@ impl MaterialLibrary {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::DVec2;
     use std::sync::atomic::{AtomicU32, Ordering};
 
     /// A grey texture that counts its evaluations.
@@ -583,7 +584,7 @@ mod tests {
         let map = |channel, t: &Arc<Counting>| TextureMap { channel, texture: t.clone() as Arc<dyn Texture> };
         let textures = vec![map(Channel::Kd, &shared), map(Channel::Ks, &shared), map(Channel::Kr, &shared), map(Channel::Kt, &other)];
         let m = Material { kd: Color::ONE, ks: Color::splat(0.2), kr: Color::ONE, kt: Color::ONE, textures, ..Material::default() };
-        let c = m.at(|| DVec2::ZERO, DVec3::ZERO);
+        let c = m.at(|| TexturePoint::new(DVec2::ZERO, DVec3::ZERO));
         assert_eq!((c.kd, c.ks, c.kr, c.kt), (Color::splat(0.5), Color::splat(0.1), Color::splat(0.5), Color::splat(0.5)));
         assert_eq!((shared.0.load(Ordering::Relaxed), other.0.load(Ordering::Relaxed)), (1, 1));
     }

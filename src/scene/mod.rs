@@ -10,6 +10,7 @@ pub mod object;
 pub mod texture;
 
 use crate::accel::{AccelChoice, BuildStats, ObjectAccel};
+use crate::geometry::differential::{CameraSpread, RaySpread};
 use crate::geometry::{Hit, Intersectable};
 use crate::math::bounds::Aabb;
 use crate::math::color::Color;
@@ -56,7 +57,22 @@ pub struct Scene {
     bounds: Aabb,
     build_stats: BuildStats,
     object_builds: BuildStats,
+    /// Texture filtering ([`Scene::set_texture_filter`]): `None` when off or when no material is
+    /// textured (no ray then computes a differential).
+    filter: Option<TextureFilter>,
 }
+
+/// What a scene that filters its textures gives its rays: the film's moves one pixel right and
+/// down (scaled by the spread of a pixel's samples) and the camera's spread derived from them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct TextureFilter {
+    step: (DVec3, DVec3),
+    spread: CameraSpread,
+}
+
+/// The smallest scale of a pixel's footprint for many samples per pixel (pbrt-v4: `max(1/8,
+/// 1/√spp)`): each sample filters over its share of the pixel, but not below an eighth.
+pub const MIN_FOOTPRINT_SCALE: f64 = 0.125;
 
 /// How a scene's objects are arranged for ray queries, for the render summary.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -130,7 +146,46 @@ impl Scene {
             bounds,
             build_stats,
             object_builds: BuildStats::default(),
+            filter: None,
         }
+    }
+
+    /// Whether some material looks up a texture (its colours, or its model's parameters).
+    pub fn has_textures(&self) -> bool {
+        self.objects.iter().flat_map(|o| o.materials()).any(|m| m.is_textured() || m.model.as_ref().is_some_and(|m| m.0.is_textured()))
+    }
+
+    /// Turns texture filtering on (`on`) or off for an `nx × ny` image at `spp` samples per
+    /// pixel (each sample's footprint is `max(1/8, 1/√spp)` of a pixel). Decided once per scene:
+    /// when no material is textured it stays off, and no ray computes a differential.
+    pub fn set_texture_filter(&mut self, on: bool, nx: u32, ny: u32, spp: u32) {
+        self.filter = (on && self.has_textures()).then(|| {
+            let scale = (1.0 / f64::from(spp.max(1)).sqrt()).max(MIN_FOOTPRINT_SCALE);
+            let step = self.camera.pixel_step(nx, ny, scale);
+            TextureFilter { step, spread: self.camera.spread(step) }
+        });
+    }
+
+    /// Whether textures are filtered ([`Scene::set_texture_filter`]).
+    #[inline]
+    pub fn filters_textures(&self) -> bool {
+        self.filter.is_some()
+    }
+
+    /// The spread of camera ray `ray` ([`RaySpread::Off`] when textures are not filtered).
+    #[inline]
+    pub fn camera_spread(&self, ray: &Ray) -> RaySpread {
+        match &self.filter {
+            None => RaySpread::Off,
+            Some(f) => RaySpread::Differential(self.camera.differential(ray, f.step)),
+        }
+    }
+
+    /// The spread of a ray scattered diffusely or glossily after a ray with `spread`: pbrt-v4's
+    /// approximation from the camera ([`RaySpread::Camera`]), or off.
+    #[inline]
+    pub fn scattered_spread(&self, spread: RaySpread) -> RaySpread {
+        spread.scattered(self.filter.map(|f| f.spread))
     }
 
     /// What each light says of itself ([`LightFacts`]), parallel to [`Scene::lights`]: asked once

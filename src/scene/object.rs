@@ -3,7 +3,7 @@
 use crate::geometry::{Geometry, Hit, Intersectable};
 use crate::math::ray::Ray;
 use crate::scene::material::{Coefficients, CoefficientsAt, Material};
-use glam::{DVec2, DVec3};
+use crate::scene::texture::TexturePoint;
 use std::sync::{Arc, OnceLock};
 
 /// Which sides of an object's surface give off its material's `emission`.
@@ -134,18 +134,17 @@ impl Object {
     }
 
     /// The coefficients of the material in slot `slot` at a surface point ([`Material::at`]):
-    /// borrowed when the material is untextured, else evaluated with the texture coordinates
-    /// `uv` gives and the position `local` in the shape's own frame.
+    /// borrowed when the material is untextured, else evaluated at the texture point `at` gives.
     #[inline]
-    pub fn coefficients_at(&self, slot: u32, uv: impl FnOnce() -> DVec2, local: DVec3) -> CoefficientsAt<'_> {
+    pub fn coefficients_at(&self, slot: u32, at: impl FnOnce() -> TexturePoint) -> CoefficientsAt<'_> {
         // Out of line: an untextured hit's path stays small.
         #[inline(never)]
-        fn textured(m: &Material, uv: impl FnOnce() -> DVec2, local: DVec3) -> CoefficientsAt<'static> {
-            CoefficientsAt::Textured(m.at(uv, local))
+        fn textured(m: &Material, at: impl FnOnce() -> TexturePoint) -> CoefficientsAt<'static> {
+            CoefficientsAt::Textured(m.at(at))
         }
         let slot = self.slot_index(slot);
         let m = &self.materials[slot];
-        if m.is_textured() { textured(m, uv, local) } else { CoefficientsAt::Constant(&self.constants[slot]) }
+        if m.is_textured() { textured(m, at) } else { CoefficientsAt::Constant(&self.constants[slot]) }
     }
 }
 

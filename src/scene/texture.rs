@@ -8,6 +8,7 @@
 //! coordinates they are laid over and where they are placed (the `coords` and `transform`
 //! parameters).
 
+pub use crate::geometry::differential::Footprint;
 use crate::geometry::transform::parse_transform;
 use crate::math::color::Color;
 use crate::param::error::Result;
@@ -17,7 +18,7 @@ use crate::param::value::Node;
 use glam::{DAffine3, DVec2, DVec3};
 use std::sync::Arc;
 
-/// Where a texture is looked up.
+/// Where a texture is looked up, and over what area.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TexturePoint {
     /// The surface's texture coordinates ([`crate::Geometry::uv`]).
@@ -25,6 +26,25 @@ pub struct TexturePoint {
     /// The point in the shape's own frame (before the object's transform): solid textures move
     /// with the object.
     pub local: DVec3,
+    /// How `uv` and `local` change from one pixel to the next (ray differentials): a texture
+    /// filters over this footprint ([`Footprint::POINT`] when filtering is off or unknown: a
+    /// point lookup). Non-finite values never reach a texture.
+    pub footprint: Footprint,
+}
+
+impl TexturePoint {
+    /// A point lookup at texture coordinates `uv` and shape-frame point `local`.
+    #[inline]
+    pub const fn new(uv: DVec2, local: DVec3) -> TexturePoint {
+        TexturePoint { uv, local, footprint: Footprint::POINT }
+    }
+
+    /// This lookup over `footprint`.
+    #[inline]
+    pub const fn with_footprint(mut self, footprint: Footprint) -> TexturePoint {
+        self.footprint = footprint;
+        self
+    }
 }
 
 /// A colour that varies over a surface.
@@ -32,8 +52,13 @@ pub struct TexturePoint {
 /// Evaluated once per textured coefficient at every hit of a textured material, from many
 /// threads: it must not allocate, and must return finite values ≥ 0 for any input (texture
 /// coordinates may be huge, negative or NaN on degenerate hits).
+///
+/// A texture should return its average over the pixel's footprint ([`TexturePoint::footprint`],
+/// zero for a point lookup): MIP maps for images, a band-limited (box-filtered) pattern for
+/// procedural ones, so that detail finer than a pixel turns to its mean instead of aliasing.
+/// One that ignores the footprint is point-sampled, as before filtering existed.
 pub trait Texture: Send + Sync + std::fmt::Debug {
-    /// The colour (linear RGB, finite, ≥ 0) at `at`.
+    /// The colour (linear RGB, finite, ≥ 0) at `at`, averaged over its footprint.
     fn eval(&self, at: &TexturePoint) -> Color;
 }
 
@@ -132,5 +157,29 @@ impl Mapping {
     #[inline]
     pub fn uv(&self, at: &TexturePoint) -> DVec2 {
         if self.placed { self.to_pattern.transform_point3(at.uv.extend(0.0)).truncate() } else { at.uv }
+    }
+
+    /// How the pattern point ([`Mapping::point`]) changes from one pixel to the next: `(∂/∂x,
+    /// ∂/∂y)` of `at`'s footprint, carried through the placement.
+    #[inline]
+    pub fn point_footprint(&self, at: &TexturePoint) -> (DVec3, DVec3) {
+        let f = &at.footprint;
+        let (dx, dy) = match self.coords {
+            Coords::Uv => (f.duv_dx.extend(0.0), f.duv_dy.extend(0.0)),
+            Coords::Object => (f.dlocal_dx, f.dlocal_dy),
+        };
+        if self.placed { (self.to_pattern.transform_vector3(dx), self.to_pattern.transform_vector3(dy)) } else { (dx, dy) }
+    }
+
+    /// How the image's texture coordinates ([`Mapping::uv`]) change from one pixel to the next.
+    #[inline]
+    pub fn uv_footprint(&self, at: &TexturePoint) -> (DVec2, DVec2) {
+        let f = &at.footprint;
+        if self.placed {
+            let t = |v: DVec2| self.to_pattern.transform_vector3(v.extend(0.0)).truncate();
+            (t(f.duv_dx), t(f.duv_dy))
+        } else {
+            (f.duv_dx, f.duv_dy)
+        }
     }
 }

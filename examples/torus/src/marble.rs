@@ -164,14 +164,14 @@ mod tests {
         let mut hi: f64 = 0.0;
         for i in 0..2000 {
             let local = DVec3::new(i as f64 * 0.0173, 0.3, (i as f64 * 0.05).cos());
-            let c = m.eval(&TexturePoint { uv: DVec2::ZERO, local });
+            let c = m.eval(&TexturePoint::new(DVec2::ZERO, local));
             assert!(c.min_element() >= 0.0 && c.max_element() <= 1.0 && c.x == c.y);
             lo = lo.min(c.x);
             hi = hi.max(c.x);
         }
         assert!(lo < 0.05 && hi > 0.95, "veins and stone both appear: {lo}..{hi}");
         for bad in [DVec3::NAN, DVec3::INFINITY] {
-            assert_eq!(m.eval(&TexturePoint { uv: DVec2::ZERO, local: bad }), Color::ONE);
+            assert_eq!(m.eval(&TexturePoint::new(DVec2::ZERO, bad)), Color::ONE);
         }
     }
 }

@@ -52,6 +52,7 @@ mod lights;
 
 use crate::materials::phong::PhongBsdf;
 use raylab::glam::DVec3;
+use raylab::geometry::differential::RaySpread;
 use raylab::math::color::max_channel;
 use raylab::param::error::Result;
 use raylab::param::params::{Params, from_defaults};
@@ -63,7 +64,7 @@ use raylab::render::trace::{NoRecord, Recorder, Term};
 use raylab::scene::bsdf::{Bsdf, with_bsdf};
 use raylab::scene::emitters::Selection;
 use raylab::scene::interaction::Interaction;
-use raylab::{Color, Integrator, LoadContext, PluginInfo, Ray, RayStats, Sampler, Scene, TraceNode};
+use raylab::{Color, Integrator, LoadContext, PluginInfo, Ray, RayKind, RayStats, Sampler, Scene, TraceNode};
 
 pub use lights::{IRRADIANCE_PER_INTENSITY, power_heuristic};
 
@@ -222,19 +223,22 @@ struct PathState {
     /// The point of the vertex that sent this ray (the camera ray: its origin): where its light
     /// samples were taken from, so an emitter it meets is weighed with the same density.
     from: DVec3,
+    /// The ray's spread over the image, for texture footprints: the camera ray's differential,
+    /// carried through specular events; after a diffuse or glossy one, the camera's approximation.
+    spread: RaySpread,
 }
 
 impl PathState {
-    /// The state of a camera ray from `origin`.
-    fn camera(origin: DVec3) -> PathState {
-        PathState { depth: 0, beta: Color::ONE, eta_scale: 1.0, bsdf_pdf: None, specular: true, from: origin }
+    /// The state of a camera ray from `origin` with `spread`.
+    fn camera(origin: DVec3, spread: RaySpread) -> PathState {
+        PathState { depth: 0, beta: Color::ONE, eta_scale: 1.0, bsdf_pdf: None, specular: true, from: origin, spread }
     }
 }
 
 impl PathTracer {
     /// Radiance arriving along `ray` (its own random stream `sampler`).
     fn li<R: Recorder>(&self, c: &mut Ctx, ray: &Ray, sampler: &Sampler, path: PathState, rec: &mut R) -> Color {
-        let hit = c.scene.trace(ray);
+        let hit = c.scene.trace(ray).map(|si| si.with_spread(path.spread));
         match hit.as_ref().filter(|_| path.depth <= self.max_bounces) {
             Some(si) => at_bsdf(si, |bsdf| self.arrive(c, ray, Some(si), Some(bsdf), sampler, path, rec)),
             None => self.arrive(c, ray, hit.as_ref(), None, sampler, path, rec),
@@ -323,6 +327,11 @@ impl PathTracer {
         }
         c.stats.add(counter::BOUNCE_RAYS, 1);
         let ray = si.spawn_ray(s.dir);
+        let spread = match (s.pdf, s.kind) {
+            (None, RayKind::Refraction) => si.refracted_spread(s.dir, 1.0 / s.eta_squared.sqrt()),
+            (None, _) => si.reflected_spread(s.dir),
+            (Some(_), _) => c.scene.scattered_spread(si.spread),
+        };
         let next = PathState {
             depth: path.depth + 1,
             beta: path.beta * weight,
@@ -330,6 +339,7 @@ impl PathTracer {
             bsdf_pdf: s.pdf,
             specular: path.specular && s.pdf.is_none(),
             from: si.point(),
+            spread,
         };
         let mut child = rec.child(s.kind, &ray, next.depth, next.beta);
         let li = self.li(c, &ray, &sampler.fork(TAG_NEXT), next, &mut child);
@@ -348,14 +358,16 @@ impl PathTracer {
         rec: &mut R,
     ) -> Color {
         let c = &mut Ctx { scene, stats };
-        let hit = scene.trace(ray);
+        let spread = scene.camera_spread(ray);
+        let hit = scene.trace(ray).map(|si| si.with_spread(spread));
+        let path = PathState::camera(ray.origin, spread);
         // A camera ray is always within the bounce limit (depth 0).
         match &hit {
             Some(si) => at_bsdf(si, |bsdf| {
                 *layers = Layers::surface(si, bsdf.albedo());
-                self.arrive(c, ray, Some(si), Some(bsdf), sampler, PathState::camera(ray.origin), rec)
+                self.arrive(c, ray, Some(si), Some(bsdf), sampler, path, rec)
             }),
-            None => self.arrive(c, ray, None, None, sampler, PathState::camera(ray.origin), rec),
+            None => self.arrive(c, ray, None, None, sampler, path, rec),
         }
     }
 }

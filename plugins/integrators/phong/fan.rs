@@ -63,6 +63,9 @@ pub(super) struct Fan {
     blur: f64,
     kind: RayKind,
     tag: u64,
+    /// The ratio of refractive indices of a transmitted ray (1 through a thin sheet); `None`
+    /// for a reflected one (total internal reflection included).
+    eta: Option<f64>,
 }
 
 impl Fan {
@@ -71,21 +74,21 @@ impl Fan {
     /// through at open surfaces (thin sheets).
     pub(super) fn new<R: Recorder>(si: &Interaction, m: &Coefficients, kind: RayKind, rec: &mut R) -> Fan {
         let (d, n) = (si.dir, si.n);
-        let (ideal, side, tag) = if kind == RayKind::Reflection {
-            (reflect(d, n), n, TAG_REFLECTION)
+        let (ideal, side, tag, eta) = if kind == RayKind::Reflection {
+            (reflect(d, n), n, TAG_REFLECTION, None)
         } else if si.object.is_closed() {
             let eta = if si.front_face { 1.0 / m.ior } else { m.ior };
             match refract(d, n, eta) {
-                Some(t) => (t, -n, TAG_REFRACTION),
+                Some(t) => (t, -n, TAG_REFRACTION, Some(eta)),
                 None => {
                     rec.note(|| "total internal reflection: the transmitted ray reflects".into());
-                    (reflect(d, n), n, TAG_REFRACTION)
+                    (reflect(d, n), n, TAG_REFRACTION, None)
                 }
             }
         } else {
-            (d, -n, TAG_REFRACTION)
+            (d, -n, TAG_REFRACTION, Some(1.0))
         };
-        Fan { ideal, side, blur: m.blur, kind, tag }
+        Fan { ideal, side, blur: m.blur, kind, tag, eta }
     }
 }
 
@@ -140,8 +143,15 @@ impl Phong {
             c.stats.add(counter, 1);
             let ray = si.spawn_ray(dir);
             let child_sampler = sampler.fork(fan.tag | if sharp { 0 } else { u64::from(i) });
+            // A sharp mirror or refraction carries the ray differential on; a glossy fan's rays
+            // take the camera's approximation.
+            let spread = match (sharp, fan.eta) {
+                (false, _) => c.scene.scattered_spread(si.spread),
+                (true, None) => si.reflected_spread(dir),
+                (true, Some(eta)) => si.refracted_spread(dir, eta),
+            };
             let mut child = rec.child(fan.kind, &ray, depth + 1, child_weight);
-            let li = self.li(c, &ray, &child_sampler, depth + 1, child_weight, &mut child);
+            let li = self.li(c, &ray, spread, &child_sampler, depth + 1, child_weight, &mut child);
             rec.adopt(child);
             if count == 1 {
                 // The running mean of one ray, 0 + (li − 0) / 1, is li (up to the sign of a zero,
@@ -176,7 +186,7 @@ mod chi2_tests {
     }
 
     fn fan(ideal: DVec3, side: DVec3, blur: f64) -> Fan {
-        Fan { ideal: ideal.normalize(), side, blur, kind: RayKind::Reflection, tag: 0 }
+        Fan { ideal: ideal.normalize(), side, blur, kind: RayKind::Reflection, tag: 0, eta: None }
     }
 
     #[test]

@@ -47,6 +47,7 @@ use raylab::render::aov::Layers;
 use raylab::render::integrator::explain_recursion;
 use raylab::render::stats::{Counter, CounterKind};
 use raylab::render::trace::{NoRecord, Recorder, Term};
+use raylab::geometry::differential::RaySpread;
 use raylab::scene::interaction::Interaction;
 use raylab::scene::material::Coefficients;
 use raylab::{Color, Integrator, LoadContext, PluginInfo, Ray, RayKind, RayStats, Sampler, Scene, TraceNode};
@@ -209,11 +210,22 @@ struct Ctx<'a> {
 }
 
 impl Phong {
-    /// Radiance along `ray` (with its own random stream `sampler`) and accumulated `weight`.
-    fn li<R: Recorder>(&self, c: &mut Ctx, ray: &Ray, sampler: &Sampler, depth: u32, weight: Color, rec: &mut R) -> Color {
+    /// Radiance along `ray` (with its spread over the image, its own random stream `sampler`) and
+    /// accumulated `weight`.
+    #[allow(clippy::too_many_arguments)]
+    fn li<R: Recorder>(
+        &self,
+        c: &mut Ctx,
+        ray: &Ray,
+        spread: RaySpread,
+        sampler: &Sampler,
+        depth: u32,
+        weight: Color,
+        rec: &mut R,
+    ) -> Color {
         match c.scene.intersect(ray, 0.0, f64::INFINITY) {
             Some(hit) => {
-                let si = c.scene.interaction(ray, hit);
+                let si = c.scene.interaction(ray, hit).with_spread(spread);
                 self.shade(c, &si, &si.coefficients(), sampler, depth, weight, rec)
             }
             None => {
@@ -290,7 +302,7 @@ impl Phong {
             rec.color(seen);
             return seen;
         };
-        let si = scene.interaction(ray, hit);
+        let si = scene.interaction(ray, hit).with_spread(scene.camera_spread(ray));
         let m = si.coefficients();
         *layers = Layers::surface(&si, m.kd + m.kr + m.kt);
         self.shade(c, &si, &m, sampler, 0, Color::ONE, rec)
