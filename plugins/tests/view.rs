@@ -269,7 +269,8 @@ fn the_pages_error_target_ends_refining_at_the_image_render_makes_for_that_targe
     let (_view, url) = start_view(&dir, &scene, &[&size[..], &["--spp", "2", "--threads", "2"]].concat());
     let (addr, token) = parts(&url);
     let knobs = wait_for(&addr, &token, "the controls", |s| s["phase"] != "loading" && s["phase"] != "preview")["knobs"].clone();
-    let knob = |key: &str| knobs.as_array().unwrap().iter().find(|k| k["key"] == key).cloned().unwrap_or_else(|| panic!("no {key} in {knobs}"));
+    let knob =
+        |key: &str| knobs.as_array().unwrap().iter().find(|k| k["key"] == key).cloned().unwrap_or_else(|| panic!("no {key} in {knobs}"));
     assert_eq!(knob("target_error")["value"], Value::Null, "no target in the scene");
     assert_eq!(knob("target_min_spp")["active"], false, "inactive without a target");
     // A target with fewer samples than are taken before the first test is refused at the control.
@@ -292,7 +293,8 @@ fn the_pages_error_target_ends_refining_at_the_image_render_makes_for_that_targe
     }
     assert!(images[0] == images[1], "the same target, the same image, whatever the scene's samples");
     let cap = raylab::view::session::REFINE_MAX_SPP.to_string();
-    let cli = render_png(&dir, &scene, &[&size[..], &["--target-error", "0.25", "--spp", &cap, "--max-rays", &u64::MAX.to_string()]].concat());
+    let cli =
+        render_png(&dir, &scene, &[&size[..], &["--target-error", "0.25", "--spp", &cap, "--max-rays", &u64::MAX.to_string()]].concat());
     assert!(images[0] == cli, "the view's image is raylab render's for the target");
     std::fs::remove_dir_all(dir).unwrap();
 }
@@ -614,16 +616,27 @@ fn the_page_renders_restarts_on_a_knob_and_explains_a_clicked_pixel() {
     let field = b.element("#knob-target_error");
     b.call("POST", &format!("/element/{field}/value"), Some(json!({ "text": "0.2\u{E007}" })));
     // The page raises the samples to those taken before the first test (16), the target's least.
-    b.wait("the render to the target", "return window.raylab.status.sampling === 'to error 0.2 (16..16 spp)' && document.body.dataset.phase === 'done'");
+    b.wait(
+        "the render to the target",
+        "return window.raylab.status.sampling === 'to error 0.2 (16..16 spp)' && document.body.dataset.phase === 'done'",
+    );
     let target = [&SIZE[..], &["--aa", "stratified", "--spp", "16", "--target-error", "0.2"]].concat();
-    assert_eq!(b.script(CANVAS_HASH).as_u64().unwrap() as u32, render_hash(&dir, &scene, &target), "the target's image equals raylab render's");
+    assert_eq!(
+        b.script(CANVAS_HASH).as_u64().unwrap() as u32,
+        render_hash(&dir, &scene, &target),
+        "the target's image equals raylab render's"
+    );
     if raylab::image::denoise::available() {
         let toggle = b.element("#knob-denoise");
         b.call("POST", &format!("/element/{toggle}/click"), Some(json!({})));
         b.wait("the denoised image", "return window.raylab.status.denoised && document.body.dataset.phase === 'done'");
         assert!(b.script("return document.getElementById('phase').textContent").as_str().unwrap().contains("denoised"));
         let denoised = [&target[..], &["--denoise"]].concat();
-        assert_eq!(b.script(CANVAS_HASH).as_u64().unwrap() as u32, render_hash(&dir, &scene, &denoised), "the page's denoised image is raylab render --denoise's");
+        assert_eq!(
+            b.script(CANVAS_HASH).as_u64().unwrap() as u32,
+            render_hash(&dir, &scene, &denoised),
+            "the page's denoised image is raylab render --denoise's"
+        );
     } else {
         assert!(std::env::var_os("CI").is_none(), "CI must have the denoiser: {}", raylab::image::denoise::INSTALL_HINT);
         assert_eq!(b.script("return document.getElementById('knob-denoise').disabled"), true, "no denoiser: the control is inactive");

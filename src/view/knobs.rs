@@ -139,9 +139,10 @@ pub fn denoise_knob(on: bool, denoiser: Result<(), &str>) -> Knob {
         value: on.into(),
         default: false.into(),
         choices: Vec::new(),
-        doc: "show the image denoised by Intel Open Image Denoise, guided by the albedo and normal at each pixel's first non-specular hit: \
+        doc:
+            "show the image denoised by Intel Open Image Denoise, guided by the albedo and normal at each pixel's first non-specular hit: \
               the scene's render once its samples are done, then every refined pass (the whole frame at once, never a tile)"
-            .into(),
+                .into(),
         group: "image",
         active: denoiser.is_ok(),
         note: denoiser.err().map(str::to_string),
