@@ -19,7 +19,7 @@ use crate::load::registry::Registry;
 use crate::param::error::{Location, SceneError};
 use crate::render::film::Film;
 use crate::render::job::{Antialiasing, ErrorTarget, RenderJob, TILE_SIZE};
-use crate::render::share::{FrameSums, Rect, Sampling};
+use crate::render::share::{Rect, Sampling, ShareSums};
 use crate::render::{Pass, RenderOptions, TileDone};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -247,7 +247,7 @@ pub struct State {
 
 /// What refining continues from: the scene's render.
 struct First {
-    sums: FrameSums,
+    sums: ShareSums,
     rays: u64,
     camera_rays: u64,
     elapsed: Duration,

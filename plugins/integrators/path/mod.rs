@@ -56,7 +56,7 @@ use raylab::math::color::max_channel;
 use raylab::param::error::Result;
 use raylab::param::params::{Params, from_defaults};
 use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec, Reference};
-use raylab::render::aov::Layers;
+use raylab::render::aov::AovSample;
 use raylab::render::integrator::explain_recursion;
 use raylab::render::stats::{Counter, CounterKind};
 use raylab::render::trace::{NoRecord, Recorder, Term};
@@ -337,14 +337,14 @@ impl PathTracer {
         weight * li
     }
 
-    /// The whole path of a camera ray, recorded into `rec`; `layers` gets the first surface.
+    /// The whole path of a camera ray, recorded into `rec`; `aov` gets the first surface.
     fn camera<R: Recorder>(
         &self,
         scene: &Scene,
         ray: &Ray,
         sampler: &Sampler,
         stats: &mut RayStats,
-        layers: &mut Layers,
+        aov: &mut AovSample,
         rec: &mut R,
     ) -> Color {
         let c = &mut Ctx { scene, stats };
@@ -352,7 +352,7 @@ impl PathTracer {
         // A camera ray is always within the bounce limit (depth 0).
         match &hit {
             Some(si) => at_bsdf(si, |bsdf| {
-                *layers = Layers::surface(si, bsdf.albedo());
+                *aov = AovSample::surface(si, bsdf.albedo());
                 self.arrive(c, ray, Some(si), Some(bsdf), sampler, PathState::camera(ray.origin), rec)
             }),
             None => self.arrive(c, ray, None, None, sampler, PathState::camera(ray.origin), rec),
@@ -370,12 +370,12 @@ fn at_bsdf<T>(si: &Interaction, f: impl FnOnce(&dyn Bsdf) -> T) -> T {
 }
 
 impl Integrator for PathTracer {
-    fn radiance(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler, stats: &mut RayStats, layers: &mut Layers) -> Color {
-        self.camera(scene, ray, sampler, stats, layers, &mut NoRecord)
+    fn radiance(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler, stats: &mut RayStats, aov: &mut AovSample) -> Color {
+        self.camera(scene, ray, sampler, stats, aov, &mut NoRecord)
     }
 
     fn explain(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler) -> Option<TraceNode> {
-        explain_recursion(scene, ray, COUNTERS, |stats, layers, root| self.camera(scene, ray, sampler, stats, layers, root))
+        explain_recursion(scene, ray, COUNTERS, |stats, aov, root| self.camera(scene, ray, sampler, stats, aov, root))
     }
 
     fn counters(&self) -> &'static [Counter] {

@@ -43,7 +43,7 @@ use raylab::math::color::max_channel;
 use raylab::param::error::Result;
 use raylab::param::params::{Params, from_defaults};
 use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec, Reference};
-use raylab::render::aov::Layers;
+use raylab::render::aov::AovSample;
 use raylab::render::integrator::explain_recursion;
 use raylab::render::stats::{Counter, CounterKind};
 use raylab::render::trace::{NoRecord, Recorder, Term};
@@ -274,14 +274,14 @@ impl Phong {
         color
     }
 
-    /// The whole recursion for a camera ray, recorded into `rec`; `layers` gets the first surface.
+    /// The whole recursion for a camera ray, recorded into `rec`; `aov` gets the first surface.
     fn camera<R: Recorder>(
         &self,
         scene: &Scene,
         ray: &Ray,
         sampler: &Sampler,
         stats: &mut RayStats,
-        layers: &mut Layers,
+        aov: &mut AovSample,
         rec: &mut R,
     ) -> Color {
         let c = &mut Ctx { scene, stats };
@@ -292,18 +292,18 @@ impl Phong {
         };
         let si = scene.interaction(ray, hit);
         let m = si.coefficients();
-        *layers = Layers::surface(&si, m.kd + m.kr + m.kt);
+        *aov = AovSample::surface(&si, m.kd + m.kr + m.kt);
         self.shade(c, &si, &m, sampler, 0, Color::ONE, rec)
     }
 }
 
 impl Integrator for Phong {
-    fn radiance(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler, stats: &mut RayStats, layers: &mut Layers) -> Color {
-        self.camera(scene, ray, sampler, stats, layers, &mut NoRecord)
+    fn radiance(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler, stats: &mut RayStats, aov: &mut AovSample) -> Color {
+        self.camera(scene, ray, sampler, stats, aov, &mut NoRecord)
     }
 
     fn explain(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler) -> Option<TraceNode> {
-        explain_recursion(scene, ray, COUNTERS, |stats, layers, root| self.camera(scene, ray, sampler, stats, layers, root))
+        explain_recursion(scene, ray, COUNTERS, |stats, aov, root| self.camera(scene, ray, sampler, stats, aov, root))
     }
 
     fn counters(&self) -> &'static [Counter] {

@@ -318,8 +318,8 @@ fn the_path_tracer_shades_a_pbr_sphere_with_its_model() {
     let mut sum = Color::ZERO;
     for i in 0..u64::from(n) {
         let mut sampler = raylab::Sampler::new(i, 0, 7);
-        let mut layers = raylab::render::aov::Layers::miss(Color::ZERO);
-        sum += job.integrator.radiance(&job.scene, &ray, &mut sampler, &mut stats, &mut layers);
+        let mut aov = raylab::render::aov::AovSample::miss(Color::ZERO);
+        sum += job.integrator.radiance(&job.scene, &ray, &mut sampler, &mut stats, &mut aov);
     }
     let mean = sum.x / f64::from(n);
     let (_, _, q) = white_metal_albedo(1.0, 1.0);
