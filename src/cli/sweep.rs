@@ -658,6 +658,7 @@ mod tests {
             label: String::new(),
             settings: Vec::new(),
             seconds,
+            denoise_seconds: None,
             rays: 0,
             error: ImageError { rmse: dssim, psnr: 0.0, ssim: 1.0 - dssim },
             dssim,

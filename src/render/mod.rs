@@ -128,7 +128,7 @@ pub struct Pass<'a> {
     pub stats: RayStats,
     /// The depth, normal and albedo layers so far, when the render takes them
     /// ([`RenderOptions::layers`]): a denoiser's guides for this pass's image.
-    pub layers: Option<&'a Aovs>,
+    pub layers: Option<&'a AovLayers>,
 }
 
 /// Renders `job`. `progress(done, total)` is called (from worker threads) as tiles finish, in
