@@ -1102,10 +1102,10 @@ fn attach_maps(ctx: &LoadContext, m: &tobj::Material, folder: &Path, loc: &Loc, 
         match image_texture::load(ctx, &path.to_string_lossy(), loc, space) {
             Ok(image) => {
                 // Over the memory budget: a warning, and the map is looked up at points.
-                if space != ColorSpace::Alpha {
-                    if let Err(e) = image_texture::with_mip_maps(&image, ctx) {
-                        ctx.warn(e);
-                    }
+                if space != ColorSpace::Alpha
+                    && let Err(e) = image_texture::with_mip_maps(&image, ctx)
+                {
+                    ctx.warn(e);
                 }
                 let wrap = if map.clamp { Wrap::Clamp } else { Wrap::Repeat };
                 let mapping = Mapping::with_inverse(Coords::Uv, map.lookup);
@@ -1683,9 +1683,8 @@ mod tests {
         assert_eq!(data.texcoords[1], [0.75, 0.5]);
         let m = &data.materials[0];
         assert_eq!((m.kd, m.textures.len(), m.textures[0].channel), (DVec3::splat(0.5), 1, Channel::Kd));
-        let at = |u: f64| {
-            m.textures[0].texture.eval(&raylab::scene::texture::TexturePoint::new(raylab::glam::DVec2::new(u, 0.5), DVec3::ZERO))
-        };
+        let at =
+            |u: f64| m.textures[0].texture.eval(&raylab::scene::texture::TexturePoint::new(raylab::glam::DVec2::new(u, 0.5), DVec3::ZERO));
         assert_eq!((at(0.25), at(0.75)), (DVec3::X, DVec3::Z), "left texel red, right blue");
         let _ = std::fs::remove_dir_all(&dir);
     }

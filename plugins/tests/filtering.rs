@@ -40,7 +40,10 @@ fn job(text: &str, extra: &str) -> RenderJob {
 fn pixels(job: &RenderJob, threads: usize) -> Vec<f64> {
     let r = render(job, &RenderOptions { threads: Some(threads), ..RenderOptions::default() }, &|_, _| {}).unwrap();
     let (w, h) = (job.settings.width, job.settings.height);
-    (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).map(|(x, y)| f64::from(r.film.get(x, y).dot(raylab::glam::Vec3::splat(1.0 / 3.0)))).collect()
+    (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| f64::from(r.film.get(x, y).dot(raylab::glam::Vec3::splat(1.0 / 3.0))))
+        .collect()
 }
 
 /// The energy of the differences between horizontal neighbours in rows `rows` (the image's
@@ -189,7 +192,9 @@ material = { kd = 0.5, kr = 1 }
         let out = reflect(ray.dir, si.n);
         let raylab::geometry::differential::RaySpread::Differential(d) = si.reflected_spread(out) else { panic!("no differential") };
         let eps = 1e-4;
-        for (step, dodx, dddx) in [(raylab::glam::DVec2::new(eps, 0.0), d.dodx, d.dddx), (raylab::glam::DVec2::new(0.0, eps), d.dody, d.dddy)] {
+        for (step, dodx, dddx) in
+            [(raylab::glam::DVec2::new(eps, 0.0), d.dodx, d.dddx), (raylab::glam::DVec2::new(0.0, eps), d.dody, d.dddy)]
+        {
             let r2 = j.scene.camera.ray_through(w, h, film + step, raylab::glam::DVec2::ZERO);
             let s2 = j.scene.trace(&r2).expect("the mirror ball");
             let fd_point = (s2.hit.point - si.hit.point) / eps;

@@ -82,7 +82,10 @@ material = { emission = { type = "image", file = "red.png", scale = 2 } }
     let c = m.at(|| raylab::scene::texture::TexturePoint::new(raylab::glam::DVec2::new(0.5, 0.5), raylab::glam::DVec3::ZERO));
     assert_eq!(c.kd, raylab::glam::DVec3::X);
     let e = &job.scene.objects[1].materials()[0];
-    assert_eq!(e.at(|| raylab::scene::texture::TexturePoint::new(raylab::glam::DVec2::ZERO, raylab::glam::DVec3::ZERO)).emission, raylab::glam::DVec3::new(2.0, 0.0, 0.0));
+    assert_eq!(
+        e.at(|| raylab::scene::texture::TexturePoint::new(raylab::glam::DVec2::ZERO, raylab::glam::DVec3::ZERO)).emission,
+        raylab::glam::DVec3::new(2.0, 0.0, 0.0)
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

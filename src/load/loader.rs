@@ -359,17 +359,20 @@ fn render_section(node: Option<&Node>, desc: &SceneDescription, ctx: &LoadContex
     let time_budget = time_budget(&mut rp, aa)?;
     let texture_filter = rp.bool("texture_filter")?;
     rp.finish()?;
-    Ok((texture_filter, RenderSettings {
-        width: width as u32,
-        height: height as u32,
-        spp: spp as u32,
-        seed,
-        encoding,
-        aa,
-        lens_samples,
-        target,
-        time_budget,
-    }))
+    Ok((
+        texture_filter,
+        RenderSettings {
+            width: width as u32,
+            height: height as u32,
+            spp: spp as u32,
+            seed,
+            encoding,
+            aa,
+            lens_samples,
+            target,
+            time_budget,
+        },
+    ))
 }
 
 /// The image size of `[render]` with the command line's over it, checked against the limits
