@@ -764,7 +764,7 @@ mod tests {
         }
         let data = MeshData { positions, triangles, ..MeshData::default() };
         let mesh = TriangleMesh::new(data, Normals::Flat, AccelChoice::Bvh).unwrap();
-        assert!(mesh.is_bvh());
+        assert_eq!(mesh.is_bvh(), raylab::accel::BVH_AVAILABLE);
         let slots = mesh.packs.len() as u32 * PACK;
         let mut ties = 0;
         for _ in 0..3000 {
