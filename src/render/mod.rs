@@ -126,6 +126,9 @@ pub struct Pass<'a> {
     pub elapsed: Duration,
     /// Counters so far.
     pub stats: RayStats,
+    /// The depth, normal and albedo layers so far, when the render takes them
+    /// ([`RenderOptions::layers`]): a denoiser's guides for this pass's image.
+    pub layers: Option<&'a AovLayers>,
 }
 
 /// Renders `job`. `progress(done, total)` is called (from worker threads) as tiles finish, in
@@ -254,7 +257,8 @@ fn render_passes(
         }
         if end != *ends.last().unwrap_or(&end) {
             let film = st.sums.film().map_err(|e| e.to_string())?;
-            on_pass(&Pass { film: &film, samples: end, elapsed: run.start.elapsed(), stats: st.stats });
+            let layers = st.sums.aovs().map_err(|e| e.to_string())?;
+            on_pass(&Pass { film: &film, samples: end, elapsed: run.start.elapsed(), stats: st.stats, layers: layers.as_ref() });
         }
     }
     let st = run.state.into_inner().unwrap_or_else(|e| e.into_inner());
@@ -262,7 +266,7 @@ fn render_passes(
     let layers = st.sums.aovs().map_err(|e| e.to_string())?;
     let elapsed = run.start.elapsed();
     if complete {
-        on_pass(&Pass { film: &film, samples: *ends.last().unwrap_or(&1), elapsed, stats: st.stats });
+        on_pass(&Pass { film: &film, samples: *ends.last().unwrap_or(&1), elapsed, stats: st.stats, layers: layers.as_ref() });
     }
     let budget_stop = run.over.load(Ordering::Relaxed).then(|| run.traced.load(Ordering::Relaxed));
     Ok(Rendered {
