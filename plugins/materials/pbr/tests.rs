@@ -14,19 +14,11 @@ const CHI2_SIGNIFICANCE: f64 = 1e-3;
 /// The glTF BRDF written from the specification's sample implementation (Appendix B.3.5 with
 /// the Khronos sample renderer's `V_GGX`, `D_GGX`, `F_Schlick`, and `KHR_materials_specular`'s
 /// `fresnel_mix`), in world space, for unit `n`, `v` (toward the viewer) and `l` (toward the
-/// light) on the same side.
-#[allow(clippy::too_many_arguments)]
-fn specification(
-    n: DVec3,
-    v: DVec3,
-    l: DVec3,
-    base: Color,
-    metallic: f64,
-    roughness: f64,
-    ior: f64,
-    specular: f64,
-    specular_color: Color,
-) -> Color {
+/// light) on the same side, of the material `pbr` (its `ior` and `KHR_materials_specular`) with
+/// the parameters `p` (base colour, metallic, roughness) at the point.
+fn specification(n: DVec3, v: DVec3, l: DVec3, pbr: &Pbr, p: &Params1) -> Color {
+    let (base, metallic, roughness) = (p.base_color, p.metallic, p.roughness);
+    let (ior, specular, specular_color) = (pbr.ior, pbr.specular, pbr.specular_color);
     let alpha_roughness = roughness * roughness;
     let h = (l + v).normalize();
     let n_dot_l = n.dot(l);
@@ -86,8 +78,9 @@ fn the_brdf_is_the_specifications_formula_at_random_angles() {
         let ior = 1.0 + 1.5 * rng.uniform();
         let (specular, specular_color) = (rng.uniform(), Color::new(2.0 * rng.uniform(), rng.uniform(), 1.5 * rng.uniform()));
         let pbr = Pbr { ior, specular, specular_color, ..Pbr::default() };
-        let f = bsdf(&pbr, &params(c, metallic, roughness), v, n).eval(l);
-        let expected = specification(n, v, l, c, metallic, roughness, ior, specular, specular_color);
+        let p = params(c, metallic, roughness);
+        let f = bsdf(&pbr, &p, v, n).eval(l);
+        let expected = specification(n, v, l, &pbr, &p);
         let error = ((f - expected).abs() / expected.abs().max(Color::splat(1e-3))).max_element();
         worst = worst.max(error);
         assert!(error < SPEC_TOLERANCE, "v {v}, l {l}, c {c}, m {metallic}, r {roughness}: {f} vs {expected}");
@@ -318,8 +311,8 @@ fn the_path_tracer_shades_a_pbr_sphere_with_its_model() {
     let mut sum = Color::ZERO;
     for i in 0..u64::from(n) {
         let mut sampler = raylab::Sampler::new(i, 0, 7);
-        let mut layers = raylab::render::aov::Layers::miss(Color::ZERO);
-        sum += job.integrator.radiance(&job.scene, &ray, &mut sampler, &mut stats, &mut layers);
+        let mut aov = raylab::render::aov::AovSample::miss(Color::ZERO);
+        sum += job.integrator.radiance(&job.scene, &ray, &mut sampler, &mut stats, &mut aov);
     }
     let mean = sum.x / f64::from(n);
     let (_, _, q) = white_metal_albedo(1.0, 1.0);
