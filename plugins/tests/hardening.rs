@@ -251,7 +251,12 @@ mod budget {
             let job = load(p, Overrides { depth: Some(node(Value::Int(64))), ..Overrides::default() });
             let r = render(&job, &RenderOptions::default(), &|_, _| {}).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
             assert!(r.complete && r.budget_stop.is_none(), "{}: stopped after {:?} rays", p.display(), r.budget_stop);
-            println!("{}: {} rays, {:.2} a camera ray", p.display(), r.stats.total_rays(), r.stats.total_rays() as f64 / r.stats.camera_rays as f64);
+            println!(
+                "{}: {} rays, {:.2} a camera ray",
+                p.display(),
+                r.stats.total_rays(),
+                r.stats.total_rays() as f64 / r.stats.camera_rays as f64
+            );
         }
     }
 

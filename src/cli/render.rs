@@ -263,7 +263,11 @@ pub fn fuzz_checkpoint(data: &[u8], jobs: &[RenderJob]) -> Result<(), String> {
         return Err(format!("a resumed render stopped unfinished (budget stop: {:?})", rendered.budget_stop));
     }
     if let Some(i) = (0..rendered.sums.pixels.len()).find(|&i| rendered.sums.missing(i) > 0) {
-        return Err(format!("pixel {:?} lacks {} samples after the resumed render", rendered.sums.share.bounds.pixel(i), rendered.sums.missing(i)));
+        return Err(format!(
+            "pixel {:?} lacks {} samples after the resumed render",
+            rendered.sums.share.bounds.pixel(i),
+            rendered.sums.missing(i)
+        ));
     }
     if let Some((i, c)) = rendered.film.pixels.iter().enumerate().find(|(_, c)| !c.is_finite()) {
         return Err(format!("pixel {i} of the resumed image is {c:?}"));

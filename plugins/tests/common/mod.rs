@@ -68,7 +68,8 @@ pub fn start_view(dir: &Path, scene: &Path, args: &[&str]) -> LiveView {
     let mut line = String::new();
     BufReader::new(stdout).read_line(&mut line).unwrap();
     let url = line.split_whitespace().find(|w| w.starts_with("http://")).unwrap_or_else(|| panic!("no URL in {line:?}")).to_string();
-    let (addr, token) = url.strip_prefix("http://").and_then(|rest| rest.split_once('/')).unwrap_or_else(|| panic!("not a page's URL: {url}"));
+    let (addr, token) =
+        url.strip_prefix("http://").and_then(|rest| rest.split_once('/')).unwrap_or_else(|| panic!("not a page's URL: {url}"));
     let (addr, token) = (addr.to_string(), token.trim_end_matches('/').to_string());
     LiveView { process, url, addr, token }
 }
