@@ -1,5 +1,5 @@
 //! The render's estimate of its own error (`PixelSum::std_error`, `half_variance`,
-//! `FrameSums::error_estimate`) and adaptive sampling to an error target.
+//! `ShareSums::error_estimate`) and adaptive sampling to an error target.
 
 use raylab::load::context::LoadOptions;
 use raylab::render::{RenderOptions, Rendered, render};

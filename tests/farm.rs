@@ -7,7 +7,7 @@ use proptest::test_runner::RngSeed;
 use raylab::load::context::{LoadOptions, Overrides};
 use raylab::load::loader::load_file;
 use raylab::param::value::{Node, Value};
-use raylab::render::share::{FrameSums, Part, Rect, Share, merge};
+use raylab::render::share::{Part, Rect, Share, ShareSums, merge};
 use raylab::render::{RenderJob, RenderOptions, Snapshots, render};
 use std::path::Path;
 use std::sync::Mutex;
@@ -131,8 +131,8 @@ fn resuming_from_any_snapshot_gives_the_uninterrupted_image() {
     for (scene, aa, (w, h)) in [("quality.toml", "stratified", (40, 30)), ("showcase.toml", "adaptive", (140, 100))] {
         let j = job_sized(scene, aa, 2, w, h);
         let whole = render(&j, &RenderOptions { threads: Some(1), ..RenderOptions::default() }, &|_, _| {}).unwrap();
-        let states: Mutex<Vec<FrameSums>> = Mutex::new(Vec::new());
-        let keep = |s: &FrameSums| states.lock().unwrap().push(s.clone());
+        let states: Mutex<Vec<ShareSums>> = Mutex::new(Vec::new());
+        let keep = |s: &ShareSums| states.lock().unwrap().push(s.clone());
         let snapshots = Some(Snapshots { every: std::time::Duration::ZERO, write: &keep });
         let again = render(&j, &RenderOptions { threads: Some(2), snapshots, ..RenderOptions::default() }, &|_, _| {}).unwrap();
         assert_eq!(again.film, whole.film);
@@ -146,7 +146,7 @@ fn resuming_from_any_snapshot_gives_the_uninterrupted_image() {
             assert_eq!(resumed.film, whole.film, "{scene} {aa}");
         }
         // A state of the wrong share is refused.
-        let wrong = FrameSums { share: Share { pass: 0, passes: 2, ..states[0].share }, ..states[0].clone() };
+        let wrong = ShareSums { share: Share { pass: 0, passes: 2, ..states[0].share }, ..states[0].clone() };
         assert!(render(&j, &RenderOptions { resume: Some(&wrong), ..RenderOptions::default() }, &|_, _| {}).is_err());
         // So is a state of other sampling (a checkpoint's fingerprint is no secret: a forged
         // file can claim 10⁹ samples per pixel of the right render); it was continued to them.

@@ -3,7 +3,7 @@
 use raylab::param::error::Result;
 use raylab::param::params::Params;
 use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
-use raylab::render::aov::Layers;
+use raylab::render::aov::AovSample;
 use raylab::render::trace::{NoRecord, Recorder};
 use raylab::scene::interaction::Interaction;
 use raylab::{Color, Integrator, LoadContext, PluginInfo, Ray, RayKind, RayStats, Sampler, Scene, TraceNode};
@@ -53,13 +53,13 @@ pub fn build_depth(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Integrator
 
 /// One hit, coloured by `color(scene, interaction)`: the whole of both views, for rendering and
 /// explaining alike.
-fn first_hit<R: Recorder>(scene: &Scene, ray: &Ray, layers: &mut Layers, rec: &mut R, color: impl Fn(&Interaction) -> Color) -> Color {
+fn first_hit<R: Recorder>(scene: &Scene, ray: &Ray, aov: &mut AovSample, rec: &mut R, color: impl Fn(&Interaction) -> Color) -> Color {
     let Some(si) = scene.trace(ray) else {
         rec.color(Color::ZERO);
         return Color::ZERO;
     };
     let c = color(&si);
-    *layers = Layers::surface(&si, c);
+    *aov = AovSample::surface(&si, c);
     rec.hit(&si);
     rec.color(c);
     c
@@ -67,13 +67,13 @@ fn first_hit<R: Recorder>(scene: &Scene, ray: &Ray, layers: &mut Layers, rec: &m
 
 fn explain_one(scene: &Scene, ray: &Ray, color: impl Fn(&Interaction) -> Color) -> TraceNode {
     let mut node = TraceNode::new(RayKind::Camera, *ray, 0, Color::ONE);
-    first_hit(scene, ray, &mut Layers::miss(scene.background), &mut node, color);
+    first_hit(scene, ray, &mut AovSample::miss(scene.background), &mut node, color);
     node
 }
 
 impl Integrator for Normals {
-    fn radiance(&self, scene: &Scene, ray: &Ray, _: &mut Sampler, _: &mut RayStats, layers: &mut Layers) -> Color {
-        first_hit(scene, ray, layers, &mut NoRecord, |si| (si.ns + Color::ONE) * 0.5)
+    fn radiance(&self, scene: &Scene, ray: &Ray, _: &mut Sampler, _: &mut RayStats, aov: &mut AovSample) -> Color {
+        first_hit(scene, ray, aov, &mut NoRecord, |si| (si.ns + Color::ONE) * 0.5)
     }
     fn explain(&self, scene: &Scene, ray: &Ray, _: &mut Sampler) -> Option<TraceNode> {
         Some(explain_one(scene, ray, |si| (si.ns + Color::ONE) * 0.5))
@@ -110,8 +110,8 @@ impl Depth {
 }
 
 impl Integrator for Depth {
-    fn radiance(&self, scene: &Scene, ray: &Ray, _: &mut Sampler, _: &mut RayStats, layers: &mut Layers) -> Color {
-        first_hit(scene, ray, layers, &mut NoRecord, |si| self.shade(scene, si.hit.t))
+    fn radiance(&self, scene: &Scene, ray: &Ray, _: &mut Sampler, _: &mut RayStats, aov: &mut AovSample) -> Color {
+        first_hit(scene, ray, aov, &mut NoRecord, |si| self.shade(scene, si.hit.t))
     }
     fn explain(&self, scene: &Scene, ray: &Ray, _: &mut Sampler) -> Option<TraceNode> {
         Some(explain_one(scene, ray, |si| self.shade(scene, si.hit.t)))

@@ -444,6 +444,45 @@ fn sweep_measures_phong_against_a_path_traced_reference() {
     std::fs::remove_dir_all(dir).unwrap();
 }
 
+/// `sweep --vary denoise=off,on`: each setting rendered as it is and denoised; the denoised
+/// low-spp rows are closer to the reference, and the denoiser's time is counted and recorded. A
+/// value other than off or on is refused at its place in the flag.
+#[test]
+fn sweep_varies_the_denoiser() {
+    let dir = temp_dir("sweep-denoise");
+    let scene = repo().join("scenes/path-cornell.toml");
+    let scene = scene.to_str().unwrap();
+    let small = ["--width", "32", "--height", "32", "--reference-spp", "64", "--metric", "rmse", "-q"];
+    let out = raylab(&dir, &[&["sweep", scene, "--vary", "spp=1", "--vary", "denoise=off,maybe"][..], &small].concat());
+    assert!(!out.status.success() && text(&out.stderr).contains("denoise is off or on"), "{}", text(&out.stderr));
+    if !raylab::image::denoise::available() {
+        assert!(std::env::var_os("CI").is_none(), "CI must have the denoiser: {}", raylab::image::denoise::INSTALL_HINT);
+        eprintln!("SKIPPED the denoised rows: no oidnDenoise ({})", raylab::image::denoise::INSTALL_HINT);
+        return;
+    }
+    let out = raylab(&dir, &[&["sweep", scene, "--vary", "spp=2,4", "--vary", "denoise=off,on", "--out", "s"][..], &small].concat());
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("s/results.json")).unwrap()).unwrap();
+    let rows = json["results"].as_array().unwrap();
+    assert_eq!(rows.len(), 4);
+    let row = |spp: &str, denoise: &str| {
+        rows.iter()
+            .find(|r| r["label"] == format!("spp={spp} denoise={denoise}"))
+            .unwrap_or_else(|| panic!("no row {spp} {denoise}: {json}"))
+    };
+    for spp in ["2", "4"] {
+        let (off, on) = (row(spp, "off"), row(spp, "on"));
+        assert!(off.get("denoise_seconds").is_none(), "{off}");
+        let d = on["denoise_seconds"].as_f64().unwrap();
+        assert!(d > 0.0 && on["seconds"].as_f64().unwrap() >= d, "{on}");
+        let (e_off, e_on) = (off["rmse"].as_f64().unwrap(), on["rmse"].as_f64().unwrap());
+        assert!(e_on < 0.8 * e_off, "{spp} spp: RMSE noisy {e_off}, denoised {e_on}");
+    }
+    let csv = std::fs::read_to_string(dir.join("s/results.csv")).unwrap();
+    assert!(csv.starts_with("spp,denoise,seconds,") && csv.contains("\n4,on,"), "{csv}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
 /// `render --denoise` and `raylab denoise` (Intel Open Image Denoise's tool, which CI installs):
 /// the denoised 4-spp path-traced box is closer to a 256-spp render than the noisy one, and the
 /// two commands give the same image from the same render.

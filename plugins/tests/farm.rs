@@ -221,10 +221,10 @@ fn share_options_are_checked() {
 /// A partial that claims a frame of 10⁵ × 10⁵ pixels is refused from its header.
 #[test]
 fn a_partial_claiming_a_huge_frame_is_refused_before_decoding() {
-    use raylab::render::share::{FrameSums, Rect, Sampling, Share};
+    use raylab::render::share::{Rect, Sampling, Share, ShareSums};
     let dir = temp("huge");
     let share = Share { bounds: Rect { x0: 0, y0: 0, x1: 2, y1: 2 }, pass: 0, passes: 1 };
-    let sums = FrameSums {
+    let sums = ShareSums {
         width: 100_000,
         height: 100_000,
         sampling: Sampling { spp: 1, adaptive: false, target: None },

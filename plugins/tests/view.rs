@@ -196,6 +196,128 @@ fn refining_ends_when_every_pixel_meets_the_error_target() {
     std::fs::remove_dir_all(dir).unwrap();
 }
 
+/// The PNG `raylab render` writes of `scene` with `args`, as RGB.
+fn render_png(dir: &Path, scene: &Path, args: &[&str]) -> image::RgbImage {
+    let out = Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args(["render", scene.to_str().unwrap(), "-o", "cli.png", "-q"])
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    image::open(dir.join("cli.png")).unwrap().to_rgb8()
+}
+
+/// The image the page's Save PNG serves.
+fn served_png(addr: &str, token: &str) -> image::RgbImage {
+    let (code, png) = http(addr, "GET", &format!("/{token}/api/image.png"), addr, None);
+    assert_eq!(code, 200);
+    image::load_from_memory(&png).unwrap().to_rgb8()
+}
+
+/// The page's error target: the view refines until every pixel meets it and ends with the image
+/// `raylab render --target-error E` writes with the view's sample cap, whatever the scene's
+/// samples (deterministic for a given target); clearing it goes back to refining without one.
+#[test]
+fn the_pages_error_target_ends_refining_at_the_image_render_makes_for_that_target() {
+    let dir = temp("page-target");
+    let scene = repo().join("scenes/path-cornell.toml");
+    let size = ["--width", "16", "--height", "16"];
+    let (_view, url) = start_view(&dir, &scene, &[&size[..], &["--spp", "2", "--threads", "2"]].concat());
+    let (addr, token) = parts(&url);
+    let knobs = wait_for(&addr, &token, "the controls", |s| s["phase"] != "loading" && s["phase"] != "preview")["knobs"].clone();
+    let knob =
+        |key: &str| knobs.as_array().unwrap().iter().find(|k| k["key"] == key).cloned().unwrap_or_else(|| panic!("no {key} in {knobs}"));
+    assert_eq!(knob("target_error")["value"], Value::Null, "no target in the scene");
+    assert_eq!(knob("target_min_spp")["active"], false, "inactive without a target");
+    // A target with fewer samples than are taken before the first test is refused at the control.
+    let (code, _) = http(&addr, "POST", &format!("/{token}/api/settings"), &addr, Some(&json!({ "target_error": 0.25, "params": {} })));
+    assert_eq!(code, 200);
+    let refused = wait_for_error(&addr, &token);
+    assert!(refused["message"].as_str().unwrap().contains("target_min_spp"), "{refused}");
+    assert!(refused["report"].as_str().unwrap().contains("page control \"target_error\""), "{refused}");
+    // The page raises spp with the target (as its script does); 16 and 32 samples: the same end.
+    let mut images = Vec::new();
+    for spp in [16, 32] {
+        let before = updates(&addr, &token, 0)["status"]["generation"].as_u64().unwrap();
+        let settings = json!({ "target_error": 0.25, "spp": spp, "params": {} });
+        let (code, _) = http(&addr, "POST", &format!("/{token}/api/settings"), &addr, Some(&settings));
+        assert_eq!(code, 200);
+        let done = wait_for(&addr, &token, "the target", |s| s["phase"] == "done" && s["generation"].as_u64() > Some(before));
+        assert_eq!(done["status"]["ended"], "every pixel met the error target", "{}", done["status"]);
+        assert_eq!(done["knobs"].as_array().map(|k| k.iter().any(|k| k["key"] == "target_error" && k["value"] == 0.25)), Some(true));
+        images.push(served_png(&addr, &token));
+    }
+    assert!(images[0] == images[1], "the same target, the same image, whatever the scene's samples");
+    let cap = raylab::view::session::REFINE_MAX_SPP.to_string();
+    let cli =
+        render_png(&dir, &scene, &[&size[..], &["--target-error", "0.25", "--spp", &cap, "--max-rays", &u64::MAX.to_string()]].concat());
+    assert!(images[0] == cli, "the view's image is raylab render's for the target");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// Polls until the status is an error; returns it.
+fn wait_for_error(addr: &str, token: &str) -> Value {
+    let deadline = Instant::now() + PATIENCE;
+    let mut version = 0;
+    loop {
+        let head = updates(addr, token, version);
+        if head["status"]["phase"] == "error" {
+            return head["status"]["error"].clone();
+        }
+        assert!(Instant::now() < deadline, "no error; the status is {}", head["status"]);
+        version = head["version"].as_u64().unwrap();
+    }
+}
+
+/// Whether the denoiser's tool is here (else the test says it is skipped; CI must have it).
+fn denoiser_here(test: &str) -> bool {
+    if raylab::image::denoise::available() {
+        return true;
+    }
+    assert!(std::env::var_os("CI").is_none(), "CI must have the denoiser: {}", raylab::image::denoise::INSTALL_HINT);
+    eprintln!("SKIPPED {test}: no oidnDenoise ({})", raylab::image::denoise::INSTALL_HINT);
+    false
+}
+
+/// The page's Denoise control: the finished image is the one `raylab render --denoise` writes,
+/// and refined passes are shown denoised too.
+#[test]
+fn the_denoise_control_shows_the_image_render_denoise_writes() {
+    if !denoiser_here("the_denoise_control_shows_the_image_render_denoise_writes") {
+        return;
+    }
+    let dir = temp("denoise");
+    let scene = repo().join("scenes/path-cornell.toml");
+    let args = ["--width", "32", "--height", "32", "--spp", "4"];
+    let (view, url) = start_view(&dir, &scene, &[&args[..], &["--threads", "2", "--no-refine"]].concat());
+    let (addr, token) = parts(&url);
+    let first = wait_for(&addr, &token, "the first render", |s| s["phase"] == "done");
+    assert_eq!(first["status"]["denoised"], false);
+    let noisy = served_png(&addr, &token);
+    let (code, _) = http(&addr, "POST", &format!("/{token}/api/settings"), &addr, Some(&json!({ "denoise": true, "params": {} })));
+    assert_eq!(code, 200);
+    let done = wait_for(&addr, &token, "the denoised render", |s| s["phase"] == "done" && s["denoised"] == true);
+    assert!(done["status"]["generation"].as_u64() > first["status"]["generation"].as_u64());
+    let denoised = served_png(&addr, &token);
+    assert!(denoised != noisy, "denoising changed the image");
+    assert!(denoised == render_png(&dir, &scene, &[&args[..], &["--denoise"]].concat()), "the view's image is raylab render --denoise's");
+    drop(view);
+    // Refining: each pass is shown denoised; Stop keeps the last one.
+    let (_view, url) = start_view(&dir, &scene, &[&args[..], &["--threads", "2"]].concat());
+    let (addr, token) = parts(&url);
+    let (code, _) = http(&addr, "POST", &format!("/{token}/api/settings"), &addr, Some(&json!({ "denoise": true, "params": {} })));
+    assert_eq!(code, 200);
+    wait_for(&addr, &token, "a denoised refined pass", |s| {
+        s["phase"] == "refining" && s["denoised"] == true && s["samples"][0].as_u64() > Some(4)
+    });
+    let (code, _) = http(&addr, "POST", &format!("/{token}/api/stop"), &addr, None);
+    assert_eq!(code, 200);
+    let stopped = wait_for(&addr, &token, "the stop", |s| s["phase"] == "done");
+    assert_eq!(stopped["status"]["denoised"], true, "{}", stopped["status"]);
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
 #[test]
 fn the_pages_samples_replace_the_command_lines_and_a_bad_count_is_located_at_its_control() {
     use raylab::load::context::{LoadOptions, Overrides};
@@ -445,6 +567,39 @@ fn the_page_renders_restarts_on_a_knob_and_explains_a_clicked_pixel() {
     b.screenshot(&shots.join("4-scene-error.png"));
     std::fs::write(&scene, &original).unwrap();
     b.wait("the render after the fix", "return document.body.dataset.phase === 'done' && document.getElementById('error').hidden");
+
+    // 5. The error target (the page's settings are still stratified, 4 spp) and the denoiser.
+    assert_eq!(b.script("return window.raylab.status.sampling"), "4 spp");
+    let field = b.element("#knob-target_error");
+    b.call("POST", &format!("/element/{field}/value"), Some(json!({ "text": "0.2\u{E007}" })));
+    // The page raises the samples to those taken before the first test (16), the target's least.
+    b.wait(
+        "the render to the target",
+        "return window.raylab.status.sampling === 'to error 0.2 (16..16 spp)' && document.body.dataset.phase === 'done'",
+    );
+    let target = [&SIZE[..], &["--aa", "stratified", "--spp", "16", "--target-error", "0.2"]].concat();
+    assert_eq!(
+        b.script(CANVAS_HASH).as_u64().unwrap() as u32,
+        render_hash(&dir, &scene, &target),
+        "the target's image equals raylab render's"
+    );
+    if raylab::image::denoise::available() {
+        let toggle = b.element("#knob-denoise");
+        b.call("POST", &format!("/element/{toggle}/click"), Some(json!({})));
+        b.wait("the denoised image", "return window.raylab.status.denoised && document.body.dataset.phase === 'done'");
+        assert!(b.script("return document.getElementById('phase').textContent").as_str().unwrap().contains("denoised"));
+        let denoised = [&target[..], &["--denoise"]].concat();
+        assert_eq!(
+            b.script(CANVAS_HASH).as_u64().unwrap() as u32,
+            render_hash(&dir, &scene, &denoised),
+            "the page's denoised image is raylab render --denoise's"
+        );
+    } else {
+        assert!(std::env::var_os("CI").is_none(), "CI must have the denoiser: {}", raylab::image::denoise::INSTALL_HINT);
+        assert_eq!(b.script("return document.getElementById('knob-denoise').disabled"), true, "no denoiser: the control is inactive");
+    }
+    b.script("window.scrollTo(0, 0); return true");
+    b.screenshot(&shots.join("5-target-denoised.png"));
     eprintln!("screenshots in {}", shots.display());
     drop(b);
     std::fs::remove_dir_all(dir).unwrap();

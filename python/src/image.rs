@@ -7,9 +7,9 @@ use pyo3::prelude::*;
 use pyo3::types::{PyByteArray, PyBytes, PyDict};
 use raylab::math::color::Encoding;
 use raylab::render::RenderJob;
-use raylab::render::aovs::{Aov, Aovs};
+use raylab::render::aov::{Aov, AovLayers};
 use raylab::render::film::Film;
-use raylab::render::share::FrameSums;
+use raylab::render::share::ShareSums;
 use raylab::render::stats::RayStats;
 use std::path::PathBuf;
 
@@ -24,7 +24,7 @@ struct PartInfo {
 #[pyclass(frozen, module = "raylab._raylab")]
 pub struct Rendered {
     film: Film,
-    layers: Option<Aovs>,
+    layers: Option<AovLayers>,
     /// The layers asked for (the render computes all three when any is asked for).
     aov: Vec<String>,
     stats: Option<RayStats>,
@@ -32,7 +32,7 @@ pub struct Rendered {
     encoding: Encoding,
     complete: bool,
     /// The exact sums, for a part of a frame (a tile, crop or pass), to merge or save.
-    part: Option<(FrameSums, PartInfo)>,
+    part: Option<(ShareSums, PartInfo)>,
 }
 
 impl Rendered {
@@ -51,13 +51,13 @@ impl Rendered {
     }
 
     /// The layers the caller asked for, as the CLI's `write` keeps them.
-    fn chosen_layers(&self) -> Option<Aovs> {
+    fn chosen_layers(&self) -> Option<AovLayers> {
         let asked = |l: Aov| self.aov.iter().any(|s| Aov::parse(s) == Some(l));
-        self.layers.as_ref().map(|l| Aovs {
+        self.layers.as_ref().map(|l| AovLayers {
             depth: l.depth.clone().filter(|_| asked(Aov::Depth)),
             normal: l.normal.clone().filter(|_| asked(Aov::Normal)),
             albedo: l.albedo.clone().filter(|_| asked(Aov::Albedo)),
-            ..Aovs::default()
+            ..AovLayers::default()
         })
     }
 }

@@ -320,7 +320,7 @@ impl Scene {
         progress: Option<Py<PyAny>>,
     ) -> PyResult<Rendered> {
         for name in &aov {
-            if raylab::render::aovs::Aov::parse(name).is_none() {
+            if raylab::render::aov::Aov::parse(name).is_none() {
                 return Err(PyValueError::new_err(format!("aov: expected depth, normal or albedo, found \"{name}\"")));
             }
         }

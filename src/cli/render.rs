@@ -2,9 +2,9 @@
 
 use super::{App, Failure, SceneArgs, si};
 use crate::image::output::{Grid, ImagePlan, OutputFormat};
-use crate::render::aovs::Aovs;
+use crate::render::aov::AovLayers;
 use crate::render::film::Film;
-use crate::render::share::{FrameSums, Share};
+use crate::render::share::{Share, ShareSums};
 use crate::render::{RenderJob, RenderOptions, Rendered};
 use clap::Args;
 use std::io::Write;
@@ -286,7 +286,7 @@ struct SavedCommand {
 /// Renders as `a` asks, continuing `resumed` (a checkpoint's state and fingerprint) if given:
 /// the arguments checked, the scene loaded and the work planned, the render run, its image
 /// written and the summary printed.
-fn render(app: &App, a: RenderArgs, resumed: Option<(FrameSums, String)>) -> Result<(), Failure> {
+fn render(app: &App, a: RenderArgs, resumed: Option<(ShareSums, String)>) -> Result<(), Failure> {
     catch_ctrl_c();
     let t0 = Instant::now();
     let request = validate(app, &a)?;
@@ -437,7 +437,7 @@ struct Run {
 
 /// Runs the render with a progress bar, checkpoints, a live display and an error log as asked,
 /// continuing `resume`.
-fn run_planned(plan: &Plan, resume: Option<&FrameSums>) -> Result<Run, Failure> {
+fn run_planned(plan: &Plan, resume: Option<&ShareSums>) -> Result<Run, Failure> {
     let (a, job) = (plan.a, &plan.job);
     let s = job.settings;
     let bar = progress_bar(a.quiet, u64::from(s.width) * u64::from(s.height));
@@ -446,7 +446,7 @@ fn run_planned(plan: &Plan, resume: Option<&FrameSums>) -> Result<Run, Failure> 
         None => plan.scene_name.clone(),
     });
     let checkpoint_failure: std::sync::Mutex<Option<String>> = std::sync::Mutex::new(None);
-    let write_checkpoint = |sums: &FrameSums| {
+    let write_checkpoint = |sums: &ShareSums| {
         if let Err(e) = save_state(&plan.checkpoint, sums, job, Some(&plan.resume_info)) {
             checkpoint_failure.lock().unwrap_or_else(|e| e.into_inner()).get_or_insert(e);
         }
@@ -699,7 +699,7 @@ fn summarize(plan: &Plan, written: &Written, trace_cpu: Option<f64>) -> Result<(
 }
 
 /// Writes a render's state as a partial image (with `resume`: a checkpoint).
-fn save_state(path: &Path, sums: &FrameSums, job: &RenderJob, resume: Option<&str>) -> Result<(), String> {
+fn save_state(path: &Path, sums: &ShareSums, job: &RenderJob, resume: Option<&str>) -> Result<(), String> {
     #[cfg(feature = "exr")]
     {
         let info = crate::image::partial::PartialInfo {
@@ -780,19 +780,19 @@ fn read_spp_map(path: &Path, width: u32, height: u32) -> Result<Vec<u32>, Failur
 
 /// Writes the image to `path` in the planned format, with the layers `--aov` asks for (of
 /// `layers`, and the error layers from `sums`).
-fn write(plan: &Plan, path: &Path, film: &Film, layers: Option<&Aovs>, sums: Option<&FrameSums>) -> Result<(), Failure> {
-    use crate::render::aovs::Aov;
+fn write(plan: &Plan, path: &Path, film: &Film, layers: Option<&AovLayers>, sums: Option<&ShareSums>) -> Result<(), Failure> {
+    use crate::render::aov::Aov;
     let a = plan.a;
     let asked = |l: Aov| a.aov.iter().any(|s| Aov::parse(s) == Some(l));
-    let mut chosen = layers.map(|l| Aovs {
+    let mut chosen = layers.map(|l| AovLayers {
         depth: l.depth.clone().filter(|_| asked(Aov::Depth)),
         normal: l.normal.clone().filter(|_| asked(Aov::Normal)),
         albedo: l.albedo.clone().filter(|_| asked(Aov::Albedo)),
-        ..Aovs::default()
+        ..AovLayers::default()
     });
     if let Some(sums) = sums.filter(|_| asked(Aov::Error)) {
         let (error, spp) = sums.error_layers().map_err(|e| e.to_string())?;
-        let c = chosen.get_or_insert_with(Aovs::default);
+        let c = chosen.get_or_insert_with(AovLayers::default);
         (c.error, c.spp) = (Some(error), Some(spp));
     }
     let settings = crate::image::output::WriteSettings {

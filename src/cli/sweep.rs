@@ -21,8 +21,10 @@ pub(crate) struct SweepArgs {
     /// A knob and the values to try: `spp=1,4,16`, `depth=1,3,5`, `aa_threshold=0.1,0.05`,
     /// `aa_depth=…`, `aa_edges=…`, `aa_signature=…`, `aa_cell_samples=…`, `aa_coarse=…`, `lens_samples=…`,
     /// `target_error=0.1,0.03` (with spp as the cap), `target_min_spp=…`,
-    /// `aperture=…`, `integrator=phong,path`, or any integrator parameter (`glossy_rays`,
-    /// `shadow_rays`, `shadow_probes`, `prune_threshold`, …). Repeatable.
+    /// `aperture=…`, `integrator=phong,path`, `denoise=off,on` (the finished image denoised by
+    /// Intel Open Image Denoise, guided by albedo and normal; its time counts), or any
+    /// integrator parameter (`glossy_rays`, `shadow_rays`, `shadow_probes`, `prune_threshold`,
+    /// …). Repeatable.
     #[arg(long = "vary", value_name = "KNOB=V1,V2,…", required = true)]
     vary: Vec<String>,
     /// Vary one knob at a time from the base settings (the scene's, with the flags below),
@@ -78,6 +80,9 @@ struct Outcome {
     label: String,
     settings: Vec<(String, String)>,
     seconds: f64,
+    /// Of `seconds`, the denoiser's (`denoise=on`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    denoise_seconds: Option<f64>,
     rays: u64,
     #[serde(flatten)]
     error: ImageError,
@@ -107,9 +112,14 @@ pub(crate) fn run(app: &App, a: SweepArgs) -> Result<(), Failure> {
     // Every setting, checked (loaded) before anything is rendered.
     let choices = if a.one_at_a_time { one_at_a_time(&knobs) } else { grid(&knobs) };
     let mut jobs = Vec::with_capacity(choices.len());
+    let mut denoised = Vec::with_capacity(choices.len());
     for choice in &choices {
         let opts = options_for(&base, &knobs, choice)?;
         jobs.push(load_with(app, scene, &opts)?);
+        denoised.push(denoise_of(&knobs, choice)?);
+    }
+    if denoised.contains(&true) {
+        crate::image::denoise::find_tool().map_err(|e| format!("--vary denoise: {e}"))?;
     }
 
     // What it will cost, before it costs it.
@@ -156,20 +166,31 @@ pub(crate) fn run(app: &App, a: SweepArgs) -> Result<(), Failure> {
         if !a.quiet {
             eprint!("[{}/{}] {label} … ", i + 1, jobs.len());
         }
-        let mut best: Option<crate::render::Rendered> = None;
+        let denoise = denoised[i];
+        let options = RenderOptions { layers: denoise, ..options };
+        // The fastest of the repeats, the denoiser's time included.
+        let mut best: Option<(crate::render::Rendered, Option<std::time::Duration>)> = None;
         for _ in 0..a.repeat {
-            let r = crate::render::render(job, &options, &|_, _| {})?;
-            if best.as_ref().is_none_or(|b| r.elapsed < b.elapsed) {
-                best = Some(r);
+            let mut r = crate::render::render(job, &options, &|_, _| {})?;
+            let denoise_time = if denoise {
+                let t = std::time::Instant::now();
+                r.film = crate::image::denoise::denoise_guided(&r.film, r.layers.as_ref())?;
+                Some(t.elapsed())
+            } else {
+                None
+            };
+            let total = |r: &crate::render::Rendered, d: Option<std::time::Duration>| r.elapsed + d.unwrap_or_default();
+            if best.as_ref().is_none_or(|(b, bd)| total(&r, denoise_time) < total(b, *bd)) {
+                best = Some((r, denoise_time));
             }
         }
-        let r = best.expect("repeat ≥ 1");
+        let (r, denoise_time) = best.expect("repeat ≥ 1");
         let error = crate::image::metrics::compare(&r.film, &reference, encoding)?;
         if a.save_images {
             let name = format!("{}.png", file_safe(&label));
             crate::image::output::write_image(&a.out.join(name), &r.film, encoding, None).map_err(|e| e.to_string())?;
         }
-        let seconds = r.elapsed.as_secs_f64();
+        let seconds = (r.elapsed + denoise_time.unwrap_or_default()).as_secs_f64();
         if !a.quiet {
             eprintln!("{seconds:.3} s, SSIM {:.4}", error.ssim);
         }
@@ -177,6 +198,7 @@ pub(crate) fn run(app: &App, a: SweepArgs) -> Result<(), Failure> {
             label,
             settings,
             seconds,
+            denoise_seconds: denoise_time.map(|d| d.as_secs_f64()),
             rays: r.stats.total_rays(),
             error,
             dssim: error.dssim(),
@@ -327,10 +349,29 @@ fn one_at_a_time(knobs: &[Knob]) -> Vec<Vec<(usize, usize)>> {
     out
 }
 
+/// The knob that is not a load option: whether the finished image is denoised.
+const DENOISE: &str = "denoise";
+
+/// Whether `choice` denoises: `denoise=on` (or `true`); `off` or `false`, or no such knob: not.
+fn denoise_of(knobs: &[Knob], choice: &[(usize, usize)]) -> Result<bool, Failure> {
+    for &(k, v) in choice {
+        if knobs[k].name == DENOISE {
+            let node = &knobs[k].values[v].1;
+            return match &node.value {
+                Value::Bool(b) => Ok(*b),
+                Value::Str(s) if s == "on" => Ok(true),
+                Value::Str(s) if s == "off" => Ok(false),
+                _ => Err(SceneError::at(&node.loc, "denoise is off or on").into()),
+            };
+        }
+    }
+    Ok(false)
+}
+
 /// The base load options with the chosen knob values applied.
 fn options_for(base: &LoadOptions, knobs: &[Knob], choice: &[(usize, usize)]) -> Result<LoadOptions, Failure> {
     let mut o = base.clone();
-    for &(k, v) in choice {
+    for &(k, v) in choice.iter().filter(|&&(k, _)| knobs[k].name != DENOISE) {
         crate::load::context::apply_knob(&mut o, "--vary", &knobs[k].name, &knobs[k].values[v].1)?;
     }
     Ok(o)
@@ -617,6 +658,7 @@ mod tests {
             label: String::new(),
             settings: Vec::new(),
             seconds,
+            denoise_seconds: None,
             rays: 0,
             error: ImageError { rmse: dssim, psnr: 0.0, ssim: 1.0 - dssim },
             dssim,

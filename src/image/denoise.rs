@@ -121,7 +121,7 @@ impl Drop for TempDir {
 }
 
 /// A finished render's `film` denoised whole, guided by the albedo and normal of its `layers`.
-pub fn denoise_guided(film: &Film, layers: Option<&crate::render::aovs::Aovs>) -> Result<Film, String> {
+pub fn denoise_guided(film: &Film, layers: Option<&crate::render::aov::AovLayers>) -> Result<Film, String> {
     let layers = layers.ok_or("the render took no albedo and normal layers to guide the denoiser")?;
     let (width, height) = (film.width, film.height);
     let guide = |v: &Option<Vec<glam::Vec3>>| v.as_ref().map(|p| Film { width, height, pixels: p.clone() });

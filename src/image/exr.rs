@@ -1,11 +1,11 @@
 //! OpenEXR output (feature `exr`): the film's linear, unclamped RGB as 32-bit floats (or half
 //! floats), with optional extra layers for denoisers: depth `Z`, `normal.X/Y/Z`, `albedo.R/G/B`
 //! ([`crate::render::aov`]), and the error estimate `error` and samples per pixel `spp`
-//! ([`crate::render::share::FrameSums::error_layers`]). One part, channels by name, lossless ZIP compression; depth is always 32-bit.
+//! ([`crate::render::share::ShareSums::error_layers`]). One part, channels by name, lossless ZIP compression; depth is always 32-bit.
 //! Written atomically, like every raylab image.
 
 use crate::image::write::{WriteError, write_atomically};
-use crate::render::aovs::Aovs;
+use crate::render::aov::AovLayers;
 use crate::render::film::Film;
 use exr::prelude::*;
 use std::path::Path;
@@ -13,13 +13,13 @@ use std::result::Result;
 
 /// Writes `film` (and `aovs`) to `path` as OpenEXR; `half` stores colour, normal and albedo as
 /// 16-bit floats.
-pub fn write_exr(path: &Path, film: &Film, aovs: &Aovs, half: bool) -> Result<(), WriteError> {
+pub fn write_exr(path: &Path, film: &Film, aovs: &AovLayers, half: bool) -> Result<(), WriteError> {
     let bytes = encode_exr(film, aovs, half).map_err(|e| WriteError(format!("encoding \"{}\" failed: {e}", path.display())))?;
     write_atomically(path, |w| w.write_all(&bytes).map_err(|e| e.to_string()))
 }
 
 /// The EXR file's bytes.
-pub fn encode_exr(film: &Film, aovs: &Aovs, half: bool) -> Result<Vec<u8>, String> {
+pub fn encode_exr(film: &Film, aovs: &AovLayers, half: bool) -> Result<Vec<u8>, String> {
     let n = film.pixels.len();
     let out_of_memory = |what: &str| format!("out of memory for the {what} of a {}×{} image", film.width, film.height);
     let samples = |v: &mut dyn Iterator<Item = f32>, what: &str| -> Result<FlatSamples, String> {

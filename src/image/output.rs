@@ -64,8 +64,8 @@ impl Default for ImagePlan {
 const FILM_BYTES_PER_PIXEL: u64 = 12;
 /// Bytes per pixel of the render's exact running sums ([`crate::render::accum::PixelSum`]).
 const SUM_BYTES_PER_PIXEL: u64 = std::mem::size_of::<crate::render::accum::PixelSum>() as u64;
-/// Bytes per pixel of the layers' exact running sums ([`crate::render::accum::LayerSum`]).
-const LAYER_SUM_BYTES_PER_PIXEL: u64 = std::mem::size_of::<crate::render::accum::LayerSum>() as u64;
+/// Bytes per pixel of the layers' exact running sums ([`crate::render::accum::AovSum`]).
+const LAYER_SUM_BYTES_PER_PIXEL: u64 = std::mem::size_of::<crate::render::accum::AovSum>() as u64;
 /// Bytes per pixel of 8-bit output: the RGB copy and the encoder's buffer.
 const EIGHT_BIT_BYTES_PER_PIXEL: u64 = 6;
 
@@ -98,7 +98,7 @@ pub struct WriteSettings<'a> {
     /// Grid lines over an 8-bit image.
     pub grid: Option<Grid>,
     /// The depth, normal and albedo layers (EXR).
-    pub layers: Option<&'a crate::render::aovs::Aovs>,
+    pub layers: Option<&'a crate::render::aov::AovLayers>,
     /// 16-bit half floats for colour, normal and albedo (EXR).
     pub half: bool,
 }

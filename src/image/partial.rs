@@ -1,4 +1,4 @@
-//! Partial images (feature `exr`): one share of a frame ([`FrameSums`]) as an OpenEXR file that
+//! Partial images (feature `exr`): one share of a frame ([`ShareSums`]) as an OpenEXR file that
 //! `raylab merge` combines and `raylab render --resume` continues, and that any EXR viewer opens.
 //!
 //! - The **data window** is the share's pixel bounds; the **display window** is the whole frame.
@@ -21,8 +21,8 @@
 //! expected.
 
 use crate::image::write::{WriteError, write_atomically};
-use crate::render::accum::{LayerSum, PixelSum};
-use crate::render::share::{FrameSums, Rect, Sampling, Share};
+use crate::render::accum::{AovSum, PixelSum};
+use crate::render::share::{Rect, Sampling, Share, ShareSums};
 use exr::prelude::*;
 use std::path::Path;
 use std::result::Result;
@@ -65,13 +65,13 @@ fn from_limbs(l: &[u32]) -> i128 {
 }
 
 /// Writes `sums` to `path` as a partial EXR, atomically.
-pub fn write_partial(path: &Path, sums: &FrameSums, info: &PartialInfo) -> Result<(), WriteError> {
+pub fn write_partial(path: &Path, sums: &ShareSums, info: &PartialInfo) -> Result<(), WriteError> {
     let bytes = encode_partial(sums, info).map_err(|e| WriteError(format!("encoding \"{}\" failed: {e}", path.display())))?;
     write_atomically(path, |w| w.write_all(&bytes).map_err(|e| e.to_string()))
 }
 
 /// The partial EXR's bytes.
-pub fn encode_partial(sums: &FrameSums, info: &PartialInfo) -> Result<Vec<u8>, String> {
+pub fn encode_partial(sums: &ShareSums, info: &PartialInfo) -> Result<Vec<u8>, String> {
     let b = sums.share.bounds;
     let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::new();
     let mut f32s = |name: String, v: Vec<f32>| channels.push(AnyChannel::new(name.as_str(), FlatSamples::F32(v)));
@@ -79,7 +79,7 @@ pub fn encode_partial(sums: &FrameSums, info: &PartialInfo) -> Result<Vec<u8>, S
     for (c, name) in COLOR.iter().enumerate() {
         f32s(name.to_string(), means.iter().map(|m| m[c] as f32).collect());
     }
-    let layer_means: Option<Vec<_>> = sums.layers.as_ref().map(|l| l.iter().map(LayerSum::mean).collect());
+    let layer_means: Option<Vec<_>> = sums.layers.as_ref().map(|l| l.iter().map(AovSum::mean).collect());
     if let Some(m) = &layer_means {
         f32s("Z".into(), m.iter().map(|l| l.0).collect());
         for (c, a) in AXES.iter().enumerate() {
@@ -164,7 +164,7 @@ impl std::fmt::Display for PartialError {
 
 /// Reads a partial EXR from `bytes` (named `name` in messages), refusing frames of more than
 /// `max_pixels` pixels before decoding any.
-pub fn read_partial(bytes: &[u8], name: &str, max_pixels: u64) -> Result<(FrameSums, PartialInfo), PartialError> {
+pub fn read_partial(bytes: &[u8], name: &str, max_pixels: u64) -> Result<(ShareSums, PartialInfo), PartialError> {
     let err = |m: String| PartialError(format!("{name}: {m}"));
     let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
         .map_err(|e| err(format!("not a readable OpenEXR file ({e})")))?;
@@ -275,7 +275,7 @@ pub fn read_partial(bytes: &[u8], name: &str, max_pixels: u64) -> Result<(FrameS
         let albedo: Vec<Vec<i128>> = COLOR.iter().map(|c| wide(&format!("raylab.albedo.{c}"), 2)).collect::<Result<_, _>>()?;
         Some(
             (0..n)
-                .map(|p| LayerSum {
+                .map(|p| AovSum {
                     depth: depth[p],
                     hits: hits[p],
                     rays: rays[p],
@@ -288,7 +288,7 @@ pub fn read_partial(bytes: &[u8], name: &str, max_pixels: u64) -> Result<(FrameS
         None
     };
     let share = Share { bounds, pass: pass as u32, passes: passes as u32 };
-    let sums = FrameSums { width: fw as u32, height: fh as u32, sampling, share, pixels, layers };
+    let sums = ShareSums { width: fw as u32, height: fh as u32, sampling, share, pixels, layers };
     let encoding = text("raylab.encoding")?.unwrap_or_else(|| "srgb".into());
     if crate::math::color::Encoding::parse(&encoding).is_none() {
         return Err(err(format!("raylab.encoding \"{encoding}\": expected srgb or linear")));
@@ -303,23 +303,23 @@ mod tests {
     use super::*;
     use crate::math::color::Color;
 
-    fn sample() -> FrameSums {
+    fn sample() -> ShareSums {
         let share = Share { bounds: Rect { x0: 3, y0: 2, x1: 7, y1: 5 }, pass: 1, passes: 3 };
         let mut pixels = vec![PixelSum::default(); 12];
         for (i, p) in pixels.iter_mut().enumerate() {
             p.add(Color::new(i as f64 * 0.1, -1e-9, 3e12));
             p.samples = i as u32;
         }
-        let mut layers = vec![LayerSum::default(); 12];
+        let mut layers = vec![AovSum::default(); 12];
         for (i, l) in layers.iter_mut().enumerate() {
-            l.add(&crate::render::aov::Layers {
+            l.add(&crate::render::aov::AovSample {
                 depth: if i == 3 { f64::INFINITY } else { 1e9 + i as f64 },
                 normal: glam::DVec3::new(-0.5, 0.25, 1.0),
                 albedo: glam::DVec3::splat(0.75),
                 signature: 0,
             });
         }
-        FrameSums {
+        ShareSums {
             width: 10,
             height: 8,
             sampling: Sampling { spp: 12, adaptive: false, target: None },

@@ -223,21 +223,21 @@ mod tests {
     #[cfg(feature = "exr")]
     #[test]
     fn an_exr_with_layers_reads_back_each_layer() {
-        use crate::render::aovs::Aovs;
+        use crate::render::aov::AovLayers;
         let mut film = Film::new(2, 1).unwrap();
         film.set(0, 0, Vec3::new(0.1, 0.2, 0.3));
-        let aovs = Aovs {
+        let aovs = AovLayers {
             depth: Some(vec![1.5, f32::INFINITY]),
             normal: Some(vec![Vec3::Z, Vec3::X]),
             albedo: Some(vec![Vec3::splat(0.5), Vec3::ONE]),
-            ..Aovs::default()
+            ..AovLayers::default()
         };
         let bytes = crate::image::exr::encode_exr(&film, &aovs, false).unwrap();
         assert_eq!(read_layer(&bytes, "exr", Layer::Color).unwrap().get(0, 0), Vec3::new(0.1, 0.2, 0.3));
         assert_eq!(read_layer(&bytes, "exr", Layer::Depth).unwrap().get(0, 0), Vec3::splat(1.5));
         assert_eq!(read_layer(&bytes, "exr", Layer::Normal).unwrap().get(1, 0), Vec3::X);
         assert_eq!(read_layer(&bytes, "exr", Layer::Albedo).unwrap().get(0, 0), Vec3::splat(0.5));
-        let plain = crate::image::exr::encode_exr(&film, &Aovs::default(), false).unwrap();
+        let plain = crate::image::exr::encode_exr(&film, &AovLayers::default(), false).unwrap();
         let e = read_layer(&plain, "exr", Layer::Depth).unwrap_err();
         assert!(e.contains("no channel Z"), "{e}");
     }

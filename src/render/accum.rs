@@ -9,7 +9,7 @@
 //! ±2⁶³ ≈ 9.2·10¹⁸ (it never wraps).
 
 use crate::math::color::{Color, LUMINANCE, luminance};
-use crate::render::aov::Layers;
+use crate::render::aov::AovSample;
 use glam::Vec3;
 
 /// 2⁶⁴: one unit of the colour sums.
@@ -230,7 +230,7 @@ impl PixelSum {
 /// The depth, normal and albedo of what camera rays saw first, summed exactly (see the module
 /// docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct LayerSum {
+pub struct AovSum {
     /// Σ depth over the rays that hit something, in units of 2⁻³² scene units.
     pub depth: i128,
     /// Rays that hit something.
@@ -243,10 +243,10 @@ pub struct LayerSum {
     pub albedo: [i64; 3],
 }
 
-impl LayerSum {
+impl AovSum {
     /// Adds one ray's layers.
     #[inline]
-    pub fn add(&mut self, l: &Layers) {
+    pub fn add(&mut self, l: &AovSample) {
         if l.depth.is_finite() {
             self.depth = self.depth.saturating_add(fixed(l.depth, DEPTH_SCALE));
             self.hits += 1;
@@ -260,13 +260,13 @@ impl LayerSum {
 
     /// A pixel whose layers were computed whole (adaptive anti-aliasing).
     pub fn whole(depth: f32, normal: Vec3, albedo: Vec3) -> Self {
-        let mut s = LayerSum::default();
-        s.add(&Layers { depth: f64::from(depth), normal: normal.as_dvec3(), albedo: albedo.as_dvec3(), signature: 0 });
+        let mut s = AovSum::default();
+        s.add(&AovSample { depth: f64::from(depth), normal: normal.as_dvec3(), albedo: albedo.as_dvec3(), signature: 0 });
         s
     }
 
     /// `o`'s rays added to these.
-    pub fn merge(&mut self, o: &LayerSum) {
+    pub fn merge(&mut self, o: &AovSum) {
         self.depth = self.depth.saturating_add(o.depth);
         self.hits = self.hits.saturating_add(o.hits);
         self.rays = self.rays.saturating_add(o.rays);

@@ -52,9 +52,9 @@
 //! share of the frame ([`crate::render::share`]) renders it.
 
 use crate::math::color::{Color, Encoding, srgb_encode};
-use crate::render::accum::{LayerSum, PixelSum};
+use crate::render::accum::{AovSum, PixelSum};
 use crate::render::job::{AdaptiveSettings, MAX_ADAPTIVE_COARSE, MAX_ADAPTIVE_DEPTH, MAX_CELL_SAMPLES, RenderJob};
-use crate::render::sample::{ImageFrame, SampleId, image_frame, trace_sample};
+use crate::render::sample::{ImageSetup, SampleId, image_setup, trace_sample};
 use crate::render::stats::RayStats;
 use glam::Vec3;
 use std::cell::RefCell;
@@ -74,7 +74,7 @@ pub struct WeightedLayers {
 
 impl WeightedLayers {
     /// The mean layers of `s` as one unit of weight.
-    fn of(s: &LayerSum) -> Self {
+    fn of(s: &AovSum) -> Self {
         let (depth, normal, albedo) = s.mean();
         let hits = if s.rays > 0 { s.hits as f32 / s.rays as f32 } else { 0.0 };
         WeightedLayers { depth: if depth.is_finite() { depth * hits } else { 0.0 }, hits, normal, albedo }
@@ -91,9 +91,9 @@ impl WeightedLayers {
 
     /// The pixel's layers as sums of one unit of weight. The albedo is a convex combination of
     /// values in [0, 1]; clamping removes what rounding of the weights adds beyond.
-    pub fn sum(&self) -> LayerSum {
+    pub fn sum(&self) -> AovSum {
         let depth = if self.hits > 0.0 { self.depth / self.hits } else { f32::INFINITY };
-        LayerSum::whole(depth, self.normal, self.albedo.clamp(Vec3::ZERO, Vec3::ONE))
+        AovSum::whole(depth, self.normal, self.albedo.clamp(Vec3::ZERO, Vec3::ONE))
     }
 }
 
@@ -127,7 +127,7 @@ struct Point {
     /// Displayed value per channel (clamped, encoded, 0..1) in units of [`DISPLAY_STEP`]: what
     /// the tests compare.
     display: [u16; 3],
-    /// What the point's rays saw ([`crate::render::aov::Layers::signature`]).
+    /// What the point's rays saw ([`crate::render::aov::AovSample::signature`]).
     signature: u64,
 }
 
@@ -159,7 +159,7 @@ thread_local! {
 pub struct Adaptive<'a> {
     job: &'a RenderJob,
     /// What every sample of the image shares.
-    frame: ImageFrame,
+    setup: ImageSetup,
     settings: AdaptiveSettings,
     /// Threshold by the number of subdivisions left (the square's size), in display units.
     thresholds: [f32; MAX_ADAPTIVE_DEPTH as usize + 1],
@@ -230,7 +230,7 @@ impl<'a> Adaptive<'a> {
         Adaptive {
             bisect,
             job,
-            frame: image_frame(job),
+            setup: image_setup(job),
             settings,
             thresholds,
             depth,
@@ -339,8 +339,8 @@ impl<'a> Adaptive<'a> {
         let with_layers = !self.layers.is_empty();
         for index in 0..n {
             let id = SampleId::Cell { x, y, depth: self.depth, index, count: n };
-            let (mut s, mut sums) = (PixelSum::default(), LayerSum::default());
-            trace_sample(self.job, &self.frame, id, &mut s, with_layers.then_some(&mut sums), stats);
+            let (mut s, mut sums) = (PixelSum::default(), AovSum::default());
+            trace_sample(self.job, &self.setup, id, &mut s, with_layers.then_some(&mut sums), stats);
             acc.color += s.mean() * share;
             if with_layers {
                 acc.layers.add_scaled(&WeightedLayers::of(&sums), share as f32);
@@ -523,11 +523,11 @@ impl<'a> Adaptive<'a> {
         if self.slots[slot].key == key {
             return self.slots[slot];
         }
-        let (mut acc, mut sums) = (PixelSum::default(), LayerSum::default());
+        let (mut acc, mut sums) = (PixelSum::default(), AovSum::default());
         let with_layers = !self.layers.is_empty();
         let signature = trace_sample(
             self.job,
-            &self.frame,
+            &self.setup,
             SampleId::Lattice { x, y, depth: self.depth },
             &mut acc,
             with_layers.then_some(&mut sums),

@@ -25,7 +25,7 @@
 use crate::render::accum::PixelSum;
 use crate::render::adaptive::Adaptive;
 use crate::render::job::{Antialiasing, MAX_ADAPTIVE_DEPTH, RenderJob};
-use crate::render::sample::{SampleId, image_frame, trace_sample};
+use crate::render::sample::{SampleId, image_setup, trace_sample};
 use crate::render::share::{Sampling, Share};
 use crate::render::stats::RayStats;
 
@@ -195,13 +195,13 @@ fn pilot(job: &RenderJob, share: Share, units: u64) -> Option<Pilot> {
     let mut stats = RayStats::new(job.integrator.counters());
     stats.set_allowance(allowance);
     let mut p = Pilot { units: total, units_done: 0, pixels_done: 0, rays: 0, allowance, exhausted: false };
-    let frame = image_frame(job);
+    let setup = image_setup(job);
     'pixels: for &(x, y) in &pixels {
         match s.aa {
             Antialiasing::Stratified => {
                 let mut acc = PixelSum::default();
                 for k in 0..share.samples_of(Sampling::of(s), s.width, x, y) {
-                    trace_sample(job, &frame, SampleId::Pixel { x, y, index: share.sample_index(k) }, &mut acc, None, &mut stats);
+                    trace_sample(job, &setup, SampleId::Pixel { x, y, index: share.sample_index(k) }, &mut acc, None, &mut stats);
                     if stats.exhausted() {
                         break 'pixels;
                     }

@@ -4,7 +4,7 @@ use crate::math::color::Color;
 use crate::math::ray::Ray;
 use crate::math::ray::RayKind;
 use crate::math::sampler::Sampler;
-use crate::render::aov::Layers;
+use crate::render::aov::AovSample;
 use crate::render::stats::{Counter, RayStats};
 use crate::render::trace::{MAX_EXPLAINED_RAYS, TraceNode};
 use crate::scene::Scene;
@@ -18,9 +18,9 @@ use crate::scene::Scene;
 /// explanation is exactly what the render computed.
 pub trait Integrator: Send + Sync {
     /// The colour seen along the camera ray `ray` (linear RGB). Counts work in `stats` (with the
-    /// indices of [`Integrator::counters`]) and describes the first surface met in `layers`
-    /// (left as [`Layers::miss`] when nothing is hit).
-    fn radiance(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler, stats: &mut RayStats, layers: &mut Layers) -> Color;
+    /// indices of [`Integrator::counters`]) and describes the first surface met in `aov`
+    /// (left as [`AovSample::miss`] when nothing is hit).
+    fn radiance(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler, stats: &mut RayStats, aov: &mut AovSample) -> Color;
 
     /// The same computation as [`Integrator::radiance`] with the same sampler, recorded as a ray
     /// tree for `raylab trace`; `None` when the integrator cannot explain itself.
@@ -54,17 +54,17 @@ pub trait Integrator: Send + Sync {
 /// [`crate::render::trace::Recorder`]: `camera` is that recursion for a camera ray (the one
 /// [`Integrator::radiance`] runs with [`crate::render::trace::NoRecord`]), run here with the ray
 /// tree's root as its recorder, counters of its own (`counters`, allowed
-/// [`MAX_EXPLAINED_RAYS`]) and layers nobody reads.
+/// [`MAX_EXPLAINED_RAYS`]) and an AovSample nobody reads.
 pub fn explain_recursion(
     scene: &Scene,
     ray: &Ray,
     counters: &'static [Counter],
-    camera: impl FnOnce(&mut RayStats, &mut Layers, &mut TraceNode) -> Color,
+    camera: impl FnOnce(&mut RayStats, &mut AovSample, &mut TraceNode) -> Color,
 ) -> Option<TraceNode> {
     let mut stats = RayStats::new(counters);
     stats.set_allowance(MAX_EXPLAINED_RAYS);
-    let mut layers = Layers::miss(scene.background);
+    let mut aov = AovSample::miss(scene.background);
     let mut root = TraceNode::new(RayKind::Camera, *ray, 0, Color::ONE);
-    camera(&mut stats, &mut layers, &mut root);
+    camera(&mut stats, &mut aov, &mut root);
     Some(root)
 }

@@ -30,7 +30,7 @@ pub struct AdaptiveSettings {
     /// subdividing.
     pub edges: bool,
     /// Also split where the corners' signatures differ
-    /// ([`crate::render::aov::Layers::signature`]: by default the first object hit).
+    /// ([`crate::render::aov::AovSample::signature`]: by default the first object hit).
     pub signature: bool,
     /// Stratified samples added inside each finest cell whose corners still disagree.
     pub cell_samples: u32,

@@ -18,7 +18,6 @@
 pub mod accum;
 pub mod adaptive;
 pub mod aov;
-pub mod aovs;
 pub mod budget;
 pub mod explain;
 pub mod film;
@@ -32,12 +31,12 @@ pub mod trace;
 
 pub use job::{ADAPTIVE_TILE_SIZE, AdaptiveSettings, Antialiasing, MAX_ADAPTIVE_DEPTH, RenderJob, RenderSettings, TILE_SIZE};
 
-use crate::render::accum::{LayerSum, PixelSum};
+use crate::render::accum::{AovSum, PixelSum};
 use crate::render::adaptive::Adaptive;
-use crate::render::aovs::Aovs;
+use crate::render::aov::AovLayers;
 use crate::render::film::Film;
-use crate::render::sample::{ImageFrame, SampleId, camera_rays, image_frame, trace_sample};
-use crate::render::share::{FrameSums, Rect, Sampling, Share};
+use crate::render::sample::{ImageSetup, SampleId, camera_rays, image_setup, trace_sample};
+use crate::render::share::{Rect, Sampling, Share, ShareSums};
 use crate::render::stats::{Counter, RayStats};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -59,7 +58,7 @@ pub struct RenderOptions<'a> {
     pub share: Option<Share>,
     /// Continue from this state (of the same share; a checkpoint): samples already summed are
     /// not traced again.
-    pub resume: Option<&'a FrameSums>,
+    pub resume: Option<&'a ShareSums>,
     /// Hand the state to `write` every `every` while rendering (checkpoints).
     pub snapshots: Option<Snapshots<'a>>,
     /// Called as each tile finishes (from a worker thread, while the state is locked): live
@@ -76,7 +75,7 @@ pub struct TileDone<'a> {
     /// The tile's pixels.
     pub tile: Rect,
     /// The state of the whole share (the tile's pixels hold their new sums).
-    pub sums: &'a FrameSums,
+    pub sums: &'a ShareSums,
     /// Counters so far.
     pub stats: &'a RayStats,
     /// The stratified sample index the current pass ends at (1 under adaptive anti-aliasing).
@@ -91,7 +90,7 @@ pub struct Snapshots<'a> {
     /// How often.
     pub every: Duration,
     /// Receives the state (called from a worker thread, while the state is locked).
-    pub write: &'a (dyn Fn(&FrameSums) + Sync),
+    pub write: &'a (dyn Fn(&ShareSums) + Sync),
 }
 
 /// The result of a render.
@@ -99,9 +98,9 @@ pub struct Rendered {
     /// The image (black outside the share's bounds).
     pub film: Film,
     /// The depth, normal and albedo layers, when asked for ([`RenderOptions::layers`]).
-    pub layers: Option<Aovs>,
+    pub layers: Option<AovLayers>,
     /// The exact per-pixel state: what a partial file or a checkpoint holds.
-    pub sums: FrameSums,
+    pub sums: ShareSums,
     /// Rays traced and avoided.
     pub stats: RayStats,
     /// Wall time of tracing (excludes loading and writing).
@@ -127,6 +126,9 @@ pub struct Pass<'a> {
     pub elapsed: Duration,
     /// Counters so far.
     pub stats: RayStats,
+    /// The depth, normal and albedo layers so far, when the render takes them
+    /// ([`RenderOptions::layers`]): a denoiser's guides for this pass's image.
+    pub layers: Option<&'a AovLayers>,
 }
 
 /// Renders `job`. `progress(done, total)` is called (from worker threads) as tiles finish, in
@@ -255,7 +257,8 @@ fn render_passes(
         }
         if end != *ends.last().unwrap_or(&end) {
             let film = st.sums.film().map_err(|e| e.to_string())?;
-            on_pass(&Pass { film: &film, samples: end, elapsed: run.start.elapsed(), stats: st.stats });
+            let layers = st.sums.aovs().map_err(|e| e.to_string())?;
+            on_pass(&Pass { film: &film, samples: end, elapsed: run.start.elapsed(), stats: st.stats, layers: layers.as_ref() });
         }
     }
     let st = run.state.into_inner().unwrap_or_else(|e| e.into_inner());
@@ -263,7 +266,7 @@ fn render_passes(
     let layers = st.sums.aovs().map_err(|e| e.to_string())?;
     let elapsed = run.start.elapsed();
     if complete {
-        on_pass(&Pass { film: &film, samples: *ends.last().unwrap_or(&1), elapsed, stats: st.stats });
+        on_pass(&Pass { film: &film, samples: *ends.last().unwrap_or(&1), elapsed, stats: st.stats, layers: layers.as_ref() });
     }
     let budget_stop = run.over.load(Ordering::Relaxed).then(|| run.traced.load(Ordering::Relaxed));
     Ok(Rendered {
@@ -280,7 +283,7 @@ fn render_passes(
 
 /// The sums a render starts from: `share` checked against the frame, then the saved state it
 /// resumes, or nothing yet.
-fn starting_sums(s: &RenderSettings, share: Share, options: &RenderOptions) -> Result<FrameSums, String> {
+fn starting_sums(s: &RenderSettings, share: Share, options: &RenderOptions) -> Result<ShareSums, String> {
     if share.bounds.is_empty() || !share.bounds.within(&Rect::frame(s.width, s.height)) || share.passes == 0 || share.pass >= share.passes {
         return Err(format!("{} is not a share of the {}×{} frame", share.describe(), s.width, s.height));
     }
@@ -334,12 +337,12 @@ fn starting_sums(s: &RenderSettings, share: Share, options: &RenderOptions) -> R
             }
             Ok(r.clone())
         }
-        None => FrameSums::new(s, share, options.layers).map_err(|e| e.to_string()),
+        None => ShareSums::new(s, share, options.layers).map_err(|e| e.to_string()),
     }
 }
 
 /// The samples `share` has when done, counting those `sums` already holds (at most `map`'s).
-fn total_samples(s: &RenderSettings, share: Share, sums: &FrameSums, map: Option<&[u32]>) -> u64 {
+fn total_samples(s: &RenderSettings, share: Share, sums: &ShareSums, map: Option<&[u32]>) -> u64 {
     match s.aa {
         // Every pixel of a stratified share wants the same samples: its total is
         // `already + Σ missing`, each pixel's `max(samples, want)`, without asking pixel by pixel.
@@ -367,7 +370,7 @@ fn total_samples(s: &RenderSettings, share: Share, sums: &FrameSums, map: Option
 
 /// The render's state: the sums, the counters, and when the state was last handed out.
 struct State {
-    sums: FrameSums,
+    sums: ShareSums,
     stats: RayStats,
     last_snapshot: Instant,
 }
@@ -457,11 +460,11 @@ struct TileWork {
     tile: Rect,
     share: Share,
     pixels: Vec<PixelSum>,
-    layers: Option<Vec<LayerSum>>,
+    layers: Option<Vec<AovSum>>,
 }
 
 impl TileWork {
-    fn take(sums: &FrameSums, tile: Rect) -> TileWork {
+    fn take(sums: &ShareSums, tile: Rect) -> TileWork {
         let b = sums.share.bounds;
         let w = tile.width() as usize;
         // Row by row, each a slice copy.
@@ -477,7 +480,7 @@ impl TileWork {
         TileWork { tile, share: sums.share, pixels: rows(&sums.pixels, tile, b, w), layers }
     }
 
-    fn put(&self, sums: &mut FrameSums) {
+    fn put(&self, sums: &mut ShareSums) {
         let b = sums.share.bounds;
         let w = self.tile.width() as usize;
         for (r, y) in (self.tile.y0..self.tile.y1).enumerate() {
@@ -527,7 +530,7 @@ impl TileWork {
         let share = self.share;
         // The tile lies inside the share's bounds, where every pixel takes the same samples.
         let want = share.samples_of(Sampling::of(s), s.width, t.x0, t.y0);
-        let mut pixels = StratifiedPixels { job, frame: image_frame(job), share, want, end, row_map: None };
+        let mut pixels = StratifiedPixels { job, setup: image_setup(job), share, want, end, row_map: None };
         let w = t.width() as usize;
         for (row, y) in (t.y0..t.y1).enumerate() {
             if stop.now() || stats.exhausted() {
@@ -555,7 +558,7 @@ impl TileWork {
 /// What every pixel of a tile shares in one pass of stratified sampling.
 struct StratifiedPixels<'a> {
     job: &'a RenderJob,
-    frame: ImageFrame,
+    setup: ImageSetup,
     share: Share,
     /// The samples each pixel takes in all.
     want: u32,
@@ -569,7 +572,7 @@ impl StratifiedPixels<'_> {
     /// Adds the samples of pixel `xy` that the share takes below the pass's end and `acc` lacks
     /// (up to `want`) to `acc` and, when summed, to `layers`.
     #[inline(always)]
-    fn add_samples(&self, (x, y): (u32, u32), acc: &mut PixelSum, mut layers: Option<&mut LayerSum>, stats: &mut RayStats) {
+    fn add_samples(&self, (x, y): (u32, u32), acc: &mut PixelSum, mut layers: Option<&mut AovSum>, stats: &mut RayStats) {
         let (job, share) = (self.job, self.share);
         let want = self.row_map.map_or(self.want, |m| self.want.min(m[x as usize]));
         while acc.samples < want && share.sample_index(acc.samples) < self.end {
@@ -577,7 +580,7 @@ impl StratifiedPixels<'_> {
                 break;
             }
             let index = share.sample_index(acc.samples);
-            trace_sample(job, &self.frame, SampleId::Pixel { x, y, index }, acc, layers.as_deref_mut(), stats);
+            trace_sample(job, &self.setup, SampleId::Pixel { x, y, index }, acc, layers.as_deref_mut(), stats);
             acc.samples += 1;
         }
     }
@@ -587,9 +590,9 @@ impl StratifiedPixels<'_> {
 /// (non-finite samples are counted and dropped). The same bits as [`render`] gives this pixel.
 pub fn render_pixel(job: &RenderJob, x: u32, y: u32, stats: &mut RayStats) -> Vec3 {
     let mut acc = PixelSum::default();
-    let frame = image_frame(job);
+    let setup = image_setup(job);
     for index in 0..job.settings.spp {
-        trace_sample(job, &frame, SampleId::Pixel { x, y, index }, &mut acc, None, stats);
+        trace_sample(job, &setup, SampleId::Pixel { x, y, index }, &mut acc, None, stats);
     }
     acc.mean().as_vec3()
 }

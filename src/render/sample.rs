@@ -4,11 +4,11 @@
 
 use crate::math::ray::Ray;
 use crate::math::sampler::{Sampler, SeedKey, mix64, sobol_02, stratified_2d};
-use crate::render::accum::{LayerSum, PixelSum};
-use crate::render::aov::Layers;
+use crate::render::accum::{AovSum, PixelSum};
+use crate::render::aov::AovSample;
 use crate::render::job::RenderJob;
 use crate::render::stats::RayStats;
-use crate::scene::camera::FilmFrame;
+use crate::scene::camera::ScreenMap;
 use glam::DVec2;
 use serde::Serialize;
 
@@ -67,7 +67,7 @@ const CELL_STREAM: u64 = 0x6a09_e667_f3bc_c909;
 /// its random stream.
 pub struct CameraRays<'a> {
     job: &'a RenderJob,
-    frame: FilmFrame,
+    screen: ScreenMap,
     film: DVec2,
     sampler: Sampler,
     /// Lens points `first .. first + count` of a stratified set of `total`.
@@ -99,7 +99,7 @@ impl CameraRays<'_> {
     fn ray(&self, l: u32) -> Ray {
         let camera = &self.job.scene.camera;
         let lens = if camera.aperture > 0.0 { stratified_2d(self.first + l, self.total.max(1), self.pattern) } else { DVec2::ZERO };
-        camera.ray_in(&self.frame, self.film, lens)
+        camera.ray_in(&self.screen, self.film, lens)
     }
 
     /// The random stream of the ray through lens point `l`.
@@ -113,40 +113,41 @@ impl CameraRays<'_> {
 /// the ray and the random stream its integrator draws from.
 #[inline]
 pub fn camera_rays(job: &RenderJob, id: SampleId) -> CameraRays<'_> {
-    camera_rays_in(job, &image_frame(job), id)
+    camera_rays_in(job, &image_setup(job), id)
 }
 
-/// What every sample of one image shares, computed once per image or tile: the camera's
-/// [`FilmFrame`] and the hash of the render seed the samples' streams start from.
+/// The setup every sample of one image shares, computed once per image or tile: the camera's
+/// [`ScreenMap`], the hash of the render seed the samples' streams start from, the miss's AOVs
+/// and how pixel samples are placed.
 #[derive(Clone, Copy, Debug)]
-pub struct ImageFrame {
-    film: FilmFrame,
+pub struct ImageSetup {
+    screen: ScreenMap,
     seed: SeedKey,
     /// The layers of a camera ray that hits nothing.
-    miss: Layers,
+    miss: AovSample,
     /// A pixel's stratified samples: their count, and the columns `m` of their set's strata.
     strata: (f64, u32),
     /// Pixel samples are Sobol points (an error target, a time budget), not a stratified set.
     progressive: bool,
 }
 
-/// The [`ImageFrame`] of `job`'s image.
+/// The [`ImageSetup`] of `job`'s image.
 #[inline]
-pub fn image_frame(job: &RenderJob) -> ImageFrame {
-    ImageFrame {
-        film: job.scene.camera.film_frame(job.settings.width, job.settings.height),
+pub fn image_setup(job: &RenderJob) -> ImageSetup {
+    ImageSetup {
+        screen: job.scene.camera.screen_map(job.settings.width, job.settings.height),
         seed: SeedKey::new(job.settings.seed),
-        miss: Layers::miss(job.scene.background),
+        miss: AovSample::miss(job.scene.background),
         strata: (f64::from(job.settings.spp.max(1)), crate::math::sampler::strata(job.settings.spp).0),
         progressive: job.settings.progressive(),
     }
 }
 
-/// [`camera_rays`] with `job`'s [`image_frame`] computed once by the caller.
+/// [`camera_rays`] with `job`'s [`image_setup`] computed once by the caller.
 #[inline(always)]
-pub fn camera_rays_in<'a>(job: &'a RenderJob, image: &ImageFrame, id: SampleId) -> CameraRays<'a> {
+pub fn camera_rays_in<'a>(job: &'a RenderJob, image: &ImageSetup, id: SampleId) -> CameraRays<'a> {
     let s = &job.settings;
-    let frame = image.film;
+    let screen = image.screen;
     let per_sample = if job.scene.camera.aperture > 0.0 { s.lens_samples.max(1) } else { 1 };
     match id {
         SampleId::Pixel { x, y, index } => {
@@ -166,7 +167,7 @@ pub fn camera_rays_in<'a>(job: &'a RenderJob, image: &ImageFrame, id: SampleId) 
             };
             CameraRays {
                 job,
-                frame,
+                screen,
                 film: DVec2::new(f64::from(x), f64::from(y)) + jitter,
                 sampler: Sampler::with_seed(pixel, index, image.seed),
                 first: index * s.lens_samples,
@@ -183,7 +184,7 @@ pub fn camera_rays_in<'a>(job: &'a RenderJob, image: &ImageFrame, id: SampleId) 
             let pattern = sampler.next_pattern();
             CameraRays {
                 job,
-                frame,
+                screen,
                 film: DVec2::new(x as f64 / res as f64, y as f64 / res as f64),
                 sampler: sampler.fork(0),
                 first: 0,
@@ -200,7 +201,7 @@ pub fn camera_rays_in<'a>(job: &'a RenderJob, image: &ImageFrame, id: SampleId) 
             let u = stratified_2d(index, count, cell);
             CameraRays {
                 job,
-                frame,
+                screen,
                 film: DVec2::new((x as f64 + u.x) / res as f64, (y as f64 + u.y) / res as f64),
                 sampler: Sampler::with_seed(key, index, image.seed),
                 first: index * s.lens_samples,
@@ -221,22 +222,22 @@ pub fn film_position(job: &RenderJob, id: SampleId) -> DVec2 {
 
 /// Traces sample `id` of `job` (every camera ray of it) and adds the result to `acc`; non-finite
 /// radiance is counted in `stats` and dropped. With `layers`, each ray's first surface is added
-/// to it too. Returns the sample's signature: its rays' [`Layers::signature`]s combined. `frame`
-/// is `job`'s [`image_frame`], computed once by the caller.
+/// to it too. Returns the sample's signature: its rays' [`AovSample::signature`]s combined. `setup`
+/// is `job`'s [`image_setup`], computed once by the caller.
 ///
 /// Always inlined: out of line, it read the sample's id as one 8-byte load across the caller's
 /// 4-byte stores (a store-forwarding stall per sample).
 #[inline(always)]
 pub fn trace_sample(
     job: &RenderJob,
-    frame: &ImageFrame,
+    setup: &ImageSetup,
     id: SampleId,
     acc: &mut PixelSum,
-    mut layers: Option<&mut LayerSum>,
+    mut layers: Option<&mut AovSum>,
     stats: &mut RayStats,
 ) -> u64 {
     let mut signature = 0u64;
-    let rays = camera_rays_in(job, frame, id);
+    let rays = camera_rays_in(job, setup, id);
     // Which half of the error estimate's two the sample joins. Stratified sets: by its stratum
     // `s` of the pixel's `spp` rows, alternately, flipped on each of the set's m-stratum bands
     // (so both halves cover every band and every column of the set). Sobol points (an error
@@ -245,15 +246,15 @@ pub fn trace_sample(
     // again, the samples before it becoming the first. (The parity of the index's bits split
     // the pixel in two along y: the Sobol y's top bit is that parity.)
     let second = match id {
-        SampleId::Pixel { index, .. } if frame.progressive => {
+        SampleId::Pixel { index, .. } if setup.progressive => {
             if index.is_power_of_two() {
                 acc.restart_second_half();
             }
             index > 0
         }
-        SampleId::Pixel { y, .. } if frame.strata.1 > 1 => {
-            let s = ((rays.film.y - f64::from(y)) * frame.strata.0) as u32;
-            (s + s / frame.strata.1) & 1 == 1
+        SampleId::Pixel { y, .. } if setup.strata.1 > 1 => {
+            let s = ((rays.film.y - f64::from(y)) * setup.strata.0) as u32;
+            (s + s / setup.strata.1) & 1 == 1
         }
         _ => false,
     };
@@ -263,7 +264,7 @@ pub fn trace_sample(
     for l in 0..rays.count {
         let ray = rays.ray(l);
         let mut sampler = rays.sampler(l);
-        let mut first = frame.miss;
+        let mut first = setup.miss;
         stats.camera_rays += 1;
         let c = job.integrator.radiance(&job.scene, &ray, &mut sampler, stats, &mut first);
         if c.is_finite() {

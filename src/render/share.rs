@@ -1,13 +1,14 @@
-//! Parts of a frame: a rectangle of pixels ([`Rect`]), the share of the frame's work one render
+//! Parts of a frame (the whole image a render makes, `width × height` pixels: the one thing
+//! "frame" means in raylab): a rectangle of pixels ([`Rect`]), the share of the frame's work one render
 //! does ([`Share`]: pixel bounds and a sample pass), and that share's exact state
-//! ([`FrameSums`]): what a partial file, a checkpoint and a merge hold.
+//! ([`ShareSums`]): what a partial file, a checkpoint and a merge hold.
 //!
 //! Shares never change what a sample computes (every sample is a pure function of its pixel or
 //! lattice point, index and the seed) and the sums are exact ([`crate::render::accum`]), so any
 //! set of disjoint shares that covers the frame merges to the bits of one whole render.
 
-use crate::render::accum::{LayerSum, PixelSum};
-use crate::render::aovs::Aovs;
+use crate::render::accum::{AovSum, PixelSum};
+use crate::render::aov::AovLayers;
 use crate::render::film::{Film, OutOfMemory, try_filled};
 use crate::render::job::{Antialiasing, RenderSettings};
 use glam::Vec3;
@@ -166,7 +167,7 @@ impl Share {
 /// The exact state of a render of one share of a frame: per pixel of the share's bounds, the
 /// sums of its samples so far (and of its layers, when asked for).
 #[derive(Clone, Debug, PartialEq)]
-pub struct FrameSums {
+pub struct ShareSums {
     /// The frame's width, pixels.
     pub width: u32,
     /// The frame's height, pixels.
@@ -178,20 +179,20 @@ pub struct FrameSums {
     /// Per pixel of `share.bounds`, row by row.
     pub pixels: Vec<PixelSum>,
     /// Per pixel, the layers' sums (when asked for).
-    pub layers: Option<Vec<LayerSum>>,
+    pub layers: Option<Vec<AovSum>>,
 }
 
-impl FrameSums {
+impl ShareSums {
     /// Empty sums for `share` of a frame rendered with `settings` (allocated fallibly).
     pub fn new(settings: &RenderSettings, share: Share, layers: bool) -> Result<Self, OutOfMemory> {
         let n = share.bounds.pixels() as usize;
-        Ok(FrameSums {
+        Ok(ShareSums {
             width: settings.width,
             height: settings.height,
             sampling: Sampling::of(settings),
             share,
             pixels: try_filled(n, PixelSum::default(), "per-pixel sums")?,
-            layers: if layers { Some(try_filled(n, LayerSum::default(), "per-pixel layer sums")?) } else { None },
+            layers: if layers { Some(try_filled(n, AovSum::default(), "per-pixel layer sums")?) } else { None },
         })
     }
 
@@ -260,7 +261,7 @@ impl FrameSums {
     }
 
     /// The depth, normal and albedo layers over the whole frame, when summed.
-    pub fn aovs(&self) -> Result<Option<Aovs>, OutOfMemory> {
+    pub fn aovs(&self) -> Result<Option<AovLayers>, OutOfMemory> {
         let Some(sums) = &self.layers else { return Ok(None) };
         let n = self.width as usize * self.height as usize;
         let mut depth = try_filled(n, f32::INFINITY, "depth layer")?;
@@ -271,7 +272,7 @@ impl FrameSums {
             let k = y as usize * self.width as usize + x as usize;
             (depth[k], normal[k], albedo[k]) = l.mean();
         }
-        Ok(Some(Aovs { depth: Some(depth), normal: Some(normal), albedo: Some(albedo), ..Aovs::default() }))
+        Ok(Some(AovLayers { depth: Some(depth), normal: Some(normal), albedo: Some(albedo), ..AovLayers::default() }))
     }
 
     /// The error estimate of each pixel ([`PixelSum::std_error`]; NaN where there is none) and its
@@ -327,7 +328,7 @@ pub struct Part {
     /// The file name (or another name for messages).
     pub name: String,
     /// Its state.
-    pub sums: FrameSums,
+    pub sums: ShareSums,
     /// Its fingerprint.
     pub fingerprint: String,
 }
@@ -336,7 +337,7 @@ pub struct Part {
 /// fingerprint, frame and sampling, no two may share samples of a pixel, and together they must
 /// give every pixel all its samples (unless `allow_partial`). The sums add exactly, so the result
 /// has the bits of one whole render.
-pub fn merge(parts: &[Part], allow_partial: bool) -> Result<FrameSums, String> {
+pub fn merge(parts: &[Part], allow_partial: bool) -> Result<ShareSums, String> {
     let Some(first) = parts.first() else { return Err("no parts to merge".into()) };
     let f = &first.sums;
     for p in &parts[1..] {
@@ -375,7 +376,7 @@ pub fn merge(parts: &[Part], allow_partial: bool) -> Result<FrameSums, String> {
             }
         }
     }
-    let mut whole = FrameSums {
+    let mut whole = ShareSums {
         width: f.width,
         height: f.height,
         sampling: f.sampling,
@@ -383,7 +384,7 @@ pub fn merge(parts: &[Part], allow_partial: bool) -> Result<FrameSums, String> {
         pixels: try_filled(f.width as usize * f.height as usize, PixelSum::default(), "merged image's sums").map_err(|e| e.to_string())?,
         layers: match f.layers {
             Some(_) => {
-                Some(try_filled(f.width as usize * f.height as usize, LayerSum::default(), "merged layers").map_err(|e| e.to_string())?)
+                Some(try_filled(f.width as usize * f.height as usize, AovSum::default(), "merged layers").map_err(|e| e.to_string())?)
             }
             None => None,
         },

@@ -3,7 +3,7 @@
 //! deterministic), so `--tile I/N` on N machines covers the frame exactly once.
 
 use crate::render::job::RenderJob;
-use crate::render::sample::{SampleId, image_frame, trace_sample};
+use crate::render::sample::{SampleId, image_setup, trace_sample};
 use crate::render::share::Rect;
 use crate::render::stats::RayStats;
 use rayon::prelude::*;
@@ -16,7 +16,7 @@ const PROBE_STEP: u32 = 8;
 pub fn row_costs(job: &RenderJob) -> Vec<f64> {
     let s = &job.settings;
     let probe_rows: Vec<u32> = (0..s.height).step_by(PROBE_STEP as usize).collect();
-    let frame = image_frame(job);
+    let setup = image_setup(job);
     let costs: Vec<f64> = probe_rows
         .par_iter()
         .map(|&y| {
@@ -25,7 +25,7 @@ pub fn row_costs(job: &RenderJob) -> Vec<f64> {
             for x in (PROBE_STEP / 2..s.width).step_by(PROBE_STEP as usize) {
                 trace_sample(
                     job,
-                    &frame,
+                    &setup,
                     SampleId::Pixel { x, y: (y + PROBE_STEP / 2).min(s.height - 1), index: 0 },
                     &mut acc,
                     None,

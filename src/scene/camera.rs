@@ -102,9 +102,10 @@ pub fn apply_overrides(file: &Table, overrides: &[(String, Node)]) -> Table {
     t
 }
 
-/// The per-image constants of [`Camera::ray_through`] ([`Camera::film_frame`]).
+/// How pixel coordinates map onto the camera's screen for one image size: the per-image
+/// constants of [`Camera::ray_through`] ([`Camera::screen_map`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FilmFrame {
+pub struct ScreenMap {
     /// Pixel width and height on the screen, scene units.
     rx: f64,
     ry: f64,
@@ -227,14 +228,14 @@ impl Camera {
     /// of an `nx × ny` image. `lens` ∈ [0, 1)² picks the point on the lens (ignored for a pinhole).
     #[inline]
     pub fn ray_through(&self, nx: u32, ny: u32, film: DVec2, lens: DVec2) -> Ray {
-        self.ray_in(&self.film_frame(nx, ny), film, lens)
+        self.ray_in(&self.screen_map(nx, ny), film, lens)
     }
 
     /// What [`Camera::ray_through`] needs of an `nx × ny` image that is the same for every pixel:
     /// computed once per image (or tile) for [`Camera::ray_in`].
     #[inline]
-    pub fn film_frame(&self, nx: u32, ny: u32) -> FilmFrame {
-        FilmFrame {
+    pub fn screen_map(&self, nx: u32, ny: u32) -> ScreenMap {
+        ScreenMap {
             rx: self.screen_width / nx as f64,
             ry: self.screen_height / ny as f64,
             half_x: nx as f64 / 2.0,
@@ -243,12 +244,12 @@ impl Camera {
         }
     }
 
-    /// [`Camera::ray_through`] with the image's [`FilmFrame`] (from this camera) given: the same
+    /// [`Camera::ray_through`] with the image's [`ScreenMap`] (from this camera) given: the same
     /// ray, bit for bit.
     /// Always inlined (a pinhole's ray is a few products); the lens is out of line.
     #[inline(always)]
-    pub fn ray_in(&self, frame: &FilmFrame, film: DVec2, lens: DVec2) -> Ray {
-        let FilmFrame { rx, ry, half_x, half_y, pc } = *frame;
+    pub fn ray_in(&self, screen: &ScreenMap, film: DVec2, lens: DVec2) -> Ray {
+        let ScreenMap { rx, ry, half_x, half_y, pc } = *screen;
         let p = pc + ((film.x - half_x) * rx) * self.right - ((film.y - half_y) * ry) * self.up;
         let dir = p - self.position;
         if self.aperture <= 0.0 {

@@ -36,6 +36,12 @@ pub struct Settings {
     pub aa_coarse: Option<i64>,
     /// Lens samples per image sample.
     pub lens_samples: Option<i64>,
+    /// Relative error each pixel refines to (stratified sampling only).
+    pub target_error: Option<f64>,
+    /// Samples a pixel takes before its error is first tested.
+    pub target_min_spp: Option<i64>,
+    /// Show the image denoised (Intel Open Image Denoise, guided by albedo and normal).
+    pub denoise: Option<bool>,
     /// Integrator type.
     pub integrator: Option<String>,
     /// Integrator parameters by name (its depth and quality knobs).
@@ -87,6 +93,12 @@ pub fn options(base: &LoadOptions, s: &Settings, registry: &Registry) -> Result<
     if let Some(v) = s.lens_samples {
         render("lens_samples", Value::Int(v));
     }
+    if let Some(v) = s.target_error {
+        render("target_error", Value::Float(v));
+    }
+    if let Some(v) = s.target_min_spp {
+        render("target_min_spp", Value::Int(v));
+    }
     if let Some(t) = &s.integrator {
         if registry.integrator(t).is_none() {
             let names: Vec<&str> = registry.integrators().map(|p| p.name).collect();
@@ -117,6 +129,26 @@ pub fn options(base: &LoadOptions, s: &Settings, registry: &Registry) -> Result<
     Ok(o)
 }
 
+/// The denoise toggle: `on` as the page asked; `denoiser` the tool found, or why there is none
+/// (the control is then inactive and says so).
+pub fn denoise_knob(on: bool, denoiser: Result<(), &str>) -> Knob {
+    Knob {
+        key: "denoise".into(),
+        label: "Denoise".into(),
+        kind: "bool",
+        value: on.into(),
+        default: false.into(),
+        choices: Vec::new(),
+        doc:
+            "show the image denoised by Intel Open Image Denoise, guided by the albedo and normal at each pixel's first non-specular hit: \
+              the scene's render once its samples are done, then every refined pass (the whole frame at once, never a tile)"
+                .into(),
+        group: "image",
+        active: denoiser.is_ok(),
+        note: denoiser.err().map(str::to_string),
+    }
+}
+
 /// A choice of a `choice` control.
 #[derive(Clone, Debug, Serialize)]
 pub struct Choice {
@@ -132,7 +164,8 @@ pub struct Choice {
 #[derive(Clone, Debug, Serialize)]
 pub struct Knob {
     /// `spp`, `aa`, `aa_threshold`, `aa_depth`, `aa_edges`, `aa_signature`, `aa_cell_samples`,
-    /// `aa_coarse`, `lens_samples`, `integrator`, or `params.NAME`.
+    /// `aa_coarse`, `lens_samples`, `target_error`, `target_min_spp`, `denoise`, `integrator`, or
+    /// `params.NAME`.
     pub key: String,
     /// What the page calls it.
     pub label: String,
@@ -146,7 +179,7 @@ pub struct Knob {
     pub choices: Vec<Choice>,
     /// What it does (its parameter table's meaning).
     pub doc: String,
-    /// `sampling` or `integrator`.
+    /// `sampling`, `image` or `integrator`.
     pub group: &'static str,
     /// False when it has no effect with the other settings (the page greys it out).
     pub active: bool,
@@ -221,7 +254,37 @@ pub fn describe(registry: &Registry, job: &RenderJob) -> Vec<Knob> {
         "int",
         s.spp.into(),
         adaptive.is_none(),
-        adaptive.is_some().then(|| "adaptive anti-aliasing chooses its own samples".to_string()),
+        if adaptive.is_some() {
+            Some("adaptive anti-aliasing chooses its own samples".to_string())
+        } else {
+            s.target.map(|_| "with an error target: the most a pixel takes in the scene's render (refining goes on past it)".to_string())
+        },
+    ));
+    // The error target: what refining (and the scene's own render, spp its cap) stops at.
+    let target = s.target;
+    let target_note = if adaptive.is_some() {
+        Some("error targets apply to stratified sampling".to_string())
+    } else if target.is_none() {
+        Some("empty: no target (refining stops when a pixel's samples all agree, or at Stop)".to_string())
+    } else {
+        None
+    };
+    knobs.push(render(
+        "target_error",
+        "Error target (relative)",
+        "float",
+        target.map_or(serde_json::Value::Null, |t| t.error.into()),
+        adaptive.is_none(),
+        target_note,
+    ));
+    let min_spp = RENDER_PARAMS.iter().find(|p| p.name == "target_min_spp").map_or(serde_json::Value::Null, |p| default_json(p.default));
+    knobs.push(render(
+        "target_min_spp",
+        "Samples before the first error test",
+        "int",
+        target.map_or(min_spp, |t| t.min_spp.into()),
+        target.is_some(),
+        target.is_none().then(|| "used with an error target only".to_string()),
     ));
     let stratified_note = adaptive.is_none().then(|| "used by adaptive anti-aliasing only".to_string());
     // Stratified sampling shows the adaptive knobs greyed out at their defaults.

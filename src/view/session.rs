@@ -19,12 +19,12 @@ use crate::load::registry::Registry;
 use crate::param::error::{Location, SceneError};
 use crate::render::film::Film;
 use crate::render::job::{Antialiasing, ErrorTarget, RenderJob, TILE_SIZE};
-use crate::render::share::{FrameSums, Rect, Sampling};
+use crate::render::share::{Rect, Sampling, ShareSums};
 use crate::render::{Pass, RenderOptions, TileDone};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
-use std::sync::{Arc, Condvar, Mutex, MutexGuard};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard, OnceLock};
 use std::time::{Duration, SystemTime};
 
 /// Where the scene comes from.
@@ -155,6 +155,8 @@ pub struct Status {
     pub rays: u64,
     /// Rays per second of tracing.
     pub rays_per_second: f64,
+    /// Whether the image shown is denoised (the page's Denoise control).
+    pub denoised: bool,
     /// Why the last load failed.
     pub error: Option<ErrorInfo>,
     /// What loading ignored or approximated.
@@ -245,7 +247,7 @@ pub struct State {
 
 /// What refining continues from: the scene's render.
 struct First {
-    sums: FrameSums,
+    sums: ShareSums,
     rays: u64,
     camera_rays: u64,
     elapsed: Duration,
@@ -259,6 +261,8 @@ pub struct Session {
     threads: Option<usize>,
     /// Whether to keep refining after the scene's samples (see the module's description).
     refine: AtomicBool,
+    /// The denoiser's tool, or why there is none (looked for once, when first needed).
+    denoiser: OnceLock<Result<PathBuf, String>>,
     state: Mutex<State>,
     changed: Condvar,
 }
@@ -280,6 +284,7 @@ impl Session {
             seconds: 0.0,
             rays: 0,
             rays_per_second: 0.0,
+            denoised: false,
             error: None,
             warnings: Vec::new(),
         };
@@ -289,6 +294,7 @@ impl Session {
             base,
             threads,
             refine: AtomicBool::new(true),
+            denoiser: OnceLock::new(),
             state: Mutex::new(State {
                 settings: Settings::default(),
                 requested: 1,
@@ -431,6 +437,10 @@ impl Session {
     /// Loads the scene with `settings` and renders it until done or cancelled.
     fn render_once(&self, settings: &Settings, cancel: &AtomicBool) -> Result<(), ErrorInfo> {
         let (job, knobs) = self.load(settings).map_err(|e| ErrorInfo::of(&e))?;
+        let denoise = settings.denoise == Some(true);
+        if denoise && let Err(why) = self.denoiser() {
+            return Err(ErrorInfo::plain(format!("page control \"denoise\": {why}")));
+        }
         let mut job = job;
         let s = job.settings;
         let threads = self.threads;
@@ -444,6 +454,7 @@ impl Session {
             st.status.seconds = 0.0;
             st.status.rays = 0;
             st.status.rays_per_second = 0.0;
+            st.status.denoised = false;
             st.knobs = knobs;
             st.knobs_version += 1;
             let same = st.frame.as_ref().is_some_and(|f| (f.width, f.height) == (s.width, s.height));
@@ -514,7 +525,7 @@ impl Session {
             st.status.progress = work[0].load(Ordering::Relaxed) as f64 / work[1].load(Ordering::Relaxed).max(1) as f64;
             self.bump(&mut st);
         };
-        let options = RenderOptions { threads, cancel: Some(cancel), on_tile: Some(&on_tile), ..RenderOptions::default() };
+        let options = RenderOptions { threads, cancel: Some(cancel), on_tile: Some(&on_tile), layers: denoise, ..RenderOptions::default() };
         let rendered = crate::render::render_progressive(
             &job,
             &options,
@@ -530,6 +541,12 @@ impl Session {
             self.on_cancel(Some(rendered.film), "before the scene's samples were done");
             return Ok(());
         }
+        // The finished image denoised whole, as `raylab render --denoise` writes it.
+        let denoised = if denoise && rendered.budget_stop.is_none() {
+            Some(crate::image::denoise::denoise_guided(&rendered.film, rendered.layers.as_ref()).map_err(ErrorInfo::plain)?)
+        } else {
+            None
+        };
         let mut st = self.lock();
         let secs = rendered.elapsed.as_secs_f64();
         st.status.seconds = secs;
@@ -541,7 +558,14 @@ impl Session {
             return Ok(());
         }
         st.status.samples[0] = st.status.samples[1];
-        st.film = Some(rendered.film);
+        st.film = Some(match denoised {
+            Some(d) => {
+                self.show_film(&mut st, &d, &s);
+                st.status.denoised = true;
+                d
+            }
+            None => rendered.film,
+        });
         if !self.refine.load(Ordering::Relaxed) {
             self.finish(&mut st, None, "at the scene's samples (--no-refine)".into());
             return Ok(());
@@ -557,6 +581,25 @@ impl Session {
             elapsed: rendered.elapsed,
         };
         self.refine(settings, &s, first, cancel)
+    }
+
+    /// The denoiser's tool, or why there is none.
+    fn denoiser(&self) -> Result<&PathBuf, &str> {
+        self.denoiser.get_or_init(crate::image::denoise::find_tool).as_ref().map_err(String::as_str)
+    }
+
+    /// Draws a whole image (a denoised one) into the frame shown.
+    fn show_film(&self, st: &mut State, film: &Film, s: &crate::render::RenderSettings) {
+        st.seq += 1;
+        let seq = st.seq;
+        if let Some(f) = st.frame.as_mut()
+            && (f.width, f.height) == (film.width, film.height)
+        {
+            for (i, c) in film.pixels.iter().enumerate() {
+                f.rgba[4 * i..4 * i + 4].copy_from_slice(&[s.encoding.to_u8(c.x), s.encoding.to_u8(c.y), s.encoding.to_u8(c.z), 255]);
+            }
+            f.touch(Rect::frame(f.width, f.height), seq);
+        }
     }
 
     /// Draws the pixels of a finished tile into the frame shown.
@@ -593,6 +636,7 @@ impl Session {
     /// the module's description.
     fn refine(&self, settings: &Settings, s: &crate::render::RenderSettings, first: First, cancel: &AtomicBool) -> Result<(), ErrorInfo> {
         let stratified = matches!(s.aa, Antialiasing::Stratified);
+        let denoise = settings.denoise == Some(true);
         let target = s.target.unwrap_or(ErrorTarget { error: 0.0, min_spp: REFINE_MIN_SPP });
         if s.target.is_some() && first.sums.pixels.iter().all(|p| target.converged(p)) {
             let mut st = self.lock();
@@ -642,7 +686,8 @@ impl Session {
             }
             let done = tiles_done.fetch_add(1, Ordering::Relaxed) + 1;
             let mut st = self.lock();
-            if t.pass_end > floor {
+            // Denoised, a pass is shown whole once it is done (a denoiser never sees a tile).
+            if t.pass_end > floor && !denoise {
                 self.show_tile(&mut st, t, s);
             }
             let secs = (first.elapsed + t.elapsed).as_secs_f64();
@@ -657,11 +702,28 @@ impl Session {
                 cancel.store(true, Ordering::Relaxed);
             }
         };
+        let failed: Mutex<Option<String>> = Mutex::new(None);
         let mut on_pass = |p: &Pass| {
             if p.samples > floor {
+                let film = if denoise {
+                    match crate::image::denoise::denoise_guided(p.film, p.layers) {
+                        Ok(d) => d,
+                        Err(e) => {
+                            *failed.lock().unwrap_or_else(|e| e.into_inner()) = Some(e);
+                            cancel.store(true, Ordering::Relaxed);
+                            return;
+                        }
+                    }
+                } else {
+                    p.film.clone()
+                };
                 let mut st = self.lock();
                 st.status.samples = [p.samples, REFINE_MAX_SPP];
-                st.film = Some(p.film.clone());
+                if denoise {
+                    self.show_film(&mut st, &film, s);
+                    st.status.denoised = true;
+                }
+                st.film = Some(film);
                 self.bump(&mut st);
             }
         };
@@ -670,12 +732,17 @@ impl Session {
             cancel: Some(cancel),
             on_tile: Some(&on_tile),
             resume: resume.as_ref(),
+            layers: denoise,
             ..RenderOptions::default()
         };
         let rendered = crate::render::render_progressive(&job, &options, &crate::render::DOUBLING_PASSES, &|_, _| {}, &mut on_pass)
             .map_err(ErrorInfo::plain)?;
-        // The image on screen: the refined one once a pass past the scene's samples began.
-        let showing = pass.load(Ordering::Relaxed) > floor;
+        if let Some(e) = failed.into_inner().unwrap_or_else(|e| e.into_inner()) {
+            return Err(ErrorInfo::plain(e));
+        }
+        // The image on screen: the refined one once a pass past the scene's samples began (denoised:
+        // the last whole pass, already kept).
+        let showing = pass.load(Ordering::Relaxed) > floor && !denoise;
         let samples = self.lock().status.samples[0];
         if over.load(Ordering::Relaxed) {
             let mut st = self.lock();
@@ -693,7 +760,7 @@ impl Session {
             } else {
                 format!("{REFINE_MAX_SPP} samples per pixel, the most the view refines to")
             };
-            self.finish(&mut st, Some(rendered.film), why);
+            self.finish(&mut st, (!denoise).then_some(rendered.film), why);
         }
         Ok(())
     }
@@ -708,7 +775,8 @@ impl Session {
                 crate::load::loader::load_str(&self.registry, name, text, std::path::Path::new("."), &options)?
             }
         };
-        let knobs = knobs::describe(&self.registry, &job);
+        let mut knobs = knobs::describe(&self.registry, &job);
+        knobs.push(knobs::denoise_knob(settings.denoise == Some(true), self.denoiser().map(|_| ())));
         Ok((job, knobs))
     }
 }

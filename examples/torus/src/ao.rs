@@ -10,7 +10,7 @@ use raylab::math::sampler::{concentric_disc, stratified_2d};
 use raylab::param::error::Result;
 use raylab::param::params::Params;
 use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
-use raylab::render::aov::Layers;
+use raylab::render::aov::AovSample;
 use raylab::render::stats::{Counter, CounterKind};
 use raylab::{Color, Integrator, Intersectable, LoadContext, PluginInfo, Ray, RayStats, Sampler, Scene};
 
@@ -53,7 +53,7 @@ pub fn build(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Integrator>> {
 }
 
 impl Integrator for AmbientOcclusion {
-    fn radiance(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler, stats: &mut RayStats, layers: &mut Layers) -> Color {
+    fn radiance(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler, stats: &mut RayStats, aov: &mut AovSample) -> Color {
         let Some(si) = scene.trace(ray) else { return scene.escaped(ray.dir) };
         let n = si.n;
         let (t, b) = n.any_orthonormal_pair();
@@ -69,7 +69,7 @@ impl Integrator for AmbientOcclusion {
             }
         }
         let kd = si.coefficients().kd;
-        *layers = Layers::surface(&si, kd);
+        *aov = AovSample::surface(&si, kd);
         kd * (f64::from(open) / f64::from(self.rays))
     }
 

@@ -56,7 +56,7 @@ use raylab::math::color::max_channel;
 use raylab::param::error::Result;
 use raylab::param::params::{Params, from_defaults};
 use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec, Reference};
-use raylab::render::aov::Layers;
+use raylab::render::aov::AovSample;
 use raylab::render::integrator::explain_recursion;
 use raylab::render::stats::{Counter, CounterKind};
 use raylab::render::trace::{NoRecord, Recorder, Term};
@@ -204,9 +204,11 @@ struct Ctx<'a> {
     stats: &'a mut RayStats,
 }
 
-/// The state a ray carries from the vertex that sent it.
+/// The state a ray carries from the vertex that sent it, and its own random stream.
 #[derive(Clone, Copy, Debug)]
-struct PathState {
+struct PathState<'s> {
+    /// The ray's random stream.
+    sampler: &'s Sampler,
     /// Scattering events before this ray (0 for the camera ray).
     depth: u32,
     /// Throughput: how much the radiance this ray brings back counts in the pixel.
@@ -224,34 +226,32 @@ struct PathState {
     from: DVec3,
 }
 
-impl PathState {
-    /// The state of a camera ray from `origin`.
-    fn camera(origin: DVec3) -> PathState {
-        PathState { depth: 0, beta: Color::ONE, eta_scale: 1.0, bsdf_pdf: None, specular: true, from: origin }
+impl<'s> PathState<'s> {
+    /// The state of a camera ray from `origin`, with its stream `sampler`.
+    fn camera(origin: DVec3, sampler: &'s Sampler) -> Self {
+        PathState { sampler, depth: 0, beta: Color::ONE, eta_scale: 1.0, bsdf_pdf: None, specular: true, from: origin }
     }
 }
 
 impl PathTracer {
-    /// Radiance arriving along `ray` (its own random stream `sampler`).
-    fn li<R: Recorder>(&self, c: &mut Ctx, ray: &Ray, sampler: &Sampler, path: PathState, rec: &mut R) -> Color {
+    /// Radiance arriving along `ray` (its state and stream `path`).
+    fn li<R: Recorder>(&self, c: &mut Ctx, ray: &Ray, path: PathState, rec: &mut R) -> Color {
         let hit = c.scene.trace(ray);
         match hit.as_ref().filter(|_| path.depth <= self.max_bounces) {
-            Some(si) => at_bsdf(si, |bsdf| self.arrive(c, ray, Some(si), Some(bsdf), sampler, path, rec)),
-            None => self.arrive(c, ray, hit.as_ref(), None, sampler, path, rec),
+            Some(si) => at_bsdf(si, |bsdf| self.arrive(c, ray, Some(si), Some(bsdf), path, rec)),
+            None => self.arrive(c, ray, hit.as_ref(), None, path, rec),
         }
     }
 
     /// Radiance arriving along `ray`, which meets `hit` (or leaves the scene): the lights met on
     /// the way, then the surface's emission, and, given the hit's `bsdf` (`None`: the path is
     /// at its bounce limit), its light samples and its scattered ray.
-    #[allow(clippy::too_many_arguments)]
     fn arrive<R: Recorder>(
         &self,
         c: &mut Ctx,
         ray: &Ray,
         hit: Option<&Interaction>,
         bsdf: Option<&dyn Bsdf>,
-        sampler: &Sampler,
         path: PathState,
         rec: &mut R,
     ) -> Color {
@@ -275,8 +275,8 @@ impl PathTracer {
         rec.hit(si);
         radiance += self.emission(c, path.from, si, path.bsdf_pdf, rec);
         if let Some(bsdf) = bsdf {
-            radiance += self.direct(c, si, bsdf, sampler, rec);
-            radiance += self.scatter(c, si, bsdf, sampler, path, rec);
+            radiance += self.direct(c, si, bsdf, path.sampler, rec);
+            radiance += self.scatter(c, si, bsdf, path, rec);
         } else {
             c.stats.add(counter::DEPTH_LIMITED, 1);
             rec.note(|| format!("max_bounces {} reached: only the emitters this ray meets count", self.max_bounces));
@@ -287,15 +287,8 @@ impl PathTracer {
 
     /// The light brought back by one ray scattered at `si` by `bsdf`, times its weight; zero
     /// when the path ends here (absorbed, or by Russian roulette).
-    fn scatter<R: Recorder>(
-        &self,
-        c: &mut Ctx,
-        si: &Interaction,
-        bsdf: &dyn Bsdf,
-        sampler: &Sampler,
-        path: PathState,
-        rec: &mut R,
-    ) -> Color {
+    fn scatter<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, bsdf: &dyn Bsdf, path: PathState, rec: &mut R) -> Color {
+        let sampler = path.sampler;
         let mut stream = sampler.fork(TAG_BSDF);
         let (pick, u, fresnel) = (stream.next_1d(), stream.next_2d(), stream.next_1d());
         let Some(s) = bsdf.sample(pick, u, fresnel) else {
@@ -323,7 +316,9 @@ impl PathTracer {
         }
         c.stats.add(counter::BOUNCE_RAYS, 1);
         let ray = si.spawn_ray(s.dir);
+        let next_sampler = sampler.fork(TAG_NEXT);
         let next = PathState {
+            sampler: &next_sampler,
             depth: path.depth + 1,
             beta: path.beta * weight,
             eta_scale,
@@ -332,19 +327,19 @@ impl PathTracer {
             from: si.point(),
         };
         let mut child = rec.child(s.kind, &ray, next.depth, next.beta);
-        let li = self.li(c, &ray, &sampler.fork(TAG_NEXT), next, &mut child);
+        let li = self.li(c, &ray, next, &mut child);
         rec.adopt(child);
         weight * li
     }
 
-    /// The whole path of a camera ray, recorded into `rec`; `layers` gets the first surface.
+    /// The whole path of a camera ray, recorded into `rec`; `aov` gets the first surface.
     fn camera<R: Recorder>(
         &self,
         scene: &Scene,
         ray: &Ray,
         sampler: &Sampler,
         stats: &mut RayStats,
-        layers: &mut Layers,
+        aov: &mut AovSample,
         rec: &mut R,
     ) -> Color {
         let c = &mut Ctx { scene, stats };
@@ -352,10 +347,10 @@ impl PathTracer {
         // A camera ray is always within the bounce limit (depth 0).
         match &hit {
             Some(si) => at_bsdf(si, |bsdf| {
-                *layers = Layers::surface(si, bsdf.albedo());
-                self.arrive(c, ray, Some(si), Some(bsdf), sampler, PathState::camera(ray.origin), rec)
+                *aov = AovSample::surface(si, bsdf.albedo());
+                self.arrive(c, ray, Some(si), Some(bsdf), PathState::camera(ray.origin, sampler), rec)
             }),
-            None => self.arrive(c, ray, None, None, sampler, PathState::camera(ray.origin), rec),
+            None => self.arrive(c, ray, None, None, PathState::camera(ray.origin, sampler), rec),
         }
     }
 }
@@ -370,12 +365,12 @@ fn at_bsdf<T>(si: &Interaction, f: impl FnOnce(&dyn Bsdf) -> T) -> T {
 }
 
 impl Integrator for PathTracer {
-    fn radiance(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler, stats: &mut RayStats, layers: &mut Layers) -> Color {
-        self.camera(scene, ray, sampler, stats, layers, &mut NoRecord)
+    fn radiance(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler, stats: &mut RayStats, aov: &mut AovSample) -> Color {
+        self.camera(scene, ray, sampler, stats, aov, &mut NoRecord)
     }
 
     fn explain(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler) -> Option<TraceNode> {
-        explain_recursion(scene, ray, COUNTERS, |stats, layers, root| self.camera(scene, ray, sampler, stats, layers, root))
+        explain_recursion(scene, ray, COUNTERS, |stats, aov, root| self.camera(scene, ray, sampler, stats, aov, root))
     }
 
     fn counters(&self) -> &'static [Counter] {

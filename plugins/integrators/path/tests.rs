@@ -305,8 +305,8 @@ fn estimates(job: &RenderJob, ray: &Ray, n: u64) -> Vec<Color> {
     let mut stats = RayStats::new(job.integrator.counters());
     (0..n)
         .map(|i| {
-            let mut layers = Layers::miss(job.scene.background);
-            job.integrator.radiance(&job.scene, ray, &mut Sampler::new(i, 0, 11), &mut stats, &mut layers)
+            let mut aov = AovSample::miss(job.scene.background);
+            job.integrator.radiance(&job.scene, ray, &mut Sampler::new(i, 0, 11), &mut stats, &mut aov)
         })
         .collect()
 }
@@ -464,8 +464,8 @@ fn the_explanation_is_the_render() {
     for i in 0..64u64 {
         let ray = Ray::new(job.scene.camera.position, DVec3::new((i % 8) as f64 * 0.05 - 0.2, 0.1 - (i / 8) as f64 * 0.04, -1.0));
         let mut stats = RayStats::new(COUNTERS);
-        let mut layers = Layers::miss(job.scene.background);
-        let c = integrator.radiance(&job.scene, &ray, &mut Sampler::new(i, 0, 3), &mut stats, &mut layers);
+        let mut aov = AovSample::miss(job.scene.background);
+        let c = integrator.radiance(&job.scene, &ray, &mut Sampler::new(i, 0, 3), &mut stats, &mut aov);
         let tree = integrator.explain(&job.scene, &ray, &mut Sampler::new(i, 0, 3)).unwrap();
         assert_eq!(c.to_array().map(f64::to_bits), tree.color.to_array().map(f64::to_bits), "ray {i}");
     }
@@ -511,7 +511,7 @@ fn a_light_that_rays_cannot_meet_is_sampled_in_full() {
         let scene = Scene::new("t", cam.clone(), Color::ZERO, vec![floor()], vec![("light".into(), light)]);
         let mut stats = RayStats::new(COUNTERS);
         let values: Vec<Color> = (0..1u64 << 15)
-            .map(|i| path.radiance(&scene, &ray, &mut Sampler::new(i, 0, 5), &mut stats, &mut Layers::miss(Color::ZERO)))
+            .map(|i| path.radiance(&scene, &ray, &mut Sampler::new(i, 0, 5), &mut stats, &mut AovSample::miss(Color::ZERO)))
             .collect();
         mean_and_error(&values)
     };

@@ -3,14 +3,14 @@
 //! an area light first; take its full sample set only where the probes disagree).
 
 use super::fan::reflect;
-use super::{Ctx, Phong, TAG_LIGHTS, counter};
+use super::{Branch, Ctx, Phong, TAG_LIGHTS, counter};
 use raylab::glam::DVec2;
 use raylab::math::color::max_channel;
 use raylab::math::sampler::StratifiedSet;
 use raylab::render::trace::{Recorder, Term, TraceLight};
 use raylab::scene::interaction::Interaction;
 use raylab::scene::material::Coefficients;
-use raylab::{Color, LightSample, LightSource, Sampler};
+use raylab::{Color, LightSample, LightSource, Sampler, Scene};
 
 /// How one light sample turned out, for the agreement test of adaptive soft shadows. Independent
 /// of `avoid`, so the decision is the same whether or not exact skips happen.
@@ -55,6 +55,15 @@ enum Samples {
     Probes(u32),
 }
 
+/// The samples of a light to take: which, the stratified set's `pattern`, and `u0`, the point of
+/// a single sample.
+#[derive(Clone, Copy)]
+struct Draw {
+    set: Samples,
+    pattern: u32,
+    u0: DVec2,
+}
+
 /// The sample square's corners, diagonal pairs first.
 const PROBE_CORNERS: [DVec2; 4] = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 1.0), DVec2::new(1.0, 0.0), DVec2::new(0.0, 1.0)];
 
@@ -69,6 +78,8 @@ struct Shade<'a> {
     full: u32,
     /// The light's index.
     light: usize,
+    /// The light.
+    source: &'a dyn LightSource,
     /// The surface has neither a diffuse nor a specular term.
     no_response: bool,
 }
@@ -86,17 +97,10 @@ struct Terms {
 }
 
 impl Phong {
-    /// Direct light at `si`: diffuse and specular from every light, shadowed.
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn direct<R: Recorder>(
-        &self,
-        c: &mut Ctx,
-        si: &Interaction,
-        m: &Coefficients,
-        sampler: &Sampler,
-        weight: Color,
-        rec: &mut R,
-    ) -> Color {
+    /// Direct light at `si` (met by the ray at `b` in the recursion): diffuse and specular from
+    /// every light, shadowed.
+    pub(super) fn direct<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, m: &Coefficients, b: Branch, rec: &mut R) -> Color {
+        let Branch { sampler, weight, .. } = b;
         let scene = c.scene;
         let no_response = max_channel(m.kd) <= 0.0 && max_channel(m.ks) <= 0.0;
         // Random streams only for lights whose samples depend on them (area lights): a point,
@@ -112,7 +116,7 @@ impl Phong {
             if !area && facts.sample_count <= 1 {
                 // One sample at u = (0, 0), no stream, no probes: the stratified set of one
                 // without its bookkeeping (same numbers, same counters).
-                total += self.single_sample(c, &Shade { si, m, weight, full: 1, light: li, no_response }, light.as_ref(), rec);
+                total += self.single_sample(c, &Shade { si, m, weight, full: 1, light: li, source: light.as_ref(), no_response }, rec);
                 continue;
             }
             let full = match area && self.shadow_rays > 0 {
@@ -138,13 +142,13 @@ impl Phong {
             }
             let mut stream = area.then(|| streams.get_or_insert_with(|| sampler.fork(TAG_LIGHTS)).fork(li as u64));
             let mut acc = LightSum { sum: Color::ZERO, n: 0, first: None, agree: true };
-            let shade = Shade { si, m, weight, full, light: li, no_response };
+            let shade = Shade { si, m, weight, full, light: li, source: light.as_ref(), no_response };
             let first_set = if probes > 0 { Samples::Probes(probes) } else { Samples::Stratified(full) };
             let (pattern, u0) = match &mut stream {
                 Some(s) => (s.next_pattern(), s.next_2d()),
                 None => (0, DVec2::ZERO),
             };
-            if !self.light_samples(c, &shade, light.as_ref(), first_set, pattern, u0, &mut acc, rec) {
+            if !self.light_samples(c, &shade, Draw { set: first_set, pattern, u0 }, &mut acc, rec) {
                 continue;
             }
             if probes > 0 {
@@ -153,7 +157,7 @@ impl Phong {
                 } else {
                     rec.note(|| format!("{}: the {probes} probe rays disagree; {full} more samples", scene.light_names[li]));
                     let pattern = stream.as_mut().map_or(0, Sampler::next_pattern);
-                    self.light_samples(c, &shade, light.as_ref(), Samples::Stratified(full), pattern, u0, &mut acc, rec);
+                    self.light_samples(c, &shade, Draw { set: Samples::Stratified(full), pattern, u0 }, &mut acc, rec);
                 }
             }
             // (A division by 1 changes no bit: skipped.)
@@ -195,10 +199,10 @@ impl Phong {
     /// The one sample of a point-like light (`sample_count` 1): what [`Phong::light_samples`]
     /// adds for `Samples::Stratified(1)`, without the agreement bookkeeping only probes read.
     #[inline]
-    fn single_sample<R: Recorder>(&self, c: &mut Ctx, sh: &Shade, light: &dyn LightSource, rec: &mut R) -> Color {
+    fn single_sample<R: Recorder>(&self, c: &mut Ctx, sh: &Shade, rec: &mut R) -> Color {
         let scene = c.scene;
         let si = sh.si;
-        let Some(ls) = &light.illuminate(si.hit.point, DVec2::ZERO) else { return Color::ZERO };
+        let Some(ls) = &sh.source.illuminate(si.hit.point, DVec2::ZERO) else { return Color::ZERO };
         if self.avoid && sh.no_response {
             c.stats.add(counter::LIGHTS_NO_RESPONSE, 1);
             rec.note(|| format!("{}: the surface has no diffuse or specular term; no shadow rays", scene.light_names[sh.light]));
@@ -210,22 +214,12 @@ impl Phong {
         }
     }
 
-    /// Takes the samples `set` of `light` (stratified with `pattern`; `u0` for a single sample)
-    /// and adds them to `acc`. False when the light has no direction here (ambient).
-    #[allow(clippy::too_many_arguments)]
-    fn light_samples<R: Recorder>(
-        &self,
-        c: &mut Ctx,
-        sh: &Shade,
-        light: &dyn LightSource,
-        set: Samples,
-        pattern: u32,
-        u0: DVec2,
-        acc: &mut LightSum,
-        rec: &mut R,
-    ) -> bool {
+    /// Takes the samples `draw` of the light `sh.source` and adds them to `acc`. False when the
+    /// light has no direction here (ambient).
+    fn light_samples<R: Recorder>(&self, c: &mut Ctx, sh: &Shade, draw: Draw, acc: &mut LightSum, rec: &mut R) -> bool {
         let scene = c.scene;
         let si = sh.si;
+        let (Draw { set, pattern, u0 }, light) = (draw, sh.source);
         let count = match set {
             Samples::Stratified(n) | Samples::Probes(n) => n,
         };
@@ -272,7 +266,7 @@ impl Phong {
         let (si, m) = (sh.si, sh.m);
         // Lit only from the viewer's side of the geometric surface; shaded with `ns`.
         let nl = if si.n.dot(ls.dir) > 0.0 { si.ns.dot(ls.dir) } else { 0.0 };
-        let skipped = |why: &str| self.record(scene, sh.light, ls, nl, Some(why), Color::ZERO, None, &[]);
+        let skipped = |why: &str| TraceLight { skipped: Some(why.to_string()), ..light_record(scene, sh.light, ls, nl) };
         if self.avoid && nl <= 0.0 {
             c.stats.add(counter::LIGHTS_BEHIND, 1);
             rec.light(|| skipped("the light is behind the surface as seen from the ray"));
@@ -322,37 +316,32 @@ impl Phong {
             let (tr, occ) = scene.transmittance_and_occluder(&shadow_ray, t_max);
             let k = f64::from(count);
             let terms = [Term::color("diffuse", t.diffuse * tr / k), Term::color("specular", t.specular * tr / k)];
-            rec.light(|| self.record(scene, sh.light, ls, t.nl, None, tr, occ, &terms));
+            rec.light(|| TraceLight {
+                transmittance: tr,
+                occluder: occ.map(|o| scene.object_name(o).to_string()),
+                terms: terms.to_vec(),
+                ..light_record(scene, sh.light, ls, t.nl)
+            });
             tr
         } else {
             scene.transmittance(&shadow_ray, t_max)
         }
     }
+}
 
-    /// The explanation of one light sample.
-    #[allow(clippy::too_many_arguments)]
-    fn record(
-        &self,
-        scene: &raylab::Scene,
-        light: usize,
-        ls: &LightSample,
-        nl: f64,
-        skipped: Option<&str>,
-        transmittance: Color,
-        occluder: Option<u32>,
-        terms: &[Term],
-    ) -> TraceLight {
-        TraceLight {
-            light: scene.light_names[light].clone(),
-            dir: ls.dir,
-            distance: ls.distance,
-            intensity: ls.intensity,
-            n_dot_l: nl,
-            transmittance,
-            occluder: occluder.map(|o| scene.object_name(o).to_string()),
-            terms: terms.to_vec(),
-            skipped: skipped.map(str::to_string),
-        }
+/// The explanation of light sample `ls` of light `light`, with `n·l` = `nl`, before its shadow ray:
+/// no transmittance, occluder or terms yet, not skipped.
+fn light_record(scene: &Scene, light: usize, ls: &LightSample, nl: f64) -> TraceLight {
+    TraceLight {
+        light: scene.light_names[light].clone(),
+        dir: ls.dir,
+        distance: ls.distance,
+        intensity: ls.intensity,
+        n_dot_l: nl,
+        transmittance: Color::ZERO,
+        occluder: None,
+        terms: Vec::new(),
+        skipped: None,
     }
 }
 

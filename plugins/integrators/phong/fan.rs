@@ -2,14 +2,14 @@
 //! Fresnel, `F·kr` and `(1 − F)·kt`), the ideal direction, and the fan of child rays around it
 //! (one ray at a sharp surface; `glossy_rays` jittered in a disc of radius `blur` otherwise).
 
-use super::{Ctx, Phong, TAG_REFLECTION, TAG_REFRACTION, counter};
+use super::{Branch, Ctx, Phong, TAG_REFLECTION, TAG_REFRACTION, counter};
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::color::max_channel;
 use raylab::math::sampler::{StratifiedSet, concentric_disc, orthonormal_basis};
 use raylab::render::trace::Recorder;
 use raylab::scene::interaction::Interaction;
 use raylab::scene::material::{Coefficients, Fresnel};
-use raylab::{Color, RayKind, Sampler};
+use raylab::{Color, RayKind};
 
 /// Mirror reflection of direction `d` about unit normal `n`: `d − 2(d·n)n`.
 #[inline]
@@ -105,18 +105,10 @@ impl Phong {
     /// Traces the child ray(s) around `fan.ideal`: one ray, or `glossy_rays` jittered in a disc
     /// of radius `blur`, each flipped onto the `side` hemisphere if jitter pushed it through the
     /// surface. Returns their mean radiance. At a sharp surface with `avoid` off, the fan is
-    /// `glossy_rays` copies of the one ideal ray (same stream, same weight).
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn spread<R: Recorder>(
-        &self,
-        c: &mut Ctx,
-        si: &Interaction,
-        fan: &Fan,
-        sampler: &Sampler,
-        depth: u32,
-        weight: Color,
-        rec: &mut R,
-    ) -> Color {
+    /// `glossy_rays` copies of the one ideal ray (same stream, same weight). `b` is the place in
+    /// the recursion of the ray that met `si`, with the fan's weight.
+    pub(super) fn spread<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, fan: &Fan, b: Branch, rec: &mut R) -> Color {
+        let Branch { sampler, depth, weight } = b;
         let sharp = fan.blur <= 0.0;
         // A fan gets rays in proportion to its weight in the pixel (at least one), so nested
         // glossy bounces cost about `glossy_rays` per sample instead of `glossy_rays^depth`.
@@ -141,7 +133,7 @@ impl Phong {
             let ray = si.spawn_ray(dir);
             let child_sampler = sampler.fork(fan.tag | if sharp { 0 } else { u64::from(i) });
             let mut child = rec.child(fan.kind, &ray, depth + 1, child_weight);
-            let li = self.li(c, &ray, &child_sampler, depth + 1, child_weight, &mut child);
+            let li = self.li(c, &ray, Branch { sampler: &child_sampler, depth: depth + 1, weight: child_weight }, &mut child);
             rec.adopt(child);
             if count == 1 {
                 // The running mean of one ray, 0 + (li − 0) / 1, is li (up to the sign of a zero,

@@ -43,7 +43,7 @@ use raylab::math::color::max_channel;
 use raylab::param::error::Result;
 use raylab::param::params::{Params, from_defaults};
 use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec, Reference};
-use raylab::render::aov::Layers;
+use raylab::render::aov::AovSample;
 use raylab::render::integrator::explain_recursion;
 use raylab::render::stats::{Counter, CounterKind};
 use raylab::render::trace::{NoRecord, Recorder, Term};
@@ -208,13 +208,22 @@ struct Ctx<'a> {
     stats: &'a mut RayStats,
 }
 
+/// A ray's place in the recursion: its own random stream, its depth (0: a camera ray) and its
+/// weight in the pixel (what pruning compares with the threshold).
+#[derive(Clone, Copy)]
+struct Branch<'s> {
+    sampler: &'s Sampler,
+    depth: u32,
+    weight: Color,
+}
+
 impl Phong {
-    /// Radiance along `ray` (with its own random stream `sampler`) and accumulated `weight`.
-    fn li<R: Recorder>(&self, c: &mut Ctx, ray: &Ray, sampler: &Sampler, depth: u32, weight: Color, rec: &mut R) -> Color {
+    /// Radiance along `ray`, at its place `b` in the recursion.
+    fn li<R: Recorder>(&self, c: &mut Ctx, ray: &Ray, b: Branch, rec: &mut R) -> Color {
         match c.scene.intersect(ray, 0.0, f64::INFINITY) {
             Some(hit) => {
                 let si = c.scene.interaction(ray, hit);
-                self.shade(c, &si, &si.coefficients(), sampler, depth, weight, rec)
+                self.shade(c, &si, &si.coefficients(), b, rec)
             }
             None => {
                 let seen = c.scene.escaped(ray.dir);
@@ -224,19 +233,11 @@ impl Phong {
         }
     }
 
-    /// Radiance leaving the hit `si` (with its material's coefficients `m`) back along its ray:
-    /// emission, ambient, direct light, and the reflected and refracted rays.
-    #[allow(clippy::too_many_arguments)]
-    fn shade<R: Recorder>(
-        &self,
-        c: &mut Ctx,
-        si: &Interaction,
-        m: &Coefficients,
-        sampler: &Sampler,
-        depth: u32,
-        weight: Color,
-        rec: &mut R,
-    ) -> Color {
+    /// Radiance leaving the hit `si` (with its material's coefficients `m`) back along its ray
+    /// (at `b` in the recursion): emission, ambient, direct light, and the reflected and
+    /// refracted rays.
+    fn shade<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, m: &Coefficients, b: Branch, rec: &mut R) -> Color {
+        let Branch { depth, weight, .. } = b;
         rec.hit(si);
         // The work budget is spent: this sample is discarded, so nothing more is traced for it.
         if c.stats.exhausted() {
@@ -248,7 +249,7 @@ impl Phong {
         rec.term(|| Term::color("emission", m.emission));
         rec.term(|| Term::color("ambient", ambient));
         let mut color = m.emission + ambient;
-        color += self.direct(c, si, m, sampler, weight, rec);
+        color += self.direct(c, si, m, b, rec);
         let (kr, kt) = fan::fresnel_weights(si, m, rec);
         for kind in [RayKind::Reflection, RayKind::Refraction] {
             let (coef, what) = if kind == RayKind::Reflection { (kr, "reflection") } else { (kt, "refraction") };
@@ -268,20 +269,20 @@ impl Phong {
                 continue;
             }
             let fan = fan::Fan::new(si, m, kind, rec);
-            color += coef * self.spread(c, si, &fan, sampler, depth, w, rec);
+            color += coef * self.spread(c, si, &fan, Branch { weight: w, ..b }, rec);
         }
         rec.color(color);
         color
     }
 
-    /// The whole recursion for a camera ray, recorded into `rec`; `layers` gets the first surface.
+    /// The whole recursion for a camera ray, recorded into `rec`; `aov` gets the first surface.
     fn camera<R: Recorder>(
         &self,
         scene: &Scene,
         ray: &Ray,
         sampler: &Sampler,
         stats: &mut RayStats,
-        layers: &mut Layers,
+        aov: &mut AovSample,
         rec: &mut R,
     ) -> Color {
         let c = &mut Ctx { scene, stats };
@@ -292,18 +293,18 @@ impl Phong {
         };
         let si = scene.interaction(ray, hit);
         let m = si.coefficients();
-        *layers = Layers::surface(&si, m.kd + m.kr + m.kt);
-        self.shade(c, &si, &m, sampler, 0, Color::ONE, rec)
+        *aov = AovSample::surface(&si, m.kd + m.kr + m.kt);
+        self.shade(c, &si, &m, Branch { sampler, depth: 0, weight: Color::ONE }, rec)
     }
 }
 
 impl Integrator for Phong {
-    fn radiance(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler, stats: &mut RayStats, layers: &mut Layers) -> Color {
-        self.camera(scene, ray, sampler, stats, layers, &mut NoRecord)
+    fn radiance(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler, stats: &mut RayStats, aov: &mut AovSample) -> Color {
+        self.camera(scene, ray, sampler, stats, aov, &mut NoRecord)
     }
 
     fn explain(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler) -> Option<TraceNode> {
-        explain_recursion(scene, ray, COUNTERS, |stats, layers, root| self.camera(scene, ray, sampler, stats, layers, root))
+        explain_recursion(scene, ray, COUNTERS, |stats, aov, root| self.camera(scene, ray, sampler, stats, aov, root))
     }
 
     fn counters(&self) -> &'static [Counter] {

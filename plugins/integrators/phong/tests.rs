@@ -25,7 +25,7 @@ fn floor(m: Material) -> Thing {
 
 fn shade(s: &Scene, integrator: &Phong, ray: &Ray) -> (Color, RayStats) {
     let mut stats = RayStats::new(COUNTERS);
-    let c = integrator.radiance(s, ray, &mut Sampler::new(0, 0, 0), &mut stats, &mut Layers::miss(s.background));
+    let c = integrator.radiance(s, ray, &mut Sampler::new(0, 0, 0), &mut stats, &mut AovSample::miss(s.background));
     (c, stats)
 }
 

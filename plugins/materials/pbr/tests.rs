@@ -2,7 +2,8 @@
 //! energy (white furnace), reciprocity, and as a scene's material.
 
 use super::*;
-use raylab::scene::bsdf::testing::{TestRng, chi2_test, quadrature_albedo, sampled_albedo};
+use raylab::scene::bsdf::testing::{TestRng, chi2_bsdf, quadrature_albedo, sampled_albedo};
+use raylab::testing::chi2::{Chi2Test, Sphere};
 
 /// Relative agreement with the specification's formulas.
 const SPEC_TOLERANCE: f64 = 1e-6;
@@ -11,22 +12,23 @@ const SPEC_TOLERANCE: f64 = 1e-6;
 /// luck: the seeds are fixed).
 const CHI2_SIGNIFICANCE: f64 = 1e-3;
 
+/// The χ² test of the visible-normal sampling: 200 000 samples in 48 × 24 cells of equal solid
+/// angle (φ, cos θ), each integrated on a 12 × 12 Simpson grid, failing below
+/// [`CHI2_SIGNIFICANCE`].
+fn chi2(seed: u64) -> Chi2Test<Sphere> {
+    let mut t = Chi2Test::new(Sphere).samples(200_000).res(48, 24).integration(12).seed(seed);
+    t.significance = CHI2_SIGNIFICANCE;
+    t
+}
+
 /// The glTF BRDF written from the specification's sample implementation (Appendix B.3.5 with
 /// the Khronos sample renderer's `V_GGX`, `D_GGX`, `F_Schlick`, and `KHR_materials_specular`'s
 /// `fresnel_mix`), in world space, for unit `n`, `v` (toward the viewer) and `l` (toward the
-/// light) on the same side.
-#[allow(clippy::too_many_arguments)]
-fn specification(
-    n: DVec3,
-    v: DVec3,
-    l: DVec3,
-    base: Color,
-    metallic: f64,
-    roughness: f64,
-    ior: f64,
-    specular: f64,
-    specular_color: Color,
-) -> Color {
+/// light) on the same side, of the material `pbr` (its `ior` and `KHR_materials_specular`) with
+/// the parameters `p` (base colour, metallic, roughness) at the point.
+fn specification(n: DVec3, v: DVec3, l: DVec3, pbr: &Pbr, p: &Params1) -> Color {
+    let (base, metallic, roughness) = (p.base_color, p.metallic, p.roughness);
+    let (ior, specular, specular_color) = (pbr.ior, pbr.specular, pbr.specular_color);
     let alpha_roughness = roughness * roughness;
     let h = (l + v).normalize();
     let n_dot_l = n.dot(l);
@@ -86,8 +88,9 @@ fn the_brdf_is_the_specifications_formula_at_random_angles() {
         let ior = 1.0 + 1.5 * rng.uniform();
         let (specular, specular_color) = (rng.uniform(), Color::new(2.0 * rng.uniform(), rng.uniform(), 1.5 * rng.uniform()));
         let pbr = Pbr { ior, specular, specular_color, ..Pbr::default() };
-        let f = bsdf(&pbr, &params(c, metallic, roughness), v, n).eval(l);
-        let expected = specification(n, v, l, c, metallic, roughness, ior, specular, specular_color);
+        let p = params(c, metallic, roughness);
+        let f = bsdf(&pbr, &p, v, n).eval(l);
+        let expected = specification(n, v, l, &pbr, &p);
         let error = ((f - expected).abs() / expected.abs().max(Color::splat(1e-3))).max_element();
         worst = worst.max(error);
         assert!(error < SPEC_TOLERANCE, "v {v}, l {l}, c {c}, m {metallic}, r {roughness}: {f} vs {expected}");
@@ -119,17 +122,12 @@ fn the_visible_normal_sampling_follows_its_density_chi2() {
                 let theta = theta_deg.to_radians();
                 let wo = DVec3::new(theta.sin(), 0.0, theta.cos());
                 let b = bsdf(&pbr, &params(Color::new(0.9, 0.6, 0.3), metallic, roughness), wo, DVec3::Z);
-                let r = chi2_test(&b, DVec3::Z, 200_000, 24, 12, 7 + tests);
+                let r = chi2_bsdf(&b, DVec3::Z, &chi2(7 + tests));
                 tests += 1;
-                assert!(
-                    r.p_value > CHI2_SIGNIFICANCE,
-                    "roughness {roughness}, metallic {metallic}, θo {theta_deg}°: χ² {:.1} on {} dof, p = {:.2e}",
-                    r.statistic,
-                    r.dof,
-                    r.p_value
-                );
+                r.assert_passes(&format!("roughness {roughness}, metallic {metallic}, θo {theta_deg}°"));
                 // The density integrates to the fraction of samples it says are drawn.
-                assert!((r.integral - r.sampled).abs() < 0.01, "∫pdf {} vs sampled {}", r.integral, r.sampled);
+                let sampled = 1.0 - r.declined as f64 / f64::from(r.samples);
+                assert!((r.mass - sampled).abs() < 0.01, "∫pdf {} vs sampled {sampled}", r.mass);
             }
         }
     }
@@ -167,8 +165,9 @@ fn the_chi2_test_catches_a_wrong_density() {
     let wo = DVec3::new(0.5, 0.0, 0.75_f64.sqrt());
     let right = bsdf(&pbr, &params(Color::ONE, 1.0, 0.5), wo, DVec3::Z);
     let wrong = bsdf(&pbr, &params(Color::ONE, 1.0, 0.55), wo, DVec3::Z);
-    let r = chi2_test(&Wrong(right, wrong), DVec3::Z, 200_000, 24, 12, 3);
-    assert!(r.p_value < 1e-6, "a 10 % wrong roughness passed: p = {}", r.p_value);
+    let r = chi2_bsdf(&Wrong(right, wrong), DVec3::Z, &chi2(3));
+    r.assert_fails("a 10 % wrong roughness");
+    assert!(r.p_value < 1e-6, "a 10 % wrong roughness came close to passing: {r}");
 }
 
 /// The directional albedo of a white metal (F = 1) by its own sampling and by quadrature.
@@ -318,8 +317,8 @@ fn the_path_tracer_shades_a_pbr_sphere_with_its_model() {
     let mut sum = Color::ZERO;
     for i in 0..u64::from(n) {
         let mut sampler = raylab::Sampler::new(i, 0, 7);
-        let mut layers = raylab::render::aov::Layers::miss(Color::ZERO);
-        sum += job.integrator.radiance(&job.scene, &ray, &mut sampler, &mut stats, &mut layers);
+        let mut aov = raylab::render::aov::AovSample::miss(Color::ZERO);
+        sum += job.integrator.radiance(&job.scene, &ray, &mut sampler, &mut stats, &mut aov);
     }
     let mean = sum.x / f64::from(n);
     let (_, _, q) = white_metal_albedo(1.0, 1.0);

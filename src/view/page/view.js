@@ -117,7 +117,7 @@ function showStatus(s) {
     done: s.ended ? `Done: ${s.ended}` : "Done",
     error: "Error",
   }[s.phase];
-  $("phase").textContent = `${text}  ·  ${s.sampling}  ·  ${s.integrator}`;
+  $("phase").textContent = `${text}  ·  ${s.sampling}  ·  ${s.integrator}${s.denoised ? "  ·  denoised" : ""}`;
   $("stats").textContent = s.rays > 0 ? `${s.seconds.toFixed(2)} s  ·  ${fmt(s.rays)} rays  ·  ${fmt(s.rays_per_second)} rays/s` : "";
   $("bar").style.width = (s.phase === "done" ? 100 : 100 * s.progress) + "%";
   $("save").classList.toggle("disabled", s.phase !== "done" && s.phase !== "refining");
@@ -150,7 +150,7 @@ function valueOf(k) {
 }
 
 function showKnobs() {
-  for (const group of ["sampling", "integrator"]) {
+  for (const group of ["sampling", "image", "integrator"]) {
     const box = $("knobs-" + group);
     box.querySelectorAll(".knob").forEach((e) => e.remove());
     for (const k of view.knobs.filter((k) => k.group === group)) box.appendChild(knob(k));
@@ -183,7 +183,11 @@ function knob(k) {
     input.type = "number";
     input.step = k.kind === "int" ? "1" : "any";
     if (k.kind === "int") input.min = "0";
-    input.value = k.value;
+    if (k.key === "target_error") {
+      input.min = "0";
+      input.placeholder = "none";
+    }
+    input.value = k.value === null ? "" : k.value;
   }
   input.id = "knob-" + k.key.replace(".", "-");
   input.disabled = !k.active;
@@ -208,6 +212,14 @@ function knob(k) {
 function change(k, input) {
   const s = JSON.parse(JSON.stringify(view.settings));
   s.params = s.params || {};
+  const knobValue = (key) => (view.knobs.find((x) => x.key === key) || {}).value;
+  // An empty error target: none (the scene's own, if it has one).
+  if (k.key === "target_error" && input.value.trim() === "") {
+    delete s.target_error;
+    delete s.target_min_spp;
+    send(s);
+    return;
+  }
   let v;
   if (k.kind === "bool") v = input.checked;
   else if (k.kind === "choice") v = input.value;
@@ -220,6 +232,17 @@ function change(k, input) {
   // The adaptive knobs do not apply to stratified sampling (the scene loader refuses them).
   if (k.key === "aa" && v === "stratified") {
     for (const key of ["aa_threshold", "aa_depth", "aa_edges", "aa_signature", "aa_cell_samples", "aa_coarse"]) delete s[key];
+  }
+  // Nor does an error target apply to adaptive anti-aliasing.
+  if (k.key === "aa" && v === "adaptive") {
+    delete s.target_error;
+    delete s.target_min_spp;
+  }
+  // With an error target, spp is the most samples a pixel takes in the scene's render: at least
+  // the samples taken before the first test (refining goes on past it).
+  if (k.key === "target_error" || k.key === "target_min_spp") {
+    const least = k.key === "target_min_spp" ? v : knobValue("target_min_spp");
+    if (Number(knobValue("spp")) < least) s.spp = least;
   }
   send(s);
 }
