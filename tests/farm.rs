@@ -154,7 +154,7 @@ fn resuming_from_any_snapshot_gives_the_uninterrupted_image() {
             raylab::render::share::Sampling { spp: 1_000_000_000, ..states[0].sampling },
             raylab::render::share::Sampling { adaptive: !states[0].sampling.adaptive, ..states[0].sampling },
         ] {
-            let forged = FrameSums { sampling, ..states[0].clone() };
+            let forged = ShareSums { sampling, ..states[0].clone() };
             let e = render(&j, &RenderOptions { resume: Some(&forged), ..RenderOptions::default() }, &|_, _| {}).err().expect("refused");
             assert!(e.starts_with("the saved state is of a render with "), "{e}");
         }

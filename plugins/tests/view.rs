@@ -220,11 +220,10 @@ fn served_png(addr: &str, token: &str) -> image::RgbImage {
 /// samples (deterministic for a given target); clearing it goes back to refining without one.
 #[test]
 fn the_pages_error_target_ends_refining_at_the_image_render_makes_for_that_target() {
-    let dir = temp("page-target");
+    let dir = temp_dir("page-target");
     let scene = repo().join("scenes/path-cornell.toml");
     let size = ["--width", "16", "--height", "16"];
-    let (_view, url) = start_view(&dir, &scene, &[&size[..], &["--spp", "2", "--threads", "2"]].concat());
-    let (addr, token) = parts(&url);
+    let LiveView { process: _view, addr, token, .. } = start_view(&dir, &scene, &[&size[..], &["--spp", "2", "--threads", "2"]].concat());
     let knobs = wait_for(&addr, &token, "the controls", |s| s["phase"] != "loading" && s["phase"] != "preview")["knobs"].clone();
     let knob =
         |key: &str| knobs.as_array().unwrap().iter().find(|k| k["key"] == key).cloned().unwrap_or_else(|| panic!("no {key} in {knobs}"));
@@ -287,11 +286,10 @@ fn the_denoise_control_shows_the_image_render_denoise_writes() {
     if !denoiser_here("the_denoise_control_shows_the_image_render_denoise_writes") {
         return;
     }
-    let dir = temp("denoise");
+    let dir = temp_dir("denoise");
     let scene = repo().join("scenes/path-cornell.toml");
     let args = ["--width", "32", "--height", "32", "--spp", "4"];
-    let (view, url) = start_view(&dir, &scene, &[&args[..], &["--threads", "2", "--no-refine"]].concat());
-    let (addr, token) = parts(&url);
+    let LiveView { process: view, addr, token, .. } = start_view(&dir, &scene, &[&args[..], &["--threads", "2", "--no-refine"]].concat());
     let first = wait_for(&addr, &token, "the first render", |s| s["phase"] == "done");
     assert_eq!(first["status"]["denoised"], false);
     let noisy = served_png(&addr, &token);
@@ -304,8 +302,7 @@ fn the_denoise_control_shows_the_image_render_denoise_writes() {
     assert!(denoised == render_png(&dir, &scene, &[&args[..], &["--denoise"]].concat()), "the view's image is raylab render --denoise's");
     drop(view);
     // Refining: each pass is shown denoised; Stop keeps the last one.
-    let (_view, url) = start_view(&dir, &scene, &[&args[..], &["--threads", "2"]].concat());
-    let (addr, token) = parts(&url);
+    let LiveView { process: _view, addr, token, .. } = start_view(&dir, &scene, &[&args[..], &["--threads", "2"]].concat());
     let (code, _) = http(&addr, "POST", &format!("/{token}/api/settings"), &addr, Some(&json!({ "denoise": true, "params": {} })));
     assert_eq!(code, 200);
     wait_for(&addr, &token, "a denoised refined pass", |s| {

@@ -200,7 +200,7 @@ fn resume(app: &App, given: RenderArgs, file: &Path) -> Result<(), Failure> {
 /// command that started it (parsed again, and as given).
 #[cfg(feature = "exr")]
 struct Checkpoint {
-    sums: FrameSums,
+    sums: ShareSums,
     fingerprint: String,
     /// The folder the render was started in.
     cwd: PathBuf,
