@@ -349,6 +349,9 @@ impl Geometry for MeshObject {
     fn uv(&self, at: &Hit) -> DVec2 {
         self.mesh.interpolated_uv(at).unwrap_or(at.uv)
     }
+    fn tangents(&self, at: &Hit) -> Option<[DVec3; 2]> {
+        self.mesh.tangents(at)
+    }
     fn bounds(&self) -> Option<Aabb> {
         Some(self.mesh.bounds())
     }

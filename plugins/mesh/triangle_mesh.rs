@@ -138,6 +138,9 @@ pub struct TriangleMesh {
     filter_scale: f64,
     shading: Option<Shading>,
     texcoords: Option<TexCoords>,
+    /// Per stored triangle, its corners' tangents (`w` the handedness), for normal maps; `None`
+    /// (the usual case) when the file has none.
+    tangents: Option<Box<[[Vec4; 3]]>>,
     /// Per stored triangle, its material index (empty when the mesh has one material).
     material_ids: Vec<u32>,
     /// The file's materials (empty: none), shared by every object placing the mesh.
@@ -159,8 +162,17 @@ impl TriangleMesh {
     /// Validates `data`, drops degenerate triangles, and builds the spatial index (a hierarchy
     /// when `choice` asks for one for this many triangles).
     pub fn new(data: MeshData, normals: Normals, choice: AccelChoice) -> Result<TriangleMesh, MeshError> {
-        let MeshData { positions, triangles, normals: file_normals, normal_indices, texcoords, texcoord_indices, material_ids, materials } =
-            data;
+        let MeshData {
+            positions,
+            triangles,
+            normals: file_normals,
+            normal_indices,
+            texcoords,
+            texcoord_indices,
+            tangents,
+            material_ids,
+            materials,
+        } = data;
         if let Some(v) = positions.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
             return Err(MeshError::NonFinite { vertex: v });
         }
@@ -260,6 +272,9 @@ impl TriangleMesh {
             uv: texcoords.iter().map(|&c| Vec2::from(c)).collect(),
             indices: source.iter().map(|&i| stored(i).map_or([0; 3], |i| texcoord_indices[i])).collect(),
         });
+        // Corner tangents: the file's (or MikkTSpace's), when every triangle has finite ones.
+        let tangents = (tangents.len() == triangles.len() && tangents.iter().flatten().flatten().all(|c| c.is_finite()))
+            .then(|| source.iter().map(|&i| stored(i).map_or([Vec4::ZERO; 3], |i| tangents[i].map(Vec4::from))).collect());
         let first = material_ids.first().copied().unwrap_or(0) as usize;
         let uniform = material_ids.iter().all(|&m| m as usize == first);
         let (material_ids, materials) = if material_ids.len() == triangles.len() && !uniform {
@@ -281,6 +296,7 @@ impl TriangleMesh {
             filter_scale,
             shading,
             texcoords,
+            tangents,
             material_ids,
             materials,
             cutouts,
@@ -337,6 +353,7 @@ impl TriangleMesh {
             + self.material_ids.len() * 4
             + self.shading.as_ref().map_or(0, |s| s.normals.len() * 12 + s.indices.len() * 12)
             + self.texcoords.as_ref().map_or(0, |t| t.uv.len() * 8 + t.indices.len() * 12)
+            + self.tangents.as_ref().map_or(0, |t| t.len() * 48)
             + self.index.memory_bytes()
     }
 
@@ -506,6 +523,34 @@ impl TriangleMesh {
         let [i0, i1, i2] = *t.indices.get(at.prim as usize)?;
         let (b1, b2) = (at.uv.x, at.uv.y);
         Some((1.0 - b1 - b2) * t.uv[i0 as usize].as_dvec2() + b1 * t.uv[i1 as usize].as_dvec2() + b2 * t.uv[i2 as usize].as_dvec2())
+    }
+
+    /// `[∂p/∂u, ∂p/∂v]` at a hit, for normal maps: from the corners' tangents where the mesh has
+    /// them (`∂p/∂u` the interpolated tangent, `∂p/∂v` the bitangent `w·(n × t)`), else the
+    /// triangle's own derivatives along its texture coordinates; `None` without texture
+    /// coordinates, or where they are degenerate.
+    pub fn tangents(&self, at: &Hit) -> Option<[DVec3; 2]> {
+        let (b1, b2) = (at.uv.x, at.uv.y);
+        let b0 = 1.0 - b1 - b2;
+        if let Some(corners) = self.tangents.as_ref().and_then(|t| t.get(at.prim as usize)) {
+            let t = b0 * corners[0].as_dvec4() + b1 * corners[1].as_dvec4() + b2 * corners[2].as_dvec4();
+            if t.truncate().length_squared() > 0.0 {
+                let n = self.interpolated_normal(at).unwrap_or_else(|| self.geometric_normal(at.prim));
+                let w = if t.w < 0.0 { -1.0 } else { 1.0 };
+                return Some([t.truncate(), w * n.cross(t.truncate())]);
+            }
+        }
+        let tc = self.texcoords.as_ref()?;
+        let [i0, i1, i2] = *tc.indices.get(at.prim as usize)?;
+        let [uv0, uv1, uv2] = [i0, i1, i2].map(|i| tc.uv[i as usize].as_dvec2());
+        let [p0, p1, p2] = self.vertices(at.prim).map(DVec3::from);
+        let (d02, d12) = (uv0 - uv2, uv1 - uv2);
+        let (e02, e12) = (p0 - p2, p1 - p2);
+        let det = d02.x * d12.y - d02.y * d12.x;
+        let inv = 1.0 / det;
+        let dpdu = (d12.y * e02 - d02.y * e12) * inv;
+        let dpdv = (d02.x * e12 - d12.x * e02) * inv;
+        (det != 0.0 && dpdu.is_finite() && dpdv.is_finite()).then_some([dpdu, dpdv])
     }
 
     /// True when the mesh encloses a volume: every edge is shared by exactly two triangles that

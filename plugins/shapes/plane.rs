@@ -176,6 +176,10 @@ impl Geometry for Plane {
         let d = at.point - self.point;
         DVec2::new(d.dot(self.axes.0), d.dot(self.axes.1))
     }
+    /// The right and up axes (one scene unit per unit of u and v).
+    fn tangents(&self, _: &Hit) -> Option<[DVec3; 2]> {
+        Some([self.axes.0, self.axes.1])
+    }
     fn bounds(&self) -> Option<Aabb> {
         None
     }

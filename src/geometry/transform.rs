@@ -244,6 +244,11 @@ impl<G: Geometry> Geometry for Transformed<G> {
     fn uv(&self, at: &Hit) -> DVec2 {
         self.inner.uv(&self.object_hit(at))
     }
+    /// The inner shape's derivatives, carried out as vectors.
+    fn tangents(&self, at: &Hit) -> Option<[DVec3; 2]> {
+        let d = self.inner.tangents(&self.object_hit(at))?;
+        Some(d.map(|v| self.transform.to_world.transform_vector3(v)))
+    }
     fn bounds(&self) -> Option<Aabb> {
         self.bounds
     }
