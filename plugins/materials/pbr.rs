@@ -54,7 +54,7 @@ use raylab::param::params::Params;
 use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use raylab::param::value::Value;
 use raylab::scene::bsdf::{Bsdf, Lobe, MaterialModel, Scatter, Shading};
-use raylab::scene::material::{Channel, Model, TextureMap};
+use raylab::scene::material::{Channel, Model, NORMAL_MAP_PARAMS, NormalMap, TextureMap};
 use raylab::scene::texture::TextureResolver;
 use raylab::scene::texture::{Texture, TexturePoint};
 use raylab::{Color, Material, PluginInfo, RayKind};
@@ -133,6 +133,9 @@ pub const PARAMS: &[ParamSpec] = &[
         ParamDefault::Float(0.0),
         "emitted radiance, linear RGB (glTF emissiveFactor × KHR_materials_emissive_strength), or a texture",
     ),
+    NORMAL_MAP_PARAMS[0],
+    NORMAL_MAP_PARAMS[1],
+    NORMAL_MAP_PARAMS[2],
 ];
 
 /// The `pbr` material's description.
@@ -232,8 +235,9 @@ pub fn build(p: &mut Params, textures: &dyn TextureResolver) -> Result<Material>
         _ => Textured::constant(p.float_in("transmission", 0.0..=1.0)?),
     };
     let emission = color_or_texture(p, "emission", textures)?;
+    let normal_map = NormalMap::from_params(p, textures)?;
     let pbr = Pbr { base_color, metallic, roughness, metallic_roughness, ior, specular, specular_color, transmission, emission };
-    Ok(pbr.material())
+    Ok(Material { normal_map, ..pbr.material() })
 }
 
 /// The Phong coefficients of a metallic-roughness material, as `phong` reads it (base colour

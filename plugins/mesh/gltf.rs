@@ -38,7 +38,11 @@
 //! coverage ≥ the cutoff, BLEND keeps it with probability equal to the coverage (stochastic
 //! transparency, decided by a hash of the ray, so images stay deterministic).
 //!
-//! Normal and occlusion textures, vertex colours, animations, skins, morph targets, points and
+//! `normalTexture` (with its `scale`) tilts the shading normal in every integrator
+//! ([`raylab::scene::normal_map`]), over the primitive's `TANGENT`s or, without them, MikkTSpace
+//! tangents ([`mikk_tangents`]).
+//!
+//! Occlusion textures, vertex colours, animations, skins, morph targets, points and
 //! lines, orthographic cameras and extensions raylab does not implement (those
 //! `extensionsUsed` lists and those found on any element) are ignored with one warning per kind
 //! (with a count, or naming each extension); so are the metallic-roughness and transmission
@@ -60,11 +64,11 @@ use super::triangle_mesh::MeshData;
 use crate::materials::pbr::{Pbr, Textured};
 use crate::textures::image::{self as image_texture, ColorSpace, Filter, Image, ImageTexture, Wrap};
 use raylab::geometry::transform::Transform;
-use raylab::glam::{DAffine3, DMat3, DMat4, DQuat, DVec3, Mat4};
+use raylab::glam::{DAffine3, DMat3, DMat4, DQuat, DVec3, Mat4, Vec3};
 use raylab::param::description::SceneDescription;
 use raylab::param::error::{Loc, Result, SceneError, Source};
 use raylab::param::value::{Entry, Node, Table, Value};
-use raylab::scene::material::{AlphaMode, Channel, Cutout, Model, TextureMap};
+use raylab::scene::material::{AlphaMode, Channel, Cutout, Model, NormalMap, NormalMapKind, TextureMap};
 use raylab::scene::texture::{Coords, Mapping, Texture};
 use raylab::{Aabb, Color, LoadContext, Material};
 use std::fmt::Display;
@@ -153,8 +157,8 @@ struct UvTransform {
 
 impl UvTransform {
     /// The transform of `info`: `Ok(None)` without one, `Err` naming what is malformed.
-    fn of(info: &gltf::texture::Info) -> std::result::Result<Option<UvTransform>, String> {
-        let Some(v) = info.extension_value("KHR_texture_transform") else { return Ok(None) };
+    fn of(info: &TexRef) -> std::result::Result<Option<UvTransform>, String> {
+        let Some(v) = &info.transform else { return Ok(None) };
         let obj = v.as_object().ok_or_else(|| format!("expected an object, found {v}"))?;
         let pair = |key: &str, default: [f64; 2]| -> std::result::Result<[f64; 2], String> {
             match obj.get(key) {
@@ -179,6 +183,33 @@ impl UvTransform {
     /// The transform as bits, for [`TextureKey`].
     fn key(&self) -> [u64; 5] {
         [self.offset[0], self.offset[1], self.rotation, self.scale[0], self.scale[1]].map(f64::to_bits)
+    }
+}
+
+/// A material's reference to a texture (a `textureInfo`, or a `normalTexture` or
+/// `occlusionTexture`, which the gltf crate types apart): the texture, its coordinate set and its
+/// `KHR_texture_transform`.
+struct TexRef<'a> {
+    texture: gltf::Texture<'a>,
+    tex_coord: u32,
+    transform: Option<gltf::json::Value>,
+}
+
+impl<'a> From<&gltf::texture::Info<'a>> for TexRef<'a> {
+    fn from(i: &gltf::texture::Info<'a>) -> Self {
+        TexRef { texture: i.texture(), tex_coord: i.tex_coord(), transform: i.extension_value("KHR_texture_transform").cloned() }
+    }
+}
+
+impl<'a> From<&gltf::material::NormalTexture<'a>> for TexRef<'a> {
+    fn from(i: &gltf::material::NormalTexture<'a>) -> Self {
+        TexRef { texture: i.texture(), tex_coord: i.tex_coord(), transform: i.extension_value("KHR_texture_transform").cloned() }
+    }
+}
+
+impl<'a> From<&gltf::material::OcclusionTexture<'a>> for TexRef<'a> {
+    fn from(i: &gltf::material::OcclusionTexture<'a>) -> Self {
+        TexRef { texture: i.texture(), tex_coord: i.tex_coord(), transform: i.extension_value("KHR_texture_transform").cloned() }
     }
 }
 
@@ -581,7 +612,7 @@ impl GltfFile {
         for id in used {
             let Some(m) = self.doc.materials().nth(id as usize) else { continue };
             // Each texture is built (or found unreadable, with one warning) once per file.
-            let mut sampled = |info: &gltf::texture::Info, kind: &str, slot: Slot| {
+            let mut sampled = |info: &TexRef, kind: &str, slot: Slot| {
                 let transform = UvTransform::of(info).unwrap_or_else(|e| {
                     ctx.warn(SceneError::in_file(
                         &self.name,
@@ -593,7 +624,7 @@ impl GltfFile {
                 self.textures
                     .lock()
                     .unwrap_or_else(|e| e.into_inner())
-                    .entry((info.texture().index(), transform.map(|t| t.key()), slot))
+                    .entry((info.texture.index(), transform.map(|t| t.key()), slot))
                     .or_insert_with(|| match self.texture(ctx, info, transform, id as usize, slot) {
                         Ok(t) => Some(t),
                         Err(e) => {
@@ -616,12 +647,18 @@ impl GltfFile {
             }
             let alpha = match (m.alpha_mode(), m.pbr_metallic_roughness().base_color_texture()) {
                 (gltf::material::AlphaMode::Opaque, _) | (_, None) => None,
-                (_, Some(info)) => sampled(&info, "baseColorTexture's alpha", Slot::Alpha),
+                (_, Some(info)) => sampled(&TexRef::from(&info), "baseColorTexture's alpha", Slot::Alpha),
             };
+            let normal_map = m.normal_texture().and_then(|n| {
+                let scale = f64::from(n.scale());
+                let texture = sampled(&TexRef::from(&n), "normalTexture", Slot::Data)?;
+                Some(NormalMap { texture, kind: NormalMapKind::Tangent, scale: if scale.is_finite() { scale } else { 1.0 } })
+            });
             let material = &mut out.materials[id as usize];
             if alpha.is_some() {
                 material.cutout = cutout(&m, alpha);
             }
+            material.normal_map = normal_map;
             material.textures.extend(maps.into_iter().map(|(channel, texture)| TextureMap { channel, texture }));
             material.model = Some(Model(Arc::new(model)));
         }
@@ -632,13 +669,13 @@ impl GltfFile {
     fn texture(
         &self,
         ctx: &LoadContext,
-        info: &gltf::texture::Info,
+        info: &TexRef,
         transform: Option<UvTransform>,
         material: usize,
         slot: Slot,
     ) -> Result<Arc<dyn Texture>> {
         use gltf::texture::{MagFilter, WrappingMode};
-        let t = info.texture();
+        let t = &info.texture;
         let space = match slot {
             Slot::Color => ColorSpace::Srgb,
             Slot::Data => ColorSpace::Linear,
@@ -865,11 +902,10 @@ impl GltfFile {
         };
         let materials: Vec<gltf::Material> = self.doc.materials().collect();
         type Has = fn(&gltf::Material) -> bool;
-        let textures: [(&str, Has); 2] =
-            [("normalTexture", |m| m.normal_texture().is_some()), ("occlusionTexture", |m| m.occlusion_texture().is_some())];
+        let textures: [(&str, Has); 1] = [("occlusionTexture", |m| m.occlusion_texture().is_some())];
         for (name, has) in textures {
             let n = materials.iter().filter(|m| has(m)).count();
-            warn(n, format!("{n} material(s) use a {name}, which raylab does not sample (its factors are used)"));
+            warn(n, format!("{n} material(s) use an {name}, which raylab does not sample (its factors are used)"));
         }
         // Sampled by the `pbr` model (the path tracer); `phong` reads the factors.
         let phong_only: [(&str, Has); 2] = [
@@ -880,17 +916,18 @@ impl GltfFile {
             let n = materials.iter().filter(|m| has(m)).count();
             warn(n, format!("{n} material(s) use a {name}: the path tracer samples it, phong uses the factors"));
         }
-        let second_set = |i: Option<gltf::texture::Info>| {
-            i.is_some_and(|i| i.tex_coord() != 0 || UvTransform::of(&i).ok().flatten().and_then(|t| t.tex_coord).is_some_and(|c| c != 0))
+        let second_set = |i: Option<TexRef>| {
+            i.is_some_and(|i| i.tex_coord != 0 || UvTransform::of(&i).ok().flatten().and_then(|t| t.tex_coord).is_some_and(|c| c != 0))
         };
         let n = materials
             .iter()
             .filter(|m| {
                 let pbr = m.pbr_metallic_roughness();
-                second_set(pbr.base_color_texture())
-                    || second_set(m.emissive_texture())
-                    || second_set(pbr.metallic_roughness_texture())
-                    || second_set(m.transmission().and_then(|t| t.transmission_texture()))
+                second_set(pbr.base_color_texture().as_ref().map(TexRef::from))
+                    || second_set(m.emissive_texture().as_ref().map(TexRef::from))
+                    || second_set(pbr.metallic_roughness_texture().as_ref().map(TexRef::from))
+                    || second_set(m.transmission().and_then(|t| t.transmission_texture()).as_ref().map(TexRef::from))
+                    || second_set(m.normal_texture().as_ref().map(TexRef::from))
             })
             .count();
         warn(n, format!("{n} material(s) sample a texture with a texture coordinate set other than TEXCOORD_0: TEXCOORD_0 is used"));
@@ -992,6 +1029,7 @@ impl GltfFile {
             typed(prim.get(&gltf::Semantic::Normals), &[DataType::F32], Dimensions::Vec3, "NORMAL")?;
             typed(prim.get(&gltf::Semantic::TexCoords(0)), &[DataType::F32, DataType::U8, DataType::U16], Dimensions::Vec2, "TEXCOORD_0")?;
             typed(prim.indices(), &[DataType::U8, DataType::U16, DataType::U32], Dimensions::Scalar, "index")?;
+            typed(prim.get(&gltf::Semantic::Tangents), &[DataType::F32], Dimensions::Vec4, "TANGENT")?;
             let reader = prim.reader(|b| self.buffers.get(b.index()).map(Vec::as_slice));
             let Some(positions) = reader.read_positions() else {
                 return Err(err("its POSITION data is missing or lies outside its buffer".into()));
@@ -1024,7 +1062,8 @@ impl GltfFile {
             let normals: Option<Vec<[f32; 3]>> =
                 reader.read_normals().map(|r| r.collect()).filter(|v: &Vec<[f32; 3]>| v.len() == positions.len());
             // The mesh keeps vertex normals only if every primitive has them.
-            let keep = normals.is_some() && out.normal_indices.len() == out.triangles.len();
+            let has_normals = normals.is_some();
+            let keep = has_normals && out.normal_indices.len() == out.triangles.len();
             match normals.filter(|_| keep) {
                 Some(ns) => out.normals.extend(ns.iter().map(|v| (normal_m * DVec3::from(v.map(f64::from))).as_vec3().to_array())),
                 None => {
@@ -1047,8 +1086,36 @@ impl GltfFile {
                 }
             }
             let material = prim.material().index().map_or(default_material, |i| i as u32);
+            let tris: Vec<[u32; 3]> = tris.into_iter().map(|t| if flip { [t[0], t[2], t[1]] } else { t }).collect();
+            // Corner tangents, for a normal-mapped material only: the file's TANGENTs (with the
+            // vertex normals they belong to), else MikkTSpace's from the placed vertices.
+            if prim.material().normal_texture().is_some() {
+                let first = out.tangents.is_empty();
+                let file = reader
+                    .read_tangents()
+                    .map(|r| r.collect::<Vec<[f32; 4]>>())
+                    .filter(|t| t.len() == positions.len() && has_normals && t.iter().flatten().all(|c| c.is_finite()));
+                let corners: Vec<[[f32; 4]; 3]> = match file {
+                    Some(ts) => {
+                        let l = DMat3::from_mat4(m);
+                        let placed = |[x, y, z, w]: [f32; 4]| {
+                            let v = (l * DVec3::new(f64::from(x), f64::from(y), f64::from(z))).as_vec3();
+                            [v.x, v.y, v.z, if flip { -w } else { w }]
+                        };
+                        tris.iter().map(|t| t.map(|v| placed(ts[v as usize]))).collect()
+                    }
+                    None => {
+                        mikk_tangents(&out.positions[base as usize..], normals_placed(out, base, keep), uv_of(out, base, keep_uv), &tris)
+                    }
+                };
+                if first {
+                    out.tangents.resize(out.triangles.len(), [[0.0; 4]; 3]);
+                }
+                out.tangents.extend(corners);
+            } else if !out.tangents.is_empty() {
+                out.tangents.extend(std::iter::repeat_n([[0.0; 4]; 3], tris.len()));
+            }
             for t in tris {
-                let t = if flip { [t[0], t[2], t[1]] } else { t };
                 out.triangles.push(t.map(|v| base + v));
                 if keep {
                     out.normal_indices.push(t.map(|v| base + v));
@@ -1096,6 +1163,70 @@ impl GltfFile {
         }
         Ok(b)
     }
+}
+
+/// The vertex normals `out` holds from vertex `base` on (the primitive just appended), if it
+/// keeps them.
+fn normals_placed(out: &MeshData, base: u32, keep: bool) -> Option<&[[f32; 3]]> {
+    keep.then(|| out.normals.get(base as usize..)).flatten()
+}
+
+/// The texture coordinates `out` holds from vertex `base` on, if it keeps them.
+fn uv_of(out: &MeshData, base: u32, keep: bool) -> Option<&[[f32; 2]]> {
+    keep.then(|| out.texcoords.get(base as usize..)).flatten()
+}
+
+/// MikkTSpace tangents (Mikkelsen 2008, the `mikktspace` crate: what glTF asks for when a
+/// normal-mapped primitive has no `TANGENT`s) of triangles `tris` over `positions`, `normals`
+/// (the triangle's own normal where there are none) and texture coordinates `uv` (raylab's, v up:
+/// the bitangent then runs up the image, as a normal map's green channel does); zero (none)
+/// without texture coordinates or where the algorithm fails.
+fn mikk_tangents(positions: &[[f32; 3]], normals: Option<&[[f32; 3]]>, uv: Option<&[[f32; 2]]>, tris: &[[u32; 3]]) -> Vec<[[f32; 4]; 3]> {
+    struct Faces<'a> {
+        positions: &'a [[f32; 3]],
+        normals: Option<&'a [[f32; 3]]>,
+        uv: &'a [[f32; 2]],
+        tris: &'a [[u32; 3]],
+        out: Vec<[[f32; 4]; 3]>,
+    }
+    impl mikktspace::Geometry for Faces<'_> {
+        fn num_faces(&self) -> usize {
+            self.tris.len()
+        }
+        fn num_vertices_of_face(&self, _: usize) -> usize {
+            3
+        }
+        fn position(&self, face: usize, vert: usize) -> [f32; 3] {
+            self.positions[self.tris[face][vert] as usize]
+        }
+        fn normal(&self, face: usize, vert: usize) -> [f32; 3] {
+            match self.normals {
+                Some(n) => n[self.tris[face][vert] as usize],
+                None => {
+                    let [a, b, c] = self.tris[face].map(|v| Vec3::from(self.positions[v as usize]));
+                    (b - a).cross(c - a).normalize_or_zero().to_array()
+                }
+            }
+        }
+        fn tex_coord(&self, face: usize, vert: usize) -> [f32; 2] {
+            self.uv[self.tris[face][vert] as usize]
+        }
+        fn set_tangent_encoded(&mut self, tangent: [f32; 4], face: usize, vert: usize) {
+            self.out[face][vert] = tangent;
+        }
+    }
+    let none = vec![[[0.0; 4]; 3]; tris.len()];
+    let Some(uv) = uv else { return none };
+    let mut faces = Faces { positions, normals, uv, tris, out: none };
+    if !mikktspace::generate_tangents(&mut faces) {
+        return vec![[[0.0; 4]; 3]; tris.len()];
+    }
+    faces.out.iter_mut().flatten().for_each(|t| {
+        if !t.iter().all(|c| c.is_finite()) {
+            *t = [0.0; 4];
+        }
+    });
+    faces.out
 }
 
 /// The lookup of a `KHR_texture_transform` (`offset`, `rotation` in radians, `scale`) in
@@ -1160,7 +1291,7 @@ enum Slot {
 }
 
 /// What builds the texture of a material's texture info (`None`: unreadable, or not wanted).
-type TextureOf<'a> = dyn FnMut(&gltf::texture::Info, &str, Slot) -> Option<Arc<dyn Texture>> + 'a;
+type TextureOf<'a> = dyn FnMut(&TexRef, &str, Slot) -> Option<Arc<dyn Texture>> + 'a;
 
 /// The `pbr` model of glTF material `m` (factors clamped to their ranges), its textures from
 /// `texture` (`None`: the factor alone).
@@ -1175,22 +1306,27 @@ fn pbr_model(m: &gltf::Material, texture: &mut TextureOf) -> Pbr {
     Pbr {
         base_color: Textured {
             value: Color::new(unit(b[0]), unit(b[1]), unit(b[2])),
-            texture: pbr.base_color_texture().and_then(|i| texture(&i, "baseColorTexture", Slot::Color)),
+            texture: pbr.base_color_texture().and_then(|i| texture(&TexRef::from(&i), "baseColorTexture", Slot::Color)),
         },
         metallic: unit(pbr.metallic_factor()),
         roughness: unit(pbr.roughness_factor()),
-        metallic_roughness: pbr.metallic_roughness_texture().and_then(|i| texture(&i, "metallicRoughnessTexture", Slot::Data)),
+        metallic_roughness: pbr
+            .metallic_roughness_texture()
+            .and_then(|i| texture(&TexRef::from(&i), "metallicRoughnessTexture", Slot::Data)),
         ior: m.ior().filter(|i| i.is_finite() && *i >= 1.0).map_or(1.5, f64::from),
         specular: specular.as_ref().map_or(1.0, |s| unit(s.specular_factor())),
         specular_color: Color::new(f64::from(sc[0]), f64::from(sc[1]), f64::from(sc[2])).max(Color::ZERO),
         transmission: match m.transmission() {
             Some(t) => Textured {
                 value: unit(t.transmission_factor()),
-                texture: t.transmission_texture().and_then(|i| texture(&i, "transmissionTexture", Slot::Data)),
+                texture: t.transmission_texture().and_then(|i| texture(&TexRef::from(&i), "transmissionTexture", Slot::Data)),
             },
             None => Textured::constant(0.0),
         },
-        emission: Textured { value: emission, texture: m.emissive_texture().and_then(|i| texture(&i, "emissiveTexture", Slot::Color)) },
+        emission: Textured {
+            value: emission,
+            texture: m.emissive_texture().and_then(|i| texture(&TexRef::from(&i), "emissiveTexture", Slot::Color)),
+        },
     }
 }
 
@@ -1553,7 +1689,7 @@ mod tests {
     #[test]
     fn ignored_features_warn_once_per_kind() {
         let extra = r#",
-"materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}},"normalTexture":{"index":0}},{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}},"normalTexture":{"index":0}}],
+"materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}},"occlusionTexture":{"index":0}},{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}},"occlusionTexture":{"index":0}}],
 "textures":[{"source":0}],"images":[{"uri":"missing.png"}],
 "extensionsUsed":["KHR_materials_clearcoat","KHR_lights_punctual"]"#;
         let text = doc("[{\"mesh\":0},{\"mesh\":1}]", extra).replacen(
@@ -1564,7 +1700,7 @@ mod tests {
         let job = load_scene("textured.gltf", &text, raylab::param::limits::Limits::default()).0.unwrap();
         let w: Vec<String> = job.warnings.iter().map(|w| w.message.clone()).collect();
         let has = |s: &str| w.iter().filter(|m| m.contains(s)).count();
-        assert_eq!(has("2 material(s) use a normalTexture"), 1, "{w:?}");
+        assert_eq!(has("2 material(s) use an occlusionTexture"), 1, "{w:?}");
         // The texture both materials sample cannot be read: one warning, naming it.
         let unread: Vec<String> =
             job.warnings.iter().map(|w| w.report()).filter(|r| r.contains("baseColorTexture is not sampled")).collect();

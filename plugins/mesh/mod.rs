@@ -353,6 +353,9 @@ impl Geometry for MeshObject {
     fn derivatives(&self, at: &Hit) -> Option<SurfaceDerivatives> {
         self.mesh.uv_derivatives(at).map(|(u, v)| SurfaceDerivatives::flat(u, v))
     }
+    fn tangents(&self, at: &Hit) -> Option<[DVec3; 2]> {
+        self.mesh.tangents(at)
+    }
     fn bounds(&self) -> Option<Aabb> {
         Some(self.mesh.bounds())
     }

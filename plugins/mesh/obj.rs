@@ -23,7 +23,9 @@
 //! | `Ke` | `emission` | |
 //! | `Ka` | — | ignored: exporters write it inconsistently; `ka` keeps its default |
 //! | `map_Kd`, `map_Ks`, `map_Ke` | textures multiplying `kd`, `ks`, `emission` | sRGB images, over the file's `vt`; options `-o` and `-s` (offset and scale of the texture coordinates) and `-clamp on`; others ignored with a warning |
-//! | `bump`, … | — | other maps: ignored with a warning per material |
+//! | `bump`, `map_Bump` | a bump map ([`NormalMap`], [`NormalMapKind::Bump`]) | heights: the image's red channel (linear) × `-bm` (default 1), in scene units, over the file's `vt` |
+//! | `norm` | a normal map ([`NormalMapKind::Tangent`]) | tangent-space normals (linear), `-bm` scaling their tilt; wins over `bump` (which is then a warning) |
+//! | `map_Ka`, `disp`, … | — | other maps: ignored with a warning per material |
 //!
 //! Texture files are read relative to their MTL file, through the sandbox, once per scene, and
 //! only for materials some face uses; one that cannot be read is a warning (the constant colour
@@ -38,7 +40,7 @@ use super::triangulate::triangulate_into;
 use crate::textures::image::{self as image_texture, ColorSpace, Filter, ImageTexture, Wrap};
 use raylab::glam::{DAffine3, DVec3, Vec3};
 use raylab::param::error::{Loc, Result, SceneError};
-use raylab::scene::material::{AlphaMode, Channel, Cutout, TextureMap};
+use raylab::scene::material::{AlphaMode, Channel, Cutout, NormalMap, NormalMapKind, TextureMap};
 use raylab::scene::texture::{Coords, Mapping};
 use raylab::{Color, LoadContext, Material};
 use std::collections::HashMap;
@@ -99,6 +101,7 @@ pub fn read_in_chunks(
         texcoords: if with_texcoords { texcoords } else { Vec::new() },
         material_ids: if many_materials || material_ids.first().is_some_and(|&m| m > 0) { material_ids } else { Vec::new() },
         materials,
+        tangents: Vec::new(),
     };
     if out.triangles.is_empty() {
         return Err(SceneError::in_file(&name, None, "the file has no faces with three or more corners (points and lines are ignored)"));
@@ -1084,9 +1087,20 @@ fn sampled_maps(m: &tobj::Material) -> [(&'static str, Option<&String>, Channel)
 /// the textures of its `map_Kd`, `map_Ks` and `map_Ke`, and its cut-out (`map_d`); a map that
 /// cannot be read, and options raylab ignores, are warnings.
 fn attach_maps(ctx: &LoadContext, m: &tobj::Material, folder: &Path, loc: &Loc, out: &mut Material) {
-    let coverage = m.dissolve_texture.as_ref().map(|s| ("map_d", Some(s), None));
-    let colours = sampled_maps(m).map(|(key, statement, channel)| (key, statement, Some(channel)));
-    for (key, statement, channel) in colours.into_iter().chain(coverage) {
+    let coverage = m.dissolve_texture.as_ref().map(|s| ("map_d", Some(s), Use::Coverage));
+    let colours = sampled_maps(m).map(|(key, statement, channel)| (key, statement, Use::Colour(channel)));
+    // A tangent-space `norm` map wins over a height map (`bump`, `map_Bump`), which is then ignored.
+    let normals = match (m.unknown_param.get("norm"), m.normal_texture.as_ref()) {
+        (Some(n), bump) => {
+            if let Some(b) = bump {
+                ctx.warn(SceneError::msg(format!("material \"{}\": bump {b}: ignored, its norm map is used", m.name)));
+            }
+            Some(("norm", Some(n), Use::Normal(NormalMapKind::Tangent)))
+        }
+        (None, Some(b)) => Some(("bump", Some(b), Use::Normal(NormalMapKind::Bump))),
+        (None, None) => None,
+    };
+    for (key, statement, usage) in colours.into_iter().chain(coverage).chain(normals) {
         let Some(statement) = statement else { continue };
         let map = MapStatement::parse(statement);
         let what = || format!("material \"{}\": {key} {statement}", m.name);
@@ -1098,7 +1112,11 @@ fn attach_maps(ctx: &LoadContext, m: &tobj::Material, folder: &Path, loc: &Loc, 
             continue;
         };
         let path = folder.join(&file);
-        let space = if channel.is_some() { ColorSpace::Srgb } else { ColorSpace::Alpha };
+        let space = match usage {
+            Use::Colour(_) => ColorSpace::Srgb,
+            Use::Coverage => ColorSpace::Alpha,
+            Use::Normal(_) => ColorSpace::Linear,
+        };
         match image_texture::load(ctx, &path.to_string_lossy(), loc, space) {
             Ok(image) => {
                 // Over the memory budget: a warning, and the map is looked up at points.
@@ -1110,16 +1128,28 @@ fn attach_maps(ctx: &LoadContext, m: &tobj::Material, folder: &Path, loc: &Loc, 
                 let wrap = if map.clamp { Wrap::Clamp } else { Wrap::Repeat };
                 let mapping = Mapping::with_inverse(Coords::Uv, map.lookup);
                 let texture = std::sync::Arc::new(ImageTexture::new(image, mapping, [wrap; 2], Filter::Bilinear, Color::ONE));
-                match channel {
-                    Some(channel) => out.textures.push(TextureMap { channel, texture }),
+                match usage {
+                    Use::Colour(channel) => out.textures.push(TextureMap { channel, texture }),
                     // The dissolve `d` is the coverage constant (`material` left `kd` and `kt`
                     // alone for it).
-                    None => out.cutout = Cutout::new(dissolve(m), Some(texture), AlphaMode::Blend),
+                    Use::Coverage => out.cutout = Cutout::new(dissolve(m), Some(texture), AlphaMode::Blend),
+                    Use::Normal(kind) => out.normal_map = Some(NormalMap { texture, kind, scale: map.bm }),
                 }
             }
             Err(e) => ctx.warn(e.context(format!("{} is not sampled (the constant colour is used)", what()))),
         }
     }
+}
+
+/// What an MTL texture map is for.
+#[derive(Clone, Copy)]
+enum Use {
+    /// A colour it multiplies (`map_Kd`, `map_Ks`, `map_Ke`): sRGB.
+    Colour(Channel),
+    /// The cut-out's coverage (`map_d`).
+    Coverage,
+    /// Normals (`norm`) or heights (`bump`, `map_Bump`): linear data, `-bm` their strength.
+    Normal(NormalMapKind),
 }
 
 /// An MTL texture statement's file and options (`map_Kd -s 2 2 -clamp on wood.png`).
@@ -1131,6 +1161,8 @@ struct MapStatement {
     lookup: DAffine3,
     /// `-clamp on`.
     clamp: bool,
+    /// `-bm`: the bump multiplier (of `bump`, `map_Bump` and `norm`; 1 without).
+    bm: f64,
     /// Options raylab ignores, as written.
     ignored: Vec<String>,
 }
@@ -1139,7 +1171,7 @@ impl MapStatement {
     fn parse(text: &str) -> MapStatement {
         let words: Vec<&str> = text.split_whitespace().collect();
         let (mut offset, mut scale) = (DVec3::ZERO, DVec3::ONE);
-        let (mut clamp, mut ignored) = (false, Vec::new());
+        let (mut clamp, mut ignored, mut bm) = (false, Vec::new(), 1.0);
         let mut i = 0;
         while i < words.len() && words[i].starts_with('-') && words[i].len() > 1 {
             let option = words[i];
@@ -1168,6 +1200,11 @@ impl MapStatement {
                     clamp = words.get(i) == Some(&"on");
                     i += 1;
                 }
+                "-bm" => {
+                    if let Some(&x) = numbers(1).first() {
+                        bm = x;
+                    }
+                }
                 "-mm" => {
                     numbers(2);
                     ignored.push(option.to_string());
@@ -1177,7 +1214,7 @@ impl MapStatement {
                     ignored.push(option.to_string());
                 }
                 _ => {
-                    // -blendu, -blendv, -bm, -boost, -cc, -imfchan, -texres, -type: one value.
+                    // -blendu, -blendv, -boost, -cc, -imfchan, -texres, -type: one value.
                     i += 1;
                     ignored.push(option.to_string());
                 }
@@ -1185,7 +1222,7 @@ impl MapStatement {
         }
         let file = (i < words.len()).then(|| words[i..].join(" "));
         let lookup = DAffine3::from_translation(offset) * DAffine3::from_scale(scale);
-        MapStatement { file, lookup, clamp, ignored }
+        MapStatement { file, lookup, clamp, bm, ignored }
     }
 }
 
@@ -1246,12 +1283,12 @@ pub const MAX_MAP_WARNINGS: usize = 8;
 fn warn_ignored_maps(ctx: &LoadContext, file: &str, materials: &[tobj::Material]) {
     let mut warned = 0;
     for m in materials {
-        let known = [("map_Ka", &m.ambient_texture), ("map_Ns", &m.shininess_texture), ("bump", &m.normal_texture)];
+        let known = [("map_Ka", &m.ambient_texture), ("map_Ns", &m.shininess_texture)];
         let mut maps: Vec<String> = known.iter().filter_map(|(k, v)| v.as_ref().map(|v| format!("{k} {v}"))).collect();
         let mut other: Vec<String> = m
             .unknown_param
             .iter()
-            .filter(|(k, _)| (k.starts_with("map_") && k.as_str() != "map_Ke") || matches!(k.as_str(), "disp" | "decal" | "refl" | "norm"))
+            .filter(|(k, _)| (k.starts_with("map_") && k.as_str() != "map_Ke") || matches!(k.as_str(), "disp" | "decal" | "refl"))
             .map(|(k, v)| format!("{k} {v}"))
             .collect();
         other.sort();
@@ -1376,7 +1413,7 @@ mod tests {
     /// sample, and one about each sampled map whose file is missing.
     #[test]
     fn a_million_mtllib_lines_read_the_library_once() {
-        let mtl = b"newmtl wood\nKd 0.5 0.25 0.125\nmap_Kd wood.png\nbump wood-n.png\nmap_Ke glow.png\nnewmtl plain\nKd 1 1 1\n";
+        let mtl = b"newmtl wood\nKd 0.5 0.25 0.125\nmap_Kd wood.png\nmap_Ka wood-a.png\nmap_Ke glow.png\nnewmtl plain\nKd 1 1 1\n";
         let mut obj = String::from("v 0 0 0\nv 1 0 0\nv 0 1 0\n");
         for i in 0..1_000_000 {
             obj.push_str(if i % 2 == 0 { "mtllib m.mtl\n" } else { "mtllib ./m.mtl\n" });
@@ -1391,7 +1428,7 @@ mod tests {
         assert_eq!(data.materials[0].kd, DVec3::new(0.5, 0.25, 0.125));
         let warnings: Vec<String> = ctx.take_warnings().iter().map(|w| w.report()).collect();
         assert_eq!(warnings.len(), 3, "{warnings:?}");
-        for part in ["m.mtl", "\"wood\"", "bump wood-n.png"] {
+        for part in ["m.mtl", "\"wood\"", "map_Ka wood-a.png"] {
             assert!(warnings[0].contains(part), "{part} not in {}", warnings[0]);
         }
         assert!(!warnings[0].contains("map_Kd") && !warnings[0].contains("map_Ke"), "sampled maps are not ignored: {}", warnings[0]);
@@ -1647,7 +1684,9 @@ mod tests {
         let m = MapStatement::parse("-s 2 3 -o 0.5 -clamp on -bm 0.4 my wood.png");
         assert_eq!(m.file.as_deref(), Some("my wood.png"));
         assert!(m.clamp);
-        assert_eq!(m.ignored, vec!["-bm".to_string()]);
+        assert!(m.ignored.is_empty(), "{:?}", m.ignored);
+        assert_eq!(m.bm, 0.4);
+        assert_eq!(MapStatement::parse("-bm x.png").bm, 1.0, "no number: the default");
         let p = m.lookup.transform_point3(DVec3::new(0.25, 0.5, 0.0));
         assert_eq!(p, DVec3::new(1.0, 1.5, 0.0), "scaled by (2, 3), then offset by 0.5 in u");
         assert_eq!(MapStatement::parse("plain.png").lookup, DAffine3::IDENTITY);

@@ -24,7 +24,7 @@
 
 use crate::shapes::triangle::{EdgeRule, TriangleRay, barycentric_point};
 use raylab::Material;
-use raylab::accel::bvh::{PAD_SLOT, PrimitiveIndex};
+use raylab::accel::bvh::{PAD_SLOT, PrimitiveIndex, tie_limit};
 use raylab::accel::{AccelChoice, BuildStats, MESH_BVH_THRESHOLD};
 use raylab::geometry::Hit;
 use raylab::geometry::sampling::uniform_triangle;
@@ -138,6 +138,9 @@ pub struct TriangleMesh {
     filter_scale: f64,
     shading: Option<Shading>,
     texcoords: Option<TexCoords>,
+    /// Per stored triangle, its corners' tangents (`w` the handedness), for normal maps; `None`
+    /// (the usual case) when the file has none.
+    tangents: Option<Box<[[Vec4; 3]]>>,
     /// Per stored triangle, its material index (empty when the mesh has one material).
     material_ids: Vec<u32>,
     /// The file's materials (empty: none), shared by every object placing the mesh.
@@ -159,8 +162,17 @@ impl TriangleMesh {
     /// Validates `data`, drops degenerate triangles, and builds the spatial index (a hierarchy
     /// when `choice` asks for one for this many triangles).
     pub fn new(data: MeshData, normals: Normals, choice: AccelChoice) -> Result<TriangleMesh, MeshError> {
-        let MeshData { positions, triangles, normals: file_normals, normal_indices, texcoords, texcoord_indices, material_ids, materials } =
-            data;
+        let MeshData {
+            positions,
+            triangles,
+            normals: file_normals,
+            normal_indices,
+            texcoords,
+            texcoord_indices,
+            tangents,
+            material_ids,
+            materials,
+        } = data;
         if let Some(v) = positions.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
             return Err(MeshError::NonFinite { vertex: v });
         }
@@ -260,6 +272,9 @@ impl TriangleMesh {
             uv: texcoords.iter().map(|&c| Vec2::from(c)).collect(),
             indices: source.iter().map(|&i| stored(i).map_or([0; 3], |i| texcoord_indices[i])).collect(),
         });
+        // Corner tangents: the file's (or MikkTSpace's), when every triangle has finite ones.
+        let tangents = (tangents.len() == triangles.len() && tangents.iter().flatten().flatten().all(|c| c.is_finite()))
+            .then(|| source.iter().map(|&i| stored(i).map_or([Vec4::ZERO; 3], |i| tangents[i].map(Vec4::from))).collect());
         let first = material_ids.first().copied().unwrap_or(0) as usize;
         let uniform = material_ids.iter().all(|&m| m as usize == first);
         let (material_ids, materials) = if material_ids.len() == triangles.len() && !uniform {
@@ -281,6 +296,7 @@ impl TriangleMesh {
             filter_scale,
             shading,
             texcoords,
+            tangents,
             material_ids,
             materials,
             cutouts,
@@ -337,6 +353,7 @@ impl TriangleMesh {
             + self.material_ids.len() * 4
             + self.shading.as_ref().map_or(0, |s| s.normals.len() * 12 + s.indices.len() * 12)
             + self.texcoords.as_ref().map_or(0, |t| t.uv.len() * 8 + t.indices.len() * 12)
+            + self.tangents.as_ref().map_or(0, |t| t.len() * 48)
             + self.index.memory_bytes()
     }
 
@@ -396,9 +413,11 @@ impl TriangleMesh {
         let base = q.base();
         // Prepared at the first leaf: a ray through the box's empty corners reaches none.
         let mut prepared: Option<(TriangleRay, PackRay)> = None;
-        let mut best = (0, DVec3::ZERO);
-        let t = q.closest_leaves(|first, count, t_max| {
-            let mut t_max = t_max;
+        // The tie rule (see `raylab::accel::bvh`): the smallest `t`, then the smallest slot, so
+        // the hit does not depend on the order leaves are visited in. `best_t` is exclusive
+        // while nothing is found; after that a hit at `best_t` still wins with a smaller slot.
+        let (mut best_t, mut best_slot, mut best_b) = (t_max, NO_SLOT, DVec3::ZERO);
+        let t = q.closest_leaves(|first, count, _| {
             let mut found = None;
             let (tr, pr) = prepared.get_or_insert_with(|| {
                 let tr = TriangleRay::new(ray);
@@ -406,19 +425,20 @@ impl TriangleMesh {
             });
             self.candidates(pr, first, count, |slot| {
                 let [p0, p1, p2] = self.vertices(slot);
-                if let Some(h) = tr.intersect(p0, p1, p2, t_min, t_max, EdgeRule::Inclusive)
+                let limit = if best_slot == NO_SLOT { best_t } else { tie_limit(best_t) };
+                if let Some(h) = tr.intersect(p0, p1, p2, t_min, limit, EdgeRule::Inclusive)
+                    && (h.t < best_t || (h.t == best_t && slot < best_slot))
                     && !on_surface(ray, h.t, p0, p1, p2)
                     && keep(slot, h.b)
                 {
-                    t_max = h.t;
+                    (best_t, best_slot, best_b) = (h.t, slot, h.b);
                     found = Some(h.t);
-                    best = (slot, h.b);
                 }
                 false
             });
             found
         })?;
-        let (slot, b) = best;
+        let (slot, b) = (best_slot, best_b);
         let [p0, p1, p2] = self.vertices(slot).map(DVec3::from);
         let (point, error) = barycentric_point(b, p0, p1, p2);
         Some(Hit { t, point, error, uv: DVec2::new(b.y, b.z), prim: slot, object: 0 })
@@ -529,6 +549,33 @@ impl TriangleMesh {
         let dpdu = (duv12.y * dp02 - duv02.y * dp12) / det;
         let dpdv = (duv02.x * dp12 - duv12.x * dp02) / det;
         (dpdu.is_finite() && dpdv.is_finite()).then_some((dpdu, dpdv))
+    }
+    /// `[∂p/∂u, ∂p/∂v]` at a hit, for normal maps: from the corners' tangents where the mesh has
+    /// them (`∂p/∂u` the interpolated tangent, `∂p/∂v` the bitangent `w·(n × t)`), else the
+    /// triangle's own derivatives along its texture coordinates; `None` without texture
+    /// coordinates, or where they are degenerate.
+    pub fn tangents(&self, at: &Hit) -> Option<[DVec3; 2]> {
+        let (b1, b2) = (at.uv.x, at.uv.y);
+        let b0 = 1.0 - b1 - b2;
+        if let Some(corners) = self.tangents.as_ref().and_then(|t| t.get(at.prim as usize)) {
+            let t = b0 * corners[0].as_dvec4() + b1 * corners[1].as_dvec4() + b2 * corners[2].as_dvec4();
+            if t.truncate().length_squared() > 0.0 {
+                let n = self.interpolated_normal(at).unwrap_or_else(|| self.geometric_normal(at.prim));
+                let w = if t.w < 0.0 { -1.0 } else { 1.0 };
+                return Some([t.truncate(), w * n.cross(t.truncate())]);
+            }
+        }
+        let tc = self.texcoords.as_ref()?;
+        let [i0, i1, i2] = *tc.indices.get(at.prim as usize)?;
+        let [uv0, uv1, uv2] = [i0, i1, i2].map(|i| tc.uv[i as usize].as_dvec2());
+        let [p0, p1, p2] = self.vertices(at.prim).map(DVec3::from);
+        let (d02, d12) = (uv0 - uv2, uv1 - uv2);
+        let (e02, e12) = (p0 - p2, p1 - p2);
+        let det = d02.x * d12.y - d02.y * d12.x;
+        let inv = 1.0 / det;
+        let dpdu = (d12.y * e02 - d02.y * e12) * inv;
+        let dpdv = (d02.x * e12 - d12.x * e02) * inv;
+        (det != 0.0 && dpdu.is_finite() && dpdv.is_finite()).then_some([dpdu, dpdv])
     }
 
     /// True when the mesh encloses a volume: every edge is shared by exactly two triangles that
@@ -675,6 +722,9 @@ impl PackRay {
     }
 }
 
+/// No slot yet: larger than any slot, so the first hit found wins a tie with it.
+const NO_SLOT: u32 = u32::MAX;
+
 /// A number in [0, 1) that is a function of the ray (its origin's and direction's bits) and the
 /// triangle: what decides stochastic coverage ([`AlphaMode::Blend`](raylab::scene::material::AlphaMode)).
 /// Deterministic, so an image does not depend on threads, tiles or passes.
@@ -758,6 +808,50 @@ mod tests {
         fn vec(&mut self) -> DVec3 {
             DVec3::new(self.next(), self.next(), self.next()) * 2.0 - 1.0
         }
+    }
+
+    /// The tie rule: of triangles hit at the same `t` (here, copies of one triangle spread over
+    /// many leaves by the build, among others), the closest hit is the one in the smallest slot,
+    /// whatever order the rays' walks visit the leaves in.
+    #[test]
+    fn ties_go_to_the_smallest_slot() {
+        let mut r = Rng(11);
+        let mut positions = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        let mut triangles = Vec::new();
+        for k in 0..400u32 {
+            if k % 3 == 0 {
+                triangles.push([0, 1, 2]);
+            } else {
+                // Clutter around the copies, so they fall in many leaves under different nodes.
+                let c = r.vec() * 1.5;
+                let n = positions.len() as u32;
+                positions.extend([c, c + 0.3 * r.vec(), c + 0.3 * r.vec()].map(|v| v.as_vec3().to_array()));
+                triangles.push([n, n + 1, n + 2]);
+            }
+        }
+        let data = MeshData { positions, triangles, ..MeshData::default() };
+        let mesh = TriangleMesh::new(data, Normals::Flat, AccelChoice::Bvh).unwrap();
+        assert_eq!(mesh.is_bvh(), raylab::accel::BVH_AVAILABLE);
+        let slots = mesh.packs.len() as u32 * PACK;
+        let mut ties = 0;
+        for _ in 0..3000 {
+            let target = DVec3::new(0.05 + 0.4 * r.next(), 0.05 + 0.4 * r.next(), 0.0);
+            let ray = Ray::new(target - 4.0 * r.vec().normalize(), r.vec());
+            let ray = Ray::new(ray.origin, target - ray.origin);
+            let tr = TriangleRay::new(&ray);
+            let hits: Vec<(f64, u32)> = (0..slots)
+                .filter_map(|slot| {
+                    let [p0, p1, p2] = mesh.vertices(slot);
+                    let h = tr.intersect(p0, p1, p2, 0.0, f64::INFINITY, EdgeRule::Inclusive)?;
+                    (!on_surface(&ray, h.t, p0, p1, p2)).then_some((h.t, slot))
+                })
+                .collect();
+            let expect = hits.iter().copied().min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            ties += usize::from(hits.iter().filter(|h| Some(h.0) == expect.map(|e| e.0)).count() > 1);
+            let hit = mesh.intersect(&ray, 0.0, f64::INFINITY);
+            assert_eq!(hit.map(|h| (h.t, h.prim)), expect, "{ray:?}");
+        }
+        assert!(ties > 1500, "{ties} rays met ties");
     }
 
     /// The filter never rejects a triangle the exact test accepts: rays aimed exactly at vertices,

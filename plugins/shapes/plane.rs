@@ -179,6 +179,10 @@ impl Geometry for Plane {
     fn derivatives(&self, _: &Hit) -> Option<SurfaceDerivatives> {
         Some(SurfaceDerivatives::flat(self.axes.0, self.axes.1))
     }
+    /// The right and up axes (one scene unit per unit of u and v).
+    fn tangents(&self, _: &Hit) -> Option<[DVec3; 2]> {
+        Some([self.axes.0, self.axes.1])
+    }
     fn bounds(&self) -> Option<Aabb> {
         None
     }

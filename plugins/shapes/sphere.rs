@@ -139,6 +139,17 @@ impl Geometry for Sphere {
         let d = (at.point - self.center).normalize();
         Some(super::uv::spherical_derivatives(d, self.radius))
     }
+    /// The derivatives of [`super::uv::spherical`]'s inverse: `2πr·(z, 0, −x)` along the
+    /// longitude, `πr·(−xy/ρ, ρ, −zy/ρ)` along the latitude (`ρ = √(x² + z²)`); none at the poles.
+    fn tangents(&self, at: &Hit) -> Option<[DVec3; 2]> {
+        let d = (at.point - self.center).normalize();
+        let rho = (d.x * d.x + d.z * d.z).sqrt();
+        if !(rho > 0.0) {
+            return None;
+        }
+        let r = self.radius;
+        Some([TAU * r * DVec3::new(d.z, 0.0, -d.x), PI * r * DVec3::new(-d.x * d.y / rho, rho, -d.z * d.y / rho)])
+    }
     fn bounds(&self) -> Option<Aabb> {
         Some(Aabb::new(self.center - DVec3::splat(self.radius), self.center + DVec3::splat(self.radius)))
     }

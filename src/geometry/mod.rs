@@ -102,6 +102,15 @@ pub trait Geometry: Intersectable {
         }
         .finite()
     }
+    /// The derivatives `[∂p/∂u, ∂p/∂v]` of the surface point along the texture coordinates at
+    /// `at` ([`Geometry::uv`]), in the hit's frame: the tangent frame of normal and bump maps
+    /// ([`crate::scene::normal_map`]). Asked for only where a normal-mapped material is hit.
+    /// `None`, the default, for shapes without them (their normal is not tilted).
+    fn tangents(&self, at: &Hit) -> Option<[DVec3; 2]> {
+        let _ = at;
+        None
+    }
+
     /// A box containing the whole shape, or `None` for unbounded shapes (planes, infinite tubes).
     fn bounds(&self) -> Option<Aabb>;
 
@@ -174,6 +183,9 @@ macro_rules! forward_impls {
             }
             fn footprint(&self, at: &Hit, dpdx: DVec3, dpdy: DVec3) -> Footprint {
                 (**self).footprint(at, dpdx, dpdy)
+            }
+            fn tangents(&self, at: &Hit) -> Option<[DVec3; 2]> {
+                (**self).tangents(at)
             }
             fn bounds(&self) -> Option<Aabb> {
                 (**self).bounds()

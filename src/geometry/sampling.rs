@@ -143,6 +143,8 @@ const HIDDEN_TOLERANCE: f64 = 1e-7;
 const CHECK_SUBCELLS: u32 = 8;
 /// How many times finer cells at an edge of the density are integrated.
 const CHECK_REFINE: u32 = 8;
+/// Cells of [`check_surface_sampling`] expected to hold fewer samples than this are pooled.
+const MIN_EXPECTED: f64 = 5.0;
 /// Ratio of largest to smallest density within a cell beyond which it is at an edge.
 const EDGE_RATIO: f64 = 1.5;
 
@@ -275,9 +277,8 @@ pub fn check_surface_sampling(
     let mut obs = observed;
     obs.extend([outside, hidden]);
     expected.extend([0.0, (1.0 - visible).max(0.0) * f64::from(n)]);
-    let (chi_square, dof) = crate::math::distribution::chi_square(&obs, &expected, 5.0);
-    let p_value = crate::math::distribution::chi_square_p_value(chi_square, dof);
-    SamplingCheck { chi_square, dof, p_value, integral, hidden: hidden / f64::from(n) }
+    let r = crate::testing::chi2::pearson(&obs, &expected, MIN_EXPECTED);
+    SamplingCheck { chi_square: r.statistic, dof: r.dof as usize, p_value: r.p_value(), integral, hidden: hidden / f64::from(n) }
 }
 
 #[cfg(test)]

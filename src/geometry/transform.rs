@@ -265,6 +265,11 @@ impl<G: Geometry> Geometry for Transformed<G> {
         let m = &self.transform.to_object;
         self.inner.footprint(&self.object_hit(at), m.transform_vector3(dpdx), m.transform_vector3(dpdy))
     }
+    /// The inner shape's derivatives, carried out as vectors.
+    fn tangents(&self, at: &Hit) -> Option<[DVec3; 2]> {
+        let d = self.inner.tangents(&self.object_hit(at))?;
+        Some(d.map(|v| self.transform.to_world.transform_vector3(v)))
+    }
     fn bounds(&self) -> Option<Aabb> {
         self.bounds
     }

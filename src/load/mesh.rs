@@ -25,6 +25,11 @@ pub struct MeshData {
     pub texcoords: Vec<[f32; 2]>,
     /// Per triangle, indices into `texcoords` (empty, or one per triangle).
     pub texcoord_indices: Vec<[u32; 3]>,
+    /// Per triangle, the tangents of its three corners: `xyz` along `∂p/∂u`, `w` = ±1 the
+    /// handedness (the bitangent is `w·(normal × tangent)`, glTF's `TANGENT`). Empty when the
+    /// mesh has none (normal maps then take each triangle's texture-coordinate derivatives); an
+    /// all-zero triangle has none either.
+    pub tangents: Vec<[[f32; 4]; 3]>,
     /// Per triangle, an index into `materials` (empty: all use material 0).
     pub material_ids: Vec<u32>,
     /// The file's materials, mapped to raylab's (may be empty).

@@ -211,71 +211,10 @@ impl Piecewise2d {
     }
 }
 
-/// Pearson's χ² statistic of observed counts against expected ones, merging cells whose
-/// expectation is under `min_expected` into one (as Mitsuba's χ² tests do), and the degrees of
-/// freedom (cells after merging less one). For tests of sampling routines against their pdfs.
-pub fn chi_square(observed: &[f64], expected: &[f64], min_expected: f64) -> (f64, usize) {
-    // Cells expected to hold too few samples are pooled; while the pool itself holds too few
-    // (cells of a density's edge that its integration missed), it takes the smallest others.
-    let mut cells: Vec<(f64, f64)> = observed.iter().copied().zip(expected.iter().copied()).collect();
-    cells.sort_by(|a, b| a.1.total_cmp(&b.1));
-    let low = cells.partition_point(|c| c.1 < min_expected);
-    let (mut pool_o, mut pool_e): (f64, f64) = cells[..low].iter().fold((0.0, 0.0), |(o, e), c| (o + c.0, e + c.1));
-    let mut next = low;
-    if low > 0 {
-        while pool_e < min_expected && next < cells.len() {
-            pool_o += cells[next].0;
-            pool_e += cells[next].1;
-            next += 1;
-        }
-    }
-    if pool_e <= 0.0 && pool_o > 0.0 {
-        // Samples where none were expected at all: as far from the density as it gets.
-        return (f64::INFINITY, 1);
-    }
-    let mut stat = 0.0;
-    let mut count = 0usize;
-    if pool_e > 0.0 {
-        stat += (pool_o - pool_e) * (pool_o - pool_e) / pool_e;
-        count += 1;
-    }
-    for &(o, e) in &cells[next..] {
-        stat += (o - e) * (o - e) / e;
-        count += 1;
-    }
-    (stat, count.saturating_sub(1).max(1))
-}
-
-/// The probability that a χ² variable with `dof` degrees of freedom is at least `stat` (the
-/// test's p-value), by the Wilson–Hilferty normal approximation (good to ~1e-3 for dof ≥ 3,
-/// enough to reject at a significance of 1e-3 or so).
-pub fn chi_square_p_value(stat: f64, dof: usize) -> f64 {
-    if !stat.is_finite() {
-        return 0.0;
-    }
-    let k = dof as f64;
-    let z = ((stat / k).cbrt() - (1.0 - 2.0 / (9.0 * k))) / (2.0 / (9.0 * k)).sqrt();
-    0.5 * erfc(z / std::f64::consts::SQRT_2)
-}
-
-/// The complementary error function (Numerical Recipes' `erfcc`, relative error < 1.2e-7).
-fn erfc(x: f64) -> f64 {
-    let z = x.abs();
-    let t = 1.0 / (1.0 + 0.5 * z);
-    let r = t
-        * (-z * z - 1.265_512_23
-            + t * (1.000_023_68
-                + t * (0.374_091_96
-                    + t * (0.096_784_18
-                        + t * (-0.186_288_06
-                            + t * (0.278_868_07 + t * (-1.135_203_98 + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77)))))))))
-            .exp();
-    if x >= 0.0 { r } else { 2.0 - r }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::testing::chi2::pearson;
     use glam::DVec2;
 
     /// Significance under which a χ² test fails: the tests use fixed seeds, so a failure is
@@ -312,8 +251,8 @@ mod tests {
             counts[i] += 1.0;
         }
         let expected: Vec<f64> = (0..weights.len()).map(|i| t.pmf(i) * n as f64).collect();
-        let (stat, dof) = chi_square(&counts, &expected, 5.0);
-        assert!(chi_square_p_value(stat, dof) > SIGNIFICANCE, "χ² = {stat} at {dof} dof");
+        let r = pearson(&counts, &expected, 5.0);
+        assert!(r.p_value() > SIGNIFICANCE, "{r:?}");
         // The reused number is uniform too (its mean, at least).
         assert!((rest_sum / n as f64 - 0.5).abs() < 0.01);
         assert!(AliasTable::new(&[0.0, -1.0]).is_none() && AliasTable::new(&[]).is_none());
@@ -331,15 +270,7 @@ mod tests {
             counts[right.sample(next()).0] += 1.0;
         }
         let expected: Vec<f64> = (0..4).map(|i| wrong.pmf(i) * n as f64).collect();
-        let (stat, dof) = chi_square(&counts, &expected, 5.0);
-        assert!(chi_square_p_value(stat, dof) < SIGNIFICANCE);
-    }
-
-    #[test]
-    fn p_values_match_known_quantiles() {
-        // χ²(0.95 quantile) for 10 dof is 18.307; for 100 dof, 124.342.
-        assert!((chi_square_p_value(18.307, 10) - 0.05).abs() < 2e-3);
-        assert!((chi_square_p_value(124.342, 100) - 0.05).abs() < 1e-3);
+        assert!(pearson(&counts, &expected, 5.0).p_value() < SIGNIFICANCE);
     }
 
     #[test]
@@ -370,8 +301,8 @@ mod tests {
                 d.pdf(c) * n as f64 / (gx * gy) as f64
             })
             .collect();
-        let (stat, dof) = chi_square(&counts, &expected, 5.0);
-        assert!(chi_square_p_value(stat, dof) > SIGNIFICANCE, "χ² = {stat} at {dof} dof");
+        let r = pearson(&counts, &expected, 5.0);
+        assert!(r.p_value() > SIGNIFICANCE, "{r:?}");
     }
 
     #[test]

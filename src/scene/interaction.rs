@@ -9,6 +9,7 @@ use crate::math::color::Color;
 use crate::math::ray::Ray;
 use crate::scene::bsdf::{MaterialModel, Shading};
 use crate::scene::material::{CoefficientsAt, Material};
+use crate::scene::normal_map::shading_normal;
 use crate::scene::object::Object;
 use crate::scene::texture::TexturePoint;
 use glam::{DVec2, DVec3};
@@ -28,7 +29,8 @@ pub struct Interaction<'s> {
     pub dir: DVec3,
     /// Unit geometric normal facing the incoming ray (`n · dir ≤ 0`): sides and ray offsets.
     pub n: DVec3,
-    /// Unit shading normal facing the incoming ray: lighting.
+    /// Unit shading normal facing the incoming ray: lighting. Tilted by the material's normal or
+    /// bump map, if it has one ([`crate::scene::normal_map`]).
     pub ns: DVec3,
     /// The hit point in the shape's own frame ([`Surface::local`]): where solid textures are
     /// looked up.
@@ -48,12 +50,19 @@ impl<'s> Interaction<'s> {
     #[inline(always)]
     pub fn new(ray: &Ray, hit: Hit, object: &'s Object) -> Self {
         let s: Surface = object.geometry().surface(&hit, ray.dir);
+        let mut ns = s.ns;
+        if object.is_normal_mapped()
+            && let Some(map) = &object.material(s.material).normal_map
+            && let Some(tilted) = shading_normal(map, object.geometry(), &hit, &s, ray.dir)
+        {
+            ns = tilted;
+        }
         Interaction {
             hit,
             object,
             dir: ray.dir,
             n: s.n,
-            ns: s.ns,
+            ns,
             local: s.local,
             front_face: s.front_face,
             slot: s.material,

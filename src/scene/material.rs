@@ -58,6 +58,9 @@ pub struct Material {
     /// Where the surface is cut away (glTF `alphaMode` MASK and BLEND, MTL `map_d`): rays pass
     /// through those parts as if nothing were there. `None`: the surface is everywhere.
     pub cutout: Option<Cutout>,
+    /// A normal or bump map tilting the shading normal (glTF `normalTexture`, MTL `norm`,
+    /// `bump`, `map_Bump`; see [`crate::scene::normal_map`]). `None`: the shape's own normal.
+    pub normal_map: Option<NormalMap>,
 }
 
 /// A surface's coverage (alpha): where it is there for rays and where it is a hole. Shapes that
@@ -134,6 +137,36 @@ impl Cutout {
             AlphaMode::Mask { cutoff } => a >= cutoff,
             AlphaMode::Blend => a >= 1.0 || (a > 0.0 && u() < a),
         }
+    }
+}
+
+/// What a [`NormalMap`]'s texture holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NormalMapKind {
+    /// Tangent-space normals, each channel mapped from [0, 1] to [−1, 1]: red along the surface's
+    /// `u` tangent, green along `v` (up in the image), blue along the normal (glTF
+    /// `normalTexture`, MTL `norm`). `scale` multiplies red and green.
+    Tangent,
+    /// Heights (the texture's first channel), `scale` scene units per unit of texture value: the
+    /// normal is that of the surface displaced by the height (MTL `bump`, `map_Bump`).
+    Bump,
+}
+
+/// A texture that tilts the shading normal (see [`crate::scene::normal_map`]).
+#[derive(Clone, Debug)]
+pub struct NormalMap {
+    /// The normals or heights.
+    pub texture: Arc<dyn Texture>,
+    /// What it holds.
+    pub kind: NormalMapKind,
+    /// glTF `normalTexture.scale`, MTL `-bm`: the strength of the tilt.
+    pub scale: f64,
+}
+
+/// Equal when the kind and scale are and the texture is the same object.
+impl PartialEq for NormalMap {
+    fn eq(&self, other: &Self) -> bool {
+        self.kind == other.kind && self.scale == other.scale && Arc::ptr_eq(&self.texture, &other.texture)
     }
 }
 
@@ -252,6 +285,7 @@ impl Default for Material {
             textures: Vec::new(),
             model: None,
             cutout: None,
+            normal_map: None,
         }
     }
 }
@@ -333,7 +367,50 @@ pub const MATERIAL_PARAMS: &[ParamSpec] = &[
         ParamDefault::Str("off"),
         "\"off\" (fixed kr, kt: the report), \"schlick\" or \"exact\" (true = \"exact\"): reflection F·kr and transmission (1 − F)·kt with F the dielectric reflectance for the angle and `ior`; clear glass is kr = kt = 1",
     ),
+    NORMAL_MAP_PARAMS[0],
+    NORMAL_MAP_PARAMS[1],
+    NORMAL_MAP_PARAMS[2],
 ];
+
+/// The normal- and bump-map parameters every built-in material type reads
+/// ([`NormalMap::from_params`]).
+pub const NORMAL_MAP_PARAMS: [ParamSpec; 3] = [
+    ParamSpec::new(
+        "normal_map",
+        ParamKind::Texture,
+        ParamDefault::Optional,
+        "a tangent-space normal map (a texture of linear data: an image with colorspace = \"linear\"), tilting the shading normal over the shape's texture coordinates",
+    ),
+    ParamSpec::new(
+        "bump_map",
+        ParamKind::Texture,
+        ParamDefault::Optional,
+        "a height map (its first channel, times normal_scale, in scene units) whose slopes tilt the shading normal; not with normal_map",
+    ),
+    ParamSpec::new(
+        "normal_scale",
+        ParamKind::Float,
+        ParamDefault::Float(1.0),
+        "normal_map: multiplies the normals' tilt (glTF normalTexture.scale); bump_map: scene units per unit of height",
+    ),
+];
+
+impl NormalMap {
+    /// The normal or bump map of a material's parameters ([`NORMAL_MAP_PARAMS`]), if it names one.
+    pub fn from_params(p: &mut Params, textures: &dyn TextureResolver) -> Result<Option<NormalMap>> {
+        let scale = p.float("normal_scale")?;
+        let normal = p.node("normal_map")?;
+        let bump = p.node("bump_map")?;
+        let (node, kind, name) = match (normal, bump) {
+            (Some(_), Some(_)) => return Err(p.error_at("bump_map", "a material has a normal_map or a bump_map, not both")),
+            (Some(n), None) => (n, NormalMapKind::Tangent, "normal_map"),
+            (None, Some(n)) => (n, NormalMapKind::Bump, "bump_map"),
+            (None, None) => return Ok(None),
+        };
+        let texture = textures.resolve(node, &format!("{}: parameter `{name}`", p.what()))?;
+        Ok(Some(NormalMap { texture, kind, scale }))
+    }
+}
 
 impl Material {
     /// Reads a material from its parameters; colours naming a texture (a name in `textures`, or
@@ -355,6 +432,7 @@ impl Material {
         m.ior = p.positive("ior")?;
         m.shininess = p.non_negative("shininess")?;
         m.blur = p.float_in("blur", 0.0..=1.0)?;
+        m.normal_map = NormalMap::from_params(p, textures)?;
         m.fresnel = match p.node("fresnel")? {
             None => Fresnel::Off,
             Some(n) => match &n.value {

@@ -6,6 +6,7 @@ pub mod emitters;
 pub mod interaction;
 pub mod light;
 pub mod material;
+pub mod normal_map;
 pub mod object;
 pub mod texture;
 

@@ -63,6 +63,8 @@ pub struct Object {
     /// needs; asked when the object is made if it transmits light, else on first use.
     closed: OnceLock<bool>,
     sides: EmissionSides,
+    /// Whether some material has a normal or bump map (hits then tilt the shading normal).
+    normal_mapped: bool,
 }
 
 impl Object {
@@ -76,7 +78,8 @@ impl Object {
             let _ = closed.set(geometry.is_closed());
         }
         let constants = materials.iter().map(Material::constants).collect();
-        Object { name: name.into(), geometry, materials, constants, transmissive, closed, sides: EmissionSides::Both }
+        let normal_mapped = materials.iter().any(|m| m.normal_map.is_some());
+        Object { name: name.into(), geometry, materials, constants, transmissive, closed, sides: EmissionSides::Both, normal_mapped }
     }
 
     /// `geometry` with one material.
@@ -112,6 +115,12 @@ impl Object {
     #[inline]
     pub fn may_transmit(&self) -> bool {
         self.transmissive
+    }
+
+    /// Whether some material has a normal or bump map ([`Material::normal_map`]).
+    #[inline]
+    pub fn is_normal_mapped(&self) -> bool {
+        self.normal_mapped
     }
 
     /// Whether the shape encloses a volume ([`Geometry::is_closed`]): refraction bends rays only

@@ -294,46 +294,19 @@ impl<D: Domain> Chi2Test<D> {
             outcome.failure = Some(format!("the density integrates to {:.4} > 1 over the domain", outcome.mass));
             return outcome;
         }
-        // Pool the cells of low expectation, in order of expectation (Mitsuba's scheme).
-        let mut order: Vec<usize> = (0..expected.len()).collect();
-        order.sort_by(|&a, &b| expected[a].total_cmp(&expected[b]));
-        let (mut pooled_obs, mut pooled_exp, mut pooled) = (0.0, 0.0, 0usize);
-        let mut contributions = Vec::with_capacity(order.len());
-        for &c in &order {
-            let (o, e) = (observed[c] as f64, expected[c]);
-            // A cell whose integral is zero but which holds samples (where the density is not
-            // zero: checked above) meets the support in a sliver the integration missed: pooled.
-            if e < self.min_expected {
-                pooled_obs += o;
-                pooled_exp += e;
-                pooled += 1;
-                if pooled_exp >= self.min_expected {
-                    outcome.statistic += (pooled_obs - pooled_exp) * (pooled_obs - pooled_exp) / pooled_exp;
-                    outcome.dof += 1;
-                    (pooled_obs, pooled_exp, pooled) = (0.0, 0.0, 0);
-                }
-            } else {
-                let term = (o - e) * (o - e) / e;
-                outcome.statistic += term;
-                outcome.dof += 1;
-                contributions.push((term, c, o, e));
-            }
-        }
-        if pooled > 0 && pooled_exp > 0.0 {
-            outcome.statistic += (pooled_obs - pooled_exp) * (pooled_obs - pooled_exp) / pooled_exp;
-            outcome.dof += 1;
-        }
-        outcome.dof = outcome.dof.saturating_sub(1);
+        let observed: Vec<f64> = observed.iter().map(|&o| o as f64).collect();
+        let Pearson { statistic, dof, mut cells, .. } = pearson(&observed, &expected, self.min_expected);
+        (outcome.statistic, outcome.dof) = (statistic, dof);
         if outcome.dof == 0 {
             outcome.failure = Some("fewer than two cells expect enough samples: raise `samples` or lower `res`".into());
             return outcome;
         }
         outcome.p_value = chi2_survival(outcome.statistic, f64::from(outcome.dof));
-        contributions.sort_by(|a, b| b.0.total_cmp(&a.0));
-        outcome.worst = contributions
+        cells.sort_by(|a, b| b.1.total_cmp(&a.1));
+        outcome.worst = cells
             .iter()
             .take(WORST_CELLS)
-            .map(|&(_, c, o, e)| format!("{}: observed {o}, expected {e:.1}", self.cell(c)))
+            .map(|&(c, _)| format!("{}: observed {}, expected {:.1}", self.cell(c), observed[c], expected[c]))
             .collect();
         if !(outcome.p_value >= outcome.threshold) {
             outcome.failure = Some(format!(
@@ -492,8 +465,78 @@ impl fmt::Display for Chi2Outcome {
     }
 }
 
-/// `P(X ≥ x)` for `X` χ²-distributed with `dof` degrees of freedom: `Q(dof/2, x/2)`.
+/// Pearson's statistic of a histogram ([`pearson`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Pearson {
+    /// `Σ (observed − expected)² / expected` over the cells after pooling.
+    pub statistic: f64,
+    /// Degrees of freedom: cells after pooling, less one (0: too few cells for a test).
+    pub dof: u32,
+    /// The cells not pooled, with their terms of the statistic (for a report of the worst).
+    pub cells: Vec<(usize, f64)>,
+    /// Points in the last pool when it expects none at all (cells whose density integrates to
+    /// zero): left out of the statistic, judged by the caller ([`Pearson::p_value`]: any fails).
+    pub unexpected: f64,
+}
+
+impl Pearson {
+    /// The p-value: [`chi2_survival`] of the statistic, and 0 (a certain failure) when points
+    /// lie where no cell expects any, or when there are too few cells for a test.
+    pub fn p_value(&self) -> f64 {
+        if self.unexpected > 0.0 || self.dof == 0 { 0.0 } else { chi2_survival(self.statistic, f64::from(self.dof)) }
+    }
+}
+
+/// Pearson's χ² statistic of `observed` counts against `expected` ones, the one pooling every χ²
+/// test of raylab uses (Mitsuba's scheme): cells expecting fewer than `min_expected` points are
+/// pooled in order of expectation, each pool closed once it expects `min_expected`; a last
+/// pool that expects nothing is left out (its points are [`Pearson::unexpected`]). For a
+/// histogram over a domain, [`Chi2Test`] does all of it (and judges points where the density
+/// is zero itself, allowing [`ZERO_DENSITY_ALLOWANCE`] for rounding); a test that builds its
+/// own histogram (a discrete distribution, a shape's samples seen through rays) calls this and
+/// reads [`Pearson::p_value`].
+pub fn pearson(observed: &[f64], expected: &[f64], min_expected: f64) -> Pearson {
+    assert_eq!(observed.len(), expected.len(), "one expected count per observed one");
+    let mut order: Vec<usize> = (0..expected.len()).collect();
+    order.sort_by(|&a, &b| expected[a].total_cmp(&expected[b]));
+    let (mut statistic, mut count, mut unexpected) = (0.0, 0u32, 0.0);
+    let (mut pooled_obs, mut pooled_exp, mut pooled) = (0.0, 0.0, 0usize);
+    let mut cells = Vec::with_capacity(order.len());
+    for &c in &order {
+        let (o, e) = (observed[c], expected[c]);
+        // A cell whose integral is zero but which holds samples (a sliver of the support the
+        // integration missed, or samples where none belong) is pooled with the next ones.
+        if e < min_expected {
+            pooled_obs += o;
+            pooled_exp += e;
+            pooled += 1;
+            if pooled_exp >= min_expected {
+                statistic += (pooled_obs - pooled_exp) * (pooled_obs - pooled_exp) / pooled_exp;
+                count += 1;
+                (pooled_obs, pooled_exp, pooled) = (0.0, 0.0, 0);
+            }
+        } else {
+            let term = (o - e) * (o - e) / e;
+            statistic += term;
+            count += 1;
+            cells.push((c, term));
+        }
+    }
+    if pooled > 0 && pooled_exp > 0.0 {
+        statistic += (pooled_obs - pooled_exp) * (pooled_obs - pooled_exp) / pooled_exp;
+        count += 1;
+    } else if pooled > 0 {
+        unexpected = pooled_obs;
+    }
+    Pearson { statistic, dof: count.saturating_sub(1), cells, unexpected }
+}
+
+/// `P(X ≥ x)` for `X` χ²-distributed with `dof` degrees of freedom: `Q(dof/2, x/2)` (0 for an
+/// infinite or NaN statistic).
 pub fn chi2_survival(x: f64, dof: f64) -> f64 {
+    if x.is_nan() || x == f64::INFINITY {
+        return 0.0;
+    }
     gamma_q(dof / 2.0, x / 2.0)
 }
 

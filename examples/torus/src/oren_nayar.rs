@@ -10,7 +10,7 @@
 //!
 //! with σ the standard deviation of the facets' slope angle (`sigma`, degrees). σ = 0 is
 //! Lambert's. Directions are sampled cosine-weighted (the χ² test in this crate's tests checks
-//! the sampling against the density, with raylab's `chi2_test`).
+//! the sampling against the density, with raylab's `chi2_bsdf`).
 
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::sampler::{concentric_disc, orthonormal_basis};
@@ -147,7 +147,8 @@ impl Bsdf for OrenNayarBsdf {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use raylab::scene::bsdf::testing::{chi2_test, quadrature_albedo, sampled_albedo};
+    use raylab::scene::bsdf::testing::{chi2_bsdf, quadrature_albedo, sampled_albedo};
+    use raylab::testing::chi2::{Chi2Test, Sphere};
 
     fn model(sigma_deg: f64) -> OrenNayar {
         let s2 = sigma_deg.to_radians().powi(2);
@@ -160,8 +161,8 @@ mod tests {
             for theta in [0.1f64, 0.8, 1.4] {
                 let wo = DVec3::new(theta.sin(), 0.0, theta.cos());
                 let b = OrenNayarBsdf::new(model(sigma), wo, DVec3::Z, DVec3::Z);
-                let r = chi2_test(&b, DVec3::Z, 100_000, 16, 8, 1);
-                assert!(r.p_value > 1e-3, "σ {sigma}, θ {theta}: p = {}", r.p_value);
+                let test = Chi2Test::new(Sphere).samples(100_000).res(32, 16).tests(9);
+                chi2_bsdf(&b, DVec3::Z, &test).assert_passes(&format!("σ {sigma}, θ {theta}"));
                 let (e, err) = sampled_albedo(&b, 100_000, 2);
                 let q = quadrature_albedo(&b, DVec3::Z, 400);
                 assert!((e - q).abs().max_element() < 4.0 * err + 2e-3, "{e} vs {q}");

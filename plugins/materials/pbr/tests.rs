@@ -2,7 +2,8 @@
 //! energy (white furnace), reciprocity, and as a scene's material.
 
 use super::*;
-use raylab::scene::bsdf::testing::{TestRng, chi2_test, quadrature_albedo, sampled_albedo};
+use raylab::scene::bsdf::testing::{TestRng, chi2_bsdf, quadrature_albedo, sampled_albedo};
+use raylab::testing::chi2::{Chi2Test, Sphere};
 
 /// Relative agreement with the specification's formulas.
 const SPEC_TOLERANCE: f64 = 1e-6;
@@ -10,6 +11,15 @@ const SPEC_TOLERANCE: f64 = 1e-6;
 /// Significance of each χ² test (a test that fails at this level is a wrong sampler, not bad
 /// luck: the seeds are fixed).
 const CHI2_SIGNIFICANCE: f64 = 1e-3;
+
+/// The χ² test of the visible-normal sampling: 200 000 samples in 48 × 24 cells of equal solid
+/// angle (φ, cos θ), each integrated on a 12 × 12 Simpson grid, failing below
+/// [`CHI2_SIGNIFICANCE`].
+fn chi2(seed: u64) -> Chi2Test<Sphere> {
+    let mut t = Chi2Test::new(Sphere).samples(200_000).res(48, 24).integration(12).seed(seed);
+    t.significance = CHI2_SIGNIFICANCE;
+    t
+}
 
 /// The glTF BRDF written from the specification's sample implementation (Appendix B.3.5 with
 /// the Khronos sample renderer's `V_GGX`, `D_GGX`, `F_Schlick`, and `KHR_materials_specular`'s
@@ -112,17 +122,12 @@ fn the_visible_normal_sampling_follows_its_density_chi2() {
                 let theta = theta_deg.to_radians();
                 let wo = DVec3::new(theta.sin(), 0.0, theta.cos());
                 let b = bsdf(&pbr, &params(Color::new(0.9, 0.6, 0.3), metallic, roughness), wo, DVec3::Z);
-                let r = chi2_test(&b, DVec3::Z, 200_000, 24, 12, 7 + tests);
+                let r = chi2_bsdf(&b, DVec3::Z, &chi2(7 + tests));
                 tests += 1;
-                assert!(
-                    r.p_value > CHI2_SIGNIFICANCE,
-                    "roughness {roughness}, metallic {metallic}, θo {theta_deg}°: χ² {:.1} on {} dof, p = {:.2e}",
-                    r.statistic,
-                    r.dof,
-                    r.p_value
-                );
+                r.assert_passes(&format!("roughness {roughness}, metallic {metallic}, θo {theta_deg}°"));
                 // The density integrates to the fraction of samples it says are drawn.
-                assert!((r.integral - r.sampled).abs() < 0.01, "∫pdf {} vs sampled {}", r.integral, r.sampled);
+                let sampled = 1.0 - r.declined as f64 / f64::from(r.samples);
+                assert!((r.mass - sampled).abs() < 0.01, "∫pdf {} vs sampled {sampled}", r.mass);
             }
         }
     }
@@ -160,8 +165,9 @@ fn the_chi2_test_catches_a_wrong_density() {
     let wo = DVec3::new(0.5, 0.0, 0.75_f64.sqrt());
     let right = bsdf(&pbr, &params(Color::ONE, 1.0, 0.5), wo, DVec3::Z);
     let wrong = bsdf(&pbr, &params(Color::ONE, 1.0, 0.55), wo, DVec3::Z);
-    let r = chi2_test(&Wrong(right, wrong), DVec3::Z, 200_000, 24, 12, 3);
-    assert!(r.p_value < 1e-6, "a 10 % wrong roughness passed: p = {}", r.p_value);
+    let r = chi2_bsdf(&Wrong(right, wrong), DVec3::Z, &chi2(3));
+    r.assert_fails("a 10 % wrong roughness");
+    assert!(r.p_value < 1e-6, "a 10 % wrong roughness came close to passing: {r}");
 }
 
 /// The directional albedo of a white metal (F = 1) by its own sampling and by quadrature.
