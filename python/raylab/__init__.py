@@ -128,6 +128,21 @@ def _limits(limits: Optional[Mapping[str, int]]) -> Optional[list]:
 
 _SETTINGS = ("width", "height", "spp", "seed", "depth", "integrator", "encoding", "accel")
 
+# Settings of the scene's [render] table taken by name, as the CLI's flags (--target-error, …).
+_RENDER_SETTINGS = ("target_error", "target_min_spp", "time_budget")
+
+
+def _split_settings(settings: dict, set: Optional[Mapping[str, Any]]):
+    """`settings` without the [render] ones, and `set` with them as ``render.KEY``; an unknown
+    setting is a TypeError."""
+    render = {f"render.{k}": settings.pop(k) for k in _RENDER_SETTINGS if k in settings and settings[k] is not None}
+    for k in _RENDER_SETTINGS:
+        settings.pop(k, None)
+    unknown = sorted(k for k in settings if k not in _SETTINGS)
+    if unknown:
+        raise TypeError(f"unknown setting(s) {', '.join(unknown)}; expected {', '.join(_SETTINGS + _RENDER_SETTINGS)} or set=")
+    return settings, ({**(set or {}), **render} or None)
+
 
 def _progress_callback(progress):
     """A callable ``(done, total)`` from `progress`: a callable as is, True for a tqdm bar."""
@@ -173,12 +188,11 @@ class Scene:
 
     def with_settings(self, *, set: Optional[Mapping[str, Any]] = None, **settings) -> "Scene":
         """The same scene with settings changed: ``width``, ``height``, ``spp``, ``seed``,
-        ``depth``, ``integrator``, ``encoding``, ``accel``, and ``set`` (``{"render.aa":
-        "adaptive", "camera.aperture": 0.1, "integrator.max_depth": 5}``; bare keys are
-        integrator parameters, as ``--set``). Loads again only when something changed."""
-        unknown = sorted(set_ for set_ in settings if set_ not in _SETTINGS)
-        if unknown:
-            raise TypeError(f"unknown setting(s) {', '.join(unknown)}; expected {', '.join(_SETTINGS)} or set=")
+        ``depth``, ``integrator``, ``encoding``, ``accel``, ``target_error``, ``target_min_spp``,
+        ``time_budget`` (seconds), and ``set`` (``{"render.aa": "adaptive", "camera.aperture":
+        0.1, "integrator.max_depth": 5}``; bare keys are integrator parameters, as ``--set``).
+        Loads again only when something changed."""
+        settings, set = _split_settings(dict(settings), set)
         return Scene(self._native.with_settings(set=_set_items(set), **settings))
 
     def render(
@@ -195,7 +209,8 @@ class Scene:
     ) -> "Image":
         """Renders the scene (with any setting changed for this render, as ``with_settings``).
 
-        ``aov``: extra layers, any of depth, normal, albedo. ``tile=(i, n)``: tile i of n (bands
+        ``aov``: extra layers, any of depth, normal, albedo, error (each pixel's estimated
+        standard error of its mean luminance, with ``spp``, its samples). ``tile=(i, n)``: tile i of n (bands
         of rows balanced by estimated work, as ``render --tile I/N``), ``crop=(x0, x1, y0, y1)``,
         ``pass_=(k, n)``: a part of the frame for ``merge``. ``progress``: a callable ``(done,
         total)`` (pixel samples) or True for a tqdm bar. The GIL is released while it renders;
@@ -242,13 +257,13 @@ def load(
     """Loads a scene file (``.toml``, the report's ``.xml``, a ``.glb``/``.gltf``).
 
     Settings as the CLI's flags: ``width``, ``height``, ``spp``, ``seed``, ``depth``,
-    ``integrator``, ``encoding``, ``accel``; ``set`` for any other key (``{"integrator.max_depth":
+    ``integrator``, ``encoding``, ``accel``, ``target_error`` (each pixel sampled until its
+    estimated relative error is at most this; ``spp`` the cap), ``target_min_spp``,
+    ``time_budget`` (seconds of tracing); ``set`` for any other key (``{"integrator.max_depth":
     3, "render.aa": "adaptive", "camera.fov": 30}``). The scene may read files only inside its
     folder unless ``allow_outside_paths=True``; ``limits`` raises or lowers the CLI's limits by
     name (``{"max_pixels": ..., "max_rays": ...}``). A bad scene raises :class:`SceneError`."""
-    unknown = sorted(k for k in settings if k not in _SETTINGS)
-    if unknown:
-        raise TypeError(f"unknown setting(s) {', '.join(unknown)}; expected {', '.join(_SETTINGS)} or set=")
+    settings, set = _split_settings(dict(settings), set)
     native = _native.load(
         os.fspath(path), set=_set_items(set), allow_outside_paths=allow_outside_paths, limits=_limits(limits), **settings
     )
@@ -268,9 +283,7 @@ def loads(
     """Loads a scene from TOML text, or from a dict of the TOML file's structure. `name` names it
     in errors (default ``<string>`` or ``<dict>``); relative paths (meshes, textures) resolve
     against `dir`. Otherwise as :func:`load`."""
-    unknown = sorted(k for k in settings if k not in _SETTINGS)
-    if unknown:
-        raise TypeError(f"unknown setting(s) {', '.join(unknown)}; expected {', '.join(_SETTINGS)} or set=")
+    settings, set = _split_settings(dict(settings), set)
     if isinstance(source, Mapping):
         text, default_name = to_toml(source), "<dict>"
     elif isinstance(source, str):
@@ -297,6 +310,10 @@ def plugins() -> dict:
 # --- Images ------------------------------------------------------------------------------------
 
 
+# The layers an Image may have (render(aov=...)); `error` comes with `spp`.
+_LAYERS = ("depth", "normal", "albedo", "error", "spp")
+
+
 def _array(buf, height: int, width: int, channels: int) -> np.ndarray:
     a = np.frombuffer(buf, dtype=np.float32)
     return a.reshape((height, width) if channels == 1 else (height, width, channels))
@@ -304,8 +321,8 @@ def _array(buf, height: int, width: int, channels: int) -> np.ndarray:
 
 class Image:
     """A render: ``rgb`` (linear float32, ``(H, W, 3)``, the numbers of the CLI's EXR), the
-    layers asked for (``img["depth"]`` ``(H, W)``, ``img["normal"]``, ``img["albedo"]``
-    ``(H, W, 3)``), ``stats``. Shown in Jupyter tone-mapped as the CLI's PNG."""
+    layers asked for (``img["depth"]``, ``img["error"]``, ``img["spp"]`` ``(H, W)``,
+    ``img["normal"]``, ``img["albedo"]`` ``(H, W, 3)``), ``stats``, ``estimated_error``. Shown in Jupyter tone-mapped as the CLI's PNG."""
 
     def __init__(self, native, scene: Optional[Scene] = None):
         self._native = native
@@ -332,9 +349,23 @@ class Image:
         return self._native.stats()
 
     @property
+    def estimated_error(self) -> Optional[float]:
+        """The image's estimated relative RMSE of luminance against the converged image, from
+        the spread of each pixel's samples (the CLI's ``estimated error`` line); None below two
+        samples a pixel."""
+        e = self._native.estimated_error()
+        return None if e is None else e[0]
+
+    @property
+    def mean_spp(self) -> Optional[float]:
+        """Mean samples per pixel (under an error target or a time budget, pixels differ)."""
+        e = self._native.estimated_error()
+        return None if e is None else e[1]
+
+    @property
     def aovs(self) -> list:
         """The layers this image has."""
-        return [n for n in ("depth", "normal", "albedo") if self._layer(n) is not None]
+        return [n for n in _LAYERS if self._layer(n) is not None]
 
     def _layer(self, name: str):
         if name not in self._layers:
@@ -351,7 +382,7 @@ class Image:
         return layer
 
     def __contains__(self, name: str) -> bool:
-        return name in ("rgb", "color", "colour") or (name in ("depth", "normal", "albedo") and self._layer(name) is not None)
+        return name in ("rgb", "color", "colour") or (name in _LAYERS and self._layer(name) is not None)
 
     def png(self) -> bytes:
         """The image as PNG bytes, clamped and encoded as the CLI writes it."""

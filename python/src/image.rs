@@ -9,7 +9,7 @@ use raylab::math::color::Encoding;
 use raylab::render::RenderJob;
 use raylab::render::aov::{Aov, AovLayers};
 use raylab::render::film::Film;
-use raylab::render::share::ShareSums;
+use raylab::render::share::{ErrorEstimate, ShareSums};
 use raylab::render::stats::RayStats;
 use std::path::PathBuf;
 
@@ -33,12 +33,22 @@ pub struct Rendered {
     complete: bool,
     /// The exact sums, for a part of a frame (a tile, crop or pass), to merge or save.
     part: Option<(ShareSums, PartInfo)>,
+    /// The per-pixel standard error and samples per pixel, when the error layer was asked for.
+    error: Option<(Vec<f32>, Vec<f32>)>,
+    /// The image's estimated relative RMSE and mean samples per pixel, as the CLI's summary.
+    estimate: Option<ErrorEstimate>,
 }
 
 impl Rendered {
-    pub(crate) fn new(r: raylab::render::Rendered, job: &RenderJob, aov: Vec<String>, is_part: bool) -> Rendered {
+    pub(crate) fn new(r: raylab::render::Rendered, job: &RenderJob, aov: Vec<String>, is_part: bool) -> Result<Rendered, String> {
         let info = PartInfo { fingerprint: job.fingerprint.clone(), sampling: job.settings.describe_sampling() };
-        Rendered {
+        let error = if aov.iter().any(|s| Aov::parse(s) == Some(Aov::Error)) {
+            Some(r.sums.error_layers().map_err(|e| e.to_string())?)
+        } else {
+            None
+        };
+        let estimate = r.sums.error_estimate();
+        Ok(Rendered {
             film: r.film,
             layers: r.layers,
             aov,
@@ -47,7 +57,9 @@ impl Rendered {
             encoding: job.settings.encoding,
             complete: r.complete,
             part: is_part.then_some((r.sums, info)),
-        }
+            error,
+            estimate,
+        })
     }
 
     /// The layers the caller asked for, as the CLI's `write` keeps them.
@@ -114,8 +126,20 @@ impl Rendered {
     /// native-endian `f32`, and its channel count; None when it was not asked for.
     fn layer_bytes<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Option<(Bound<'py, PyByteArray>, usize)>> {
         let Some(aov) = Aov::parse(name) else {
-            return Err(PyValueError::new_err(format!("expected depth, normal or albedo, found \"{name}\"")));
+            return Err(PyValueError::new_err(format!("expected depth, normal, albedo, error or spp, found \"{name}\"")));
         };
+        if aov == Aov::Error {
+            // `error` (also `variance`): each pixel's standard error of its mean luminance (NaN
+            // below two rays); `spp`: its samples. The CLI's EXR channels of the same names.
+            return self
+                .error
+                .as_ref()
+                .map(|(error, spp)| {
+                    let v = if name == "spp" { spp } else { error };
+                    f32_bytes(py, v.len(), v.iter().copied()).map(|b| (b, 1))
+                })
+                .transpose();
+        }
         let Some(layers) = self.chosen_layers() else { return Ok(None) };
         Ok(match aov {
             Aov::Depth => layers.depth.map(|d| f32_bytes(py, d.len(), d.iter().copied()).map(|b| (b, 1))).transpose()?,
@@ -125,9 +149,14 @@ impl Rendered {
             Aov::Albedo => {
                 layers.albedo.map(|v| f32_bytes(py, v.len() * 3, v.iter().flat_map(|p| p.to_array())).map(|b| (b, 3))).transpose()?
             }
-            // The error layers come from the sums, which the Python image does not keep yet.
             Aov::Error => None,
         })
+    }
+
+    /// The image's estimated relative RMSE of luminance against the converged image, and the
+    /// mean samples per pixel (the CLI's `estimated error` line); None below two samples a pixel.
+    fn estimated_error(&self) -> Option<(f64, f64)> {
+        self.estimate.map(|e| (e.relative_rmse, e.mean_spp))
     }
 
     /// The image as PNG bytes: clamped and encoded as the CLI's PNG (the scene's encoding).
@@ -222,14 +251,25 @@ pub fn merge(
         encoding.get_or_insert(Encoding::parse(&info.encoding).unwrap_or_default());
         merged.push(raylab::render::share::Part { name, sums, fingerprint: info.fingerprint });
     }
-    let (film, layers) = py
+    let (film, layers, estimate) = py
         .detach(|| -> Result<_, String> {
             let whole = raylab::render::share::merge(&merged, allow_partial)?;
-            Ok((whole.film().map_err(|e| e.to_string())?, whole.aovs().map_err(|e| e.to_string())?))
+            Ok((whole.film().map_err(|e| e.to_string())?, whole.aovs().map_err(|e| e.to_string())?, whole.error_estimate()))
         })
         .map_err(runtime_error)?;
     let aov = if layers.is_some() { vec!["depth".into(), "normal".into(), "albedo".into()] } else { Vec::new() };
-    Ok(Rendered { film, layers, aov, stats: None, seconds: 0.0, encoding: encoding.unwrap_or_default(), complete: true, part: None })
+    Ok(Rendered {
+        film,
+        layers,
+        aov,
+        stats: None,
+        seconds: 0.0,
+        encoding: encoding.unwrap_or_default(),
+        complete: true,
+        part: None,
+        error: None,
+        estimate,
+    })
 }
 
 /// A film from `height × width × 3` native-endian `f32` bytes.

@@ -321,7 +321,7 @@ impl Scene {
     ) -> PyResult<Rendered> {
         for name in &aov {
             if raylab::render::aov::Aov::parse(name).is_none() {
-                return Err(PyValueError::new_err(format!("aov: expected depth, normal or albedo, found \"{name}\"")));
+                return Err(PyValueError::new_err(format!("aov: expected depth, normal, albedo, error or spp, found \"{name}\"")));
             }
         }
         if threads == Some(0) {
@@ -371,7 +371,7 @@ impl Scene {
         if let Some(f) = &progress {
             f.call1(py, (done.load(Ordering::Relaxed), total.load(Ordering::Relaxed)))?;
         }
-        Ok(Rendered::new(r, &job, aov, share.is_some()))
+        Rendered::new(r, &job, aov, share.is_some()).map_err(runtime_error)
     }
 
     /// The explanation of sample `sample` of pixel `(x, y)`, or of one ray `(origin, direction)`,

@@ -70,13 +70,39 @@ def test_png_is_the_cli_png(cli, tmp_path):
     assert img._repr_png_() == (tmp_path / "cli.png").read_bytes()
 
 
+def test_the_error_layer_and_target_are_the_cli_s(cli, tmp_path):
+    """`target_error` reaches the render, and the error and spp layers and the estimate are the
+    CLI's `--aov error` channels and summary line."""
+    out = tmp_path / "cli.exr"
+    flags = ["--width", SMALL["width"], "--height", SMALL["height"], "--spp", 64, "--target-error", 0.2]
+    text = cli("render", "scenes/path-cornell.toml", "-o", out, "--aov", "error", "-q", *flags).stdout
+    with OpenEXR.File(str(out)) as f:
+        ch = {k: np.asarray(c.pixels) for k, c in f.channels().items()}
+    img = raylab.load("scenes/path-cornell.toml", **SMALL, spp=64, target_error=0.2).render(aov=["error"])
+    assert img.aovs == ["error", "spp"] and img["error"].shape == (36, 48)
+    assert same_bits(img["error"], ch["error"]) and same_bits(img["spp"], ch["spp"])
+    assert same_bits(img.rgb, ch["RGB"])
+    # The target sends samples where the noise is: pixels stop at different counts.
+    assert img["spp"].min() >= 16 and img["spp"].max() > img["spp"].min()
+    line = next(l for l in text.splitlines() if "estimated error" in l)
+    assert f"relative RMSE {100 * img.estimated_error:.3f} %" in line, line
+    assert f"{img.mean_spp:.1f} spp on average" in line, line
+    # Without the layer asked for, none; below two samples a pixel, no estimate.
+    assert "error" not in raylab.load("scenes/path-cornell.toml", **SMALL, spp=2).render()
+    assert raylab.load("scenes/path-cornell.toml", **SMALL, spp=1).render().estimated_error is None
+    with pytest.raises(TypeError, match="target_error"):
+        raylab.load("scenes/path-cornell.toml", target_eror=0.1)
+    # A time budget is a setting of the same kind (the render itself would be a timed test).
+    assert raylab.load("scenes/path-cornell.toml", spp=64, time_budget=5).sampling == "≤ 64 spp within 5 s"
+
+
 def test_only_the_layers_asked_for():
     img = raylab.load("scenes/dozen.toml", **SMALL).render(aov=["depth"])
     assert img.aovs == ["depth"] and img["depth"].shape == (36, 48)
     assert np.isinf(img["depth"]).any() and np.isfinite(img["depth"]).any()
     with pytest.raises(KeyError, match="normal"):
         img["normal"]
-    with pytest.raises(ValueError, match="depth, normal or albedo"):
+    with pytest.raises(ValueError, match="depth, normal, albedo, error or spp"):
         raylab.load("scenes/dozen.toml", **SMALL).render(aov=["dpeth"])
 
 

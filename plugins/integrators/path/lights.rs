@@ -33,6 +33,54 @@ pub fn power_heuristic(a: f64, b: f64) -> f64 {
     if w.is_nan() { 0.5 } else { w }
 }
 
+/// A path vertex whose direct light is estimated: the hit and its BSDF.
+#[derive(Clone, Copy)]
+struct Vertex<'a> {
+    si: &'a Interaction<'a>,
+    bsdf: &'a dyn Bsdf,
+}
+
+/// Where a sample at a vertex comes from.
+#[derive(Clone, Copy)]
+enum Source {
+    /// The scene's light of this index.
+    Light(usize),
+    /// The emitting object of this index.
+    Emitter(u32),
+}
+
+/// What the trace of one light or emitter sample shows whatever became of it.
+struct Traced<'a> {
+    scene: &'a Scene,
+    source: Source,
+    dir: DVec3,
+    distance: f64,
+    intensity: Color,
+    cos: f64,
+}
+
+impl Traced<'_> {
+    /// The sample's record: `skipped` (why, or `None` when its shadow ray was traced), whether
+    /// the light was `visible`, the `occluder` if not, its `terms`.
+    fn record(&self, skipped: Option<&str>, visible: bool, occluder: Option<u32>, terms: &[Term]) -> TraceLight {
+        let scene = self.scene;
+        TraceLight {
+            light: match self.source {
+                Source::Light(index) => scene.light_names[index].clone(),
+                Source::Emitter(object) => format!("emitter {}", scene.object_name(object)),
+            },
+            dir: self.dir,
+            distance: self.distance,
+            intensity: self.intensity,
+            n_dot_l: self.cos,
+            transmittance: if visible { Color::ONE } else { Color::ZERO },
+            occluder: occluder.map(|o| scene.object_name(o).to_string()),
+            terms: terms.to_vec(),
+            skipped: skipped.map(str::to_string),
+        }
+    }
+}
+
 impl PathTracer {
     /// Shadow rays per sample of `light` at a vertex: [`PathTracer::light_samples`] for lights
     /// with an extent (0: the light's own count), one for point-like lights.
@@ -67,6 +115,7 @@ impl PathTracer {
             }
             return Color::ZERO;
         }
+        let v = Vertex { si, bsdf };
         let streams = sampler.fork(TAG_LIGHTS);
         let facts = scene.light_facts();
         let mut total = Color::ZERO;
@@ -79,7 +128,7 @@ impl PathTracer {
                 let u = if n == 1 { stream.next_2d() } else { stratified_2d(s, n, pattern) };
                 // No direction here (an ambient light): its light comes from escaping rays.
                 let Some(ls) = light.illuminate(si.point(), u) else { break };
-                sum += self.light_sample(c, si, bsdf, (index, light.as_ref()), &ls, n, rec);
+                sum += self.light_sample(c, v, (index, light.as_ref()), &ls, n, rec);
             }
             total += sum / f64::from(n);
         }
@@ -90,7 +139,7 @@ impl PathTracer {
             for _ in 0..n {
                 let (pick, u) = (stream.next_1d(), stream.next_2d());
                 if let Some(es) = scene.emitters().sample(&scene.objects, si.point(), pick, u, self.light_selection) {
-                    sum += self.emitter_sample(c, si, bsdf, &es, n, rec);
+                    sum += self.emitter_sample(c, v, &es, n, rec);
                 }
             }
             total += sum / f64::from(n);
@@ -100,42 +149,26 @@ impl PathTracer {
 
     /// One emitter sample's contribution (before dividing by the `n` samples), weighed against
     /// `bsdf`'s sampling by the power heuristic.
-    fn emitter_sample<R: Recorder>(
-        &self,
-        c: &mut Ctx,
-        si: &Interaction,
-        bsdf: &dyn Bsdf,
-        es: &EmitterSample,
-        n: u32,
-        rec: &mut R,
-    ) -> Color {
-        let scene = c.scene;
+    fn emitter_sample<R: Recorder>(&self, c: &mut Ctx, v: Vertex, es: &EmitterSample, n: u32, rec: &mut R) -> Color {
+        let (scene, Vertex { si, bsdf }) = (c.scene, v);
         let cos = if si.n.dot(es.dir) > 0.0 { si.ns.dot(es.dir) } else { 0.0 };
-        let record = |skipped: Option<&str>, visible: bool, occluder: Option<u32>, terms: &[Term]| TraceLight {
-            light: format!("emitter {}", scene.object_name(es.object)),
-            dir: es.dir,
-            distance: es.hit.t,
-            intensity: es.radiance,
-            n_dot_l: cos,
-            transmittance: if visible { Color::ONE } else { Color::ZERO },
-            occluder: occluder.map(|o| scene.object_name(o).to_string()),
-            terms: terms.to_vec(),
-            skipped: skipped.map(str::to_string),
-        };
+        let traced = Traced { scene, source: Source::Emitter(es.object), dir: es.dir, distance: es.hit.t, intensity: es.radiance, cos };
         if !(cos > 0.0) {
             c.stats.add(counter::LIGHTS_BEHIND, 1);
-            rec.light(|| record(Some("the emitter's point is behind the surface as seen from the ray"), false, None, &[]));
+            rec.light(|| traced.record(Some("the emitter's point is behind the surface as seen from the ray"), false, None, &[]));
             return Color::ZERO;
         }
         if !(max_channel(es.radiance) > 0.0 && es.pdf > 0.0 && es.pdf.is_finite()) {
             c.stats.add(counter::LIGHTS_UNREACHABLE, 1);
-            rec.light(|| record(Some("no light leaves the emitter's point toward here (its back, or seen edge-on)"), false, None, &[]));
+            rec.light(|| {
+                traced.record(Some("no light leaves the emitter's point toward here (its back, or seen edge-on)"), false, None, &[])
+            });
             return Color::ZERO;
         }
         let f = bsdf.eval(es.dir);
         if !(max_channel(f) > 0.0) {
             c.stats.add(counter::LIGHTS_NO_RESPONSE, 1);
-            rec.light(|| record(Some("the surface reflects nothing toward this emitter"), false, None, &[]));
+            rec.light(|| traced.record(Some("the surface reflects nothing toward this emitter"), false, None, &[]));
             return Color::ZERO;
         }
         let (p, q) = (es.pdf, bsdf.pdf(es.dir));
@@ -154,7 +187,7 @@ impl PathTracer {
                 Term::number("mis", mis),
                 Term::color("contribution", contribution / f64::from(n)),
             ];
-            record(None, visible, occluder, &terms)
+            traced.record(None, visible, occluder, &terms)
         });
         contribution
     }
@@ -195,45 +228,33 @@ impl PathTracer {
     /// One light sample's contribution (before dividing by the light's `n` samples). A sample of
     /// a delta light, or of a light no ray can meet (one that does not answer
     /// [`LightSource::intersect`]), counts in full: no other strategy finds that light.
-    #[allow(clippy::too_many_arguments)]
     fn light_sample<R: Recorder>(
         &self,
         c: &mut Ctx,
-        si: &Interaction,
-        bsdf: &dyn Bsdf,
+        v: Vertex,
         (index, light): (usize, &dyn LightSource),
         ls: &LightSample,
         n: u32,
         rec: &mut R,
     ) -> Color {
-        let scene = c.scene;
+        let (scene, Vertex { si, bsdf }) = (c.scene, v);
         // Lit only from the ray's side of the geometric surface; shaded with `ns`.
         let cos = if si.n.dot(ls.dir) > 0.0 { si.ns.dot(ls.dir) } else { 0.0 };
-        let record = |skipped: Option<&str>, visible: bool, occluder: Option<u32>, terms: &[Term]| TraceLight {
-            light: scene.light_names[index].clone(),
-            dir: ls.dir,
-            distance: ls.distance,
-            intensity: ls.intensity,
-            n_dot_l: cos,
-            transmittance: if visible { Color::ONE } else { Color::ZERO },
-            occluder: occluder.map(|o| scene.object_name(o).to_string()),
-            terms: terms.to_vec(),
-            skipped: skipped.map(str::to_string),
-        };
+        let traced = Traced { scene, source: Source::Light(index), dir: ls.dir, distance: ls.distance, intensity: ls.intensity, cos };
         if !(cos > 0.0) {
             c.stats.add(counter::LIGHTS_BEHIND, 1);
-            rec.light(|| record(Some("the light is behind the surface as seen from the ray"), false, None, &[]));
+            rec.light(|| traced.record(Some("the light is behind the surface as seen from the ray"), false, None, &[]));
             return Color::ZERO;
         }
         if !(max_channel(ls.intensity) > 0.0) {
             c.stats.add(counter::LIGHTS_UNREACHABLE, 1);
-            rec.light(|| record(Some("no light arrives here"), false, None, &[]));
+            rec.light(|| traced.record(Some("no light arrives here"), false, None, &[]));
             return Color::ZERO;
         }
         let f = bsdf.eval(ls.dir);
         if !(max_channel(f) > 0.0) {
             c.stats.add(counter::LIGHTS_NO_RESPONSE, 1);
-            rec.light(|| record(Some("the surface reflects nothing toward this light"), false, None, &[]));
+            rec.light(|| traced.record(Some("the surface reflects nothing toward this light"), false, None, &[]));
             return Color::ZERO;
         }
         // Weighed against the BSDF's own rays where they can meet the light too.
@@ -255,7 +276,7 @@ impl PathTracer {
                 terms.extend([Term::number("light pdf", p), Term::number("bsdf pdf", q), Term::number("mis", mis)]);
             }
             terms.push(Term::color("contribution", contribution / f64::from(n)));
-            record(None, visible, occluder, &terms)
+            traced.record(None, visible, occluder, &terms)
         });
         contribution
     }

@@ -3,14 +3,16 @@
 //! an area light first; take its full sample set only where the probes disagree).
 
 use super::fan::reflect;
-use super::{Branch, Ctx, Phong, TAG_LIGHTS, counter};
+use super::{Branch, Ctx, Phong, TAG_EMITTERS, TAG_LIGHTS, counter};
 use raylab::glam::DVec2;
 use raylab::math::color::max_channel;
 use raylab::math::sampler::StratifiedSet;
 use raylab::render::trace::{Recorder, Term, TraceLight};
+use raylab::scene::emitters::Selection;
 use raylab::scene::interaction::Interaction;
 use raylab::scene::material::Coefficients;
 use raylab::{Color, LightSample, LightSource, Sampler, Scene};
+use std::f64::consts::PI;
 
 /// How one light sample turned out, for the agreement test of adaptive soft shadows. Independent
 /// of `avoid`, so the decision is the same whether or not exact skips happen.
@@ -76,12 +78,30 @@ struct Shade<'a> {
     weight: Color,
     /// The light's full sample count (the pruning share divides by it).
     full: u32,
-    /// The light's index.
-    light: usize,
-    /// The light.
-    source: &'a dyn LightSource,
+    /// Where the samples come from.
+    light: Source<'a>,
     /// The surface has neither a diffuse nor a specular term.
     no_response: bool,
+}
+
+/// Where a shading point's light samples come from: one of the scene's lights, or one of its
+/// emitting objects (`emitter_samples`).
+#[derive(Clone, Copy)]
+enum Source<'a> {
+    /// The light at this index of the scene's lights.
+    Light(usize, &'a dyn LightSource),
+    /// The emitting object at this index of the scene's objects.
+    Emitter(u32),
+}
+
+impl Source<'_> {
+    /// The name a trace shows: the light's, or "emitter" and the object's.
+    fn name(&self, scene: &Scene) -> String {
+        match *self {
+            Source::Light(index, _) => scene.light_names[index].clone(),
+            Source::Emitter(object) => format!("emitter {}", scene.object_name(object)),
+        }
+    }
 }
 
 /// One light sample's terms before its shadow ray.
@@ -116,7 +136,8 @@ impl Phong {
             if !area && facts.sample_count <= 1 {
                 // One sample at u = (0, 0), no stream, no probes: the stratified set of one
                 // without its bookkeeping (same numbers, same counters).
-                total += self.single_sample(c, &Shade { si, m, weight, full: 1, light: li, source: light.as_ref(), no_response }, rec);
+                total +=
+                    self.single_sample(c, &Shade { si, m, weight, full: 1, light: Source::Light(li, light.as_ref()), no_response }, rec);
                 continue;
             }
             let full = match area && self.shadow_rays > 0 {
@@ -142,7 +163,7 @@ impl Phong {
             }
             let mut stream = area.then(|| streams.get_or_insert_with(|| sampler.fork(TAG_LIGHTS)).fork(li as u64));
             let mut acc = LightSum { sum: Color::ZERO, n: 0, first: None, agree: true };
-            let shade = Shade { si, m, weight, full, light: li, source: light.as_ref(), no_response };
+            let shade = Shade { si, m, weight, full, light: Source::Light(li, light.as_ref()), no_response };
             let first_set = if probes > 0 { Samples::Probes(probes) } else { Samples::Stratified(full) };
             let (pattern, u0) = match &mut stream {
                 Some(s) => (s.next_pattern(), s.next_2d()),
@@ -167,7 +188,38 @@ impl Phong {
                 n => total += acc.sum / f64::from(n),
             }
         }
+        if self.emitter_samples > 0 && !scene.emitters().is_empty() {
+            total += self.emitters(c, si, m, b, no_response, rec);
+        }
         total
+    }
+
+    /// Direct light from the scene's emitting objects as area lights: `emitter_samples` points on
+    /// them (the object chosen by power, the point by its shape's own sampling, stratified), each
+    /// a light sample of intensity radiance ÷ (π·pdf), so that its diffuse term's mean is the
+    /// Lambertian response to the emitters, as an environment's samples are.
+    fn emitters<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, m: &Coefficients, b: Branch, no_response: bool, rec: &mut R) -> Color {
+        let scene = c.scene;
+        let n = self.emitter_samples;
+        if self.avoid && no_response {
+            c.stats.add(counter::LIGHTS_NO_RESPONSE, u64::from(n));
+            rec.note(|| "emitters: the surface has no diffuse or specular term; no shadow rays".into());
+            return Color::ZERO;
+        }
+        let mut stream = b.sampler.fork(TAG_EMITTERS);
+        let points = StratifiedSet::new(n, stream.next_pattern());
+        let mut sum = Color::ZERO;
+        for s in 0..n {
+            let pick = stream.next_1d();
+            let Some(es) = scene.emitters().sample(&scene.objects, si.hit.point, pick, points.point(s), Selection::Power) else { continue };
+            let intensity = if es.pdf > 0.0 && es.pdf.is_finite() { es.radiance / (PI * es.pdf) } else { Color::ZERO };
+            let ls = LightSample { dir: es.dir, distance: es.hit.t, intensity };
+            let sh = Shade { si, m, weight: b.weight, full: n, light: Source::Emitter(es.object), no_response };
+            if let Ok(t) = self.unshadowed(c, &sh, &ls, rec) {
+                sum += t.unshadowed * self.shadowed(c, &sh, &ls, &t, n, rec);
+            }
+        }
+        sum / f64::from(n)
     }
 
     /// Why every sample of `light` (of `full`) at `si` would be skipped, from the light's
@@ -202,10 +254,11 @@ impl Phong {
     fn single_sample<R: Recorder>(&self, c: &mut Ctx, sh: &Shade, rec: &mut R) -> Color {
         let scene = c.scene;
         let si = sh.si;
-        let Some(ls) = &sh.source.illuminate(si.hit.point, DVec2::ZERO) else { return Color::ZERO };
+        let Source::Light(_, light) = sh.light else { return Color::ZERO };
+        let Some(ls) = &light.illuminate(si.hit.point, DVec2::ZERO) else { return Color::ZERO };
         if self.avoid && sh.no_response {
             c.stats.add(counter::LIGHTS_NO_RESPONSE, 1);
-            rec.note(|| format!("{}: the surface has no diffuse or specular term; no shadow rays", scene.light_names[sh.light]));
+            rec.note(|| format!("{}: the surface has no diffuse or specular term; no shadow rays", sh.light.name(scene)));
             return Color::ZERO;
         }
         match self.unshadowed(c, sh, ls, rec) {
@@ -219,7 +272,8 @@ impl Phong {
     fn light_samples<R: Recorder>(&self, c: &mut Ctx, sh: &Shade, draw: Draw, acc: &mut LightSum, rec: &mut R) -> bool {
         let scene = c.scene;
         let si = sh.si;
-        let (Draw { set, pattern, u0 }, light) = (draw, sh.source);
+        let Draw { set, pattern, u0 } = draw;
+        let Source::Light(_, light) = sh.light else { return false };
         let count = match set {
             Samples::Stratified(n) | Samples::Probes(n) => n,
         };
@@ -242,7 +296,7 @@ impl Phong {
                 c.stats.add(counter::LIGHTS_NO_RESPONSE, u64::from(count - s));
                 acc.n += count - s - 1;
                 acc.first.get_or_insert(Outcome::Dark);
-                rec.note(|| format!("{}: the surface has no diffuse or specular term; no shadow rays", scene.light_names[sh.light]));
+                rec.note(|| format!("{}: the surface has no diffuse or specular term; no shadow rays", sh.light.name(scene)));
                 return true;
             }
             match self.unshadowed(c, sh, &ls, rec) {
@@ -329,11 +383,11 @@ impl Phong {
     }
 }
 
-/// The explanation of light sample `ls` of light `light`, with `n·l` = `nl`, before its shadow ray:
+/// The explanation of light sample `ls` of `light`, with `n·l` = `nl`, before its shadow ray:
 /// no transmittance, occluder or terms yet, not skipped.
-fn light_record(scene: &Scene, light: usize, ls: &LightSample, nl: f64) -> TraceLight {
+fn light_record(scene: &Scene, light: Source, ls: &LightSample, nl: f64) -> TraceLight {
     TraceLight {
-        light: scene.light_names[light].clone(),
+        light: light.name(scene),
         dir: ls.dir,
         distance: ls.distance,
         intensity: ls.intensity,

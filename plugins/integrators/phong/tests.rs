@@ -406,3 +406,29 @@ fn the_ray_budget_follows_the_scenes_reflectance_and_bounds_the_rays_traced() {
     }
     assert!(bounds.windows(2).all(|w| w[1] < w[0]), "the bound should fall with kr: {bounds:?}");
 }
+
+/// With `emitter_samples`, an emitting ball lights the floor below it as an area light: a white
+/// floor under a ball of radiance `L` and radius `r` at height `h` shows `L·(r/h)²` (the
+/// Lambertian response to its irradiance π·L·(r/h)²); off by default, the floor stays dark; a
+/// trace names the emitter's samples.
+#[test]
+fn emitter_samples_light_the_scene_with_emitting_objects() {
+    let (l, r, h) = (2.0, 0.5, 3.0);
+    let white = Material { kd: DVec3::ONE, ks: DVec3::ZERO, ..Material::default() };
+    let glow = Material { kd: DVec3::ZERO, ks: DVec3::ZERO, emission: DVec3::splat(l), ..Material::default() };
+    let s = scene(vec![floor(white.clone()), (Box::new(Sphere::new(DVec3::new(0.0, h, 0.0), r)), glow.clone())], vec![], Color::ZERO);
+    let (off, _) = shade(&s, &Phong::default(), &down_ray());
+    assert_eq!(off, Color::ZERO, "off by default: the emitter is only seen");
+    // (No pruning: each of 256 samples carries less than the default threshold.)
+    let phong = Phong { emitter_samples: 256, max_depth: 0, prune_threshold: 0.0, ..Phong::default() };
+    let (on, stats) = shade(&s, &phong, &down_ray());
+    let expected = l * (r / h) * (r / h);
+    assert!((on - Color::splat(expected)).abs().max_element() < 5e-3 * expected, "{on} vs {expected}");
+    assert_eq!(stats.get("shadow_rays"), 256);
+    // A ball between the floor and the emitter shadows it.
+    let ball = |y: f64, radius: f64, m: Material| -> Thing { (Box::new(Sphere::new(DVec3::new(0.0, y, 0.0), radius)), m) };
+    let shadowed = scene(vec![floor(white), ball(h, r, glow), ball(1.0, 0.7, Material::default())], vec![], Color::ZERO);
+    assert_eq!(shade(&shadowed, &phong, &down_ray()).0, Color::ZERO);
+    let tree = phong.explain(&s, &down_ray(), &mut Sampler::new(0, 0, 0)).unwrap();
+    assert!(tree.lights.iter().all(|t| t.light == "emitter object 1") && tree.lights.len() == 256, "{:?}", tree.lights.first());
+}
