@@ -2,6 +2,7 @@
 """Makes every image in docs/ again, as docs/images.toml says, and records their fingerprints.
 
     python3 scripts/docs-images.py [--raylab PATH] [--only FILE ...] [--records]
+    python3 scripts/docs-images.py --fingerprint-only [--only FILE ...]
 
 Builds raylab (release, features mesh,bvh,exr) unless --raylab is given, then for each image of
 docs/images.toml: `render` renders each listed command (two side by side, 8 white pixels apart);
@@ -11,6 +12,11 @@ binary). `record` images (a dated measurement or comparison the text beside them
 kept, and remade only with --records, when they have a `run`. Last, it records each image's
 fingerprint of each image it made through `RAYLAB_BLESS=FILES cargo test --test docs_images`,
 the test that later tells whether the images are current. Needs Pillow.
+
+--fingerprint-only remakes nothing: it records the fingerprints of the images as they are, for
+a change that moves fingerprints but no pixel (what the fingerprint is made of, say). Run it
+only where `cargo test --test docs_images` passed just before the change: that test is the proof
+that the images were current, and nothing since can have changed them.
 """
 import argparse
 import base64
@@ -117,7 +123,17 @@ def main():
     p.add_argument("--raylab", help="the raylab binary to use (default: build it)")
     p.add_argument("--only", nargs="+", metavar="FILE", help="only these images (file names in docs/)")
     p.add_argument("--records", action="store_true", help="also remake the records of measurements (then update the text quoting them)")
+    p.add_argument(
+        "--fingerprint-only",
+        action="store_true",
+        help="remake nothing: record the current fingerprints (only after a change that moves no pixel, with the images current before it)",
+    )
     a = p.parse_args()
+    if a.fingerprint_only:
+        bless = ",".join(a.only) if a.only else "1"
+        env = dict(os.environ, RAYLAB_BLESS=bless)
+        run(["cargo", "test", "-p", "raylab-plugins", "--features", FEATURES, "--test", "docs_images"], env=env)
+        return
     raylab = a.raylab
     if not raylab:
         run(["cargo", "build", "--release", "-p", "raylab-plugins", "--features", FEATURES])

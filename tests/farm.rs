@@ -148,5 +148,15 @@ fn resuming_from_any_snapshot_gives_the_uninterrupted_image() {
         // A state of the wrong share is refused.
         let wrong = ShareSums { share: Share { pass: 0, passes: 2, ..states[0].share }, ..states[0].clone() };
         assert!(render(&j, &RenderOptions { resume: Some(&wrong), ..RenderOptions::default() }, &|_, _| {}).is_err());
+        // So is a state of other sampling (a checkpoint's fingerprint is no secret: a forged
+        // file can claim 10⁹ samples per pixel of the right render); it was continued to them.
+        for sampling in [
+            raylab::render::share::Sampling { spp: 1_000_000_000, ..states[0].sampling },
+            raylab::render::share::Sampling { adaptive: !states[0].sampling.adaptive, ..states[0].sampling },
+        ] {
+            let forged = ShareSums { sampling, ..states[0].clone() };
+            let e = render(&j, &RenderOptions { resume: Some(&forged), ..RenderOptions::default() }, &|_, _| {}).err().expect("refused");
+            assert!(e.starts_with("the saved state is of a render with "), "{e}");
+        }
     }
 }

@@ -92,3 +92,25 @@ fn view_request_corpus_parses_or_fails_cleanly() {
         }
     }
 }
+
+/// Checkpoints, read as `raylab render --resume` reads them and continued
+/// (`raylab::cli::fuzz_checkpoint`, as the `checkpoint` target runs them).
+#[cfg(feature = "exr")]
+#[test]
+fn checkpoint_corpus_resumes_or_fails_cleanly() {
+    let registry = raylab_plugins::registry();
+    let scene = include_str!("assets/view-fuzz.toml");
+    let jobs: Vec<_> = raylab::cli::checkpoint_fuzz_scenes(scene)
+        .iter()
+        .map(|text| {
+            raylab::load::loader::load_str(&registry, "view-fuzz.toml", text, Path::new("."), &Default::default())
+                .unwrap_or_else(|e| panic!("{}", e.report()))
+        })
+        .collect();
+    for f in corpus("checkpoint") {
+        let data = std::fs::read(&f).unwrap();
+        if let Err(e) = raylab::cli::fuzz_checkpoint(&data, &jobs) {
+            panic!("{}: {e}", f.display());
+        }
+    }
+}

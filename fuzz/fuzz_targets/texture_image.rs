@@ -1,7 +1,7 @@
-//! Arbitrary bytes as a texture file (PNG, JPEG, OpenEXR) through the decoder the scene loader
-//! uses: an error naming the file, or an image within the limits with finite texels whose memory
-//! was charged; never a panic (not even one the decoder's guard catches: libFuzzer's panic hook
-//! aborts first), an abort, a hang or an allocation beyond the budget (run with
+//! Arbitrary bytes as a texture file (PNG, JPEG, Radiance .hdr, OpenEXR) through the decoder the
+//! scene loader uses: an error naming the file, or an image within the limits with finite texels
+//! whose memory was charged; never a panic (not even one the decoder's guard catches: libFuzzer's
+//! panic hook aborts first), an abort, a hang or an allocation beyond the budget (run with
 //! `-malloc_limit_mb=64`). The checks live in `raylab_plugins::textures::fuzz` so that
 //! tests/fuzz_corpus.rs replays the corpus the same way. Needs the `exr` feature.
 #![no_main]

@@ -1,7 +1,8 @@
 //! Every image in `docs/` is listed in `docs/images.toml` with what makes it, and every image
 //! made from renders or sources is current: its recorded fingerprint is that of the renders it
-//! shows (`raylab fingerprint`: the scene, the files it reads, the settings), of those scenes'
-//! golden images (re-blessed whenever shading changes) and of its sources. Nothing is rendered.
+//! shows (`raylab fingerprint`: the scene, the files it reads, the settings off their
+//! defaults), of those scenes' golden images (re-blessed whenever shading changes) and of its
+//! sources. Nothing is rendered.
 //! `python3 scripts/docs-images.py` remakes the images and records the fingerprints (through
 //! this test, with `RAYLAB_BLESS` set to the images it made, comma-separated, or to 1 for all).
 #![cfg(feature = "mesh")]
@@ -115,4 +116,26 @@ fn a_changed_setting_golden_or_source_changes_the_fingerprint() {
     assert_ne!(base, fingerprint(&other_golden));
     let with_source: toml::Table = "file = \"x.png\"\nrender = [[\"scenes/first.toml\"]]\nsources = [\"README.md\"]\n".parse().unwrap();
     assert_ne!(base, fingerprint(&with_source), "a source");
+}
+
+/// What the fingerprint holds: the scene's content (a changed radius) and a setting off its
+/// default make an image stale; a setting given at its default value (seed 0) does not, since
+/// only settings off their defaults are fingerprinted (`param::fingerprint::differing_fields`).
+#[test]
+fn a_changed_scene_or_non_default_setting_makes_an_image_stale() {
+    let dir = std::env::temp_dir().join(format!("raylab-docs-images-{}", std::process::id()));
+    let scene = std::fs::read_to_string(repo().join("scenes/first.toml")).unwrap();
+    let copy = |name: &str, text: &str| -> String {
+        std::fs::create_dir_all(dir.join(name)).unwrap();
+        std::fs::write(dir.join(name).join("first.toml"), text).unwrap();
+        dir.join(name).join("first.toml").to_string_lossy().to_string()
+    };
+    let (same, changed) = (copy("same", &scene), copy("changed", &scene.replacen("radius = 1\n", "radius = 1.01\n", 1)));
+    let args = |extra: &[&str]| -> Vec<String> { ["scenes/first.toml"].iter().chain(extra).map(|s| s.to_string()).collect() };
+    let base = render_fingerprint(&args(&[]));
+    assert_eq!(base, render_fingerprint(&[same]), "the same scene elsewhere");
+    assert_ne!(base, render_fingerprint(&[changed]), "a changed scene");
+    assert_ne!(base, render_fingerprint(&args(&["--seed", "3"])), "a setting off its default");
+    assert_eq!(base, render_fingerprint(&args(&["--seed", "0"])), "a setting at its default");
+    std::fs::remove_dir_all(&dir).unwrap();
 }

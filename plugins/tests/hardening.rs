@@ -214,10 +214,9 @@ mod budget {
         assert!(per_camera_ray < 16.0 && per_camera_ray <= e.rays_per_camera_ray, "{per_camera_ray} rays a camera ray");
     }
 
-    /// Every course scene (the XML test scenes and the report's) loads and passes the budget with
-    /// the default limits, as given and at the course's recursion depth of 64.
-    #[test]
-    fn every_course_scene_passes_the_default_budget_even_at_depth_64() {
+    /// The course scenes: the XML test scenes, the report's, and a mirror and a glass sphere at
+    /// depth 64 (as three of the course's test scenes are).
+    fn course_scenes() -> Vec<std::path::PathBuf> {
         let mut scenes: Vec<_> = std::fs::read_dir(repo().join("tests/assets/course")).unwrap().map(|e| e.unwrap().path()).collect();
         for e in std::fs::read_dir(repo().join("scenes")).unwrap() {
             let p = e.unwrap().path();
@@ -226,12 +225,38 @@ mod budget {
             }
         }
         scenes.push(repo().join("tests/assets/mirror-glass-depth64.toml"));
+        scenes.sort();
         assert!(scenes.len() >= 10, "{scenes:?}");
-        for p in &scenes {
+        scenes
+    }
+
+    /// Every course scene loads and passes the budget with the default limits, as given and at
+    /// the course's recursion depth of 64.
+    #[test]
+    fn every_course_scene_passes_the_default_budget_even_at_depth_64() {
+        for p in &course_scenes() {
             for depth in [None, Some(64)] {
                 let job = load(p, Overrides { depth: depth.map(|d| node(Value::Int(d))), ..Overrides::default() });
                 check_frame(&job).unwrap_or_else(|e| panic!("{} at depth {depth:?}: {e}", p.display()));
             }
+        }
+    }
+
+    /// Every course scene renders to its end at its full size with the default limits, at the
+    /// course's recursion depth of 64 (at least the rays of its own depth), the budget counted as
+    /// it traces.
+    #[test]
+    fn every_course_scene_renders_with_the_default_limits_at_depth_64() {
+        for p in &course_scenes() {
+            let job = load(p, Overrides { depth: Some(node(Value::Int(64))), ..Overrides::default() });
+            let r = render(&job, &RenderOptions::default(), &|_, _| {}).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+            assert!(r.complete && r.budget_stop.is_none(), "{}: stopped after {:?} rays", p.display(), r.budget_stop);
+            println!(
+                "{}: {} rays, {:.2} a camera ray",
+                p.display(),
+                r.stats.total_rays(),
+                r.stats.total_rays() as f64 / r.stats.camera_rays as f64
+            );
         }
     }
 

@@ -10,31 +10,14 @@ use serde_json::{Value, json};
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 mod common;
-use common::repo;
+use common::{Guard, LiveView, repo, start_view, temp_dir};
 
 /// How long the page may take to reach a state (a loaded machine renders slowly).
 const PATIENCE: Duration = Duration::from_secs(180);
-
-fn temp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("raylab-view-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-/// Kills the process when dropped (a failed assertion must not leave a server behind).
-struct Guard(Child);
-
-impl Drop for Guard {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
 
 /// One HTTP/1.1 request: status and body (read by its length or its chunks: chromedriver does not
 /// close the connection after answering).
@@ -87,36 +70,12 @@ fn http(addr: &str, method: &str, path: &str, host: &str, body: Option<&Value>) 
     (status, out)
 }
 
-/// Starts `raylab view` on `scene` with `args`; returns the process and the page's URL.
-fn start_view(dir: &Path, scene: &Path, args: &[&str]) -> (Guard, String) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_raylab"))
-        .args(["view", scene.to_str().unwrap(), "--port", "0"])
-        .args(args)
-        .current_dir(dir)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
-        .spawn()
-        .unwrap();
-    let mut line = String::new();
-    BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
-    let url = line.split_whitespace().find(|w| w.starts_with("http://")).unwrap_or_else(|| panic!("no URL in {line:?}")).to_string();
-    (Guard(child), url)
-}
-
-/// `http://127.0.0.1:PORT/TOKEN/` → (`127.0.0.1:PORT`, `TOKEN`).
-fn parts(url: &str) -> (String, String) {
-    let rest = url.strip_prefix("http://").unwrap();
-    let (addr, path) = rest.split_once('/').unwrap();
-    (addr.to_string(), path.trim_end_matches('/').to_string())
-}
-
 const SIZE: [&str; 4] = ["--width", "160", "--height", "120"];
 
 #[test]
 fn the_server_answers_only_its_own_host_and_token() {
-    let dir = temp("guards");
-    let (_view, url) = start_view(&dir, &repo().join("scenes/showcase.toml"), &SIZE);
-    let (addr, token) = parts(&url);
+    let dir = temp_dir("guards");
+    let LiveView { process: _view, url, addr, token } = start_view(&dir, &repo().join("scenes/showcase.toml"), &SIZE);
     assert!(url.starts_with("http://127.0.0.1:"), "{url}");
     assert_eq!(token.len(), 32, "a 128-bit token");
     let (code, body) = http(&addr, "GET", &format!("/{token}/"), &addr, None);
@@ -187,11 +146,10 @@ fn wait_for(addr: &str, token: &str, what: &str, ok: impl Fn(&Value) -> bool) ->
 /// ends it with the refined image kept (and served by Save PNG); a setting starts it again.
 #[test]
 fn the_path_tracer_keeps_refining_until_stopped() {
-    let dir = temp("refine");
+    let dir = temp_dir("refine");
     let scene = repo().join("scenes/path-cornell.toml");
     let args = ["--width", "24", "--height", "24", "--spp", "2", "--threads", "2"];
-    let (_view, url) = start_view(&dir, &scene, &args);
-    let (addr, token) = parts(&url);
+    let LiveView { process: _view, addr, token, .. } = start_view(&dir, &scene, &args);
     // The scene's 2 samples, then more: a refined pass is shown once it has more than 2.
     let samples = |s: &Value| s["samples"][0].as_u64().unwrap();
     let first = wait_for(&addr, &token, "refining", |s| s["phase"] == "refining" && samples(s) > 2);
@@ -229,11 +187,10 @@ fn the_path_tracer_keeps_refining_until_stopped() {
 /// pixel meets the target, continuing the scene's own sums, then ends by itself.
 #[test]
 fn refining_ends_when_every_pixel_meets_the_error_target() {
-    let dir = temp("refine-target");
+    let dir = temp_dir("refine-target");
     let scene = repo().join("scenes/path-cornell.toml");
-    let (_view, url) =
+    let LiveView { process: _view, addr, token, .. } =
         start_view(&dir, &scene, &["--width", "16", "--height", "16", "--spp", "16", "--target-error", "0.25", "--threads", "2"]);
-    let (addr, token) = parts(&url);
     let done = wait_for(&addr, &token, "the end", |s| s["phase"] == "done");
     assert_eq!(done["status"]["ended"], "every pixel met the error target", "{}", done["status"]);
     std::fs::remove_dir_all(dir).unwrap();
@@ -263,11 +220,10 @@ fn served_png(addr: &str, token: &str) -> image::RgbImage {
 /// samples (deterministic for a given target); clearing it goes back to refining without one.
 #[test]
 fn the_pages_error_target_ends_refining_at_the_image_render_makes_for_that_target() {
-    let dir = temp("page-target");
+    let dir = temp_dir("page-target");
     let scene = repo().join("scenes/path-cornell.toml");
     let size = ["--width", "16", "--height", "16"];
-    let (_view, url) = start_view(&dir, &scene, &[&size[..], &["--spp", "2", "--threads", "2"]].concat());
-    let (addr, token) = parts(&url);
+    let LiveView { process: _view, addr, token, .. } = start_view(&dir, &scene, &[&size[..], &["--spp", "2", "--threads", "2"]].concat());
     let knobs = wait_for(&addr, &token, "the controls", |s| s["phase"] != "loading" && s["phase"] != "preview")["knobs"].clone();
     let knob =
         |key: &str| knobs.as_array().unwrap().iter().find(|k| k["key"] == key).cloned().unwrap_or_else(|| panic!("no {key} in {knobs}"));
@@ -330,11 +286,10 @@ fn the_denoise_control_shows_the_image_render_denoise_writes() {
     if !denoiser_here("the_denoise_control_shows_the_image_render_denoise_writes") {
         return;
     }
-    let dir = temp("denoise");
+    let dir = temp_dir("denoise");
     let scene = repo().join("scenes/path-cornell.toml");
     let args = ["--width", "32", "--height", "32", "--spp", "4"];
-    let (view, url) = start_view(&dir, &scene, &[&args[..], &["--threads", "2", "--no-refine"]].concat());
-    let (addr, token) = parts(&url);
+    let LiveView { process: view, addr, token, .. } = start_view(&dir, &scene, &[&args[..], &["--threads", "2", "--no-refine"]].concat());
     let first = wait_for(&addr, &token, "the first render", |s| s["phase"] == "done");
     assert_eq!(first["status"]["denoised"], false);
     let noisy = served_png(&addr, &token);
@@ -347,8 +302,7 @@ fn the_denoise_control_shows_the_image_render_denoise_writes() {
     assert!(denoised == render_png(&dir, &scene, &[&args[..], &["--denoise"]].concat()), "the view's image is raylab render --denoise's");
     drop(view);
     // Refining: each pass is shown denoised; Stop keeps the last one.
-    let (_view, url) = start_view(&dir, &scene, &[&args[..], &["--threads", "2"]].concat());
-    let (addr, token) = parts(&url);
+    let LiveView { process: _view, addr, token, .. } = start_view(&dir, &scene, &[&args[..], &["--threads", "2"]].concat());
     let (code, _) = http(&addr, "POST", &format!("/{token}/api/settings"), &addr, Some(&json!({ "denoise": true, "params": {} })));
     assert_eq!(code, 200);
     wait_for(&addr, &token, "a denoised refined pass", |s| {
@@ -513,14 +467,14 @@ fn the_page_renders_restarts_on_a_knob_and_explains_a_clicked_pixel() {
         );
         return;
     };
-    let dir = temp("browser");
+    let dir = temp_dir("browser");
     let shots = Path::new(env!("CARGO_TARGET_TMPDIR")).join("view-browser");
     std::fs::create_dir_all(&shots).unwrap();
     let scene = dir.join("showcase.toml");
     let original = std::fs::read_to_string(repo().join("scenes/showcase.toml")).unwrap();
     std::fs::write(&scene, &original).unwrap();
     // Without refining, each render ends at the scene's samples: the image `raylab render` writes.
-    let (_view, url) = start_view(&dir, &scene, &[&SIZE[..], &["--threads", "2", "--no-refine"]].concat());
+    let LiveView { process: _view, url, .. } = start_view(&dir, &scene, &[&SIZE[..], &["--threads", "2", "--no-refine"]].concat());
     let profile = dir.join("chromium-profile");
     let b = Browser::start(&chromium, &chromedriver, &profile);
     b.call("POST", "/url", Some(json!({ "url": url })));

@@ -6,50 +6,20 @@
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
-use std::process::{Child, Command, Stdio};
+use std::path::Path;
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 mod common;
-use common::repo;
+use common::{LiveView, repo, start_view};
 
 /// How long a state may take to come (a loaded machine renders slowly).
 const PATIENCE: Duration = Duration::from_secs(180);
 
-/// Kills the server when dropped.
-struct Guard(Child);
-
-impl Drop for Guard {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
 /// Starts `raylab view` on the showcase at 64 × 48, stopping at the scene's samples (no
-/// refining: the finished image is then `raylab render`'s); returns it, `127.0.0.1:PORT` and the
-/// token.
-fn start() -> (Guard, String, String) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_raylab"))
-        .args([
-            "view",
-            repo().join("scenes/showcase.toml").to_str().unwrap(),
-            "--port",
-            "0",
-            "--width",
-            "64",
-            "--height",
-            "48",
-            "--no-refine",
-        ])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
-        .spawn()
-        .unwrap();
-    let mut line = String::new();
-    BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
-    let url = line.split_whitespace().find(|w| w.starts_with("http://")).unwrap_or_else(|| panic!("no URL in {line:?}")).to_string();
-    let (addr, token) = url.strip_prefix("http://").unwrap().split_once('/').unwrap();
-    (Guard(child), addr.to_string(), token.trim_end_matches('/').to_string())
+/// refining: the finished image is then `raylab render`'s).
+fn start() -> LiveView {
+    start_view(Path::new("."), &repo().join("scenes/showcase.toml"), &["--width", "64", "--height", "48", "--no-refine"])
 }
 
 /// An answer: status, headers (lower-case names), body.
@@ -144,7 +114,7 @@ fn assert_secure(a: &Answer, what: &str) {
 
 #[test]
 fn every_answer_carries_the_security_headers_and_the_host_rules_hold() {
-    let (_view, addr, token) = start();
+    let LiveView { process: _view, addr, token, .. } = start();
     let port = addr.split(':').nth(1).unwrap();
     let page = format!("/{token}/");
     for (path, kind) in
@@ -177,7 +147,7 @@ fn every_answer_carries_the_security_headers_and_the_host_rules_hold() {
 #[test]
 fn the_settings_body_is_limited_to_64_kib() {
     const MAX_BODY: usize = 64 * 1024;
-    let (_view, addr, token) = start();
+    let LiveView { process: _view, addr, token, .. } = start();
     let path = format!("/{token}/api/settings");
     let body = |len: usize| {
         let mut b = br#"{"params": {}}"#.to_vec();
@@ -197,7 +167,7 @@ fn the_settings_body_is_limited_to_64_kib() {
 /// PNG download.
 #[test]
 fn the_finished_image_is_the_renders_png() {
-    let (_view, addr, token) = start();
+    let LiveView { process: _view, addr, token, .. } = start();
     let deadline = Instant::now() + PATIENCE;
     let a = loop {
         let a = get(&addr, &format!("/{token}/api/image.png"), Some(&addr));
@@ -233,7 +203,7 @@ fn the_finished_image_is_the_renders_png() {
 #[test]
 fn a_request_beyond_the_active_limit_is_answered_503_at_once() {
     const MAX_ACTIVE: usize = 32;
-    let (_view, addr, token) = start();
+    let LiveView { process: _view, addr, token, .. } = start();
     // Wait for the render to finish, so that no poll is answered early by a change.
     let version = finished(&addr, &token);
     let poll = format!("GET /{token}/api/updates?version={version} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n");
@@ -286,7 +256,7 @@ fn resident(pid: u32) -> u64 {
 #[test]
 fn an_oversized_header_is_refused_before_it_is_held() {
     const MAX_HEAD: usize = 32 * 1024;
-    let (view, addr, token) = start();
+    let LiveView { process: view, addr, token, .. } = start();
     let _ = finished(&addr, &token);
     // A head of exactly the limit (blank line included) is served; one byte more is not.
     let head = |len: usize| {
@@ -329,7 +299,7 @@ fn an_oversized_header_is_refused_before_it_is_held() {
 /// 10 s to send a request are over, long before it would have finished.
 #[test]
 fn slow_and_idle_clients_do_not_block_others() {
-    let (_view, addr, token) = start();
+    let LiveView { process: _view, addr, token, .. } = start();
     let idle: Vec<TcpStream> = (0..40)
         .map(|_| {
             let mut s = TcpStream::connect(&addr).unwrap();

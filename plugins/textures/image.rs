@@ -298,7 +298,12 @@ pub fn decode(bytes: &[u8], name: &str, space: ColorSpace, ctx: &LoadContext) ->
             .with_help("raise the limits with --max-pixels and --max-side"));
         }
         let eight = decoder.color_type().bytes_per_pixel() == decoder.color_type().channel_count();
-        ctx.charge(decoder.total_bytes().saturating_add(kept_bytes(pixels, eight)), &format!("the image \"{name}\" ({w}×{h})"), None)?;
+        let buffers = if format == image::ImageFormat::OpenExr { exr_block_buffers(bytes) } else { 0 };
+        ctx.charge(
+            decoder.total_bytes().saturating_add(kept_bytes(pixels, eight)).saturating_add(buffers),
+            &format!("the image \"{name}\" ({w}×{h})"),
+            None,
+        )?;
         image::DynamicImage::from_decoder(decoder).map_err(|e| fail(format!("cannot decode the image: {e}")))
     }));
     let img = match decoded {
@@ -338,6 +343,33 @@ pub fn decode(bytes: &[u8], name: &str, space: ColorSpace, ctx: &LoadContext) ->
         Texels::Float(rgb)
     };
     Ok(Image { width, height, texels })
+}
+
+/// What an OpenEXR decoder holds besides the image while it decodes: a block of the file as
+/// stored and the same block uncompressed, each up to every channel's bytes (not only those read)
+/// for a block's pixels (a tile, or up to 256 rows of the layer's width), the largest over the
+/// file's parts. The header alone decides it and can make it far larger than the image: the
+/// `texture_image` fuzz target found a 7.5 KB file of a 24×16 image whose decoder reserved 1.75 GB
+/// for one block. 0 when the header does not read (the decoder then fails).
+#[cfg(feature = "exr")]
+fn exr_block_buffers(bytes: &[u8]) -> u64 {
+    let Ok(meta) = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false) else { return 0 };
+    let block = |h: &exr::meta::header::Header| {
+        let pixels = match h.blocks {
+            exr::meta::BlockDescription::Tiles(t) => (t.tile_size.0 as u64).saturating_mul(t.tile_size.1 as u64),
+            exr::meta::BlockDescription::ScanLines => {
+                (h.compression.scan_lines_per_block() as u64).saturating_mul(h.layer_size.width() as u64)
+            }
+        };
+        (h.channels.bytes_per_pixel as u64).saturating_mul(pixels)
+    };
+    meta.headers.iter().map(block).max().unwrap_or(0).saturating_mul(2)
+}
+
+/// Without the `exr` feature OpenEXR files are refused before decoding.
+#[cfg(not(feature = "exr"))]
+fn exr_block_buffers(_: &[u8]) -> u64 {
+    0
 }
 
 #[cfg(test)]
@@ -435,6 +467,26 @@ mod tests {
         options.limits = raylab::param::limits::Limits { max_pixels: 100, ..Default::default() };
         let e = ctx_decode(&big, ColorSpace::Auto, &options).unwrap_err();
         assert!(e.report().contains("64×64 = 4096 pixels, over the limit of 100"), "{}", e.report());
+    }
+
+    /// An OpenEXR file's block buffers are charged with its image, before decoding: a 7.5 KB file
+    /// of a 24×16 image whose header declares huge blocks had its decoder reserve 1.75 GB for one,
+    /// beyond the budget (found by the `texture_image` fuzz target).
+    #[cfg(feature = "exr")]
+    #[test]
+    fn an_exr_whose_blocks_exceed_the_budget_is_refused_before_decoding() {
+        let file = include_bytes!("../../fuzz/corpus/texture_image/crash-exr-24x16-block-of-1.75GB.exr");
+        assert!(exr_block_buffers(file) > 1 << 30, "{}", exr_block_buffers(file));
+        let options = LoadOptions { limits: crate::textures::fuzz::limits(), ..LoadOptions::default() };
+        let e = ctx_decode(file, ColorSpace::Auto, &options).unwrap_err();
+        assert!(e.report().contains("needs about") && e.report().contains("over the limit of 64 MB"), "{}", e.report());
+        // A well-formed EXR's blocks are small: the image crate writes 64×64 tiles.
+        let (w, h) = (64, 16);
+        let img = image::Rgb32FImage::from_fn(w, h, |x, y| image::Rgb([x as f32, y as f32, 1.0]));
+        let mut exr = Vec::new();
+        image::DynamicImage::ImageRgb32F(img).write_to(&mut std::io::Cursor::new(&mut exr), image::ImageFormat::OpenExr).unwrap();
+        let buffers = exr_block_buffers(&exr);
+        assert!(buffers > 0 && buffers <= 2 * 16 * 64 * 64, "{buffers}");
     }
 
     /// What an image keeps (texels and, for 8 bits, the table to linear) is charged in full;

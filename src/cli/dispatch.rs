@@ -35,7 +35,7 @@ enum Command {
     /// Turn an HDR image (OpenEXR, PFM) or one of its layers (depth, normal, albedo) into a
     /// viewable PNG or JPEG.
     Tonemap(tonemap::TonemapArgs),
-    /// Print a render's fingerprint (the scene, every file it reads, the resolved settings)
+    /// Print a render's fingerprint (the scene, every file it reads, the resolved settings that differ from their defaults)
     /// without rendering: what partial images carry, and what tells a docs image is current.
     Fingerprint(Box<fingerprint::FingerprintArgs>),
     /// Denoise a finished image (an EXR with albedo and normal layers, e.g. a merged farm frame)

@@ -1,5 +1,5 @@
 //! `raylab fingerprint`: a render's fingerprint (the scene, every file it reads, the resolved
-//! settings) without rendering it: the value a farm's partial images and checkpoints carry, and
+//! settings off their defaults) without rendering it: the value a farm's partial images and checkpoints carry, and
 //! what `docs/images.toml` records to tell whether an image in `docs/` is current.
 
 use super::{App, Failure, SceneArgs};

@@ -28,6 +28,8 @@ use std::path::Path;
 
 pub use dispatch::{run, run_with_args};
 pub use render::stats_table;
+#[cfg(feature = "exr")]
+pub use render::{checkpoint_fuzz_scenes, fuzz_checkpoint};
 
 /// What a binary brings to the CLI: its plugins and its default scene.
 pub struct App {

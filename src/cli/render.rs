@@ -170,26 +170,17 @@ fn resume(app: &App, given: RenderArgs, file: &Path) -> Result<(), Failure> {
     {
         let limits = given.scene_args.load_options()?.limits;
         let bytes = crate::load::context::read_user_file(file, "checkpoint", u64::MAX, None)?;
-        let (sums, info) = crate::image::partial::read_partial(&bytes, &file.display().to_string(), limits.max_pixels)
-            .map_err(|e| Failure::Other(e.to_string()))?;
-        let json = info.resume.ok_or_else(|| {
-            Failure::Other(format!("{} is a partial image, not a checkpoint: it says nothing of how to continue", file.display()))
-        })?;
-        let ri: super::farm::ResumeInfo =
-            serde_json::from_str(&json).map_err(|e| Failure::Other(format!("{}: unreadable resume information ({e})", file.display())))?;
-        let argv = std::iter::once("raylab render".to_string()).chain(ri.args.iter().cloned());
-        let Ok(SavedCommand { args: mut a }) = <SavedCommand as clap::Parser>::try_parse_from(argv) else {
-            return Err(Failure::Other(format!("{}: the saved command `render {}` no longer parses", file.display(), ri.args.join(" "))));
-        };
+        let Checkpoint { sums, fingerprint, cwd, args: mut a, raw } =
+            read_checkpoint(&bytes, &file.display().to_string(), limits.max_pixels).map_err(Failure::Other)?;
         // Relative paths are relative to the folder the render was started in.
-        let at = |p: &Path| if p.is_absolute() { p.to_path_buf() } else { ri.cwd.join(p) };
+        let at = |p: &Path| if p.is_absolute() { p.to_path_buf() } else { cwd.join(p) };
         a.scene = a.scene.as_deref().map(at);
         a.output = at(&a.output);
         a.reference = a.reference.as_deref().map(at);
         a.error_csv = a.error_csv.as_deref().map(at);
         a.spp_map = a.spp_map.as_deref().map(at);
         a.checkpoint = Some(file.to_path_buf());
-        a.raw = ri.args;
+        a.raw = raw;
         a.threads = given.threads.or(a.threads);
         a.quiet |= given.quiet;
         // Say what is being continued: how much was done and what is left.
@@ -201,8 +192,87 @@ fn resume(app: &App, given: RenderArgs, file: &Path) -> Result<(), Failure> {
             sums.pixels.len(),
             a.output.display()
         );
-        render(app, a, Some((sums, info.fingerprint)))
+        render(app, a, Some((sums, fingerprint)))
     }
+}
+
+/// A checkpoint read: the state saved, the fingerprint of the render it continues, and the
+/// command that started it (parsed again, and as given).
+#[cfg(feature = "exr")]
+struct Checkpoint {
+    sums: ShareSums,
+    fingerprint: String,
+    /// The folder the render was started in.
+    cwd: PathBuf,
+    args: RenderArgs,
+    raw: Vec<String>,
+}
+
+/// Reads a checkpoint from `bytes` (named `name` in messages): a partial image (frames of more
+/// than `max_pixels` refused before decoding) that says how to continue, in a command that still
+/// parses.
+#[cfg(feature = "exr")]
+fn read_checkpoint(bytes: &[u8], name: &str, max_pixels: u64) -> Result<Checkpoint, String> {
+    let (sums, info) = crate::image::partial::read_partial(bytes, name, max_pixels).map_err(|e| e.to_string())?;
+    let json = info.resume.ok_or_else(|| format!("{name} is a partial image, not a checkpoint: it says nothing of how to continue"))?;
+    let ri: super::farm::ResumeInfo = serde_json::from_str(&json).map_err(|e| format!("{name}: unreadable resume information ({e})"))?;
+    let argv = std::iter::once("raylab render".to_string()).chain(ri.args.iter().cloned());
+    let Ok(SavedCommand { args }) = <SavedCommand as clap::Parser>::try_parse_from(argv) else {
+        return Err(format!("{name}: the saved command `render {}` no longer parses", ri.args.join(" ")));
+    };
+    Ok(Checkpoint { sums, fingerprint: info.fingerprint, cwd: ri.cwd, args, raw: ri.args })
+}
+
+/// The scenes the fuzz target `checkpoint` continues checkpoints with, from `scene` (an
+/// adaptive one, `tests/assets/view-fuzz.toml`): as it is, stratified, and stratified to an
+/// error target.
+#[cfg(feature = "exr")]
+pub fn checkpoint_fuzz_scenes(scene: &str) -> Vec<String> {
+    let adaptive = "aa = \"adaptive\"";
+    vec![
+        scene.to_string(),
+        scene.replace(adaptive, "aa = \"stratified\""),
+        scene.replace(adaptive, "aa = \"stratified\"\ntarget_error = 0.05\ntarget_min_spp = 2"),
+    ]
+}
+
+/// What the fuzz target `checkpoint` (and the replay of its corpus in `tests/fuzz_corpus.rs`)
+/// checks of arbitrary bytes as a checkpoint, read as `raylab render --resume` reads one (named
+/// `fuzz.exr`, frames of at most 2²⁰ pixels) and then continued: with the job of `jobs` whose
+/// fingerprint it gives (a fingerprint is no secret: a forged file can give any), or else the
+/// first, on one thread. Reading fails with a message naming the file, or the render refuses the
+/// state with a message, or it finishes with every pixel's samples and a finite image. Never a
+/// panic; `Err` names what broke.
+#[cfg(feature = "exr")]
+pub fn fuzz_checkpoint(data: &[u8], jobs: &[RenderJob]) -> Result<(), String> {
+    let Checkpoint { sums, fingerprint, .. } = match read_checkpoint(data, "fuzz.exr", 1 << 20) {
+        Ok(c) => c,
+        Err(e) if e.starts_with("fuzz.exr") => return Ok(()),
+        Err(e) => return Err(format!("an error that does not name the file: {e}")),
+    };
+    let Some(job) = jobs.iter().find(|j| j.fingerprint == fingerprint).or(jobs.first()) else { return Ok(()) };
+    let options = RenderOptions {
+        threads: Some(1),
+        layers: sums.layers.is_some(),
+        share: Some(sums.share),
+        resume: Some(&sums),
+        ..RenderOptions::default()
+    };
+    let Ok(rendered) = crate::render::render(job, &options, &|_, _| {}) else { return Ok(()) };
+    if !rendered.complete {
+        return Err(format!("a resumed render stopped unfinished (budget stop: {:?})", rendered.budget_stop));
+    }
+    if let Some(i) = (0..rendered.sums.pixels.len()).find(|&i| rendered.sums.missing(i) > 0) {
+        return Err(format!(
+            "pixel {:?} lacks {} samples after the resumed render",
+            rendered.sums.share.bounds.pixel(i),
+            rendered.sums.missing(i)
+        ));
+    }
+    if let Some((i, c)) = rendered.film.pixels.iter().enumerate().find(|(_, c)| !c.is_finite()) {
+        return Err(format!("pixel {i} of the resumed image is {c:?}"));
+    }
+    Ok(())
 }
 
 /// The arguments of `raylab render` alone: a checkpoint's saved command, parsed again.

@@ -12,7 +12,7 @@ use crate::load::textures::TextureLibrary;
 use crate::math::color::Encoding;
 use crate::param::description::SceneDescription;
 use crate::param::error::{Loc, Result, SceneError, Source, did_you_mean};
-use crate::param::fingerprint::Fingerprint;
+use crate::param::fingerprint::{Fingerprint, differing_fields};
 use crate::param::limits::{OBJECT_BYTES, toml_memory_estimate};
 use crate::param::params::Params;
 use crate::param::spec::{ParamDefault, ParamKind, ParamSpec, Role};
@@ -282,10 +282,12 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
     root.finish()?;
     let integ = integrator_section(registry, integ_node, desc, ctx)?;
 
-    // What decides the pixels besides the files: the resolved settings, camera and integrator.
+    // What decides the pixels besides the files: the resolved settings (those off their
+    // defaults: a new setting at its default changes no fingerprint), camera and integrator
+    // (its parameters as given).
     let mut fingerprint = Fingerprint::default();
     fingerprint.add("raylab", env!("CARGO_PKG_VERSION").as_bytes());
-    fingerprint.add("settings", format!("{settings:?}").as_bytes());
+    fingerprint.add("settings", differing_fields(&settings, &default_settings()).as_bytes());
     fingerprint.add("camera", format!("{camera:?}").as_bytes());
     fingerprint.add("background", format!("{background:?}").as_bytes());
     fingerprint.add("integrator", integ.name.as_bytes());
@@ -302,6 +304,16 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
         settings,
         fingerprint,
     })
+}
+
+/// The settings of an empty `[render]` table: [`RENDER_PARAMS`]' defaults for the image size and
+/// samples, and [`RenderSettings::new`]'s for the rest (what the fingerprint compares with).
+fn default_settings() -> RenderSettings {
+    let int = |name: &str| match RENDER_PARAMS.iter().find(|s| s.name == name).map(|s| &s.default) {
+        Some(ParamDefault::Int(v)) => u32::try_from(*v).unwrap_or(1),
+        _ => 1,
+    };
+    RenderSettings::new(int("width"), int("height"), int("spp"))
 }
 
 /// `[render]`, with the command line's settings over the file's, checked against the limits;

@@ -1,8 +1,10 @@
 //! A 128-bit fingerprint of what decides a render's pixels: the scene file, every file it reads,
-//! and the settings after command-line overrides. Parts of one frame rendered on many machines
-//! must share it before they are merged; a checkpoint is resumed only under it. Not a
-//! cryptographic hash: it tells renders apart, it does not resist forgery. Large files are hashed
-//! in blocks on every core (a 42 MB mesh in a few milliseconds).
+//! and the settings after command-line overrides that differ from their defaults
+//! ([`differing_fields`]: a new setting left at its default changes no fingerprint, so it does not
+//! make every recorded image stale). Parts of one frame rendered on many machines must share it
+//! before they are merged; a checkpoint is resumed only under it. Not a cryptographic hash: it
+//! tells renders apart, it does not resist forgery. Large files are hashed in blocks on every
+//! core (a 42 MB mesh in a few milliseconds).
 
 /// An order-independent accumulator of hashed parts (files may be read in any order).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -82,9 +84,69 @@ impl Fingerprint {
     }
 }
 
+/// The fields of `value` that differ from those of `reference` (a value of the same type, its
+/// defaults), one `name: value` per field in the order of the type's pretty `Debug`
+/// (`{:#?}`), nested values whole. A field added to the type is named only where its value is
+/// not the reference's, so the text of every value that leaves it at its default stays the same.
+pub fn differing_fields<T: std::fmt::Debug>(value: &T, reference: &T) -> String {
+    /// The top-level fields of a pretty `Debug`: each starts on a line indented four spaces,
+    /// and runs over the deeper-indented lines after it.
+    fn fields(text: &str) -> Vec<String> {
+        let mut out: Vec<String> = Vec::new();
+        for line in text.lines().skip(1) {
+            let top = line.starts_with("    ") && !line.starts_with("     ");
+            match out.last_mut() {
+                Some(field) if !top && line.starts_with("     ") => {
+                    field.push('\n');
+                    field.push_str(line);
+                }
+                _ if top => out.push(line.to_string()),
+                _ => {}
+            }
+        }
+        out
+    }
+    let (ours, theirs) = (fields(&format!("{value:#?}")), fields(&format!("{reference:#?}")));
+    ours.into_iter().filter(|f| !theirs.contains(f)).collect::<Vec<_>>().join("\n")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Only the fields that differ from the reference are named, nested values whole; a field at
+    /// its default adds nothing, so a type that gains one keeps its values' texts.
+    #[test]
+    fn only_fields_off_their_defaults_count() {
+        #[derive(Debug)]
+        #[allow(dead_code)] // read through Debug only
+        struct Old {
+            width: u32,
+            aa: Option<(f64, u32)>,
+        }
+        #[derive(Debug)]
+        #[allow(dead_code)] // read through Debug only
+        struct New {
+            width: u32,
+            aa: Option<(f64, u32)>,
+            budget: Option<u64>,
+        }
+        let old = |width, aa| Old { width, aa };
+        let new = |width, aa, budget| New { width, aa, budget };
+        assert_eq!(differing_fields(&old(800, None), &old(800, None)), "");
+        assert_eq!(differing_fields(&old(64, None), &old(800, None)), "    width: 64,");
+        let adaptive = differing_fields(&old(800, Some((0.02, 3))), &old(800, None));
+        assert!(adaptive.starts_with("    aa: Some(") && adaptive.contains("0.02") && adaptive.contains('3'), "{adaptive}");
+        // A new field at its default: the same text as before it existed.
+        assert_eq!(
+            differing_fields(&new(64, Some((0.02, 3)), None), &new(800, None, None)),
+            differing_fields(&old(64, Some((0.02, 3))), &old(800, None))
+        );
+        assert_eq!(
+            differing_fields(&new(64, None, Some(5)), &new(800, None, None)),
+            "    width: 64,\n    budget: Some(\n        5,\n    ),"
+        );
+    }
 
     #[test]
     fn parts_change_it_and_order_does_not() {

@@ -203,9 +203,9 @@ pub struct RenderJob {
     pub settings: RenderSettings,
     /// What loading ignored or approximated, to show the user (see [`crate::load::context::LoadContext::warn`]).
     pub warnings: Vec<crate::param::error::SceneError>,
-    /// The fingerprint of the scene, the files it read and the resolved settings
-    /// ([`crate::param::fingerprint`]): parts of a frame merge, and a checkpoint resumes, only
-    /// under the same one.
+    /// The fingerprint of the scene, the files it read and the resolved settings off their
+    /// defaults ([`crate::param::fingerprint`]): parts of a frame merge, and a checkpoint
+    /// resumes, only under the same one.
     pub fingerprint: String,
     /// The files the scene made raylab read (meshes, textures, glTF buffers, MTL libraries), as
     /// resolved: a command writing a file checks it is none of them.

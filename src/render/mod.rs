@@ -313,6 +313,15 @@ fn starting_sums(s: &RenderSettings, share: Share, options: &RenderOptions) -> R
     }
     match options.resume {
         Some(r) => {
+            // A state of other sampling would be continued to other counts than it says (the
+            // fingerprint that should rule this out is no secret: a forged file gives any).
+            if r.sampling != Sampling::of(s) {
+                return Err(format!(
+                    "the saved state is of a render with {}, not {} as this one",
+                    r.sampling.describe(),
+                    Sampling::of(s).describe()
+                ));
+            }
             if (r.width, r.height, r.share) != (s.width, s.height, share) || r.layers.is_some() != options.layers {
                 return Err(format!(
                     "the saved state is of {} of a {}×{} frame{}, not of {} of this {}×{} frame{}",

@@ -101,6 +101,16 @@ impl Sampling {
     pub fn of(settings: &RenderSettings) -> Self {
         Sampling { spp: settings.spp.max(1), adaptive: matches!(settings.aa, Antialiasing::Adaptive(_)), target: settings.target }
     }
+
+    /// In words, for messages: "4 spp", "adaptive anti-aliasing", "at most 64 spp to a relative
+    /// error of 0.02 (at least 8)".
+    pub fn describe(&self) -> String {
+        match (self.adaptive, self.target) {
+            (true, _) => "adaptive anti-aliasing".into(),
+            (false, None) => format!("{} spp", self.spp),
+            (false, Some(t)) => format!("at most {} spp to a relative error of {} (at least {})", self.spp, t.error, t.min_spp),
+        }
+    }
 }
 
 /// The share of a frame's work one render does: the pixels in `bounds`, and of those, sample

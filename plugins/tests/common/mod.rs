@@ -1,10 +1,11 @@
 //! What the tests that run the `raylab` binary share: running it, a fresh folder per test, the
-//! checkout's root. Each test file takes the part it needs (`mod common;`), so the rest is unused
+//! checkout's root, a live view started and its page's address. Each test file takes the part it needs (`mod common;`), so the rest is unused
 //! there.
 #![allow(dead_code)]
 
+use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Child, Command, Output, Stdio};
 
 /// `raylab ARGS`, run in `dir`, to its end.
 pub fn raylab(dir: &Path, args: &[&str]) -> Output {
@@ -27,4 +28,48 @@ pub fn repo() -> PathBuf {
 /// Output bytes as text.
 pub fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()
+}
+
+/// Kills the process when dropped (a failed assertion must not leave a server behind).
+pub struct Guard(pub Child);
+
+impl Drop for Guard {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// A `raylab view` running: the process (killed when dropped) and where its page is.
+pub struct LiveView {
+    pub process: Guard,
+    /// The page: `http://127.0.0.1:PORT/TOKEN/`.
+    pub url: String,
+    /// `127.0.0.1:PORT`.
+    pub addr: String,
+    /// The session's token (the first segment of every path).
+    pub token: String,
+}
+
+/// Starts `raylab view SCENE --port 0 ARGS` in `dir` (its standard error shown with the test's)
+/// and reads the page's URL from the first line it prints.
+pub fn start_view(dir: &Path, scene: &Path, args: &[&str]) -> LiveView {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args(["view", scene.to_str().unwrap(), "--port", "0"])
+        .args(args)
+        .current_dir(dir)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("raylab view starts");
+    // Guarded before reading: a server that prints no URL is still killed.
+    let stdout = child.stdout.take().unwrap();
+    let process = Guard(child);
+    let mut line = String::new();
+    BufReader::new(stdout).read_line(&mut line).unwrap();
+    let url = line.split_whitespace().find(|w| w.starts_with("http://")).unwrap_or_else(|| panic!("no URL in {line:?}")).to_string();
+    let (addr, token) =
+        url.strip_prefix("http://").and_then(|rest| rest.split_once('/')).unwrap_or_else(|| panic!("not a page's URL: {url}"));
+    let (addr, token) = (addr.to_string(), token.trim_end_matches('/').to_string());
+    LiveView { process, url, addr, token }
 }
