@@ -24,7 +24,7 @@
 
 use crate::shapes::triangle::{EdgeRule, TriangleRay, barycentric_point};
 use raylab::Material;
-use raylab::accel::bvh::{PAD_SLOT, PrimitiveIndex};
+use raylab::accel::bvh::{PAD_SLOT, PrimitiveIndex, tie_limit};
 use raylab::accel::{AccelChoice, BuildStats, MESH_BVH_THRESHOLD};
 use raylab::geometry::Hit;
 use raylab::geometry::sampling::uniform_triangle;
@@ -413,9 +413,11 @@ impl TriangleMesh {
         let base = q.base();
         // Prepared at the first leaf: a ray through the box's empty corners reaches none.
         let mut prepared: Option<(TriangleRay, PackRay)> = None;
-        let mut best = (0, DVec3::ZERO);
-        let t = q.closest_leaves(|first, count, t_max| {
-            let mut t_max = t_max;
+        // The tie rule (see `raylab::accel::bvh`): the smallest `t`, then the smallest slot, so
+        // the hit does not depend on the order leaves are visited in. `best_t` is exclusive
+        // while nothing is found; after that a hit at `best_t` still wins with a smaller slot.
+        let (mut best_t, mut best_slot, mut best_b) = (t_max, NO_SLOT, DVec3::ZERO);
+        let t = q.closest_leaves(|first, count, _| {
             let mut found = None;
             let (tr, pr) = prepared.get_or_insert_with(|| {
                 let tr = TriangleRay::new(ray);
@@ -423,19 +425,20 @@ impl TriangleMesh {
             });
             self.candidates(pr, first, count, |slot| {
                 let [p0, p1, p2] = self.vertices(slot);
-                if let Some(h) = tr.intersect(p0, p1, p2, t_min, t_max, EdgeRule::Inclusive)
+                let limit = if best_slot == NO_SLOT { best_t } else { tie_limit(best_t) };
+                if let Some(h) = tr.intersect(p0, p1, p2, t_min, limit, EdgeRule::Inclusive)
+                    && (h.t < best_t || (h.t == best_t && slot < best_slot))
                     && !on_surface(ray, h.t, p0, p1, p2)
                     && keep(slot, h.b)
                 {
-                    t_max = h.t;
+                    (best_t, best_slot, best_b) = (h.t, slot, h.b);
                     found = Some(h.t);
-                    best = (slot, h.b);
                 }
                 false
             });
             found
         })?;
-        let (slot, b) = best;
+        let (slot, b) = (best_slot, best_b);
         let [p0, p1, p2] = self.vertices(slot).map(DVec3::from);
         let (point, error) = barycentric_point(b, p0, p1, p2);
         Some(Hit { t, point, error, uv: DVec2::new(b.y, b.z), prim: slot, object: 0 })
@@ -697,6 +700,9 @@ impl PackRay {
     }
 }
 
+/// No slot yet: larger than any slot, so the first hit found wins a tie with it.
+const NO_SLOT: u32 = u32::MAX;
+
 /// A number in [0, 1) that is a function of the ray (its origin's and direction's bits) and the
 /// triangle: what decides stochastic coverage ([`AlphaMode::Blend`](raylab::scene::material::AlphaMode)).
 /// Deterministic, so an image does not depend on threads, tiles or passes.
@@ -780,6 +786,50 @@ mod tests {
         fn vec(&mut self) -> DVec3 {
             DVec3::new(self.next(), self.next(), self.next()) * 2.0 - 1.0
         }
+    }
+
+    /// The tie rule: of triangles hit at the same `t` (here, copies of one triangle spread over
+    /// many leaves by the build, among others), the closest hit is the one in the smallest slot,
+    /// whatever order the rays' walks visit the leaves in.
+    #[test]
+    fn ties_go_to_the_smallest_slot() {
+        let mut r = Rng(11);
+        let mut positions = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        let mut triangles = Vec::new();
+        for k in 0..400u32 {
+            if k % 3 == 0 {
+                triangles.push([0, 1, 2]);
+            } else {
+                // Clutter around the copies, so they fall in many leaves under different nodes.
+                let c = r.vec() * 1.5;
+                let n = positions.len() as u32;
+                positions.extend([c, c + 0.3 * r.vec(), c + 0.3 * r.vec()].map(|v| v.as_vec3().to_array()));
+                triangles.push([n, n + 1, n + 2]);
+            }
+        }
+        let data = MeshData { positions, triangles, ..MeshData::default() };
+        let mesh = TriangleMesh::new(data, Normals::Flat, AccelChoice::Bvh).unwrap();
+        assert_eq!(mesh.is_bvh(), raylab::accel::BVH_AVAILABLE);
+        let slots = mesh.packs.len() as u32 * PACK;
+        let mut ties = 0;
+        for _ in 0..3000 {
+            let target = DVec3::new(0.05 + 0.4 * r.next(), 0.05 + 0.4 * r.next(), 0.0);
+            let ray = Ray::new(target - 4.0 * r.vec().normalize(), r.vec());
+            let ray = Ray::new(ray.origin, target - ray.origin);
+            let tr = TriangleRay::new(&ray);
+            let hits: Vec<(f64, u32)> = (0..slots)
+                .filter_map(|slot| {
+                    let [p0, p1, p2] = mesh.vertices(slot);
+                    let h = tr.intersect(p0, p1, p2, 0.0, f64::INFINITY, EdgeRule::Inclusive)?;
+                    (!on_surface(&ray, h.t, p0, p1, p2)).then_some((h.t, slot))
+                })
+                .collect();
+            let expect = hits.iter().copied().min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            ties += usize::from(hits.iter().filter(|h| Some(h.0) == expect.map(|e| e.0)).count() > 1);
+            let hit = mesh.intersect(&ray, 0.0, f64::INFINITY);
+            assert_eq!(hit.map(|h| (h.t, h.prim)), expect, "{ray:?}");
+        }
+        assert!(ties > 1500, "{ties} rays met ties");
     }
 
     /// The filter never rejects a triangle the exact test accepts: rays aimed exactly at vertices,

@@ -16,6 +16,13 @@
 //! - a direction component of zero gets a large finite reciprocal, never an infinity, so no slab
 //!   test produces NaN.
 //!
+//! **The tie rule.** Of hits at the same `t`, the closest-hit queries return the one in the
+//! smallest slot (for an object list, the first in the list), whatever order the leaves are
+//! visited in: a traversal that visits them in another order (a packet of rays, another kernel)
+//! finds the same hit, so images do not depend on it. A caller that tests primitives itself
+//! ([`Query::closest_leaves`]) keeps the rule by asking, once it has a hit at `t`, for hits up to
+//! [`tie_limit`]`(t)` and keeping one only when it is closer, or as close in a smaller slot.
+//!
 //! The primitive test is a closure, monomorphised into the traversal: no dynamic dispatch and no
 //! allocation per ray. The caller stores its primitives in the index's slot order (returned by
 //! [`PrimitiveIndex::build`]), so a leaf reads them contiguously; [`PrimitiveIndex::query`] hands
@@ -37,6 +44,17 @@ fn within(b: Aabb) -> bool {
 
 /// Primitives from which the union of their boxes is computed in parallel.
 const PARALLEL_BOXES: usize = 1 << 14;
+
+/// Relative slack of [`tie_limit`]: a hit computed at exactly `t` must pass a test whose limit
+/// is `tie_limit(t)` although the test compares a product rounded differently (a few ulps).
+const TIE_SLACK: f64 = 8.0 * f64::EPSILON;
+
+/// The exclusive limit to test primitives against once a hit at `t > 0` is held, so that hits
+/// at the same `t` are found too (the tie rule: the smaller slot wins them).
+#[inline(always)]
+pub fn tie_limit(t: f64) -> f64 {
+    t + t.abs() * TIE_SLACK
+}
 
 /// A spatial index over `len` primitives: a hierarchy or a flat list.
 pub struct PrimitiveIndex {
@@ -213,19 +231,27 @@ impl PrimitiveIndex {
         })
     }
 
-    /// The closest hit along `ray` in `(t_min, t_max)`. `test(slot, t_max)` intersects the
-    /// primitive at `slot` and returns its `t` when it is hit closer than `t_max` (the caller
-    /// keeps whatever else it needs about that hit). Returns the slot and `t` of the closest.
+    /// The closest hit along `ray` in `(t_min, t_max)`, ties to the smallest slot. `test(slot,
+    /// limit)` intersects the primitive at `slot` and returns its `t` and whatever else the
+    /// caller needs about the hit when it is hit closer than `limit`. Returns the slot, `t` and
+    /// payload of the closest.
     #[inline]
-    pub fn closest(&self, ray: &Ray, t_min: f64, t_max: f64, mut test: impl FnMut(u32, f64) -> Option<f64>) -> Option<(u32, f64)> {
-        let mut best = None;
-        self.query(ray, t_min, t_max)?.closest_leaves(|first, count, t_max| {
-            let mut t_max = t_max;
+    pub fn closest<T>(
+        &self,
+        ray: &Ray,
+        t_min: f64,
+        t_max: f64,
+        mut test: impl FnMut(u32, f64) -> Option<(f64, T)>,
+    ) -> Option<(u32, f64, T)> {
+        let mut best: Option<(u32, f64, T)> = None;
+        self.query(ray, t_min, t_max)?.closest_leaves(|first, count, _| {
             let mut found = None;
             for slot in first..first + count {
-                if let Some(t) = test(slot, t_max) {
-                    t_max = t;
-                    best = Some((slot, t));
+                let limit = best.as_ref().map_or(t_max, |b| tie_limit(b.1));
+                if let Some((t, payload)) = test(slot, limit)
+                    && best.as_ref().is_none_or(|b| t < b.1 || (t == b.1 && slot < b.0))
+                {
+                    best = Some((slot, t, payload));
                     found = Some(t);
                 }
             }
@@ -354,17 +380,45 @@ mod tests {
             for start in [-5.0, 13.5, 150.0] {
                 let dir = if start > 100.0 { -DVec3::X } else { DVec3::X };
                 let ray = Ray::new(DVec3::new(start, 0.5, 0.5), dir);
-                let hit = index.closest(&ray, 0.0, f64::INFINITY, |s, tm| enter(&stored[s as usize], &ray, 0.0, tm));
+                let hit = index.closest(&ray, 0.0, f64::INFINITY, |s, tm| enter(&stored[s as usize], &ray, 0.0, tm).map(|t| (t, ())));
                 let expect = bx
                     .iter()
                     .enumerate()
                     .filter_map(|(i, b)| enter(b, &ray, 0.0, f64::INFINITY).map(|t| (i, t)))
                     .min_by(|a, b| a.1.total_cmp(&b.1));
-                assert_eq!(hit.map(|(s, t)| (order[s as usize] as usize, t)), expect, "start {start}, bvh {bvh}");
+                assert_eq!(hit.map(|(s, t, ())| (order[s as usize] as usize, t)), expect, "start {start}, bvh {bvh}");
                 let any = index.any(&ray, 0.0, f64::INFINITY, |s| enter(&stored[s as usize], &ray, 0.0, f64::INFINITY).is_some());
                 assert_eq!(any, expect.is_some());
             }
         }
+    }
+
+    #[test]
+    fn ties_go_to_the_smallest_slot_whatever_the_order_of_the_walk() {
+        // Boxes sharing their minimum corner, of different sizes (so they fall in different
+        // leaves): a ray entering through the corner region enters many at the same `t`, and the
+        // walk visits them in an order that depends on the ray. The hit must be the tie in the
+        // smallest slot, as the list's (which tests slots in order) is.
+        let mut seed = 1u64;
+        let mut next = move || {
+            seed = crate::math::sampler::mix64(seed.wrapping_add(0x9e37_79b9_7f4a_7c15));
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let bx: Vec<Aabb> = (0..300).map(|_| Aabb::new(DVec3::ZERO, DVec3::new(1.0 + next(), 1.0 + next(), 1.0 + next()))).collect();
+        let (index, order, _) = PrimitiveIndex::build(&bx, true);
+        let stored: Vec<Aabb> = order.iter().map(|&i| bx[i as usize]).collect();
+        let mut ties = 0;
+        for _ in 0..2000 {
+            let target = DVec3::new(next(), next(), next()) * 0.5;
+            let dir = DVec3::new(0.1 + next(), 0.1 + next(), 0.1 + next()).normalize();
+            let ray = Ray::new(target - 3.0 * dir, dir);
+            let hit = index.closest(&ray, 0.0, f64::INFINITY, |s, tm| enter(&stored[s as usize], &ray, 0.0, tm).map(|t| (t, ())));
+            let t = stored.iter().filter_map(|b| enter(b, &ray, 0.0, f64::INFINITY)).min_by(f64::total_cmp);
+            let tied: Vec<u32> = (0..stored.len() as u32).filter(|&s| enter(&stored[s as usize], &ray, 0.0, f64::INFINITY) == t).collect();
+            ties += usize::from(tied.len() > 1);
+            assert_eq!(hit.map(|(s, t, ())| (s, t)), t.map(|t| (tied[0], t)), "{ray:?}");
+        }
+        assert!(ties > 1000, "{ties} rays met ties");
     }
 
     #[test]
@@ -379,7 +433,7 @@ mod tests {
             false
         });
         assert_eq!(seen, 5000);
-        assert!(index.closest(&ray, 0.0, f64::INFINITY, |_, t| (t > 3.0).then_some(3.0)).is_some());
+        assert!(index.closest(&ray, 0.0, f64::INFINITY, |_, t| (t > 3.0).then_some((3.0, ()))).is_some());
     }
 
     #[test]
@@ -408,9 +462,9 @@ mod tests {
         assert!(index.depth() <= wide::MAX_DEPTH, "depth {}", index.depth());
         let stored: Vec<Aabb> = order.iter().map(|&i| bx[i as usize]).collect();
         for ray in rays {
-            let hit = index.closest(ray, 0.0, f64::INFINITY, |s, tm| enter(&stored[s as usize], ray, 0.0, tm));
+            let hit = index.closest(ray, 0.0, f64::INFINITY, |s, tm| enter(&stored[s as usize], ray, 0.0, tm).map(|t| (t, ())));
             let expect = bx.iter().filter_map(|b| enter(b, ray, 0.0, f64::INFINITY)).min_by(f64::total_cmp);
-            assert_eq!(hit.map(|(_, t)| t), expect, "{ray:?}");
+            assert_eq!(hit.map(|(_, t, ())| t), expect, "{ray:?}");
             let any = index.any(ray, 0.0, f64::INFINITY, |s| enter(&stored[s as usize], ray, 0.0, f64::INFINITY).is_some());
             assert_eq!(any, expect.is_some(), "{ray:?}");
         }
@@ -430,12 +484,14 @@ mod tests {
         let stored: Vec<Aabb> = order.iter().map(|&i| bx[i as usize]).collect();
         // Through the small box in front: it is the closest.
         let ray = Ray::new(DVec3::new(0.5, 0.5, -3.0), DVec3::Z);
-        let hit = index.closest(&ray, 0.0, f64::INFINITY, |s, tm| enter(&stored[s as usize], &ray, 0.0, tm));
-        assert_eq!(hit.map(|(s, t)| (order[s as usize] as usize, t)), Some((n, 2.0)));
+        let hit = index.closest(&ray, 0.0, f64::INFINITY, |s, tm| enter(&stored[s as usize], &ray, 0.0, tm).map(|t| (t, ())));
+        assert_eq!(hit.map(|(s, t, ())| (order[s as usize] as usize, t)), Some((n, 2.0)));
         // Beside it: one of the coincident boxes, at the list's distance; every one is seen.
         let ray = Ray::new(DVec3::new(0.9, 0.9, -3.0), DVec3::Z);
-        let hit = index.closest(&ray, 0.0, f64::INFINITY, |s, tm| enter(&stored[s as usize], &ray, 0.0, tm));
-        assert!(hit.is_some_and(|(s, t)| (order[s as usize] as usize) < n && t == 3.0), "{hit:?}");
+        let hit = index.closest(&ray, 0.0, f64::INFINITY, |s, tm| enter(&stored[s as usize], &ray, 0.0, tm).map(|t| (t, ())));
+        // The tie rule: of the coincident boxes, the one in the smallest slot.
+        let first = (0..order.len()).find(|&s| (order[s] as usize) < n).map(|s| s as u32);
+        assert!(hit.is_some_and(|(s, t, ())| Some(s) == first && t == 3.0), "{hit:?}");
         let mut seen = 0;
         index.any(&ray, 0.0, f64::INFINITY, |s| {
             seen += usize::from(enter(&stored[s as usize], &ray, 0.0, f64::INFINITY).is_some());

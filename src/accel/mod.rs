@@ -107,13 +107,16 @@ impl<O: Intersectable> Intersectable for Accelerated<'_, O> {
             }
         }
         if accel.index.is_bvh() {
-            accel.index.closest(ray, t_min, t_max, |slot, t_max| {
+            // Ties go to the smallest slot (the index's tie rule); unbounded objects, tested
+            // first, win ties with bounded ones.
+            if let Some((_, _, h)) = accel.index.closest(ray, t_min, t_max, |slot, limit| {
                 let i = accel.bounded[slot as usize].1;
-                let mut h = objects[i as usize].intersect(ray, t_min, t_max)?;
+                let mut h = objects[i as usize].intersect(ray, t_min, limit)?;
                 h.object = i;
+                Some((h.t, h))
+            }) {
                 best = Some(h);
-                Some(h.t)
-            });
+            }
         } else if let [(_, i)] = accel.bounded[..] {
             // One bounded object: its own test culls as well as its box would (a mesh clips the
             // ray to its box anyway), without the three divisions of the box test.
