@@ -22,8 +22,16 @@ For each scene it prints:
   `--ref-spp`), and raylab's samples per pixel for Mitsuba's RMSE at the same spp, as a ratio
   (RMSE falls as 1/√spp, so the ratio is (RMSE_raylab / RMSE_mitsuba)²; < 1: raylab needs
   fewer samples);
-- wall time per sample of each, labelled "measured under load" (the machine is shared: these
-  are not benchmarks).
+- CPU seconds (user + system, all threads) and wall time per render of each, raylab's from its
+  process, Mitsuba's from `mi.render` (its scene built and its kernels compiled beforehand); the
+  CPU time per sample, past what a 1-spp render costs (raylab's process start and scene loading,
+  Mitsuba's launch); and the CPU time to equal RMSE: the samples ratio times that per-sample
+  ratio. CPU time is less sensitive than wall time to a shared machine's load, but not
+  immune (caches, hyper-threads): on a loaded machine these are indications, not benchmarks.
+
+Scenes: the five lightings, then each again with a glass ball and a mirror ball in view (glossy
+materials are left out: raylab's lobes have no exact Mitsuba 3 counterpart). `--only` picks
+scenes by a part of their name, `--variant scalar_rgb` compares with Mitsuba's scalar build.
 
 Setup: python3 -m venv venv && venv/bin/pip install mitsuba numpy; Mitsuba's LLVM variant needs
 libLLVM (Debian: apt-get install libllvm19). Build raylab with `cargo build --release --features
@@ -34,6 +42,7 @@ mesh,bvh,exr`. Run from the top of the checkout:
 import argparse
 import math
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -113,11 +122,12 @@ def scenes():
     floor = ("quad", [(-4, 0, 4), (4, 0, 4), (4, 0, -4), (-4, 0, -4)], (0.55, 0.5, 0.45), None)
     ball = ("sphere", ((-0.6, 0.6, 0.0), 0.6), white, None)
     glossy_free = ("sphere", ((0.7, 0.5, 0.3), 0.5), (0.3, 0.5, 0.7), None)
-    return {
+    out = {
         "emissive rectangle": dict(
             camera=BOX_CAMERA,
             parts=box_walls() + [
-                ("quad", [(-0.25, 1.999, 0.25), (0.25, 1.999, 0.25), (0.25, 1.999, -0.25), (-0.25, 1.999, -0.25)], (0, 0, 0), (17, 12, 4)),
+                # Wound so its normal, the side it emits on, faces down into the room.
+                ("quad", [(-0.25, 1.999, -0.25), (0.25, 1.999, -0.25), (0.25, 1.999, 0.25), (-0.25, 1.999, 0.25)], (0, 0, 0), (17, 12, 4)),
                 ("sphere", ((-0.4, 0.35, -0.2), 0.35), white, None),
             ],
             env=None,
@@ -135,6 +145,18 @@ def scenes():
         "constant environment": dict(camera=OPEN_CAMERA, parts=[floor, ball, glossy_free], env=("constant", (0.6, 0.7, 0.9))),
         "image environment": dict(camera=OPEN_CAMERA, parts=[floor, ball, glossy_free], env=("image", SKY)),
     }
+    # Each lighting again with a glass ball and a mirror ball in view: the specular materials whose
+    # models the two renderers share (raylab's `kt` + `ior`: a smooth dielectric with exact Fresnel,
+    # Mitsuba's `dielectric`; its `kr` = 1: a perfect mirror, Mitsuba's `conductor` of material
+    # "none"). raylab's glossy lobes (normalised Phong, the glTF BRDF's Schlick Fresnel) have no
+    # exact Mitsuba 3 counterpart, so no glossy ball.
+    inside = [("glass", ((0.45, 0.3, 0.35), 0.3)), ("mirror", ((0.5, 0.25, -0.55), 0.25))]
+    outside = [("glass", ((0.0, 0.35, 1.1), 0.35)), ("mirror", ((1.35, 0.4, -0.9), 0.4))]
+    for name in list(out):
+        s = out[name]
+        extra = inside if s["camera"] is BOX_CAMERA else outside
+        out[name + ", glass and mirror"] = dict(s, parts=s["parts"] + [(kind, geo, None, None) for kind, geo in extra])
+    return out
 
 
 # ---------------------------------------------------------------------------------------------
@@ -147,6 +169,9 @@ def raylab_scene(s, folder, size, spp, bounces):
     out.append(f"[camera]\nposition = {list(c['position'])}\nlook_at = {list(c['look_at'])}\nfov = {c['fov']}\n")
     out.append(f"[integrator]\ntype = \"path\"\nmax_bounces = {bounces}\n")
     for i, (kind, geo, kd, emission) in enumerate(s["parts"]):
+        if kind in SPECULAR:
+            out.append(f"[[object]]\ntype = \"sphere\"\ncenter = {list(geo[0])}\nradius = {geo[1]}\nmaterial = {SPECULAR[kind]}\n")
+            continue
         mat = f"{{ kd = {list(kd)}, ks = 0" + (f", emission = {list(emission)} }}" if emission else " }")
         sides = "emission_sides = \"front\"\n" if emission else ""
         if kind == "quad":
@@ -166,6 +191,10 @@ def raylab_scene(s, folder, size, spp, bounces):
             shutil.copy(value, os.path.join(folder, "sky.hdr"))
             out.append("[[light]]\ntype = \"environment\"\nfile = \"sky.hdr\"\n")
     return "\n".join(out)
+
+
+# raylab's materials of the specular balls (see `scenes`).
+SPECULAR = {"glass": "{ kd = 0, ks = 0, kt = 1, ior = 1.5 }", "mirror": "{ kd = 0, ks = 0, kr = 1 }"}
 
 
 def write_obj(path, tris):
@@ -192,9 +221,15 @@ def render_raylab(binary, s, size, spp, seed, bounces):
         with open(os.path.join(d, "scene.toml"), "w") as f:
             f.write(raylab_scene(s, d, size, spp, bounces))
         out = os.path.join(d, "out.pfm")
-        t = time.perf_counter()
+        t, cpu = time.perf_counter(), children_cpu()
         subprocess.run([binary, "render", os.path.join(d, "scene.toml"), "-o", out, "--threads", "2", "--seed", str(seed)], check=True, capture_output=True)
-        return read_pfm(out), time.perf_counter() - t
+        return read_pfm(out), time.perf_counter() - t, children_cpu() - cpu
+
+
+def children_cpu():
+    """CPU seconds (user + system) of the finished child processes so far."""
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
 
 
 # ---------------------------------------------------------------------------------------------
@@ -219,6 +254,12 @@ def build_mitsuba(mi, s, size, bounces):
         },
     }
     for i, (kind, geo, kd, emission) in enumerate(s["parts"]):
+        if kind == "glass":
+            d[f"shape{i}"] = {"type": "sphere", "center": list(geo[0]), "radius": geo[1], "bsdf": {"type": "dielectric", "int_ior": 1.5, "ext_ior": 1.0}}
+            continue
+        if kind == "mirror":
+            d[f"shape{i}"] = {"type": "sphere", "center": list(geo[0]), "radius": geo[1], "bsdf": {"type": "conductor", "material": "none"}}
+            continue
         bsdf = {"type": "twosided", "material": {"type": "diffuse", "reflectance": {"type": "rgb", "value": list(kd)}}}
         if kind == "sphere":
             obj = {"type": "sphere", "center": list(geo[0]), "radius": geo[1], "bsdf": bsdf}
@@ -259,9 +300,9 @@ def mitsuba_rows(mi, path):
 
 
 def render_mitsuba(mi, scene, spp, seed):
-    t = time.perf_counter()
+    t, cpu = time.perf_counter(), time.process_time()
     img = np.array(mi.render(scene, spp=spp, seed=seed), dtype=np.float64)[:, :, :3]
-    return img, time.perf_counter() - t
+    return img, time.perf_counter() - t, time.process_time() - cpu
 
 
 # ---------------------------------------------------------------------------------------------
@@ -282,6 +323,7 @@ def main():
     ap.add_argument("--bounces", type=int, default=8)
     ap.add_argument("--variant", default="llvm_ad_rgb")
     ap.add_argument("--only", default=None, help="run only scenes whose name contains this")
+    ap.add_argument("--exclude", default=None, help="skip scenes whose name contains this")
     args = ap.parse_args()
     import mitsuba as mi
 
@@ -290,18 +332,22 @@ def main():
     print("wall times are measured under load (a shared 2-core machine): not benchmarks\n")
     rows = []
     for name, s in scenes().items():
-        if args.only and args.only not in name:
+        if (args.only and args.only not in name) or (args.exclude and args.exclude in name):
             continue
         scene = build_mitsuba(mi, s, args.size, args.bounces)
-        ref, _ = render_mitsuba(mi, scene, args.ref_spp, 1000)
-        rl, mt, t_r, t_m = [], [], 0.0, 0.0
+        ref = render_mitsuba(mi, scene, args.ref_spp, 1000)[0]
+        # One sample per pixel, for each renderer's cost outside its samples (raylab's process and
+        # scene loading; Mitsuba's first render compiles its kernels, so it is done twice).
+        render_mitsuba(mi, scene, 1, 0)
+        c1_m = render_mitsuba(mi, scene, 1, 0)[2]
+        c1_r = render_raylab(args.binary, s, args.size, 1, 0, args.bounces)[2]
+        rl, mt, t_r, t_m, c_r, c_m = [], [], 0.0, 0.0, 0.0, 0.0
         for k in range(args.seeds):
-            a, ta = render_raylab(args.binary, s, args.size, args.spp, k + 1, args.bounces)
-            b, tb = render_mitsuba(mi, scene, args.spp, k + 1)
+            a, ta, ca = render_raylab(args.binary, s, args.size, args.spp, k + 1, args.bounces)
+            b, tb, cb = render_mitsuba(mi, scene, args.spp, k + 1)
             rl.append(a)
             mt.append(b)
-            t_r += ta
-            t_m += tb
+            t_r, t_m, c_r, c_m = t_r + ta, t_m + tb, c_r + ca, c_m + cb
         R, M = np.mean(rl, axis=0), np.mean(mt, axis=0)
         ratio = R.mean() / M.mean()
         br = np.array([blocks(x) for x in rl])
@@ -315,14 +361,18 @@ def main():
         e_r, e_m = np.mean([rmse(x) for x in rl]), np.mean([rmse(x) for x in mt])
         spp_ratio = (e_r / e_m) ** 2
         ref_ratio = R.mean() / ref.mean()
-        rows.append((name, ratio, ref_ratio, rms_z, beyond, z.size, e_r, e_m, spp_ratio, t_r / t_m))
+        # CPU seconds per sample per pixel beyond the fixed cost (at least a tenth of the whole).
+        per_sample = lambda c, c1: max(c / args.seeds - c1, 0.1 * c / args.seeds) / (args.spp - 1)
+        cpu_ratio = per_sample(c_r, c1_r) / per_sample(c_m, c1_m)
+        rows.append((name, ratio, ref_ratio, rms_z, beyond, z.size, e_r, e_m, spp_ratio, t_r / t_m, cpu_ratio))
         print(f"{name}: mean ratio {ratio:.4f} (vs reference {ref_ratio:.4f}); block z RMS {rms_z:.2f}, {beyond}/{z.size} beyond 4; "
               f"RMSE at {args.spp} spp raylab {e_r:.4g} Mitsuba {e_m:.4g}: samples for equal error {spp_ratio:.2f}× Mitsuba's; "
-              f"time per render {t_r / t_m:.2f}× Mitsuba's (measured under load)", flush=True)
-    print("\n| scene | mean ratio raylab ÷ Mitsuba | block z RMS (≈1: noise) | blocks beyond 4σ | samples for equal RMSE (raylab ÷ Mitsuba) | time per render, under load |")
-    print("|---|---:|---:|---:|---:|---:|")
-    for name, ratio, _, rms_z, beyond, nb, _, _, spp_ratio, tr in rows:
-        print(f"| {name} | {ratio:.4f} | {rms_z:.2f} | {beyond}/{nb} | {spp_ratio:.2f} | {tr:.2f} |")
+              f"per render {t_r / t_m:.2f}× Mitsuba's wall time, {c_r / args.seeds:.2f} s vs {c_m / args.seeds:.2f} s CPU (1 spp: {c1_r:.2f} s vs {c1_m:.2f} s); "
+              f"CPU per sample {cpu_ratio:.2f}× Mitsuba's (under load); CPU time to equal error {spp_ratio * cpu_ratio:.2f}×", flush=True)
+    print("\n| scene | mean ratio raylab ÷ Mitsuba | block z RMS (≈1: noise) | blocks beyond 4σ | samples for equal RMSE (raylab ÷ Mitsuba) | CPU time per sample | CPU time to equal RMSE | wall time per render |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|")
+    for name, ratio, _, rms_z, beyond, nb, _, _, spp_ratio, tr, cr in rows:
+        print(f"| {name} | {ratio:.4f} | {rms_z:.2f} | {beyond}/{nb} | {spp_ratio:.2f} | {cr:.2f} | {spp_ratio * cr:.2f} | {tr:.2f} |")
 
 
 if __name__ == "__main__":

@@ -42,7 +42,10 @@
 //! ([`raylab::scene::normal_map`]), over the primitive's `TANGENT`s or, without them, MikkTSpace
 //! tangents ([`mikk_tangents`]).
 //!
-//! Occlusion textures, vertex colours, animations, skins, morph targets, points and
+//! `occlusionTexture` (with its `strength`) darkens `phong`'s ambient term (`ka`); the path
+//! tracer, which finds occlusion itself, does not read it (a warning says so).
+//!
+//! Vertex colours, animations, skins, morph targets, points and
 //! lines, orthographic cameras and extensions raylab does not implement (those
 //! `extensionsUsed` lists and those found on any element) are ignored with one warning per kind
 //! (with a count, or naming each extension); so are the metallic-roughness and transmission
@@ -654,6 +657,14 @@ impl GltfFile {
                 let texture = sampled(&TexRef::from(&n), "normalTexture", Slot::Data)?;
                 Some(NormalMap { texture, kind: NormalMapKind::Tangent, scale: if scale.is_finite() { scale } else { 1.0 } })
             });
+            // Occlusion darkens phong's ambient term: `ka = 1 + strength·(occlusion − 1)`.
+            if let Some(o) = m.occlusion_texture() {
+                let strength = f64::from(o.strength());
+                let strength = if strength.is_finite() { strength.clamp(0.0, 1.0) } else { 1.0 };
+                if let Some(texture) = sampled(&TexRef::from(&o), "occlusionTexture", Slot::Data) {
+                    maps.push((Channel::Ka, Arc::new(Occlusion { texture, strength })));
+                }
+            }
             let material = &mut out.materials[id as usize];
             if alpha.is_some() {
                 material.cutout = cutout(&m, alpha);
@@ -902,11 +913,11 @@ impl GltfFile {
         };
         let materials: Vec<gltf::Material> = self.doc.materials().collect();
         type Has = fn(&gltf::Material) -> bool;
-        let textures: [(&str, Has); 1] = [("occlusionTexture", |m| m.occlusion_texture().is_some())];
-        for (name, has) in textures {
-            let n = materials.iter().filter(|m| has(m)).count();
-            warn(n, format!("{n} material(s) use an {name}, which raylab does not sample (its factors are used)"));
-        }
+        let n = materials.iter().filter(|m| m.occlusion_texture().is_some()).count();
+        warn(
+            n,
+            format!("{n} material(s) use an occlusionTexture: phong's ambient term samples it; the path tracer computes occlusion itself"),
+        );
         // Sampled by the `pbr` model (the path tracer); `phong` reads the factors.
         let phong_only: [(&str, Has); 2] = [
             ("metallicRoughnessTexture", |m| m.pbr_metallic_roughness().metallic_roughness_texture().is_some()),
@@ -1277,6 +1288,21 @@ fn cutout(m: &gltf::Material, alpha_texture: Option<Arc<dyn Texture>>) -> Option
         gltf::material::AlphaMode::Blend => AlphaMode::Blend,
     };
     Cutout::new(alpha, alpha_texture, mode)
+}
+
+/// glTF's `occlusionTexture` as phong's ambient response: `1 + strength·(r − 1)`, `r` the
+/// texture's red channel (linear).
+#[derive(Debug)]
+struct Occlusion {
+    texture: Arc<dyn Texture>,
+    strength: f64,
+}
+
+impl Texture for Occlusion {
+    fn eval(&self, at: &raylab::scene::texture::TexturePoint) -> Color {
+        let r = self.texture.eval(at).x;
+        Color::splat((1.0 + self.strength * (r - 1.0)).max(0.0))
+    }
 }
 
 /// Which colours a glTF texture holds: sRGB-encoded colours or linear data.
@@ -1786,6 +1812,37 @@ mod tests {
         let src = Source::new("t.gltf", String::new());
         let mesh = parse(&ctx, "t.gltf", Path::new("t.gltf"), text.as_bytes().to_vec(), &Loc::new(&src, 0..0)).and_then(|f| f.whole(&ctx));
         (mesh, ctx.take_warnings().iter().map(|w| w.message.clone()).collect())
+    }
+
+    /// `occlusionTexture` darkens phong's ambient response by its strength, over its own
+    /// `KHR_texture_transform`, and says (once) that the path tracer does not read it.
+    #[test]
+    fn occlusion_textures_scale_the_ambient_response() {
+        use image::ImageEncoder;
+        // A 2 × 1 grey image: occlusion 0.2 on the left, 1 on the right (linear data).
+        let mut png = Vec::new();
+        image::codecs::png::PngEncoder::new(&mut png).write_image(&[51, 255], 2, 1, image::ExtendedColorType::L8).unwrap();
+        let extra = format!(
+            r#",
+"materials":[{{"occlusionTexture":{{"index":0,"strength":0.5,"extensions":{{"KHR_texture_transform":{{"offset":[0.5,0]}}}}}}}}],
+"textures":[{{"source":0,"sampler":0}}],"samplers":[{{"magFilter":9728}}],"images":[{{"uri":"data:image/png;base64,{}"}}]"#,
+            base64(&png)
+        );
+        let text =
+            doc("[{\"mesh\":0}]", &extra).replacen(r#""attributes":{"POSITION":0}}"#, r#""attributes":{"POSITION":0},"material":0}"#, 1);
+        let (mesh, w) = read_mesh(&text);
+        let mesh = mesh.unwrap();
+        assert_eq!(
+            w.iter().filter(|m| m.contains("1 material(s) use an occlusionTexture: phong's ambient term samples it")).count(),
+            1,
+            "{w:?}"
+        );
+        let m = &mesh.materials[0];
+        let at = |u: f64| raylab::scene::texture::TexturePoint { uv: raylab::glam::DVec2::new(u, 0.5), local: DVec3::ZERO };
+        // Offset by half the image: u = 0.25 reads the right texel, u = 0.75 the left one.
+        let ka = |u: f64| m.at(|| at(u).uv, DVec3::ZERO).ka;
+        assert!((ka(0.25) - Color::ONE).abs().max_element() < 1e-9, "{}", ka(0.25));
+        assert!((ka(0.75) - Color::splat(1.0 + 0.5 * (0.2 - 1.0))).abs().max_element() < 1e-6, "{}", ka(0.75));
     }
 
     /// Extensions a file uses without declaring them in `extensionsUsed`, the transmission

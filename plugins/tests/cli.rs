@@ -603,3 +603,29 @@ fn a_time_budget_render_repeats_from_its_spp_layer() {
     assert!(!out.status.success() && text(&out.stderr).contains("time budget"), "{}", text(&out.stderr));
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// `sweep` varies the light-sampling knobs: the path tracer's `light_samples` and a light's own
+/// parameter as `TYPE.PARAM` (the environment's sampling grid); a parameter the light type has
+/// not, or a type the scene has no light of, is refused.
+#[test]
+fn sweep_varies_light_knobs() {
+    let dir = temp_dir("sweep-lights");
+    let scene = repo().join("scenes/environment.toml");
+    let scene = scene.to_str().unwrap();
+    let small = ["--width", "16", "--height", "9", "--spp", "1", "--reference-spp", "2", "-q", "--out", "out"];
+    let vary = ["sweep", scene, "--vary", "environment.resolution=4,64", "--vary", "light_samples=1,2"];
+    let out = raylab(&dir, &[&vary[..], &small].concat());
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let csv = std::fs::read_to_string(dir.join("out/results.csv")).unwrap();
+    assert!(csv.starts_with("environment.resolution,light_samples,"), "{csv}");
+    assert_eq!(csv.lines().count(), 5, "{csv}");
+    // The grid's resolution changes the samples, so the images.
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("out/results.json")).unwrap()).unwrap();
+    let rmse: Vec<f64> = json["results"].as_array().unwrap().iter().map(|r| r["rmse"].as_f64().unwrap()).collect();
+    assert_ne!(rmse[0], rmse[1], "{json}");
+    let out = raylab(&dir, &[&["sweep", scene, "--vary", "environment.resoluton=4"][..], &small].concat());
+    assert!(!out.status.success() && text(&out.stderr).contains("has no parameter `resoluton`"), "{}", text(&out.stderr));
+    let out = raylab(&dir, &[&["sweep", scene, "--vary", "rect.samples=4"][..], &small].concat());
+    assert!(!out.status.success() && text(&out.stderr).contains("no \"rect\" light"), "{}", text(&out.stderr));
+    std::fs::remove_dir_all(dir).unwrap();
+}

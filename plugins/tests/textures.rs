@@ -209,6 +209,8 @@ fn the_texture_fuzz_seeds_decode_or_fail_as_expected() {
         ("jpeg-progressive-16x8.jpg", (16, 8)),
         ("jpeg-gray-8x8.jpg", (8, 8)),
         ("jpeg-subsampled-odd-7x5.jpg", (7, 5)),
+        ("hdr-flat-2x2.hdr", (2, 2)),
+        ("hdr-rle-16x4.hdr", (16, 4)),
     ];
     if cfg!(feature = "exr") {
         valid.extend([("exr-half-rgb-2x2.exr", (2, 2)), ("exr-float-rgb-2x2.exr", (2, 2)), ("exr-nan-inf-negative.exr", (2, 2))]);

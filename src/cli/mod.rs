@@ -288,6 +288,7 @@ impl SceneArgs {
                 depth: self.depth.map(|d| flag_node("--depth", "depth", Value::Int(d)).1),
                 render_params,
                 camera_params,
+                light_params: Vec::new(),
             },
             limits,
             allow_outside_paths: self.allow_outside_paths,

@@ -22,9 +22,10 @@ pub(crate) struct SweepArgs {
     /// `aa_depth=…`, `aa_edges=…`, `aa_signature=…`, `aa_cell_samples=…`, `aa_coarse=…`, `lens_samples=…`,
     /// `target_error=0.1,0.03` (with spp as the cap), `target_min_spp=…`,
     /// `aperture=…`, `integrator=phong,path`, `denoise=off,on` (the finished image denoised by
-    /// Intel Open Image Denoise, guided by albedo and normal; its time counts), or any
-    /// integrator parameter (`glossy_rays`, `shadow_rays`, `shadow_probes`, `prune_threshold`,
-    /// …). Repeatable.
+    /// Intel Open Image Denoise, guided by albedo and normal; its time counts), a light
+    /// parameter as `TYPE.PARAM` for every light of that type (`environment.resolution=64,1024`),
+    /// or any integrator parameter (`glossy_rays`, `shadow_rays`, `shadow_probes`,
+    /// `prune_threshold`, `light_samples`, `light_selection`, `emitter_samples`, …). Repeatable.
     #[arg(long = "vary", value_name = "KNOB=V1,V2,…", required = true)]
     vary: Vec<String>,
     /// Vary one knob at a time from the base settings (the scene's, with the flags below),

@@ -52,6 +52,9 @@ pub struct Overrides {
     /// The integrator's recursion depth (its parameter with [`crate::param::spec::Role::Depth`],
     /// whatever its name), applied before `integrator_params`.
     pub depth: Option<Node>,
+    /// Light parameters, `(light type, name, value)`, applied over every light of that type in
+    /// the scene (`environment.resolution`); a scene without such a light is an error.
+    pub light_params: Vec<(String, String, Node)>,
     /// `[render]` keys, `(name, value)`, applied over the scene's (e.g. `aa`, `lens_samples`).
     pub render_params: Vec<(String, Node)>,
     /// Camera parameters, `(name, value)`, applied over the scene's `[camera]` (see
@@ -92,7 +95,8 @@ fn is_bare_word(s: &str) -> bool {
 /// Sets the quality knob `name` to `value` in `o`, as `raylab sweep --vary NAME=…` does: `spp`
 /// (and stratified anti-aliasing unless `aa` is set), `depth`, `integrator`, the `[render]` keys
 /// `aa`, `aa_*` (and adaptive anti-aliasing unless `aa` is set) and `lens_samples`, the camera's
-/// `aperture` and `focus_distance`, and any other name as an integrator parameter. Settings it
+/// `aperture` and `focus_distance`, `TYPE.PARAM` as the parameter of every light of that type
+/// (`environment.resolution`), and any other name as an integrator parameter. Settings it
 /// implies are located at `origin`.
 pub fn apply_knob(o: &mut LoadOptions, origin: &str, name: &str, value: &Node) -> Result<()> {
     let ov = &mut o.overrides;
@@ -123,6 +127,10 @@ pub fn apply_knob(o: &mut LoadOptions, origin: &str, name: &str, value: &Node) -
             _ => return Err(SceneError::at(&value.loc, "integrator must be a name (phong, path, …)")),
         },
         "depth" => ov.depth = Some(value.clone()),
+        _ if name.contains('.') => {
+            let (ty, param) = name.split_once('.').unwrap_or_default();
+            ov.light_params.push((ty.to_string(), param.to_string(), value.clone()));
+        }
         _ => set(&mut ov.integrator_params, name, value),
     }
     Ok(())

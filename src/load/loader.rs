@@ -665,10 +665,30 @@ fn light_section(registry: &Registry, node: Option<&Node>, ctx: &LoadContext) ->
             plugin_header(registry, node, i, "light", |n| registry.light(n).is_some(), || registry.lights().map(|p| p.name).collect())?;
         let plugin = registry.light(&ty).expect("checked by plugin_header");
         let what = format!("light #{i} {label}({ty})");
+        let overrides: Vec<(String, Node)> =
+            ctx.options.overrides.light_params.iter().filter(|(t, ..)| *t == ty).map(|(_, k, v)| (k.clone(), v.clone())).collect();
+        for (k, v) in &overrides {
+            if !plugin.info.params.iter().any(|s| s.name == k) {
+                let names: Vec<&str> = plugin.info.params.iter().map(|s| s.name).collect();
+                return Err(SceneError::at(&v.loc, format!("light type \"{ty}\" has no parameter `{k}`"))
+                    .with_help(format!("its parameters: {}", names.join(", "))));
+            }
+        }
+        let params = &with_overrides(params, &overrides);
         let mut p = Params::new(&what, plugin.info.params, params, node.loc.clone()).reserving(LIGHT_KEYS);
         let l = (plugin.build)(&mut p, ctx)?;
         p.finish()?;
         lights.push((light_names.claim(node, &label, &ty, i)?, l));
+    }
+    // A light parameter set from outside for a type the scene has none of would change nothing.
+    let nodes = array_of_tables(node, "light")?;
+    let has = |ty: &str| {
+        nodes
+            .iter()
+            .any(|n| matches!(&n.value, Value::Table(t) if t.get("type").is_some_and(|v| matches!(&v.value, Value::Str(s) if s == ty))))
+    };
+    if let Some((ty, k, v)) = ctx.options.overrides.light_params.iter().find(|(t, ..)| !has(t)) {
+        return Err(SceneError::at(&v.loc, format!("the scene has no \"{ty}\" light whose `{k}` could be set")));
     }
     Ok(lights)
 }
