@@ -1838,9 +1838,9 @@ mod tests {
             "{w:?}"
         );
         let m = &mesh.materials[0];
-        let at = |u: f64| raylab::scene::texture::TexturePoint { uv: raylab::glam::DVec2::new(u, 0.5), local: DVec3::ZERO };
+        let at = |u: f64| raylab::scene::texture::TexturePoint::new(raylab::glam::DVec2::new(u, 0.5), DVec3::ZERO);
         // Offset by half the image: u = 0.25 reads the right texel, u = 0.75 the left one.
-        let ka = |u: f64| m.at(|| at(u).uv, DVec3::ZERO).ka;
+        let ka = |u: f64| m.at(|| at(u)).ka;
         assert!((ka(0.25) - Color::ONE).abs().max_element() < 1e-9, "{}", ka(0.25));
         assert!((ka(0.75) - Color::splat(1.0 + 0.5 * (0.2 - 1.0))).abs().max_element() < 1e-6, "{}", ka(0.75));
     }

@@ -98,7 +98,7 @@ impl NormalMap {
 #[inline(never)]
 pub fn shading_normal(map: &NormalMap, geometry: &dyn Geometry, hit: &Hit, s: &Surface, dir: DVec3) -> Option<DVec3> {
     let [dpdu, dpdv] = geometry.tangents(hit)?;
-    let at = TexturePoint { uv: geometry.uv(hit), local: s.local };
+    let at = TexturePoint::new(geometry.uv(hit), s.local);
     let outward = if s.front_face { s.ns } else { -s.ns };
     let tilted = map.tilt(outward, dpdu, dpdv, &at)?;
     let facing = if s.front_face { tilted } else { -tilted };
@@ -193,7 +193,7 @@ mod tests {
 
     #[test]
     fn a_flat_map_tilts_nothing_and_a_tilted_one_follows_the_tangents() {
-        let at = TexturePoint { uv: DVec2::new(0.3, 0.7), local: DVec3::ZERO };
+        let at = TexturePoint::new(DVec2::new(0.3, 0.7), DVec3::ZERO);
         let map = |c: Color, scale| NormalMap { texture: Arc::new(Constant(c)), kind: NormalMapKind::Tangent, scale };
         let (n, du, dv) = (DVec3::Z, DVec3::X * 2.0, DVec3::Y * 5.0);
         assert_eq!(map(Color::new(0.5, 0.5, 1.0), 1.0).tilt(n, du, dv, &at), None);
@@ -210,7 +210,7 @@ mod tests {
     fn a_bump_map_tilts_by_the_height_slope() {
         let map = NormalMap { texture: Arc::new(Ramp), kind: NormalMapKind::Bump, scale: 1.0 };
         let level = NormalMap { texture: Arc::new(Constant(Color::splat(0.25))), kind: NormalMapKind::Bump, scale: 3.0 };
-        let at = |u| TexturePoint { uv: DVec2::new(u, 0.5), local: DVec3::ZERO };
+        let at = |u| TexturePoint::new(DVec2::new(u, 0.5), DVec3::ZERO);
         assert_eq!(level.tilt(DVec3::Z, DVec3::X, DVec3::Y, &at(0.5)), None);
         // Height u²/2 over p = (u, v, 0): slope u, normal (−u, 0, 1) normalised.
         for u in [0.25, 1.0, 2.0] {
