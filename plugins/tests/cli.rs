@@ -1,7 +1,6 @@
 //! The `raylab` binary, run as a user would.
 
 use std::path::Path;
-use std::process::Command;
 
 mod common;
 use common::{raylab, repo, temp_dir, text};
@@ -180,7 +179,7 @@ fn ctrl_c_writes_the_partial_image_beside_the_target_and_keeps_the_old_one() {
     let scene = repo().join("scenes/showcase.toml");
     std::fs::write(dir.join("out.png"), b"a good image from before").unwrap();
     // Hours of work: it cannot finish before the signal.
-    let mut child = Command::new(env!("CARGO_BIN_EXE_raylab"))
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_raylab"))
         .args([
             "render",
             scene.to_str().unwrap(),
@@ -216,7 +215,7 @@ fn ctrl_c_writes_the_partial_image_beside_the_target_and_keeps_the_old_one() {
         assert!(start.elapsed() < Duration::from_secs(300), "no checkpoint within 5 minutes");
         std::thread::sleep(Duration::from_millis(5));
     }
-    let kill = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    let kill = std::process::Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
     assert!(kill.success());
     let deadline = Instant::now() + Duration::from_secs(120);
     let status = loop {

@@ -2,7 +2,6 @@
 //! a model file rendered by itself, a dark scene that says why.
 
 use std::path::Path;
-use std::process::Command;
 
 mod common;
 use common::{raylab, repo, temp_dir, text};
@@ -175,7 +174,7 @@ fn a_resume_says_what_it_resumed_and_cleans_up() {
     let mut said = None;
     for attempt in 0..4u64 {
         let _ = std::fs::remove_file(dir.join("out.png"));
-        let mut child = Command::new(env!("CARGO_BIN_EXE_raylab"))
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_raylab"))
             .args([&["render", s, "-o", "out.png", "-q", "--checkpoint", "state.exr", "--checkpoint-every", "0.05"][..], &size].concat())
             .current_dir(&dir)
             .spawn()

@@ -429,9 +429,10 @@ pub fn decode(bytes: &[u8], name: &str, space: ColorSpace, ctx: &LoadContext) ->
         let buffers = if format == image::ImageFormat::OpenExr { exr_block_buffers(bytes) } else { 0 };
         ctx.charge(
             decoder.total_bytes().saturating_add(kept_bytes(pixels, eight)).saturating_add(buffers),
-            &format!("the image \"{name}\" ({w}×{h})"),
+            &format!("the image ({w}×{h})"),
             None,
-        )?;
+        )
+        .map_err(|e| SceneError { help: e.help, ..fail(e.message) })?;
         image::DynamicImage::from_decoder(decoder).map_err(|e| fail(format!("cannot decode the image: {e}")))
     }));
     let img = match decoded {
