@@ -89,17 +89,23 @@ fn every_docs_image_is_listed_and_current() {
         // Rewrite each entry's `fingerprint = "…"` line, keeping the rest of the file as written.
         let mut current = String::new();
         let mut out = String::new();
+        let mut written = std::collections::BTreeSet::new();
         for line in text.lines() {
             if let Some(f) = line.strip_prefix("file = ") {
                 current = f.trim_matches('"').to_string();
             }
             match computed.get(&current) {
-                Some(fp) if line.starts_with("fingerprint = ") => out.push_str(&format!("fingerprint = \"{fp}\"")),
+                Some(fp) if line.starts_with("fingerprint = ") => {
+                    out.push_str(&format!("fingerprint = \"{fp}\""));
+                    written.insert(current.clone());
+                }
                 _ => out.push_str(line),
             }
             out.push('\n');
         }
         std::fs::write(&path, out).unwrap();
+        let missing: Vec<&String> = computed.keys().filter(|f| !written.contains(*f)).collect();
+        assert!(missing.is_empty(), "nothing recorded for {missing:?}: give each entry a line `fingerprint = \"\"` to fill");
         return;
     }
     assert!(problems.is_empty(), "{}", problems.join("\n"));
