@@ -326,6 +326,17 @@ impl LightSource for Environment {
     fn environment(&self, dir: DVec3) -> Option<Color> {
         Some(self.radiance(dir))
     }
+
+    fn environment_pdf(&self, _origin: DVec3, dir: DVec3) -> Option<(Color, f64)> {
+        Some(match &self.image {
+            None => (self.radiance, UNIFORM_DENSITY),
+            Some((image, density)) => {
+                // One turn into image coordinates serves both.
+                let (uv, sin_theta) = self.to_uv(dir);
+                (self.radiance_at(image, uv), Self::density_at(density, uv, sin_theta))
+            }
+        })
+    }
 }
 
 #[cfg(test)]
