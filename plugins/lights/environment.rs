@@ -241,7 +241,7 @@ impl Environment {
     #[inline]
     fn radiance_at(&self, image: &Image, uv: DVec2) -> Color {
         // The texture lookup's v points up (row 0 at v = 1).
-        image.lookup(DVec2::new(uv.x, 1.0 - uv.y), [Wrap::Repeat, Wrap::Clamp], Filter::Bilinear) * self.radiance
+        image.lookup_inlined(DVec2::new(uv.x, 1.0 - uv.y), [Wrap::Repeat, Wrap::Clamp], Filter::Bilinear) * self.radiance
     }
 
     /// The density (per steradian) with which [`LightSource::illuminate`] picks direction `dir`.
