@@ -241,7 +241,7 @@ impl Environment {
     #[inline]
     fn radiance_at(&self, image: &Image, uv: DVec2) -> Color {
         // The texture lookup's v points up (row 0 at v = 1).
-        image.lookup(DVec2::new(uv.x, 1.0 - uv.y), [Wrap::Repeat, Wrap::Clamp], Filter::Bilinear) * self.radiance
+        image.lookup_inlined(DVec2::new(uv.x, 1.0 - uv.y), [Wrap::Repeat, Wrap::Clamp], Filter::Bilinear) * self.radiance
     }
 
     /// The density (per steradian) with which [`LightSource::illuminate`] picks direction `dir`.
@@ -325,6 +325,17 @@ impl LightSource for Environment {
 
     fn environment(&self, dir: DVec3) -> Option<Color> {
         Some(self.radiance(dir))
+    }
+
+    fn environment_pdf(&self, _origin: DVec3, dir: DVec3) -> Option<(Color, f64)> {
+        Some(match &self.image {
+            None => (self.radiance, UNIFORM_DENSITY),
+            Some((image, density)) => {
+                // One turn into image coordinates serves both.
+                let (uv, sin_theta) = self.to_uv(dir);
+                (self.radiance_at(image, uv), Self::density_at(density, uv, sin_theta))
+            }
+        })
     }
 }
 

@@ -171,6 +171,20 @@ pub trait LightSource: Send + Sync {
         let _ = dir;
         None
     }
+
+    /// For an environment light ([`LightSource::environment`] answers), what a Monte Carlo
+    /// integrator weighs a ray that leaves the scene from `origin` along unit `dir` with, in one
+    /// call: the radiance arriving along it ([`LightSource::environment`]`(dir)`) and the density
+    /// per steradian with which [`LightSource::illuminate`] at `origin` picks `dir` ([`LightSource::pdf`]
+    /// of the sample [`LightSource::intersect`] gives for that ray); `None` for every other light
+    /// (and for a delta density). The default asks those three; an environment that can answer
+    /// both from one lookup (one turn of the direction into image coordinates) should, as this is
+    /// asked for every ray that leaves the scene.
+    fn environment_pdf(&self, origin: DVec3, dir: DVec3) -> Option<(Color, f64)> {
+        let radiance = self.environment(dir)?;
+        let sample = self.intersect(&Ray { origin, dir }, f64::INFINITY)?;
+        Some((radiance, self.pdf(origin, &sample).solid_angle()?))
+    }
 }
 
 impl<T: LightSource + ?Sized> LightSource for Box<T> {
@@ -200,5 +214,8 @@ impl<T: LightSource + ?Sized> LightSource for Box<T> {
     }
     fn environment(&self, dir: DVec3) -> Option<Color> {
         (**self).environment(dir)
+    }
+    fn environment_pdf(&self, origin: DVec3, dir: DVec3) -> Option<(Color, f64)> {
+        (**self).environment_pdf(origin, dir)
     }
 }

@@ -257,9 +257,13 @@ impl PathTracer {
             rec.light(|| traced.record(Some("the surface reflects nothing toward this light"), false, None, &[]));
             return Color::ZERO;
         }
-        // Weighed against the BSDF's own rays where they can meet the light too.
+        // Weighed against the BSDF's own rays where they can meet the light too (an environment:
+        // every ray that leaves the scene meets it, so it is not asked).
+        let can_meet = |light: &dyn LightSource| {
+            scene.light_facts()[index].environment || light.intersect(&Ray { origin: si.point(), dir: ls.dir }, f64::INFINITY).is_some()
+        };
         let (mis, pdfs) = match light.pdf(si.point(), ls) {
-            LightPdf::SolidAngle(p) if light.intersect(&Ray { origin: si.point(), dir: ls.dir }, f64::INFINITY).is_some() => {
+            LightPdf::SolidAngle(p) if can_meet(light) => {
                 let q = bsdf.pdf(ls.dir);
                 (power_heuristic(f64::from(n) * p, q), Some((p, q)))
             }
@@ -291,23 +295,33 @@ impl PathTracer {
         let scene = c.scene;
         let mut total = Color::ZERO;
         for (index, light) in scene.lights.iter().enumerate() {
-            let Some(ls) = light.intersect(ray, t_max) else { continue };
-            let Some(p) = light.pdf(ray.origin, &ls).solid_angle() else { continue };
-            if !(p > 0.0 && p.is_finite() && max_channel(ls.intensity) > 0.0) {
-                continue;
-            }
-            c.stats.add(counter::LIGHT_HITS, 1);
-            // An environment says its radiance itself (exactly what a camera ray shows of it).
             let facts = scene.light_facts()[index];
-            let radiance = match facts.environment.then(|| light.environment(ray.dir)).flatten() {
-                Some(r) => r,
-                None => IRRADIANCE_PER_INTENSITY * ls.intensity * p,
+            let (radiance, p, distance) = if facts.environment {
+                // Only a ray that leaves the scene meets the surroundings, which say their
+                // radiance themselves (exactly what a camera ray shows of them) and its density
+                // in one lookup.
+                if t_max.is_finite() {
+                    continue;
+                }
+                let Some((radiance, p)) = light.environment_pdf(ray.origin, ray.dir) else { continue };
+                if !(p > 0.0 && p.is_finite() && max_channel(radiance) > 0.0) {
+                    continue;
+                }
+                (radiance, p, f64::INFINITY)
+            } else {
+                let Some(ls) = light.intersect(ray, t_max) else { continue };
+                let Some(p) = light.pdf(ray.origin, &ls).solid_angle() else { continue };
+                if !(p > 0.0 && p.is_finite() && max_channel(ls.intensity) > 0.0) {
+                    continue;
+                }
+                (IRRADIANCE_PER_INTENSITY * ls.intensity * p, p, ls.distance)
             };
+            c.stats.add(counter::LIGHT_HITS, 1);
             let mis = bsdf_pdf.map_or(1.0, |q| power_heuristic(q, f64::from(self.samples_for(facts)) * p));
             rec.note(|| {
                 let (name, r) = (&scene.light_names[index], radiance);
-                let head = if ls.distance.is_finite() {
-                    format!("meets light {name} at t = {:.4}: radiance ({:.4}, {:.4}, {:.4})", ls.distance, r.x, r.y, r.z)
+                let head = if distance.is_finite() {
+                    format!("meets light {name} at t = {distance:.4}: radiance ({:.4}, {:.4}, {:.4})", r.x, r.y, r.z)
                 } else {
                     format!("leaves the scene and sees light {name}: radiance ({:.4}, {:.4}, {:.4})", r.x, r.y, r.z)
                 };
