@@ -78,7 +78,8 @@ fn a_checker_plane_turns_grey_toward_the_horizon() {
     let (ea, eb) = (high_frequency(&a, w, far.clone()), high_frequency(&b, w, far.clone()));
     assert!(eb > 0.0, "the point-sampled plane aliases");
     assert!(ea * 5.0 < eb, "filtered {ea} vs point-sampled {eb}: not a large factor");
-    let reference = pixels(&job(&CHECKER_PLANE.replace("texture_filter = true", "texture_filter = false").replace("spp = 1\n", "spp = 64\n"), ""), 2);
+    let reference =
+        pixels(&job(&CHECKER_PLANE.replace("texture_filter = true", "texture_filter = false").replace("spp = 1\n", "spp = 64\n"), ""), 2);
     let error = |p: &[f64]| far.clone().flat_map(|y| (0..w).map(move |x| y * w + x)).map(|i| (p[i] - reference[i]).powi(2)).sum::<f64>();
     let (ra, rb) = (error(&a), error(&b));
     assert!(ra * 5.0 < rb, "squared error against the supersampled image: filtered {ra}, point-sampled {rb}");

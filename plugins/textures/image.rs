@@ -230,7 +230,8 @@ impl Image {
             return self.trilinear(mips, uv, level, wrap, filter);
         }
         let size = DVec2::new(self.width as f64, self.height as f64);
-        let sum: Color = (0..probes.count).map(|i| self.trilinear(mips, uv + probes.offset(i).truncate() / size, level, wrap, filter)).sum();
+        let sum: Color =
+            (0..probes.count).map(|i| self.trilinear(mips, uv + probes.offset(i).truncate() / size, level, wrap, filter)).sum();
         sum / probes.count as f64
     }
 
