@@ -282,6 +282,11 @@ impl Registry {
         self.samplers.iter().map(|(_, s)| *s).collect()
     }
 
+    /// The names of the samplers registered with geometry type `name`.
+    pub fn samplers_of(&self, name: &str) -> Vec<&'static str> {
+        self.samplers.iter().filter(|(n, _)| *n == name).map(|(_, s)| s.name).collect()
+    }
+
     /// The registered geometry types that offer no sample generator (so are checked by no
     /// shape harness), sorted by name.
     pub fn unsampled_geometries(&self) -> impl Iterator<Item = &'static str> + '_ {
