@@ -106,6 +106,16 @@ pub trait LightSource: Send + Sync {
     /// counts, what it skips.
     fn illuminate(&self, p: DVec3, u: DVec2) -> Option<LightSample>;
 
+    /// [`LightSource::illuminate`] and the density with which it drew the sample
+    /// ([`LightSource::pdf`]), in one call. A light that knows that density as it draws (an
+    /// environment, from its sampling grid) should answer it here rather than find it again from
+    /// the direction (for an environment, a turn into image coordinates and a lookup: a third of
+    /// its cost per sample); the default asks [`LightSource::pdf`].
+    fn illuminate_pdf(&self, p: DVec3, u: DVec2) -> Option<(LightSample, LightPdf)> {
+        let sample = self.illuminate(p, u)?;
+        Some((sample, self.pdf(p, &sample)))
+    }
+
     /// The density with which `illuminate(p, u)`, for `u` uniform in [0, 1]², picks `sample`'s
     /// direction (a sample it returned for `p`, or one [`LightSource::intersect`] returned for a
     /// ray from `p`). Monte Carlo integrators weigh light samples with it; `phong` never asks.
@@ -190,6 +200,9 @@ pub trait LightSource: Send + Sync {
 impl<T: LightSource + ?Sized> LightSource for Box<T> {
     fn illuminate(&self, p: DVec3, u: DVec2) -> Option<LightSample> {
         (**self).illuminate(p, u)
+    }
+    fn illuminate_pdf(&self, p: DVec3, u: DVec2) -> Option<(LightSample, LightPdf)> {
+        (**self).illuminate_pdf(p, u)
     }
     fn pdf(&self, p: DVec3, sample: &LightSample) -> LightPdf {
         (**self).pdf(p, sample)
