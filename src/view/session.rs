@@ -543,8 +543,14 @@ impl Session {
         }
         // The finished image denoised whole, as `raylab render --denoise` writes it.
         let denoised = if denoise && rendered.budget_stop.is_none() {
-            Some(crate::image::denoise::denoise_guided(&rendered.film, rendered.layers.as_ref(), crate::image::denoise::guides_are_clean(&job))
-                    .map_err(ErrorInfo::plain)?)
+            Some(
+                crate::image::denoise::denoise_guided(
+                    &rendered.film,
+                    rendered.layers.as_ref(),
+                    crate::image::denoise::guides_are_clean(&job),
+                )
+                .map_err(ErrorInfo::plain)?,
+            )
         } else {
             None
         };
