@@ -194,7 +194,7 @@ impl Environment {
             (0..gw * gh)
                 .map(|i| {
                     let (gx, gy) = (i % gw, i / gw);
-                    let toward = |g: usize| if g % 2 == 0 { -1 } else { 1 };
+                    let toward = |g: usize| if g.is_multiple_of(2) { -1 } else { 1 };
                     quarter_max(&texels, w, h, (gx / 2, gy / 2), (toward(gx), toward(gy)))
                 })
                 .collect()
