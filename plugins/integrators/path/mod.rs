@@ -395,7 +395,7 @@ impl Integrator for PathTracer {
     /// A path is a chain: the camera ray and at most `max_bounces + 1` scattered rays, and at
     /// each of its `max_bounces + 1` vertices with light samples every light's shadow rays.
     fn worst_case_rays(&self, scene: &Scene) -> f64 {
-        let mut shadow: f64 = scene.light_facts().iter().filter(|l| !l.uniform).map(|&l| f64::from(self.samples_for(l))).sum();
+        let mut shadow: f64 = scene.light_facts().iter().map(|&l| f64::from(self.samples_for(l))).sum();
         if self.samples_emitters(scene) {
             shadow += f64::from(self.emitter_samples());
         }
