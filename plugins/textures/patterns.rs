@@ -13,6 +13,7 @@
 //! coordinates (a plane at y = 0 under a solid checker) shows rounding noise: move the pattern by
 //! half a cell (`transform = { translate = [0, 0.5, 0] }`) or lay it over uv.
 
+use super::image::floor;
 use raylab::glam::DVec3;
 use raylab::param::error::Result;
 use raylab::param::params::Params;
@@ -95,7 +96,7 @@ impl Cells {
     #[inline]
     fn cell(&self, p: DVec3) -> i64 {
         // `as` saturates (and maps NaN to 0), so any point has a cell.
-        let f = |v: f64| v.floor() as i64;
+        let f = |v: f64| floor(v) as i64;
         match self.kind {
             CellKind::Checker => f(p.x).wrapping_add(f(p.y)).wrapping_add(f(p.z)),
             CellKind::Stripes => f(p.x),
@@ -153,7 +154,7 @@ impl Cells {
                 if sx.is_none() && sy.is_none() && sz.is_none() {
                     return None;
                 }
-                let exact = |s: Option<f64>, v: f64| s.unwrap_or(if (v.floor() as i64) & 1 == 0 { 1.0 } else { -1.0 });
+                let exact = |s: Option<f64>, v: f64| s.unwrap_or(if (floor(v) as i64) & 1 == 0 { 1.0 } else { -1.0 });
                 exact(sx, p.x) * exact(sy, p.y) * exact(sz, p.z)
             }
             CellKind::Stripes => box_parity(p.x, half.x)??,
@@ -179,12 +180,13 @@ fn box_parity(x: f64, half: f64) -> Option<Option<f64>> {
         return None;
     }
     let (a, b) = (x - half, x + half);
-    if a.floor() == b.floor() {
+    // A box of no width (an axis the footprint does not move along: z over uv) is one cell.
+    if half == 0.0 || floor(a) == floor(b) {
         return Some(None);
     }
     // ∫ (−1)^⌊t⌋ dt: a triangle wave between 0 and 1, rising on even cells.
     let integral = |t: f64| {
-        let m = t - 2.0 * (0.5 * t).floor();
+        let m = t - 2.0 * floor(0.5 * t);
         if m < 1.0 { m } else { 2.0 - m }
     };
     let mean = (integral(b) - integral(a)) / (b - a);
@@ -250,8 +252,8 @@ impl Texture for Gradient {
         }
         let t = match self.repeat {
             Repeat::Clamp => x.clamp(0.0, 1.0),
-            Repeat::Repeat => x - x.floor(),
-            Repeat::Mirror => 1.0 - ((x - 2.0 * (0.5 * x).floor()) - 1.0).abs(),
+            Repeat::Repeat => x - floor(x),
+            Repeat::Mirror => 1.0 - ((x - 2.0 * floor(0.5 * x)) - 1.0).abs(),
         };
         // NaN (a degenerate hit) and what rounding leaves outside [0, 1] go to the ends.
         let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };
@@ -279,11 +281,11 @@ impl Gradient {
                 }
             }
             Repeat::Repeat => {
-                let (k, f) = (t.floor(), t - t.floor());
+                let (k, f) = (floor(t), t - floor(t));
                 0.5 * k + 0.5 * f * f
             }
             Repeat::Mirror => {
-                let (k, f) = ((0.5 * t).floor(), t - 2.0 * (0.5 * t).floor());
+                let (k, f) = (floor(0.5 * t), t - 2.0 * floor(0.5 * t));
                 let within = if f < 1.0 { 0.5 * f * f } else { 0.5 + (f - 1.0) - 0.5 * (f - 1.0) * (f - 1.0) };
                 k + within
             }
