@@ -163,9 +163,15 @@ impl<'s> Interaction<'s> {
     /// call: for material models whose textures are read at the hit).
     pub fn texture_point(&self) -> TexturePoint {
         let g = self.object.geometry();
-        let at = TexturePoint::new(g.uv(&self.hit), self.local);
+        let (at, second) = TexturePoint::at_hit(g, &self.hit, self.local);
         match self.pixel_moves() {
-            Some((dpdx, dpdy)) => at.with_footprint(g.footprint(&self.hit, dpdx, dpdy)),
+            Some((dpdx, dpdy)) => {
+                let f = g.footprint(&self.hit, dpdx, dpdy);
+                at.with_footprint(match second {
+                    Some(j) => f.with_second_set(j),
+                    None => f,
+                })
+            }
             None => at,
         }
     }
