@@ -241,7 +241,7 @@ impl Environment {
     #[inline]
     fn radiance_at(&self, image: &Image, uv: DVec2) -> Color {
         // The texture lookup's v points up (row 0 at v = 1).
-        image.lookup(DVec2::new(uv.x, 1.0 - uv.y), [Wrap::Repeat, Wrap::Clamp], Filter::Bilinear) * self.radiance
+        image.lookup_inlined(DVec2::new(uv.x, 1.0 - uv.y), [Wrap::Repeat, Wrap::Clamp], Filter::Bilinear) * self.radiance
     }
 
     /// The density (per steradian) with which [`LightSource::illuminate`] picks direction `dir`.
@@ -275,8 +275,12 @@ impl Environment {
 }
 
 impl LightSource for Environment {
-    fn illuminate(&self, _p: DVec3, u: DVec2) -> Option<LightSample> {
-        match &self.image {
+    fn illuminate(&self, p: DVec3, u: DVec2) -> Option<LightSample> {
+        self.illuminate_pdf(p, u).map(|(sample, _)| sample)
+    }
+
+    fn illuminate_pdf(&self, _p: DVec3, u: DVec2) -> Option<(LightSample, LightPdf)> {
+        let (sample, pdf) = match &self.image {
             None => {
                 // Uniform over the sphere.
                 let z = 1.0 - 2.0 * u.y;
@@ -285,15 +289,18 @@ impl LightSource for Environment {
                 let (cr, sr) = self.rotation;
                 let local = DVec3::new(r * c, z, r * s);
                 let dir = DVec3::new(cr * local.x + sr * local.z, local.y, -sr * local.x + cr * local.z);
-                Some(self.sample(dir, self.radiance, UNIFORM_DENSITY))
+                (self.sample(dir, self.radiance, UNIFORM_DENSITY), UNIFORM_DENSITY)
             }
             Some((image, density)) => {
-                // The radiance at the drawn texel's coordinates: no round trip through the direction.
+                // The radiance at the drawn texel's coordinates and the density it was drawn
+                // with: no round trip through the direction.
                 let (uv, pdf_uv) = density.sample(u);
                 let (dir, sin_theta) = self.direction_of(uv);
-                Some(self.sample(dir, self.radiance_at(image, uv), pdf_uv / (2.0 * PI * PI * sin_theta)))
+                let pdf = pdf_uv / (2.0 * PI * PI * sin_theta);
+                (self.sample(dir, self.radiance_at(image, uv), pdf), pdf)
             }
-        }
+        };
+        Some((sample, LightPdf::SolidAngle(pdf)))
     }
 
     fn pdf(&self, _p: DVec3, sample: &LightSample) -> LightPdf {
@@ -325,6 +332,17 @@ impl LightSource for Environment {
 
     fn environment(&self, dir: DVec3) -> Option<Color> {
         Some(self.radiance(dir))
+    }
+
+    fn environment_pdf(&self, _origin: DVec3, dir: DVec3) -> Option<(Color, f64)> {
+        Some(match &self.image {
+            None => (self.radiance, UNIFORM_DENSITY),
+            Some((image, density)) => {
+                // One turn into image coordinates serves both.
+                let (uv, sin_theta) = self.to_uv(dir);
+                (self.radiance_at(image, uv), Self::density_at(density, uv, sin_theta))
+            }
+        })
     }
 }
 

@@ -102,7 +102,7 @@ pub enum Wrap {
 
 impl Wrap {
     /// The texel index for integer position `i` (any value, NaN included) in a row of `n ≥ 1`.
-    #[inline]
+    #[inline(always)]
     fn index(self, i: f64, n: usize) -> usize {
         // `as` saturates (NaN → 0), so huge coordinates still land in the image.
         let (i, n) = (i as i64, n as i64);
@@ -194,7 +194,7 @@ impl Image {
     }
 
     /// The linear value of texel (`x`, `y`), row 0 at the top; both in range.
-    #[inline]
+    #[inline(always)]
     fn texel(&self, x: usize, y: usize) -> Vec3 {
         let i = 3 * (y * self.width + x);
         match &self.texels {
@@ -254,23 +254,69 @@ impl Image {
     /// The filtered value at texture coordinates `uv` (v up), wrapped per axis by `wrap`.
     #[inline]
     pub fn lookup(&self, uv: DVec2, wrap: [Wrap; 2], filter: Filter) -> Color {
+        self.lookup_inlined(uv, wrap, filter)
+    }
+
+    /// [`Image::lookup`], always inlined: a caller whose `wrap` and `filter` are constants (an
+    /// environment's lookups, one or two at every path vertex) gets the lookup compiled for them
+    /// alone, with no call.
+    #[inline(always)]
+    pub fn lookup_inlined(&self, uv: DVec2, wrap: [Wrap; 2], filter: Filter) -> Color {
         let uv = if uv.is_finite() { uv } else { DVec2::ZERO };
         let x = uv.x * self.width as f64;
         let y = (1.0 - uv.y) * self.height as f64;
         let (column, row) = (|i: f64| wrap[0].index(i, self.width), |j: f64| wrap[1].index(j, self.height));
         match filter {
-            Filter::Nearest => self.texel(column(x.floor()), row(y.floor())).as_dvec3(),
+            Filter::Nearest => self.texel(column(floor(x)), row(floor(y))).as_dvec3(),
             Filter::Bilinear => {
                 let (x, y) = (x - 0.5, y - 0.5);
-                let (x0, y0) = (x.floor(), y.floor());
+                let (x0, y0) = (floor(x), floor(y));
                 let (fx, fy) = ((x - x0) as f32, (y - y0) as f32);
                 // Each of the four texels' column and row wrapped once.
                 let (c0, c1, r0, r1) = (column(x0), column(x0 + 1.0), row(y0), row(y0 + 1.0));
-                let top = self.texel(c0, r0).lerp(self.texel(c1, r0), fx);
-                let bottom = self.texel(c0, r1).lerp(self.texel(c1, r1), fx);
+                let [t00, t10, t01, t11] = self.texels([(c0, r0), (c1, r0), (c0, r1), (c1, r1)]);
+                let top = t00.lerp(t10, fx);
+                let bottom = t01.lerp(t11, fx);
                 top.lerp(bottom, fy).as_dvec3()
             }
         }
+    }
+
+    /// The linear values of texels `at` (each (`x`, `y`) as [`Image::texel`]'s), the storage
+    /// matched once for all of them.
+    #[inline(always)]
+    fn texels<const N: usize>(&self, at: [(usize, usize); N]) -> [Vec3; N] {
+        let w = self.width;
+        match &self.texels {
+            Texels::Eight { rgb, linear } => at.map(|(x, y)| {
+                let i = 3 * (y * w + x);
+                let t = &rgb[i..i + 3];
+                Vec3::new(linear[t[0] as usize], linear[t[1] as usize], linear[t[2] as usize])
+            }),
+            Texels::Float(texels) => at.map(|(x, y)| {
+                let i = 3 * (y * w + x);
+                let t = &texels[i..i + 3];
+                Vec3::new(t[0], t[1], t[2])
+            }),
+        }
+    }
+}
+
+/// `x.floor()`, to the bit (`-0.0`, infinities and NaN included), without the library call it
+/// is on x86-64 without SSE4.1: below 2⁵² through the integer part; from there on every float
+/// is whole.
+#[inline(always)]
+fn floor(x: f64) -> f64 {
+    if !(x.abs() < 4_503_599_627_370_496.0) {
+        return x;
+    }
+    let t = x as i64 as f64;
+    if t == x {
+        x
+    } else if t > x {
+        t - 1.0
+    } else {
+        t
     }
 }
 
@@ -505,6 +551,48 @@ fn exr_block_buffers(_: &[u8]) -> u64 {
 mod tests {
     use super::*;
     use raylab::LoadOptions;
+
+    #[test]
+    fn floor_is_the_library_floor_to_the_bit() {
+        let two52 = 4_503_599_627_370_496.0;
+        let mut values = vec![
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            2.5,
+            -2.5,
+            1e-300,
+            -1e-300,
+            f64::MIN_POSITIVE / 2.0,
+            -f64::MIN_POSITIVE / 2.0,
+            two52 - 0.5,
+            -(two52 - 0.5),
+            two52,
+            -two52,
+            two52 + 1.0,
+            1e300,
+            -1e300,
+            f64::MAX,
+            f64::MIN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            9.3e18,
+            -9.3e18,
+        ];
+        let mut z = 1u64;
+        for _ in 0..10_000 {
+            z = z.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            let u = (z >> 11) as f64 / (1u64 << 53) as f64;
+            values.push((u - 0.5) * 2f64.powi((z % 120) as i32 - 40));
+        }
+        for x in values {
+            assert_eq!(floor(x).to_bits(), x.floor().to_bits(), "{x:e}");
+        }
+        assert!(floor(f64::NAN).is_nan());
+    }
 
     fn png(w: u32, h: u32, rgb: &[u8]) -> Vec<u8> {
         use image::ImageEncoder;

@@ -106,6 +106,16 @@ pub trait LightSource: Send + Sync {
     /// counts, what it skips.
     fn illuminate(&self, p: DVec3, u: DVec2) -> Option<LightSample>;
 
+    /// [`LightSource::illuminate`] and the density with which it drew the sample
+    /// ([`LightSource::pdf`]), in one call. A light that knows that density as it draws (an
+    /// environment, from its sampling grid) should answer it here rather than find it again from
+    /// the direction (for an environment, a turn into image coordinates and a lookup: a third of
+    /// its cost per sample); the default asks [`LightSource::pdf`].
+    fn illuminate_pdf(&self, p: DVec3, u: DVec2) -> Option<(LightSample, LightPdf)> {
+        let sample = self.illuminate(p, u)?;
+        Some((sample, self.pdf(p, &sample)))
+    }
+
     /// The density with which `illuminate(p, u)`, for `u` uniform in [0, 1]², picks `sample`'s
     /// direction (a sample it returned for `p`, or one [`LightSource::intersect`] returned for a
     /// ray from `p`). Monte Carlo integrators weigh light samples with it; `phong` never asks.
@@ -171,11 +181,28 @@ pub trait LightSource: Send + Sync {
         let _ = dir;
         None
     }
+
+    /// For an environment light ([`LightSource::environment`] answers), what a Monte Carlo
+    /// integrator weighs a ray that leaves the scene from `origin` along unit `dir` with, in one
+    /// call: the radiance arriving along it ([`LightSource::environment`]`(dir)`) and the density
+    /// per steradian with which [`LightSource::illuminate`] at `origin` picks `dir` ([`LightSource::pdf`]
+    /// of the sample [`LightSource::intersect`] gives for that ray); `None` for every other light
+    /// (and for a delta density). The default asks those three; an environment that can answer
+    /// both from one lookup (one turn of the direction into image coordinates) should, as this is
+    /// asked for every ray that leaves the scene.
+    fn environment_pdf(&self, origin: DVec3, dir: DVec3) -> Option<(Color, f64)> {
+        let radiance = self.environment(dir)?;
+        let sample = self.intersect(&Ray { origin, dir }, f64::INFINITY)?;
+        Some((radiance, self.pdf(origin, &sample).solid_angle()?))
+    }
 }
 
 impl<T: LightSource + ?Sized> LightSource for Box<T> {
     fn illuminate(&self, p: DVec3, u: DVec2) -> Option<LightSample> {
         (**self).illuminate(p, u)
+    }
+    fn illuminate_pdf(&self, p: DVec3, u: DVec2) -> Option<(LightSample, LightPdf)> {
+        (**self).illuminate_pdf(p, u)
     }
     fn pdf(&self, p: DVec3, sample: &LightSample) -> LightPdf {
         (**self).pdf(p, sample)
@@ -200,5 +227,8 @@ impl<T: LightSource + ?Sized> LightSource for Box<T> {
     }
     fn environment(&self, dir: DVec3) -> Option<Color> {
         (**self).environment(dir)
+    }
+    fn environment_pdf(&self, origin: DVec3, dir: DVec3) -> Option<(Color, f64)> {
+        (**self).environment_pdf(origin, dir)
     }
 }

@@ -50,6 +50,9 @@ pub struct Scene {
     light_facts: Vec<LightFacts>,
     /// Indices of the environment lights ([`LightFacts::environment`]).
     environments: Vec<usize>,
+    /// Indices of the lights that illuminate, in order, when each of them gives one sample and
+    /// is not an area light ([`Scene::one_sample_lights`]); `None` when some light has more.
+    one_sample_lights: Option<Box<[usize]>>,
     /// The objects that emit and can be sampled as lights.
     emitters: Emitters,
     accel: ObjectAccel,
@@ -129,6 +132,10 @@ impl Scene {
         let ambient = lights.iter().map(|l| l.ambient()).sum();
         let light_facts: Vec<LightFacts> = lights.iter().map(|l| LightFacts::of(l.as_ref())).collect();
         let environments = (0..lights.len()).filter(|&i| light_facts[i].environment).collect();
+        let one_sample_lights = light_facts
+            .iter()
+            .all(|f| !f.illuminates || (!f.is_area && f.sample_count <= 1))
+            .then(|| (0..lights.len()).filter(|&i| light_facts[i].illuminates).collect());
         let emitters = Emitters::new(&objects);
         Scene {
             name: name.into(),
@@ -140,6 +147,7 @@ impl Scene {
             lights,
             light_facts,
             environments,
+            one_sample_lights,
             emitters,
             accel,
             opaque,
@@ -194,6 +202,15 @@ impl Scene {
     #[inline]
     pub fn light_facts(&self) -> &[LightFacts] {
         &self.light_facts
+    }
+
+    /// When every light that illuminates gives one sample per point and is not an area light
+    /// (point, spot and directional lights; [`LightFacts`]): their indices into
+    /// [`Scene::lights`], in order, so an integrator can take the common case without the
+    /// machinery of area lights (streams, stratified sets, probes). `None` otherwise.
+    #[inline]
+    pub fn one_sample_lights(&self) -> Option<&[usize]> {
+        self.one_sample_lights.as_deref()
     }
 
     /// Whether the scene has an environment light ([`crate::LightSource::environment`]).

@@ -126,9 +126,16 @@ impl PathTracer {
             let mut sum = Color::ZERO;
             for s in 0..n {
                 let u = if n == 1 { stream.next_2d() } else { stratified_2d(s, n, pattern) };
-                // No direction here (an ambient light): its light comes from escaping rays.
-                let Some(ls) = light.illuminate(si.point(), u) else { break };
-                sum += self.light_sample(c, v, (index, light.as_ref()), &ls, n, rec);
+                // No direction here (an ambient light): its light comes from escaping rays. An
+                // environment says the density it drew with (found again from the direction it
+                // would cost a lookup); other lights are asked only for samples that count.
+                let sample = if facts[index].environment {
+                    light.illuminate_pdf(si.point(), u).map(|(ls, pdf)| (ls, Some(pdf)))
+                } else {
+                    light.illuminate(si.point(), u).map(|ls| (ls, None))
+                };
+                let Some((ls, pdf)) = sample else { break };
+                sum += self.light_sample(c, v, (index, light.as_ref()), (&ls, pdf), n, rec);
             }
             total += sum / f64::from(n);
         }
@@ -225,15 +232,16 @@ impl PathTracer {
         }
     }
 
-    /// One light sample's contribution (before dividing by the light's `n` samples). A sample of
-    /// a delta light, or of a light no ray can meet (one that does not answer
+    /// One light sample's contribution (before dividing by the light's `n` samples), with the
+    /// density it was drawn with when the light said it (`None`: asked here, when needed). A
+    /// sample of a delta light, or of a light no ray can meet (one that does not answer
     /// [`LightSource::intersect`]), counts in full: no other strategy finds that light.
     fn light_sample<R: Recorder>(
         &self,
         c: &mut Ctx,
         v: Vertex,
         (index, light): (usize, &dyn LightSource),
-        ls: &LightSample,
+        (ls, pdf): (&LightSample, Option<LightPdf>),
         n: u32,
         rec: &mut R,
     ) -> Color {
@@ -257,9 +265,13 @@ impl PathTracer {
             rec.light(|| traced.record(Some("the surface reflects nothing toward this light"), false, None, &[]));
             return Color::ZERO;
         }
-        // Weighed against the BSDF's own rays where they can meet the light too.
-        let (mis, pdfs) = match light.pdf(si.point(), ls) {
-            LightPdf::SolidAngle(p) if light.intersect(&Ray { origin: si.point(), dir: ls.dir }, f64::INFINITY).is_some() => {
+        // Weighed against the BSDF's own rays where they can meet the light too (an environment:
+        // every ray that leaves the scene meets it, so it is not asked).
+        let can_meet = |light: &dyn LightSource| {
+            scene.light_facts()[index].environment || light.intersect(&Ray { origin: si.point(), dir: ls.dir }, f64::INFINITY).is_some()
+        };
+        let (mis, pdfs) = match pdf.unwrap_or_else(|| light.pdf(si.point(), ls)) {
+            LightPdf::SolidAngle(p) if can_meet(light) => {
                 let q = bsdf.pdf(ls.dir);
                 (power_heuristic(f64::from(n) * p, q), Some((p, q)))
             }
@@ -291,23 +303,39 @@ impl PathTracer {
         let scene = c.scene;
         let mut total = Color::ZERO;
         for (index, light) in scene.lights.iter().enumerate() {
-            let Some(ls) = light.intersect(ray, t_max) else { continue };
-            let Some(p) = light.pdf(ray.origin, &ls).solid_angle() else { continue };
-            if !(p > 0.0 && p.is_finite() && max_channel(ls.intensity) > 0.0) {
-                continue;
-            }
-            c.stats.add(counter::LIGHT_HITS, 1);
-            // An environment says its radiance itself (exactly what a camera ray shows of it).
             let facts = scene.light_facts()[index];
-            let radiance = match facts.environment.then(|| light.environment(ray.dir)).flatten() {
-                Some(r) => r,
-                None => IRRADIANCE_PER_INTENSITY * ls.intensity * p,
+            let (radiance, p, distance) = if facts.environment {
+                // Only a ray that leaves the scene meets the surroundings, which say their
+                // radiance themselves (exactly what a camera ray shows of them) and its density
+                // in one lookup.
+                if t_max.is_finite() {
+                    continue;
+                }
+                // A camera ray, or one after specular events, counts it in full: no density.
+                if bsdf_pdf.is_none() {
+                    let Some(radiance) = light.environment(ray.dir).filter(|&r| max_channel(r) > 0.0) else { continue };
+                    (radiance, f64::NAN, f64::INFINITY) // no density: never weighed
+                } else {
+                    let Some((radiance, p)) = light.environment_pdf(ray.origin, ray.dir) else { continue };
+                    if !(p > 0.0 && p.is_finite() && max_channel(radiance) > 0.0) {
+                        continue;
+                    }
+                    (radiance, p, f64::INFINITY)
+                }
+            } else {
+                let Some(ls) = light.intersect(ray, t_max) else { continue };
+                let Some(p) = light.pdf(ray.origin, &ls).solid_angle() else { continue };
+                if !(p > 0.0 && p.is_finite() && max_channel(ls.intensity) > 0.0) {
+                    continue;
+                }
+                (IRRADIANCE_PER_INTENSITY * ls.intensity * p, p, ls.distance)
             };
+            c.stats.add(counter::LIGHT_HITS, 1);
             let mis = bsdf_pdf.map_or(1.0, |q| power_heuristic(q, f64::from(self.samples_for(facts)) * p));
             rec.note(|| {
                 let (name, r) = (&scene.light_names[index], radiance);
-                let head = if ls.distance.is_finite() {
-                    format!("meets light {name} at t = {:.4}: radiance ({:.4}, {:.4}, {:.4})", ls.distance, r.x, r.y, r.z)
+                let head = if distance.is_finite() {
+                    format!("meets light {name} at t = {distance:.4}: radiance ({:.4}, {:.4}, {:.4})", r.x, r.y, r.z)
                 } else {
                     format!("leaves the scene and sees light {name}: radiance ({:.4}, {:.4}, {:.4})", r.x, r.y, r.z)
                 };

@@ -123,6 +123,20 @@ impl Phong {
         let Branch { sampler, weight, .. } = b;
         let scene = c.scene;
         let no_response = max_channel(m.kd) <= 0.0 && max_channel(m.ks) <= 0.0;
+        if let Some(lights) = scene.one_sample_lights() {
+            // The common case (point, spot, directional lights): each light's one sample, in the
+            // order of the general loop below, which would take the same `single_sample` path
+            // for each; without that loop's area-light machinery in the way.
+            let mut total = Color::ZERO;
+            for &li in lights {
+                let light = Source::Light(li, scene.lights[li].as_ref());
+                total += self.single_sample(c, &Shade { si, m, weight, full: 1, light, no_response }, rec);
+            }
+            if self.emitter_samples > 0 && !scene.emitters().is_empty() {
+                total += self.emitters(c, si, m, b, no_response, rec);
+            }
+            return total;
+        }
         // Random streams only for lights whose samples depend on them (area lights): a point,
         // spot or directional light ignores its sample position, so drawing none changes nothing.
         let mut streams = None;
@@ -250,7 +264,8 @@ impl Phong {
 
     /// The one sample of a point-like light (`sample_count` 1): what [`Phong::light_samples`]
     /// adds for `Samples::Stratified(1)`, without the agreement bookkeeping only probes read.
-    #[inline]
+    /// Always inlined: called from two loops, it went out of line (a call per light sample).
+    #[inline(always)]
     fn single_sample<R: Recorder>(&self, c: &mut Ctx, sh: &Shade, rec: &mut R) -> Color {
         let scene = c.scene;
         let si = sh.si;

@@ -249,7 +249,9 @@ impl Phong {
     fn li<R: Recorder>(&self, c: &mut Ctx, ray: &Ray, b: Branch, rec: &mut R) -> Color {
         match c.scene.intersect(ray, 0.0, f64::INFINITY) {
             Some(hit) => {
-                let si = c.scene.interaction(ray, hit).with_spread(b.spread);
+                // The spread set in place: `with_spread` copied the whole interaction.
+                let mut si = c.scene.interaction(ray, hit);
+                si.spread = b.spread;
                 self.shade(c, &si, &si.coefficients(), b, rec)
             }
             None => {
@@ -318,7 +320,8 @@ impl Phong {
             rec.color(seen);
             return seen;
         };
-        let si = scene.interaction(ray, hit).with_spread(scene.camera_spread(ray));
+        let mut si = scene.interaction(ray, hit);
+        si.spread = scene.camera_spread(ray);
         let m = si.coefficients();
         *aov = AovSample::surface(&si, m.kd + m.kr + m.kt);
         self.shade(c, &si, &m, Branch { sampler, depth: 0, weight: Color::ONE, spread: si.spread }, rec)
