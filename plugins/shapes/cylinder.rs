@@ -9,6 +9,8 @@
 //! to rounding on both sides of it) and never reports one crossing twice. A crossing is reported
 //! only beyond its own rounding-error bound, so a ray starting on the surface does not hit it again.
 
+use raylab::geometry::samples::{Draw, Form, ShapeSample, ShapeSampler};
+use raylab::geometry::testing::ExactSurface;
 use raylab::geometry::{Geometry, Hit, Intersectable, SurfaceDerivatives, SurfacePdf, SurfaceSample};
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::bounds::circle_extent;
@@ -281,10 +283,107 @@ impl Geometry for Cylinder {
     }
 }
 
+// The shape harnesses' view of it (raylab::geometry::samples): its exact surface, written from
+// the definition above and not from the intersection code, and random valid instances.
+
+/// The exact capped cylinder (or tube, without `height`): positive outside.
+#[derive(Clone, Copy, Debug)]
+pub struct ExactCylinder {
+    /// Centre of the base.
+    pub base: DVec3,
+    /// Unit axis, from the base toward the top.
+    pub axis: DVec3,
+    /// Radius (> 0).
+    pub radius: f64,
+    /// Height of a capped cylinder; `None` for the infinite tube.
+    pub height: Option<f64>,
+}
+
+impl ExactCylinder {
+    /// Height along the axis, radial vector, and the signed distances to the side (`dx`) and to
+    /// the caps' slab (`dz`).
+    pub fn parts(&self, p: DVec3) -> (f64, DVec3, f64, f64) {
+        let f = p - self.base;
+        let z = f.dot(self.axis);
+        let radial = f - z * self.axis;
+        let dx = radial.length() - self.radius;
+        let dz = self.height.map_or(f64::NEG_INFINITY, |h| (z - 0.5 * h).abs() - 0.5 * h);
+        (z, radial, dx, dz)
+    }
+    /// The middle of the axis (the base for a tube).
+    pub fn mid(&self) -> DVec3 {
+        self.base + 0.5 * self.height.unwrap_or(0.0) * self.axis
+    }
+}
+
+impl ExactSurface for ExactCylinder {
+    fn signed_distance(&self, p: DVec3) -> f64 {
+        let (_, _, dx, dz) = self.parts(p);
+        if dx <= 0.0 && dz <= 0.0 { dx.max(dz) } else { dx.max(0.0).hypot(dz.max(0.0)) }
+    }
+    fn outward_normal(&self, p: DVec3) -> DVec3 {
+        let (z, radial, dx, dz) = self.parts(p);
+        if dx >= dz {
+            radial.normalize()
+        } else if z > 0.5 * self.height.unwrap_or(0.0) {
+            self.axis
+        } else {
+            -self.axis
+        }
+    }
+    fn outward_normals_near(&self, p: DVec3, within: f64) -> Vec<DVec3> {
+        let (z, radial, dx, _) = self.parts(p);
+        let mut normals = vec![self.outward_normal(p)];
+        if dx.abs() <= within {
+            normals.push(radial.normalize());
+        }
+        if let Some(h) = self.height {
+            if z.abs() <= within {
+                normals.push(-self.axis);
+            }
+            if (z - h).abs() <= within {
+                normals.push(self.axis);
+            }
+        }
+        normals
+    }
+}
+
+/// Random capped cylinders for the shape harnesses.
+pub const SAMPLERS: &[ShapeSampler] = &[ShapeSampler { name: "cylinder", sample: |d, center, s| sample(d, center, s, true) }];
+
+/// Random tubes for the shape harnesses.
+pub const TUBE_SAMPLERS: &[ShapeSampler] = &[ShapeSampler { name: "tube", sample: |d, center, s| sample(d, center, s, false) }];
+
+fn sample(d: &mut dyn Draw, center: DVec3, s: f64, capped: bool) -> Option<ShapeSample> {
+    let (axis, radius) = (d.direction()?, d.length(s, 1.0)?);
+    let height = if capped { Some(d.length(s, 2.0)?) } else { None };
+    // A point strictly inside: along the axis within the caps (or 3 radii of the base), within
+    // half the radius of it.
+    let inside = move |c: DVec3| {
+        let along = match height {
+            Some(h) => h * (0.5 + 0.45 * c.z),
+            None => 3.0 * radius * c.z,
+        };
+        let radial = c - c.dot(axis) * axis;
+        center + along * axis + 0.5 * radius * radial
+    };
+    Some(ShapeSample {
+        geometry: Box::new(Cylinder::new(center, axis, radius, height)),
+        exact: Box::new(ExactCylinder { base: center, axis, radius, height }),
+        center: center + 0.5 * height.unwrap_or(0.0) * axis,
+        size: radius.max(height.unwrap_or(0.0)),
+        magnitude: max_abs(center) + radius + height.unwrap_or(0.0),
+        max_hits: 2,
+        aspect: 1.0,
+        curvature_radius: radius,
+        form: Form::Convex(Box::new(inside)),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::shapes::exact::ExactCylinder;
     use crate::shapes::test_support::*;
     use proptest::prelude::*;
     use raylab::geometry::testing::{ExactSurface, Tolerance, check_closed_crossings, check_hits_ascending};

@@ -7,9 +7,11 @@
 //! Points exactly on the rim belong to the bowl.
 
 use super::sphere::sphere_roots;
+use raylab::geometry::samples::{Draw, Form, ShapeSample, ShapeSampler};
+use raylab::geometry::testing::ExactSurface;
 use raylab::geometry::{Geometry, Hit, Intersectable, SurfaceDerivatives, SurfacePdf, SurfaceSample};
 use raylab::glam::{DVec2, DVec3};
-use raylab::math::float::{gamma, on_surface_slack};
+use raylab::math::float::{gamma, max_abs, on_surface_slack};
 use raylab::param::error::Result;
 use raylab::param::params::Params;
 use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
@@ -124,10 +126,66 @@ impl Geometry for Hemisphere {
     }
 }
 
+// The shape harnesses' view of it (raylab::geometry::samples): its exact surface, written from
+// the definition above and not from the intersection code, and random valid instances.
+
+/// The exact bowl: on the closed side, the sphere; on the open side, the nearest point is on
+/// the rim circle. Positive outside the full sphere.
+#[derive(Debug)]
+pub struct ExactBowl {
+    /// Centre of the full sphere.
+    pub center: DVec3,
+    /// Radius (> 0).
+    pub radius: f64,
+    /// Unit direction toward the open side.
+    pub open: DVec3,
+}
+
+impl ExactBowl {
+    /// The bowl point nearest to `p`.
+    pub fn nearest(&self, p: DVec3) -> DVec3 {
+        let f = p - self.center;
+        if f.dot(self.open) <= 0.0 {
+            self.center + self.radius * f.normalize()
+        } else {
+            let flat = f - f.dot(self.open) * self.open;
+            self.center + self.radius * flat.normalize()
+        }
+    }
+}
+
+impl ExactSurface for ExactBowl {
+    fn signed_distance(&self, p: DVec3) -> f64 {
+        let f = p - self.center;
+        let d = if f.dot(self.open) <= 0.0 { (f.length() - self.radius).abs() } else { (p - self.nearest(p)).length() };
+        d.copysign(f.length() - self.radius)
+    }
+    fn outward_normal(&self, p: DVec3) -> DVec3 {
+        (self.nearest(p) - self.center).normalize()
+    }
+}
+
+/// Random bowls for the shape harnesses.
+pub const SAMPLERS: &[ShapeSampler] = &[ShapeSampler { name: "hemisphere", sample }];
+
+fn sample(d: &mut dyn Draw, center: DVec3, s: f64) -> Option<ShapeSample> {
+    let (radius, open) = (d.length(s, 1.0)?, d.direction()?);
+    Some(ShapeSample {
+        geometry: Box::new(Hemisphere::new(center, radius, open)),
+        exact: Box::new(ExactBowl { center, radius, open }),
+        center,
+        size: radius,
+        magnitude: max_abs(center) + radius,
+        max_hits: 2,
+        aspect: 1.0,
+        curvature_radius: radius,
+        form: Form::Convex(Box::new(move |c| center + 0.5 * radius * c)),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::shapes::exact::ExactBowl;
     use crate::shapes::test_support::*;
     use proptest::prelude::*;
     use raylab::geometry::testing::{Tolerance, check_hits_ascending};

@@ -2,7 +2,6 @@
 //! finite capped cylinder and infinite tube.
 
 pub mod cylinder;
-pub mod exact;
 pub mod fuzz;
 pub mod hemisphere;
 pub mod plane;
@@ -11,6 +10,8 @@ pub mod sphere;
 pub mod triangle;
 pub mod uv;
 
+#[cfg(test)]
+mod properties;
 #[cfg(test)]
 mod reintersect;
 #[cfg(test)]
@@ -22,12 +23,12 @@ use raylab::Registry;
 
 /// Registers every shape.
 pub fn register(r: &mut Registry) {
-    r.add_geometry(plane::INFO, plane::build);
-    r.add_geometry(sphere::INFO, sphere::build);
-    r.add_geometry(hemisphere::INFO, hemisphere::build);
-    r.add_geometry(triangle::INFO, triangle::build);
-    r.add_geometry(polygon::QUADRANGLE_INFO, polygon::build_quadrangle);
-    r.add_geometry(polygon::INFO, polygon::build);
-    r.add_geometry(cylinder::INFO, cylinder::build);
-    r.add_geometry(cylinder::TUBE_INFO, cylinder::build_tube);
+    r.add_geometry_with_samples(plane::INFO, plane::build, plane::SAMPLERS);
+    r.add_geometry_with_samples(sphere::INFO, sphere::build, sphere::SAMPLERS);
+    r.add_geometry_with_samples(hemisphere::INFO, hemisphere::build, hemisphere::SAMPLERS);
+    r.add_geometry_with_samples(triangle::INFO, triangle::build, triangle::SAMPLERS);
+    r.add_geometry_with_samples(polygon::QUADRANGLE_INFO, polygon::build_quadrangle, polygon::QUADRANGLE_SAMPLERS);
+    r.add_geometry_with_samples(polygon::INFO, polygon::build, polygon::SAMPLERS);
+    r.add_geometry_with_samples(cylinder::INFO, cylinder::build, cylinder::SAMPLERS);
+    r.add_geometry_with_samples(cylinder::TUBE_INFO, cylinder::build_tube, cylinder::TUBE_SAMPLERS);
 }

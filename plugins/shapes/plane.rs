@@ -4,6 +4,8 @@
 //! origin is within [`raylab::math::float::on_surface_slack`] of the plane (it starts on the
 //! plane) does not hit it.
 
+use raylab::geometry::samples::{Draw, Form, ShapeSample, ShapeSampler};
+use raylab::geometry::testing::ExactSurface;
 use raylab::geometry::{Geometry, Hit, Intersectable, SurfaceDerivatives};
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::float::{gamma, max_abs};
@@ -188,10 +190,48 @@ impl Geometry for Plane {
     }
 }
 
+// The shape harnesses' view of it (raylab::geometry::samples): its exact surface, written from
+// the definition above and not from the intersection code, and random valid instances.
+
+/// The exact plane.
+#[derive(Debug)]
+pub struct ExactPlane {
+    /// A point of the plane.
+    pub point: DVec3,
+    /// Unit normal: the outward side.
+    pub normal: DVec3,
+}
+
+impl ExactSurface for ExactPlane {
+    fn signed_distance(&self, p: DVec3) -> f64 {
+        self.normal.dot(p - self.point)
+    }
+    fn outward_normal(&self, _: DVec3) -> DVec3 {
+        self.normal
+    }
+}
+
+/// Random planes for the shape harnesses.
+pub const SAMPLERS: &[ShapeSampler] = &[ShapeSampler { name: "plane", sample }];
+
+fn sample(d: &mut dyn Draw, center: DVec3, s: f64) -> Option<ShapeSample> {
+    let normal = d.direction()?;
+    Some(ShapeSample {
+        geometry: Box::new(Plane::new(center, normal)),
+        exact: Box::new(ExactPlane { point: center, normal }),
+        center,
+        size: s,
+        magnitude: max_abs(center) + s,
+        max_hits: 1,
+        aspect: 1.0,
+        curvature_radius: f64::INFINITY,
+        form: Form::Flat,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::shapes::exact::ExactPlane;
     use crate::shapes::test_support::*;
     use proptest::prelude::*;
     use raylab::geometry::testing::ExactSurface;

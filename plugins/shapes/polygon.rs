@@ -7,10 +7,12 @@
 
 use super::plane::intersect_plane;
 use super::triangle::barycentric_point;
+use raylab::geometry::samples::{Draw, Form, ShapeSample, ShapeSampler};
 use raylab::geometry::sampling::uniform_triangle;
+use raylab::geometry::testing::{ExactSurface, closest_on_segment};
 use raylab::geometry::{Geometry, Hit, Intersectable, SurfaceDerivatives, SurfacePdf, SurfaceSample};
 use raylab::glam::{DVec2, DVec3};
-use raylab::math::float::DEGENERACY_TOLERANCE;
+use raylab::math::float::{DEGENERACY_TOLERANCE, max_abs};
 use raylab::param::error::Result;
 use raylab::param::params::Params;
 use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
@@ -246,10 +248,80 @@ impl Geometry for Polygon {
     }
 }
 
+// The shape harnesses' view of it (raylab::geometry::samples): its exact surface, written from
+// the definition above and not from the intersection code, and random valid instances.
+
+/// The exact convex polygon: signed distance to its closest point, positive on the winding side.
+#[derive(Debug)]
+pub struct ExactPolygon {
+    /// Vertices of a strictly convex outline; the winding gives the outward side.
+    pub v: Vec<DVec3>,
+}
+
+impl ExactPolygon {
+    /// From two well-spread chords, so it is accurate even where neighbouring vertices are close.
+    pub fn normal(&self) -> DVec3 {
+        let k = self.v.len();
+        (self.v[k / 2] - self.v[0]).cross(self.v[(3 * k) / 4] - self.v[k / 4]).normalize()
+    }
+    /// Mean of the vertices.
+    pub fn centroid(&self) -> DVec3 {
+        self.v.iter().sum::<DVec3>() / self.v.len() as f64
+    }
+    /// The edges, as vertex pairs in winding order.
+    pub fn edges(&self) -> impl Iterator<Item = (DVec3, DVec3)> + '_ {
+        (0..self.v.len()).map(|i| (self.v[i], self.v[(i + 1) % self.v.len()]))
+    }
+}
+
+impl ExactSurface for ExactPolygon {
+    fn signed_distance(&self, p: DVec3) -> f64 {
+        let n = self.normal();
+        let plane = n.dot(p - self.v[0]);
+        let inside = self.edges().all(|(a, b)| n.cross(b - a).dot(p - a) >= 0.0);
+        let dist = if inside {
+            plane.abs()
+        } else {
+            self.edges().map(|(a, b)| (p - closest_on_segment(p, a, b)).length()).fold(f64::INFINITY, f64::min)
+        };
+        dist.copysign(plane)
+    }
+    fn outward_normal(&self, _: DVec3) -> DVec3 {
+        self.normal()
+    }
+}
+
+/// Random quadrangles for the shape harnesses.
+pub const QUADRANGLE_SAMPLERS: &[ShapeSampler] = &[ShapeSampler { name: "quadrangle", sample: |d, center, s| sample(d, center, s, 4) }];
+
+/// Random convex polygons (3 to 8 vertices) for the shape harnesses.
+pub const SAMPLERS: &[ShapeSampler] = &[ShapeSampler {
+    name: "polygon",
+    sample: |d, center, s| {
+        let k = 3 + d.index(6);
+        sample(d, center, s, k)
+    },
+}];
+
+fn sample(d: &mut dyn Draw, center: DVec3, s: f64, k: usize) -> Option<ShapeSample> {
+    let v = d.outline(center, s, k)?;
+    let g = Polygon::new(v.clone()).ok()?;
+    Some(ShapeSample {
+        geometry: Box::new(g),
+        magnitude: v.iter().map(|p| max_abs(*p)).fold(0.0, f64::max),
+        exact: Box::new(ExactPolygon { v }),
+        center,
+        size: s,
+        max_hits: 1,
+        aspect: 1.0,
+        curvature_radius: f64::INFINITY,
+        form: Form::Flat,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::shapes::exact::ExactPolygon;
     use crate::shapes::test_support::*;
     use proptest::prelude::*;
     use std::f64::consts::TAU;

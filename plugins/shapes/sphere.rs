@@ -6,7 +6,9 @@
 //! point is re-projected onto the sphere, and a root whose own error bound straddles zero is
 //! rejected, so a ray leaving the surface never reports it again.
 
+use raylab::geometry::samples::{Draw, Form, ShapeSample, ShapeSampler};
 use raylab::geometry::sampling::{NARROW_CONE_SIN2, cone_solid_angle, uniform_sphere};
+use raylab::geometry::testing::ExactSurface;
 use raylab::geometry::{Geometry, Hit, Intersectable, SurfaceDerivatives, SurfacePdf, SurfaceSample};
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::float::{gamma, max_abs};
@@ -206,10 +208,48 @@ impl Geometry for Sphere {
     }
 }
 
+// The shape harnesses' view of it (raylab::geometry::samples): its exact surface, written from
+// the definition above and not from the intersection code, and random valid instances.
+
+/// The exact sphere.
+#[derive(Debug)]
+pub struct ExactSphere {
+    /// Centre.
+    pub center: DVec3,
+    /// Radius (> 0).
+    pub radius: f64,
+}
+
+impl ExactSurface for ExactSphere {
+    fn signed_distance(&self, p: DVec3) -> f64 {
+        (p - self.center).length() - self.radius
+    }
+    fn outward_normal(&self, p: DVec3) -> DVec3 {
+        (p - self.center).normalize()
+    }
+}
+
+/// Random spheres for the shape harnesses.
+pub const SAMPLERS: &[ShapeSampler] = &[ShapeSampler { name: "sphere", sample }];
+
+fn sample(d: &mut dyn Draw, center: DVec3, s: f64) -> Option<ShapeSample> {
+    let radius = d.length(s, 1.0)?;
+    Some(ShapeSample {
+        geometry: Box::new(Sphere::new(center, radius)),
+        exact: Box::new(ExactSphere { center, radius }),
+        center,
+        size: radius,
+        magnitude: max_abs(center) + radius,
+        max_hits: 2,
+        aspect: 1.0,
+        curvature_radius: radius,
+        form: Form::Convex(Box::new(move |c| center + 0.5 * radius * c)),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::shapes::exact::ExactSphere;
     use crate::shapes::test_support::*;
     use proptest::prelude::*;
     use raylab::geometry::testing::{ExactSurface, Tolerance, check_closed_crossings};

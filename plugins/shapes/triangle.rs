@@ -7,10 +7,12 @@
 //! along the edge. `edges = "inclusive"` ([`EdgeRule::Inclusive`], what meshes use) counts edge
 //! hits, and the test's consistent edge functions then make shared edges watertight.
 
+use raylab::geometry::samples::{Draw, Form, ShapeSample, ShapeSampler};
 use raylab::geometry::sampling::uniform_triangle;
+use raylab::geometry::testing::{ExactSurface, closest_on_segment};
 use raylab::geometry::{Geometry, Hit, Intersectable, SurfaceDerivatives, SurfacePdf, SurfaceSample};
 use raylab::glam::{DVec2, DVec3};
-use raylab::math::float::{DEGENERACY_TOLERANCE, gamma, on_surface_slack, triangle_normal};
+use raylab::math::float::{DEGENERACY_TOLERANCE, gamma, max_abs, on_surface_slack, triangle_normal};
 use raylab::param::error::Result;
 use raylab::param::params::Params;
 use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
@@ -238,10 +240,78 @@ impl Geometry for Triangle {
     }
 }
 
+// The shape harnesses' view of it (raylab::geometry::samples): its exact surface, written from
+// the definition above and not from the intersection code, and random valid instances.
+
+/// The exact triangle: signed distance to the closest point, positive on the winding side.
+#[derive(Debug)]
+pub struct ExactTriangle {
+    /// Vertices; the winding gives the outward side.
+    pub p: [DVec3; 3],
+}
+
+impl ExactTriangle {
+    /// Unit normal of the winding.
+    pub fn normal(&self) -> DVec3 {
+        triangle_normal(self.p).0.normalize()
+    }
+    /// Barycentric coordinates of `p`'s projection onto the plane.
+    pub fn barycentric(&self, p: DVec3) -> DVec3 {
+        let [a, b, c] = self.p;
+        let n = triangle_normal(self.p).0;
+        let area = |x: DVec3, y: DVec3, z: DVec3| (y - x).cross(z - x).dot(n) / n.length_squared();
+        DVec3::new(area(p, b, c), area(a, p, c), area(a, b, p))
+    }
+}
+
+impl ExactSurface for ExactTriangle {
+    fn signed_distance(&self, p: DVec3) -> f64 {
+        let [a, b, c] = self.p;
+        let n = self.normal();
+        // From the nearest vertex: the plane's offset is then as accurate as the normal allows.
+        let q = self.p.into_iter().min_by(|x, y| (p - *x).length_squared().total_cmp(&(p - *y).length_squared())).unwrap_or(a);
+        let plane = n.dot(p - q);
+        let inside = self.barycentric(p).min_element() >= 0.0;
+        let dist = if inside {
+            plane.abs()
+        } else {
+            [(a, b), (b, c), (c, a)].iter().map(|&(x, y)| (p - closest_on_segment(p, x, y)).length()).fold(f64::INFINITY, f64::min)
+        };
+        dist.copysign(plane)
+    }
+    fn outward_normal(&self, _: DVec3) -> DVec3 {
+        self.normal()
+    }
+}
+
+/// Random triangles for the shape harnesses, with each edge rule.
+pub const SAMPLERS: &[ShapeSampler] = &[
+    ShapeSampler { name: "triangle", sample: |d, center, s| sample(d, center, s, EdgeRule::Exclusive) },
+    ShapeSampler { name: "inclusive triangle", sample: |d, center, s| sample(d, center, s, EdgeRule::Inclusive) },
+];
+
+/// Three vertices anywhere within `s` of `center`: slivers too, whose hits are only as accurate
+/// as their shape allows (the edge functions' rounding over the tiny area: `aspect` below).
+fn sample(d: &mut dyn Draw, center: DVec3, s: f64, rule: EdgeRule) -> Option<ShapeSample> {
+    let p = [center + d.offset(s), center + d.offset(s), center + d.offset(s)];
+    let g = Triangle::with_edges(p[0], p[1], p[2], rule)?;
+    let longest = (0..3).map(|i| (p[(i + 1) % 3] - p[i]).length_squared()).fold(0.0, f64::max);
+    Some(ShapeSample {
+        geometry: Box::new(g),
+        exact: Box::new(ExactTriangle { p }),
+        center,
+        size: s,
+        magnitude: p.iter().map(|v| max_abs(*v)).fold(0.0, f64::max),
+        max_hits: 1,
+        aspect: triangle_normal(p).0.length() / longest,
+        curvature_radius: f64::INFINITY,
+        form: Form::Flat,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::shapes::exact::{ExactTriangle, closest_on_segment};
     use crate::shapes::test_support::*;
     use proptest::prelude::*;
     use raylab::geometry::testing::{Tolerance, check_hits_ascending};

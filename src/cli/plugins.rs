@@ -76,7 +76,9 @@ pub fn text(reg: &Registry) -> String {
 pub fn markdown(reg: &Registry) -> String {
     let mut out = String::from(
         "# Plugin reference\n\nEvery registered type and its parameters, written by `raylab plugins --markdown` from the \
-         parameter tables in the plugins' sources.\n\n",
+         parameter tables in the plugins' sources. A new type is one file and one registration line \
+         (docs/writing-a-plugin.md); a geometry registered with its sample generators \
+         (`Registry::add_geometry_with_samples`) is property-, reintersection- and fuzz-tested from that line.\n\n",
     );
     out.push_str("## Scene file\n\nThe tables of a TOML scene around the plugins.\n\n");
     for (title, specs) in [
@@ -95,6 +97,10 @@ pub fn markdown(reg: &Registry) -> String {
         out.push_str(&format!("## {title}\n\nIn a scene: `{usage}`.\n\n"));
         for p in items {
             out.push_str(&format!("### `{}`\n\n{}\n\n", p.name, p.summary));
+            let sampled = reg.samplers_of(p.name);
+            if title == "Geometries" && !sampled.is_empty() {
+                out.push_str(&format!("Checked by the shape harnesses from its registration (samplers: `{}`).\n\n", sampled.join("`, `")));
+            }
             if p.params.is_empty() {
                 out.push_str("No parameters.\n\n");
                 continue;

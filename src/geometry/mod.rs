@@ -4,6 +4,7 @@
 
 pub mod differential;
 pub mod hit;
+pub mod samples;
 pub mod sampling;
 pub mod testing;
 pub mod transform;

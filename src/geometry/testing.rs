@@ -28,6 +28,12 @@ pub trait ExactSurface {
     }
 }
 
+/// The point of segment `a b` closest to `p` (for oracles of shapes with edges).
+pub fn closest_on_segment(p: DVec3, a: DVec3, b: DVec3) -> DVec3 {
+    let ab = b - a;
+    a + ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0) * ab
+}
+
 /// How far a reported hit may stray from the exact answer. Distances are relative to the
 /// magnitude of the problem, so one tolerance serves a scene at any scale.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -5,6 +5,7 @@
 //! geometry the same way (see docs/writing-a-plugin.md).
 
 use crate::geometry::Geometry;
+use crate::geometry::samples::ShapeSampler;
 use crate::image::output::{OutputFormat, builtin_formats};
 use crate::image::write::WriteError;
 use crate::load::context::{LoadContext, MeshFormat};
@@ -80,6 +81,8 @@ pub struct SceneFormat {
 #[derive(Clone)]
 pub struct Registry {
     geometries: BTreeMap<&'static str, Plugin<GeometryBuilder>>,
+    /// The geometries' sample generators, in registration order, with their geometry's type name.
+    samplers: Vec<(&'static str, ShapeSampler)>,
     textures: BTreeMap<&'static str, Plugin<TextureBuilder>>,
     materials: BTreeMap<&'static str, Plugin<MaterialBuilder>>,
     lights: BTreeMap<&'static str, Plugin<LightBuilder>>,
@@ -106,6 +109,7 @@ impl Default for Registry {
     fn default() -> Self {
         Registry {
             geometries: BTreeMap::new(),
+            samplers: Vec::new(),
             textures: BTreeMap::new(),
             materials: BTreeMap::new(),
             lights: BTreeMap::new(),
@@ -135,13 +139,28 @@ impl Registry {
         self.add_geometry_with_materials(info, move |p, ctx| Ok(BuiltGeometry { geometry: build(p, ctx)?, materials: None }));
     }
 
+    /// Registers a geometry type with its sample generators: one [`ShapeSampler`] per variant,
+    /// each drawing a random valid instance with its exact surface. raylab's property tests,
+    /// reintersection campaign and `intersect` fuzz target check every registered sampler
+    /// ([`crate::geometry::samples`]), so the shape is tested from this one line.
+    pub fn add_geometry_with_samples(
+        &mut self,
+        info: PluginInfo,
+        build: impl Fn(&mut Params, &LoadContext) -> Result<Box<dyn Geometry>> + Send + Sync + 'static,
+        samplers: &[ShapeSampler],
+    ) {
+        self.add_geometry(info, build);
+        self.samplers.extend(samplers.iter().map(|s| (info.name, *s)));
+    }
+
     /// Registers a geometry type whose source may define its own materials (a mesh file's);
-    /// replaces any earlier one of the same name.
+    /// replaces any earlier one of the same name (and its samplers).
     pub fn add_geometry_with_materials(
         &mut self,
         info: PluginInfo,
         build: impl Fn(&mut Params, &LoadContext) -> Result<BuiltGeometry> + Send + Sync + 'static,
     ) {
+        self.samplers.retain(|(name, _)| *name != info.name);
         self.geometries.insert(info.name, Plugin { info, build: Arc::new(build) });
     }
 
@@ -255,6 +274,23 @@ impl Registry {
     /// Registered geometry types, sorted by name.
     pub fn geometries(&self) -> impl Iterator<Item = &PluginInfo> {
         self.geometries.values().map(|p| &p.info)
+    }
+
+    /// The sample generators of the registered geometries ([`Registry::add_geometry_with_samples`]),
+    /// in registration order: what the shape harnesses of [`crate::geometry::samples`] check.
+    pub fn shape_samplers(&self) -> Vec<ShapeSampler> {
+        self.samplers.iter().map(|(_, s)| *s).collect()
+    }
+
+    /// The names of the samplers registered with geometry type `name`.
+    pub fn samplers_of(&self, name: &str) -> Vec<&'static str> {
+        self.samplers.iter().filter(|(n, _)| *n == name).map(|(_, s)| s.name).collect()
+    }
+
+    /// The registered geometry types that offer no sample generator (so are checked by no
+    /// shape harness), sorted by name.
+    pub fn unsampled_geometries(&self) -> impl Iterator<Item = &'static str> + '_ {
+        self.geometries.keys().copied().filter(|name| !self.samplers.iter().any(|(n, _)| n == name))
     }
 
     /// Registered texture types, sorted by name.

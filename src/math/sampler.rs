@@ -23,7 +23,14 @@ impl Sampler {
     /// [`Sampler::new`] with the seed's hash computed once by the caller (the same stream).
     #[inline]
     pub fn with_seed(pixel: u64, sample: u32, seed: SeedKey) -> Self {
-        let key = mix64(mix64(pixel ^ seed.0) ^ u64::from(sample).wrapping_mul(0xD1B5_4A32_D192_ED03));
+        Sampler::with_pixel_key(seed.pixel(pixel), sample)
+    }
+
+    /// [`Sampler::with_seed`] with the pixel's hash ([`SeedKey::pixel`]) computed once for all
+    /// its samples by the caller (the same stream).
+    #[inline]
+    pub fn with_pixel_key(pixel: PixelKey, sample: u32) -> Self {
+        let key = mix64(pixel.0 ^ u64::from(sample).wrapping_mul(0xD1B5_4A32_D192_ED03));
         Sampler { key, dim: 0 }
     }
 
@@ -68,7 +75,19 @@ impl SeedKey {
     pub fn new(seed: u64) -> Self {
         SeedKey(mix64(seed.wrapping_add(0x9E37_79B9_7F4A_7C15)))
     }
+
+    /// The hash of pixel (or stream) key `pixel` under this seed: what the streams of all its
+    /// samples start from ([`Sampler::with_pixel_key`]).
+    #[inline]
+    pub fn pixel(self, pixel: u64) -> PixelKey {
+        PixelKey(mix64(pixel ^ self.0))
+    }
 }
+
+/// A pixel's key hashed with the render seed ([`SeedKey::pixel`]): what the streams of the
+/// pixel's samples share.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PixelKey(u64);
 
 /// Sample `index` of a stratified set of `count` points in [0, 1)² (correlated multi-jittered),
 /// for pattern `pattern`. Each of the `count` points falls in its own cell of an m × n grid

@@ -35,7 +35,7 @@ use crate::render::accum::{AovSum, PixelSum};
 use crate::render::adaptive::Adaptive;
 use crate::render::aov::AovLayers;
 use crate::render::film::Film;
-use crate::render::sample::{ImageSetup, SampleId, camera_rays, image_setup, trace_sample};
+use crate::render::sample::{ImageSetup, SampleId, camera_rays, image_setup, pixel_setup, trace_pixel_sample, trace_sample};
 use crate::render::share::{Rect, Sampling, Share, ShareSums};
 use crate::render::stats::{Counter, RayStats};
 use glam::Vec3;
@@ -575,12 +575,29 @@ impl StratifiedPixels<'_> {
     fn add_samples(&self, (x, y): (u32, u32), acc: &mut PixelSum, mut layers: Option<&mut AovSum>, stats: &mut RayStats) {
         let (job, share) = (self.job, self.share);
         let want = self.row_map.map_or(self.want, |m| self.want.min(m[x as usize]));
+        if !self.setup.stratified_film() {
+            while acc.samples < want && share.sample_index(acc.samples) < self.end {
+                if job.settings.target.is_some_and(|t| t.converged(acc)) {
+                    break;
+                }
+                let index = share.sample_index(acc.samples);
+                trace_sample(job, &self.setup, SampleId::Pixel { x, y, index }, acc, layers.as_deref_mut(), stats);
+                acc.samples += 1;
+            }
+            return;
+        }
+        if !(acc.samples < want && share.sample_index(acc.samples) < self.end) {
+            return;
+        }
+        // A stratified set of film positions: what the pixel's samples share (its streams' key,
+        // the set's permutations and divisors) computed once, not per sample.
+        let pixel = pixel_setup(job, &self.setup, x, y);
         while acc.samples < want && share.sample_index(acc.samples) < self.end {
             if job.settings.target.is_some_and(|t| t.converged(acc)) {
                 break;
             }
             let index = share.sample_index(acc.samples);
-            trace_sample(job, &self.setup, SampleId::Pixel { x, y, index }, acc, layers.as_deref_mut(), stats);
+            trace_pixel_sample(job, &self.setup, &pixel, index, acc, layers.as_deref_mut(), stats);
             acc.samples += 1;
         }
     }

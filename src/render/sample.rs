@@ -3,7 +3,7 @@
 //! [`camera_rays`], so an explained sample is exactly the sample the render computed.
 
 use crate::math::ray::Ray;
-use crate::math::sampler::{Sampler, SeedKey, mix64, sobol_02, stratified_2d};
+use crate::math::sampler::{PixelKey, Sampler, SeedKey, StratifiedSet, mix64, sobol_02, stratified_2d};
 use crate::render::accum::{AovSum, PixelSum};
 use crate::render::aov::AovSample;
 use crate::render::job::RenderJob;
@@ -214,6 +214,60 @@ pub fn camera_rays_in<'a>(job: &'a RenderJob, image: &ImageSetup, id: SampleId) 
     }
 }
 
+/// What the samples of one pixel share when their film positions are a stratified set
+/// (`spp > 1`, neither an error target nor a time budget: [`ImageSetup::stratified_film`]): its
+/// place, its streams' hashed key, its pattern key and that set, built once
+/// ([`pixel_setup`]) instead of once per sample.
+#[derive(Clone, Copy, Debug)]
+pub struct PixelSetup {
+    x: u32,
+    y: u32,
+    key: PixelKey,
+    pattern: u32,
+    film: StratifiedSet,
+}
+
+impl ImageSetup {
+    /// Whether pixel samples lie at the points of a stratified set (`spp > 1`, not progressive):
+    /// then [`pixel_setup`] builds each pixel's set once.
+    #[inline]
+    pub fn stratified_film(&self) -> bool {
+        self.strata.0 > 1.0 && !self.progressive
+    }
+}
+
+/// The [`PixelSetup`] of pixel (`x`, `y`) of `job`'s image (`image` its [`image_setup`], whose
+/// [`ImageSetup::stratified_film`] holds).
+#[inline(always)]
+pub fn pixel_setup(job: &RenderJob, image: &ImageSetup, x: u32, y: u32) -> PixelSetup {
+    let s = &job.settings;
+    let pixel = u64::from(y) * u64::from(s.width) + u64::from(x);
+    // As `camera_rays_in` computes them for each sample.
+    let pattern = (mix64(pixel ^ s.seed.rotate_left(17)) >> 32) as u32;
+    PixelSetup { x, y, key: image.seed.pixel(pixel), pattern, film: StratifiedSet::new(s.spp, pattern) }
+}
+
+impl PixelSetup {
+    /// The camera rays of the pixel's sample `index`: those [`camera_rays`] gives for
+    /// [`SampleId::Pixel`] (`film` is the set of its `stratified_2d(·, spp, pattern)`).
+    #[inline(always)]
+    fn rays<'a>(&self, job: &'a RenderJob, image: &ImageSetup, index: u32) -> CameraRays<'a> {
+        let s = &job.settings;
+        let per_sample = if job.scene.camera.aperture > 0.0 { s.lens_samples.max(1) } else { 1 };
+        CameraRays {
+            job,
+            screen: image.screen,
+            film: DVec2::new(f64::from(self.x), f64::from(self.y)) + self.film.point(index),
+            sampler: Sampler::with_pixel_key(self.key, index),
+            first: index * s.lens_samples,
+            count: per_sample,
+            total: s.spp * s.lens_samples,
+            pattern: self.pattern ^ LENS_PATTERN,
+            next: 0,
+        }
+    }
+}
+
 /// Where sample `id` of `job` lies on the film, in continuous pixel coordinates (pixel (x, y)
 /// covers [x, x+1) × [y, y+1)): the point its camera rays pass through.
 pub fn film_position(job: &RenderJob, id: SampleId) -> DVec2 {
@@ -233,11 +287,40 @@ pub fn trace_sample(
     setup: &ImageSetup,
     id: SampleId,
     acc: &mut PixelSum,
+    layers: Option<&mut AovSum>,
+    stats: &mut RayStats,
+) -> u64 {
+    trace_rays(job, setup, id, camera_rays_in(job, setup, id), acc, layers, stats)
+}
+
+/// [`trace_sample`] for sample `index` of the pixel `pixel` describes (its [`pixel_setup`],
+/// computed once by the caller for all its samples): the same rays, streams and sums.
+#[inline(always)]
+pub fn trace_pixel_sample(
+    job: &RenderJob,
+    setup: &ImageSetup,
+    pixel: &PixelSetup,
+    index: u32,
+    acc: &mut PixelSum,
+    layers: Option<&mut AovSum>,
+    stats: &mut RayStats,
+) -> u64 {
+    let id = SampleId::Pixel { x: pixel.x, y: pixel.y, index };
+    trace_rays(job, setup, id, pixel.rays(job, setup, index), acc, layers, stats)
+}
+
+/// [`trace_sample`] with sample `id`'s camera rays `rays` built.
+#[inline(always)]
+fn trace_rays(
+    job: &RenderJob,
+    setup: &ImageSetup,
+    id: SampleId,
+    rays: CameraRays<'_>,
+    acc: &mut PixelSum,
     mut layers: Option<&mut AovSum>,
     stats: &mut RayStats,
 ) -> u64 {
     let mut signature = 0u64;
-    let rays = camera_rays_in(job, setup, id);
     // Which half of the error estimate's two the sample joins. Stratified sets: by its stratum
     // `s` of the pixel's `spp` rows, alternately, flipped on each of the set's m-stratum bands
     // (so both halves cover every band and every column of the set). Sobol points (an error

@@ -31,7 +31,7 @@ pub const DEFAULT_SCENE: (&str, &str) = ("examples/torus/scenes/torus.toml", inc
 /// Adds this crate's plugins to `r`: `torus`, the `panel` light, the `ao` integrator, the
 /// `marble` texture, the `oren_nayar` material and the `.ppm` output format.
 pub fn register(r: &mut Registry) {
-    r.add_geometry(torus::INFO, torus::build);
+    r.add_geometry_with_samples(torus::INFO, torus::build, torus::SAMPLERS);
     r.add_texture(marble::INFO, marble::build);
     r.add_material(oren_nayar::INFO, oren_nayar::build);
     r.add_light(panel_light::INFO, panel_light::build);

@@ -3,11 +3,11 @@
 
 use proptest::prelude::*;
 use proptest::test_runner::RngSeed;
-use raylab::geometry::testing::{ExactSurface, Tolerance, check_hits_ascending};
+use raylab::geometry::testing::{Tolerance, check_hits_ascending};
 use raylab::glam::DVec3;
 use raylab::math::float::offset_ray_origin;
 use raylab::{Geometry, Intersectable, Ray};
-use raylab_torus::torus::Torus;
+use raylab_torus::torus::{ExactTorus, Torus};
 
 /// A unit vector from two uniform numbers.
 fn unit(u: f64, v: f64) -> DVec3 {
@@ -35,6 +35,11 @@ struct Case {
 }
 
 impl Case {
+    /// Its exact surface, from the definition ([`ExactTorus`]).
+    fn exact(&self) -> ExactTorus {
+        ExactTorus { center: self.center, axis: self.axis, major: self.major, minor: self.minor }
+    }
+
     fn torus(&self) -> Torus {
         Torus::new(self.center, self.axis, self.major, self.minor)
     }
@@ -50,22 +55,6 @@ impl Case {
     /// Magnitude of the coordinates involved, for tolerances.
     fn scale(&self) -> f64 {
         self.center.abs().max_element() + self.major + self.minor
-    }
-}
-
-/// The exact torus, from its definition: the points at `minor` from the core circle.
-struct ExactTorus<'a>(&'a Case);
-
-impl ExactSurface for ExactTorus<'_> {
-    fn signed_distance(&self, p: DVec3) -> f64 {
-        let (c, q) = (self.0, p - self.0.center);
-        let z = q.dot(c.axis);
-        ((q - z * c.axis).length() - c.major).hypot(z) - c.minor
-    }
-    fn outward_normal(&self, p: DVec3) -> DVec3 {
-        let (c, q) = (self.0, p - self.0.center);
-        let core = c.major * (q - q.dot(c.axis) * c.axis).normalize();
-        (q - core).normalize()
     }
 }
 
@@ -95,7 +84,7 @@ proptest! {
         let origin = c.center + unit(ou, ov) * dist * (c.major + c.minor);
         let ray = Ray::new(origin, unit(du, dv));
         let tol = Tolerance::for_scale(c.scale() + origin.abs().max_element());
-        check_hits_ascending(&t, &ray, &tol, &ExactTorus(&c), 4).map_err(fail)?;
+        check_hits_ascending(&t, &ray, &tol, &c.exact(), 4).map_err(fail)?;
     }
 
     /// A ray aimed at a surface point from up to 1e8 times the torus's size away finds that point
@@ -111,7 +100,7 @@ proptest! {
         let ray = Ray::new(origin, dir);
         let tol = (1e-13 * far + 1e-9 * c.scale()) / -dir.dot(n);
         let exact = Tolerance::for_scale(c.scale() + origin.abs().max_element());
-        let hits = check_hits_ascending(&t, &ray, &exact, &ExactTorus(&c), 6).map_err(fail)?;
+        let hits = check_hits_ascending(&t, &ray, &exact, &c.exact(), 6).map_err(fail)?;
         let ts: Vec<f64> = hits.iter().map(|h| h.t).collect();
         prop_assert!(ts.first().is_some_and(|&t0| t0 <= far + tol), "first hit {ts:?} beyond the target at {far}");
         prop_assert!(ts.iter().any(|&th| (th - far).abs() <= tol), "no hit at the target {far} (tol {tol}): {ts:?}");
