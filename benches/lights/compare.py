@@ -19,7 +19,7 @@ For each scene it prints:
   printed as the RMS of these z-scores (≈ 1 when the images agree to within noise) and the
   count of blocks beyond 4;
 - samples to equal RMSE: each renderer's RMSE against a high-sample reference (Mitsuba, LLVM,
-  `--ref-spp`), and raylab's samples per pixel for Mitsuba's RMSE at the same spp, as a ratio
+  `--ref-spp`, the reference's own noise subtracted: see `reference`), and raylab's samples per pixel for Mitsuba's RMSE at the same spp, as a ratio
   (RMSE falls as 1/√spp, so the ratio is (RMSE_raylab / RMSE_mitsuba)²; < 1: raylab needs
   fewer samples);
 - CPU seconds (user + system, all threads) and wall time per render of each, raylab's from its
@@ -299,6 +299,29 @@ def mitsuba_rows(mi, path):
     return mi.Bitmap(out)
 
 
+def reference(mi, scene, spp):
+    """A Mitsuba render at `spp` as the mean of two halves of different seeds, and the mean
+    squared error of that mean against the exact image, estimated from the halves' difference
+    (mean((A − B)²) / 4): subtracted from each measured MSE, so the reference's own noise does not
+    count as the renderers' error (at 4096 spp it was most of raylab's MSE on the emitter scenes)."""
+    # In passes of at most REF_PASS spp (one LLVM wavefront holds every sample of a pass).
+    halves = []
+    for h in range(2):
+        n = max(1, math.ceil(spp / 2 / REF_PASS))
+        halves.append(np.mean([render_mitsuba(mi, scene, max(1, spp // (2 * n)), 1000 + 2 * k + h)[0] for k in range(n)], axis=0))
+    a, b = halves
+    return 0.5 * (a + b), float(np.mean((a - b) ** 2)) / 4.0
+
+
+# Most samples per pixel of one reference render (see `reference`).
+REF_PASS = 4096
+
+
+def rmse_against(ref, ref_mse):
+    """The RMSE of an image against the exact one, from its MSE against `ref` less `ref`'s own."""
+    return lambda x: float(np.sqrt(max(np.mean((x - ref) ** 2) - ref_mse, 0.0)))
+
+
 def render_mitsuba(mi, scene, spp, seed):
     t, cpu = time.perf_counter(), time.process_time()
     img = np.array(mi.render(scene, spp=spp, seed=seed), dtype=np.float64)[:, :, :3]
@@ -335,7 +358,7 @@ def main():
         if (args.only and args.only not in name) or (args.exclude and args.exclude in name):
             continue
         scene = build_mitsuba(mi, s, args.size, args.bounces)
-        ref = render_mitsuba(mi, scene, args.ref_spp, 1000)[0]
+        ref, ref_mse = reference(mi, scene, args.ref_spp)
         # One sample per pixel, for each renderer's cost outside its samples (raylab's process and
         # scene loading; Mitsuba's first render compiles its kernels, so it is done twice).
         render_mitsuba(mi, scene, 1, 0)
@@ -357,7 +380,7 @@ def main():
         # the two renderers store it in different precisions.
         z = (br.mean(axis=0) - bm.mean(axis=0)) / np.maximum(se, 1e-4 * np.abs(bm.mean(axis=0)) + 1e-12)
         rms_z, beyond = float(np.sqrt(np.mean(z * z))), int(np.sum(np.abs(z) > 4))
-        rmse = lambda x: float(np.sqrt(np.mean((x - ref) ** 2)))
+        rmse = rmse_against(ref, ref_mse)
         e_r, e_m = np.mean([rmse(x) for x in rl]), np.mean([rmse(x) for x in mt])
         spp_ratio = (e_r / e_m) ** 2
         ref_ratio = R.mean() / ref.mean()

@@ -69,3 +69,13 @@ fn the_property_and_fuzz_checks_catch_a_shape_whose_hits_are_off_its_surface() {
         .count();
     assert!(fuzzed > 64, "only {fuzzed} of 256 fuzz inputs failed");
 }
+
+/// Every built-in geometry but the mesh (tested by its own property and watertightness tests)
+/// registers samplers, so the harnesses above check it: registering a new shape without them
+/// fails here.
+#[test]
+fn every_built_in_shape_registers_its_samplers() {
+    let registry = crate::registry();
+    let unsampled: Vec<&str> = registry.unsampled_geometries().filter(|name| *name != "mesh").collect();
+    assert!(unsampled.is_empty(), "registered without samplers (add_geometry_with_samples): {unsampled:?}");
+}

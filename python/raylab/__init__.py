@@ -458,7 +458,9 @@ def sweep(
 
     Knobs as ``--vary`` takes them: ``spp``, ``depth``, ``integrator``, ``aa``,
     ``aa_threshold``, ``aa_depth``, ``lens_samples``, … (``[render]`` keys), ``aperture``,
-    ``focus_distance`` (camera); any other name is an integrator parameter. `reference`: an
+    ``focus_distance`` (camera), a light parameter as ``TYPE.PARAM`` for every light of that
+    type (``environment.resolution``); any other name is an integrator parameter
+    (``light_samples``, ``light_selection``, …). `reference`: an
     Image, an ``(H, W, 3)`` array, a file, or None for the reference ``raylab sweep --reference
     auto`` renders (``reference_spp``, every quality knob at its reference value; another
     integrator with ``reference_integrator``).

@@ -311,6 +311,8 @@ pub struct Tally {
     pub shadow: u64,
     /// The first failures (at most 2000).
     pub failures: Vec<String>,
+    /// True when the shape's [`Form`] is [`Form::Other`]: no claim, nothing checked.
+    pub no_claim: bool,
 }
 
 impl Tally {
@@ -356,6 +358,7 @@ pub fn reintersect(sampler: &ShapeSampler, seed: u64, points: u32, per_point: u3
             }
         };
         if matches!(sub.form, Form::Other) {
+            tally.no_claim = true;
             return tally;
         }
         let g = sub.geometry.as_ref();

@@ -69,6 +69,8 @@ pub struct LightFacts {
     /// The light is the scene's surroundings ([`LightSource::environment`] answers): rays that
     /// leave the scene see it instead of the background.
     pub environment: bool,
+    /// [`LightSource::uniform`].
+    pub uniform: bool,
 }
 
 impl LightFacts {
@@ -79,6 +81,7 @@ impl LightFacts {
             sample_count: light.sample_count(),
             illuminates: light.illuminates(),
             environment: light.environment(DVec3::Y).is_some(),
+            uniform: light.uniform(),
         }
     }
 }
@@ -182,6 +185,15 @@ pub trait LightSource: Send + Sync {
         None
     }
 
+    /// True for an environment of one radiance along every direction (a constant colour): no
+    /// sampling of its own can follow a surface's response × cosine better than the surface's
+    /// own sampled rays (which meet it whenever nothing is in the way), so a Monte Carlo
+    /// integrator that samples BSDFs may leave this light to those rays, in full, and spend no
+    /// shadow ray on it. False (the default) for every other light.
+    fn uniform(&self) -> bool {
+        false
+    }
+
     /// For an environment light ([`LightSource::environment`] answers), what a Monte Carlo
     /// integrator weighs a ray that leaves the scene from `origin` along unit `dir` with, in one
     /// call: the radiance arriving along it ([`LightSource::environment`]`(dir)`) and the density
@@ -227,6 +239,9 @@ impl<T: LightSource + ?Sized> LightSource for Box<T> {
     }
     fn environment(&self, dir: DVec3) -> Option<Color> {
         (**self).environment(dir)
+    }
+    fn uniform(&self) -> bool {
+        (**self).uniform()
     }
     fn environment_pdf(&self, origin: DVec3, dir: DVec3) -> Option<(Color, f64)> {
         (**self).environment_pdf(origin, dir)

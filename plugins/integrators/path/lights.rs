@@ -120,6 +120,12 @@ impl PathTracer {
         let facts = scene.light_facts();
         let mut total = Color::ZERO;
         for (index, light) in scene.lights.iter().enumerate() {
+            if facts[index].uniform {
+                rec.note(|| {
+                    format!("{}: one radiance all around: found by the BSDF's ray, in full (no light sample)", scene.light_names[index])
+                });
+                continue;
+            }
             let n = self.samples_for(facts[index]);
             let mut stream = streams.fork(index as u64);
             let pattern = stream.next_pattern();
@@ -331,7 +337,11 @@ impl PathTracer {
                 (IRRADIANCE_PER_INTENSITY * ls.intensity * p, p, ls.distance)
             };
             c.stats.add(counter::LIGHT_HITS, 1);
-            let mis = bsdf_pdf.map_or(1.0, |q| power_heuristic(q, f64::from(self.samples_for(facts)) * p));
+            // A uniform light is never sampled at a vertex ([`PathTracer::direct`]): its rays count in full.
+            let mis = match bsdf_pdf {
+                Some(q) if !facts.uniform => power_heuristic(q, f64::from(self.samples_for(facts)) * p),
+                _ => 1.0,
+            };
             rec.note(|| {
                 let (name, r) = (&scene.light_names[index], radiance);
                 let head = if distance.is_finite() {

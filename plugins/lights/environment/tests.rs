@@ -186,9 +186,11 @@ fn a_black_image_is_sampled_uniformly_and_lights_nothing() {
 }
 
 #[test]
-fn the_grid_is_never_finer_than_the_image() {
+fn the_grid_is_never_finer_than_a_quarter_texel() {
     assert_eq!(grid_size(4096, 2048, 1024), (1024, 512));
-    assert_eq!(grid_size(64, 32, 1024), (64, 32));
+    assert_eq!(grid_size(64, 32, 1024), (128, 64));
+    assert_eq!(grid_size(64, 32, 128), (128, 64));
+    assert_eq!(grid_size(64, 32, 127), (64, 32));
     assert_eq!(grid_size(64, 32, 1), (1, 1));
     assert_eq!(grid_size(5, 1, 3), (3, 1));
 }
