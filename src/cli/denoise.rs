@@ -15,6 +15,11 @@ pub(crate) struct DenoiseArgs {
     /// The denoised image: .exr, .pfm, .png, .jpg or .jpeg.
     #[arg(short, long)]
     output: PathBuf,
+    /// The guides have noise: the frame was rendered with depth of field (a camera aperture),
+    /// so the denoiser filters them too instead of following their edges (as `render --denoise`
+    /// does by itself for such a camera).
+    #[arg(long)]
+    noisy_guides: bool,
 }
 
 pub(crate) fn run(app: &App, a: DenoiseArgs) -> Result<(), Failure> {
@@ -28,7 +33,7 @@ pub(crate) fn run(app: &App, a: DenoiseArgs) -> Result<(), Failure> {
         (Some(_), None) => "an albedo guide",
         _ => "no guides (render with --aov albedo,normal for better results)",
     };
-    let film = denoise(&color, albedo.as_ref(), normal.as_ref()).map_err(Failure::Other)?;
+    let film = denoise(&color, albedo.as_ref(), normal.as_ref(), !a.noisy_guides).map_err(Failure::Other)?;
     let settings =
         crate::image::output::WriteSettings { encoding: crate::math::color::Encoding::Srgb, grid: None, layers: None, half: false };
     format.write(&a.output, &film, &settings).map_err(|e| e.to_string())?;

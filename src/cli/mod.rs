@@ -97,8 +97,10 @@ pub(crate) struct SceneArgs {
     /// Rays through distinct lens points per image sample (depth of field).
     #[arg(long, value_name = "N", allow_hyphen_values = true)]
     lens_samples: Option<i64>,
-    /// Stop each pixel once the estimated relative error of its mean is at most E (e.g. 0.02);
-    /// --spp is then the most samples a pixel takes (stratified sampling).
+    /// Adaptive sampling: stop each pixel once the estimated error of its mean (relative, at
+    /// luminance 1; over √mean) is at most E × √(samples / --target-min-spp) (e.g. 0.05), so
+    /// samples go in proportion to each pixel's noise; --spp is then the most samples a pixel
+    /// takes (stratified sampling).
     #[arg(long, value_name = "E", allow_hyphen_values = true)]
     target_error: Option<f64>,
     /// With --target-error: samples every pixel takes before its error is first tested (≥ 2).

@@ -610,7 +610,9 @@ fn write_image(plan: &Plan, mut rendered: Rendered) -> Result<Written, Failure> 
     let (a, job) = (plan.a, &plan.job);
     let t_denoise = Instant::now();
     if plan.denoiser.is_some() {
-        let film = crate::image::denoise::denoise_guided(&rendered.film, rendered.layers.as_ref()).map_err(Failure::Other)?;
+        let film =
+            crate::image::denoise::denoise_guided(&rendered.film, rendered.layers.as_ref(), crate::image::denoise::guides_are_clean(job))
+                .map_err(Failure::Other)?;
         rendered.film = film;
     }
     let denoise_time = plan.denoiser.as_ref().map(|_| t_denoise.elapsed());

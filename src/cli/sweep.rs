@@ -175,7 +175,7 @@ pub(crate) fn run(app: &App, a: SweepArgs) -> Result<(), Failure> {
             let mut r = crate::render::render(job, &options, &|_, _| {})?;
             let denoise_time = if denoise {
                 let t = std::time::Instant::now();
-                r.film = crate::image::denoise::denoise_guided(&r.film, r.layers.as_ref())?;
+                r.film = crate::image::denoise::denoise_guided(&r.film, r.layers.as_ref(), crate::image::denoise::guides_are_clean(job))?;
                 Some(t.elapsed())
             } else {
                 None

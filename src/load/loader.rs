@@ -119,7 +119,7 @@ pub const RENDER_PARAMS: &[ParamSpec] = &[
         "target_error",
         ParamKind::Float,
         ParamDefault::Optional,
-        "stop each pixel once the estimated relative standard error of its mean luminance is at most this (e.g. 0.02), tested at target_min_spp samples and each doubling; spp is then the most a pixel takes (stratified only)",
+        "adaptive sampling: a pixel is tested at target_min_spp samples and each doubling, and stops once the estimated standard error of its mean luminance over √mean (its relative error at luminance 1) is at most this times √(samples / target_min_spp), so samples go in proportion to each pixel's noise (e.g. 0.05); spp is then the most a pixel takes (stratified only)",
     ),
     ParamSpec::new(
         "target_min_spp",

@@ -214,6 +214,15 @@ impl PixelSum {
         self.std_error().map(|e| e / self.mean_luminance().max(floor))
     }
 
+    /// [`PixelSum::std_error`] over the square root of the mean luminance, or of `floor` where
+    /// the pixel is darker than that: the error an error target ([`crate::render::job::ErrorTarget`])
+    /// tests, as Cycles' adaptive sampling does (`|I − A| / √I`). For a pixel of luminance 1 it is
+    /// the relative error; below, the relative error times `√mean`, about the error of the value
+    /// once encoded for display (sRGB's slope goes as `mean^(−0.58)`).
+    pub fn sqrt_relative_error(&self, floor: f64) -> Option<f64> {
+        self.std_error().map(|e| e / self.mean_luminance().max(floor).sqrt())
+    }
+
     /// `o`'s rays and samples added to these.
     pub fn merge(&mut self, o: &PixelSum) {
         for (s, v) in self.sum.iter_mut().zip(o.sum) {

@@ -56,33 +56,52 @@ pub const MAX_ADAPTIVE_COARSE: u32 = 3;
 /// Most stratified samples in one unresolved cell of the adaptive lattice.
 pub const MAX_CELL_SAMPLES: u32 = 64;
 
-/// Adaptive sampling to a noise threshold: a pixel stops taking samples once the estimated
-/// relative error of its mean ([`PixelSum::relative_error`]) is at most `error`. It is tested
-/// at `min_spp` samples and each doubling of them (`min_spp`, `2·min_spp`, `4·min_spp`, …), so
-/// where a pixel stops depends on its own samples alone: the image is the same for any thread
-/// count, tile split or resume.
+/// Adaptive sampling to a noise threshold. A pixel's error is the estimated standard error of
+/// its mean luminance over the square root of that mean ([`PixelSum::sqrt_relative_error`],
+/// Cycles' measure): for a pixel of luminance 1, its relative error; a darker pixel, whose noise
+/// shows less once encoded for display and weighs less in the image's RMSE, is allowed more
+/// relative error (`1 / √mean` times more), so that the dark corners do not take the samples.
+/// It is tested at `min_spp` samples and each doubling of them (`min_spp`, `2·min_spp`,
+/// `4·min_spp`, …), and a pixel stops at the first test where its error is at most `error`
+/// times `√(n / min_spp)` for its `n` samples: at `min_spp`, `error` itself, and `√2` more per
+/// doubling. So a pixel's samples grow in proportion to its noise (the per-sample deviation),
+/// not with its square as under a fixed threshold: the allocation that gives an image the least
+/// squared error for the samples spent (a fixed threshold gives every pixel the same error,
+/// which in total is no better than uniform sampling; only the pixels with no noise at all
+/// save). Where a pixel stops depends on its own samples alone: the image is the same for any
+/// thread count, tile split or resume.
 #[derive(Clone, Copy, Debug, serde::Serialize)]
 pub struct ErrorTarget {
-    /// Relative standard error of a pixel's mean luminance to stop at (> 0).
+    /// Error ([`PixelSum::sqrt_relative_error`]) a pixel must reach at its first test (> 0).
     pub error: f64,
     /// Samples a pixel takes before its error is first tested (≥ 2).
     pub min_spp: u32,
 }
 
 impl ErrorTarget {
-    /// Mean luminance (linear radiance) below which a pixel's error is taken relative to this
-    /// instead of to its own mean: the noise of pixels this dark is absolute, or they would
-    /// never stop.
+    /// Mean luminance (linear radiance) below which a pixel's error is taken against this
+    /// instead of its own mean: the noise of pixels this dark is absolute, or they would never
+    /// stop.
     pub const DARK: f64 = 1e-2;
+
+    /// The error `p` must reach to stop at its `n` samples: `error · √(n / min_spp)`.
+    #[inline]
+    pub fn allowed(&self, n: u32) -> f64 {
+        self.error * (f64::from(n) / f64::from(self.min_spp)).sqrt()
+    }
+
+    /// Whether `p`'s error is within what its sample count allows ([`ErrorTarget::allowed`]),
+    /// whether or not that count is a tested one.
+    #[inline]
+    pub fn met(&self, p: &PixelSum) -> bool {
+        p.sqrt_relative_error(Self::DARK).is_some_and(|e| e <= self.allowed(p.samples))
+    }
 
     /// Whether `p` is done: it has a tested sample count and its error there meets the target.
     #[inline]
     pub fn converged(&self, p: &PixelSum) -> bool {
         let n = p.samples;
-        n >= self.min_spp
-            && n.is_multiple_of(self.min_spp)
-            && (n / self.min_spp).is_power_of_two()
-            && p.relative_error(Self::DARK).is_some_and(|e| e <= self.error)
+        n >= self.min_spp && n.is_multiple_of(self.min_spp) && (n / self.min_spp).is_power_of_two() && self.met(p)
     }
 }
 

@@ -543,7 +543,14 @@ impl Session {
         }
         // The finished image denoised whole, as `raylab render --denoise` writes it.
         let denoised = if denoise && rendered.budget_stop.is_none() {
-            Some(crate::image::denoise::denoise_guided(&rendered.film, rendered.layers.as_ref()).map_err(ErrorInfo::plain)?)
+            Some(
+                crate::image::denoise::denoise_guided(
+                    &rendered.film,
+                    rendered.layers.as_ref(),
+                    crate::image::denoise::guides_are_clean(&job),
+                )
+                .map_err(ErrorInfo::plain)?,
+            )
         } else {
             None
         };
@@ -655,6 +662,7 @@ impl Session {
         // estimate before it starts would refuse any open-ended refinement).
         let budget = job.max_rays;
         job.max_rays = u64::MAX;
+        let clean_guides = crate::image::denoise::guides_are_clean(&job);
         // Samples per pixel of the image shown; a refined pass is drawn once it has more.
         let pixels = u64::from(s.width) * u64::from(s.height);
         let shown = if stratified {
@@ -706,7 +714,7 @@ impl Session {
         let mut on_pass = |p: &Pass| {
             if p.samples > floor {
                 let film = if denoise {
-                    match crate::image::denoise::denoise_guided(p.film, p.layers) {
+                    match crate::image::denoise::denoise_guided(p.film, p.layers, clean_guides) {
                         Ok(d) => d,
                         Err(e) => {
                             *failed.lock().unwrap_or_else(|e| e.into_inner()) = Some(e);

@@ -133,8 +133,8 @@ impl PathTracer {
             for s in 0..n {
                 let u = if n == 1 { stream.next_2d() } else { stratified_2d(s, n, pattern) };
                 // No direction here (an ambient light): its light comes from escaping rays. An
-                // environment says the density it drew with (found again from the direction it
-                // would cost a lookup); other lights are asked only for samples that count.
+                // environment says the density it drew with (finding it again from the direction
+                // costs a turn and a lookup); other lights are asked only for samples that count.
                 let sample = if facts[index].environment {
                     light.illuminate_pdf(si.point(), u).map(|(ls, pdf)| (ls, Some(pdf)))
                 } else {
