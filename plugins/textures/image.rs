@@ -4,7 +4,8 @@
 //!
 //! Over a pixel's footprint ([`TexturePoint::footprint`]) it is MIP-mapped: levels of half the
 //! size each, box-filtered in linear values when the texture is built (their memory charged to
-//! the budget like the image's), read trilinearly ([`Image::lookup_filtered`]).
+//! the budget like the image's), read trilinearly, anisotropically: several probes along a long
+//! footprint ([`Image::lookup_filtered`]).
 //!
 //! Files are read through the scene's sandbox and size limit ([`LoadContext::read_file`]).
 //! The header is read first: an image of more than [`raylab::param::limits::Limits::max_pixels`]
@@ -20,7 +21,7 @@ use raylab::math::color::srgb_decode;
 use raylab::param::error::{Loc, Result, SceneError};
 use raylab::param::params::Params;
 use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
-use raylab::scene::texture::{Mapping, TRANSFORM_PARAM, Texture, TexturePoint};
+use raylab::scene::texture::{Mapping, Probes, TRANSFORM_PARAM, Texture, TexturePoint};
 use raylab::{Color, LoadContext, PluginInfo};
 use std::io::Cursor;
 use std::sync::{Arc, OnceLock};
@@ -213,15 +214,31 @@ impl Image {
     }
 
     /// The value at texture coordinates `uv` (v up) averaged over the footprint `(duv_dx,
-    /// duv_dy)` (the uv moves one pixel over): trilinear MIP mapping (pbrt-v3 §10.4.3) once the
-    /// footprint is wider than a texel and the levels are built ([`with_mip_maps`]); below a
-    /// texel, or without levels, [`Image::lookup`] at level 0, exactly.
+    /// duv_dy)` (the uv moves one pixel over): anisotropic MIP mapping once the footprint is
+    /// longer than a texel and the levels are built ([`with_mip_maps`]): the footprint split
+    /// along its longer side into up to [`raylab::scene::texture::MAX_ANISOTROPY`] probes ([`Probes`]), each a trilinear
+    /// lookup (pbrt-v3 §10.4.3) at the level of a probe's longer side, averaged. Below a texel,
+    /// or without levels, [`Image::lookup`] at level 0, exactly.
     #[inline]
     pub fn lookup_filtered(&self, uv: DVec2, (duv_dx, duv_dy): (DVec2, DVec2), wrap: [Wrap; 2], filter: Filter) -> Color {
         let (Some(mips), true) = (self.mips.get(), duv_dx != DVec2::ZERO || duv_dy != DVec2::ZERO) else {
             return self.lookup(uv, wrap, filter);
         };
-        let level = self.mip_level((duv_dx, duv_dy));
+        let probes = self.probes((duv_dx, duv_dy));
+        let level = Image::level_of(&probes);
+        if probes.count == 1 {
+            return self.trilinear(mips, uv, level, wrap, filter);
+        }
+        let size = DVec2::new(self.width as f64, self.height as f64);
+        let sum: Color =
+            (0..probes.count).map(|i| self.trilinear(mips, uv + probes.offset(i).truncate() / size, level, wrap, filter)).sum();
+        sum / probes.count as f64
+    }
+
+    /// The lookup at `uv` on (fractional) MIP level `level`: the two nearest levels' bilinear
+    /// lookups blended (≤ 0: level 0; at or beyond the last, the last).
+    #[inline]
+    fn trilinear(&self, mips: &[Image], uv: DVec2, level: f64, wrap: [Wrap; 2], filter: Filter) -> Color {
         if !(level > 0.0) {
             return self.lookup(uv, wrap, filter);
         }
@@ -236,14 +253,27 @@ impl Image {
         at(l0) * (1.0 - t) + at(l0 + 1) * t
     }
 
-    /// The MIP level a footprint `(duv_dx, duv_dy)` reads (fractional; ≤ 0: level 0): the log2 of
-    /// the footprint's width in texels, its longer side (a pixel covering `k` texels reads level
-    /// `log2 k`, where texels are as large as the pixel).
+    /// The probes of footprint `(duv_dx, duv_dy)`, in texels.
     #[inline]
-    pub fn mip_level(&self, (duv_dx, duv_dy): (DVec2, DVec2)) -> f64 {
+    fn probes(&self, (duv_dx, duv_dy): (DVec2, DVec2)) -> Probes {
         let size = DVec2::new(self.width as f64, self.height as f64);
-        let width = (duv_dx * size).length().max((duv_dy * size).length());
+        Probes::new((duv_dx * size).extend(0.0), (duv_dy * size).extend(0.0), 1.0)
+    }
+
+    /// The MIP level of probes' lookups: the log2 of a probe's longer side in texels.
+    #[inline]
+    fn level_of(probes: &Probes) -> f64 {
+        let width = probes.step.length().max(probes.minor.length());
         if width.is_finite() { width.log2() } else { 0.0 }
+    }
+
+    /// The MIP level a footprint `(duv_dx, duv_dy)` reads (fractional; ≤ 0: level 0): the log2 of
+    /// a probe's width in texels, its longer side (a pixel covering `k × k` texels reads level
+    /// `log2 k`, where texels are as large as the pixel; a footprint `a` texels long and `b < a`
+    /// wide, level `log2 max(b, a / 16)`).
+    #[inline]
+    pub fn mip_level(&self, footprint: (DVec2, DVec2)) -> f64 {
+        Image::level_of(&self.probes(footprint))
     }
 
     /// The number of MIP levels built beyond level 0 (0 before [`with_mip_maps`]).
@@ -723,5 +753,29 @@ mod tests {
         for bytes in [&b""[..], b"not an image", &quad()[..40], b"\x89PNG\r\n\x1a\n"] {
             assert!(ctx_decode(bytes, ColorSpace::Auto, &options).is_err());
         }
+    }
+
+    /// Stripes 4 texels wide seen along their length (a footprint 16 texels long, 1 wide, at a
+    /// white stripe's centre): the anisotropic lookup keeps the stripe (its probes read level 0),
+    /// where one square as wide as the footprint is long (level 4) would be the grey mean.
+    #[test]
+    fn a_long_footprint_along_stripes_keeps_them() {
+        let n = 64;
+        let texels = (0..n * n).flat_map(|i| [if (i % n) / 4 % 2 == 0 { 1.0f32 } else { 0.0 }; 3]).collect();
+        let image = Image::from_linear(n, n, texels).unwrap();
+        let options = LoadOptions::default();
+        with_mip_maps(&image, &LoadContext::new(std::path::Path::new(""), &options)).unwrap();
+        let texel = 1.0 / n as f64;
+        let footprint = (DVec2::new(texel, 0.0), DVec2::new(0.0, 16.0 * texel));
+        assert_eq!(image.mip_level(footprint), 0.0);
+        let uv = DVec2::new(2.0 * texel, 0.5);
+        let v = image.lookup_filtered(uv, footprint, [Wrap::Repeat; 2], Filter::Bilinear).x;
+        assert!((v - 1.0).abs() < 1e-6, "{v}");
+        // Square footprints are as before: level log2 of their side.
+        let square = (DVec2::new(4.0 * texel, 0.0), DVec2::new(0.0, 4.0 * texel));
+        assert!((image.mip_level(square) - 2.0).abs() < 1e-12);
+        // Longer than 16 widths: widened to a sixteenth of its length (level log2(64 / 16)).
+        let longer = (DVec2::new(texel, 0.0), DVec2::new(0.0, 64.0 * texel));
+        assert!((image.mip_level(longer) - 2.0).abs() < 1e-12);
     }
 }

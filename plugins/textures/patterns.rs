@@ -4,7 +4,10 @@
 //!
 //! Each is band-limited: over a pixel's footprint ([`TexturePoint::footprint`]) it returns its
 //! box-filtered mean in closed form (the share of odd cells, the blend's integral), so a
-//! checkerboard toward the horizon turns to the mean of its colours instead of moiré.
+//! checkerboard toward the horizon turns to the mean of its colours instead of moiré. A cell
+//! pattern's long, thin footprint (a grazing view) is split along its length ([`Probes`]) and
+//! each piece box-filtered: the bounding box of the whole would blur it over its length in every
+//! direction.
 //!
 //! Cells are decided by `floor`, so a surface lying exactly on a cell boundary in object
 //! coordinates (a plane at y = 0 under a solid checker) shows rounding noise: move the pattern by
@@ -14,7 +17,7 @@ use raylab::glam::DVec3;
 use raylab::param::error::Result;
 use raylab::param::params::Params;
 use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
-use raylab::scene::texture::{COORDS_PARAM, Mapping, TRANSFORM_PARAM, Texture, TexturePoint};
+use raylab::scene::texture::{COORDS_PARAM, Mapping, Probes, TRANSFORM_PARAM, Texture, TexturePoint};
 use raylab::{Color, LoadContext, PluginInfo};
 use std::sync::Arc;
 
@@ -106,15 +109,33 @@ impl Texture for Cells {
     fn eval(&self, at: &TexturePoint) -> Color {
         let p = self.mapping.point(at);
         if !at.footprint.is_point() {
-            // The share of odd cells in the pixel's footprint: the pattern box-filtered.
-            let odd = self.odd_share(p, self.mapping.point_footprint(at));
-            if let Some(f) = odd {
+            let (dx, dy) = self.mapping.point_footprint(at);
+            let probes = Probes::new(dx, dy, PROBE_SPACING);
+            if probes.count == 1 {
+                // The share of odd cells in the pixel's footprint: the pattern box-filtered.
+                if let Some(f) = self.odd_share(p, (dx, dy)) {
+                    return self.even * (1.0 - f) + self.odd * f;
+                }
+            } else {
+                // A long footprint (a grazing view): its pieces box-filtered, averaged.
+                let odd: f64 = (0..probes.count)
+                    .map(|i| {
+                        let q = p + probes.offset(i);
+                        self.odd_share(q, (probes.step, probes.minor)).unwrap_or_else(|| (self.cell(q) & 1) as f64)
+                    })
+                    .sum();
+                let f = odd / probes.count as f64;
                 return self.even * (1.0 - f) + self.odd * f;
             }
         }
         if self.cell(p) & 1 == 0 { self.even } else { self.odd }
     }
 }
+
+/// The shortest piece (in cells) a cell pattern's footprint is split into ([`Probes::new`]'s
+/// `unit`): a footprint shorter than this is filtered whole (its bounding box then overshoots it
+/// by at most this much), and a thinner one is cut in pieces this long.
+const PROBE_SPACING: f64 = 0.125;
 
 impl Cells {
     /// The share of odd cells over the footprint of pattern point `p` (its moves `dx`, `dy` one
@@ -334,5 +355,31 @@ mod tests {
                 assert!((0.0..=1.0).contains(&x), "{repeat:?} at {v}: {x}");
             }
         }
+    }
+
+    /// A long thin footprint across a checker at a slant: the probes' mean is much nearer the
+    /// footprint's true mean (supersampled) than the box over its bounding box, which is grey.
+    #[test]
+    fn a_long_slanted_footprint_is_filtered_along_its_length() {
+        use raylab::scene::texture::Footprint;
+        let c = Cells::new(CellKind::Checker, Color::ZERO, Color::ONE, Mapping::new(Coords::Uv));
+        let p = DVec3::new(0.3, 0.1, 0.0);
+        let (dx, dy) = (DVec3::new(0.03, -0.04, 0.0), DVec3::new(6.0, 5.0, 0.0));
+        let (nx, ny) = (40, 4000);
+        let mut odd = 0.0;
+        for i in 0..nx {
+            for j in 0..ny {
+                let q = p + dx * ((i as f64 + 0.5) / nx as f64 - 0.5) + dy * ((j as f64 + 0.5) / ny as f64 - 0.5);
+                odd += (c.cell(q) & 1) as f64;
+            }
+        }
+        let truth = odd / (nx * ny) as f64;
+        let footprint = Footprint { duv_dx: dx.truncate(), duv_dy: dy.truncate(), ..Footprint::POINT };
+        let probes = c.eval(&at_uv(p.x, p.y).with_footprint(footprint)).x;
+        let bounding_box = c.odd_share(p, (dx, dy)).unwrap();
+        assert!((probes - truth).abs() < 0.4 * (bounding_box - truth).abs(), "truth {truth}, probes {probes}, bounding box {bounding_box}");
+        // A footprint inside one cell is still the cell's colour, exactly.
+        let small = Footprint { duv_dx: DVec2::new(0.01, 0.0), duv_dy: DVec2::new(0.0, 0.2), ..Footprint::POINT };
+        assert_eq!(c.eval(&at_uv(0.5, 0.5).with_footprint(small)), Color::ZERO);
     }
 }

@@ -80,8 +80,8 @@ pub(crate) struct SceneArgs {
     /// Adaptive anti-aliasing: locate edges by bisection (true, the default) or only subdivide.
     #[arg(long, value_name = "BOOL")]
     aa_edges: Option<bool>,
-    /// Filter textures over each pixel's footprint (true) or look them up at a point (false,
-    /// the default for now): `[render] texture_filter`.
+    /// Filter textures over each pixel's footprint (true, the default) or look them up at a
+    /// point (false): `[render] texture_filter`.
     #[arg(long, value_name = "BOOL")]
     texture_filter: Option<bool>,
     /// Adaptive anti-aliasing: also refine where the corners' rays saw different objects.

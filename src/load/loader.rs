@@ -136,7 +136,7 @@ pub const RENDER_PARAMS: &[ParamSpec] = &[
     ParamSpec::new(
         "texture_filter",
         ParamKind::Bool,
-        ParamDefault::Bool(false),
+        ParamDefault::Bool(true),
         "filter textures over each pixel's footprint (ray differentials: MIP maps for images, band-limited patterns); false: look them up at a point",
     ),
 ];
@@ -305,9 +305,11 @@ fn build_parts(registry: &Registry, desc: &SceneDescription, ctx: &LoadContext) 
     fingerprint.add("background", format!("{background:?}").as_bytes());
     fingerprint.add("integrator", integ.name.as_bytes());
     fingerprint.add("integrator parameters", crate::param::toml::table_to_toml(&integ.params).as_bytes());
-    if texture_filter {
-        // Only when on (not the default yet), so other renders keep their fingerprints.
-        fingerprint.add("texture filter", b"on");
+    if objects.iter().flat_map(|o| o.materials()).any(Material::looks_up_textures) {
+        // Only for a textured scene (the setting changes no other pixel, so other renders keep
+        // their fingerprints); either way, so a render from before filtering was the default
+        // (point lookups, no record) never matches a filtered one.
+        fingerprint.add("texture filter", if texture_filter { b"footprint" } else { b"point" });
     }
     Ok(Parts {
         name,

@@ -496,6 +496,13 @@ impl Material {
         !self.textures.is_empty()
     }
 
+    /// True when a hit on this material looks up a texture: a textured colour, or a material
+    /// model that reads textures (what texture filtering is for).
+    #[inline]
+    pub fn looks_up_textures(&self) -> bool {
+        self.is_textured() || self.model.as_ref().is_some_and(|m| m.0.is_textured())
+    }
+
     /// The coefficients at the surface point `at` gives (asked for only when the material is
     /// textured: texture coordinates and footprint are computed only then).
     #[inline]

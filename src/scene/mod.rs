@@ -21,6 +21,7 @@ use crate::scene::camera::Camera;
 use crate::scene::emitters::Emitters;
 use crate::scene::interaction::Interaction;
 use crate::scene::light::{LightFacts, LightSource};
+use crate::scene::material::Material;
 use crate::scene::object::Object;
 use glam::DVec3;
 
@@ -161,7 +162,7 @@ impl Scene {
 
     /// Whether some material looks up a texture (its colours, or its model's parameters).
     pub fn has_textures(&self) -> bool {
-        self.objects.iter().flat_map(|o| o.materials()).any(|m| m.is_textured() || m.model.as_ref().is_some_and(|m| m.0.is_textured()))
+        self.objects.iter().flat_map(|o| o.materials()).any(Material::looks_up_textures)
     }
 
     /// Turns texture filtering on (`on`) or off for an `nx × ny` image at `spp` samples per

@@ -79,6 +79,49 @@ pub trait Texture: Send + Sync + std::fmt::Debug {
     fn eval(&self, at: &TexturePoint) -> Color;
 }
 
+/// The most probes an anisotropic lookup ([`Probes`]) takes along its footprint's longer side
+/// (GPUs' 16×): a footprint longer than this many times its width is widened to it.
+pub const MAX_ANISOTROPY: usize = 16;
+
+/// An anisotropic lookup's probes (the GPUs' way, pbrt-v3 §10.4.4's alternative to EWA): the
+/// footprint, the parallelogram `p ± dx/2 ± dy/2` around the lookup's point, split along its
+/// longer side into `count` equal parallelograms, each `step` by `minor`, laid end to end. A
+/// texture filters each one isotropically (a MIP level as wide as its longer side, a box over
+/// its bounding box) and averages them: a long thin footprint (a surface seen at a grazing
+/// angle) is then blurred along its length only, not over a square as wide as it is long.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Probes {
+    /// How many (1 ..= [`MAX_ANISOTROPY`]).
+    pub count: usize,
+    /// One probe's side along the footprint's longer side (the longer side / `count`).
+    pub step: DVec3,
+    /// The footprint's shorter side (every probe's other side).
+    pub minor: DVec3,
+}
+
+impl Probes {
+    /// The probes of footprint `(dx, dy)` (in the texture's own units: texels, a pattern's
+    /// cells): as many as the longer side is long in widths of the shorter, the width counted as
+    /// `unit` at least (an image's texel: probes closer than a texel would read the same texels),
+    /// at most [`MAX_ANISOTROPY`]. One probe, the footprint itself, when it is not longer than
+    /// `unit`, or not finite.
+    #[inline]
+    pub fn new(dx: DVec3, dy: DVec3, unit: f64) -> Probes {
+        let (lx, ly) = (dx.length(), dy.length());
+        let (major, minor, long, short) = if lx >= ly { (dx, dy, lx, ly) } else { (dy, dx, ly, lx) };
+        let n = (long / short.max(unit)).ceil();
+        // `as` saturates: huge ratios are capped below; NaN (a non-finite footprint) is one probe.
+        let count = if n >= 1.0 { (n as usize).min(MAX_ANISOTROPY) } else { 1 };
+        Probes { count, step: major / count as f64, minor }
+    }
+
+    /// Probe `i`'s centre, from the footprint's centre (`i` in `0..count`).
+    #[inline]
+    pub fn offset(&self, i: usize) -> DVec3 {
+        self.step * (i as f64 + 0.5 - 0.5 * self.count as f64)
+    }
+}
+
 /// Where the texture a material's colour names comes from while a scene loads: the loader's
 /// texture library ([`crate::load::textures::TextureLibrary`]), which builds them through the
 /// registry. The scene layer names only this.
@@ -206,5 +249,24 @@ impl Mapping {
         } else {
             (dx, dy)
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Probes tile the footprint's longer side: as many as it is long in widths (the width at
+    /// least `unit`), at most [`MAX_ANISOTROPY`], centred on the footprint.
+    #[test]
+    fn probes_split_the_longer_side() {
+        let p = Probes::new(DVec3::new(0.0, 0.5, 0.0), DVec3::new(3.0, 0.0, 0.0), 0.1);
+        assert_eq!((p.count, p.step, p.minor), (6, DVec3::new(0.5, 0.0, 0.0), DVec3::new(0.0, 0.5, 0.0)));
+        assert_eq!((p.offset(0), p.offset(5)), (DVec3::new(-1.25, 0.0, 0.0), DVec3::new(1.25, 0.0, 0.0)));
+        assert_eq!(Probes::new(DVec3::X, DVec3::Y, 1.0).count, 1, "square: one probe");
+        assert_eq!(Probes::new(DVec3::X * 0.5, DVec3::ZERO, 1.0).count, 1, "shorter than the unit: one");
+        assert_eq!(Probes::new(DVec3::X * 1e9, DVec3::Y, 1.0).count, MAX_ANISOTROPY);
+        assert_eq!(Probes::new(DVec3::X * f64::NAN, DVec3::Y, 1.0).count, 1, "not finite: one");
+        assert_eq!(Probes::new(DVec3::new(f64::INFINITY, 0.0, 0.0), DVec3::Y, 1.0).count, MAX_ANISOTROPY);
     }
 }
