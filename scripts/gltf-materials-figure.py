@@ -3,6 +3,7 @@
 specification's BRDF shows them and as raylab renders them through its PBR → Phong mapping.
 
     python3 scripts/gltf-materials-figure.py --raylab target/release/raylab [--before OLD_RAYLAB] -o docs/gltf-materials.png
+    python3 scripts/gltf-materials-figure.py --raylab target/release/raylab --path -o docs/pbr-vs-spec.png
 
 Writes a glTF file with two rows of six UV spheres (roughness 0, 0.2, …, 1; a red dielectric and
 a gold metal), a scene placing it under one directional light, renders it with each raylab binary
@@ -11,6 +12,11 @@ given, and evaluates the reference per pixel: the glTF 2.0 BRDF of the specifica
 metallic) for the same camera and light, lit with irradiance π·I so that its diffuse term equals
 raylab's `kd·(n·l)·I`. No ambient and no environment: only the light's direct reflection, which is
 what the mapping decides. Needs numpy and Pillow.
+
+With --path, the figure is the reference beside raylab's path tracer on the same glTF file (the
+`pbr` model: the specification's BRDF itself, lit by the same light; 256 samples per pixel), both
+on a black background that lights nothing: the difference left is the path tracer's light from
+the neighbouring spheres (and its noise).
 """
 import argparse
 import json
@@ -94,10 +100,10 @@ def write_gltf(path):
     json.dump(doc, open(path, "w"))
 
 
-def write_scene(path):
+def write_scene(path, background):
     p, l = CAMERA["position"], CAMERA["look_at"]
     open(path, "w").write(
-        f"""background = {BACKGROUND}
+        f"""background = {background}
 [render]
 width = {WIDTH}
 height = {HEIGHT}
@@ -123,7 +129,7 @@ def srgb(x):
     return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
 
 
-def reference():
+def reference(background):
     """The glTF BRDF per pixel (2 × 2 samples), sRGB-encoded, as an H × W × 3 array in [0, 1]."""
     pos, at = np.array(CAMERA["position"]), np.array(CAMERA["look_at"])
     fwd = (at - pos) / np.linalg.norm(at - pos)
@@ -138,7 +144,7 @@ def reference():
         v = (1 - 2 * (ys + sy) / HEIGHT) * h
         d = fwd + u[..., None] * right + v[..., None] * up
         d /= np.linalg.norm(d, axis=-1, keepdims=True)
-        colour = np.full((HEIGHT, WIDTH, 3), BACKGROUND)
+        colour = np.full((HEIGHT, WIDTH, 3), background)
         best = np.full((HEIGHT, WIDTH), np.inf)
         for k, c in enumerate(centres()):
             f = pos - np.array(c)
@@ -179,9 +185,9 @@ def gltf_brdf(n, v, base, metallic, roughness):
     return brdf * (math.pi * LIGHT) * nl[..., None]
 
 
-def render(raylab, scene):
-    out = scene.replace(".toml", f"-{abs(hash(raylab))}.png")
-    subprocess.run([raylab, "render", scene, "-o", out, "--threads", "2"], check=True, capture_output=True)
+def render(raylab, scene, *extra):
+    out = scene.replace(".toml", f"-{abs(hash((raylab, extra)))}.png")
+    subprocess.run([raylab, "render", scene, "-o", out, "--threads", "2", *extra], check=True, capture_output=True)
     return np.asarray(Image.open(out).convert("RGB"), dtype=np.float64) / 255
 
 
@@ -189,16 +195,33 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--raylab", required=True, help="the raylab binary (built with --features mesh)")
     ap.add_argument("--before", help="an older raylab binary, for a row with its mapping")
+    ap.add_argument("--path", action="store_true", help="the reference beside the path tracer (the pbr model), on black")
     ap.add_argument("-o", "--output", required=True)
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         write_gltf(os.path.join(tmp, "spheres.gltf"))
         scene = os.path.join(tmp, "scene.toml")
-        write_scene(scene)
-        images = [("glTF BRDF", reference())]
-        if a.before:
-            images.append(("raylab before", render(a.before, scene)))
-        images.append(("raylab", render(a.raylab, scene)))
+        background = 0.0 if a.path else BACKGROUND
+        write_scene(scene, background)
+        images = [("glTF BRDF", reference(background))]
+        if a.path:
+            images.append(("raylab path", render(a.raylab, scene, "--integrator", "path", "--spp", "256")))
+        else:
+            if a.before:
+                images.append(("raylab before", render(a.before, scene)))
+            images.append(("raylab", render(a.raylab, scene)))
+    if a.path:
+        # Each sphere's mean (linear) in its cell of the frame, path tracer ÷ reference.
+        linear = lambda x: np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
+        ref, path = (linear(img) for _, img in images)
+        scale = WIDTH / (2 * math.tan(math.radians(CAMERA["fov"]) / 2) * CAMERA["position"][2] * WIDTH / HEIGHT)
+        for row, (name, _, _) in enumerate(MATERIALS):
+            ratios = []
+            for col in range(len(ROUGHNESS)):
+                x = WIDTH / 2 + (col - (len(ROUGHNESS) - 1) / 2) * SPACING * scale
+                cell = (slice(row * HEIGHT // 2, (row + 1) * HEIGHT // 2), slice(int(x - SPACING * scale / 2), int(x + SPACING * scale / 2)))
+                ratios.append(path[cell].mean() / ref[cell].mean())
+            print(f"{name}: path ÷ reference per sphere, roughness {ROUGHNESS[0]} to {ROUGHNESS[-1]}: " + ", ".join(f"{r:.3f}" for r in ratios))
     # Each material's row of spheres from each image, one under the other, labelled.
     half = HEIGHT // 2
     label_w, pad = 150, 4

@@ -9,10 +9,13 @@
 //! - `kd`: Lambertian; `ks`: the normalised (energy-conserving) Phong lobe of exponent
 //!   `shininess` around the mirror direction of ωo about the shading normal (α is the angle
 //!   from it; Lafortune and Willems 1994);
-//! - `kr`: a perfect mirror about the geometric normal, or with `blur > 0` a second normalised
+//! - `kr`: a perfect mirror about the valid shading normal (`Interaction::specular_normal`:
+//!   the shading normal, bent toward the geometric one only where the mirror direction would
+//!   leave into the surface; a smooth-shaded mesh mirrors smoothly), or with `blur > 0` a second normalised
 //!   Phong lobe of exponent `4 / blur²` (the Phong lobe whose mean squared angle equals that of
 //!   phong's jitter disc of radius `blur`);
-//! - `kt`: a smooth dielectric with the exact Fresnel reflectance: at a closed solid it reflects
+//! - `kt`: a smooth dielectric with the exact Fresnel reflectance, about that same normal (refraction
+//!   about the geometric normal where the shading normal would send the ray back out): at a closed solid it reflects
 //!   with probability F and refracts by Snell's law otherwise (total internal reflection where
 //!   F = 1; transmitted radiance scales by (η_i/η_t)²); an open surface is a thin slab of index
 //!   `ior` that reflects 2F/(1+F) and passes the rest straight through. With `blur > 0` the
@@ -69,6 +72,9 @@ pub struct PhongBsdf {
     n: DVec3,
     /// Shading normal facing `wo`.
     ns: DVec3,
+    /// The valid shading normal perfect specular events turn about
+    /// (`Interaction::specular_normal`).
+    ms: DVec3,
     /// Mirror direction of `wo` about `ns`: the Phong lobes' axis.
     axis: DVec3,
     kd: Color,
@@ -120,7 +126,7 @@ fn fresnel_mirror(si: &Interaction, m: &Coefficients) -> Color {
     match m.fresnel {
         Fresnel::Off => m.kr,
         _ if max_channel(m.kt) > 0.0 => Color::ZERO,
-        f => m.kr * f.reflectance(-si.dir.dot(si.n), if si.front_face { m.ior } else { 1.0 / m.ior }),
+        f => m.kr * f.reflectance(-si.dir.dot(si.specular_normal()), if si.front_face { m.ior } else { 1.0 / m.ior }),
     }
 }
 
@@ -178,6 +184,7 @@ impl PhongBsdf {
             wo,
             n: si.n,
             ns: si.ns,
+            ms: si.specular_normal(),
             axis: reflect(si.dir, si.ns),
             kd,
             ks,
@@ -197,13 +204,17 @@ impl PhongBsdf {
     /// Fresnel reflection or transmission of the `kt` part, jittered when blurry.
     fn sample_dielectric(&self, u: DVec2, fresnel: f64) -> Scatter {
         let d = -self.wo;
-        let cos_i = self.wo.dot(self.n);
+        let cos_i = self.wo.dot(self.ms);
         let weight = self.kt / self.choice[4];
-        let reflected = reflect(d, self.n);
+        let reflected = reflect(d, self.ms);
         let (mut dir, side, kind, eta_squared) = if self.closed {
             // η_t / η_i: into the solid through its outside, or out of it.
             let eta = if self.entering { self.ior } else { 1.0 / self.ior };
-            match refract(d, self.n, 1.0 / eta) {
+            let refracted = match refract(d, self.ms, 1.0 / eta) {
+                Some(t) if t.dot(self.n) >= 0.0 => refract(d, self.n, 1.0 / eta),
+                t => t,
+            };
+            match refracted {
                 Some(t) if fresnel >= fresnel_dielectric(cos_i, eta) => (t, -self.n, RayKind::Refraction, eta * eta),
                 _ => (reflected, self.n, RayKind::Reflection, 1.0),
             }
@@ -293,7 +304,7 @@ impl Bsdf for PhongBsdf {
             Lobe::Glossy => sample_lobe(self.axis, self.blur_lobe, u),
             Lobe::Mirror => {
                 let weight = self.mirror / self.choice[3];
-                let dir = reflect(-self.wo, self.n);
+                let dir = reflect(-self.wo, self.ms);
                 return Some(Scatter { dir, weight, pdf: None, lobe, kind: RayKind::Reflection, eta_squared: 1.0 });
             }
             // (Not among `LOBES`.)

@@ -9,7 +9,8 @@
 //! Materials become `pbr` materials ([`crate::materials::pbr`]): in the path tracer the glTF
 //! BRDF itself, with `KHR_materials_ior`, `_specular`, `_transmission` (thin-walled) and
 //! `_emissive_strength`, and the `baseColorTexture`, `metallicRoughnessTexture`,
-//! `emissiveTexture` and `transmissionTexture` slots (with `KHR_texture_transform`); for `phong`,
+//! `emissiveTexture` and `transmissionTexture` slots (with `KHR_texture_transform`, on
+//! `TEXCOORD_0` or `TEXCOORD_1` as `texCoord` says); for `phong`,
 //! the Phong coefficients of [`crate::materials::pbr::phong_mapping`] (base colour `c`,
 //! metallic `m`, roughness `r`, α = r²):
 //!
@@ -144,7 +145,7 @@ pub struct GltfFile {
 
 /// A texture of a glTF file as a material samples it: its index, `KHR_texture_transform`
 /// (offset, rotation, scale as bits) and whether it holds colours or data.
-type TextureKey = (usize, Option<[u64; 5]>, Slot);
+type TextureKey = (usize, Option<[u64; 5]>, Slot, u64);
 
 /// A texture info's `KHR_texture_transform`, read from its extensions (so that a malformed one is
 /// a warning, not the whole file's error).
@@ -569,8 +570,17 @@ impl GltfFile {
         let mut out = self.empty();
         self.check_triangles(triangle_count(&mesh))?;
         self.append(&mesh, DMat4::IDENTITY, &mut out)?;
+        self.drop_unused_second_set(&mut out);
         self.attach_textures(ctx, &mut out);
         Ok(out)
+    }
+
+    /// Drops the second texture-coordinate set `out` carries (copies of the first) where no
+    /// primitive of the file has a `TEXCOORD_1`.
+    fn drop_unused_second_set(&self, out: &mut MeshData) {
+        if !self.doc.meshes().any(|m| m.primitives().any(|p| p.get(&gltf::Semantic::TexCoords(1)).is_some())) {
+            out.texcoords1 = Vec::new();
+        }
     }
 
     /// Refuses more than [`raylab::param::limits::Limits::max_triangles`] triangles.
@@ -597,6 +607,7 @@ impl GltfFile {
         if out.triangles.is_empty() {
             return Err(SceneError::in_file(&self.name, None, "the file's scene has no triangles"));
         }
+        self.drop_unused_second_set(&mut out);
         self.attach_textures(ctx, &mut out);
         Ok(out)
     }
@@ -627,7 +638,7 @@ impl GltfFile {
                 self.textures
                     .lock()
                     .unwrap_or_else(|e| e.into_inner())
-                    .entry((info.texture.index(), transform.map(|t| t.key()), slot))
+                    .entry((info.texture.index(), transform.map(|t| t.key()), slot, tex_coord_set(info)))
                     .or_insert_with(|| match self.texture(ctx, info, transform, id as usize, slot) {
                         Ok(t) => Some(t),
                         Err(e) => {
@@ -703,9 +714,11 @@ impl GltfFile {
             WrappingMode::Repeat => Wrap::Repeat,
         };
         let filter = if sampler.mag_filter() == Some(MagFilter::Nearest) { Filter::Nearest } else { Filter::Bilinear };
+        // TEXCOORD_1 for set 1; set 0 otherwise (sets beyond 1 are warned about).
+        let coords = if tex_coord_set(info) == 1 { Coords::Uv1 } else { Coords::Uv };
         let mapping = match transform {
-            Some(t) => Mapping::with_inverse(Coords::Uv, gltf_uv_transform(t.offset, t.rotation, t.scale)),
-            None => Mapping::new(Coords::Uv),
+            Some(t) => Mapping::with_inverse(coords, gltf_uv_transform(t.offset, t.rotation, t.scale)),
+            None => Mapping::new(coords),
         };
         Ok(Arc::new(ImageTexture::new(image, mapping, [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())], filter, Color::ONE)))
     }
@@ -927,24 +940,30 @@ impl GltfFile {
             let n = materials.iter().filter(|m| has(m)).count();
             warn(n, format!("{n} material(s) use a {name}: the path tracer samples it, phong uses the factors"));
         }
-        let second_set = |i: Option<TexRef>| {
-            i.is_some_and(|i| i.tex_coord != 0 || UvTransform::of(&i).ok().flatten().and_then(|t| t.tex_coord).is_some_and(|c| c != 0))
-        };
-        let n = materials
+        let prims = || self.doc.meshes().flat_map(|m| m.primitives().collect::<Vec<_>>());
+        // The texture coordinate sets each material's textures read (KHR_texture_transform's
+        // `texCoord` overriding the texture info's).
+        let sets = |m: &gltf::Material| -> Vec<u64> {
+            let pbr = m.pbr_metallic_roughness();
+            [
+                pbr.base_color_texture().as_ref().map(TexRef::from),
+                m.emissive_texture().as_ref().map(TexRef::from),
+                pbr.metallic_roughness_texture().as_ref().map(TexRef::from),
+                m.transmission().and_then(|t| t.transmission_texture()).as_ref().map(TexRef::from),
+                m.normal_texture().as_ref().map(TexRef::from),
+                m.occlusion_texture().as_ref().map(TexRef::from),
+            ]
             .iter()
-            .filter(|m| {
-                let pbr = m.pbr_metallic_roughness();
-                second_set(pbr.base_color_texture().as_ref().map(TexRef::from))
-                    || second_set(m.emissive_texture().as_ref().map(TexRef::from))
-                    || second_set(pbr.metallic_roughness_texture().as_ref().map(TexRef::from))
-                    || second_set(m.transmission().and_then(|t| t.transmission_texture()).as_ref().map(TexRef::from))
-                    || second_set(m.normal_texture().as_ref().map(TexRef::from))
-            })
-            .count();
-        warn(n, format!("{n} material(s) sample a texture with a texture coordinate set other than TEXCOORD_0: TEXCOORD_0 is used"));
+            .flatten()
+            .map(tex_coord_set)
+            .collect()
+        };
+        let n = materials.iter().filter(|m| sets(m).iter().any(|&s| s > 1)).count();
+        warn(n, format!("{n} material(s) sample a texture with a texture coordinate set beyond TEXCOORD_1: TEXCOORD_0 is used"));
+        let n = prims().filter(|p| p.get(&gltf::Semantic::TexCoords(1)).is_none() && sets(&p.material()).contains(&1)).count();
+        warn(n, format!("{n} primitive(s) have a material that samples TEXCOORD_1 but have no TEXCOORD_1: TEXCOORD_0 is used there"));
         let unsupported: Vec<String> = self.extensions().into_iter().filter(|e| !SUPPORTED.contains(&e.as_str())).collect();
         warn(unsupported.len(), format!("the file uses extensions raylab ignores: {}", unsupported.join(", ")));
-        let prims = || self.doc.meshes().flat_map(|m| m.primitives().collect::<Vec<_>>());
         let n = prims().filter(|p| p.get(&gltf::Semantic::Colors(0)).is_some()).count();
         warn(n, format!("{n} primitive(s) have vertex colours (COLOR_0), which raylab ignores"));
         use gltf::mesh::Mode;
@@ -1039,6 +1058,7 @@ impl GltfFile {
             typed(prim.get(&gltf::Semantic::Positions), &[DataType::F32], Dimensions::Vec3, "POSITION")?;
             typed(prim.get(&gltf::Semantic::Normals), &[DataType::F32], Dimensions::Vec3, "NORMAL")?;
             typed(prim.get(&gltf::Semantic::TexCoords(0)), &[DataType::F32, DataType::U8, DataType::U16], Dimensions::Vec2, "TEXCOORD_0")?;
+            typed(prim.get(&gltf::Semantic::TexCoords(1)), &[DataType::F32, DataType::U8, DataType::U16], Dimensions::Vec2, "TEXCOORD_1")?;
             typed(prim.indices(), &[DataType::U8, DataType::U16, DataType::U32], Dimensions::Scalar, "index")?;
             typed(prim.get(&gltf::Semantic::Tangents), &[DataType::F32], Dimensions::Vec4, "TANGENT")?;
             let reader = prim.reader(|b| self.buffers.get(b.index()).map(Vec::as_slice));
@@ -1089,10 +1109,20 @@ impl GltfFile {
                 .map(|r| r.into_f32().map(|[u, v]| [u, 1.0 - v]).collect())
                 .filter(|v: &Vec<[f32; 2]>| v.len() == positions.len());
             let keep_uv = texcoords.is_some() && out.texcoord_indices.len() == out.triangles.len();
+            // The second set (TEXCOORD_1), beside the first: a primitive without one repeats its
+            // first set (textures asking for set 1 then read set 0, as warned).
+            let texcoords1: Option<Vec<[f32; 2]>> = reader
+                .read_tex_coords(1)
+                .map(|r| r.into_f32().map(|[u, v]| [u, 1.0 - v]).collect())
+                .filter(|v: &Vec<[f32; 2]>| v.len() == positions.len());
             match texcoords.filter(|_| keep_uv) {
-                Some(uv) => out.texcoords.extend(uv),
+                Some(uv) => {
+                    out.texcoords1.extend(texcoords1.as_deref().unwrap_or(&uv));
+                    out.texcoords.extend(uv);
+                }
                 None => {
                     out.texcoords.clear();
+                    out.texcoords1.clear();
                     out.texcoord_indices.clear();
                 }
             }
@@ -1116,7 +1146,10 @@ impl GltfFile {
                         tris.iter().map(|t| t.map(|v| placed(ts[v as usize]))).collect()
                     }
                     None => {
-                        mikk_tangents(&out.positions[base as usize..], normals_placed(out, base, keep), uv_of(out, base, keep_uv), &tris)
+                        // Along the set the normal texture reads.
+                        let set = prim.material().normal_texture().map_or(0, |n| tex_coord_set(&TexRef::from(&n)));
+                        let uv = uv_of(out, base, keep_uv, set == 1 && texcoords1.is_some());
+                        mikk_tangents(&out.positions[base as usize..], normals_placed(out, base, keep), uv, &tris)
                     }
                 };
                 if first {
@@ -1182,9 +1215,16 @@ fn normals_placed(out: &MeshData, base: u32, keep: bool) -> Option<&[[f32; 3]]> 
     keep.then(|| out.normals.get(base as usize..)).flatten()
 }
 
-/// The texture coordinates `out` holds from vertex `base` on, if it keeps them.
-fn uv_of(out: &MeshData, base: u32, keep: bool) -> Option<&[[f32; 2]]> {
-    keep.then(|| out.texcoords.get(base as usize..)).flatten()
+/// The texture coordinates `out` holds from vertex `base` on (the second set if `second`), if
+/// it keeps them.
+fn uv_of(out: &MeshData, base: u32, keep: bool, second: bool) -> Option<&[[f32; 2]]> {
+    keep.then(|| if second { &out.texcoords1 } else { &out.texcoords }.get(base as usize..)).flatten()
+}
+
+/// The texture coordinate set a texture reference reads: its `KHR_texture_transform`'s
+/// `texCoord` where it has one (the extension's override), else its own `texCoord`.
+fn tex_coord_set(info: &TexRef) -> u64 {
+    UvTransform::of(info).ok().flatten().and_then(|t| t.tex_coord).unwrap_or(u64::from(info.tex_coord))
 }
 
 /// MikkTSpace tangents (Mikkelsen 2008, the `mikktspace` crate: what glTF asks for when a
@@ -1843,6 +1883,72 @@ mod tests {
         let ka = |u: f64| m.at(|| at(u)).ka;
         assert!((ka(0.25) - Color::ONE).abs().max_element() < 1e-9, "{}", ka(0.25));
         assert!((ka(0.75) - Color::splat(1.0 + 0.5 * (0.2 - 1.0))).abs().max_element() < 1e-6, "{}", ka(0.75));
+    }
+
+    /// A texture reads the set its `texCoord` names, or its `KHR_texture_transform`'s `texCoord`
+    /// (which overrides it): on a unit quad whose `TEXCOORD_1` runs mirrored in u to its
+    /// `TEXCOORD_0`, a 2 × 1 image (red left, green right) shows green at x = 0.25 through set
+    /// 1 and red through set 0; the second set's derivatives along the first are the mirror's.
+    #[test]
+    fn textures_read_the_texture_coordinate_set_they_name() {
+        use image::ImageEncoder;
+        use raylab::glam::{DMat2, DVec2};
+        use raylab::math::ray::Ray;
+        let mut png = Vec::new();
+        image::codecs::png::PngEncoder::new(&mut png).write_image(&[255, 0, 0, 0, 255, 0], 2, 1, image::ExtendedColorType::Rgb8).unwrap();
+        let f32s = |v: &[f32]| v.iter().flat_map(|c| c.to_le_bytes()).collect::<Vec<u8>>();
+        let mut buffer = f32s(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0, 0.0]);
+        // glTF's v runs down: (x, 1 − y) and (1 − x, 1 − y).
+        buffer.extend(f32s(&[0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0]));
+        buffer.extend(f32s(&[1.0, 1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0]));
+        buffer.extend([0u16, 1, 2, 0, 2, 3].iter().flat_map(|i| i.to_le_bytes()));
+        let quad = |base_color: &str, emissive: &str| {
+            format!(
+                r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0,"TEXCOORD_0":1,"TEXCOORD_1":2}},"indices":3,"material":0}}]}}],
+"materials":[{{"pbrMetallicRoughness":{{"metallicFactor":0,"baseColorTexture":{base_color}}},"emissiveFactor":[1,1,1],"emissiveTexture":{emissive}}}],
+"textures":[{{"source":0,"sampler":0}}],"samplers":[{{"magFilter":9728}}],"images":[{{"uri":"data:image/png;base64,{}"}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},
+{{"bufferView":1,"componentType":5126,"count":4,"type":"VEC2"}},{{"bufferView":2,"componentType":5126,"count":4,"type":"VEC2"}},
+{{"bufferView":3,"componentType":5123,"count":6,"type":"SCALAR"}}],
+"bufferViews":[{{"buffer":0,"byteLength":48}},{{"buffer":0,"byteOffset":48,"byteLength":32}},{{"buffer":0,"byteOffset":80,"byteLength":32}},{{"buffer":0,"byteOffset":112,"byteLength":12}}],
+"buffers":[{{"byteLength":124,"uri":"data:application/octet-stream;base64,{}"}}],
+"extensionsUsed":["KHR_texture_transform"]}}"#,
+                base64(&png),
+                base64(&buffer)
+            )
+        };
+        let set0 = r#"{"index":0}"#;
+        let set1 = r#"{"index":0,"texCoord":1}"#;
+        let overridden = r#"{"index":0,"texCoord":0,"extensions":{"KHR_texture_transform":{"texCoord":1}}}"#;
+        for (base_color, emissive, want) in [(set1, overridden, [true, true]), (set0, set0, [false, false]), (set0, set1, [false, true])] {
+            let (job, _) = load_scene("uv-sets.gltf", &quad(base_color, emissive), raylab::param::limits::Limits::default());
+            let job = job.unwrap_or_else(|e| panic!("{}", e.report()));
+            assert!(job.warnings.iter().all(|w| !w.message.contains("TEXCOORD")), "{:?}", job.warnings);
+            let si = job.scene.trace(&Ray::new(DVec3::new(0.25, 0.5, 5.0), -DVec3::Z)).expect("the quad is hit");
+            let m = si.coefficients();
+            let green = |c: Color| c.y > 0.5 && c.x < 0.1;
+            let red = |c: Color| c.x > 0.5 && c.y < 0.1;
+            for (name, c, second) in [("base colour", m.kd, want[0]), ("emission", m.emission, want[1])] {
+                assert!(if second { green(c) } else { red(c) }, "{name} {base_color} / {emissive}: {c} (want set {})", u8::from(second));
+            }
+            let (uv1, j) = si.object.geometry().uv1(&si.hit).expect("the mesh has a second set");
+            assert!((uv1 - DVec2::new(0.75, 0.5)).length() < 1e-6 && (si.uv() - DVec2::new(0.25, 0.5)).length() < 1e-6, "{uv1}");
+            assert!(j.abs_diff_eq(DMat2::from_cols(DVec2::new(-1.0, 0.0), DVec2::Y), 1e-6), "{j}");
+        }
+        // Without a TEXCOORD_1, set 1 reads set 0, and the file says so.
+        let text = quad(set1, set0).replace(r#","TEXCOORD_1":2"#, "");
+        let (job, _) = load_scene("uv-sets-missing.gltf", &text, raylab::param::limits::Limits::default());
+        let job = job.unwrap_or_else(|e| panic!("{}", e.report()));
+        assert!(
+            job.warnings
+                .iter()
+                .any(|w| w.message.contains("1 primitive(s) have a material that samples TEXCOORD_1 but have no TEXCOORD_1")),
+            "{:?}",
+            job.warnings
+        );
+        let si = job.scene.trace(&Ray::new(DVec3::new(0.25, 0.5, 5.0), -DVec3::Z)).expect("the quad is hit");
+        assert!(si.coefficients().kd.x > 0.5 && si.object.geometry().uv1(&si.hit).is_none());
     }
 
     /// Extensions a file uses without declaring them in `extensionsUsed`, the transmission

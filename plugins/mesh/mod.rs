@@ -12,7 +12,7 @@ pub mod triangulate;
 
 use raylab::geometry::transform::{Transform, Transformed};
 use raylab::geometry::{Geometry, Hit, Intersectable, Surface, SurfaceDerivatives, SurfacePdf, SurfaceSample, face_forward};
-use raylab::glam::{DVec2, DVec3};
+use raylab::glam::{DMat2, DVec2, DVec3};
 use raylab::load::context::MeshFormat;
 use raylab::load::mesh::{MeshFile, MeshRequest};
 use raylab::load::registry::{BuiltGeometry, SceneFormat};
@@ -348,6 +348,10 @@ impl Geometry for MeshObject {
     /// coordinates.
     fn uv(&self, at: &Hit) -> DVec2 {
         self.mesh.interpolated_uv(at).unwrap_or(at.uv)
+    }
+    /// The file's second set (glTF's `TEXCOORD_1`), interpolated, with its derivatives along the first.
+    fn uv1(&self, at: &Hit) -> Option<(DVec2, DMat2)> {
+        self.mesh.interpolated_uv1(at)
     }
     /// Flat triangles (the normal's turn across a smooth mesh is not followed).
     fn derivatives(&self, at: &Hit) -> Option<SurfaceDerivatives> {

@@ -99,6 +99,7 @@ pub fn read_in_chunks(
         normals: if with_normals { normals } else { Vec::new() },
         texcoord_indices: if with_texcoords { texcoord_indices } else { Vec::new() },
         texcoords: if with_texcoords { texcoords } else { Vec::new() },
+        texcoords1: Vec::new(),
         material_ids: if many_materials || material_ids.first().is_some_and(|&m| m > 0) { material_ids } else { Vec::new() },
         materials,
         tangents: Vec::new(),

@@ -28,7 +28,7 @@ use raylab::accel::bvh::{PAD_SLOT, PrimitiveIndex, tie_limit};
 use raylab::accel::{AccelChoice, BuildStats, MESH_BVH_THRESHOLD};
 use raylab::geometry::Hit;
 use raylab::geometry::sampling::uniform_triangle;
-use raylab::glam::{BVec4A, DVec2, DVec3, Vec2, Vec3, Vec4};
+use raylab::glam::{BVec4A, DMat2, DVec2, DVec3, Vec2, Vec3, Vec4};
 pub use raylab::load::mesh::MeshData;
 use raylab::math::distribution::AliasTable;
 use raylab::math::float::{gamma, on_surface_slack};
@@ -94,6 +94,8 @@ struct Shading {
 #[derive(Clone, Debug)]
 struct TexCoords {
     uv: Vec<Vec2>,
+    /// The second set, indexed like `uv` (glTF's `TEXCOORD_1`), if the mesh has one.
+    uv1: Option<Vec<Vec2>>,
     indices: Vec<[u32; 3]>,
 }
 
@@ -169,6 +171,7 @@ impl TriangleMesh {
             normal_indices,
             texcoords,
             texcoord_indices,
+            texcoords1,
             tangents,
             material_ids,
             materials,
@@ -269,6 +272,8 @@ impl TriangleMesh {
             && texcoord_indices.iter().all(|t| t.iter().all(|&i| (i as usize) < texcoords.len()))
             && texcoords.iter().all(|c| c.iter().all(|v| v.is_finite())))
         .then(|| TexCoords {
+            uv1: (texcoords1.len() == texcoords.len() && texcoords1.iter().all(|c| c.iter().all(|v| v.is_finite())))
+                .then(|| texcoords1.iter().map(|&c| Vec2::from(c)).collect()),
             uv: texcoords.iter().map(|&c| Vec2::from(c)).collect(),
             indices: source.iter().map(|&i| stored(i).map_or([0; 3], |i| texcoord_indices[i])).collect(),
         });
@@ -352,7 +357,7 @@ impl TriangleMesh {
         self.packs.len() * std::mem::size_of::<TriPack>()
             + self.material_ids.len() * 4
             + self.shading.as_ref().map_or(0, |s| s.normals.len() * 12 + s.indices.len() * 12)
-            + self.texcoords.as_ref().map_or(0, |t| t.uv.len() * 8 + t.indices.len() * 12)
+            + self.texcoords.as_ref().map_or(0, |t| t.uv.len() * 8 + t.uv1.as_ref().map_or(0, |u| u.len() * 8) + t.indices.len() * 12)
             + self.tangents.as_ref().map_or(0, |t| t.len() * 48)
             + self.index.memory_bytes()
     }
@@ -401,7 +406,11 @@ impl TriangleMesh {
         let at = || {
             let hit = Hit { uv: DVec2::new(b.y, b.z), prim: slot, ..Hit::new(0.0, DVec3::ZERO, DVec3::ZERO) };
             let [p0, p1, p2] = self.vertices(slot).map(DVec3::from);
-            TexturePoint::new(self.interpolated_uv(&hit).unwrap_or(hit.uv), b.x * p0 + b.y * p1 + b.z * p2)
+            let mut at = TexturePoint::new(self.interpolated_uv(&hit).unwrap_or(hit.uv), b.x * p0 + b.y * p1 + b.z * p2);
+            if let Some((uv1, _)) = self.interpolated_uv1(&hit) {
+                at.uv1 = uv1;
+            }
+            at
         };
         c.keeps(at, || ray_hash(ray, slot))
     }
@@ -526,6 +535,24 @@ impl TriangleMesh {
         let [i0, i1, i2] = *t.indices.get(at.prim as usize)?;
         let (b1, b2) = (at.uv.x, at.uv.y);
         Some((1.0 - b1 - b2) * t.uv[i0 as usize].as_dvec2() + b1 * t.uv[i1 as usize].as_dvec2() + b2 * t.uv[i2 as usize].as_dvec2())
+    }
+
+    /// The interpolated second set of texture coordinates at a hit and its derivatives along the
+    /// first set (`∂uv₁/∂uv`, columns `∂uv₁/∂u`, `∂uv₁/∂v`: both sets are affine over a
+    /// triangle, so `C·A⁻¹` with `A`, `C` the triangle's edges in each; zero where the first set
+    /// is degenerate), or `None` when the mesh has one set.
+    pub fn interpolated_uv1(&self, at: &Hit) -> Option<(DVec2, DMat2)> {
+        let t = self.texcoords.as_ref()?;
+        let uv1 = t.uv1.as_ref()?;
+        let [i0, i1, i2] = *t.indices.get(at.prim as usize)?;
+        let (b1, b2) = (at.uv.x, at.uv.y);
+        let [a0, a1, a2] = [i0, i1, i2].map(|i| t.uv[i as usize].as_dvec2());
+        let [c0, c1, c2] = [i0, i1, i2].map(|i| uv1[i as usize].as_dvec2());
+        let value = (1.0 - b1 - b2) * c0 + b1 * c1 + b2 * c2;
+        let a = DMat2::from_cols(a1 - a0, a2 - a0);
+        let det = a.determinant();
+        let j = if det.abs() > 1e-12 && det.is_finite() { DMat2::from_cols(c1 - c0, c2 - c0) * a.inverse() } else { DMat2::ZERO };
+        Some((value, if j.is_finite() { j } else { DMat2::ZERO }))
     }
 
     /// How the point moves with the texture coordinates on triangle `at.prim` (`∂p/∂u`, `∂p/∂v`):

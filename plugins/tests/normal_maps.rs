@@ -1,6 +1,7 @@
 //! Normal and bump maps through the `raylab` binary: a strongly normal-mapped sphere filling the
-//! frame, its silhouette seen at grazing angles, renders with no black and no non-finite pixel in
-//! the path tracer and in phong; a flat normal map renders byte for byte as no map at all; the
+//! frame (phong coefficients, a rough `pbr` dielectric, a smooth `pbr` metal), its silhouette
+//! seen at grazing angles, renders with no black and no non-finite pixel in the path tracer and
+//! in phong; a flat normal map renders byte for byte as no map at all; the
 //! bundled normal-map scene (glTF normalTexture with MikkTSpace tangents, a `sphere` with
 //! `normal_map`, an OBJ `bump` map) loads without a warning.
 
@@ -56,19 +57,28 @@ fn inside(x: u32, y: u32) -> bool {
 #[test]
 fn strongly_normal_mapped_spheres_have_no_black_or_non_finite_pixel() {
     let dir = folder("grazing");
+    // phong's coefficients, and `pbr`: a rough dielectric and a smooth metal (GGX lobes around
+    // the bent normal).
+    let materials = [
+        "kd = 0.8, ks = 0.3, shininess = 20",
+        "type = \"pbr\", base_color = 0.8, metallic = 0, roughness = 0.6",
+        "type = \"pbr\", base_color = 0.9, metallic = 1, roughness = 0.05",
+    ];
     for scale in [1.0, 4.0] {
-        let material = format!("{{ kd = 0.8, ks = 0.3, shininess = 20, normal_map = \"tiles\", normal_scale = {scale} }}");
-        for integrator in ["path", "phong"] {
-            let (img, report) = render(&dir, &format!("grazing-{integrator}"), &sphere_scene(&material), integrator);
-            assert!(report.contains(" 0 non-finite samples"), "{integrator}, scale {scale}: {report}");
-            let mut count = 0;
-            for (x, y, p) in img.enumerate_pixels() {
-                if inside(x, y) {
-                    count += 1;
-                    assert!(p.0.iter().any(|&c| c > 8), "{integrator}, scale {scale}: pixel ({x}, {y}) is black: {p:?}");
+        for base in materials {
+            let material = format!("{{ {base}, normal_map = \"tiles\", normal_scale = {scale} }}");
+            for integrator in ["path", "phong"] {
+                let (img, report) = render(&dir, &format!("grazing-{integrator}"), &sphere_scene(&material), integrator);
+                assert!(report.contains(" 0 non-finite samples"), "{integrator}, {base}, scale {scale}: {report}");
+                let mut count = 0;
+                for (x, y, p) in img.enumerate_pixels() {
+                    if inside(x, y) {
+                        count += 1;
+                        assert!(p.0.iter().any(|&c| c > 8), "{integrator}, {base}, scale {scale}: pixel ({x}, {y}) is black: {p:?}");
+                    }
                 }
+                assert!(count > 3000, "the sphere fills the frame ({count} pixels)");
             }
-            assert!(count > 3000, "the sphere fills the frame ({count} pixels)");
         }
     }
 }

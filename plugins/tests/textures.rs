@@ -111,7 +111,7 @@ fn texture_errors_name_the_texture_the_colour_and_the_file() {
             sphere("{ kd = { type = \"image\", file = \"notes.png\", wrap = \"tile\" } }"),
             &["unknown value \"tile\"", "repeat, clamp, mirror"],
         ),
-        (sphere("{ kd = { type = \"ring\", coords = \"world\" } }"), &["unknown value \"world\"", "uv, object"]),
+        (sphere("{ kd = { type = \"ring\", coords = \"world\" } }"), &["unknown value \"world\"", "uv, uv1, object"]),
         (sphere("{ kd = { type = \"checker\", transform = { scale = 0 } } }"), &["`scale` must not be zero", "inline texture (checker)"]),
         (sphere("{ kd = true }"), &["expected a colour [r, g, b], a number, a texture name or an inline texture table"]),
         ("[textures]\nwood = 3\n".to_string(), &["texture \"wood\" must be a table"]),

@@ -15,7 +15,7 @@
 //! - [`Footprint`]: what a texture lookup receives: the derivatives of the texture coordinates
 //!   and of the point in the shape's own frame with respect to x and y.
 
-use glam::{DVec2, DVec3};
+use glam::{DMat2, DVec2, DVec3};
 
 /// How a texture lookup's coordinates change from one pixel to the next: the derivatives of the
 /// texture coordinates (`uv`) and of the point in the shape's own frame (`local`) with respect to
@@ -27,6 +27,11 @@ pub struct Footprint {
     pub duv_dx: DVec2,
     /// ∂uv/∂y.
     pub duv_dy: DVec2,
+    /// ∂uv₁/∂x: the second texture-coordinate set's ([`crate::Geometry::uv1`]; the first's
+    /// where the shape has one set).
+    pub duv1_dx: DVec2,
+    /// ∂uv₁/∂y.
+    pub duv1_dy: DVec2,
     /// ∂local/∂x.
     pub dlocal_dx: DVec3,
     /// ∂local/∂y.
@@ -35,7 +40,14 @@ pub struct Footprint {
 
 impl Footprint {
     /// No footprint: a point lookup.
-    pub const POINT: Footprint = Footprint { duv_dx: DVec2::ZERO, duv_dy: DVec2::ZERO, dlocal_dx: DVec3::ZERO, dlocal_dy: DVec3::ZERO };
+    pub const POINT: Footprint = Footprint {
+        duv_dx: DVec2::ZERO,
+        duv_dy: DVec2::ZERO,
+        duv1_dx: DVec2::ZERO,
+        duv1_dy: DVec2::ZERO,
+        dlocal_dx: DVec3::ZERO,
+        dlocal_dy: DVec3::ZERO,
+    };
 
     /// True when there is no footprint (a point lookup).
     #[inline]
@@ -49,7 +61,22 @@ impl Footprint {
     pub fn finite(self) -> Footprint {
         let v2 = |v: DVec2| if v.is_finite() { v } else { DVec2::ZERO };
         let v3 = |v: DVec3| if v.is_finite() { v } else { DVec3::ZERO };
-        Footprint { duv_dx: v2(self.duv_dx), duv_dy: v2(self.duv_dy), dlocal_dx: v3(self.dlocal_dx), dlocal_dy: v3(self.dlocal_dy) }
+        Footprint {
+            duv_dx: v2(self.duv_dx),
+            duv_dy: v2(self.duv_dy),
+            duv1_dx: v2(self.duv1_dx),
+            duv1_dy: v2(self.duv1_dy),
+            dlocal_dx: v3(self.dlocal_dx),
+            dlocal_dy: v3(self.dlocal_dy),
+        }
+    }
+
+    /// This footprint with the second texture-coordinate set's derivatives carried from the
+    /// first's by `j` = ∂uv₁/∂uv (columns ∂uv₁/∂u, ∂uv₁/∂v: [`crate::Geometry::uv1`]).
+    #[inline]
+    pub fn with_second_set(mut self, j: DMat2) -> Footprint {
+        (self.duv1_dx, self.duv1_dy) = (j * self.duv_dx, j * self.duv_dy);
+        self.finite()
     }
 }
 
@@ -99,7 +126,8 @@ impl SurfaceDerivatives {
     /// shape whose own frame is the world's.
     #[inline]
     pub fn footprint(&self, dpdx: DVec3, dpdy: DVec3) -> Footprint {
-        Footprint { duv_dx: self.uv_of(dpdx), duv_dy: self.uv_of(dpdy), dlocal_dx: dpdx, dlocal_dy: dpdy }
+        let (duv_dx, duv_dy) = (self.uv_of(dpdx), self.uv_of(dpdy));
+        Footprint { duv_dx, duv_dy, duv1_dx: duv_dx, duv1_dy: duv_dy, dlocal_dx: dpdx, dlocal_dy: dpdy }
     }
 }
 
@@ -244,6 +272,20 @@ impl RaySpread {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A footprint's second set is the first's carried by `∂uv₁/∂uv`; until then, the first's.
+    #[test]
+    fn the_second_set_footprint_is_the_first_carried_over() {
+        let d = SurfaceDerivatives::flat(DVec3::X, DVec3::Y);
+        let f = d.footprint(DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 2.0, 0.0));
+        assert_eq!((f.duv1_dx, f.duv1_dy), (f.duv_dx, f.duv_dy));
+        // Swapped and mirrored: u₁ = v, v₁ = −2u.
+        let g = f.with_second_set(DMat2::from_cols(DVec2::new(0.0, -2.0), DVec2::new(1.0, 0.0)));
+        assert_eq!((g.duv1_dx, g.duv1_dy), (DVec2::new(0.0, -2.0), DVec2::new(2.0, 0.0)));
+        assert_eq!((g.duv_dx, g.duv_dy), (f.duv_dx, f.duv_dy));
+        let h = f.with_second_set(DMat2::from_cols(DVec2::splat(f64::NAN), DVec2::ZERO));
+        assert_eq!(h.duv1_dx, DVec2::ZERO);
+    }
 
     /// A plane hit at distance t: the transfer moves the hit by the change of the neighbouring
     /// ray's intersection.

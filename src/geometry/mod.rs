@@ -15,7 +15,7 @@ pub use sampling::{SurfacePdf, SurfaceSample};
 
 use crate::math::bounds::Aabb;
 use crate::math::ray::Ray;
-use glam::{DVec2, DVec3};
+use glam::{DMat2, DVec2, DVec3};
 use std::sync::Arc;
 
 /// What a shape tells about its surface at a hit, computed once per hit by
@@ -82,6 +82,16 @@ pub trait Geometry: Intersectable {
     #[inline]
     fn uv(&self, at: &Hit) -> DVec2 {
         at.uv
+    }
+
+    /// A second set of texture coordinates at `at` (a glTF mesh's `TEXCOORD_1`) and its
+    /// derivatives along the first set ([`Geometry::uv`]): `∂uv₁/∂uv`, columns `∂uv₁/∂u`,
+    /// `∂uv₁/∂v` (what carries a footprint over to it). `None`, the default, for shapes with one
+    /// set: textures laid over the second set read the first ([`crate::scene::texture::Coords::Uv1`]).
+    /// Asked for only where a textured material is hit.
+    fn uv1(&self, at: &Hit) -> Option<(DVec2, DMat2)> {
+        let _ = at;
+        None
     }
 
     /// How the point and the outward normal move with the texture coordinates at `at`
@@ -178,6 +188,9 @@ macro_rules! forward_impls {
             #[inline]
             fn uv(&self, at: &Hit) -> DVec2 {
                 (**self).uv(at)
+            }
+            fn uv1(&self, at: &Hit) -> Option<(DVec2, DMat2)> {
+                (**self).uv1(at)
             }
             fn derivatives(&self, at: &Hit) -> Option<SurfaceDerivatives> {
                 (**self).derivatives(at)

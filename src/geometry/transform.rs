@@ -21,7 +21,7 @@ use crate::math::float::{DEGENERACY_TOLERANCE, gamma};
 use crate::math::ray::Ray;
 use crate::param::error::{Result, SceneError};
 use crate::param::value::{Node, Value, vec3_of};
-use glam::{DAffine3, DMat3, DVec2, DVec3};
+use glam::{DAffine3, DMat2, DMat3, DVec2, DVec3};
 
 /// An invertible affine map from an object's own frame to the world.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -243,6 +243,9 @@ impl<G: Geometry> Geometry for Transformed<G> {
     #[inline]
     fn uv(&self, at: &Hit) -> DVec2 {
         self.inner.uv(&self.object_hit(at))
+    }
+    fn uv1(&self, at: &Hit) -> Option<(DVec2, DMat2)> {
+        self.inner.uv1(&self.object_hit(at))
     }
     /// The inner shape's, carried out: tangents by the linear part, the normal's change by the
     /// derivative of the normalised inverse transpose.

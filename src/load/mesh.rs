@@ -25,6 +25,9 @@ pub struct MeshData {
     pub texcoords: Vec<[f32; 2]>,
     /// Per triangle, indices into `texcoords` (empty, or one per triangle).
     pub texcoord_indices: Vec<[u32; 3]>,
+    /// A second set of texture coordinates (a glTF mesh's `TEXCOORD_1`), v up, indexed like
+    /// `texcoords` (by `texcoord_indices`): empty, or as many as `texcoords`.
+    pub texcoords1: Vec<[f32; 2]>,
     /// Per triangle, the tangents of its three corners: `xyz` along `∂p/∂u`, `w` = ±1 the
     /// handedness (the bitangent is `w·(normal × tangent)`, glTF's `TANGENT`). Empty when the
     /// mesh has none (normal maps then take each triangle's texture-coordinate derivatives); an

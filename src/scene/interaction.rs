@@ -9,7 +9,7 @@ use crate::math::color::Color;
 use crate::math::ray::Ray;
 use crate::scene::bsdf::{MaterialModel, Shading};
 use crate::scene::material::{CoefficientsAt, Material};
-use crate::scene::normal_map::shading_normal;
+use crate::scene::normal_map::{ensure_valid_reflection, shading_normal};
 use crate::scene::object::Object;
 use crate::scene::texture::TexturePoint;
 use glam::{DVec2, DVec3};
@@ -134,6 +134,18 @@ impl<'s> Interaction<'s> {
         }
     }
 
+    /// The normal perfect specular events (mirrors, refraction) turn about: the shading normal
+    /// [`Interaction::ns`] (an interpolated vertex normal, a normal map's tilt), bent toward the
+    /// geometric normal just enough that the mirror reflection of the incoming ray stays above
+    /// the geometric surface ([`ensure_valid_reflection`], Cycles'
+    /// `ensure_valid_specular_reflection`); `ns` itself wherever it already does, and `n` on
+    /// flat surfaces. A smooth-shaded mesh then mirrors as the smooth surface its normals
+    /// describe, not facet by facet, and no reflected ray leaves into the surface.
+    #[inline]
+    pub fn specular_normal(&self) -> DVec3 {
+        if self.ns == self.n { self.n } else { ensure_valid_reflection(self.n, -self.dir, self.ns) }
+    }
+
     /// The material plugin's scattering model at the hit (`None`: the coefficients alone).
     #[inline]
     pub fn model(&self) -> Option<&'s dyn MaterialModel> {
@@ -151,9 +163,15 @@ impl<'s> Interaction<'s> {
     /// call: for material models whose textures are read at the hit).
     pub fn texture_point(&self) -> TexturePoint {
         let g = self.object.geometry();
-        let at = TexturePoint::new(g.uv(&self.hit), self.local);
+        let (at, second) = TexturePoint::at_hit(g, &self.hit, self.local);
         match self.pixel_moves() {
-            Some((dpdx, dpdy)) => at.with_footprint(g.footprint(&self.hit, dpdx, dpdy)),
+            Some((dpdx, dpdy)) => {
+                let f = g.footprint(&self.hit, dpdx, dpdy);
+                at.with_footprint(match second {
+                    Some(j) => f.with_second_set(j),
+                    None => f,
+                })
+            }
             None => at,
         }
     }

@@ -98,7 +98,7 @@ impl NormalMap {
 #[inline(never)]
 pub fn shading_normal(map: &NormalMap, geometry: &dyn Geometry, hit: &Hit, s: &Surface, dir: DVec3) -> Option<DVec3> {
     let [dpdu, dpdv] = geometry.tangents(hit)?;
-    let at = TexturePoint::new(geometry.uv(hit), s.local);
+    let (at, _) = TexturePoint::at_hit(geometry, hit, s.local);
     let outward = if s.front_face { s.ns } else { -s.ns };
     let tilted = map.tilt(outward, dpdu, dpdv, &at)?;
     let facing = if s.front_face { tilted } else { -tilted };

@@ -15,7 +15,7 @@ use crate::param::error::Result;
 use crate::param::params::Params;
 use crate::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use crate::param::value::Node;
-use glam::{DAffine3, DVec2, DVec3};
+use glam::{DAffine3, DMat2, DVec2, DVec3};
 use std::sync::Arc;
 
 /// Where a texture is looked up, and over what area.
@@ -23,6 +23,9 @@ use std::sync::Arc;
 pub struct TexturePoint {
     /// The surface's texture coordinates ([`crate::Geometry::uv`]).
     pub uv: DVec2,
+    /// Its second set of texture coordinates ([`crate::Geometry::uv1`]: a glTF mesh's
+    /// `TEXCOORD_1`); `uv` where the shape has one set.
+    pub uv1: DVec2,
     /// The point in the shape's own frame (before the object's transform): solid textures move
     /// with the object.
     pub local: DVec3,
@@ -33,10 +36,24 @@ pub struct TexturePoint {
 }
 
 impl TexturePoint {
-    /// A point lookup at texture coordinates `uv` and shape-frame point `local`.
+    /// A point lookup at texture coordinates `uv` (both sets) and shape-frame point `local`.
     #[inline]
     pub const fn new(uv: DVec2, local: DVec3) -> TexturePoint {
-        TexturePoint { uv, local, footprint: Footprint::POINT }
+        TexturePoint { uv, uv1: uv, local, footprint: Footprint::POINT }
+    }
+
+    /// The point lookup at `hit` of `geometry` (its texture coordinates, both sets), at
+    /// shape-frame point `local`; with the second set's derivatives along the first
+    /// ([`crate::Geometry::uv1`]) where the shape has a second set, for its footprint
+    /// ([`Footprint::with_second_set`]).
+    #[inline]
+    pub fn at_hit(geometry: &dyn crate::Geometry, hit: &crate::geometry::Hit, local: DVec3) -> (TexturePoint, Option<DMat2>) {
+        let mut at = TexturePoint::new(geometry.uv(hit), local);
+        let j = geometry.uv1(hit).map(|(uv1, j)| {
+            at.uv1 = uv1;
+            j
+        });
+        (at, j)
     }
 
     /// This lookup over `footprint`.
@@ -119,6 +136,9 @@ pub trait TextureResolver {
 pub enum Coords {
     /// The surface's texture coordinates, as the point `(u, v, 0)`.
     Uv,
+    /// The surface's second set of texture coordinates ([`TexturePoint::uv1`]; the first set
+    /// where it has one), as the point `(u, v, 0)`: glTF's `texCoord: 1`.
+    Uv1,
     /// The point in the shape's own frame (a solid texture: patterns run through the object).
     Object,
 }
@@ -128,7 +148,7 @@ pub const COORDS_PARAM: ParamSpec = ParamSpec::new(
     "coords",
     ParamKind::Str,
     ParamDefault::Str("uv"),
-    "\"uv\": over the surface's texture coordinates, as the point (u, v, 0); \"object\": through the shape's own frame (a solid pattern)",
+    "\"uv\": over the surface's texture coordinates, as the point (u, v, 0); \"uv1\": over its second set (a glTF mesh's TEXCOORD_1; the first where it has one); \"object\": through the shape's own frame (a solid pattern)",
 );
 
 /// The `transform` parameter of patterns and images.
@@ -164,8 +184,9 @@ impl Mapping {
     /// Reads `coords` (when the plugin declares it; else texture coordinates) and `transform`.
     pub fn from_params(p: &mut Params) -> Result<Mapping> {
         let coords = match p.declares("coords") {
-            true => match p.choice("coords", &["uv", "object"])?.as_str() {
+            true => match p.choice("coords", &["uv", "uv1", "object"])?.as_str() {
                 "object" => Coords::Object,
+                "uv1" => Coords::Uv1,
                 _ => Coords::Uv,
             },
             false => Coords::Uv,
@@ -191,6 +212,7 @@ impl Mapping {
     pub fn point(&self, at: &TexturePoint) -> DVec3 {
         let p = match self.coords {
             Coords::Uv => at.uv.extend(0.0),
+            Coords::Uv1 => at.uv1.extend(0.0),
             Coords::Object => at.local,
         };
         if self.placed { self.to_pattern.transform_point3(p) } else { p }
@@ -199,7 +221,8 @@ impl Mapping {
     /// The texture coordinates of the (unplaced) image that `at` shows.
     #[inline]
     pub fn uv(&self, at: &TexturePoint) -> DVec2 {
-        if self.placed { self.to_pattern.transform_point3(at.uv.extend(0.0)).truncate() } else { at.uv }
+        let uv = if self.coords == Coords::Uv1 { at.uv1 } else { at.uv };
+        if self.placed { self.to_pattern.transform_point3(uv.extend(0.0)).truncate() } else { uv }
     }
 
     /// How the pattern point ([`Mapping::point`]) changes from one pixel to the next: `(∂/∂x,
@@ -209,6 +232,7 @@ impl Mapping {
         let f = &at.footprint;
         let (dx, dy) = match self.coords {
             Coords::Uv => (f.duv_dx.extend(0.0), f.duv_dy.extend(0.0)),
+            Coords::Uv1 => (f.duv1_dx.extend(0.0), f.duv1_dy.extend(0.0)),
             Coords::Object => (f.dlocal_dx, f.dlocal_dy),
         };
         if self.placed { (self.to_pattern.transform_vector3(dx), self.to_pattern.transform_vector3(dy)) } else { (dx, dy) }
@@ -218,11 +242,12 @@ impl Mapping {
     #[inline]
     pub fn uv_footprint(&self, at: &TexturePoint) -> (DVec2, DVec2) {
         let f = &at.footprint;
+        let (dx, dy) = if self.coords == Coords::Uv1 { (f.duv1_dx, f.duv1_dy) } else { (f.duv_dx, f.duv_dy) };
         if self.placed {
             let t = |v: DVec2| self.to_pattern.transform_vector3(v.extend(0.0)).truncate();
-            (t(f.duv_dx), t(f.duv_dy))
+            (t(dx), t(dy))
         } else {
-            (f.duv_dx, f.duv_dy)
+            (dx, dy)
         }
     }
 }

@@ -40,7 +40,7 @@ pub(super) fn fresnel_weights<R: Recorder>(si: &Interaction, m: &Coefficients, r
         return (m.kr, m.kt);
     }
     let eta = if si.front_face || !si.object.is_closed() { m.ior } else { 1.0 / m.ior };
-    let f = m.fresnel.reflectance(-si.dir.dot(si.n), eta);
+    let f = m.fresnel.reflectance(-si.dir.dot(si.specular_normal()), eta);
     rec.note(|| format!("Fresnel ({:?}, ior ratio {eta:.4}): F = {f:.4} weights reflection F·kr, transmission (1 − F)·kt", m.fresnel));
     (m.kr * f, m.kt * (1.0 - f))
 }
@@ -69,20 +69,27 @@ pub(super) struct Fan {
 }
 
 impl Fan {
-    /// The fan of `kind` at `si`: mirror reflection about the normal facing the ray; refraction
-    /// by Snell's law at closed solids (total internal reflection reflects instead), straight
-    /// through at open surfaces (thin sheets).
+    /// The fan of `kind` at `si`: mirror reflection about the valid shading normal facing the
+    /// ray ([`Interaction::specular_normal`]: a smooth-shaded mesh mirrors as a smooth surface);
+    /// refraction by Snell's law about it at closed solids (total internal reflection reflects
+    /// instead; about the geometric normal where the shading normal would send the refracted ray
+    /// back out), straight through at open surfaces (thin sheets). The fan stays on the
+    /// geometric normal's side it leaves by.
     pub(super) fn new<R: Recorder>(si: &Interaction, m: &Coefficients, kind: RayKind, rec: &mut R) -> Fan {
-        let (d, n) = (si.dir, si.n);
+        let (d, n, ns) = (si.dir, si.n, si.specular_normal());
         let (ideal, side, tag, eta) = if kind == RayKind::Reflection {
-            (reflect(d, n), n, TAG_REFLECTION, None)
+            (reflect(d, ns), n, TAG_REFLECTION, None)
         } else if si.object.is_closed() {
             let eta = if si.front_face { 1.0 / m.ior } else { m.ior };
-            match refract(d, n, eta) {
+            let refracted = match refract(d, ns, eta) {
+                Some(t) if t.dot(n) >= 0.0 => refract(d, n, eta),
+                t => t,
+            };
+            match refracted {
                 Some(t) => (t, -n, TAG_REFRACTION, Some(eta)),
                 None => {
                     rec.note(|| "total internal reflection: the transmitted ray reflects".into());
-                    (reflect(d, n), n, TAG_REFRACTION, None)
+                    (reflect(d, ns), n, TAG_REFRACTION, None)
                 }
             }
         } else {
