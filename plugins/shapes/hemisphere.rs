@@ -7,11 +7,11 @@
 //! Points exactly on the rim belong to the bowl.
 
 use super::sphere::sphere_roots;
-use raylab::geometry::samples::{Draw, Form, ShapeSample, ShapeSampler};
+use raylab::geometry::samples::{Draw, ShapeSample, ShapeSampler};
 use raylab::geometry::testing::ExactSurface;
 use raylab::geometry::{Geometry, Hit, Intersectable, SurfaceDerivatives, SurfacePdf, SurfaceSample};
 use raylab::glam::{DVec2, DVec3};
-use raylab::math::float::{gamma, max_abs, on_surface_slack};
+use raylab::math::float::{gamma, on_surface_slack};
 use raylab::param::error::Result;
 use raylab::param::params::Params;
 use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec};
@@ -170,17 +170,7 @@ pub const SAMPLERS: &[ShapeSampler] = &[ShapeSampler { name: "hemisphere", sampl
 
 fn sample(d: &mut dyn Draw, center: DVec3, s: f64) -> Option<ShapeSample> {
     let (radius, open) = (d.length(s, 1.0)?, d.direction()?);
-    Some(ShapeSample {
-        geometry: Box::new(Hemisphere::new(center, radius, open)),
-        exact: Box::new(ExactBowl { center, radius, open }),
-        center,
-        size: radius,
-        magnitude: max_abs(center) + radius,
-        max_hits: 2,
-        aspect: 1.0,
-        curvature_radius: radius,
-        form: Form::Convex(Box::new(move |c| center + 0.5 * radius * c)),
-    })
+    Some(ShapeSample::round(Box::new(Hemisphere::new(center, radius, open)), Box::new(ExactBowl { center, radius, open }), center, radius))
 }
 
 #[cfg(test)]

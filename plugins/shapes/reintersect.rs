@@ -8,11 +8,10 @@
 //! and 10⁶ shadow rays per shape, 0 failures allowed (pbrt-v4 checks 10⁶ per shape).
 
 use raylab::Ray;
-use raylab::geometry::samples::{Form, ShapeSample, ShapeSampler, reintersect};
+use raylab::geometry::samples::{ShapeSample, ShapeSampler, reintersect};
 use raylab::geometry::testing::ExactSurface;
 use raylab::geometry::{Geometry, Hit};
 use raylab::glam::DVec3;
-use raylab::math::float::max_abs;
 
 /// The campaign's seed for the `index`th sampler (as when the shapes were an enum).
 fn seed(index: usize) -> u64 {
@@ -77,17 +76,7 @@ const NAIVE: ShapeSampler = ShapeSampler {
     name: "naive sphere",
     sample: |d, center, s| {
         let radius = d.length(s, 1.0)?;
-        Some(ShapeSample {
-            geometry: Box::new(NaiveSphere(center, radius)),
-            exact: Box::new(ExactNaive(center, radius)),
-            center,
-            size: radius,
-            magnitude: max_abs(center) + radius,
-            max_hits: 2,
-            aspect: 1.0,
-            curvature_radius: radius,
-            form: Form::Convex(Box::new(move |c| center + 0.5 * radius * c)),
-        })
+        Some(ShapeSample::round(Box::new(NaiveSphere(center, radius)), Box::new(ExactNaive(center, radius)), center, radius))
     },
 };
 

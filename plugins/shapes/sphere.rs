@@ -6,7 +6,7 @@
 //! point is re-projected onto the sphere, and a root whose own error bound straddles zero is
 //! rejected, so a ray leaving the surface never reports it again.
 
-use raylab::geometry::samples::{Draw, Form, ShapeSample, ShapeSampler};
+use raylab::geometry::samples::{Draw, ShapeSample, ShapeSampler};
 use raylab::geometry::sampling::{NARROW_CONE_SIN2, cone_solid_angle, uniform_sphere};
 use raylab::geometry::testing::ExactSurface;
 use raylab::geometry::{Geometry, Hit, Intersectable, SurfaceDerivatives, SurfacePdf, SurfaceSample};
@@ -234,17 +234,7 @@ pub const SAMPLERS: &[ShapeSampler] = &[ShapeSampler { name: "sphere", sample }]
 
 fn sample(d: &mut dyn Draw, center: DVec3, s: f64) -> Option<ShapeSample> {
     let radius = d.length(s, 1.0)?;
-    Some(ShapeSample {
-        geometry: Box::new(Sphere::new(center, radius)),
-        exact: Box::new(ExactSphere { center, radius }),
-        center,
-        size: radius,
-        magnitude: max_abs(center) + radius,
-        max_hits: 2,
-        aspect: 1.0,
-        curvature_radius: radius,
-        form: Form::Convex(Box::new(move |c| center + 0.5 * radius * c)),
-    })
+    Some(ShapeSample::round(Box::new(Sphere::new(center, radius)), Box::new(ExactSphere { center, radius }), center, radius))
 }
 
 #[cfg(test)]

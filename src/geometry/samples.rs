@@ -207,6 +207,22 @@ pub struct ShapeSample {
 }
 
 impl ShapeSample {
+    /// A round solid (a sphere or a part of one) of `radius` about `center`: two hits at most, no
+    /// slivers, curved at its radius, convex, rays leaving from half its radius inside.
+    pub fn round(geometry: Box<dyn Geometry>, exact: Box<dyn ExactSurface>, center: DVec3, radius: f64) -> Self {
+        ShapeSample {
+            geometry,
+            exact,
+            center,
+            size: radius,
+            magnitude: max_abs(center) + radius,
+            max_hits: 2,
+            aspect: 1.0,
+            curvature_radius: radius,
+            form: Form::Convex(Box::new(move |c| center + 0.5 * radius * c)),
+        }
+    }
+
     /// The tolerance of a hit of `ray` on this instance: [`SURFACE_TOLERANCE`] of the magnitude
     /// (or `4ε / aspect` for a sliver), and [`NORMAL_TOLERANCE`] for normals (or the rounding of
     /// the hit point over the radius of curvature, for a small curved surface far away).
