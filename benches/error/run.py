@@ -144,7 +144,7 @@ def value_at(points, spp):
     return loglog(points, x=spp)
 
 
-def measure(b, name, cfg, max_spp, scale):
+def measure(b, name, cfg, max_spp, scale, targets=True):
     file, w, h, ref_spp, _ = cfg
     w, h = w * scale, h * scale
     scene = os.path.join(ROOT, file)
@@ -168,7 +168,7 @@ def measure(b, name, cfg, max_spp, scale):
             r = b.render(scene, w, h, out, "--spp", str(spp), "--denoise")
             img = pfm(out)
             rows["denoised"].append(dict(r, spp=spp, mean_spp=spp, rmse=rel_rmse(img, ref), disp=display_rmse(img, ref), flip=flip(img, ref)))
-    for target in TARGETS:
+    for target in TARGETS if targets else []:
         print(f"[{name}] target {target} …", file=sys.stderr, flush=True)
         r = b.render(scene, w, h, out, "--spp", str(4 * max_spp), "--target-error", str(target), "--max-rays", str(2**63))
         img = pfm(out)
@@ -271,6 +271,7 @@ def main():
     ap.add_argument("--max-spp", type=int, default=1024)
     ap.add_argument("--out", default=os.path.join(ROOT, "target", "error-bench"))
     ap.add_argument("--plot", help="write the plot here (PNG)")
+    ap.add_argument("--no-targets", action="store_true", help="skip the error-target renders (table (b)): the denoiser's rows alone")
     ap.add_argument("--from-json", help="report and plot the rows.json of an earlier run instead of rendering")
     a = ap.parse_args()
     if a.from_json:
@@ -290,7 +291,7 @@ def main():
     except subprocess.CalledProcessError:
         print("no pyoidn: the denoised rows are skipped (pip install pyoidn)", file=sys.stderr)
     b = Bench(os.path.abspath(a.raylab), a.out, env)
-    results = [measure(b, n, SCENES[n], a.max_spp, a.scale) for n in a.scenes.split(",")]
+    results = [measure(b, n, SCENES[n], a.max_spp, a.scale, not a.no_targets) for n in a.scenes.split(",")]
     report(results, a.max_spp)
     with open(os.path.join(a.out, "rows.json"), "w") as f:
         json.dump(results, f, indent=1)

@@ -317,6 +317,7 @@ mod tests {
                 normal: glam::DVec3::new(-0.5, 0.25, 1.0),
                 albedo: glam::DVec3::splat(0.75),
                 signature: 0,
+                guides: false,
             });
         }
         ShareSums {

@@ -270,7 +270,7 @@ impl AovSum {
     /// A pixel whose layers were computed whole (adaptive anti-aliasing).
     pub fn whole(depth: f32, normal: Vec3, albedo: Vec3) -> Self {
         let mut s = AovSum::default();
-        s.add(&AovSample { depth: f64::from(depth), normal: normal.as_dvec3(), albedo: albedo.as_dvec3(), signature: 0 });
+        s.add(&AovSample { depth: f64::from(depth), normal: normal.as_dvec3(), albedo: albedo.as_dvec3(), signature: 0, guides: false });
         s
     }
 

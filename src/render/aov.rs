@@ -13,13 +13,48 @@
 //! - `normal` (`normal.X/Y/Z`): the shading normal at the first surface, world space, facing the
 //!   camera; zero for misses.
 //! - `albedo` (`albedo.R/G/B`): the first surface's reflectance as the integrator sees it,
-//!   clamped to 1 (`phong`: `kd + kr + kt`, the diffuse colour of matte surfaces and about 1 for
-//!   mirrors and glass, as the denoisers ask); the background colour (clamped to 1) for misses.
+//!   clamped to 1 (`phong`: `kd + kr + kt`, the diffuse colour of matte surfaces); the background
+//!   colour (clamped to 1) for misses.
+//!
+//! The denoiser's guides, albedo and normal, are taken **at the first non-specular hit**, as
+//! Open Image Denoise asks and Cycles does: where the camera ray meets a surface that only
+//! reflects or refracts specularly (a perfect mirror, smooth glass), they show what is seen
+//! through it, the albedo tinted by the specular surfaces' reflectance, up to
+//! [`GUIDE_SPECULAR_DEPTH`] such surfaces ([`AovSample::look_through`]). The chain is traced
+//! only when the render sums the layers ([`AovSample::guides`]), and each specular surface sends
+//! it on its most likely branch (glass: transmission, but where Fresnel reflection is the greater
+//! part or total), the same for every sample: the guides stay free of noise. Depth and the
+//! signature stay those of the first surface.
 //! - `error` and `spp`: the estimated standard error of each pixel's mean luminance
 //!   ([`crate::render::accum::PixelSum::std_error`]) and its samples.
 
 use crate::math::color::Color;
+use crate::scene::Scene;
+use crate::scene::interaction::Interaction;
 use glam::{DVec3, Vec3};
+
+/// Most specular surfaces (mirrors, smooth glass) the albedo and normal guides look through
+/// before they stop at the last one ([`AovSample::look_through`]): a ball of glass is two, a
+/// mirror seen in a mirror two more.
+pub const GUIDE_SPECULAR_DEPTH: u32 = 8;
+
+/// What a surface is to the denoiser's guides, as an integrator reads its material
+/// ([`AovSample::look_through`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum GuideStep {
+    /// A surface with some non-specular response (diffuse, glossy): the guides stop here and show
+    /// its normal and this albedo.
+    Surface(Color),
+    /// A surface that only reflects or refracts specularly: the guides go on along `dir` (its
+    /// most likely specular direction), their albedo multiplied by `tint` (the surface's
+    /// reflectance, in [0, 1]).
+    Specular {
+        /// Unit direction the guides go on in.
+        dir: DVec3,
+        /// What the surface passes on of the albedo seen through it.
+        tint: Color,
+    },
+}
 
 /// What one camera ray saw first, for the depth, normal and albedo layers; the integrator fills
 /// it during the render, from the render's own samples.
@@ -37,19 +72,71 @@ pub struct AovSample {
     /// miss); an integrator may fold in what its secondary rays met (the object a reflection
     /// hits, which lights are occluded) with [`AovSample::mix_signature`].
     pub signature: u64,
+    /// Set by the render when it sums the layers: the integrator then takes the albedo and normal
+    /// at the first non-specular hit ([`AovSample::look_through`]), which costs rays. Without it
+    /// only the signature is read.
+    pub guides: bool,
 }
 
 impl AovSample {
     /// A ray that hit nothing, in front of `background`.
     #[inline]
     pub fn miss(background: Color) -> Self {
-        AovSample { depth: f64::INFINITY, normal: DVec3::ZERO, albedo: background.min(Color::ONE), signature: 0 }
+        AovSample { depth: f64::INFINITY, normal: DVec3::ZERO, albedo: background.min(Color::ONE), signature: 0, guides: false }
     }
 
-    /// The first surface `si`, with the integrator's `albedo` (clamped to 1).
+    /// The first surface `si`, with the integrator's `albedo` (clamped to 1); [`AovSample::guides`]
+    /// unset.
     #[inline]
-    pub fn surface(si: &crate::scene::interaction::Interaction, albedo: Color) -> Self {
-        AovSample { depth: si.hit.t, normal: si.ns, albedo: albedo.min(Color::ONE), signature: u64::from(si.hit.object) + 1 }
+    pub fn surface(si: &Interaction, albedo: Color) -> Self {
+        AovSample { depth: si.hit.t, normal: si.ns, albedo: albedo.min(Color::ONE), signature: u64::from(si.hit.object) + 1, guides: false }
+    }
+
+    /// Records the first surface `si` with the integrator's `albedo` (clamped to 1), keeping
+    /// [`AovSample::guides`].
+    #[inline]
+    pub fn set_surface(&mut self, si: &Interaction, albedo: Color) {
+        *self = AovSample { guides: self.guides, ..AovSample::surface(si, albedo) };
+    }
+
+    /// When the render takes guides ([`AovSample::guides`]): the albedo and normal of the first
+    /// non-specular surface seen from the first surface `si` in `scene`, following each specular
+    /// surface's [`GuideStep::Specular`] direction, the albedo multiplied by their tints. `step`
+    /// reads a surface as the integrator does (the same for every sample: no random numbers).
+    /// A chain that leaves the scene shows the background (clamped to 1) and no normal; one
+    /// still specular after [`GUIDE_SPECULAR_DEPTH`] surfaces stops at the last, its tint its
+    /// albedo. Depth and signature are left alone. Traces no ray where `si` is not specular.
+    pub fn look_through(&mut self, scene: &Scene, si: &Interaction, mut step: impl FnMut(&Interaction) -> GuideStep) {
+        if !self.guides {
+            return;
+        }
+        let mut tint = Color::ONE;
+        let mut next = step(si);
+        let mut here: Option<Interaction> = None;
+        for _ in 0..GUIDE_SPECULAR_DEPTH {
+            let GuideStep::Specular { dir, tint: t } = next else { break };
+            let at = here.as_ref().unwrap_or(si);
+            let ray = at.spawn_ray(dir);
+            tint *= t.clamp(Color::ZERO, Color::ONE);
+            match scene.trace(&ray) {
+                Some(hit) => {
+                    next = step(&hit);
+                    here = Some(hit);
+                }
+                None => {
+                    self.albedo = (scene.background.min(Color::ONE) * tint).max(Color::ZERO);
+                    self.normal = DVec3::ZERO;
+                    return;
+                }
+            }
+        }
+        let Some(last) = here else { return };
+        let albedo = match next {
+            GuideStep::Surface(a) => a.clamp(Color::ZERO, Color::ONE),
+            GuideStep::Specular { tint: t, .. } => t.clamp(Color::ZERO, Color::ONE),
+        };
+        self.albedo = albedo * tint;
+        self.normal = last.ns;
     }
 
     /// Folds `what` (e.g. the index of the object a secondary ray hit) into the signature.

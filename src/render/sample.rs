@@ -348,6 +348,8 @@ fn trace_rays(
         let ray = rays.ray(l);
         let mut sampler = rays.sampler(l);
         let mut first = setup.miss;
+        // Summed layers are a denoiser's guides: the integrator looks through mirrors and glass.
+        first.guides = layers.is_some();
         stats.camera_rays += 1;
         let c = job.integrator.radiance(&job.scene, &ray, &mut sampler, stats, &mut first);
         if c.is_finite() {

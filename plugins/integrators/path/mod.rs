@@ -56,12 +56,12 @@ mod lights;
 
 use crate::materials::phong::PhongBsdf;
 use raylab::geometry::differential::RaySpread;
-use raylab::glam::DVec3;
+use raylab::glam::{DVec2, DVec3};
 use raylab::math::color::max_channel;
 use raylab::param::error::Result;
 use raylab::param::params::{Params, from_defaults};
 use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec, Reference};
-use raylab::render::aov::AovSample;
+use raylab::render::aov::{AovSample, GuideStep};
 use raylab::render::integrator::explain_recursion;
 use raylab::render::stats::{Counter, CounterKind};
 use raylab::render::trace::{NoRecord, Recorder, Term};
@@ -362,11 +362,28 @@ impl PathTracer {
         // A camera ray is always within the bounce limit (depth 0).
         match &hit {
             Some(si) => at_bsdf(si, |bsdf| {
-                *aov = AovSample::surface(si, bsdf.albedo());
+                aov.set_surface(si, bsdf.albedo());
+                aov.look_through(scene, si, |s| at_bsdf(s, guide_step));
                 self.arrive(c, ray, Some(si), Some(bsdf), PathState::camera(ray.origin, sampler, spread), rec)
             }),
             None => self.arrive(c, ray, None, None, PathState::camera(ray.origin, sampler, spread), rec),
         }
+    }
+}
+
+/// What `bsdf` is to the denoiser's guides ([`AovSample::look_through`]): a surface with smooth
+/// lobes stops them; one with only specular events sends them on its most likely one (the median
+/// of each choice: the heavier lobe, glass's larger Fresnel branch), tinted by its albedo. Two
+/// directions drawn with different numbers agree only for a delta event: a blurred one (frosted
+/// glass) stops the guides too.
+fn guide_step(bsdf: &dyn Bsdf) -> GuideStep {
+    let albedo = bsdf.albedo();
+    if bsdf.has_smooth_lobes() {
+        return GuideStep::Surface(albedo);
+    }
+    match (bsdf.sample(0.5, DVec2::splat(0.25), 0.5), bsdf.sample(0.5, DVec2::splat(0.75), 0.5)) {
+        (Some(a), Some(b)) if a.pdf.is_none() && a.dir == b.dir => GuideStep::Specular { dir: a.dir, tint: albedo },
+        _ => GuideStep::Surface(albedo),
     }
 }
 

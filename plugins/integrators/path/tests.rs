@@ -592,3 +592,48 @@ fn a_constant_environment_is_left_to_the_bsdfs_rays() {
     assert_eq!(stats.get("shadow_rays"), 0);
     assert_eq!(stats.get("bounce_rays"), 256);
 }
+
+/// The denoiser's guides are taken at the first non-specular hit, for `path` and `phong`: a
+/// mirror's pixel shows the wall it reflects (its albedo tinted by the mirror's 0.5 and its
+/// normal), a glass ball's the wall seen through it; without `guides` set (no layers summed),
+/// the first surface itself, and no ray more is traced.
+#[test]
+fn guides_look_through_mirrors_and_glass() {
+    let scene = |integrator: &str| {
+        load(&format!(
+            "background = 0.25\n[render]\nwidth = 4\nheight = 4\n[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\nfov = 60\n\
+             [integrator]\ntype = \"{integrator}\"\n\
+             [[object]]\ntype = \"sphere\"\ncenter = [-2, 0, -5]\nradius = 1\nmaterial = {{ kd = 0, kr = 0.5 }}\n\
+             [[object]]\ntype = \"sphere\"\ncenter = [2, 0, -5]\nradius = 1\nmaterial = {{ kd = 0, kt = 1, ior = 1.5 }}\n\
+             [[object]]\ntype = \"plane\"\npoint = [0, 0, 1]\nnormal = [0, 0, -1]\nmaterial = {{ kd = [0.8, 0.1, 0.1] }}\n\
+             [[object]]\ntype = \"plane\"\npoint = [0, 0, -10]\nnormal = [0, 0, 1]\nmaterial = {{ kd = [0.1, 0.7, 0.2] }}\n"
+        ))
+    };
+    for integrator in ["path", "phong"] {
+        let job = scene(integrator);
+        let guide = |target: DVec3, guides: bool| {
+            let mut stats = RayStats::new(job.integrator.counters());
+            let mut aov = AovSample::miss(job.scene.background);
+            aov.guides = guides;
+            job.integrator.radiance(&job.scene, &Ray::new(DVec3::ZERO, target), &mut Sampler::new(0, 0, 1), &mut stats, &mut aov);
+            aov
+        };
+        let close = |a: DVec3, b: DVec3| (a - b).abs().max_element() < 1e-9;
+        // The mirror ball, hit facing the camera: the red wall behind the camera, tinted by 0.5.
+        let (mirror, old) = (guide(DVec3::new(-2.0, 0.0, -5.0), true), guide(DVec3::new(-2.0, 0.0, -5.0), false));
+        assert!(close(mirror.albedo, DVec3::new(0.4, 0.05, 0.05)), "{integrator}: mirror guide {:?}", mirror.albedo);
+        assert!(close(mirror.normal, DVec3::new(0.0, 0.0, -1.0)), "{integrator}: mirror normal {:?}", mirror.normal);
+        assert!(close(old.albedo, DVec3::splat(0.5)), "{integrator}: the mirror itself {:?}", old.albedo);
+        // Depth and signature stay the first surface's.
+        assert_eq!((mirror.depth, mirror.signature), (old.depth, old.signature), "{integrator}");
+        // The glass ball through its centre: the green wall behind it, its normal toward the ball.
+        let glass = guide(DVec3::new(2.0, 0.0, -5.0), true);
+        assert!(close(glass.albedo, DVec3::new(0.1, 0.7, 0.2)), "{integrator}: glass guide {:?}", glass.albedo);
+        assert!(close(glass.normal, DVec3::Z), "{integrator}: glass normal {:?}", glass.normal);
+        let old = guide(DVec3::new(2.0, 0.0, -5.0), false);
+        assert!(close(old.albedo, DVec3::ONE), "{integrator}: the glass itself {:?}", old.albedo);
+        // A diffuse wall is its own guide either way.
+        let (wall, old) = (guide(DVec3::new(0.0, 0.3, -1.0), true), guide(DVec3::new(0.0, 0.3, -1.0), false));
+        assert!(close(wall.albedo, DVec3::new(0.1, 0.7, 0.2)) && (wall.albedo, wall.normal) == (old.albedo, old.normal), "{integrator}");
+    }
+}

@@ -100,6 +100,12 @@ impl Fan {
 }
 
 impl Fan {
+    /// The ideal direction (the one ray of a sharp surface).
+    #[inline]
+    pub(super) fn ideal(&self) -> DVec3 {
+        self.ideal
+    }
+
     /// The fan's ray for `u` ∈ [0, 1)²: the ideal direction jittered by the point of the disc of
     /// radius `blur` (at unit distance, across the axes `b1`, `b2`) `u` maps to, flipped onto the
     /// `side` hemisphere if the jitter pushed it through the surface.

@@ -56,7 +56,7 @@ use raylab::math::color::max_channel;
 use raylab::param::error::Result;
 use raylab::param::params::{Params, from_defaults};
 use raylab::param::spec::{ParamDefault, ParamKind, ParamSpec, Reference};
-use raylab::render::aov::AovSample;
+use raylab::render::aov::{AovSample, GuideStep};
 use raylab::render::integrator::explain_recursion;
 use raylab::render::stats::{Counter, CounterKind};
 use raylab::render::trace::{NoRecord, Recorder, Term};
@@ -323,9 +323,30 @@ impl Phong {
         let mut si = scene.interaction(ray, hit);
         si.spread = scene.camera_spread(ray);
         let m = si.coefficients();
-        *aov = AovSample::surface(&si, m.kd + m.kr + m.kt);
+        aov.set_surface(&si, m.kd + m.kr + m.kt);
+        aov.look_through(scene, &si, guide_step);
         self.shade(c, &si, &m, Branch { sampler, depth: 0, weight: Color::ONE, spread: si.spread }, rec)
     }
+}
+
+/// What the hit `si` is to the denoiser's guides ([`AovSample::look_through`]): a surface with a
+/// diffuse or highlight response (`kd`, `ks`) or a blurred reflection or refraction stops them
+/// (albedo `kd + kr + kt`, as at the first surface); a sharp mirror or glass sends them on along
+/// its heavier ray, reflected or refracted (weights as the recursion's, Fresnel included),
+/// tinted by `kr + kt`.
+fn guide_step(si: &Interaction) -> GuideStep {
+    let m = si.coefficients();
+    let albedo = m.kr + m.kt;
+    if max_channel(m.kd + m.ks) > 0.0 || m.blur > 0.0 {
+        return GuideStep::Surface(m.kd + albedo);
+    }
+    let (kr, kt) = fan::fresnel_weights(si, &m, &mut NoRecord);
+    let sum = |c: Color| c.x + c.y + c.z;
+    if !(sum(kr) + sum(kt) > 0.0) {
+        return GuideStep::Surface(albedo);
+    }
+    let kind = if sum(kt) > sum(kr) { RayKind::Refraction } else { RayKind::Reflection };
+    GuideStep::Specular { dir: fan::Fan::new(si, &m, kind, &mut NoRecord).ideal(), tint: albedo }
 }
 
 impl Integrator for Phong {
