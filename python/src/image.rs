@@ -69,6 +69,7 @@ impl Rendered {
             depth: l.depth.clone().filter(|_| asked(Aov::Depth)),
             normal: l.normal.clone().filter(|_| asked(Aov::Normal)),
             albedo: l.albedo.clone().filter(|_| asked(Aov::Albedo)),
+            emitted: l.emitted.clone().filter(|_| asked(Aov::Emission)),
             ..AovLayers::default()
         })
     }
@@ -122,11 +123,11 @@ impl Rendered {
         f32_bytes(py, self.film.pixels.len() * 3, self.film.pixels.iter().flat_map(|p| p.to_array()))
     }
 
-    /// A layer asked for (`depth`: `height × width` values; `normal`, `albedo`: `× 3`) as
+    /// A layer asked for (`depth`: `height × width` values; `normal`, `albedo`, `emission`: `× 3`) as
     /// native-endian `f32`, and its channel count; None when it was not asked for.
     fn layer_bytes<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Option<(Bound<'py, PyByteArray>, usize)>> {
         let Some(aov) = Aov::parse(name) else {
-            return Err(PyValueError::new_err(format!("expected depth, normal, albedo, error or spp, found \"{name}\"")));
+            return Err(PyValueError::new_err(format!("expected depth, normal, albedo, emission, error or spp, found \"{name}\"")));
         };
         if aov == Aov::Error {
             // `error` (also `variance`): each pixel's standard error of its mean luminance (NaN
@@ -148,6 +149,9 @@ impl Rendered {
             }
             Aov::Albedo => {
                 layers.albedo.map(|v| f32_bytes(py, v.len() * 3, v.iter().flat_map(|p| p.to_array())).map(|b| (b, 3))).transpose()?
+            }
+            Aov::Emission => {
+                layers.emitted.map(|v| f32_bytes(py, v.len() * 3, v.iter().flat_map(|p| p.to_array())).map(|b| (b, 3))).transpose()?
             }
             Aov::Error => None,
         })
@@ -257,7 +261,7 @@ pub fn merge(
             Ok((whole.film().map_err(|e| e.to_string())?, whole.aovs().map_err(|e| e.to_string())?, whole.error_estimate()))
         })
         .map_err(runtime_error)?;
-    let aov = if layers.is_some() { vec!["depth".into(), "normal".into(), "albedo".into()] } else { Vec::new() };
+    let aov = if layers.is_some() { vec!["depth".into(), "normal".into(), "albedo".into(), "emission".into()] } else { Vec::new() };
     Ok(Rendered {
         film,
         layers,

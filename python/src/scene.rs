@@ -303,7 +303,7 @@ impl Scene {
     }
 
     /// Renders the scene (the GIL released; Ctrl-C cancels). `aov`: layers to compute (depth,
-    /// normal, albedo). `share`: `(x0, x1, y0, y1, pass, passes)` renders that part of the frame
+    /// normal, albedo, emission). `share`: `(x0, x1, y0, y1, pass, passes)` renders that part of the frame
     /// (a partial image for `merge`); `tile`: `(i, n)` renders tile i of n as `render --tile
     /// I/N` does. `progress(done, total)` is called about every 50 ms in pixel samples; an
     /// exception it raises cancels the render and is raised here.
@@ -321,7 +321,9 @@ impl Scene {
     ) -> PyResult<Rendered> {
         for name in &aov {
             if raylab::render::aov::Aov::parse(name).is_none() {
-                return Err(PyValueError::new_err(format!("aov: expected depth, normal, albedo, error or spp, found \"{name}\"")));
+                return Err(PyValueError::new_err(format!(
+                    "aov: expected depth, normal, albedo, emission, error or spp, found \"{name}\""
+                )));
             }
         }
         if threads == Some(0) {

@@ -25,10 +25,11 @@ pub(crate) struct RenderArgs {
     /// EXR only: store colour (and normal, albedo) as 16-bit half floats instead of 32-bit.
     #[arg(long)]
     half: bool,
-    /// EXR only: extra layers, comma-separated: depth, normal, albedo (for denoisers), error (the
-    /// estimated standard error of each pixel's mean luminance, and its samples per pixel `spp`;
-    /// `spp` asks for the same two).
-    #[arg(long, value_delimiter = ',', value_parser = ["depth", "normal", "albedo", "error", "variance", "spp"])]
+    /// EXR only: extra layers, comma-separated: depth, normal, albedo, emission (for denoisers:
+    /// `raylab denoise` leaves the emission camera rays met directly out of its filter), error
+    /// (the estimated standard error of each pixel's mean luminance, and its samples per pixel
+    /// `spp`; `spp` asks for the same two).
+    #[arg(long, value_delimiter = ',', value_parser = ["depth", "normal", "albedo", "emission", "error", "variance", "spp"])]
     aov: Vec<String>,
     /// Repeat a render under --time-budget bit for bit: each pixel takes the samples the `spp`
     /// layer of FILE (an EXR it wrote with `--aov spp`) says it reached, whatever the clock.
@@ -353,6 +354,7 @@ fn validate<'a>(app: &'a App, a: &RenderArgs) -> Result<Request<'a>, Failure> {
         depth: layer("depth"),
         normal: layer("normal"),
         albedo: layer("albedo"),
+        emission: layer("emission"),
         half: a.half,
         error: layer("error") || layer("variance"),
     };
@@ -478,7 +480,7 @@ fn run_planned(plan: &Plan, resume: Option<&ShareSums>) -> Result<Run, Failure> 
     let options = RenderOptions {
         threads: a.threads,
         cancel: Some(&INTERRUPTED),
-        layers: image.depth || image.normal || image.albedo || a.denoise,
+        layers: image.depth || image.normal || image.albedo || image.emission || a.denoise,
         share: plan.share,
         resume,
         snapshots,
@@ -790,6 +792,7 @@ fn write(plan: &Plan, path: &Path, film: &Film, layers: Option<&AovLayers>, sums
         depth: l.depth.clone().filter(|_| asked(Aov::Depth)),
         normal: l.normal.clone().filter(|_| asked(Aov::Normal)),
         albedo: l.albedo.clone().filter(|_| asked(Aov::Albedo)),
+        emitted: l.emitted.clone().filter(|_| asked(Aov::Emission)),
         ..AovLayers::default()
     });
     if let Some(sums) = sums.filter(|_| asked(Aov::Error)) {

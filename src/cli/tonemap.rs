@@ -16,9 +16,9 @@ pub(crate) struct TonemapArgs {
     #[arg(long, value_name = "EV", default_value_t = 0.0, allow_hyphen_values = true)]
     exposure: f64,
     /// Show a layer of raylab's EXR instead of the colour (`render --aov`): depth (white nearest
-    /// to black farthest; black where nothing was hit), normal ((n + 1) / 2 as RGB), albedo, spp
-    /// (samples per pixel: grey by log₂, white at the most).
-    #[arg(long, value_parser = ["depth", "normal", "albedo", "spp"])]
+    /// to black farthest; black where nothing was hit), normal ((n + 1) / 2 as RGB), albedo,
+    /// emission, spp (samples per pixel: grey by log₂, white at the most).
+    #[arg(long, value_parser = ["depth", "normal", "albedo", "emission", "spp"])]
     layer: Option<String>,
 }
 

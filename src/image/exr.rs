@@ -1,6 +1,6 @@
 //! OpenEXR output (feature `exr`): the film's linear, unclamped RGB as 32-bit floats (or half
-//! floats), with optional extra layers for denoisers: depth `Z`, `normal.X/Y/Z`, `albedo.R/G/B`
-//! ([`crate::render::aov`]), and the error estimate `error` and samples per pixel `spp`
+//! floats), with optional extra layers for denoisers: depth `Z`, `normal.X/Y/Z`, `albedo.R/G/B`,
+//! `emission.R/G/B` ([`crate::render::aov`]), and the error estimate `error` and samples per pixel `spp`
 //! ([`crate::render::share::ShareSums::error_layers`]). One part, channels by name, lossless ZIP compression; depth is always 32-bit.
 //! Written atomically, like every raylab image.
 
@@ -49,6 +49,9 @@ pub fn encode_exr(film: &Film, aovs: &AovLayers, half: bool) -> Result<Vec<u8>, 
     }
     if let Some(a) = &aovs.albedo {
         rgb("albedo.", ["R", "G", "B"], a)?;
+    }
+    if let Some(e) = &aovs.emitted {
+        rgb("emission.", ["R", "G", "B"], e)?;
     }
     for (name, layer) in [("Z", &aovs.depth), ("error", &aovs.error), ("spp", &aovs.spp)] {
         if let Some(d) = layer {

@@ -41,6 +41,8 @@ pub struct ImagePlan {
     pub normal: bool,
     /// See `depth`.
     pub albedo: bool,
+    /// See `depth`: the radiance camera rays met directly.
+    pub emission: bool,
     /// EXR colour, normal and albedo as 16-bit floats.
     pub half: bool,
     /// The EXR's error estimate and sample count layers (computed from the render's sums).
@@ -49,9 +51,11 @@ pub struct ImagePlan {
 
 impl ImagePlan {
     /// The costliest output: 32-bit EXR with every layer.
-    pub const COSTLIEST: ImagePlan = ImagePlan { exr: true, depth: true, normal: true, albedo: true, half: false, error: true };
+    pub const COSTLIEST: ImagePlan =
+        ImagePlan { exr: true, depth: true, normal: true, albedo: true, emission: true, half: false, error: true };
     /// 8-bit PNG or JPEG.
-    pub const EIGHT_BIT: ImagePlan = ImagePlan { exr: false, depth: false, normal: false, albedo: false, half: false, error: false };
+    pub const EIGHT_BIT: ImagePlan =
+        ImagePlan { exr: false, depth: false, normal: false, albedo: false, emission: false, half: false, error: false };
 }
 
 impl Default for ImagePlan {
@@ -64,6 +68,8 @@ impl Default for ImagePlan {
 const FILM_BYTES_PER_PIXEL: u64 = 12;
 /// Bytes per pixel of the render's exact running sums ([`crate::render::accum::PixelSum`]).
 const SUM_BYTES_PER_PIXEL: u64 = std::mem::size_of::<crate::render::accum::PixelSum>() as u64;
+/// Bytes per pixel of the layers made of the sums: depth (`f32`), normal, albedo and emission.
+const LAYER_BYTES_PER_PIXEL: u64 = 4 + 3 * 12;
 /// Bytes per pixel of the layers' exact running sums ([`crate::render::accum::AovSum`]).
 const LAYER_SUM_BYTES_PER_PIXEL: u64 = std::mem::size_of::<crate::render::accum::AovSum>() as u64;
 /// Bytes per pixel of 8-bit output: the RGB copy and the encoder's buffer.
@@ -74,14 +80,15 @@ const EIGHT_BIT_BYTES_PER_PIXEL: u64 = 6;
 /// they become), then the encoder's copies (for EXR, every channel and the encoded file, at most
 /// its raw size).
 pub fn image_bytes(pixels: u64, plan: &ImagePlan) -> u64 {
-    let any_layer = plan.exr && (plan.depth || plan.normal || plan.albedo);
+    let any_layer = plan.exr && (plan.depth || plan.normal || plan.albedo || plan.emission);
     // The render makes every layer when any is asked for.
-    let during_render = SUM_BYTES_PER_PIXEL + if any_layer { LAYER_SUM_BYTES_PER_PIXEL + 28 } else { 0 };
+    let during_render = SUM_BYTES_PER_PIXEL + if any_layer { LAYER_SUM_BYTES_PER_PIXEL + LAYER_BYTES_PER_PIXEL } else { 0 };
     let during_writing = if plan.exr {
         let colour = if plan.half { 2 } else { 4 };
-        let layers = if any_layer { 28 } else { 0 };
-        let channels =
-            3 * colour * (1 + u64::from(plan.normal) + u64::from(plan.albedo)) + 4 * u64::from(plan.depth) + 8 * u64::from(plan.error);
+        let layers = if any_layer { LAYER_BYTES_PER_PIXEL } else { 0 };
+        let channels = 3 * colour * (1 + u64::from(plan.normal) + u64::from(plan.albedo) + u64::from(plan.emission))
+            + 4 * u64::from(plan.depth)
+            + 8 * u64::from(plan.error);
         layers + 2 * channels
     } else {
         EIGHT_BIT_BYTES_PER_PIXEL

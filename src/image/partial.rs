@@ -3,14 +3,17 @@
 //!
 //! - The **data window** is the share's pixel bounds; the **display window** is the whole frame.
 //! - Channels `R`, `G`, `B` (`f32`) hold each pixel's mean so far, for viewers; `Z`,
-//!   `normal.X/Y/Z`, `albedo.R/G/B` the layers' means when the render made them.
+//!   `normal.X/Y/Z`, `albedo.R/G/B`, `emission.R/G/B` the layers' means when the render made
+//!   them.
 //! - What merging needs, exactly: `raylab.sum.{R,G,B}.{0..3}` (each channel's fixed-point sum,
 //!   an `i128` as four `u32` limbs, least significant first), `raylab.sq.{0..3}` (the sum of
 //!   the rays' squared luminance, the same way: the error estimate), `raylab.odd.{0..3}` and
 //!   `raylab.n_odd` (the luminance and rays of odd-numbered samples), `raylab.n` (rays summed) and
 //!   `raylab.samples` (samples of the share done), and with layers `raylab.depth.{0..3}`,
 //!   `raylab.hits`, `raylab.rays`, `raylab.normal.{X,Y,Z}.{0,1}`, `raylab.albedo.{R,G,B}.{0,1}`
-//!   (`i64`s as two limbs).
+//!   (`i64`s as two limbs), `raylab.emitted.{R,G,B}.{0..3}` (`i128`s as four).
+//!   Files from before the emission layer lack its channels: their emission reads as zero, which
+//!   only leaves it to the denoiser's filter with the rest.
 //! - Header attributes: `raylab.partial` (the format version), `raylab.fingerprint` (scene, files
 //!   and settings), `raylab.pass` and `raylab.passes` (the sample share), `raylab.sampling` (for
 //!   people), with an error target `raylab.target_error` and `raylab.target_min_spp`, and for
@@ -30,9 +33,9 @@ use std::result::Result;
 /// The format version written in `raylab.partial`.
 pub const PARTIAL_VERSION: i32 = 2;
 
-/// Most channels a partial image has (colour, layers and their sums: 51); more is refused before
+/// Most channels a partial image has (colour, layers and their sums: 66); more is refused before
 /// decoding, so a file cannot multiply its pixels' memory by claiming thousands of channels.
-const MAX_CHANNELS: usize = 56;
+const MAX_CHANNELS: usize = 72;
 
 /// What a partial file says about itself besides its pixels.
 #[derive(Clone, Debug, PartialEq)]
@@ -89,6 +92,12 @@ pub fn encode_partial(sums: &ShareSums, info: &PartialInfo) -> Result<Vec<u8>, S
             f32s(format!("albedo.{a}"), m.iter().map(|l| l.2[c]).collect());
         }
     }
+    if let Some(l) = &sums.layers {
+        let emitted: Vec<_> = l.iter().map(AovSum::emitted_mean).collect();
+        for (c, a) in COLOR.iter().enumerate() {
+            f32s(format!("emission.{a}"), emitted.iter().map(|e| e[c]).collect());
+        }
+    }
     let mut u32s = |name: String, v: Vec<u32>| channels.push(AnyChannel::new(name.as_str(), FlatSamples::U32(v)));
     for (c, name) in COLOR.iter().enumerate() {
         for k in 0..4 {
@@ -118,6 +127,9 @@ pub fn encode_partial(sums: &ShareSums, info: &PartialInfo) -> Result<Vec<u8>, S
                     format!("raylab.albedo.{}.{k}", COLOR[c]),
                     l.iter().map(|s| limbs(i128::from(s.albedo[c]), 2).nth(k).unwrap_or(0)).collect(),
                 );
+            }
+            for k in 0..4 {
+                u32s(format!("raylab.emitted.{}.{k}", COLOR[c]), l.iter().map(|s| limbs(s.emitted[c], 4).nth(k).unwrap_or(0)).collect());
             }
         }
     }
@@ -273,6 +285,11 @@ pub fn read_partial(bytes: &[u8], name: &str, max_pixels: u64) -> Result<(ShareS
         let (hits, rays) = (channel("raylab.hits")?, channel("raylab.rays")?);
         let normal: Vec<Vec<i128>> = AXES.iter().map(|a| wide(&format!("raylab.normal.{a}"), 2)).collect::<Result<_, _>>()?;
         let albedo: Vec<Vec<i128>> = COLOR.iter().map(|c| wide(&format!("raylab.albedo.{c}"), 2)).collect::<Result<_, _>>()?;
+        let emitted: Vec<Vec<i128>> = if has("raylab.emitted.R.0") {
+            COLOR.iter().map(|c| wide(&format!("raylab.emitted.{c}"), 4)).collect::<Result<_, _>>()?
+        } else {
+            vec![vec![0; n]; 3]
+        };
         Some(
             (0..n)
                 .map(|p| AovSum {
@@ -281,6 +298,7 @@ pub fn read_partial(bytes: &[u8], name: &str, max_pixels: u64) -> Result<(ShareS
                     rays: rays[p],
                     normal: [normal[0][p] as i64, normal[1][p] as i64, normal[2][p] as i64],
                     albedo: [albedo[0][p] as i64, albedo[1][p] as i64, albedo[2][p] as i64],
+                    emitted: [emitted[0][p], emitted[1][p], emitted[2][p]],
                 })
                 .collect(),
         )
@@ -317,6 +335,7 @@ mod tests {
                 normal: glam::DVec3::new(-0.5, 0.25, 1.0),
                 albedo: glam::DVec3::splat(0.75),
                 signature: 0,
+                emitted: glam::DVec3::new(0.5, 1e6 + i as f64, 0.0),
                 guides: false,
             });
         }

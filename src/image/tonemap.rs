@@ -22,18 +22,21 @@ pub enum Layer {
     Normal,
     /// Albedo (`albedo.R/G/B`).
     Albedo,
+    /// Radiance camera rays met directly (`emission.R/G/B`).
+    Emission,
     /// Samples per pixel (`spp`).
     Spp,
 }
 
 impl Layer {
-    /// Parses `color`, `depth`, `normal` or `albedo`.
+    /// Parses `color`, `depth`, `normal`, `albedo`, `emission` or `spp`.
     pub fn parse(s: &str) -> Option<Layer> {
         match s {
             "color" | "colour" => Some(Layer::Color),
             "depth" => Some(Layer::Depth),
             "normal" => Some(Layer::Normal),
             "albedo" => Some(Layer::Albedo),
+            "emission" => Some(Layer::Emission),
             "spp" => Some(Layer::Spp),
             _ => None,
         }
@@ -47,6 +50,7 @@ impl Layer {
             Layer::Depth => &["Z"],
             Layer::Normal => &["normal.X", "normal.Y", "normal.Z"],
             Layer::Albedo => &["albedo.R", "albedo.G", "albedo.B"],
+            Layer::Emission => &["emission.R", "emission.G", "emission.B"],
             Layer::Spp => &["spp"],
         }
     }
@@ -142,12 +146,12 @@ fn read_exr_layer(bytes: &[u8], layer: Layer) -> Result<Film, String> {
     Ok(film)
 }
 
-/// `film` (of `layer`) as viewable values and the encoding that writes them: colour and albedo
-/// scaled by 2^`exposure` and sRGB-encoded; depth, normals and samples per pixel (grey by
+/// `film` (of `layer`) as viewable values and the encoding that writes them: colour, albedo and
+/// emission scaled by 2^`exposure` and sRGB-encoded; depth, normals and samples per pixel (grey by
 /// log₂ spp, white at the most) as visualisation values written straight.
 pub fn visualise(mut film: Film, layer: Layer, exposure: f64) -> (Film, Encoding) {
     match layer {
-        Layer::Color | Layer::Albedo => {
+        Layer::Color | Layer::Albedo | Layer::Emission => {
             let scale = 2f32.powf(exposure as f32);
             for p in &mut film.pixels {
                 *p *= scale;

@@ -250,6 +250,8 @@ pub struct AovSum {
     pub normal: [i64; 3],
     /// Σ albedo, in units of 2⁻⁴⁰.
     pub albedo: [i64; 3],
+    /// Σ radiance met directly ([`AovSample::emitted`]), in the colour sums' units of 2⁻⁶⁴.
+    pub emitted: [i128; 3],
 }
 
 impl AovSum {
@@ -264,13 +266,21 @@ impl AovSum {
         for k in 0..3 {
             self.normal[k] = self.normal[k].saturating_add(fixed(l.normal[k], UNIT_SCALE) as i64);
             self.albedo[k] = self.albedo[k].saturating_add(fixed(l.albedo[k], UNIT_SCALE) as i64);
+            self.emitted[k] = add_saturating(self.emitted[k], fixed_color(l.emitted[k]));
         }
     }
 
     /// A pixel whose layers were computed whole (adaptive anti-aliasing).
-    pub fn whole(depth: f32, normal: Vec3, albedo: Vec3) -> Self {
+    pub fn whole(depth: f32, normal: Vec3, albedo: Vec3, emitted: Vec3) -> Self {
         let mut s = AovSum::default();
-        s.add(&AovSample { depth: f64::from(depth), normal: normal.as_dvec3(), albedo: albedo.as_dvec3(), signature: 0, guides: false });
+        s.add(&AovSample {
+            depth: f64::from(depth),
+            normal: normal.as_dvec3(),
+            albedo: albedo.as_dvec3(),
+            signature: 0,
+            emitted: emitted.as_dvec3(),
+            guides: false,
+        });
         s
     }
 
@@ -282,7 +292,18 @@ impl AovSum {
         for k in 0..3 {
             self.normal[k] = self.normal[k].saturating_add(o.normal[k]);
             self.albedo[k] = self.albedo[k].saturating_add(o.albedo[k]);
+            self.emitted[k] = add_saturating(self.emitted[k], o.emitted[k]);
         }
+    }
+
+    /// The mean radiance met directly, over all rays (zero without rays).
+    pub fn emitted_mean(&self) -> Vec3 {
+        if self.rays == 0 {
+            return Vec3::ZERO;
+        }
+        let n = f64::from(self.rays);
+        let v = |k: usize| (float(self.emitted[k]) * COLOR_UNIT / n) as f32;
+        Vec3::new(v(0), v(1), v(2))
     }
 
     /// The mean layers: depth over the rays that hit (+∞ when none did), normal and albedo over

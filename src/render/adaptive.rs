@@ -70,6 +70,8 @@ pub struct WeightedLayers {
     pub normal: Vec3,
     /// Weighted albedo.
     pub albedo: Vec3,
+    /// Weighted radiance met directly.
+    pub emitted: Vec3,
 }
 
 impl WeightedLayers {
@@ -77,7 +79,7 @@ impl WeightedLayers {
     fn of(s: &AovSum) -> Self {
         let (depth, normal, albedo) = s.mean();
         let hits = if s.rays > 0 { s.hits as f32 / s.rays as f32 } else { 0.0 };
-        WeightedLayers { depth: if depth.is_finite() { depth * hits } else { 0.0 }, hits, normal, albedo }
+        WeightedLayers { depth: if depth.is_finite() { depth * hits } else { 0.0 }, hits, normal, albedo, emitted: s.emitted_mean() }
     }
 
     /// Adds `o` with weight `w`.
@@ -87,13 +89,14 @@ impl WeightedLayers {
         self.hits += o.hits * w;
         self.normal += o.normal * w;
         self.albedo += o.albedo * w;
+        self.emitted += o.emitted * w;
     }
 
     /// The pixel's layers as sums of one unit of weight. The albedo is a convex combination of
     /// values in [0, 1]; clamping removes what rounding of the weights adds beyond.
     pub fn sum(&self) -> AovSum {
         let depth = if self.hits > 0.0 { self.depth / self.hits } else { f32::INFINITY };
-        AovSum::whole(depth, self.normal, self.albedo.clamp(Vec3::ZERO, Vec3::ONE))
+        AovSum::whole(depth, self.normal, self.albedo.clamp(Vec3::ZERO, Vec3::ONE), self.emitted.max(Vec3::ZERO))
     }
 }
 

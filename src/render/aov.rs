@@ -13,8 +13,8 @@
 //! - `normal` (`normal.X/Y/Z`): the shading normal at the first surface, world space, facing the
 //!   camera; zero for misses.
 //! - `albedo` (`albedo.R/G/B`): the first surface's reflectance as the integrator sees it,
-//!   clamped to 1 (`phong`: `kd + kr + kt`, the diffuse colour of matte surfaces); the background
-//!   colour (clamped to 1) for misses.
+//!   clamped to 1 (`phong`: `kd + kr + kt`, the diffuse colour of matte surfaces); for misses,
+//!   what the ray sees (the background, or an environment light), clamped to 1.
 //!
 //! The denoiser's guides, albedo and normal, are taken **at the first non-specular hit**, as
 //! Open Image Denoise asks and Cycles does: where the camera ray meets a surface that only
@@ -25,6 +25,13 @@
 //! it on its most likely branch (glass: transmission, but where Fresnel reflection is the greater
 //! part or total), the same for every sample: the guides stay free of noise. Depth and the
 //! signature stay those of the first surface.
+//! - `emission` (`emission.R/G/B`): what the camera ray met emitted on its way to its first
+//!   surface and brought back as it is, free of Monte Carlo noise but for anti-aliasing: the
+//!   lights and emitting surfaces it sees (`path`: the lights with an extent its ray meets and
+//!   the first surface's emission; `phong`: the first surface's emission). Not the background or
+//!   an environment a miss sees: left out of the filter, that made `environment`'s denoised
+//!   image worse by RMSE (`benches/error`). The denoiser leaves the layer out and adds it back
+//!   ([`crate::image::denoise::denoise_guided`]): a lamp seen directly keeps its edge.
 //! - `error` and `spp`: the estimated standard error of each pixel's mean luminance
 //!   ([`crate::render::accum::PixelSum::std_error`]) and its samples.
 
@@ -72,6 +79,11 @@ pub struct AovSample {
     /// miss); an integrator may fold in what its secondary rays met (the object a reflection
     /// hits, which lights are occluded) with [`AovSample::mix_signature`].
     pub signature: u64,
+    /// Radiance the camera ray met emitted up to its first surface and brought back unscattered
+    /// (the lights and emitting surface it sees; not the background or environment of a miss):
+    /// part of the sample's colour that has no noise but anti-aliasing. Zero unless the
+    /// integrator fills it.
+    pub emitted: Color,
     /// Set by the render when it sums the layers: the integrator then takes the albedo and normal
     /// at the first non-specular hit ([`AovSample::look_through`]), which costs rays. Without it
     /// only the signature is read.
@@ -82,14 +94,28 @@ impl AovSample {
     /// A ray that hit nothing, in front of `background`.
     #[inline]
     pub fn miss(background: Color) -> Self {
-        AovSample { depth: f64::INFINITY, normal: DVec3::ZERO, albedo: background.min(Color::ONE), signature: 0, guides: false }
+        AovSample {
+            depth: f64::INFINITY,
+            normal: DVec3::ZERO,
+            albedo: background.min(Color::ONE),
+            signature: 0,
+            emitted: Color::ZERO,
+            guides: false,
+        }
     }
 
     /// The first surface `si`, with the integrator's `albedo` (clamped to 1); [`AovSample::guides`]
     /// unset.
     #[inline]
     pub fn surface(si: &Interaction, albedo: Color) -> Self {
-        AovSample { depth: si.hit.t, normal: si.ns, albedo: albedo.min(Color::ONE), signature: u64::from(si.hit.object) + 1, guides: false }
+        AovSample {
+            depth: si.hit.t,
+            normal: si.ns,
+            albedo: albedo.min(Color::ONE),
+            signature: u64::from(si.hit.object) + 1,
+            emitted: Color::ZERO,
+            guides: false,
+        }
     }
 
     /// Records the first surface `si` with the integrator's `albedo` (clamped to 1), keeping
@@ -103,7 +129,7 @@ impl AovSample {
     /// non-specular surface seen from the first surface `si` in `scene`, following each specular
     /// surface's [`GuideStep::Specular`] direction, the albedo multiplied by their tints. `step`
     /// reads a surface as the integrator does (the same for every sample: no random numbers).
-    /// A chain that leaves the scene shows the background (clamped to 1) and no normal; one
+    /// A chain that leaves the scene shows what it sees there ([`AovSample::escape`]); one
     /// still specular after [`GUIDE_SPECULAR_DEPTH`] surfaces stops at the last, its tint its
     /// albedo. Depth and signature are left alone. Traces no ray where `si` is not specular.
     pub fn look_through(&mut self, scene: &Scene, si: &Interaction, mut step: impl FnMut(&Interaction) -> GuideStep) {
@@ -124,8 +150,8 @@ impl AovSample {
                     here = Some(hit);
                 }
                 None => {
-                    self.albedo = (scene.background.min(Color::ONE) * tint).max(Color::ZERO);
-                    self.normal = DVec3::ZERO;
+                    self.escape(scene, ray.dir);
+                    self.albedo *= tint;
                     return;
                 }
             }
@@ -137,6 +163,18 @@ impl AovSample {
         };
         self.albedo = albedo * tint;
         self.normal = last.ns;
+    }
+
+    /// When the render takes guides: a ray along `dir` that leaves the scene shows, as its
+    /// albedo, what it sees there ([`Scene::escaped`]: the background, or the environment
+    /// lights' radiance) clamped to 1, as an emitter's is taken (OIDN's examples): a mirror or a
+    /// glass ball that shows the sky gets the sky in its guide, not the black of a background
+    /// the environment replaces. No normal.
+    pub fn escape(&mut self, scene: &Scene, dir: DVec3) {
+        if self.guides {
+            self.albedo = scene.escaped(dir).clamp(Color::ZERO, Color::ONE);
+            self.normal = DVec3::ZERO;
+        }
     }
 
     /// Folds `what` (e.g. the index of the object a secondary ray hit) into the signature.
@@ -155,18 +193,21 @@ pub enum Aov {
     Normal,
     /// Reflectance of the first surface.
     Albedo,
+    /// Radiance camera rays met emitted (the lights and emitting surfaces they see).
+    Emission,
     /// The estimated standard error of each pixel's mean luminance, and its samples.
     Error,
 }
 
 impl Aov {
-    /// Parses `depth`, `normal`, `albedo` or `error` (also called `variance`, and `spp`: the
+    /// Parses `depth`, `normal`, `albedo`, `emission` or `error` (also called `variance`, and `spp`: the
     /// error layer comes with the samples per pixel).
     pub fn parse(s: &str) -> Option<Aov> {
         match s {
             "depth" => Some(Aov::Depth),
             "normal" => Some(Aov::Normal),
             "albedo" => Some(Aov::Albedo),
+            "emission" => Some(Aov::Emission),
             "error" | "variance" | "spp" => Some(Aov::Error),
             _ => None,
         }
@@ -182,6 +223,8 @@ pub struct AovLayers {
     pub normal: Option<Vec<Vec3>>,
     /// Mean albedo per pixel.
     pub albedo: Option<Vec<Vec3>>,
+    /// Mean radiance camera rays met directly, per pixel ([`AovSample::emitted`]).
+    pub emitted: Option<Vec<Vec3>>,
     /// Estimated standard error of each pixel's mean luminance (linear radiance units; NaN where
     /// fewer than two rays were summed).
     pub error: Option<Vec<f32>>,

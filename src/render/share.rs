@@ -260,19 +260,27 @@ impl ShareSums {
         Ok(film)
     }
 
-    /// The depth, normal and albedo layers over the whole frame, when summed.
+    /// The depth, normal, albedo and emission layers over the whole frame, when summed.
     pub fn aovs(&self) -> Result<Option<AovLayers>, OutOfMemory> {
         let Some(sums) = &self.layers else { return Ok(None) };
         let n = self.width as usize * self.height as usize;
         let mut depth = try_filled(n, f32::INFINITY, "depth layer")?;
         let mut normal = try_filled(n, Vec3::ZERO, "normal layer")?;
         let mut albedo = try_filled(n, Vec3::ZERO, "albedo layer")?;
+        let mut emitted = try_filled(n, Vec3::ZERO, "emission layer")?;
         for (i, l) in sums.iter().enumerate() {
             let (x, y) = self.share.bounds.pixel(i);
             let k = y as usize * self.width as usize + x as usize;
             (depth[k], normal[k], albedo[k]) = l.mean();
+            emitted[k] = l.emitted_mean();
         }
-        Ok(Some(AovLayers { depth: Some(depth), normal: Some(normal), albedo: Some(albedo), ..AovLayers::default() }))
+        Ok(Some(AovLayers {
+            depth: Some(depth),
+            normal: Some(normal),
+            albedo: Some(albedo),
+            emitted: Some(emitted),
+            ..AovLayers::default()
+        }))
     }
 
     /// The error estimate of each pixel ([`PixelSum::std_error`]; NaN where there is none) and its

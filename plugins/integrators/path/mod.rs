@@ -203,10 +203,12 @@ const TAG_ROULETTE: u64 = 3;
 const TAG_NEXT: u64 = 4;
 const TAG_EMITTERS: u64 = 5;
 
-/// What one camera ray's path shares: the scene and the counters.
+/// What one camera ray's path shares: the scene and the counters, and what the camera ray
+/// itself met emitted (the emission layer, [`AovSample::emitted`]).
 struct Ctx<'a> {
     scene: &'a Scene,
     stats: &'a mut RayStats,
+    emitted: Color,
 }
 
 /// The state a ray carries from the vertex that sent it, and its own random stream.
@@ -282,6 +284,9 @@ impl PathTracer {
         };
         rec.hit(si);
         radiance += self.emission(c, path.from, si, path.bsdf_pdf, rec);
+        if path.depth == 0 {
+            c.emitted = radiance;
+        }
         if let Some(bsdf) = bsdf {
             radiance += self.direct(c, si, bsdf, path.sampler, rec);
             radiance += self.scatter(c, si, bsdf, path, rec);
@@ -356,18 +361,23 @@ impl PathTracer {
         aov: &mut AovSample,
         rec: &mut R,
     ) -> Color {
-        let c = &mut Ctx { scene, stats };
+        let c = &mut Ctx { scene, stats, emitted: Color::ZERO };
         let spread = scene.camera_spread(ray);
         let hit = scene.trace(ray).map(|si| si.with_spread(spread));
         // A camera ray is always within the bounce limit (depth 0).
-        match &hit {
+        let color = match &hit {
             Some(si) => at_bsdf(si, |bsdf| {
                 aov.set_surface(si, bsdf.albedo());
                 aov.look_through(scene, si, |s| at_bsdf(s, guide_step));
                 self.arrive(c, ray, Some(si), Some(bsdf), PathState::camera(ray.origin, sampler, spread), rec)
             }),
-            None => self.arrive(c, ray, None, None, PathState::camera(ray.origin, sampler, spread), rec),
-        }
+            None => {
+                aov.escape(scene, ray.dir);
+                self.arrive(c, ray, None, None, PathState::camera(ray.origin, sampler, spread), rec)
+            }
+        };
+        aov.emitted = c.emitted;
+        color
     }
 }
 

@@ -596,21 +596,23 @@ fn a_constant_environment_is_left_to_the_bsdfs_rays() {
 /// The denoiser's guides are taken at the first non-specular hit, for `path` and `phong`: a
 /// mirror's pixel shows the wall it reflects (its albedo tinted by the mirror's 0.5 and its
 /// normal), a glass ball's the wall seen through it; without `guides` set (no layers summed),
-/// the first surface itself, and no ray more is traced.
+/// the first surface itself. The emission layer holds what the camera ray met emitted.
 #[test]
 fn guides_look_through_mirrors_and_glass() {
-    let scene = |integrator: &str| {
+    let scene = |integrator: &str, sky: &str| {
         load(&format!(
             "background = 0.25\n[render]\nwidth = 4\nheight = 4\n[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\nfov = 60\n\
              [integrator]\ntype = \"{integrator}\"\n\
              [[object]]\ntype = \"sphere\"\ncenter = [-2, 0, -5]\nradius = 1\nmaterial = {{ kd = 0, kr = 0.5 }}\n\
              [[object]]\ntype = \"sphere\"\ncenter = [2, 0, -5]\nradius = 1\nmaterial = {{ kd = 0, kt = 1, ior = 1.5 }}\n\
              [[object]]\ntype = \"plane\"\npoint = [0, 0, 1]\nnormal = [0, 0, -1]\nmaterial = {{ kd = [0.8, 0.1, 0.1] }}\n\
-             [[object]]\ntype = \"plane\"\npoint = [0, 0, -10]\nnormal = [0, 0, 1]\nmaterial = {{ kd = [0.1, 0.7, 0.2] }}\n"
+             [[object]]\ntype = \"plane\"\npoint = [0, 0, -10]\nnormal = [0, 0, 1]\nmaterial = {{ kd = [0.1, 0.7, 0.2] }}\n\
+             [[object]]\ntype = \"sphere\"\ncenter = [0, 2, -5]\nradius = 0.5\nmaterial = {{ kd = 0, emission = 3 }}\n{sky}"
         ))
     };
-    for integrator in ["path", "phong"] {
-        let job = scene(integrator);
+    for (integrator, sky) in [("path", ""), ("phong", ""), ("path", "sky"), ("phong", "sky")] {
+        let sky = if sky.is_empty() { "" } else { "[[light]]\ntype = \"environment\"\ncolor = 0.6\n" };
+        let job = scene(integrator, sky);
         let guide = |target: DVec3, guides: bool| {
             let mut stats = RayStats::new(job.integrator.counters());
             let mut aov = AovSample::miss(job.scene.background);
@@ -635,5 +637,13 @@ fn guides_look_through_mirrors_and_glass() {
         // A diffuse wall is its own guide either way.
         let (wall, old) = (guide(DVec3::new(0.0, 0.3, -1.0), true), guide(DVec3::new(0.0, 0.3, -1.0), false));
         assert!(close(wall.albedo, DVec3::new(0.1, 0.7, 0.2)) && (wall.albedo, wall.normal) == (old.albedo, old.normal), "{integrator}");
+        // The emission layer: what the camera ray met emitted, an emitter's, not a wall's.
+        assert_eq!(wall.emitted, Color::ZERO, "{integrator}");
+        assert!(close(guide(DVec3::new(0.0, 2.0, -5.0), true).emitted, DVec3::splat(3.0)), "{integrator}: emitter");
+        // A ray that leaves the scene (straight up) shows the background, or the sky that
+        // replaces it, as its albedo; the sky stays out of the emission layer.
+        let up = guide(DVec3::Y, true);
+        let seen = if sky.is_empty() { 0.25 } else { 0.6 };
+        assert!(close(up.albedo, DVec3::splat(seen)) && up.emitted == Color::ZERO, "{integrator} {sky}: {up:?}");
     }
 }

@@ -317,6 +317,7 @@ impl Phong {
         let c = &mut Ctx { scene, stats };
         let Some(hit) = scene.intersect(ray, 0.0, f64::INFINITY) else {
             let seen = scene.escaped(ray.dir);
+            aov.escape(scene, ray.dir);
             rec.color(seen);
             return seen;
         };
@@ -324,6 +325,7 @@ impl Phong {
         si.spread = scene.camera_spread(ray);
         let m = si.coefficients();
         aov.set_surface(&si, m.kd + m.kr + m.kt);
+        aov.emitted = m.emission;
         aov.look_through(scene, &si, guide_step);
         self.shade(c, &si, &m, Branch { sampler, depth: 0, weight: Color::ONE, spread: si.spread }, rec)
     }
