@@ -255,7 +255,7 @@ mod tests {
     #[test]
     fn image_memory_estimates_fit_the_default_budget() {
         let budget = crate::param::limits::DEFAULT_MAX_IMAGE_BYTES;
-        assert_eq!(image_bytes(1, &ImagePlan::COSTLIEST), 216);
+        assert_eq!(image_bytes(1, &ImagePlan::COSTLIEST), 244);
         assert_eq!(image_bytes(1, &ImagePlan::EIGHT_BIT), 108);
         assert!(image_bytes(4096 * 4096, &ImagePlan::COSTLIEST) <= budget);
         assert!(image_bytes(4608 * 4608, &ImagePlan::COSTLIEST) > budget);

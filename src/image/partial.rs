@@ -11,7 +11,7 @@
 //!   `raylab.n_odd` (the luminance and rays of odd-numbered samples), `raylab.n` (rays summed) and
 //!   `raylab.samples` (samples of the share done), and with layers `raylab.depth.{0..3}`,
 //!   `raylab.hits`, `raylab.rays`, `raylab.normal.{X,Y,Z}.{0,1}`, `raylab.albedo.{R,G,B}.{0,1}`
-//!   (`i64`s as two limbs), `raylab.emitted.{R,G,B}.{0..3}` (`i128`s as four).
+//!   and `raylab.emitted.{R,G,B}.{0,1}` (`i64`s as two limbs).
 //!   Files from before the emission layer lack its channels: their emission reads as zero, which
 //!   only leaves it to the denoiser's filter with the rest.
 //! - Header attributes: `raylab.partial` (the format version), `raylab.fingerprint` (scene, files
@@ -33,9 +33,9 @@ use std::result::Result;
 /// The format version written in `raylab.partial`.
 pub const PARTIAL_VERSION: i32 = 2;
 
-/// Most channels a partial image has (colour, layers and their sums: 66); more is refused before
+/// Most channels a partial image has (colour, layers and their sums: 60); more is refused before
 /// decoding, so a file cannot multiply its pixels' memory by claiming thousands of channels.
-const MAX_CHANNELS: usize = 72;
+const MAX_CHANNELS: usize = 64;
 
 /// What a partial file says about itself besides its pixels.
 #[derive(Clone, Debug, PartialEq)]
@@ -128,8 +128,11 @@ pub fn encode_partial(sums: &ShareSums, info: &PartialInfo) -> Result<Vec<u8>, S
                     l.iter().map(|s| limbs(i128::from(s.albedo[c]), 2).nth(k).unwrap_or(0)).collect(),
                 );
             }
-            for k in 0..4 {
-                u32s(format!("raylab.emitted.{}.{k}", COLOR[c]), l.iter().map(|s| limbs(s.emitted[c], 4).nth(k).unwrap_or(0)).collect());
+            for k in 0..2 {
+                u32s(
+                    format!("raylab.emitted.{}.{k}", COLOR[c]),
+                    l.iter().map(|s| limbs(i128::from(s.emitted[c]), 2).nth(k).unwrap_or(0)).collect(),
+                );
             }
         }
     }
@@ -286,7 +289,7 @@ pub fn read_partial(bytes: &[u8], name: &str, max_pixels: u64) -> Result<(ShareS
         let normal: Vec<Vec<i128>> = AXES.iter().map(|a| wide(&format!("raylab.normal.{a}"), 2)).collect::<Result<_, _>>()?;
         let albedo: Vec<Vec<i128>> = COLOR.iter().map(|c| wide(&format!("raylab.albedo.{c}"), 2)).collect::<Result<_, _>>()?;
         let emitted: Vec<Vec<i128>> = if has("raylab.emitted.R.0") {
-            COLOR.iter().map(|c| wide(&format!("raylab.emitted.{c}"), 4)).collect::<Result<_, _>>()?
+            COLOR.iter().map(|c| wide(&format!("raylab.emitted.{c}"), 2)).collect::<Result<_, _>>()?
         } else {
             vec![vec![0; n]; 3]
         };
@@ -298,7 +301,7 @@ pub fn read_partial(bytes: &[u8], name: &str, max_pixels: u64) -> Result<(ShareS
                     rays: rays[p],
                     normal: [normal[0][p] as i64, normal[1][p] as i64, normal[2][p] as i64],
                     albedo: [albedo[0][p] as i64, albedo[1][p] as i64, albedo[2][p] as i64],
-                    emitted: [emitted[0][p], emitted[1][p], emitted[2][p]],
+                    emitted: [emitted[0][p] as i64, emitted[1][p] as i64, emitted[2][p] as i64],
                 })
                 .collect(),
         )

@@ -18,6 +18,10 @@ const COLOR_SCALE: f64 = 18_446_744_073_709_551_616.0;
 const COLOR_UNIT: f64 = 1.0 / COLOR_SCALE;
 /// 2³²: one unit of the depth sums (scene units).
 const DEPTH_SCALE: f64 = 4_294_967_296.0;
+/// 2³²: one unit of the emission sums (radiance): a pixel's sum saturates at 2³¹ ≈ 2.1·10⁹
+/// (radiance × samples), each sample rounded to 2⁻³² (far below an `f32` film's resolution at the
+/// values emitters have).
+const EMITTED_SCALE: f64 = 4_294_967_296.0;
 /// 2⁴⁰: one unit of the normal and albedo sums (each component is within [−1, 1]).
 const UNIT_SCALE: f64 = 1_099_511_627_776.0;
 
@@ -250,8 +254,8 @@ pub struct AovSum {
     pub normal: [i64; 3],
     /// Σ albedo, in units of 2⁻⁴⁰.
     pub albedo: [i64; 3],
-    /// Σ radiance met directly ([`AovSample::emitted`]), in the colour sums' units of 2⁻⁶⁴.
-    pub emitted: [i128; 3],
+    /// Σ radiance met emitted ([`AovSample::emitted`]), in units of 2⁻³² (saturating).
+    pub emitted: [i64; 3],
 }
 
 impl AovSum {
@@ -266,7 +270,8 @@ impl AovSum {
         for k in 0..3 {
             self.normal[k] = self.normal[k].saturating_add(fixed(l.normal[k], UNIT_SCALE) as i64);
             self.albedo[k] = self.albedo[k].saturating_add(fixed(l.albedo[k], UNIT_SCALE) as i64);
-            self.emitted[k] = add_saturating(self.emitted[k], fixed_color(l.emitted[k]));
+            let e = fixed(l.emitted[k], EMITTED_SCALE).clamp(i128::from(i64::MIN), i128::from(i64::MAX)) as i64;
+            self.emitted[k] = self.emitted[k].saturating_add(e);
         }
     }
 
@@ -292,7 +297,7 @@ impl AovSum {
         for k in 0..3 {
             self.normal[k] = self.normal[k].saturating_add(o.normal[k]);
             self.albedo[k] = self.albedo[k].saturating_add(o.albedo[k]);
-            self.emitted[k] = add_saturating(self.emitted[k], o.emitted[k]);
+            self.emitted[k] = self.emitted[k].saturating_add(o.emitted[k]);
         }
     }
 
@@ -302,7 +307,7 @@ impl AovSum {
             return Vec3::ZERO;
         }
         let n = f64::from(self.rays);
-        let v = |k: usize| (float(self.emitted[k]) * COLOR_UNIT / n) as f32;
+        let v = |k: usize| (self.emitted[k] as f64 / EMITTED_SCALE / n) as f32;
         Vec3::new(v(0), v(1), v(2))
     }
 
