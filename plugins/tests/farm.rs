@@ -40,7 +40,7 @@ fn gnu_parallel_renders_tiles_and_passes_that_merge_to_one_render() {
     let dir = temp("parallel");
     let s = scene("quality.toml");
     let bin = env!("CARGO_BIN_EXE_raylab");
-    ok(&raylab(&dir, &[&["render", &s, "-o", "whole.exr", "-q", "--aov", "depth,normal,albedo"][..], &SIZE].concat()));
+    ok(&raylab(&dir, &[&["render", &s, "-o", "whole.exr", "-q", "--aov", "depth,normal,albedo,emission"][..], &SIZE].concat()));
     // 4 tiles × 2 sample passes = 8 processes, two at a time.
     let cmd =
         format!("{bin} render {s} -q --aov depth,normal,albedo {} --tile {{1}}/4 --pass {{2}}/2 -o part-{{1}}-{{2}}.exr", SIZE.join(" "));
