@@ -11,7 +11,7 @@ pub mod triangle_mesh;
 pub mod triangulate;
 
 use raylab::geometry::transform::{Transform, Transformed};
-use raylab::geometry::{Geometry, Hit, Intersectable, Surface, SurfaceDerivatives, SurfacePdf, SurfaceSample, face_forward};
+use raylab::geometry::{Geometry, Hit, Intersectable, PACKET, Surface, SurfaceDerivatives, SurfacePdf, SurfaceSample, face_forward};
 use raylab::glam::{DMat2, DVec2, DVec3};
 use raylab::load::context::MeshFormat;
 use raylab::load::mesh::{MeshFile, MeshRequest};
@@ -324,6 +324,14 @@ impl Intersectable for MeshObject {
     #[inline]
     fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
         self.mesh.occludes(ray, t_min, t_max)
+    }
+    #[inline]
+    fn intersect_packet(&self, rays: &[Ray; PACKET], live: u32, t_min: f64, t_max: &[f64; PACKET], out: &mut [Hit; PACKET]) -> u32 {
+        self.mesh.intersect_packet(rays, live, t_min, t_max, out)
+    }
+    /// Packets walk a hierarchy together; a list of triangles gains nothing from them.
+    fn walks_packets(&self) -> bool {
+        self.mesh.is_bvh()
     }
 }
 
