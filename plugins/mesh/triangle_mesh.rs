@@ -933,9 +933,8 @@ mod tests {
             let hit = mesh.intersect(&ray, 0.0, f64::INFINITY);
             assert_eq!(hit.map(|h| (h.t, h.prim)), expect, "{ray:?}");
             // In a packet of rays converging on the same point (another order of the leaves).
-            let rays: [Ray; PACKET] = std::array::from_fn(|k| {
-                if k == 0 { ray } else { Ray::new(ray.origin + 0.01 * k as f64 * r.vec(), target - ray.origin) }
-            });
+            let rays: [Ray; PACKET] =
+                std::array::from_fn(|k| if k == 0 { ray } else { Ray::new(ray.origin + 0.01 * k as f64 * r.vec(), target - ray.origin) });
             let mut out = [Hit::new(-1.0, DVec3::ZERO, DVec3::ZERO); PACKET];
             let hits = mesh.intersect_packet(&rays, 0xff, 0.0, &[f64::INFINITY; PACKET], &mut out);
             assert_eq!((hits & 1 != 0).then_some(out[0]), hit, "{ray:?} in a packet");
@@ -1006,7 +1005,9 @@ mod tests {
             let mut w = line.split_whitespace();
             match w.next() {
                 Some("v") => data.positions.push([0, 1, 2].map(|_| w.next().unwrap().parse::<f32>().unwrap())),
-                Some("f") => data.triangles.push([0, 1, 2].map(|_| w.next().unwrap().split('/').next().unwrap().parse::<u32>().unwrap() - 1)),
+                Some("f") => {
+                    data.triangles.push([0, 1, 2].map(|_| w.next().unwrap().split('/').next().unwrap().parse::<u32>().unwrap() - 1))
+                }
                 _ => {}
             }
         }
@@ -1037,7 +1038,6 @@ mod tests {
     fn camera_single(mesh: &TriangleMesh, groups: &[[Ray; PACKET]]) -> Vec<[Option<Hit>; PACKET]> {
         groups.iter().map(|g| g.map(|r| mesh.intersect(&r, 0.0, f64::INFINITY))).collect()
     }
-
 
     #[inline(never)]
     fn camera_packet(mesh: &TriangleMesh, groups: &[[Ray; PACKET]]) -> Vec<[Option<Hit>; PACKET]> {

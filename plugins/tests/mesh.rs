@@ -530,11 +530,13 @@ fn packets_of_camera_rays_render_what_single_rays_render() {
                  [[light]]\ntype = \"directional\"\ndirection = [-0.3, -1, -0.5]\ncolor = 1\n\
                  [[light]]\ntype = \"ambient\"\ncolor = 1\nka = 0.1\n";
     std::fs::write(dir.join("packets.toml"), scene).unwrap();
-    let job = load_file(&raylab_plugins::registry(), &dir.join("packets.toml"), &options(AccelChoice::Auto)).unwrap_or_else(|e| panic!("{}", e.report()));
+    let job = load_file(&raylab_plugins::registry(), &dir.join("packets.toml"), &options(AccelChoice::Auto))
+        .unwrap_or_else(|e| panic!("{}", e.report()));
     assert!(job.integrator.takes_camera_hits());
     assert_eq!(job.scene.walks_packets(), raylab::accel::BVH_AVAILABLE, "the render takes packets through the mesh's hierarchy");
     let mut stats = raylab::RayStats::new(job.integrator.counters());
-    let single: Vec<_> = (0..41).flat_map(|y| (0..75).map(move |x| (x, y))).map(|(x, y)| raylab::render::render_pixel(&job, x, y, &mut stats)).collect();
+    let single: Vec<_> =
+        (0..41).flat_map(|y| (0..75).map(move |x| (x, y))).map(|(x, y)| raylab::render::render_pixel(&job, x, y, &mut stats)).collect();
     for threads in [1, 2] {
         let options = raylab::render::RenderOptions { threads: Some(threads), layers: true, ..Default::default() };
         let film = raylab::render::render(&job, &options, &|_, _| {}).unwrap().film;

@@ -21,6 +21,14 @@
 //! outward and padded by [`BOX_PADDING`] of the root's magnitude, and reciprocals of direction
 //! components are finite, so no slab test produces NaN or culls a box the exact ray meets.
 //!
+//! **Packets.** Up to [`PACKET`] rays (camera rays of 8 neighbouring pixels) can walk a hierarchy
+//! together ([`Bvh::traverse_packet`]): one interval slab test per node for all of them (the
+//! bounds of their origins and reciprocals; `f32` subtraction and multiplication round
+//! monotonically, so it enters every child one of the rays' own tests enters), then each ray's
+//! own slab test for each child met, so a ray reaches exactly the leaves its own walk could; a
+//! subtree that one ray alone enters is walked by that ray alone. With the tie rule of
+//! [`super::bvh`] the hits are the single rays'.
+//!
 //! Leaves hold up to [`Shape::leaf_max`] primitives in consecutive *slots*; with
 //! [`Shape::group`] > 1 every leaf starts at a multiple of the group and is padded to it, so a
 //! caller can store its primitives in packs of `group` lanes (a mesh's four-triangle packs).
@@ -714,7 +722,12 @@ impl Bvh {
 
 /// [`walk_packet`] in the copy of [`Bvh::kernel`].
 #[inline(always)]
-fn walk_packet_on<const N: usize>(bvh: &Bvh, p: &PacketRay, hi: &mut [f32; PACKET], leaf: &mut impl FnMut(u32, u32, u32, &mut [f32; PACKET])) {
+fn walk_packet_on<const N: usize>(
+    bvh: &Bvh,
+    p: &PacketRay,
+    hi: &mut [f32; PACKET],
+    leaf: &mut impl FnMut(u32, u32, u32, &mut [f32; PACKET]),
+) {
     #[cfg(target_arch = "x86_64")]
     if bvh.kernel == Kernel::Avx2 {
         // SAFETY: a hierarchy's kernel is `Kernel::Avx2` only when `Kernel::fastest` returned
@@ -738,7 +751,12 @@ fn walk_packet_baseline<const N: usize>(
 /// [`walk_packet`] compiled for AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-fn walk_packet_avx2<const N: usize>(bvh: &Bvh, p: &PacketRay, hi: &mut [f32; PACKET], leaf: &mut impl FnMut(u32, u32, u32, &mut [f32; PACKET])) {
+fn walk_packet_avx2<const N: usize>(
+    bvh: &Bvh,
+    p: &PacketRay,
+    hi: &mut [f32; PACKET],
+    leaf: &mut impl FnMut(u32, u32, u32, &mut [f32; PACKET]),
+) {
     walk_packet::<N, true>(bvh, p, hi, leaf)
 }
 
@@ -751,7 +769,10 @@ fn max_limit(hi: &[f32; PACKET]) -> f32 {
 
 /// A subtree reached by this many of the packet's rays or fewer is walked ray by ray: a node
 /// costs the packet its interval test and a slab test per child it meets, a ray one slab test.
-const PACKET_SPLIT: u32 = 2;
+/// Measured (callgrind, bunny shot at 400×300 and 800×600, the 1.1M-triangle shot at 256² and
+/// 1024²): 1 gives the fewest instructions but on the smallest shot of the largest mesh, where 2
+/// does 1 % better; 3 and 4 do worse on all.
+const PACKET_SPLIT: u32 = 1;
 
 /// [`Bvh::traverse_packet`] with a stack of `N` ≥ `stack_entries(WIDTH, depth)` entries: the walk
 /// of [`walk`] with the packet's interval test at the nodes and, for each child it meets, the
@@ -1455,6 +1476,73 @@ mod tests {
     #[test]
     fn kernels_agree_on_eight_wide_singles() {
         kernels_agree(Shape::SINGLE);
+    }
+
+    /// Eight rays from near one point, spread by up to `spread`, as a packet, or `None` when their
+    /// directions differ in sign on some axis.
+    fn packet(rng: &mut Rng, spread: f64) -> Option<([NodeRay; PACKET], PacketRay)> {
+        let o = DVec3::new(rng.next(), rng.next(), rng.next()) * 1.4 - 0.2;
+        let d = DVec3::new(rng.next() - 0.5, rng.next() - 0.5, rng.next() - 0.5);
+        let rays: [NodeRay; PACKET] = std::array::from_fn(|_| {
+            let jitter = DVec3::new(rng.next() - 0.5, rng.next() - 0.5, rng.next() - 0.5) * spread;
+            NodeRay::new(o + jitter * 0.1, (d + jitter).normalize())
+        });
+        let p = PacketRay::new(&rays.map(Some), 0xff)?;
+        Some((rays, p))
+    }
+
+    /// A packet hands each ray exactly the leaves that ray's own walk reaches (here with no hit
+    /// to shorten either), and the AVX2 and baseline copies of the packet walk hand the same
+    /// leaves to the same rays in the same order with the same limits.
+    #[test]
+    fn packets_reach_the_leaves_of_their_rays_and_kernels_agree() {
+        let mut rng = Rng(0x2545_f491_4f6c_dd1d);
+        let bx = boxes(20_000, &mut rng);
+        let total = bx.iter().fold(Aabb::EMPTY, |a, b| a.union(*b));
+        let (mut bvh, _) = Bvh::build(bx.len(), total, |i| bx[i], Shape::PACK4);
+        let (mut packets, mut split) = (0, 0);
+        for i in 0..3000 {
+            let spread = [1e-3, 1e-2, 0.1, 1.0][i % 4];
+            let Some((rays, p)) = packet(&mut rng, spread) else { continue };
+            packets += 1;
+            let mut walks = Vec::new();
+            for kernel in [Kernel::Baseline, Kernel::fastest()] {
+                bvh.kernel = kernel;
+                // Every leaf, no limit lowered: each ray's leaves are those of its any-hit walk.
+                let mut got: Vec<Vec<(u32, u32)>> = vec![Vec::new(); PACKET];
+                let mut hi = [f32::INFINITY; PACKET];
+                bvh.traverse_packet(&p, &mut hi, &mut |first, count, rays, _: &mut [f32; PACKET]| {
+                    for (k, g) in got.iter_mut().enumerate().filter(|(k, _)| rays >> k & 1 != 0) {
+                        g.push((first, count));
+                    }
+                });
+                for (k, r) in rays.iter().enumerate() {
+                    let mut own = Vec::new();
+                    bvh.traverse_any(r, f32::INFINITY, &mut |first, count| {
+                        own.push((first, count));
+                        false
+                    });
+                    let mut mine = got[k].clone();
+                    own.sort_unstable();
+                    mine.sort_unstable();
+                    assert_eq!(mine, own, "packet {i}, ray {k}");
+                }
+                // With pseudo hits lowering the limits: the order and limits of the calls.
+                let mut calls = Vec::new();
+                let mut hi = [f32::INFINITY; PACKET];
+                bvh.traverse_packet(&p, &mut hi, &mut |first, count, rays, hi: &mut [f32; PACKET]| {
+                    calls.push((first, count, rays, hi.map(f32::to_bits)));
+                    let t = ((first.wrapping_mul(2_654_435_761) >> 8) % 1000) as f32 / 500.0;
+                    for (k, h) in hi.iter_mut().enumerate().filter(|(k, _)| rays >> k & 1 != 0) {
+                        *h = h.min(t + k as f32 * 0.01);
+                    }
+                });
+                split += usize::from(calls.iter().any(|c| c.2.count_ones() == 1));
+                walks.push(calls);
+            }
+            assert_eq!(walks[0], walks[1], "packet {i}: the kernels' walks differ");
+        }
+        assert!(packets > 1000 && split > 100, "{packets} packets, {split} with rays walked alone");
     }
 
     /// Both copies of the any-hit walk visit every leaf whose box the exact (`f64`) ray meets.

@@ -31,12 +31,12 @@ pub mod trace;
 
 pub use job::{ADAPTIVE_TILE_SIZE, AdaptiveSettings, Antialiasing, MAX_ADAPTIVE_DEPTH, RenderJob, RenderSettings, TILE_SIZE};
 
+use crate::geometry::{Intersectable, PACKET};
+use crate::math::ray::Ray;
 use crate::render::accum::{AovSum, PixelSum};
 use crate::render::adaptive::Adaptive;
 use crate::render::aov::AovLayers;
 use crate::render::film::Film;
-use crate::geometry::{Intersectable, PACKET};
-use crate::math::ray::Ray;
 use crate::render::sample::{
     ImageSetup, SampleId, camera_rays, image_setup, pixel_setup, single_camera_ray, trace_pixel_sample, trace_sample, trace_sample_from,
 };
