@@ -50,6 +50,11 @@ pub struct Emitters {
     power: Vec<f64>,
     /// The emitter index of each object ([`NOT_AN_EMITTER`]: none).
     of_object: Vec<u32>,
+    /// Each emitter's emission where it is one constant over its surface (every material
+    /// untextured, without a model of its own, of the same `emission`): a sample's radiance is
+    /// then this or zero, by side, without building the hit's [`Interaction`]. `None`: asked
+    /// at the point ([`Interaction::emission`]).
+    constant: Vec<Option<Color>>,
     /// The emitters by power; `None` when there is none.
     table: Option<AliasTable>,
 }
@@ -76,12 +81,20 @@ impl Emitters {
         let mut e = Emitters { of_object: vec![NOT_AN_EMITTER; objects.len()], ..Emitters::default() };
         for (i, o) in objects.iter().enumerate() {
             let brightest = o.materials().iter().map(|m| luminance(m.emission.max(Color::ZERO))).fold(0.0, f64::max);
+            let sides = f64::from(o.emission_sides().count());
+            // An object that emits nothing is not asked its area: a mesh builds a table of its
+            // triangles' areas to answer (tens of MB for a million triangles), which only an
+            // emitter needs.
+            if !(brightest * sides > 0.0) {
+                continue;
+            }
             let Some(area) = o.geometry().area() else { continue };
-            let power = PI * brightest * area * f64::from(o.emission_sides().count());
+            let power = PI * brightest * area * sides;
             if power > 0.0 && power.is_finite() && e.objects.len() < NOT_AN_EMITTER as usize {
                 e.of_object[i] = e.objects.len() as u32;
                 e.objects.push(i as u32);
                 e.power.push(power);
+                e.constant.push(constant_emission(o));
             }
         }
         e.table = AliasTable::new(&e.power);
@@ -142,8 +155,16 @@ impl Emitters {
         let dir = to / distance;
         let pdf = pmf * s.pdf.solid_angle(reference, s.hit.point, s.normal);
         let hit = Hit { t: distance, object, ..s.hit };
-        // The emission as a ray from the reference would see it there (side, textures).
-        let radiance = Interaction::new(&Ray { origin: reference, dir }, hit, o).emission();
+        // The emission as a ray from the reference would see it there (side, textures): one
+        // constant by the side the ray arrives at (the outward normal's, as `Geometry::surface`
+        // decides it), or asked of the hit.
+        let radiance = match self.constant[e] {
+            Some(emission) => {
+                let front_face = s.normal.dot(dir) < 0.0;
+                if o.emission_sides().emits(front_face) { emission } else { Color::ZERO }
+            }
+            None => Interaction::new(&Ray { origin: reference, dir }, hit, o).emission(),
+        };
         Some(EmitterSample { object, hit, dir, radiance, pdf })
     }
 
@@ -158,5 +179,59 @@ impl Emitters {
         let g = si.object.geometry();
         let pdf: SurfacePdf = g.surface_pdf(reference, &si.hit);
         pmf * pdf.solid_angle(reference, si.hit.point, g.outward_normal(&si.hit))
+    }
+}
+
+/// The emission of every point of `o`, when it is one constant ([`Emitters::constant`]).
+fn constant_emission(o: &Object) -> Option<Color> {
+    let first = o.materials().first()?.emission;
+    let plain =
+        |m: &crate::scene::material::Material| m.model.is_none() && !m.is_textured() && m.normal_map.is_none() && m.emission == first;
+    o.materials().iter().all(plain).then_some(first)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{Geometry, Intersectable};
+    use crate::math::bounds::Aabb;
+    use crate::scene::material::Material;
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    /// A unit square that counts how often it is asked its area.
+    struct Counted(Arc<AtomicUsize>);
+    impl Intersectable for Counted {
+        fn intersect(&self, _: &Ray, _: f64, _: f64) -> Option<Hit> {
+            None
+        }
+    }
+    impl Geometry for Counted {
+        fn outward_normal(&self, _: &Hit) -> DVec3 {
+            DVec3::Z
+        }
+        fn bounds(&self) -> Option<Aabb> {
+            Some(Aabb::new(DVec3::ZERO, DVec3::new(1.0, 1.0, 0.0)))
+        }
+        fn area(&self) -> Option<f64> {
+            self.0.fetch_add(1, Ordering::Relaxed);
+            Some(1.0)
+        }
+    }
+
+    /// A mesh answers `area` by building a table over its triangles (tens of MB for a million
+    /// of them: the 1.1M-triangle OBJ's peak memory grew by a third when every object was asked):
+    /// only an object that emits is asked.
+    #[test]
+    fn only_emitting_objects_are_asked_their_area() {
+        let (dark, bright) = (Arc::new(AtomicUsize::new(0)), Arc::new(AtomicUsize::new(0)));
+        let lamp = Material { emission: Color::new(1.0, 1.0, 1.0), ..Material::default() };
+        let objects = [
+            Object::with_material("dark", Box::new(Counted(dark.clone())), Material::default()),
+            Object::with_material("lamp", Box::new(Counted(bright.clone())), lamp),
+        ];
+        let e = Emitters::new(&objects);
+        assert_eq!(e.iter().map(|(o, _)| o).collect::<Vec<_>>(), [1]);
+        assert_eq!((dark.load(Ordering::Relaxed), bright.load(Ordering::Relaxed)), (0, 1));
     }
 }
