@@ -1512,7 +1512,7 @@ mod tests {
                 let mut got: Vec<Vec<(u32, u32)>> = vec![Vec::new(); PACKET];
                 let mut hi = [f32::INFINITY; PACKET];
                 bvh.traverse_packet(&p, &mut hi, &mut |first, count, rays, _: &mut [f32; PACKET]| {
-                    for (k, g) in got.iter_mut().enumerate().filter(|(k, _)| rays >> k & 1 != 0) {
+                    for (_, g) in got.iter_mut().enumerate().filter(|(k, _)| rays >> k & 1 != 0) {
                         g.push((first, count));
                     }
                 });
