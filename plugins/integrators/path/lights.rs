@@ -188,7 +188,10 @@ impl PathTracer {
         let mis = power_heuristic(f64::from(n) * p, q);
         c.stats.add(counter::SHADOW_RAYS, 1);
         let (ray, t_max) = si.spawn_shadow_ray(es.dir, es.hit.t);
-        let visible = !scene.occludes(&ray, 0.0, t_max);
+        // An emitter that cannot hide its point (convex, facing here) is not asked.
+        let blocked =
+            if es.clear_of_itself { scene.occludes_except(&ray, 0.0, t_max, es.object) } else { scene.occludes(&ray, 0.0, t_max) };
+        let visible = !blocked;
         let contribution = if visible { f * cos * es.radiance * (mis / p) } else { Color::ZERO };
         rec.light(|| {
             let occluder = if visible { None } else { scene.intersect(&ray, 0.0, t_max).map(|h| h.object) };
