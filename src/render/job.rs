@@ -204,7 +204,7 @@ impl RenderSettings {
                 let spp = match self.target {
                     None if self.time_budget.is_some() => format!("≤ {} spp", self.spp),
                     None => format!("{} spp", self.spp),
-                    Some(t) => format!("to error {} ({}..{} spp)", t.error, t.min_spp.min(self.spp), self.spp),
+                    Some(t) => format!("to error {} ({}..{} spp)", t.error, t.floor_spp().min(self.spp), self.spp),
                 };
                 match self.time_budget {
                     Some(b) => format!("{spp} within {} s", b.as_secs_f64()),
