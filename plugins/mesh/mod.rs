@@ -382,10 +382,9 @@ impl Geometry for MeshObject {
     }
     /// Uniform by area: a triangle chosen by its area, then a point of it.
     fn sample_surface(&self, reference: DVec3, u: DVec2) -> Option<SurfaceSample> {
-        let (slot, point, error, b) = self.mesh.sample_point(u)?;
-        let normal = self.mesh.geometric_normal(slot);
-        let mut s = SurfaceSample::new(reference, point, error, normal, SurfacePdf::Area(1.0 / self.mesh.area()));
-        (s.hit.prim, s.hit.uv) = (slot, b);
+        let m = self.mesh.sample_point(u)?;
+        let mut s = SurfaceSample::new(reference, m.point, m.error, m.normal, SurfacePdf::Area(1.0 / m.area));
+        (s.hit.prim, s.hit.uv) = (m.slot, m.b);
         Some(s)
     }
     fn surface_pdf(&self, _: DVec3, _: &Hit) -> SurfacePdf {

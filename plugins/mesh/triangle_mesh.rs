@@ -688,15 +688,16 @@ impl TriangleMesh {
     }
 
     /// A point uniform by area on the mesh for `u` uniform in `[0, 1)²`: a triangle chosen by its
-    /// area (`u.x`, reused within it), then a point of it. Its slot, point, rounding-error bound
-    /// and barycentric coordinates `(b1, b2)` (as [`TriangleMesh::intersect`] reports them).
-    pub fn sample_point(&self, u: DVec2) -> Option<(u32, DVec3, DVec3, DVec2)> {
-        let (table, _) = self.by_area()?;
+    /// area (`u.x`, reused within it), then a point of it.
+    pub fn sample_point(&self, u: DVec2) -> Option<MeshPoint> {
+        let &(ref table, area) = self.by_area()?;
         let (slot, _, rest) = table.sample(u.x);
         let b = uniform_triangle(DVec2::new(rest, u.y));
         let [p0, p1, p2] = self.vertices(slot as u32).map(DVec3::from);
         let (point, error) = barycentric_point(DVec3::new(1.0 - b.x - b.y, b.x, b.y), p0, p1, p2);
-        Some((slot as u32, point, error, b))
+        // `geometric_normal`, from the vertices read here.
+        let normal = (p1 - p0).cross(p2 - p0).normalize();
+        Some(MeshPoint { slot: slot as u32, point, error, b, normal, area })
     }
 
     /// Whether the triangles lie on the boundary of one convex body with their windings' normals
@@ -728,6 +729,23 @@ impl TriangleMesh {
             .filter(|t| !t[0][0].is_nan())
             .map(|[a, b, c]| [a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2]])
     }
+}
+
+/// A point chosen on a mesh ([`TriangleMesh::sample_point`]).
+#[derive(Clone, Copy, Debug)]
+pub struct MeshPoint {
+    /// The triangle's slot.
+    pub slot: u32,
+    /// The point.
+    pub point: DVec3,
+    /// Its rounding-error bound.
+    pub error: DVec3,
+    /// Its barycentric coordinates `(b1, b2)`, as [`TriangleMesh::intersect`] reports them.
+    pub b: DVec2,
+    /// The triangle's [`TriangleMesh::geometric_normal`].
+    pub normal: DVec3,
+    /// The mesh's [`TriangleMesh::area`].
+    pub area: f64,
 }
 
 /// Most triangles [`TriangleMesh::is_convex`] checks against every vertex (beyond: not convex,
