@@ -48,7 +48,33 @@ pub trait Intersectable: Send + Sync {
     fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
         self.intersect(ray, t_min, t_max).is_some()
     }
+
+    /// The closest hits of the rays `rays[k]` of mask `live`, ray `k` in `(t_min, t_max[k])`:
+    /// where `intersect(&rays[k], t_min, t_max[k])` returns a hit, sets `out[k]` to it, exactly;
+    /// leaves the other lanes alone, and returns the mask of the lanes set. A shape that walks a
+    /// packet of coherent rays (camera rays of a pixel block) together overrides it, and
+    /// [`Intersectable::walks_packets`]; the default asks ray by ray.
+    #[inline]
+    fn intersect_packet(&self, rays: &[Ray; PACKET], live: u32, t_min: f64, t_max: &[f64; PACKET], out: &mut [Hit; PACKET]) -> u32 {
+        let mut hits = 0;
+        for (k, ray) in rays.iter().enumerate().filter(|(k, _)| live >> k & 1 != 0) {
+            if let Some(h) = self.intersect(ray, t_min, t_max[k]) {
+                out[k] = h;
+                hits |= 1 << k;
+            }
+        }
+        hits
+    }
+
+    /// Whether [`Intersectable::intersect_packet`] does less work than one ray at a time (a
+    /// render loop then gathers camera rays into packets).
+    fn walks_packets(&self) -> bool {
+        false
+    }
 }
+
+/// Rays of a packet ([`Intersectable::intersect_packet`]): one per lane of an 8-wide node.
+pub const PACKET: usize = 8;
 
 /// A surface: what scene objects are made of. Pure geometry; the loader attaches materials
 /// (and transforms) to make a scene object.
@@ -154,6 +180,16 @@ pub trait Geometry: Intersectable {
         let _ = (reference, at);
         SurfacePdf::Area(0.0)
     }
+
+    /// True when the surface lies on the boundary of one convex body, with that body's outward
+    /// normals (a convex solid, a flat shape, a patch of either such as a bowl): a segment to one
+    /// of its points from a point that point's outward side faces stays on that side of the
+    /// point's tangent plane, so it meets the surface nowhere else, and a shadow ray toward a
+    /// sampled point of an emitter need not test the emitter itself. False, the default, where
+    /// the shape does not know (its shadow rays test it, as every other shape).
+    fn is_convex(&self) -> bool {
+        false
+    }
 }
 
 /// `n` flipped, if needed, to face against `dir` (`result · dir ≤ 0`).
@@ -172,6 +208,20 @@ macro_rules! forward_impls {
             #[inline]
             fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
                 (**self).occludes(ray, t_min, t_max)
+            }
+            #[inline]
+            fn intersect_packet(
+                &self,
+                rays: &[Ray; PACKET],
+                live: u32,
+                t_min: f64,
+                t_max: &[f64; PACKET],
+                out: &mut [Hit; PACKET],
+            ) -> u32 {
+                (**self).intersect_packet(rays, live, t_min, t_max, out)
+            }
+            fn walks_packets(&self) -> bool {
+                (**self).walks_packets()
             }
         }
         impl<T: Geometry + ?Sized> Geometry for $ptr<T> {
@@ -215,6 +265,9 @@ macro_rules! forward_impls {
             }
             fn surface_pdf(&self, reference: DVec3, at: &Hit) -> SurfacePdf {
                 (**self).surface_pdf(reference, at)
+            }
+            fn is_convex(&self) -> bool {
+                (**self).is_convex()
             }
         }
     )*};

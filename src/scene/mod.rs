@@ -12,7 +12,7 @@ pub mod texture;
 
 use crate::accel::{AccelChoice, BuildStats, ObjectAccel};
 use crate::geometry::differential::{CameraSpread, RaySpread};
-use crate::geometry::{Hit, Intersectable};
+use crate::geometry::{Hit, Intersectable, PACKET};
 use crate::math::bounds::Aabb;
 use crate::math::color::Color;
 use crate::math::float::offset_ray_origin;
@@ -290,6 +290,14 @@ impl Scene {
         self.walk(&self.transmissive, ray, t_max).0
     }
 
+    /// Whether anything but object `skip` is hit along `ray` with `t_min < t < t_max`
+    /// ([`Intersectable::occludes`] without that object): a shadow ray toward a point of an
+    /// emitter that cannot hide it ([`crate::scene::emitters::EmitterSample::clear_of_itself`]).
+    #[inline]
+    pub fn occludes_except(&self, ray: &Ray, t_min: f64, t_max: f64, skip: u32) -> bool {
+        self.accel.over(&self.objects).occludes_except(ray, t_min, t_max, skip)
+    }
+
     /// Like [`Scene::transmittance`], also naming the first surface crossed (for explanations).
     pub fn transmittance_and_occluder(&self, ray: &Ray, t_max: f64) -> (Color, Option<u32>) {
         self.walk(&self.accel, ray, t_max)
@@ -337,5 +345,12 @@ impl Intersectable for Scene {
     #[inline]
     fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
         self.accel.over(&self.objects).occludes(ray, t_min, t_max)
+    }
+    #[inline]
+    fn intersect_packet(&self, rays: &[Ray; PACKET], live: u32, t_min: f64, t_max: &[f64; PACKET], out: &mut [Hit; PACKET]) -> u32 {
+        self.accel.over(&self.objects).intersect_packet(rays, live, t_min, t_max, out)
+    }
+    fn walks_packets(&self) -> bool {
+        self.accel.over(&self.objects).walks_packets()
     }
 }
