@@ -325,6 +325,11 @@ impl Intersectable for MeshObject {
     fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
         self.mesh.occludes(ray, t_min, t_max)
     }
+    /// Triangles are flat: the one the ray leaves is not tested.
+    #[inline]
+    fn occludes_leaving(&self, ray: &Ray, t_min: f64, t_max: f64, prim: u32) -> bool {
+        self.mesh.occludes_leaving(ray, t_min, t_max, prim)
+    }
 }
 
 impl Geometry for MeshObject {

@@ -166,4 +166,8 @@ impl Intersectable for Object {
     fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
         self.geometry.occludes(ray, t_min, t_max)
     }
+    #[inline]
+    fn occludes_leaving(&self, ray: &Ray, t_min: f64, t_max: f64, prim: u32) -> bool {
+        self.geometry.occludes_leaving(ray, t_min, t_max, prim)
+    }
 }
