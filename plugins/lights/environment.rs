@@ -35,7 +35,7 @@
 //! grid charged to the memory budget). PNG and JPEG are taken as sRGB, EXR and `.hdr` as
 //! linear.
 
-use crate::textures::image::{ColorSpace, Filter, Image, Wrap};
+use crate::textures::image::{ColorSpace, Image};
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::color::luminance;
 use raylab::math::distribution::Piecewise2d;
@@ -113,8 +113,9 @@ pub fn build(p: &mut Params, ctx: &LoadContext) -> Result<Box<dyn LightSource>> 
     let image = crate::textures::image::load(ctx, &file, &loc, ColorSpace::Auto).map_err(|e| e.context(p.what()))?;
     let (w, h) = image.size();
     let (gw, gh) = grid_size(w, h, resolution);
-    // The sampling grid: each cell a weight and its cumulative sums (two f64), per row and once more.
-    let grid_bytes = (gw as u64 * gh as u64 + gh as u64) * 2 * std::mem::size_of::<f64>() as u64;
+    // The sampling grid: each cell a weight, its cumulative sum and its density (three f64) and a
+    // guide entry (a u32), per row and once more for the rows.
+    let grid_bytes = (gw as u64 * gh as u64 + gh as u64) * (3 * std::mem::size_of::<f64>() + std::mem::size_of::<u32>()) as u64;
     ctx.charge(grid_bytes, &format!("the sampling grid of the environment \"{file}\" ({gw}×{gh})"), Some(&loc))
         .map_err(|e: SceneError| e.context(p.what()))?;
     Ok(Box::new(Environment::image(image, radiance, rotation, samples, resolution)))
@@ -261,8 +262,9 @@ impl Environment {
     /// The image's radiance at image coordinates `uv` (as [`Environment::to_uv`]).
     #[inline]
     fn radiance_at(&self, image: &Image, uv: DVec2) -> Color {
-        // The texture lookup's v points up (row 0 at v = 1).
-        image.lookup_inlined(DVec2::new(uv.x, 1.0 - uv.y), [Wrap::Repeat, Wrap::Clamp], Filter::Bilinear) * self.radiance
+        // The texture lookup's v points up (row 0 at v = 1); wrapped across the sides, held at
+        // the top and bottom rows, bilinear.
+        image.bilinear_repeat_clamp(DVec2::new(uv.x, 1.0 - uv.y)) * self.radiance
     }
 
     /// The density (per steradian) with which [`LightSource::illuminate`] picks direction `dir`.

@@ -549,6 +549,15 @@ impl Bsdf for PbrBsdf {
         self.pdf_local(self.local(wi))
     }
 
+    /// Both of the above from one turn into the local frame.
+    fn eval_pdf(&self, wi: DVec3) -> (Color, f64) {
+        if !self.above(wi) {
+            return (Color::ZERO, 0.0);
+        }
+        let local = self.local(wi);
+        (self.brdf(local), self.pdf_local(local))
+    }
+
     fn sample(&self, pick: f64, u: DVec2, _fresnel: f64) -> Option<Scatter> {
         let [pd, ps, pt] = self.choice;
         if pd + ps + pt <= 0.0 {

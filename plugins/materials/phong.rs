@@ -278,6 +278,37 @@ impl Bsdf for PhongBsdf {
         pdf
     }
 
+    /// Both of the above, their shared terms once (the cosines to the normals and the Phong
+    /// axis, each lobe's `powf`), every value computed as they compute it.
+    fn eval_pdf(&self, wi: DVec3) -> (Color, f64) {
+        let cos = self.ns.dot(wi);
+        let c = wi.dot(self.axis);
+        let above = self.n.dot(wi) > 0.0 && cos > 0.0;
+        // (lobe_brdf(c, n), lobe_pdf(c, n)) from one power.
+        let lobe = |n: f64| {
+            if c > 0.0 {
+                let power = c.powf(n);
+                ((n + 2.0) / TAU * power, (n + 1.0) / TAU * power)
+            } else {
+                (0.0, 0.0)
+            }
+        };
+        let diffuse = if cos > 0.0 { cos * FRAC_1_PI } else { 0.0 };
+        let mut f = self.kd * FRAC_1_PI;
+        let mut pdf = self.choice[0] * diffuse;
+        if self.choice[1] > 0.0 {
+            let (brdf, density) = lobe(self.shininess);
+            f += self.ks * brdf;
+            pdf += self.choice[1] * density;
+        }
+        if self.choice[2] > 0.0 {
+            let (brdf, density) = lobe(self.blur_lobe);
+            f += self.glossy * brdf;
+            pdf += self.choice[2] * density;
+        }
+        (if above { f } else { Color::ZERO }, pdf)
+    }
+
     /// A new direction: a lobe chosen by `pick` ∈ [0, 1) in proportion to the weights, a
     /// direction from `u` ∈ [0, 1)², and (dielectrics) reflection or transmission by `fresnel` ∈
     /// [0, 1). `None` when the surface is black or the direction carries nothing (it points into
@@ -310,8 +341,7 @@ impl Bsdf for PhongBsdf {
             // (Not among `LOBES`.)
             Lobe::Dielectric | Lobe::Transmission => return Some(self.sample_dielectric(u, fresnel)),
         };
-        let f = self.eval(dir);
-        let pdf = self.pdf(dir);
+        let (f, pdf) = self.eval_pdf(dir);
         if max_channel(f) <= 0.0 || !(pdf > 0.0) {
             return None;
         }

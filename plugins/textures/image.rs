@@ -312,6 +312,38 @@ impl Image {
         }
     }
 
+    /// [`Image::lookup_inlined`] for `[Wrap::Repeat, Wrap::Clamp]` and [`Filter::Bilinear`] (an
+    /// environment's lookups: one or two at every path vertex), to the bit: within the image
+    /// (every coordinate an environment asks for) the four texels' columns and rows come from
+    /// comparisons, not a remainder and a clamp each, and the floors from one truncation each.
+    #[inline(always)]
+    pub fn bilinear_repeat_clamp(&self, uv: DVec2) -> Color {
+        let (w, h) = (self.width as f64, self.height as f64);
+        let x = uv.x * w - 0.5;
+        let y = (1.0 - uv.y) * h - 0.5;
+        // Outside (NaN included): the general lookup.
+        if !(x >= -1.0 && x < w && y >= -1.0 && y < h) {
+            return self.lookup_inlined(uv, [Wrap::Repeat, Wrap::Clamp], Filter::Bilinear);
+        }
+        // floor(x) ∈ [−1, w − 1]: the truncation, less one where it rounded up (below zero).
+        let floor_of = |x: f64| {
+            let t = x as i64;
+            if t as f64 > x { t - 1 } else { t }
+        };
+        let (x0, y0) = (floor_of(x), floor_of(y));
+        let (fx, fy) = ((x - x0 as f64) as f32, (y - y0 as f64) as f32);
+        // Columns wrap (−1 is the last, w the first), rows are held at the first and last.
+        let (width, height) = (self.width as i64, self.height as i64);
+        let c0 = if x0 < 0 { width - 1 } else { x0 } as usize;
+        let c1 = if x0 + 1 >= width { 0 } else { x0 + 1 } as usize;
+        let r0 = y0.max(0) as usize;
+        let r1 = (y0 + 1).min(height - 1) as usize;
+        let [t00, t10, t01, t11] = self.texels([(c0, r0), (c1, r0), (c0, r1), (c1, r1)]);
+        let top = t00.lerp(t10, fx);
+        let bottom = t01.lerp(t11, fx);
+        top.lerp(bottom, fy).as_dvec3()
+    }
+
     /// The linear values of texels `at` (each (`x`, `y`) as [`Image::texel`]'s), the storage
     /// matched once for all of them.
     #[inline(always)]
@@ -581,6 +613,34 @@ fn exr_block_buffers(_: &[u8]) -> u64 {
 mod tests {
     use super::*;
     use raylab::LoadOptions;
+
+    #[test]
+    fn the_environments_bilinear_lookup_is_the_general_one_to_the_bit() {
+        // Both storages, sizes down to one texel, coordinates within, at and beyond the edges.
+        let mut z = 0x2545_f491_u64;
+        let mut next = move || {
+            z = z.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (z >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for (w, h) in [(1, 1), (2, 1), (1, 3), (7, 4), (16, 8)] {
+            let floats: Vec<f32> = (0..w * h * 3).map(|_| (next() * 4.0) as f32).collect();
+            let bytes: Vec<u8> = (0..w * h * 3).map(|_| (next() * 255.0) as u8).collect();
+            let linear: [f32; 256] = std::array::from_fn(|i| (i as f32 / 255.0).powf(2.2));
+            for image in [Image::new(w, h, Texels::Float(floats)), Image::new(w, h, Texels::Eight { rgb: bytes, linear: Box::new(linear) })]
+            {
+                let mut uvs: Vec<DVec2> = (0..4000).map(|_| DVec2::new(next() * 1.4 - 0.2, next() * 1.4 - 0.2)).collect();
+                for k in 0..=2 * w.max(h) {
+                    let e = k as f64 / (2 * w.max(h)) as f64;
+                    uvs.extend([DVec2::new(e, 0.5), DVec2::new(0.5, e), DVec2::new(e, e), DVec2::new(1.0 - e, e)]);
+                }
+                uvs.extend([DVec2::new(f64::NAN, 0.5), DVec2::new(0.5, f64::INFINITY), DVec2::new(-1e300, 1e300), DVec2::ZERO, DVec2::ONE]);
+                for uv in uvs {
+                    let (a, b) = (image.bilinear_repeat_clamp(uv), image.lookup(uv, [Wrap::Repeat, Wrap::Clamp], Filter::Bilinear));
+                    assert!(a.to_array().map(f64::to_bits) == b.to_array().map(f64::to_bits), "{w}×{h} at {uv}: {a} vs {b}");
+                }
+            }
+        }
+    }
 
     #[test]
     fn floor_is_the_library_floor_to_the_bit() {

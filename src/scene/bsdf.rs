@@ -79,6 +79,15 @@ pub trait Bsdf {
     /// out: what multiple importance sampling weighs light samples against.
     fn pdf(&self, wi: DVec3) -> f64;
 
+    /// [`Bsdf::eval`] and [`Bsdf::pdf`] toward `wi` in one call, each exactly as it would answer
+    /// alone: what an integrator asks of a light sample, and a BSDF of its own sampled
+    /// direction. A model whose two share work (the direction's cosines, a lobe's power)
+    /// should answer both here; the default asks each.
+    #[inline]
+    fn eval_pdf(&self, wi: DVec3) -> (Color, f64) {
+        (self.eval(wi), self.pdf(wi))
+    }
+
     /// A new direction: a lobe chosen by `pick` ∈ [0, 1), a direction from `u` ∈ [0, 1)², and
     /// (dielectrics) reflection or transmission by `fresnel` ∈ [0, 1). `None` when the surface is
     /// black or the sampled direction carries nothing.

@@ -50,6 +50,11 @@ pub struct Emitters {
     power: Vec<f64>,
     /// The emitter index of each object ([`NOT_AN_EMITTER`]: none).
     of_object: Vec<u32>,
+    /// Each emitter's emission where it is one constant over its surface (every material
+    /// untextured, without a model of its own, of the same `emission`): a sample's radiance is
+    /// then this or zero, by side, without building the hit's [`Interaction`]. `None`: asked
+    /// at the point ([`Interaction::emission`]).
+    constant: Vec<Option<Color>>,
     /// The emitters by power; `None` when there is none.
     table: Option<AliasTable>,
 }
@@ -89,6 +94,7 @@ impl Emitters {
                 e.of_object[i] = e.objects.len() as u32;
                 e.objects.push(i as u32);
                 e.power.push(power);
+                e.constant.push(constant_emission(o));
             }
         }
         e.table = AliasTable::new(&e.power);
@@ -149,8 +155,16 @@ impl Emitters {
         let dir = to / distance;
         let pdf = pmf * s.pdf.solid_angle(reference, s.hit.point, s.normal);
         let hit = Hit { t: distance, object, ..s.hit };
-        // The emission as a ray from the reference would see it there (side, textures).
-        let radiance = Interaction::new(&Ray { origin: reference, dir }, hit, o).emission();
+        // The emission as a ray from the reference would see it there (side, textures): one
+        // constant by the side the ray arrives at (the outward normal's, as `Geometry::surface`
+        // decides it), or asked of the hit.
+        let radiance = match self.constant[e] {
+            Some(emission) => {
+                let front_face = s.normal.dot(dir) < 0.0;
+                if o.emission_sides().emits(front_face) { emission } else { Color::ZERO }
+            }
+            None => Interaction::new(&Ray { origin: reference, dir }, hit, o).emission(),
+        };
         Some(EmitterSample { object, hit, dir, radiance, pdf })
     }
 
@@ -166,6 +180,14 @@ impl Emitters {
         let pdf: SurfacePdf = g.surface_pdf(reference, &si.hit);
         pmf * pdf.solid_angle(reference, si.hit.point, g.outward_normal(&si.hit))
     }
+}
+
+/// The emission of every point of `o`, when it is one constant ([`Emitters::constant`]).
+fn constant_emission(o: &Object) -> Option<Color> {
+    let first = o.materials().first()?.emission;
+    let plain =
+        |m: &crate::scene::material::Material| m.model.is_none() && !m.is_textured() && m.normal_map.is_none() && m.emission == first;
+    o.materials().iter().all(plain).then_some(first)
 }
 
 #[cfg(test)]

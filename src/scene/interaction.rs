@@ -186,7 +186,7 @@ impl<'s> Interaction<'s> {
     /// ([`crate::scene::object::EmissionSides`]).
     #[inline]
     pub fn emission(&self) -> Color {
-        if !self.object.emission_sides().emits(self.front_face) {
+        if self.object.is_dark() || !self.object.emission_sides().emits(self.front_face) {
             return Color::ZERO;
         }
         self.model().and_then(|m| m.emission(self)).unwrap_or_else(|| self.coefficients().emission)

@@ -1,6 +1,7 @@
 //! [`Object`]: a shape placed in a scene with its materials, as the loader assembles it.
 
 use crate::geometry::{Geometry, Hit, Intersectable};
+use crate::math::color::Color;
 use crate::math::ray::Ray;
 use crate::scene::material::{Coefficients, CoefficientsAt, Material};
 use crate::scene::texture::TexturePoint;
@@ -65,6 +66,8 @@ pub struct Object {
     sides: EmissionSides,
     /// Whether some material has a normal or bump map (hits then tilt the shading normal).
     normal_mapped: bool,
+    /// No material can emit: each has no model of its own, no texture and zero `emission`.
+    dark: bool,
 }
 
 impl Object {
@@ -79,7 +82,8 @@ impl Object {
         }
         let constants = materials.iter().map(Material::constants).collect();
         let normal_mapped = materials.iter().any(|m| m.normal_map.is_some());
-        Object { name: name.into(), geometry, materials, constants, transmissive, closed, sides: EmissionSides::Both, normal_mapped }
+        let dark = materials.iter().all(|m| m.model.is_none() && !m.is_textured() && m.emission == Color::ZERO);
+        Object { name: name.into(), geometry, materials, constants, transmissive, closed, sides: EmissionSides::Both, normal_mapped, dark }
     }
 
     /// `geometry` with one material.
@@ -121,6 +125,14 @@ impl Object {
     #[inline]
     pub fn is_normal_mapped(&self) -> bool {
         self.normal_mapped
+    }
+
+    /// True when no point of the object emits: every material is the coefficients alone,
+    /// untextured, with zero `emission` (a hit's [`crate::scene::interaction::Interaction::emission`]
+    /// is then zero without looking).
+    #[inline]
+    pub fn is_dark(&self) -> bool {
+        self.dark
     }
 
     /// Whether the shape encloses a volume ([`Geometry::is_closed`]): refraction bends rays only

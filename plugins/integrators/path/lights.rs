@@ -178,13 +178,13 @@ impl PathTracer {
             });
             return Color::ZERO;
         }
-        let f = bsdf.eval(es.dir);
+        let (f, q) = bsdf.eval_pdf(es.dir);
         if !(max_channel(f) > 0.0) {
             c.stats.add(counter::LIGHTS_NO_RESPONSE, 1);
             rec.light(|| traced.record(Some("the surface reflects nothing toward this emitter"), false, None, &[]));
             return Color::ZERO;
         }
-        let (p, q) = (es.pdf, bsdf.pdf(es.dir));
+        let p = es.pdf;
         let mis = power_heuristic(f64::from(n) * p, q);
         c.stats.add(counter::SHADOW_RAYS, 1);
         let (ray, t_max) = si.spawn_shadow_ray(es.dir, es.hit.t);

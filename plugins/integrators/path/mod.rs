@@ -416,4 +416,6 @@ impl Integrator for PathTracer {
 }
 
 #[cfg(test)]
+mod emitter_tests;
+#[cfg(test)]
 mod tests;

@@ -50,7 +50,8 @@ fn direction(z: f64, phi: f64, frame: (DVec3, DVec3, DVec3)) -> DVec3 {
 /// `None`) are declined, so the density must integrate to the share of samples that are not.
 /// Every non-specular sample is also checked (panics with a message): its density equals
 /// [`Bsdf::pdf`] toward it and its weight `eval·|cos|/pdf`, within [`SAMPLE_TOLERANCE`], cos
-/// taken to `normal`.
+/// taken to `normal`; and toward every direction whose density the test integrates,
+/// [`Bsdf::eval_pdf`] answers exactly (to the bit) what `eval` and `pdf` answer alone.
 pub fn chi2_bsdf(bsdf: &dyn Bsdf, normal: DVec3, test: &Chi2Test<Sphere>) -> Chi2Outcome {
     let (t, b) = orthonormal_basis(normal);
     let local = |d: DVec3| DVec3::new(d.dot(t), d.dot(b), d.dot(normal));
@@ -67,7 +68,17 @@ pub fn chi2_bsdf(bsdf: &dyn Bsdf, normal: DVec3, test: &Chi2Test<Sphere>) -> Chi
             assert!((s.weight - w).abs().max_element() <= SAMPLE_TOLERANCE * scale, "sample {s:?}: weight vs eval·cos/pdf {w}");
             Some(local(s.dir))
         },
-        |l| bsdf.pdf(world(l)),
+        |l| {
+            let d = world(l);
+            let (f, pdf) = (bsdf.eval(d), bsdf.pdf(d));
+            let (f2, pdf2) = bsdf.eval_pdf(d);
+            let bits = |c: Color| c.to_array().map(f64::to_bits);
+            assert!(
+                bits(f) == bits(f2) && pdf.to_bits() == pdf2.to_bits(),
+                "toward {d}: eval_pdf ({f2}, {pdf2}), eval and pdf ({f}, {pdf})"
+            );
+            pdf
+        },
     )
 }
 
