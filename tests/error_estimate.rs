@@ -175,14 +175,16 @@ fn one_light_sampled_uniformly_over_its_area_has_the_closed_form_variance() {
 /// The estimate of the image's error is honest: on the path tracer's Cornell box, against the
 /// spread of 12 renders with other seeds (their RMSE about the mean of all of them), it is
 /// within a factor of 1.5, for a stratified set and for the Sobol points of a time budget (or
-/// an error target).
+/// an error target). At 49 spp the set's grid has an odd number of columns (7 × 7), where halves
+/// taken by a stratum's parity alone are stripes of the pixel (the estimate was 3.5× too high).
 #[test]
 fn the_image_error_estimate_matches_the_spread_between_seeds() {
-    estimate_matches_spread(false);
-    estimate_matches_spread(true);
+    estimate_matches_spread(false, 16);
+    estimate_matches_spread(false, 49);
+    estimate_matches_spread(true, 16);
 }
 
-fn estimate_matches_spread(sobol: bool) {
+fn estimate_matches_spread(sobol: bool, spp: u32) {
     let registry = raylab_plugins::registry();
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/path-cornell.toml");
     // A budget no render here reaches: every pixel takes its 16 samples.
@@ -193,7 +195,7 @@ fn estimate_matches_spread(sobol: bool) {
                 overrides: raylab::load::context::Overrides {
                     width: Some(64),
                     height: Some(64),
-                    spp: Some(16),
+                    spp: Some(spp),
                     seed: Some(seed),
                     render_params: if sobol { vec![("time_budget".into(), budget.clone())] } else { vec![] },
                     ..Default::default()
@@ -217,7 +219,7 @@ fn estimate_matches_spread(sobol: bool) {
     let ratio = estimated / spread;
     assert!(
         (1.0 / 1.5..=1.5).contains(&ratio),
-        "{}: estimated relative RMSE {estimated:.4}, spread between seeds {spread:.4}: ratio {ratio:.2}",
+        "{} at {spp} spp: estimated relative RMSE {estimated:.4}, spread between seeds {spread:.4}: ratio {ratio:.2}",
         if sobol { "Sobol points" } else { "stratified" }
     );
 }

@@ -374,6 +374,9 @@ impl Geometry for MeshObject {
     fn area(&self) -> Option<f64> {
         Some(self.mesh.area()).filter(|&a| a > 0.0)
     }
+    fn is_convex(&self) -> bool {
+        self.mesh.is_convex()
+    }
     /// Uniform by area: a triangle chosen by its area, then a point of it.
     fn sample_surface(&self, reference: DVec3, u: DVec2) -> Option<SurfaceSample> {
         let (slot, point, error, b) = self.mesh.sample_point(u)?;

@@ -657,6 +657,27 @@ impl TriangleMesh {
         Some((slot as u32, point, error, b))
     }
 
+    /// Whether the triangles lie on the boundary of one convex body with their windings' normals
+    /// outward ([`raylab::Geometry::is_convex`]): all in one plane, or (for at most
+    /// [`CONVEX_CHECK_LIMIT`] triangles: the check is quadratic) every vertex on or behind every
+    /// triangle's plane, within [`CONVEX_TOLERANCE`] of the mesh's size. Asked of emitters, once.
+    pub fn is_convex(&self) -> bool {
+        let corners: Vec<DVec3> =
+            self.live_triangles().flat_map(|t| [0, 3, 6].map(|k| DVec3::new(t[k].into(), t[k + 1].into(), t[k + 2].into()))).collect();
+        let b = self.bounds();
+        let tolerance = CONVEX_TOLERANCE * (b.max - b.min).max_element().max(b.max.abs().max(b.min.abs()).max_element());
+        let plane = |t: &[DVec3]| {
+            let n = (t[1] - t[0]).cross(t[2] - t[0]).try_normalize()?;
+            Some((n, n.dot(t[0])))
+        };
+        let planes: Vec<(DVec3, f64)> = corners.chunks_exact(3).filter_map(plane).collect();
+        let Some(&(n0, d0)) = planes.first() else { return false };
+        if corners.iter().all(|p| (n0.dot(*p) - d0).abs() <= tolerance) {
+            return true;
+        }
+        planes.len() <= CONVEX_CHECK_LIMIT && planes.iter().all(|&(n, d)| corners.iter().all(|p| n.dot(*p) - d <= tolerance))
+    }
+
     /// The stored triangles (p0, p1, p2, three `f32` each), padding skipped.
     fn live_triangles(&self) -> impl Iterator<Item = [f32; 9]> + '_ {
         self.packs
@@ -666,6 +687,15 @@ impl TriangleMesh {
             .map(|[a, b, c]| [a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2]])
     }
 }
+
+/// Most triangles [`TriangleMesh::is_convex`] checks against every vertex (beyond: not convex,
+/// unless flat): 4096 of them are ~5·10⁷ comparisons, a few tens of ms once per emitter.
+const CONVEX_CHECK_LIMIT: usize = 4096;
+
+/// How far, relative to a mesh's size, a vertex may stand in front of a triangle's plane for
+/// [`TriangleMesh::is_convex`]: the vertices' own `f32` rounding and more (a bump this small
+/// hides nothing a shadow ray's margin would not).
+const CONVEX_TOLERANCE: f64 = 1e-6;
 
 /// The part of [`PackRay`]'s error bound δ that scales with the mesh's magnitude (its bounds'
 /// largest coordinate plus largest extent), in units of that magnitude: 10 u with u = 2⁻²⁴, the

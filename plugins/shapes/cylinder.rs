@@ -248,6 +248,10 @@ impl Geometry for Cylinder {
     fn is_closed(&self) -> bool {
         self.height.is_some()
     }
+    /// A convex solid (a tube: the side of an endless one).
+    fn is_convex(&self) -> bool {
+        true
+    }
     /// The side and both caps (a tube: none, it has no end).
     fn area(&self) -> Option<f64> {
         let h = self.height?;

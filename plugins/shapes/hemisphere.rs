@@ -106,6 +106,10 @@ impl Geometry for Hemisphere {
     fn bounds(&self) -> Option<Aabb> {
         Some(Aabb::new(self.center - DVec3::splat(self.radius), self.center + DVec3::splat(self.radius)))
     }
+    /// A patch of a sphere, outward as the sphere.
+    fn is_convex(&self) -> bool {
+        true
+    }
     fn area(&self) -> Option<f64> {
         Some(TAU * self.radius * self.radius)
     }

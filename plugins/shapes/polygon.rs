@@ -227,6 +227,10 @@ impl Geometry for Polygon {
     fn bounds(&self) -> Option<Aabb> {
         Some(Aabb::from_points(self.vertices.iter().copied()))
     }
+    /// Flat.
+    fn is_convex(&self) -> bool {
+        true
+    }
     fn area(&self) -> Option<f64> {
         self.fan.last().copied()
     }

@@ -158,6 +158,10 @@ impl Geometry for Sphere {
     fn is_closed(&self) -> bool {
         true
     }
+    /// A convex solid.
+    fn is_convex(&self) -> bool {
+        true
+    }
     fn area(&self) -> Option<f64> {
         Some(4.0 * PI * self.radius * self.radius)
     }

@@ -227,6 +227,10 @@ impl Geometry for Triangle {
     fn bounds(&self) -> Option<Aabb> {
         Some(Aabb::from_points(self.p))
     }
+    /// Flat.
+    fn is_convex(&self) -> bool {
+        true
+    }
     fn area(&self) -> Option<f64> {
         let [p0, p1, p2] = self.p;
         Some(0.5 * (p1 - p0).cross(p2 - p0).length())

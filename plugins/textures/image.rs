@@ -160,6 +160,9 @@ fn kept_bytes(pixels: u64, eight: bool) -> u64 {
 pub struct Image {
     width: usize,
     height: usize,
+    /// Width and height as floats (a usize's conversion is a sequence on x86-64, at every lookup
+    /// of an environment).
+    size_f64: DVec2,
     texels: Texels,
     /// Levels 1, 2, … of the MIP pyramid (each half the size of the one before, down to 1×1),
     /// texels kept as level 0's (8-bit through the same table, or `f32`).
@@ -181,7 +184,7 @@ impl Image {
     }
 
     fn new(width: usize, height: usize, texels: Texels) -> Image {
-        Image { width, height, texels, mips: OnceLock::new() }
+        Image { width, height, size_f64: DVec2::new(width as f64, height as f64), texels, mips: OnceLock::new() }
     }
 
     /// Width and height, texels.
@@ -318,7 +321,7 @@ impl Image {
     /// comparisons, not a remainder and a clamp each, and the floors from one truncation each.
     #[inline(always)]
     pub fn bilinear_repeat_clamp(&self, uv: DVec2) -> Color {
-        let (w, h) = (self.width as f64, self.height as f64);
+        let (w, h) = (self.size_f64.x, self.size_f64.y);
         let x = uv.x * w - 0.5;
         let y = (1.0 - uv.y) * h - 0.5;
         // Outside (NaN included): the general lookup.

@@ -179,4 +179,26 @@ impl<O: Intersectable> Accelerated<'_, O> {
         };
         blocked || objects[own as usize].occludes_leaving(ray, t_min, t_max, from.prim)
     }
+
+    /// [`Intersectable::occludes`] leaving out object `skip` (the object not asked): for a
+    /// shadow ray that object cannot stop (an emitter's own point, facing the ray, on a convex
+    /// shape).
+    #[inline]
+    pub fn occludes_except(&self, ray: &Ray, t_min: f64, t_max: f64, skip: u32) -> bool {
+        let (accel, objects) = (self.accel, self.objects);
+        if accel.unbounded.iter().any(|&i| i != skip && objects[i as usize].occludes(ray, t_min, t_max)) {
+            return true;
+        }
+        if accel.index.is_bvh() {
+            return accel.index.any(ray, t_min, t_max, |slot| {
+                let i = accel.bounded[slot as usize].1;
+                i != skip && objects[i as usize].occludes(ray, t_min, t_max)
+            });
+        }
+        if let [(_, i)] = accel.bounded[..] {
+            return i != skip && objects[i as usize].occludes(ray, t_min, t_max);
+        }
+        let inv = ray.dir.recip();
+        accel.bounded.iter().any(|(b, i)| b.hit(ray, inv, t_min, t_max) && *i != skip && objects[*i as usize].occludes(ray, t_min, t_max))
+    }
 }

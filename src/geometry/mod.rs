@@ -167,6 +167,16 @@ pub trait Geometry: Intersectable {
         let _ = (reference, at);
         SurfacePdf::Area(0.0)
     }
+
+    /// True when the surface lies on the boundary of one convex body, with that body's outward
+    /// normals (a convex solid, a flat shape, a patch of either such as a bowl): a segment to one
+    /// of its points from a point that point's outward side faces stays on that side of the
+    /// point's tangent plane, so it meets the surface nowhere else, and a shadow ray toward a
+    /// sampled point of an emitter need not test the emitter itself. False, the default, where
+    /// the shape does not know (its shadow rays test it, as every other shape).
+    fn is_convex(&self) -> bool {
+        false
+    }
 }
 
 /// `n` flipped, if needed, to face against `dir` (`result · dir ≤ 0`).
@@ -232,6 +242,9 @@ macro_rules! forward_impls {
             }
             fn surface_pdf(&self, reference: DVec3, at: &Hit) -> SurfacePdf {
                 (**self).surface_pdf(reference, at)
+            }
+            fn is_convex(&self) -> bool {
+                (**self).is_convex()
             }
         }
     )*};

@@ -288,6 +288,10 @@ impl<G: Geometry> Geometry for Transformed<G> {
     fn is_closed(&self) -> bool {
         self.inner.is_closed()
     }
+    /// An affine map keeps a convex body convex and its outward side outward.
+    fn is_convex(&self) -> bool {
+        self.inner.is_convex()
+    }
     /// Exact under a similarity; otherwise the inner area times `|det L|^⅔` (the area scale of
     /// a uniform stretch of the same volume), an estimate that only weighs emitters.
     fn area(&self) -> Option<f64> {

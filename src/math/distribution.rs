@@ -22,8 +22,14 @@ fn below_one(u: f64) -> f64 {
 /// The bin of `n` equal ones over `[0, 1)` that holds `x` (the first below 0, the last from 1).
 #[inline]
 fn bin(x: f64, n: usize) -> usize {
-    // Through u32 (n < 2³²): a float's conversion to usize is a longer sequence on x86-64.
-    ((below_one(x.max(0.0)) * n as f64) as u32 as usize).min(n - 1)
+    ((below_one(x.max(0.0)) * float(n)) as u32 as usize).min(n - 1)
+}
+
+/// `n` (below 2³², as every count of bins) as a float, through u32: the same value, and on x86-64
+/// one conversion where a usize's takes a sequence.
+#[inline]
+fn float(n: usize) -> f64 {
+    f64::from(n as u32)
 }
 
 /// One column of an alias table: keep the column's own item with probability `threshold`, else
@@ -190,7 +196,7 @@ impl Piecewise1d {
     /// The density in bin `i`.
     #[inline]
     fn bin_pdf(&self, i: usize) -> f64 {
-        (self.cdf[i + 1] - self.cdf[i]) * self.func.len() as f64
+        (self.cdf[i + 1] - self.cdf[i]) * float(self.func.len())
     }
 
     /// A point for `u` uniform in `[0, 1)`: `x` in `[0, 1)`, its density, and its bin.
@@ -212,8 +218,8 @@ impl Piecewise1d {
         let i = (first_above - 1).min(n - 1);
         let p = self.cdf[i + 1] - self.cdf[i];
         let within = if p > 0.0 { (u - self.cdf[i]) / p } else { 0.5 };
-        let x = below_one((i as f64 + within.clamp(0.0, 1.0)) / n as f64);
-        (x, p * n as f64, i)
+        let x = below_one((float(i) + within.clamp(0.0, 1.0)) / float(n));
+        (x, p * float(n), i)
     }
 }
 

@@ -55,6 +55,8 @@ pub struct Emitters {
     /// then this or zero, by side, without building the hit's [`Interaction`]. `None`: asked
     /// at the point ([`Interaction::emission`]).
     constant: Vec<Option<Color>>,
+    /// Each emitter's [`crate::Geometry::is_convex`].
+    convex: Vec<bool>,
     /// The emitters by power; `None` when there is none.
     table: Option<AliasTable>,
 }
@@ -73,6 +75,10 @@ pub struct EmitterSample {
     /// Density per unit solid angle of this direction, the emitter's choice included; infinite
     /// where the emitter is seen edge-on.
     pub pdf: f64,
+    /// The emitter cannot hide the point from the shaded point: its shape is convex
+    /// ([`crate::Geometry::is_convex`]) and the point's outward side faces the shaded point. A
+    /// shadow ray toward it need not test the emitter itself ([`crate::Scene::occludes_except`]).
+    pub clear_of_itself: bool,
 }
 
 impl Emitters {
@@ -95,6 +101,7 @@ impl Emitters {
                 e.objects.push(i as u32);
                 e.power.push(power);
                 e.constant.push(constant_emission(o));
+                e.convex.push(o.geometry().is_convex());
             }
         }
         e.table = AliasTable::new(&e.power);
@@ -158,14 +165,18 @@ impl Emitters {
         // The emission as a ray from the reference would see it there (side, textures): one
         // constant by the side the ray arrives at (the outward normal's, as `Geometry::surface`
         // decides it), or asked of the hit.
+        let front_face = s.normal.dot(dir) < 0.0;
         let radiance = match self.constant[e] {
             Some(emission) => {
-                let front_face = s.normal.dot(dir) < 0.0;
-                if o.emission_sides().emits(front_face) { emission } else { Color::ZERO }
+                if o.emission_sides().emits(front_face) {
+                    emission
+                } else {
+                    Color::ZERO
+                }
             }
             None => Interaction::new(&Ray { origin: reference, dir }, hit, o).emission(),
         };
-        Some(EmitterSample { object, hit, dir, radiance, pdf })
+        Some(EmitterSample { object, hit, dir, radiance, pdf, clear_of_itself: front_face && self.convex[e] })
     }
 
     /// The density per unit solid angle with which [`Emitters::sample`] from `reference` gives the

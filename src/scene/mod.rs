@@ -313,6 +313,14 @@ impl Scene {
         self.walk(&self.transmissive, ray, t_max).0
     }
 
+    /// Whether anything but object `skip` is hit along `ray` with `t_min < t < t_max`
+    /// ([`Intersectable::occludes`] without that object): a shadow ray toward a point of an
+    /// emitter that cannot hide it ([`crate::scene::emitters::EmitterSample::clear_of_itself`]).
+    #[inline]
+    pub fn occludes_except(&self, ray: &Ray, t_min: f64, t_max: f64, skip: u32) -> bool {
+        self.accel.over(&self.objects).occludes_except(ray, t_min, t_max, skip)
+    }
+
     /// Like [`Scene::transmittance`], also naming the first surface crossed (for explanations).
     pub fn transmittance_and_occluder(&self, ray: &Ray, t_max: f64) -> (Color, Option<u32>) {
         self.walk(&self.accel, ray, t_max)

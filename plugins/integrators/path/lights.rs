@@ -188,7 +188,10 @@ impl PathTracer {
         let mis = power_heuristic(f64::from(n) * p, q);
         c.stats.add(counter::SHADOW_RAYS, 1);
         let (ray, t_max) = si.spawn_shadow_ray(es.dir, es.hit.t);
-        let visible = !scene.occludes(&ray, 0.0, t_max);
+        // An emitter that cannot hide its point (convex, facing here) is not asked.
+        let blocked =
+            if es.clear_of_itself { scene.occludes_except(&ray, 0.0, t_max, es.object) } else { scene.occludes(&ray, 0.0, t_max) };
+        let visible = !blocked;
         let contribution = if visible { f * cos * es.radiance * (mis / p) } else { Color::ZERO };
         rec.light(|| {
             let occluder = if visible { None } else { scene.intersect(&ray, 0.0, t_max).map(|h| h.object) };
@@ -265,20 +268,22 @@ impl PathTracer {
             rec.light(|| traced.record(Some("no light arrives here"), false, None, &[]));
             return Color::ZERO;
         }
-        let f = bsdf.eval(ls.dir);
+        // An environment's sample (it says its density) is weighed against the BSDF's rays,
+        // every one of which that leaves the scene meets it: its value and density in one call.
+        let environment = scene.light_facts()[index].environment;
+        let (f, q) = if environment { bsdf.eval_pdf(ls.dir) } else { (bsdf.eval(ls.dir), f64::NAN) };
         if !(max_channel(f) > 0.0) {
             c.stats.add(counter::LIGHTS_NO_RESPONSE, 1);
             rec.light(|| traced.record(Some("the surface reflects nothing toward this light"), false, None, &[]));
             return Color::ZERO;
         }
-        // Weighed against the BSDF's own rays where they can meet the light too (an environment:
-        // every ray that leaves the scene meets it, so it is not asked).
-        let can_meet = |light: &dyn LightSource| {
-            scene.light_facts()[index].environment || light.intersect(&Ray { origin: si.point(), dir: ls.dir }, f64::INFINITY).is_some()
-        };
+        // Weighed against the BSDF's own rays where they can meet the light too (an environment
+        // is not asked).
+        let can_meet =
+            |light: &dyn LightSource| environment || light.intersect(&Ray { origin: si.point(), dir: ls.dir }, f64::INFINITY).is_some();
         let (mis, pdfs) = match pdf.unwrap_or_else(|| light.pdf(si.point(), ls)) {
             LightPdf::SolidAngle(p) if can_meet(light) => {
-                let q = bsdf.pdf(ls.dir);
+                let q = if environment { q } else { bsdf.pdf(ls.dir) };
                 (power_heuristic(f64::from(n) * p, q), Some((p, q)))
             }
             _ => (1.0, None),
