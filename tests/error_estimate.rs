@@ -224,19 +224,33 @@ fn estimate_matches_spread(sobol: bool, spp: u32) {
     );
 }
 
-/// With an error target, a pixel that sees only the constant background stops at the first
-/// test (`target_min_spp`), while pixels on a noisy, softly lit floor take many more samples:
-/// the noisy half of the image gets at least 4× the samples per pixel of the flat half.
+/// With an error target, a pixel that sees only the constant background stops at the fewest
+/// samples the target allows ([`ErrorTarget::floor_spp`]: at the first test for a loose target,
+/// later for a tight one), while pixels on a noisy, softly lit floor take many more samples: the
+/// noisy half of the image gets at least 4× the samples per pixel of the flat half where the
+/// floor lets the flat half stop at the first test, and 2× where it holds the flat half to 64
+/// (it bounds the ratio by the noisy pixels' deviation over [`ErrorTarget::FLOOR`]).
+///
+/// [`ErrorTarget::floor_spp`]: raylab::render::job::ErrorTarget::floor_spp
+/// [`ErrorTarget::FLOOR`]: raylab::render::job::ErrorTarget::FLOOR
 #[test]
 fn an_error_target_spends_samples_where_the_noise_is() {
-    let r = render_str(
+    for (error, floor, ratio) in [(0.1, 8, 4.0), (0.02, 64, 2.0)] {
+        spends_samples_where_the_noise_is(error, floor, ratio);
+    }
+}
+
+fn spends_samples_where_the_noise_is(error: f64, floor: u32, ratio: f64) {
+    let target = raylab::render::job::ErrorTarget { error, min_spp: 8 };
+    assert_eq!(target.floor_spp(), floor, "0.25 · √8 / {error} rounded up to a tested count");
+    let r = render_str(&format!(
         r#"
         background = 0.5
         [render]
         width = 16
         height = 8
         spp = 512
-        target_error = 0.005
+        target_error = {error}
         target_min_spp = 8
         [camera]
         position = [0, 1, 4]
@@ -259,9 +273,9 @@ fn an_error_target_spends_samples_where_the_noise_is() {
         center = [3, 3, -6]
         edge1 = [1, 0, 0]
         edge2 = [0, 1, 0]
-        color = 20
-        "#,
-    );
+        color = 400
+        "#
+    ));
     let (w, h) = (16usize, 8usize);
     let spp = |x0: usize, x1: usize| {
         let mut s = 0u64;
@@ -273,11 +287,10 @@ fn an_error_target_spends_samples_where_the_noise_is() {
         s as f64 / ((x1 - x0) * h) as f64
     };
     let (flat, noisy) = (spp(0, 6), spp(10, 16));
-    assert_eq!(flat, 8.0, "background pixels stop at the first test");
-    assert!(noisy >= 4.0 * flat, "noisy half {noisy} spp, flat half {flat} spp");
+    assert_eq!(flat, f64::from(floor), "target {error}: background pixels stop at the floor's count");
+    assert!(noisy >= ratio * flat, "target {error}: noisy half {noisy} spp, flat half {flat} spp");
     assert!(r.complete);
     // Every pixel either met the target (what its sample count allows) or reached the cap.
-    let target = raylab::render::job::ErrorTarget { error: 0.005, min_spp: 8 };
     for p in &r.sums.pixels {
         let e = p.sqrt_relative_error(raylab::render::job::ErrorTarget::DARK).unwrap();
         assert!(target.met(p) || p.samples == 512, "{} samples, error {e}", p.samples);

@@ -43,9 +43,11 @@ def display_slope(m):
     return np.where(m >= 1.0, 0.0, d)
 
 
-def simulate(a, crit, e, proportional, min_spp=16, cap=4096):
-    """Samples per pixel under a rule with error `crit / √n` and target `e`."""
+def simulate(a, crit, e, proportional, min_spp=16, cap=4096, floor=0.0):
+    """Samples per pixel under a rule with error `max(crit, floor) / √n` and target `e` (`floor`:
+    the least per-sample deviation a pixel is taken to have, `ErrorTarget::FLOOR`)."""
     n = np.full_like(a, float(min_spp))
+    crit = np.maximum(crit, floor)
     while True:
         allowed = e * np.sqrt(n / min_spp) if proportional else e
         more = (crit / np.sqrt(n) > allowed) & (n < cap)
@@ -78,20 +80,29 @@ def main():
     for name, w in [("HDR RMSE", sigma), ("displayed RMSE", sigma * display_slope(mu))]:
         print(f"{name}: best allocation (mean a)² / mean(a²) = {w.mean() ** 2 / (w ** 2).mean():.3f}")
     print("\n| error | rule | mean spp: samples ÷ uniform's at equal HDR MSE / displayed MSE |\n|---|---|---|")
-    crits = {"relative": sigma / np.maximum(mu, 0.01), "√-relative": sigma / np.sqrt(np.maximum(mu, 0.01)), "absolute": sigma}
-    for cname, crit in crits.items():
-        for proportional in (False, True):
-            cells = []
-            for e in np.geomspace(np.percentile(crit, 5) / 64, np.percentile(crit, 95) / 2, 10):
-                n = simulate(a=sigma, crit=crit, e=e, proportional=proportional)
-                if not 20 < n.mean() < 2000:
-                    continue
-                ratios = []
-                for w in (sigma, sigma * display_slope(mu)):
-                    mse = (w ** 2 / n).sum()
-                    ratios.append(n.sum() / (len(w) * (w ** 2).sum() / mse))
-                cells.append(f"{n.mean():.0f}: {ratios[0]:.2f} / {ratios[1]:.2f}")
-            print(f"| {cname} | {'proportional' if proportional else 'threshold'} | {', '.join(cells)} |")
+    sqrt_rel = sigma / np.sqrt(np.maximum(mu, 0.01))
+    crits = {"relative": sigma / np.maximum(mu, 0.01), "√-relative": sqrt_rel, "absolute": sigma,
+             # The deviation of the displayed value: the optimum's own weights for displayed RMSE.
+             "displayed": sigma * display_slope(mu)}
+    rules = [(c, p, 0.0) for c in crits for p in (False, True)]
+    # The error target's rule with the floor on the deviation (`ErrorTarget::FLOOR`), and
+    # stronger ones: what the floor costs when every deviation is known.
+    rules += [("√-relative", True, f) for f in (0.25, 0.5, 1.0)]
+    for cname, proportional, floor in rules:
+        crit = crits[cname]
+        cells = []
+        pos = crit[crit > 0]
+        for e in np.geomspace(np.percentile(pos, 5) / 64, np.percentile(pos, 95) / 2, 10):
+            n = simulate(a=sigma, crit=crit, e=e, proportional=proportional, floor=floor)
+            if not 20 < n.mean() < 2000:
+                continue
+            ratios = []
+            for w in (sigma, sigma * display_slope(mu)):
+                mse = (w ** 2 / n).sum()
+                ratios.append(n.sum() / (len(w) * (w ** 2).sum() / mse))
+            cells.append(f"{n.mean():.0f}: {ratios[0]:.2f} / {ratios[1]:.2f}")
+        rule = ("proportional" if proportional else "threshold") + (f", floor {floor}" if floor else "")
+        print(f"| {cname} | {rule} | {', '.join(cells)} |")
 
 
 if __name__ == "__main__":

@@ -9,7 +9,15 @@ For each scene (small sizes: a loaded machine), against a high-sample reference 
 cached in --out:
 
 - uniform renders at 1, 2, 4, … --max-spp samples per pixel, each also with `--denoise`;
-- renders to error targets (`--target-error`, `--spp` 4 × --max-spp as the cap).
+- renders to error targets (`--target-error`, `--spp` 4 × --max-spp as the cap), each with
+  `--target-seeds` seeds: the estimate's honesty under a target is the RMS over seeds of the
+  estimate against the RMS of the true error (on a scene lit by rare bright paths one render's
+  true error is itself a noisy number).
+
+The reference is rendered a second time with another seed: half the mean squared difference of the
+two is the reference's own squared error, which the true errors of tables (a) and (b) have removed
+(on environment it is most of a tight target's measured error). The denoised rows are measured
+against the reference as is.
 
 Errors are taken against the reference three ways: the relative RMSE of luminance (linear HDR, the
 quantity the error estimate predicts, table (a)); the RMSE of displayed values (clamped,
@@ -83,8 +91,8 @@ class Bench:
     def __init__(self, raylab, out, env):
         self.raylab, self.out, self.env = raylab, out, env
 
-    def render(self, scene, w, h, path, *extra):
-        cmd = [self.raylab, "render", scene, "--width", str(w), "--height", str(h), "-o", path, "-q", "--seed", "1", "--threads", "2", *extra]
+    def render(self, scene, w, h, path, *extra, seed=1):
+        cmd = [self.raylab, "render", scene, "--width", str(w), "--height", str(h), "-o", path, "-q", "--seed", str(seed), "--threads", "2", *extra]
         text, cpu = cpu_of(cmd, self.env)
         # No estimate below two samples a pixel (its halves need one each).
         est = re.search(r"relative RMSE ([0-9.]+) %.*?([0-9.]+) spp on average", text, re.S)
@@ -144,18 +152,32 @@ def value_at(points, spp):
     return loglog(points, x=spp)
 
 
-def measure(b, name, cfg, max_spp, scale):
-    file, w, h, ref_spp, _ = cfg
-    w, h = w * scale, h * scale
-    scene = os.path.join(ROOT, file)
-    ref_path = os.path.join(b.out, f"{name}-{w}x{h}-ref{ref_spp}.pfm")
+def reference(b, name, scene, w, h, ref_spp, seed):
+    """The reference image of seed `seed` (rendered once, cached in --out)."""
+    suffix = "" if seed == 12345 else f"-seed{seed}"
+    ref_path = os.path.join(b.out, f"{name}-{w}x{h}-ref{ref_spp}{suffix}.pfm")
     if not os.path.exists(ref_path):
-        print(f"[{name}] reference: {ref_spp} spp …", file=sys.stderr, flush=True)
-        cmd = [b.raylab, "render", scene, "--width", str(w), "--height", str(h), "--spp", str(ref_spp), "--seed", "12345",
+        print(f"[{name}] reference: {ref_spp} spp, seed {seed} …", file=sys.stderr, flush=True)
+        cmd = [b.raylab, "render", scene, "--width", str(w), "--height", str(h), "--spp", str(ref_spp), "--seed", str(seed),
                "-o", ref_path + ".tmp.pfm", "-q", "--threads", "2", "--max-rays", str(2**63)]
         cpu_of(cmd, b.env)
         os.rename(ref_path + ".tmp.pfm", ref_path)
-    ref = pfm(ref_path)
+    return pfm(ref_path)
+
+
+def less_noise(err, noise):
+    """An error measured against a reference with its own error `noise` (independent), without it."""
+    return math.sqrt(max(err * err - noise * noise, 0.0))
+
+
+def measure(b, name, cfg, max_spp, scale, target_seeds=3, denoise=True):
+    file, w, h, ref_spp, _ = cfg
+    w, h = w * scale, h * scale
+    scene = os.path.join(ROOT, file)
+    ref = reference(b, name, scene, w, h, ref_spp, 12345)
+    other = reference(b, name, scene, w, h, ref_spp, 54321)
+    # Each reference's own error: the two differ by √2 times it.
+    noise = {"rmse": rel_rmse(other, ref) / math.sqrt(2), "disp": display_rmse(other, ref) / math.sqrt(2)}
     out = os.path.join(b.out, f"{name}-x.pfm")
     rows = {"uniform": [], "denoised": [], "target": []}
     spps = [2**k for k in range(int(math.log2(max_spp)) + 1)]
@@ -164,7 +186,7 @@ def measure(b, name, cfg, max_spp, scale):
         r = b.render(scene, w, h, out, "--spp", str(spp))
         img = pfm(out)
         rows["uniform"].append(dict(r, spp=spp, mean_spp=spp, rmse=rel_rmse(img, ref), disp=display_rmse(img, ref), flip=flip(img, ref)))
-        if b.env.get("RAYLAB_OIDN"):
+        if denoise and b.env.get("RAYLAB_OIDN"):
             r = b.render(scene, w, h, out, "--spp", str(spp), "--denoise")
             img = pfm(out)
             rows["denoised"].append(dict(r, spp=spp, mean_spp=spp, rmse=rel_rmse(img, ref), disp=display_rmse(img, ref), flip=flip(img, ref)))
@@ -172,33 +194,61 @@ def measure(b, name, cfg, max_spp, scale):
         print(f"[{name}] target {target} …", file=sys.stderr, flush=True)
         r = b.render(scene, w, h, out, "--spp", str(4 * max_spp), "--target-error", str(target), "--max-rays", str(2**63))
         img = pfm(out)
-        rows["target"].append(dict(r, target=target, rmse=rel_rmse(img, ref), disp=display_rmse(img, ref), flip=flip(img, ref)))
-    return {"scene": name, "file": file, "size": [w, h], "ref_spp": ref_spp, "rows": rows}
+        row = dict(r, target=target, rmse=rel_rmse(img, ref), disp=display_rmse(img, ref), flip=flip(img, ref))
+        # The same target with other seeds: the estimate's honesty over seeds.
+        seeds = [{"seed": 1, "estimate": r["estimate"], "mean_spp": r["mean_spp"], "rmse": row["rmse"]}]
+        for seed in range(2, target_seeds + 1):
+            rs = b.render(scene, w, h, out, "--spp", str(4 * max_spp), "--target-error", str(target), "--max-rays", str(2**63), seed=seed)
+            seeds.append({"seed": seed, "estimate": rs["estimate"], "mean_spp": rs["mean_spp"], "rmse": rel_rmse(pfm(out), ref)})
+        row["seeds"] = seeds
+        rows["target"].append(row)
+    return {"scene": name, "file": file, "size": [w, h], "ref_spp": ref_spp, "ref_noise": noise, "rows": rows}
 
 
 def report(results, max_spp):
     names = ", ".join(f"{r['scene']} {r['size'][0]}×{r['size'][1]} (reference {r['ref_spp']} spp)" for r in results)
     print(f"# Render to an error: {names}\n")
     print("## (a) estimated against true relative RMSE (uniform sampling)\n")
-    print("| scene | spp | estimated | true | estimated ÷ true |\n|---|---|---|---|---|")
+    print("True: against the reference; then without the reference's own error (its noise, from a second seed).\n")
+    print("| scene | spp | estimated | true | true, reference noise removed | estimated ÷ that |\n|---|---|---|---|---|---|")
     for res in results:
+        noise = res.get("ref_noise", {"rmse": 0.0, "disp": 0.0})
         for r in res["rows"]["uniform"]:
-            if r["estimate"] is not None and r["spp"] in (4, 16, 64, 256, 1024):
-                print(f"| {res['scene']} | {r['spp']} | {r['estimate']:.4f} | {r['rmse']:.4f} | {r['estimate'] / r['rmse']:.2f} |")
+            if r["estimate"] is not None and r["spp"] >= 4:
+                t = less_noise(r["rmse"], noise["rmse"])
+                print(f"| {res['scene']} | {r['spp']} | {r['estimate']:.4f} | {r['rmse']:.4f} | {t:.4f} | {r['estimate'] / t:.2f} |")
+    if any(r.get("seeds") for res in results for r in res["rows"]["target"]):
+        print("\n## (a′) estimated against true relative RMSE under error targets\n")
+        print("Over the seeds of each target: the RMS of the estimates and of the true errors (reference noise removed).\n")
+        print("| scene | target | seeds | mean spp | estimated | true | estimated ÷ true |\n|---|---|---|---|---|---|---|")
+        for res in results:
+            noise = res.get("ref_noise", {"rmse": 0.0})["rmse"]
+            for r in res["rows"]["target"]:
+                sd = r.get("seeds") or []
+                if not sd:
+                    continue
+                est = math.sqrt(sum(x["estimate"] ** 2 for x in sd) / len(sd))
+                true = less_noise(math.sqrt(sum(x["rmse"] ** 2 for x in sd) / len(sd)), noise)
+                spp = sum(x["mean_spp"] for x in sd) / len(sd)
+                r["honesty"] = est / true
+                print(f"| {res['scene']} | {r['target']} | {len(sd)} | {spp:.1f} | {est:.4f} | {true:.4f} | {est / true:.2f} |")
     print("\n## (b) adaptive sampling to a target against uniform sampling, at equal error\n")
-    print("Ratios are the target's work ÷ uniform sampling's at the same error (below 1: adaptive wins).\n")
+    print("Ratios are the target's work ÷ uniform sampling's at the same error (below 1: adaptive wins); RMSE with the "
+          "reference's noise removed from both (seed 1 of each).\n")
     print("| scene | target | mean spp | rel. RMSE (HDR) | spp ratio | RMSE (displayed) | uniform spp at it | spp ratio | CPU ratio | ꟻLIP | uniform spp at it | spp ratio |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for res in results:
         u = res["rows"]["uniform"]
         cpu = [(r["spp"], r["cpu"]) for r in u]
+        noise = res.get("ref_noise", {})
+        clean = lambda row, key: less_noise(row[key], noise.get(key, 0.0))  # noqa: E731
         for r in res["rows"]["target"]:
             for key in ("rmse", "disp", "flip"):
-                r[f"uniform_spp_{key}"] = spp_at([(x["spp"], x[key]) for x in u], r[key])
+                r[f"uniform_spp_{key}"] = spp_at([(x["spp"], clean(x, key)) for x in u], clean(r, key))
                 r[f"spp_ratio_{key}"] = r["mean_spp"] / r[f"uniform_spp_{key}"]
             s = r["uniform_spp_disp"]
             r["cpu_ratio_disp"] = r["cpu"] / value_at(cpu, s) if s == s else float("nan")
-            print(f"| {res['scene']} | {r['target']} | {r['mean_spp']:.1f} | {r['rmse']:.4f} | {r['spp_ratio_rmse']:.2f} | {r['disp']:.4f} | "
+            print(f"| {res['scene']} | {r['target']} | {r['mean_spp']:.1f} | {clean(r, 'rmse'):.4f} | {r['spp_ratio_rmse']:.2f} | {clean(r, 'disp'):.4f} | "
                   f"{s:.1f} | {r['spp_ratio_disp']:.2f} | {r['cpu_ratio_disp']:.2f} | {r['flip']:.4f} | {r['uniform_spp_flip']:.1f} | {r['spp_ratio_flip']:.2f} |")
     if not any(res["rows"]["denoised"] for res in results):
         print("\n(no denoiser: the denoised rows were skipped)")
@@ -272,6 +322,9 @@ def main():
     ap.add_argument("--out", default=os.path.join(ROOT, "target", "error-bench"))
     ap.add_argument("--plot", help="write the plot here (PNG)")
     ap.add_argument("--from-json", help="report and plot the rows.json of an earlier run instead of rendering")
+    ap.add_argument("--target-seeds", type=int, default=3, help="seeds of each error target, for the estimate's honesty (table (a′))")
+    ap.add_argument("--no-denoise", action="store_true", help="skip the denoised renders")
+    ap.add_argument("--keep", help="a rows.json whose denoised rows to keep for scenes this run does not denoise")
     a = ap.parse_args()
     if a.from_json:
         with open(a.from_json) as f:
@@ -290,7 +343,13 @@ def main():
     except subprocess.CalledProcessError:
         print("no pyoidn: the denoised rows are skipped (pip install pyoidn)", file=sys.stderr)
     b = Bench(os.path.abspath(a.raylab), a.out, env)
-    results = [measure(b, n, SCENES[n], a.max_spp, a.scale) for n in a.scenes.split(",")]
+    results = [measure(b, n, SCENES[n], a.max_spp, a.scale, a.target_seeds, not a.no_denoise) for n in a.scenes.split(",")]
+    if a.keep:
+        with open(a.keep) as f:
+            kept = {r["scene"]: r for r in json.load(f)}
+        for r in results:
+            if not r["rows"]["denoised"] and r["scene"] in kept:
+                r["rows"]["denoised"] = kept[r["scene"]]["rows"]["denoised"]
     report(results, a.max_spp)
     with open(os.path.join(a.out, "rows.json"), "w") as f:
         json.dump(results, f, indent=1)

@@ -11,7 +11,7 @@ pub mod triangle_mesh;
 pub mod triangulate;
 
 use raylab::geometry::transform::{Transform, Transformed};
-use raylab::geometry::{Geometry, Hit, Intersectable, Surface, SurfaceDerivatives, SurfacePdf, SurfaceSample, face_forward};
+use raylab::geometry::{Geometry, Hit, Intersectable, PACKET, Surface, SurfaceDerivatives, SurfacePdf, SurfaceSample, face_forward};
 use raylab::glam::{DMat2, DVec2, DVec3};
 use raylab::load::context::MeshFormat;
 use raylab::load::mesh::{MeshFile, MeshRequest};
@@ -330,6 +330,14 @@ impl Intersectable for MeshObject {
     fn occludes_leaving(&self, ray: &Ray, t_min: f64, t_max: f64, prim: u32) -> bool {
         self.mesh.occludes_leaving(ray, t_min, t_max, prim)
     }
+    #[inline]
+    fn intersect_packet(&self, rays: &[Ray; PACKET], live: u32, t_min: f64, t_max: &[f64; PACKET], out: &mut [Hit; PACKET]) -> u32 {
+        self.mesh.intersect_packet(rays, live, t_min, t_max, out)
+    }
+    /// Packets walk a hierarchy together; a list of triangles gains nothing from them.
+    fn walks_packets(&self) -> bool {
+        self.mesh.is_bvh()
+    }
 }
 
 impl Geometry for MeshObject {
@@ -379,10 +387,9 @@ impl Geometry for MeshObject {
     }
     /// Uniform by area: a triangle chosen by its area, then a point of it.
     fn sample_surface(&self, reference: DVec3, u: DVec2) -> Option<SurfaceSample> {
-        let (slot, point, error, b) = self.mesh.sample_point(u)?;
-        let normal = self.mesh.geometric_normal(slot);
-        let mut s = SurfaceSample::new(reference, point, error, normal, SurfacePdf::Area(1.0 / self.mesh.area()));
-        (s.hit.prim, s.hit.uv) = (slot, b);
+        let m = self.mesh.sample_point(u)?;
+        let mut s = SurfaceSample::new(reference, m.point, m.error, m.normal, SurfacePdf::Area(1.0 / m.area));
+        (s.hit.prim, s.hit.uv) = (m.slot, m.b);
         Some(s)
     }
     fn surface_pdf(&self, _: DVec3, _: &Hit) -> SurfacePdf {

@@ -24,7 +24,7 @@
 
 use crate::shapes::triangle::{EdgeRule, TriangleRay, barycentric_point};
 use raylab::Material;
-use raylab::accel::bvh::{PAD_SLOT, PrimitiveIndex, tie_limit};
+use raylab::accel::bvh::{PACKET, PAD_SLOT, PrimitiveIndex, tie_limit};
 use raylab::accel::{AccelChoice, BuildStats, MESH_BVH_THRESHOLD};
 use raylab::geometry::Hit;
 use raylab::geometry::sampling::uniform_triangle;
@@ -462,6 +462,61 @@ impl TriangleMesh {
         Some(Hit { t, point, error, uv: DVec2::new(b.y, b.z), prim: slot, object: 0 })
     }
 
+    /// [`TriangleMesh::intersect`] for the rays `rays[k]` of mask `live`, each up to its own
+    /// `t_max[k]`, walked together ([`PrimitiveIndex::closest_packet_leaves`]): where
+    /// `intersect(&rays[k], t_min, t_max[k])` returns a hit, `out[k]` is set to exactly that hit
+    /// (the same leaves reach each ray, the same exact tests decide, and the tie rule makes the
+    /// answer independent of the order); returns the mask of the lanes set. A mesh whose
+    /// materials cut parts away answers ray by ray.
+    pub fn intersect_packet(&self, rays: &[Ray; PACKET], live: u32, t_min: f64, t_max: &[f64; PACKET], out: &mut [Hit; PACKET]) -> u32 {
+        if self.cutouts.is_some() {
+            let mut hits = 0;
+            for (k, ray) in rays.iter().enumerate().filter(|(k, _)| live >> k & 1 != 0) {
+                if let Some(h) = self.intersect(ray, t_min, t_max[k]) {
+                    out[k] = h;
+                    hits |= 1 << k;
+                }
+            }
+            return hits;
+        }
+        // Each ray's state as in `intersect_kept`: prepared at its first leaf, its best hit.
+        let mut prepared: [Option<(TriangleRay, PackRay)>; PACKET] = [None; PACKET];
+        let mut best_t = *t_max;
+        let (mut best_slot, mut best_b) = ([NO_SLOT; PACKET], [DVec3::ZERO; PACKET]);
+        self.index.closest_packet_leaves(rays, live, t_min, &mut best_t, |first, count, mut who, best_t, base| {
+            while who != 0 {
+                let k = who.trailing_zeros() as usize;
+                who &= who - 1;
+                let ray = &rays[k];
+                let (tr, pr) = prepared[k].get_or_insert_with(|| {
+                    let tr = TriangleRay::new(ray);
+                    (tr, PackRay::new(ray, &tr, base[k], self.filter_error, self.filter_scale))
+                });
+                let (bt, bs, bb) = (&mut best_t[k], &mut best_slot[k], &mut best_b[k]);
+                self.candidates(pr, first, count, |slot| {
+                    let [p0, p1, p2] = self.vertices(slot);
+                    let limit = if *bs == NO_SLOT { *bt } else { tie_limit(*bt) };
+                    if let Some(h) = tr.intersect(p0, p1, p2, t_min, limit, EdgeRule::Inclusive)
+                        && (h.t < *bt || (h.t == *bt && slot < *bs))
+                        && !on_surface(ray, h.t, p0, p1, p2)
+                    {
+                        (*bt, *bs, *bb) = (h.t, slot, h.b);
+                    }
+                    false
+                });
+            }
+        });
+        let mut hits = 0;
+        for k in (0..PACKET).filter(|&k| best_slot[k] != NO_SLOT) {
+            let (slot, b) = (best_slot[k], best_b[k]);
+            let [p0, p1, p2] = self.vertices(slot).map(DVec3::from);
+            let (point, error) = barycentric_point(b, p0, p1, p2);
+            out[k] = Hit { t: best_t[k], point, error, uv: DVec2::new(b.y, b.z), prim: slot, object: 0 };
+            hits |= 1 << k;
+        }
+        hits
+    }
+
     /// [`TriangleMesh::occludes`], counting only hits `keep(slot, barycentrics)` accepts and
     /// leaving out the triangle at `skip` ([`NO_SLOT`]: none).
     #[inline(always)]
@@ -646,15 +701,16 @@ impl TriangleMesh {
     }
 
     /// A point uniform by area on the mesh for `u` uniform in `[0, 1)²`: a triangle chosen by its
-    /// area (`u.x`, reused within it), then a point of it. Its slot, point, rounding-error bound
-    /// and barycentric coordinates `(b1, b2)` (as [`TriangleMesh::intersect`] reports them).
-    pub fn sample_point(&self, u: DVec2) -> Option<(u32, DVec3, DVec3, DVec2)> {
-        let (table, _) = self.by_area()?;
+    /// area (`u.x`, reused within it), then a point of it.
+    pub fn sample_point(&self, u: DVec2) -> Option<MeshPoint> {
+        let &(ref table, area) = self.by_area()?;
         let (slot, _, rest) = table.sample(u.x);
         let b = uniform_triangle(DVec2::new(rest, u.y));
         let [p0, p1, p2] = self.vertices(slot as u32).map(DVec3::from);
         let (point, error) = barycentric_point(DVec3::new(1.0 - b.x - b.y, b.x, b.y), p0, p1, p2);
-        Some((slot as u32, point, error, b))
+        // `geometric_normal`, from the vertices read here.
+        let normal = (p1 - p0).cross(p2 - p0).normalize();
+        Some(MeshPoint { slot: slot as u32, point, error, b, normal, area })
     }
 
     /// Whether the triangles lie on the boundary of one convex body with their windings' normals
@@ -686,6 +742,23 @@ impl TriangleMesh {
             .filter(|t| !t[0][0].is_nan())
             .map(|[a, b, c]| [a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2]])
     }
+}
+
+/// A point chosen on a mesh ([`TriangleMesh::sample_point`]).
+#[derive(Clone, Copy, Debug)]
+pub struct MeshPoint {
+    /// The triangle's slot.
+    pub slot: u32,
+    /// The point.
+    pub point: DVec3,
+    /// Its rounding-error bound.
+    pub error: DVec3,
+    /// Its barycentric coordinates `(b1, b2)`, as [`TriangleMesh::intersect`] reports them.
+    pub b: DVec2,
+    /// The triangle's [`TriangleMesh::geometric_normal`].
+    pub normal: DVec3,
+    /// The mesh's [`TriangleMesh::area`].
+    pub area: f64,
 }
 
 /// Most triangles [`TriangleMesh::is_convex`] checks against every vertex (beyond: not convex,
@@ -920,8 +993,123 @@ mod tests {
             ties += usize::from(hits.iter().filter(|h| Some(h.0) == expect.map(|e| e.0)).count() > 1);
             let hit = mesh.intersect(&ray, 0.0, f64::INFINITY);
             assert_eq!(hit.map(|h| (h.t, h.prim)), expect, "{ray:?}");
+            // In a packet of rays converging on the same point (another order of the leaves).
+            let rays: [Ray; PACKET] =
+                std::array::from_fn(|k| if k == 0 { ray } else { Ray::new(ray.origin + 0.01 * k as f64 * r.vec(), target - ray.origin) });
+            let mut out = [Hit::new(-1.0, DVec3::ZERO, DVec3::ZERO); PACKET];
+            let hits = mesh.intersect_packet(&rays, 0xff, 0.0, &[f64::INFINITY; PACKET], &mut out);
+            assert_eq!((hits & 1 != 0).then_some(out[0]), hit, "{ray:?} in a packet");
         }
         assert!(ties > 1500, "{ties} rays met ties");
+    }
+
+    /// Rays walked as a packet get exactly the single rays' hits (the whole `Hit`, bit for bit):
+    /// packets of neighbouring camera rays through a lumpy closed mesh and a cloud of triangles,
+    /// some lanes empty, some with a far limit short of the mesh, some diverging (directions of
+    /// other signs: walked one by one).
+    #[test]
+    fn packets_hit_what_single_rays_hit() {
+        let mut r = Rng(5);
+        let mut positions = Vec::new();
+        let mut triangles = Vec::new();
+        for _ in 0..3000 {
+            let c = r.vec();
+            let n = positions.len() as u32;
+            positions.extend([c, c + 0.08 * r.vec(), c + 0.08 * r.vec()].map(|v| v.as_vec3().to_array()));
+            triangles.push([n, n + 1, n + 2]);
+        }
+        let data = MeshData { positions, triangles, ..MeshData::default() };
+        let mesh = TriangleMesh::new(data, Normals::Flat, AccelChoice::Bvh).unwrap();
+        let (mut hit, mut total) = (0, 0);
+        for case in 0..4000 {
+            let eye = r.vec().normalize() * (1.5 + 4.0 * r.next());
+            let look = 0.5 * r.vec() - eye;
+            let (u, v) = (look.any_orthonormal_pair().0, look.any_orthonormal_pair().1);
+            let spread = [1e-4, 1e-3, 1e-2, 0.3][case % 4];
+            let live = if case % 5 == 0 { (r.next() * 255.0) as u32 | 1 } else { 0xff };
+            let rays: [Ray; PACKET] = std::array::from_fn(|k| {
+                let (x, y) = ((k % 4) as f64 - 1.5, (k / 4) as f64 - 0.5);
+                Ray::new(eye, look.normalize() + spread * (x * u + y * v))
+            });
+            let t_max: [f64; PACKET] = std::array::from_fn(|_| if r.next() < 0.1 { eye.length() * r.next() } else { f64::INFINITY });
+            let t_min = if case % 7 == 0 { 0.5 } else { 0.0 };
+            let mut out = [Hit::new(-1.0, DVec3::ZERO, DVec3::ZERO); PACKET];
+            let hits = mesh.intersect_packet(&rays, live, t_min, &t_max, &mut out);
+            assert_eq!(hits & !live, 0, "case {case}: lanes not live set");
+            for k in 0..PACKET {
+                if hits >> k & 1 == 0 {
+                    assert_eq!(out[k].t, -1.0, "case {case}, lane {k}: not hit, but written");
+                }
+                if live >> k & 1 == 0 {
+                    continue;
+                }
+                let single = mesh.intersect(&rays[k], t_min, t_max[k]);
+                assert_eq!((hits >> k & 1 != 0).then_some(out[k]), single, "case {case}, lane {k}");
+                total += 1;
+                hit += usize::from(single.is_some());
+            }
+        }
+        assert!(hit > total / 4 && hit < total, "{hit} of {total} rays hit");
+    }
+
+    /// Experiment (issue 29): the camera rays of `raylab bench`'s framing of the OBJ named by
+    /// `RAYLAB_PACKET_OBJ` (800×600), one ray at a time against packets of 8 (blocks of
+    /// `RAYLAB_PACKET_BLOCK` pixels of a row: 8 for 8×1, 4 for 4×2); run under callgrind with
+    /// `--toggle-collect` on `camera_single` and on `camera_packet`.
+    #[test]
+    #[ignore]
+    fn packet_experiment() {
+        let Some(path) = std::env::var_os("RAYLAB_PACKET_OBJ") else { return };
+        let text = std::fs::read_to_string(path).unwrap();
+        let mut data = MeshData::default();
+        for line in text.lines() {
+            let mut w = line.split_whitespace();
+            match w.next() {
+                Some("v") => data.positions.push([0, 1, 2].map(|_| w.next().unwrap().parse::<f32>().unwrap())),
+                Some("f") => {
+                    data.triangles.push([0, 1, 2].map(|_| w.next().unwrap().split('/').next().unwrap().parse::<u32>().unwrap() - 1))
+                }
+                _ => {}
+            }
+        }
+        let mesh = TriangleMesh::new(data, Normals::Flat, AccelChoice::Bvh).unwrap();
+        let (width, height) = (800u32, 600u32);
+        let b = mesh.bounds();
+        let (center, radius) = (b.center(), b.extent().length() * 0.5);
+        let dir = DVec3::new(0.3, 0.25, 1.0).normalize();
+        let camera = raylab::scene::camera::Camera::look_at(center + dir * radius * 2.6, center, DVec3::Y, 45.0, width, height).unwrap();
+        let block: u32 = std::env::var("RAYLAB_PACKET_BLOCK").ok().and_then(|v| v.parse().ok()).unwrap_or(8);
+        let mut groups: Vec<[Ray; PACKET]> = Vec::new();
+        for y0 in (0..height).step_by((8 / block) as usize) {
+            for x0 in (0..width).step_by(block as usize) {
+                groups.push(std::array::from_fn(|k| {
+                    let (x, y) = (x0 + k as u32 % block, y0 + k as u32 / block);
+                    camera.ray_through(width, height, DVec2::new(f64::from(x) + 0.5, f64::from(y) + 0.5), DVec2::ZERO)
+                }));
+            }
+        }
+        let single = camera_single(&mesh, &groups);
+        let packet = camera_packet(&mesh, &groups);
+        assert!(single == packet);
+        let hits = single.iter().flatten().filter(|h| h.is_some()).count();
+        eprintln!("{} camera rays in {} packets, {hits} hits", groups.len() * PACKET, groups.len());
+    }
+
+    #[inline(never)]
+    fn camera_single(mesh: &TriangleMesh, groups: &[[Ray; PACKET]]) -> Vec<[Option<Hit>; PACKET]> {
+        groups.iter().map(|g| g.map(|r| mesh.intersect(&r, 0.0, f64::INFINITY))).collect()
+    }
+
+    #[inline(never)]
+    fn camera_packet(mesh: &TriangleMesh, groups: &[[Ray; PACKET]]) -> Vec<[Option<Hit>; PACKET]> {
+        groups
+            .iter()
+            .map(|g| {
+                let mut out = [Hit::new(0.0, DVec3::ZERO, DVec3::ZERO); PACKET];
+                let hits = mesh.intersect_packet(g, 0xff, 0.0, &[f64::INFINITY; PACKET], &mut out);
+                std::array::from_fn(|k| (hits >> k & 1 != 0).then_some(out[k]))
+            })
+            .collect()
     }
 
     /// The filter never rejects a triangle the exact test accepts: rays aimed exactly at vertices,

@@ -526,3 +526,58 @@ fn occludes_leaving_skips_the_own_triangle_only() {
         assert!(g.occludes_leaving(&ray, 0.0, 1.5, far.prim), "{accel:?}");
     }
 }
+
+/// Camera rays traced in packets (8 pixels of a row walked together through a mesh's hierarchy)
+/// give every pixel exactly the colour of the single-ray path (`render_pixel`), with layers, at
+/// 1 and 2 threads: a lumpy sphere of 9k triangles over a ground plane, a width that leaves a
+/// short packet at each tile's end.
+#[test]
+fn packets_of_camera_rays_render_what_single_rays_render() {
+    use std::fmt::Write as _;
+    let dir = std::env::temp_dir().join(format!("raylab-packets-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut obj = String::new();
+    let (nu, nv) = (96u32, 48u32);
+    for j in 0..=nv {
+        for i in 0..nu {
+            let (th, ph) = (std::f64::consts::PI * f64::from(j) / f64::from(nv), std::f64::consts::TAU * f64::from(i) / f64::from(nu));
+            let r = 1.0 + 0.08 * (7.0 * th).sin() * (5.0 * ph).cos();
+            writeln!(obj, "v {} {} {}", r * th.sin() * ph.cos(), r * th.cos(), r * th.sin() * ph.sin()).unwrap();
+        }
+    }
+    for j in 0..nv {
+        for i in 0..nu {
+            let (a, b) = (j * nu + i + 1, j * nu + (i + 1) % nu + 1);
+            let (c, d) = (a + nu, b + nu);
+            writeln!(obj, "f {a} {c} {d}\nf {a} {d} {b}").unwrap();
+        }
+    }
+    std::fs::write(dir.join("lumpy.obj"), obj).unwrap();
+    let scene = "[render]\nwidth = 75\nheight = 41\nspp = 1\n\
+                 [camera]\nposition = [0.4, 0.8, 3.2]\nlook_at = [0, 0, 0]\nfov = 45\n\
+                 [integrator]\ntype = \"phong\"\nmax_depth = 2\n\
+                 [[object]]\ntype = \"mesh\"\nfile = \"lumpy.obj\"\nmaterial = { kd = 0.7, ka = 1, kr = 0.3 }\n\
+                 [[object]]\ntype = \"plane\"\npoint = [0, -1.1, 0]\nnormal = [0, 1, 0]\nmaterial = { kd = 0.5, ka = 1 }\n\
+                 [[light]]\ntype = \"directional\"\ndirection = [-0.3, -1, -0.5]\ncolor = 1\n\
+                 [[light]]\ntype = \"ambient\"\ncolor = 1\nka = 0.1\n";
+    std::fs::write(dir.join("packets.toml"), scene).unwrap();
+    let job = load_file(&raylab_plugins::registry(), &dir.join("packets.toml"), &options(AccelChoice::Auto))
+        .unwrap_or_else(|e| panic!("{}", e.report()));
+    assert!(job.integrator.takes_camera_hits());
+    assert_eq!(job.scene.walks_packets(), raylab::accel::BVH_AVAILABLE, "the render takes packets through the mesh's hierarchy");
+    let mut stats = raylab::RayStats::new(job.integrator.counters());
+    let single: Vec<_> =
+        (0..41).flat_map(|y| (0..75).map(move |x| (x, y))).map(|(x, y)| raylab::render::render_pixel(&job, x, y, &mut stats)).collect();
+    for threads in [1, 2] {
+        let options = raylab::render::RenderOptions { threads: Some(threads), layers: true, ..Default::default() };
+        let film = raylab::render::render(&job, &options, &|_, _| {}).unwrap().film;
+        let mut hits = 0;
+        for (i, c) in single.iter().enumerate() {
+            let (x, y) = (i as u32 % 75, i as u32 / 75);
+            assert_eq!(film.get(x, y), *c, "pixel ({x}, {y}), {threads} thread(s)");
+            hits += usize::from(c.max_element() > 0.2);
+        }
+        assert!(hits > 1000, "{hits} lit pixels");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -330,6 +330,96 @@ impl Query<'_> {
     }
 }
 
+/// Rays walked together by [`PrimitiveIndex::closest_packet_leaves`]: one per lane of a
+/// hierarchy's node.
+pub use crate::geometry::PACKET;
+
+impl PrimitiveIndex {
+    /// [`Query::closest_leaves`] for the rays `rays[k]` of mask `live` (each in `(t_min,
+    /// t_max[k])`), walked together through a hierarchy when more than one meets its box and
+    /// their directions allow it (one near side per axis), else one after the other.
+    /// `test(first, count, rays, t_max, base)` tests the leaf's primitives for the rays of mask
+    /// `rays` and lowers `t_max[k]` to the closest `t` it finds for ray `k`; `base[k]` is the
+    /// ray's [`Query::base`]. Each ray is handed the leaves its own walk
+    /// could hand it, in another order, so a caller that keeps the tie rule gets each single
+    /// ray's answer. Returns the mask of the rays that met the index's box.
+    #[inline]
+    pub fn closest_packet_leaves(
+        &self,
+        rays: &[Ray; PACKET],
+        live: u32,
+        t_min: f64,
+        t_max: &mut [f64; PACKET],
+        mut test: impl FnMut(u32, u32, u32, &mut [f64; PACKET], &[f64; PACKET]),
+    ) -> u32 {
+        let mut base = [0.0; PACKET];
+        #[cfg(feature = "bvh")]
+        if let (Some(b), Some(root)) = (&self.bvh, &self.bounds) {
+            let mut met = 0u32;
+            let mut lanes = [None; PACKET];
+            let mut m = live;
+            while m != 0 {
+                let k = m.trailing_zeros() as usize;
+                m &= m - 1;
+                if let Some(at) = clip(root, &rays[k], t_min, t_max[k]) {
+                    base[k] = at;
+                    lanes[k] = Some(wide::NodeRay::new(rays[k].at(at), rays[k].dir));
+                    met |= 1 << k;
+                }
+            }
+            if met.count_ones() > 1
+                && let Some(p) = wide::PacketRay::new(&lanes, met)
+            {
+                let mut hi = [f32::NEG_INFINITY; PACKET];
+                let mut m = met;
+                while m != 0 {
+                    let k = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    hi[k] = wide::far_limit(t_max[k] - base[k]);
+                }
+                b.traverse_packet(&p, &mut hi, &mut |first, count, rays, hi: &mut [f32; PACKET]| {
+                    let before = *t_max;
+                    test(first, count, rays, t_max, &base);
+                    let mut m = rays;
+                    while m != 0 {
+                        let k = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        if t_max[k] < before[k] {
+                            hi[k] = wide::far_limit(t_max[k] - base[k]);
+                        }
+                    }
+                });
+                return met;
+            }
+            // One ray, or directions of both signs on an axis: each walked alone.
+            let mut m = met;
+            while m != 0 {
+                let k = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let q = Query { index: self, base: base[k], t_max: t_max[k], node_ray: lanes[k] };
+                q.closest_leaves(|first, count, _| {
+                    let before = t_max[k];
+                    test(first, count, 1 << k, t_max, &base);
+                    (t_max[k] < before).then_some(t_max[k])
+                });
+            }
+            return met;
+        }
+        let mut met = 0u32;
+        for (k, ray) in rays.iter().enumerate().filter(|(k, _)| live >> k & 1 != 0) {
+            let Some(q) = self.query(ray, t_min, t_max[k]) else { continue };
+            met |= 1 << k;
+            base[k] = q.base;
+            q.closest_leaves(|first, count, _| {
+                let before = t_max[k];
+                test(first, count, 1 << k, t_max, &base);
+                (t_max[k] < before).then_some(t_max[k])
+            });
+        }
+        met
+    }
+}
+
 /// Clips `ray` to `root` over `(t_min, t_max)`: the `t` the `f32` frame starts at (where the ray
 /// enters the box, or `t_min`), or `None` when the ray misses the box. The slab test of
 /// [`Aabb::hit`], keeping the entry distance.

@@ -16,7 +16,7 @@ mod wide;
 use crate::accel::bvh::PrimitiveIndex;
 
 pub use crate::accel::build::{AccelChoice, BVH_AVAILABLE, BuildStats, MESH_BVH_THRESHOLD, SCENE_BVH_THRESHOLD};
-use crate::geometry::{Hit, Intersectable};
+use crate::geometry::{Hit, Intersectable, PACKET};
 use crate::math::bounds::Aabb;
 use crate::math::ray::Ray;
 
@@ -137,6 +137,51 @@ impl<O: Intersectable> Intersectable for Accelerated<'_, O> {
             }
         }
         best
+    }
+
+    /// The unbounded objects ray by ray, then a lone bounded object's own packet query
+    /// ([`Intersectable::intersect_packet`]) with each ray's limit lowered to its hit so far;
+    /// with other arrangements, ray by ray. Each ray's answer is [`Accelerated::intersect`]'s.
+    #[inline]
+    fn intersect_packet(&self, rays: &[Ray; PACKET], live: u32, t_min: f64, t_max: &[f64; PACKET], out: &mut [Hit; PACKET]) -> u32 {
+        let (accel, objects) = (self.accel, self.objects);
+        let mut hits = 0;
+        let lone = match accel.bounded[..] {
+            [(_, i)] if !accel.index.is_bvh() => i,
+            _ => {
+                for (k, ray) in rays.iter().enumerate().filter(|(k, _)| live >> k & 1 != 0) {
+                    if let Some(h) = self.intersect(ray, t_min, t_max[k]) {
+                        out[k] = h;
+                        hits |= 1 << k;
+                    }
+                }
+                return hits;
+            }
+        };
+        let mut limit = *t_max;
+        for &i in &accel.unbounded {
+            for (k, ray) in rays.iter().enumerate().filter(|(k, _)| live >> k & 1 != 0) {
+                if let Some(h) = objects[i as usize].intersect(ray, t_min, limit[k]) {
+                    out[k] = Hit { object: i, ..h };
+                    limit[k] = h.t;
+                    hits |= 1 << k;
+                }
+            }
+        }
+        // As in `intersect`: a lone bounded object is asked without its box test.
+        let mut found = objects[lone as usize].intersect_packet(rays, live, t_min, &limit, out);
+        hits |= found;
+        while found != 0 {
+            let k = found.trailing_zeros() as usize;
+            found &= found - 1;
+            out[k].object = lone;
+        }
+        hits
+    }
+
+    /// True when the bounded objects are one object that walks packets.
+    fn walks_packets(&self) -> bool {
+        matches!(self.accel.bounded[..], [(_, i)] if !self.accel.index.is_bvh() && self.objects[i as usize].walks_packets())
     }
 
     /// Stops at the first object hit.

@@ -61,7 +61,33 @@ pub trait Intersectable: Send + Sync {
         let _ = prim;
         self.occludes(ray, t_min, t_max)
     }
+
+    /// The closest hits of the rays `rays[k]` of mask `live`, ray `k` in `(t_min, t_max[k])`:
+    /// where `intersect(&rays[k], t_min, t_max[k])` returns a hit, sets `out[k]` to it, exactly;
+    /// leaves the other lanes alone, and returns the mask of the lanes set. A shape that walks a
+    /// packet of coherent rays (camera rays of a pixel block) together overrides it, and
+    /// [`Intersectable::walks_packets`]; the default asks ray by ray.
+    #[inline]
+    fn intersect_packet(&self, rays: &[Ray; PACKET], live: u32, t_min: f64, t_max: &[f64; PACKET], out: &mut [Hit; PACKET]) -> u32 {
+        let mut hits = 0;
+        for (k, ray) in rays.iter().enumerate().filter(|(k, _)| live >> k & 1 != 0) {
+            if let Some(h) = self.intersect(ray, t_min, t_max[k]) {
+                out[k] = h;
+                hits |= 1 << k;
+            }
+        }
+        hits
+    }
+
+    /// Whether [`Intersectable::intersect_packet`] does less work than one ray at a time (a
+    /// render loop then gathers camera rays into packets).
+    fn walks_packets(&self) -> bool {
+        false
+    }
 }
+
+/// Rays of a packet ([`Intersectable::intersect_packet`]): one per lane of an 8-wide node.
+pub const PACKET: usize = 8;
 
 /// A surface: what scene objects are made of. Pure geometry; the loader attaches materials
 /// (and transforms) to make a scene object.
@@ -199,6 +225,20 @@ macro_rules! forward_impls {
             #[inline]
             fn occludes_leaving(&self, ray: &Ray, t_min: f64, t_max: f64, prim: u32) -> bool {
                 (**self).occludes_leaving(ray, t_min, t_max, prim)
+            }
+            #[inline]
+            fn intersect_packet(
+                &self,
+                rays: &[Ray; PACKET],
+                live: u32,
+                t_min: f64,
+                t_max: &[f64; PACKET],
+                out: &mut [Hit; PACKET],
+            ) -> u32 {
+                (**self).intersect_packet(rays, live, t_min, t_max, out)
+            }
+            fn walks_packets(&self) -> bool {
+                (**self).walks_packets()
             }
         }
         impl<T: Geometry + ?Sized> Geometry for $ptr<T> {

@@ -1,5 +1,6 @@
 //! The [`Integrator`] trait: turns a camera ray into a colour.
 
+use crate::geometry::Hit;
 use crate::math::color::Color;
 use crate::math::ray::Ray;
 use crate::math::ray::RayKind;
@@ -21,6 +22,30 @@ pub trait Integrator: Send + Sync {
     /// indices of [`Integrator::counters`]) and describes the first surface met in `aov`
     /// (left as [`AovSample::miss`] when nothing is hit).
     fn radiance(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler, stats: &mut RayStats, aov: &mut AovSample) -> Color;
+
+    /// [`Integrator::radiance`] with the camera ray's closest hit already found: `hit` is what
+    /// `scene.intersect(ray, 0.0, f64::INFINITY)` returns (the render loop finds the hits of a
+    /// block's camera rays together, [`crate::geometry::Intersectable::intersect_packet`]). Must
+    /// return exactly what `radiance` returns. Called only when
+    /// [`Integrator::takes_camera_hits`] is true; the default asks the scene again.
+    fn radiance_from(
+        &self,
+        scene: &Scene,
+        ray: &Ray,
+        hit: Option<&Hit>,
+        sampler: &mut Sampler,
+        stats: &mut RayStats,
+        aov: &mut AovSample,
+    ) -> Color {
+        let _ = hit;
+        self.radiance(scene, ray, sampler, stats, aov)
+    }
+
+    /// Whether [`Integrator::radiance_from`] uses the hit it is given (then the render loop
+    /// traces camera rays in packets where the scene walks them).
+    fn takes_camera_hits(&self) -> bool {
+        false
+    }
 
     /// The same computation as [`Integrator::radiance`] with the same sampler, recorded as a ray
     /// tree for `raylab trace`; `None` when the integrator cannot explain itself.

@@ -31,11 +31,15 @@ pub mod trace;
 
 pub use job::{ADAPTIVE_TILE_SIZE, AdaptiveSettings, Antialiasing, MAX_ADAPTIVE_DEPTH, RenderJob, RenderSettings, TILE_SIZE};
 
+use crate::geometry::{Intersectable, PACKET};
+use crate::math::ray::Ray;
 use crate::render::accum::{AovSum, PixelSum};
 use crate::render::adaptive::Adaptive;
 use crate::render::aov::AovLayers;
 use crate::render::film::Film;
-use crate::render::sample::{ImageSetup, SampleId, camera_rays, image_setup, pixel_setup, trace_pixel_sample, trace_sample};
+use crate::render::sample::{
+    ImageSetup, SampleId, camera_rays, image_setup, pixel_setup, single_camera_ray, trace_pixel_sample, trace_sample, trace_sample_from,
+};
 use crate::render::share::{Rect, Sampling, Share, ShareSums};
 use crate::render::stats::{Counter, RayStats};
 use glam::Vec3;
@@ -532,12 +536,37 @@ impl TileWork {
         let want = share.samples_of(Sampling::of(s), s.width, t.x0, t.y0);
         let mut pixels = StratifiedPixels { job, setup: image_setup(job), share, want, end, row_map: None };
         let w = t.width() as usize;
+        // Camera rays in packets of 8 pixels of a row, where the scene walks them together and
+        // the integrator takes their hits: one sample per pixel (an error target or a time budget
+        // decides per sample, and stratified film positions are per pixel), one camera ray each.
+        let packets = s.spp == 1
+            && !s.progressive()
+            && s.target.is_none()
+            && (job.scene.camera.aperture <= 0.0 || s.lens_samples <= 1)
+            && job.integrator.takes_camera_hits()
+            && job.scene.walks_packets();
+        // A packet's rays and hits, written lane by lane as each round needs them.
+        let mut scratch = PacketScratch {
+            ids: [SampleId::Pixel { x: 0, y: 0, index: 0 }; PACKET],
+            rays: [Ray { origin: glam::DVec3::ZERO, dir: glam::DVec3::Z }; PACKET],
+            hits: [crate::geometry::Hit::new(0.0, glam::DVec3::ZERO, glam::DVec3::ZERO); PACKET],
+        };
         for (row, y) in (t.y0..t.y1).enumerate() {
             if stop.now() || stats.exhausted() {
                 return;
             }
             pixels.row_map = map.map(|m| &m[y as usize * s.width as usize..][..s.width as usize]);
             let span = row * w..(row + 1) * w;
+            if packets {
+                let accs = &mut self.pixels[span.clone()];
+                let mut layers = self.layers.as_mut().map(|l| &mut l[span]);
+                for (c, chunk) in accs.chunks_mut(PACKET).enumerate() {
+                    let at = c * PACKET;
+                    let chunk_layers = layers.as_deref_mut().map(|l| &mut l[at..at + chunk.len()]);
+                    pixels.add_packet_samples(t.x0 + at as u32, y, chunk, chunk_layers, &mut scratch, stats);
+                }
+                continue;
+            }
             let row_sums = self.pixels[span.clone()].iter_mut().zip(t.x0..t.x1);
             match self.layers.as_mut() {
                 None => {
@@ -599,6 +628,68 @@ impl StratifiedPixels<'_> {
             let index = share.sample_index(acc.samples);
             trace_pixel_sample(job, &self.setup, &pixel, index, acc, layers.as_deref_mut(), stats);
             acc.samples += 1;
+        }
+    }
+}
+
+/// What a packet of camera rays is gathered in (kept for a tile, so no round initialises it).
+struct PacketScratch {
+    ids: [SampleId; PACKET],
+    rays: [Ray; PACKET],
+    hits: [crate::geometry::Hit; PACKET],
+}
+
+impl StratifiedPixels<'_> {
+    /// [`StratifiedPixels::add_samples`] for the pixels (`x0 + k`, `y`) of `accs` (at most
+    /// [`PACKET`]) of a render without stratified film positions or an error target, their camera
+    /// rays' closest hits found together ([`Intersectable::intersect_packet`]): one sample of each
+    /// pixel per round, each pixel's in order, so every sum is the one `add_samples` makes.
+    fn add_packet_samples(
+        &self,
+        x0: u32,
+        y: u32,
+        accs: &mut [PixelSum],
+        mut layers: Option<&mut [AovSum]>,
+        p: &mut PacketScratch,
+        stats: &mut RayStats,
+    ) {
+        let (job, share, setup) = (self.job, self.share, &self.setup);
+        let wants = |acc: &PixelSum, x: u32| {
+            let want = self.row_map.map_or(self.want, |m| self.want.min(m[x as usize]));
+            acc.samples < want && share.sample_index(acc.samples) < self.end
+        };
+        let mut live = 0u32;
+        for (k, acc) in accs.iter().enumerate() {
+            live |= u32::from(wants(acc, x0 + k as u32)) << k;
+        }
+        while live != 0 {
+            let mut m = live;
+            while m != 0 {
+                let k = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let id = SampleId::Pixel { x: x0 + k as u32, y, index: share.sample_index(accs[k].samples) };
+                match single_camera_ray(job, setup, id) {
+                    Some(ray) => (p.ids[k], p.rays[k]) = (id, ray),
+                    None => {
+                        trace_sample(job, setup, id, &mut accs[k], layers.as_deref_mut().map(|l| &mut l[k]), stats);
+                        accs[k].samples += 1;
+                        live &= !(1 << k);
+                    }
+                }
+            }
+            let hits = job.scene.intersect_packet(&p.rays, live, 0.0, &[f64::INFINITY; PACKET], &mut p.hits);
+            let mut m = live;
+            while m != 0 {
+                let k = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let acc = &mut accs[k];
+                let hit = (hits >> k & 1 != 0).then_some(&p.hits[k]);
+                trace_sample_from(job, setup, p.ids[k], &p.rays[k], hit, acc, layers.as_deref_mut().map(|l| &mut l[k]), stats);
+                acc.samples += 1;
+                if !wants(acc, x0 + k as u32) {
+                    live &= !(1 << k);
+                }
+            }
         }
     }
 }

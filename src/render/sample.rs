@@ -2,6 +2,7 @@
 //! streams. The render, its depth/normal/albedo layers and `raylab trace` all go through
 //! [`camera_rays`], so an explained sample is exactly the sample the render computed.
 
+use crate::geometry::Hit;
 use crate::math::ray::Ray;
 use crate::math::sampler::{PixelKey, Sampler, SeedKey, StratifiedSet, mix64, sobol_02, stratified_2d};
 use crate::render::accum::{AovSum, PixelSum};
@@ -290,7 +291,7 @@ pub fn trace_sample(
     layers: Option<&mut AovSum>,
     stats: &mut RayStats,
 ) -> u64 {
-    trace_rays(job, setup, id, camera_rays_in(job, setup, id), acc, layers, stats)
+    trace_rays(job, setup, id, camera_rays_in(job, setup, id), None, acc, layers, stats)
 }
 
 /// [`trace_sample`] for sample `index` of the pixel `pixel` describes (its [`pixel_setup`],
@@ -306,16 +307,45 @@ pub fn trace_pixel_sample(
     stats: &mut RayStats,
 ) -> u64 {
     let id = SampleId::Pixel { x: pixel.x, y: pixel.y, index };
-    trace_rays(job, setup, id, pixel.rays(job, setup, index), acc, layers, stats)
+    trace_rays(job, setup, id, pixel.rays(job, setup, index), None, acc, layers, stats)
 }
 
-/// [`trace_sample`] with sample `id`'s camera rays `rays` built.
+/// The camera ray of sample `id` when it has only one (no lens samples): what the render loop
+/// gathers into packets, then traces with [`trace_sample_from`].
+#[inline(always)]
+pub fn single_camera_ray(job: &RenderJob, setup: &ImageSetup, id: SampleId) -> Option<Ray> {
+    let rays = camera_rays_in(job, setup, id);
+    (rays.count == 1).then(|| rays.ray(0))
+}
+
+/// [`trace_sample`] for a sample whose one camera ray `ray` ([`single_camera_ray`]) has the
+/// closest hit `hit` in the scene (found for a packet of them), for an integrator that
+/// [takes camera hits](crate::render::integrator::Integrator::takes_camera_hits): the same sums.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn trace_sample_from(
+    job: &RenderJob,
+    setup: &ImageSetup,
+    id: SampleId,
+    ray: &Ray,
+    hit: Option<&Hit>,
+    acc: &mut PixelSum,
+    layers: Option<&mut AovSum>,
+    stats: &mut RayStats,
+) -> u64 {
+    trace_rays(job, setup, id, camera_rays_in(job, setup, id), Some((ray, hit)), acc, layers, stats)
+}
+
+/// [`trace_sample`] with sample `id`'s camera rays `rays` built; `given`: its one camera ray
+/// with its closest hit, found by the caller.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn trace_rays(
     job: &RenderJob,
     setup: &ImageSetup,
     id: SampleId,
     rays: CameraRays<'_>,
+    given: Option<(&Ray, Option<&Hit>)>,
     acc: &mut PixelSum,
     mut layers: Option<&mut AovSum>,
     stats: &mut RayStats,
@@ -348,12 +378,15 @@ fn trace_rays(
     // The rays of the iterator, each built where the integrator reads it: taken from the
     // iterator's `(Ray, Sampler)`, the ray was copied in pieces that straddled its stores (a
     // store-forwarding stall on every camera ray).
+    debug_assert!(given.is_none() || rays.count == 1, "a given camera hit is of a sample's only camera ray");
     for l in 0..rays.count {
-        let ray = rays.ray(l);
         let mut sampler = rays.sampler(l);
         let mut first = setup.miss;
         stats.camera_rays += 1;
-        let c = job.integrator.radiance(&job.scene, &ray, &mut sampler, stats, &mut first);
+        let c = match given {
+            Some((ray, hit)) => job.integrator.radiance_from(&job.scene, ray, hit, &mut sampler, stats, &mut first),
+            None => job.integrator.radiance(&job.scene, &rays.ray(l), &mut sampler, stats, &mut first),
+        };
         if c.is_finite() {
             acc.add_sample(c, second);
         } else {

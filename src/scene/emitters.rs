@@ -142,6 +142,8 @@ impl Emitters {
     /// gives no point there.
     pub fn sample(&self, objects: &[Object], reference: DVec3, pick: f64, u: DVec2, selection: Selection) -> Option<EmitterSample> {
         let (e, pmf) = match selection {
+            // A lone emitter is chosen with probability 1, which is its table's pmf exactly.
+            Selection::Power if self.objects.len() == 1 => (0, 1.0),
             Selection::Power => {
                 let (e, pmf, _) = self.table.as_ref()?.sample(pick);
                 (e, pmf)

@@ -12,7 +12,7 @@ pub mod texture;
 
 use crate::accel::{AccelChoice, BuildStats, ObjectAccel};
 use crate::geometry::differential::{CameraSpread, RaySpread};
-use crate::geometry::{Hit, Intersectable};
+use crate::geometry::{Hit, Intersectable, PACKET};
 use crate::math::bounds::Aabb;
 use crate::math::color::Color;
 use crate::math::float::offset_ray_origin;
@@ -368,5 +368,12 @@ impl Intersectable for Scene {
     #[inline]
     fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
         self.accel.over(&self.objects).occludes(ray, t_min, t_max)
+    }
+    #[inline]
+    fn intersect_packet(&self, rays: &[Ray; PACKET], live: u32, t_min: f64, t_max: &[f64; PACKET], out: &mut [Hit; PACKET]) -> u32 {
+        self.accel.over(&self.objects).intersect_packet(rays, live, t_min, t_max, out)
+    }
+    fn walks_packets(&self) -> bool {
+        self.accel.over(&self.objects).walks_packets()
     }
 }

@@ -1,6 +1,6 @@
 //! [`Object`]: a shape placed in a scene with its materials, as the loader assembles it.
 
-use crate::geometry::{Geometry, Hit, Intersectable};
+use crate::geometry::{Geometry, Hit, Intersectable, PACKET};
 use crate::math::color::Color;
 use crate::math::ray::Ray;
 use crate::scene::material::{Coefficients, CoefficientsAt, Material};
@@ -181,5 +181,12 @@ impl Intersectable for Object {
     #[inline]
     fn occludes_leaving(&self, ray: &Ray, t_min: f64, t_max: f64, prim: u32) -> bool {
         self.geometry.occludes_leaving(ray, t_min, t_max, prim)
+    }
+    #[inline]
+    fn intersect_packet(&self, rays: &[Ray; PACKET], live: u32, t_min: f64, t_max: &[f64; PACKET], out: &mut [Hit; PACKET]) -> u32 {
+        self.geometry.intersect_packet(rays, live, t_min, t_max, out)
+    }
+    fn walks_packets(&self) -> bool {
+        self.geometry.walks_packets()
     }
 }

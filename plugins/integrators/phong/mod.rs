@@ -51,6 +51,7 @@ mod direct;
 mod fan;
 
 use raylab::Intersectable;
+use raylab::geometry::Hit;
 use raylab::geometry::differential::RaySpread;
 use raylab::math::color::max_channel;
 use raylab::param::error::Result;
@@ -305,17 +306,25 @@ impl Phong {
     }
 
     /// The whole recursion for a camera ray, recorded into `rec`; `aov` gets the first surface.
+    /// `given`: the ray's closest hit when the caller found it (`None`: found here).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     fn camera<R: Recorder>(
         &self,
         scene: &Scene,
         ray: &Ray,
+        given: Option<Option<&Hit>>,
         sampler: &Sampler,
         stats: &mut RayStats,
         aov: &mut AovSample,
         rec: &mut R,
     ) -> Color {
         let c = &mut Ctx { scene, stats };
-        let Some(hit) = scene.intersect(ray, 0.0, f64::INFINITY) else {
+        let found = match given {
+            Some(hit) => hit.copied(),
+            None => scene.intersect(ray, 0.0, f64::INFINITY),
+        };
+        let Some(hit) = found else {
             let seen = scene.escaped(ray.dir);
             rec.color(seen);
             return seen;
@@ -330,11 +339,27 @@ impl Phong {
 
 impl Integrator for Phong {
     fn radiance(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler, stats: &mut RayStats, aov: &mut AovSample) -> Color {
-        self.camera(scene, ray, sampler, stats, aov, &mut NoRecord)
+        self.camera(scene, ray, None, sampler, stats, aov, &mut NoRecord)
+    }
+
+    fn radiance_from(
+        &self,
+        scene: &Scene,
+        ray: &Ray,
+        hit: Option<&Hit>,
+        sampler: &mut Sampler,
+        stats: &mut RayStats,
+        aov: &mut AovSample,
+    ) -> Color {
+        self.camera(scene, ray, Some(hit), sampler, stats, aov, &mut NoRecord)
+    }
+
+    fn takes_camera_hits(&self) -> bool {
+        true
     }
 
     fn explain(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler) -> Option<TraceNode> {
-        explain_recursion(scene, ray, COUNTERS, |stats, aov, root| self.camera(scene, ray, sampler, stats, aov, root))
+        explain_recursion(scene, ray, COUNTERS, |stats, aov, root| self.camera(scene, ray, None, sampler, stats, aov, root))
     }
 
     fn counters(&self) -> &'static [Counter] {
