@@ -325,6 +325,11 @@ impl Intersectable for MeshObject {
     fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
         self.mesh.occludes(ray, t_min, t_max)
     }
+    /// Triangles are flat: the one the ray leaves is not tested.
+    #[inline]
+    fn occludes_leaving(&self, ray: &Ray, t_min: f64, t_max: f64, prim: u32) -> bool {
+        self.mesh.occludes_leaving(ray, t_min, t_max, prim)
+    }
     #[inline]
     fn intersect_packet(&self, rays: &[Ray; PACKET], live: u32, t_min: f64, t_max: &[f64; PACKET], out: &mut [Hit; PACKET]) -> u32 {
         self.mesh.intersect_packet(rays, live, t_min, t_max, out)

@@ -391,9 +391,18 @@ impl TriangleMesh {
     /// passed through, as by [`TriangleMesh::intersect`]).
     #[inline]
     pub fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
+        self.occludes_leaving(ray, t_min, t_max, NO_SLOT)
+    }
+
+    /// [`TriangleMesh::occludes`] for a ray that leaves the triangle at `slot` (its origin moved
+    /// off it toward the ray, [`raylab::geometry::Intersectable::occludes_leaving`]): that
+    /// triangle is flat, so it is not tested (it would pass the `f32` filter, then the exact
+    /// test would reject it).
+    #[inline]
+    pub fn occludes_leaving(&self, ray: &Ray, t_min: f64, t_max: f64, slot: u32) -> bool {
         match &self.cutouts {
-            None => self.occludes_kept(ray, t_min, t_max, |_, _| true),
-            Some(c) => self.occludes_kept(ray, t_min, t_max, |slot, b| self.keeps(c, ray, slot, b)),
+            None => self.occludes_kept(ray, t_min, t_max, slot, |_, _| true),
+            Some(c) => self.occludes_kept(ray, t_min, t_max, slot, |s, b| self.keeps(c, ray, s, b)),
         }
     }
 
@@ -508,9 +517,10 @@ impl TriangleMesh {
         hits
     }
 
-    /// [`TriangleMesh::occludes`], counting only hits `keep(slot, barycentrics)` accepts.
+    /// [`TriangleMesh::occludes`], counting only hits `keep(slot, barycentrics)` accepts and
+    /// leaving out the triangle at `skip` ([`NO_SLOT`]: none).
     #[inline(always)]
-    fn occludes_kept(&self, ray: &Ray, t_min: f64, t_max: f64, keep: impl Fn(u32, DVec3) -> bool) -> bool {
+    fn occludes_kept(&self, ray: &Ray, t_min: f64, t_max: f64, skip: u32, keep: impl Fn(u32, DVec3) -> bool) -> bool {
         let Some(q) = self.index.query(ray, t_min, t_max) else { return false };
         let base = q.base();
         // Prepared at the first leaf, as for the closest hit: many rays that enter the box reach none.
@@ -521,6 +531,9 @@ impl TriangleMesh {
                 (tr, PackRay::new(ray, &tr, base, self.filter_error, self.filter_scale))
             });
             self.candidates(pr, first, count, |slot| {
+                if slot == skip {
+                    return false;
+                }
                 let [p0, p1, p2] = self.vertices(slot);
                 tr.intersect(p0, p1, p2, t_min, t_max, EdgeRule::Inclusive)
                     .is_some_and(|h| !on_surface(ray, h.t, p0, p1, p2) && keep(slot, h.b))

@@ -167,6 +167,11 @@ impl Intersectable for Plane {
     fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
         self.equation.crosses(ray, t_min, t_max)
     }
+    /// A ray leaving the plane, on either side, does not meet it again.
+    #[inline]
+    fn occludes_leaving(&self, _: &Ray, _: f64, _: f64, _: u32) -> bool {
+        false
+    }
 }
 
 impl Geometry for Plane {

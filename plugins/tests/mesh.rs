@@ -358,6 +358,13 @@ proptest! {
             h2.prim != h.prim && h2.t > 0.05 * scale,
             "inward ray hit prim {} at t {} (own {}, scale {scale}, from {o})", h2.prim, h2.t, h.prim
         );
+        // Shadow rays that skip the triangle they leave answer as those that test it: free
+        // outward, blocked by the far side inward.
+        for (origin, dir, blocked) in [(out, d, false), (back, -d, true)] {
+            let ray = Ray::new(origin, dir);
+            prop_assert_eq!(placed.occludes(&ray, 0.0, f64::INFINITY), blocked);
+            prop_assert_eq!(placed.occludes_leaving(&ray, 0.0, f64::INFINITY, h.prim), blocked, "scale {}, from {}", scale, o);
+        }
     }
 }
 
@@ -493,6 +500,30 @@ fn an_obj_repeating_one_triangle_loads_with_a_hierarchy() {
         let g = MeshObject::new(Arc::new(mesh));
         let hit = g.intersect(&Ray::new(DVec3::new(0.25, 0.25, -2.0), DVec3::Z), 0.0, f64::INFINITY);
         assert_eq!(hit.map(|h| h.t), Some(2.0), "{accel:?}");
+    }
+}
+
+/// A shadow query that leaves a triangle skips that triangle only: a ray through one of two
+/// stacked triangles is blocked by the other, and by neither when it is said to leave the only
+/// one in its way.
+#[test]
+fn occludes_leaving_skips_the_own_triangle_only() {
+    let data = MeshData {
+        positions: vec![[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [0.0, 1.0, 0.0], [-1.0, -1.0, 1.0], [1.0, -1.0, 1.0], [0.0, 1.0, 1.0]],
+        triangles: vec![[0, 1, 2], [3, 4, 5]],
+        ..MeshData::default()
+    };
+    for accel in [AccelChoice::Bvh, AccelChoice::List] {
+        let g = MeshObject::new(Arc::new(TriangleMesh::new(data.clone(), Normals::Flat, accel).unwrap()));
+        let ray = Ray::new(DVec3::new(0.0, 0.0, -1.0), DVec3::Z);
+        let near = g.intersect(&ray, 0.0, f64::INFINITY).unwrap();
+        let far = g.intersect(&ray, 0.0, 1.5).filter(|h| h.prim != near.prim);
+        assert!(far.is_none(), "the near triangle is the closest hit");
+        // Only the near triangle is within t < 1.5; both within t < 3.
+        assert!(g.occludes(&ray, 0.0, 1.5) && g.occludes_leaving(&ray, 0.0, 3.0, near.prim), "{accel:?}");
+        assert!(!g.occludes_leaving(&ray, 0.0, 1.5, near.prim), "the skipped triangle still blocks ({accel:?})");
+        let far = g.intersect(&ray, 1.5, 3.0).unwrap();
+        assert!(g.occludes_leaving(&ray, 0.0, 1.5, far.prim), "{accel:?}");
     }
 }
 

@@ -203,6 +203,28 @@ impl<O: Intersectable> Intersectable for Accelerated<'_, O> {
 }
 
 impl<O: Intersectable> Accelerated<'_, O> {
+    /// [`Intersectable::occludes`] for a shadow ray leaving `from`, a hit of one of these
+    /// objects (the ray's origin moved off it toward the ray): the others as by `occludes`, then
+    /// `from`'s own object, asked [`Intersectable::occludes_leaving`] its primitive (which a flat
+    /// one skips). The own object is asked without its box: its test is exact either way.
+    #[inline]
+    pub fn occludes_leaving(&self, ray: &Ray, t_min: f64, t_max: f64, from: &Hit) -> bool {
+        let (accel, objects, own) = (self.accel, self.objects, from.object);
+        let other = |i: u32| i != own && objects[i as usize].occludes(ray, t_min, t_max);
+        if accel.unbounded.iter().any(|&i| other(i)) {
+            return true;
+        }
+        let blocked = if accel.index.is_bvh() {
+            accel.index.any(ray, t_min, t_max, |slot| other(accel.bounded[slot as usize].1))
+        } else if let [(_, i)] = accel.bounded[..] {
+            other(i)
+        } else {
+            let inv = ray.dir.recip();
+            accel.bounded.iter().any(|(b, i)| b.hit(ray, inv, t_min, t_max) && other(*i))
+        };
+        blocked || objects[own as usize].occludes_leaving(ray, t_min, t_max, from.prim)
+    }
+
     /// [`Intersectable::occludes`] leaving out object `skip` (the object not asked): for a
     /// shadow ray that object cannot stop (an emitter's own point, facing the ray, on a convex
     /// shape).

@@ -49,6 +49,19 @@ pub trait Intersectable: Send + Sync {
         self.intersect(ray, t_min, t_max).is_some()
     }
 
+    /// [`Intersectable::occludes`] for a shadow ray that leaves this shape's primitive `prim`
+    /// (the [`Hit::prim`] of the hit it was spawned from, its origin moved off that primitive
+    /// onto the side the ray leaves towards by
+    /// [`offset_ray_origin`](crate::math::float::offset_ray_origin)). A shape whose primitive
+    /// `prim` is flat may leave it out: a ray leaving a plane, on either side, never meets that
+    /// plane at `t > 0` (the tests of `occludes` reject such a hit too, by their bound on `t` and
+    /// their on-surface slack; skipping it saves the test). The default tests everything.
+    #[inline]
+    fn occludes_leaving(&self, ray: &Ray, t_min: f64, t_max: f64, prim: u32) -> bool {
+        let _ = prim;
+        self.occludes(ray, t_min, t_max)
+    }
+
     /// The closest hits of the rays `rays[k]` of mask `live`, ray `k` in `(t_min, t_max[k])`:
     /// where `intersect(&rays[k], t_min, t_max[k])` returns a hit, sets `out[k]` to it, exactly;
     /// leaves the other lanes alone, and returns the mask of the lanes set. A shape that walks a
@@ -208,6 +221,10 @@ macro_rules! forward_impls {
             #[inline]
             fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
                 (**self).occludes(ray, t_min, t_max)
+            }
+            #[inline]
+            fn occludes_leaving(&self, ray: &Ray, t_min: f64, t_max: f64, prim: u32) -> bool {
+                (**self).occludes_leaving(ray, t_min, t_max, prim)
             }
             #[inline]
             fn intersect_packet(

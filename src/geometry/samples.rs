@@ -419,7 +419,10 @@ pub fn reintersect(sampler: &ShapeSampler, seed: u64, points: u32, per_point: u3
             }
             let (shadow, t_max) = hit.spawn_shadow_ray(n, to_light / distance, distance);
             tally.shadow += 1;
-            if g.occludes(&shadow, 0.0, t_max) || g.intersect(&shadow, 0.0, t_max).is_some() {
+            if g.occludes(&shadow, 0.0, t_max)
+                || g.occludes_leaving(&shadow, 0.0, t_max, hit.prim)
+                || g.intersect(&shadow, 0.0, t_max).is_some()
+            {
                 let t = g.intersect(&shadow, 0.0, t_max).map(|h| h.t);
                 tally.fail(at(&format!("shadow ray toward {light:?} blocked by its own surface at t = {t:?}, t_max {t_max}"), to_light));
             }

@@ -223,6 +223,15 @@ impl<G: Geometry> Intersectable for Transformed<G> {
             None => false,
         }
     }
+
+    /// The inner shape's primitives are the same under the map, and a plane maps to a plane.
+    #[inline]
+    fn occludes_leaving(&self, ray: &Ray, t_min: f64, t_max: f64, prim: u32) -> bool {
+        match self.object_ray(ray) {
+            Some((r, len, shift)) => self.inner.occludes_leaving(&r, (t_min * len - shift).max(0.0), t_max * len - shift, prim),
+            None => false,
+        }
+    }
 }
 
 impl<G: Geometry> Geometry for Transformed<G> {

@@ -393,7 +393,8 @@ impl Phong {
             });
             tr
         } else {
-            scene.transmittance(&shadow_ray, t_max)
+            // The ray leaves the hit's own primitive: a flat one need not be tested again.
+            scene.transmittance_leaving(&shadow_ray, t_max, &sh.si.hit)
         }
     }
 }
