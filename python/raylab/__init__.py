@@ -209,7 +209,8 @@ class Scene:
     ) -> "Image":
         """Renders the scene (with any setting changed for this render, as ``with_settings``).
 
-        ``aov``: extra layers, any of depth, normal, albedo, error (each pixel's estimated
+        ``aov``: extra layers, any of depth, normal, albedo, emission (what camera rays see emitted
+        before their first surface), error (each pixel's estimated
         standard error of its mean luminance, with ``spp``, its samples). ``tile=(i, n)``: tile i of n (bands
         of rows balanced by estimated work, as ``render --tile I/N``), ``crop=(x0, x1, y0, y1)``,
         ``pass_=(k, n)``: a part of the frame for ``merge``. ``progress``: a callable ``(done,
@@ -311,7 +312,7 @@ def plugins() -> dict:
 
 
 # The layers an Image may have (render(aov=...)); `error` comes with `spp`.
-_LAYERS = ("depth", "normal", "albedo", "error", "spp")
+_LAYERS = ("depth", "normal", "albedo", "emission", "error", "spp")
 
 
 def _array(buf, height: int, width: int, channels: int) -> np.ndarray:
@@ -322,7 +323,7 @@ def _array(buf, height: int, width: int, channels: int) -> np.ndarray:
 class Image:
     """A render: ``rgb`` (linear float32, ``(H, W, 3)``, the numbers of the CLI's EXR), the
     layers asked for (``img["depth"]``, ``img["error"]``, ``img["spp"]`` ``(H, W)``,
-    ``img["normal"]``, ``img["albedo"]`` ``(H, W, 3)``), ``stats``, ``estimated_error``. Shown in Jupyter tone-mapped as the CLI's PNG."""
+    ``img["normal"]``, ``img["albedo"]``, ``img["emission"]`` ``(H, W, 3)``), ``stats``, ``estimated_error``. Shown in Jupyter tone-mapped as the CLI's PNG."""
 
     def __init__(self, native, scene: Optional[Scene] = None):
         self._native = native

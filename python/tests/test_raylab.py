@@ -102,7 +102,11 @@ def test_only_the_layers_asked_for():
     assert np.isinf(img["depth"]).any() and np.isfinite(img["depth"]).any()
     with pytest.raises(KeyError, match="normal"):
         img["normal"]
-    with pytest.raises(ValueError, match="depth, normal, albedo, error or spp"):
+    # The emission layer: what camera rays see emitted (path-cornell's lamp), zero on the walls.
+    lit = raylab.load("scenes/path-cornell.toml", **SMALL).render(aov=["emission"])
+    assert lit.aovs == ["emission"] and "emission" in lit and lit["emission"].shape == (36, 48, 3)
+    assert (lit["emission"] > 0).any() and (lit["emission"] == 0).any()
+    with pytest.raises(ValueError, match="depth, normal, albedo, emission, error or spp"):
         raylab.load("scenes/dozen.toml", **SMALL).render(aov=["dpeth"])
 
 
