@@ -340,7 +340,15 @@ impl Intersectable for MeshObject {
     }
     /// Shadow rays of a block walk the hierarchy together, each leaving out its own triangle.
     #[inline]
-    fn occludes_packet(&self, rays: &[Ray; PACKET], live: u32, t_min: f64, t_max: &[f64; PACKET], leaving: u32, prims: &[u32; PACKET]) -> u32 {
+    fn occludes_packet(
+        &self,
+        rays: &[Ray; PACKET],
+        live: u32,
+        t_min: f64,
+        t_max: &[f64; PACKET],
+        leaving: u32,
+        prims: &[u32; PACKET],
+    ) -> u32 {
         self.mesh.occludes_packet(rays, live, t_min, t_max, leaving, prims)
     }
 }

@@ -523,7 +523,15 @@ impl TriangleMesh {
     /// the rays blocked, exactly the single rays' answers (each ray meets the leaves its own walk
     /// could, the same exact tests decide). A mesh whose materials cut parts away answers ray by
     /// ray.
-    pub fn occludes_packet(&self, rays: &[Ray; PACKET], live: u32, t_min: f64, t_max: &[f64; PACKET], leaving: u32, prims: &[u32; PACKET]) -> u32 {
+    pub fn occludes_packet(
+        &self,
+        rays: &[Ray; PACKET],
+        live: u32,
+        t_min: f64,
+        t_max: &[f64; PACKET],
+        leaving: u32,
+        prims: &[u32; PACKET],
+    ) -> u32 {
         let skip = |k: usize| if leaving >> k & 1 != 0 { prims[k] } else { NO_SLOT };
         if self.cutouts.is_some() {
             let mut blocked = 0;

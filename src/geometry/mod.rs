@@ -92,10 +92,22 @@ pub trait Intersectable: Send + Sync {
     /// together (shadow rays of a block of camera hits toward one light) overrides it; the
     /// default asks ray by ray.
     #[inline]
-    fn occludes_packet(&self, rays: &[Ray; PACKET], live: u32, t_min: f64, t_max: &[f64; PACKET], leaving: u32, prims: &[u32; PACKET]) -> u32 {
+    fn occludes_packet(
+        &self,
+        rays: &[Ray; PACKET],
+        live: u32,
+        t_min: f64,
+        t_max: &[f64; PACKET],
+        leaving: u32,
+        prims: &[u32; PACKET],
+    ) -> u32 {
         let mut blocked = 0;
         for (k, ray) in rays.iter().enumerate().filter(|(k, _)| live >> k & 1 != 0) {
-            let hit = if leaving >> k & 1 != 0 { self.occludes_leaving(ray, t_min, t_max[k], prims[k]) } else { self.occludes(ray, t_min, t_max[k]) };
+            let hit = if leaving >> k & 1 != 0 {
+                self.occludes_leaving(ray, t_min, t_max[k], prims[k])
+            } else {
+                self.occludes(ray, t_min, t_max[k])
+            };
             blocked |= u32::from(hit) << k;
         }
         blocked

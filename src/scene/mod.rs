@@ -318,7 +318,14 @@ impl Scene {
     /// same colours. Where no object transmits, the rays' any-hit queries are asked together
     /// ([`crate::accel::Accelerated::occludes_packet_leaving`]); otherwise ray by ray.
     #[inline]
-    pub fn transmittance_packet_leaving(&self, rays: &[Ray; PACKET], live: u32, t_max: &[f64; PACKET], from: &[Hit; PACKET], out: &mut [Color; PACKET]) {
+    pub fn transmittance_packet_leaving(
+        &self,
+        rays: &[Ray; PACKET],
+        live: u32,
+        t_max: &[f64; PACKET],
+        from: &[Hit; PACKET],
+        out: &mut [Color; PACKET],
+    ) {
         if self.transmissive.is_empty() {
             let blocked = self.accel.over(&self.objects).occludes_packet_leaving(rays, live, 0.0, t_max, from);
             let mut m = live;

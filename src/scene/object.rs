@@ -190,7 +190,15 @@ impl Intersectable for Object {
         self.geometry.walks_packets()
     }
     #[inline]
-    fn occludes_packet(&self, rays: &[Ray; PACKET], live: u32, t_min: f64, t_max: &[f64; PACKET], leaving: u32, prims: &[u32; PACKET]) -> u32 {
+    fn occludes_packet(
+        &self,
+        rays: &[Ray; PACKET],
+        live: u32,
+        t_min: f64,
+        t_max: &[f64; PACKET],
+        leaving: u32,
+        prims: &[u32; PACKET],
+    ) -> u32 {
         self.geometry.occludes_packet(rays, live, t_min, t_max, leaving, prims)
     }
 }

@@ -51,9 +51,9 @@ mod direct;
 mod fan;
 
 use raylab::Intersectable;
+use raylab::geometry::differential::RaySpread;
 use raylab::geometry::{Hit, PACKET};
 use raylab::glam::DVec3;
-use raylab::geometry::differential::RaySpread;
 use raylab::math::color::max_channel;
 use raylab::param::error::Result;
 use raylab::param::params::{Params, from_defaults};
