@@ -250,16 +250,23 @@ pub fn pixel_setup(job: &RenderJob, image: &ImageSetup, x: u32, y: u32) -> Pixel
 }
 
 impl PixelSetup {
-    /// The camera rays of the pixel's sample `index`: those [`camera_rays`] gives for
-    /// [`SampleId::Pixel`] (`film` is the set of its `stratified_2d(·, spp, pattern)`).
+    /// The stratified set of the pixel's film positions: point `index` is sample `index`'s
+    /// place in the pixel (`stratified_2d(index, spp, pattern)`).
+    #[inline]
+    pub fn film(&self) -> &StratifiedSet {
+        &self.film
+    }
+
+    /// The camera rays of the pixel's sample `index`, whose place in the pixel is `at` (point
+    /// `index` of [`PixelSetup::film`]): those [`camera_rays`] gives for [`SampleId::Pixel`].
     #[inline(always)]
-    fn rays<'a>(&self, job: &'a RenderJob, image: &ImageSetup, index: u32) -> CameraRays<'a> {
+    fn rays<'a>(&self, job: &'a RenderJob, image: &ImageSetup, index: u32, at: DVec2) -> CameraRays<'a> {
         let s = &job.settings;
         let per_sample = if job.scene.camera.aperture > 0.0 { s.lens_samples.max(1) } else { 1 };
         CameraRays {
             job,
             screen: image.screen,
-            film: DVec2::new(f64::from(self.x), f64::from(self.y)) + self.film.point(index),
+            film: DVec2::new(f64::from(self.x), f64::from(self.y)) + at,
             sampler: Sampler::with_pixel_key(self.key, index),
             first: index * s.lens_samples,
             count: per_sample,
@@ -296,19 +303,23 @@ pub fn trace_sample(
 }
 
 /// [`trace_sample`] for sample `index` of the pixel `pixel` describes (its [`pixel_setup`],
-/// computed once by the caller for all its samples): the same rays, streams and sums.
+/// computed once by the caller for all its samples), whose place in the pixel `at` is point
+/// `index` of [`PixelSetup::film`] (computed by the caller, from that set or its
+/// [`crate::math::sampler::TabledSet`]): the same rays, streams and sums.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub fn trace_pixel_sample(
     job: &RenderJob,
     setup: &ImageSetup,
     pixel: &PixelSetup,
     index: u32,
+    at: DVec2,
     acc: &mut PixelSum,
     layers: Option<&mut AovSum>,
     stats: &mut RayStats,
 ) -> u64 {
     let id = SampleId::Pixel { x: pixel.x, y: pixel.y, index };
-    trace_rays(job, setup, id, pixel.rays(job, setup, index), None, acc, layers, stats)
+    trace_rays(job, setup, id, pixel.rays(job, setup, index, at), None, acc, layers, stats)
 }
 
 /// The camera ray of sample `id` when it has only one (no lens samples): what the render loop
