@@ -38,7 +38,8 @@ use crate::render::adaptive::Adaptive;
 use crate::render::aov::AovLayers;
 use crate::render::film::Film;
 use crate::render::sample::{
-    ImageSetup, SampleId, camera_rays, image_setup, pixel_setup, single_camera_ray, trace_pixel_sample, trace_sample, trace_sample_from,
+    ImageSetup, PreparedSample, SampleId, camera_rays, image_setup, pixel_setup, single_camera_ray, trace_pixel_sample,
+    trace_prepared_sample, trace_sample, trace_sample_from,
 };
 use crate::render::share::{Rect, Sampling, Share, ShareSums};
 use crate::render::stats::{Counter, RayStats};
@@ -539,15 +540,19 @@ impl TileWork {
         // Camera rays in packets of 8 pixels of a row, where the scene walks them together and
         // the integrator takes their hits: one sample per pixel (an error target or a time budget
         // decides per sample, and stratified film positions are per pixel), one camera ray each.
-        let packets = s.spp == 1
-            && !s.progressive()
+        // With more samples per pixel, the samples of one pixel (a stratified set of film
+        // positions) are the packet, 8 at a time, in order.
+        let packable = !s.progressive()
             && s.target.is_none()
             && (job.scene.camera.aperture <= 0.0 || s.lens_samples <= 1)
             && job.integrator.takes_camera_hits()
             && job.scene.walks_packets();
+        let packets = s.spp == 1 && packable;
+        let pixel_packets = packable && pixels.setup.stratified_film();
         // A packet's rays and hits, written lane by lane as each round needs them.
         let mut scratch = PacketScratch {
             ids: [SampleId::Pixel { x: 0, y: 0, index: 0 }; PACKET],
+            samples: [PreparedSample::default(); PACKET],
             rays: [Ray { origin: glam::DVec3::ZERO, dir: glam::DVec3::Z }; PACKET],
             hits: [crate::geometry::Hit::new(0.0, glam::DVec3::ZERO, glam::DVec3::ZERO); PACKET],
         };
@@ -568,6 +573,14 @@ impl TileWork {
                 continue;
             }
             let row_sums = self.pixels[span.clone()].iter_mut().zip(t.x0..t.x1);
+            if pixel_packets {
+                let mut layers = self.layers.as_mut().map(|l| l[span].iter_mut());
+                for (acc, x) in row_sums {
+                    let l = layers.as_mut().and_then(|l| l.next());
+                    pixels.add_pixel_packet_samples((x, y), acc, l, &mut scratch, stats);
+                }
+                continue;
+            }
             match self.layers.as_mut() {
                 None => {
                     for (acc, x) in row_sums {
@@ -632,9 +645,56 @@ impl StratifiedPixels<'_> {
     }
 }
 
+impl StratifiedPixels<'_> {
+    /// [`StratifiedPixels::add_samples`] for a pixel whose film positions are a stratified set,
+    /// the camera rays of up to [`PACKET`] of its samples at a time gathered and their closest
+    /// hits found together ([`Intersectable::intersect_packet`]), then each sample traced in
+    /// order with its hit: every sum is the one `add_samples` makes. (No error target here: it
+    /// decides per sample.)
+    fn add_pixel_packet_samples(
+        &self,
+        (x, y): (u32, u32),
+        acc: &mut PixelSum,
+        mut layers: Option<&mut AovSum>,
+        p: &mut PacketScratch,
+        stats: &mut RayStats,
+    ) {
+        let (job, share, setup) = (self.job, self.share, &self.setup);
+        let want = self.row_map.map_or(self.want, |m| self.want.min(m[x as usize]));
+        let wants = |n: u32| n < want && share.sample_index(n) < self.end;
+        if !wants(acc.samples) {
+            return;
+        }
+        let pixel = pixel_setup(job, setup, x, y);
+        while wants(acc.samples) {
+            let mut n = 0;
+            while n < PACKET && wants(acc.samples + n as u32) {
+                let Some((sample, ray)) = pixel.prepare(job, setup, share.sample_index(acc.samples + n as u32)) else { break };
+                (p.samples[n], p.rays[n]) = (sample, ray);
+                n += 1;
+            }
+            if n == 0 {
+                // A sample of several camera rays (not gathered: the render asks for packets
+                // only without lens samples), traced alone.
+                trace_pixel_sample(job, setup, &pixel, share.sample_index(acc.samples), acc, layers.as_deref_mut(), stats);
+                acc.samples += 1;
+                continue;
+            }
+            let live = (1u32 << n) - 1;
+            let hits = job.scene.intersect_packet(&p.rays, live, 0.0, &[f64::INFINITY; PACKET], &mut p.hits);
+            for k in 0..n {
+                let hit = (hits >> k & 1 != 0).then_some(&p.hits[k]);
+                trace_prepared_sample(job, setup, &pixel, p.samples[k], &p.rays[k], hit, acc, layers.as_deref_mut(), stats);
+                acc.samples += 1;
+            }
+        }
+    }
+}
+
 /// What a packet of camera rays is gathered in (kept for a tile, so no round initialises it).
 struct PacketScratch {
     ids: [SampleId; PACKET],
+    samples: [PreparedSample; PACKET],
     rays: [Ray; PACKET],
     hits: [crate::geometry::Hit; PACKET],
 }

@@ -253,12 +253,20 @@ impl PixelSetup {
     /// [`SampleId::Pixel`] (`film` is the set of its `stratified_2d(·, spp, pattern)`).
     #[inline(always)]
     fn rays<'a>(&self, job: &'a RenderJob, image: &ImageSetup, index: u32) -> CameraRays<'a> {
+        let film = DVec2::new(f64::from(self.x), f64::from(self.y)) + self.film.point(index);
+        self.rays_at(job, image, PreparedSample { index, film })
+    }
+
+    /// [`PixelSetup::rays`] with the sample's film position computed.
+    #[inline(always)]
+    fn rays_at<'a>(&self, job: &'a RenderJob, image: &ImageSetup, sample: PreparedSample) -> CameraRays<'a> {
+        let (index, film) = (sample.index, sample.film);
         let s = &job.settings;
         let per_sample = if job.scene.camera.aperture > 0.0 { s.lens_samples.max(1) } else { 1 };
         CameraRays {
             job,
             screen: image.screen,
-            film: DVec2::new(f64::from(self.x), f64::from(self.y)) + self.film.point(index),
+            film,
             sampler: Sampler::with_pixel_key(self.key, index),
             first: index * s.lens_samples,
             count: per_sample,
@@ -334,6 +342,44 @@ pub fn trace_sample_from(
     stats: &mut RayStats,
 ) -> u64 {
     trace_rays(job, setup, id, camera_rays_in(job, setup, id), Some((ray, hit)), acc, layers, stats)
+}
+
+/// A pixel sample whose one camera ray is gathered into a packet ([`PixelSetup::prepare`]): its
+/// index and film position, kept until its hit is found, so the position is computed once.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PreparedSample {
+    index: u32,
+    film: DVec2,
+}
+
+impl PixelSetup {
+    /// Sample `index` of the pixel prepared for a packet, and its camera ray: `None` when it has
+    /// more than one camera ray (lens samples).
+    #[inline(always)]
+    pub fn prepare(&self, job: &RenderJob, image: &ImageSetup, index: u32) -> Option<(PreparedSample, Ray)> {
+        let sample = PreparedSample { index, film: DVec2::new(f64::from(self.x), f64::from(self.y)) + self.film.point(index) };
+        let rays = self.rays_at(job, image, sample);
+        (rays.count == 1).then(|| (sample, rays.ray(0)))
+    }
+}
+
+/// [`trace_pixel_sample`] for a sample of `pixel` prepared for a packet, whose camera ray `ray`
+/// (from [`PixelSetup::prepare`]) has the closest hit `hit` (see [`trace_sample_from`]): the same sums.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn trace_prepared_sample(
+    job: &RenderJob,
+    setup: &ImageSetup,
+    pixel: &PixelSetup,
+    sample: PreparedSample,
+    ray: &Ray,
+    hit: Option<&Hit>,
+    acc: &mut PixelSum,
+    layers: Option<&mut AovSum>,
+    stats: &mut RayStats,
+) -> u64 {
+    let id = SampleId::Pixel { x: pixel.x, y: pixel.y, index: sample.index };
+    trace_rays(job, setup, id, pixel.rays_at(job, setup, sample), Some((ray, hit)), acc, layers, stats)
 }
 
 /// [`trace_sample`] with sample `id`'s camera rays `rays` built; `given`: its one camera ray
