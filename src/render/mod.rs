@@ -33,17 +33,18 @@ pub use job::{ADAPTIVE_TILE_SIZE, AdaptiveSettings, Antialiasing, MAX_ADAPTIVE_D
 
 use crate::geometry::{Intersectable, PACKET};
 use crate::math::ray::Ray;
+use crate::math::sampler::TabledSet;
 use crate::render::accum::{AovSum, PixelSum};
 use crate::render::adaptive::Adaptive;
 use crate::render::aov::AovLayers;
 use crate::render::film::Film;
 use crate::render::sample::{
-    ImageSetup, PreparedSample, SampleId, camera_rays, image_setup, pixel_setup, single_camera_ray, trace_pixel_sample,
+    ImageSetup, PixelSetup, PreparedSample, SampleId, camera_rays, image_setup, pixel_setup, single_camera_ray, trace_pixel_sample,
     trace_prepared_sample, trace_sample, trace_sample_from,
 };
 use crate::render::share::{Rect, Sampling, Share, ShareSums};
 use crate::render::stats::{Counter, RayStats};
-use glam::Vec3;
+use glam::{DVec2, Vec3};
 use rayon::prelude::*;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -577,7 +578,7 @@ impl TileWork {
                 let mut layers = self.layers.as_mut().map(|l| l[span].iter_mut());
                 for (acc, x) in row_sums {
                     let l = layers.as_mut().and_then(|l| l.next());
-                    pixels.add_pixel_packet_samples((x, y), acc, l, &mut scratch, stats);
+                    pixels.add_packet_pixel((x, y), acc, l, &mut scratch, stats);
                 }
                 continue;
             }
@@ -632,51 +633,97 @@ impl StratifiedPixels<'_> {
             return;
         }
         // A stratified set of film positions: what the pixel's samples share (its streams' key,
-        // the set's permutations and divisors) computed once, not per sample.
+        // the set's permutations and divisors) computed once, not per sample; with many samples
+        // in this pass, the set's permuted columns and rows too (the same points).
         let pixel = pixel_setup(job, &self.setup, x, y);
+        let points = want.min(self.end).saturating_sub(acc.samples);
+        match pixel.film().tabled_pays(points).then(|| TabledSet::new(pixel.film())).flatten() {
+            Some(table) => self.add_pixel_samples(&pixel, |index| table.point(index), want, acc, layers, stats),
+            None => self.add_pixel_samples(&pixel, |index| pixel.film().point(index), want, acc, layers, stats),
+        }
+    }
+
+    /// The samples [`StratifiedPixels::add_samples`] adds to a pixel with stratified film
+    /// positions, sample `index` at `point(index)` in the pixel.
+    #[inline(always)]
+    fn add_pixel_samples(
+        &self,
+        pixel: &PixelSetup,
+        point: impl Fn(u32) -> DVec2,
+        want: u32,
+        acc: &mut PixelSum,
+        mut layers: Option<&mut AovSum>,
+        stats: &mut RayStats,
+    ) {
+        let (job, share) = (self.job, self.share);
         while acc.samples < want && share.sample_index(acc.samples) < self.end {
             if job.settings.target.is_some_and(|t| t.converged(acc)) {
                 break;
             }
             let index = share.sample_index(acc.samples);
-            trace_pixel_sample(job, &self.setup, &pixel, index, acc, layers.as_deref_mut(), stats);
+            trace_pixel_sample(job, &self.setup, pixel, index, point(index), acc, layers.as_deref_mut(), stats);
             acc.samples += 1;
         }
     }
 }
 
 impl StratifiedPixels<'_> {
-    /// [`StratifiedPixels::add_samples`] for a pixel whose film positions are a stratified set,
-    /// the camera rays of up to [`PACKET`] of its samples at a time gathered and their closest
-    /// hits found together ([`Intersectable::intersect_packet`]), then each sample traced in
-    /// order with its hit: every sum is the one `add_samples` makes. (No error target here: it
-    /// decides per sample.)
-    fn add_pixel_packet_samples(
+    /// [`StratifiedPixels::add_samples`] for a pixel with stratified film positions, its
+    /// samples' camera rays traced in packets ([`StratifiedPixels::add_pixel_packet_samples`]);
+    /// the same choice of the set's points (from a table where it pays).
+    fn add_packet_pixel(
         &self,
         (x, y): (u32, u32),
+        acc: &mut PixelSum,
+        layers: Option<&mut AovSum>,
+        p: &mut PacketScratch,
+        stats: &mut RayStats,
+    ) {
+        let (job, share) = (self.job, self.share);
+        let want = self.row_map.map_or(self.want, |m| self.want.min(m[x as usize]));
+        if !(acc.samples < want && share.sample_index(acc.samples) < self.end) {
+            return;
+        }
+        let pixel = pixel_setup(job, &self.setup, x, y);
+        let points = want.min(self.end).saturating_sub(acc.samples);
+        match pixel.film().tabled_pays(points).then(|| TabledSet::new(pixel.film())).flatten() {
+            Some(table) => self.add_pixel_packet_samples(&pixel, |index| table.point(index), want, acc, layers, p, stats),
+            None => self.add_pixel_packet_samples(&pixel, |index| pixel.film().point(index), want, acc, layers, p, stats),
+        }
+    }
+
+    /// [`StratifiedPixels::add_pixel_samples`] with the camera rays of up to [`PACKET`] of the
+    /// pixel's samples at a time gathered and their closest hits found together
+    /// ([`Intersectable::intersect_packet`]), then each sample traced in order with its hit:
+    /// every sum is the one `add_pixel_samples` makes. (No error target here: it decides per
+    /// sample.)
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn add_pixel_packet_samples(
+        &self,
+        pixel: &PixelSetup,
+        point: impl Fn(u32) -> DVec2,
+        want: u32,
         acc: &mut PixelSum,
         mut layers: Option<&mut AovSum>,
         p: &mut PacketScratch,
         stats: &mut RayStats,
     ) {
         let (job, share, setup) = (self.job, self.share, &self.setup);
-        let want = self.row_map.map_or(self.want, |m| self.want.min(m[x as usize]));
         let wants = |n: u32| n < want && share.sample_index(n) < self.end;
-        if !wants(acc.samples) {
-            return;
-        }
-        let pixel = pixel_setup(job, setup, x, y);
         while wants(acc.samples) {
             let mut n = 0;
             while n < PACKET && wants(acc.samples + n as u32) {
-                let Some((sample, ray)) = pixel.prepare(job, setup, share.sample_index(acc.samples + n as u32)) else { break };
+                let index = share.sample_index(acc.samples + n as u32);
+                let Some((sample, ray)) = pixel.prepare(job, setup, index, point(index)) else { break };
                 (p.samples[n], p.rays[n]) = (sample, ray);
                 n += 1;
             }
             if n == 0 {
                 // A sample of several camera rays (not gathered: the render asks for packets
                 // only without lens samples), traced alone.
-                trace_pixel_sample(job, setup, &pixel, share.sample_index(acc.samples), acc, layers.as_deref_mut(), stats);
+                let index = share.sample_index(acc.samples);
+                trace_pixel_sample(job, setup, pixel, index, point(index), acc, layers.as_deref_mut(), stats);
                 acc.samples += 1;
                 continue;
             }
@@ -684,7 +731,7 @@ impl StratifiedPixels<'_> {
             let hits = job.scene.intersect_packet(&p.rays, live, 0.0, &[f64::INFINITY; PACKET], &mut p.hits);
             for k in 0..n {
                 let hit = (hits >> k & 1 != 0).then_some(&p.hits[k]);
-                trace_prepared_sample(job, setup, &pixel, p.samples[k], &p.rays[k], hit, acc, layers.as_deref_mut(), stats);
+                trace_prepared_sample(job, setup, pixel, p.samples[k], &p.rays[k], hit, acc, layers.as_deref_mut(), stats);
                 acc.samples += 1;
             }
         }

@@ -249,24 +249,23 @@ pub fn pixel_setup(job: &RenderJob, image: &ImageSetup, x: u32, y: u32) -> Pixel
 }
 
 impl PixelSetup {
-    /// The camera rays of the pixel's sample `index`: those [`camera_rays`] gives for
-    /// [`SampleId::Pixel`] (`film` is the set of its `stratified_2d(·, spp, pattern)`).
-    #[inline(always)]
-    fn rays<'a>(&self, job: &'a RenderJob, image: &ImageSetup, index: u32) -> CameraRays<'a> {
-        let film = DVec2::new(f64::from(self.x), f64::from(self.y)) + self.film.point(index);
-        self.rays_at(job, image, PreparedSample { index, film })
+    /// The stratified set of the pixel's film positions: point `index` is sample `index`'s
+    /// place in the pixel (`stratified_2d(index, spp, pattern)`).
+    #[inline]
+    pub fn film(&self) -> &StratifiedSet {
+        &self.film
     }
 
-    /// [`PixelSetup::rays`] with the sample's film position computed.
+    /// The camera rays of the pixel's sample `index`, whose place in the pixel is `at` (point
+    /// `index` of [`PixelSetup::film`]): those [`camera_rays`] gives for [`SampleId::Pixel`].
     #[inline(always)]
-    fn rays_at<'a>(&self, job: &'a RenderJob, image: &ImageSetup, sample: PreparedSample) -> CameraRays<'a> {
-        let (index, film) = (sample.index, sample.film);
+    fn rays<'a>(&self, job: &'a RenderJob, image: &ImageSetup, index: u32, at: DVec2) -> CameraRays<'a> {
         let s = &job.settings;
         let per_sample = if job.scene.camera.aperture > 0.0 { s.lens_samples.max(1) } else { 1 };
         CameraRays {
             job,
             screen: image.screen,
-            film,
+            film: DVec2::new(f64::from(self.x), f64::from(self.y)) + at,
             sampler: Sampler::with_pixel_key(self.key, index),
             first: index * s.lens_samples,
             count: per_sample,
@@ -303,19 +302,62 @@ pub fn trace_sample(
 }
 
 /// [`trace_sample`] for sample `index` of the pixel `pixel` describes (its [`pixel_setup`],
-/// computed once by the caller for all its samples): the same rays, streams and sums.
+/// computed once by the caller for all its samples), whose place in the pixel `at` is point
+/// `index` of [`PixelSetup::film`] (computed by the caller, from that set or its
+/// [`crate::math::sampler::TabledSet`]): the same rays, streams and sums.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub fn trace_pixel_sample(
     job: &RenderJob,
     setup: &ImageSetup,
     pixel: &PixelSetup,
     index: u32,
+    at: DVec2,
     acc: &mut PixelSum,
     layers: Option<&mut AovSum>,
     stats: &mut RayStats,
 ) -> u64 {
     let id = SampleId::Pixel { x: pixel.x, y: pixel.y, index };
-    trace_rays(job, setup, id, pixel.rays(job, setup, index), None, acc, layers, stats)
+    trace_rays(job, setup, id, pixel.rays(job, setup, index, at), None, acc, layers, stats)
+}
+
+/// A pixel sample whose one camera ray is gathered into a packet ([`PixelSetup::prepare`]): its
+/// index and place in the pixel, kept until its hit is found.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PreparedSample {
+    index: u32,
+    at: DVec2,
+}
+
+impl PixelSetup {
+    /// Sample `index` of the pixel, whose place in the pixel is `at` (as for
+    /// [`trace_pixel_sample`]), prepared for a packet, and its camera ray: `None` when it has
+    /// more than one camera ray (lens samples).
+    #[inline(always)]
+    pub fn prepare(&self, job: &RenderJob, image: &ImageSetup, index: u32, at: DVec2) -> Option<(PreparedSample, Ray)> {
+        let rays = self.rays(job, image, index, at);
+        (rays.count == 1).then(|| (PreparedSample { index, at }, rays.ray(0)))
+    }
+}
+
+/// [`trace_pixel_sample`] for a sample of `pixel` prepared for a packet, whose camera ray `ray`
+/// (from [`PixelSetup::prepare`]) has the closest hit `hit` (see [`trace_sample_from`]): the
+/// same sums.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn trace_prepared_sample(
+    job: &RenderJob,
+    setup: &ImageSetup,
+    pixel: &PixelSetup,
+    sample: PreparedSample,
+    ray: &Ray,
+    hit: Option<&Hit>,
+    acc: &mut PixelSum,
+    layers: Option<&mut AovSum>,
+    stats: &mut RayStats,
+) -> u64 {
+    let id = SampleId::Pixel { x: pixel.x, y: pixel.y, index: sample.index };
+    trace_rays(job, setup, id, pixel.rays(job, setup, sample.index, sample.at), Some((ray, hit)), acc, layers, stats)
 }
 
 /// The camera ray of sample `id` when it has only one (no lens samples): what the render loop
@@ -342,44 +384,6 @@ pub fn trace_sample_from(
     stats: &mut RayStats,
 ) -> u64 {
     trace_rays(job, setup, id, camera_rays_in(job, setup, id), Some((ray, hit)), acc, layers, stats)
-}
-
-/// A pixel sample whose one camera ray is gathered into a packet ([`PixelSetup::prepare`]): its
-/// index and film position, kept until its hit is found, so the position is computed once.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct PreparedSample {
-    index: u32,
-    film: DVec2,
-}
-
-impl PixelSetup {
-    /// Sample `index` of the pixel prepared for a packet, and its camera ray: `None` when it has
-    /// more than one camera ray (lens samples).
-    #[inline(always)]
-    pub fn prepare(&self, job: &RenderJob, image: &ImageSetup, index: u32) -> Option<(PreparedSample, Ray)> {
-        let sample = PreparedSample { index, film: DVec2::new(f64::from(self.x), f64::from(self.y)) + self.film.point(index) };
-        let rays = self.rays_at(job, image, sample);
-        (rays.count == 1).then(|| (sample, rays.ray(0)))
-    }
-}
-
-/// [`trace_pixel_sample`] for a sample of `pixel` prepared for a packet, whose camera ray `ray`
-/// (from [`PixelSetup::prepare`]) has the closest hit `hit` (see [`trace_sample_from`]): the same sums.
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-pub fn trace_prepared_sample(
-    job: &RenderJob,
-    setup: &ImageSetup,
-    pixel: &PixelSetup,
-    sample: PreparedSample,
-    ray: &Ray,
-    hit: Option<&Hit>,
-    acc: &mut PixelSum,
-    layers: Option<&mut AovSum>,
-    stats: &mut RayStats,
-) -> u64 {
-    let id = SampleId::Pixel { x: pixel.x, y: pixel.y, index: sample.index };
-    trace_rays(job, setup, id, pixel.rays_at(job, setup, sample), Some((ray, hit)), acc, layers, stats)
 }
 
 /// [`trace_sample`] with sample `id`'s camera rays `rays` built; `given`: its one camera ray

@@ -313,6 +313,16 @@ impl Scene {
         self.walk(&self.transmissive, ray, t_max).0
     }
 
+    /// Whether anything is hit along a shadow ray leaving the hit `from` (spawned off it, as
+    /// [`Interaction::spawn_shadow_ray`] does) with `0 < t < t_max`: [`Intersectable::occludes`]
+    /// that may skip the flat primitive the ray leaves ([`Intersectable::occludes_leaving`]).
+    /// The same answer, for less work; every surface blocks, transmissive ones included (the
+    /// path tracer's shadow rays).
+    #[inline(always)]
+    pub fn occludes_leaving(&self, ray: &Ray, t_max: f64, from: &Hit) -> bool {
+        self.accel.over(&self.objects).occludes_leaving(ray, 0.0, t_max, from)
+    }
+
     /// Whether anything but object `skip` is hit along `ray` with `t_min < t < t_max`
     /// ([`Intersectable::occludes`] without that object): a shadow ray toward a point of an
     /// emitter that cannot hide it ([`crate::scene::emitters::EmitterSample::clear_of_itself`]).
