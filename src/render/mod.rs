@@ -39,8 +39,8 @@ use crate::render::adaptive::Adaptive;
 use crate::render::aov::AovLayers;
 use crate::render::film::Film;
 use crate::render::sample::{
-    ImageSetup, PixelSetup, PreparedSample, SampleId, camera_rays, image_setup, pixel_setup, single_camera_ray, trace_pixel_sample,
-    trace_prepared_sample, trace_sample, trace_sample_from,
+    ImageSetup, PixelSetup, PreparedSample, SampleId, camera_rays, image_setup, pixel_setup, single_camera_ray, trace_packet_from,
+    trace_pixel_sample, trace_prepared_sample, trace_sample,
 };
 use crate::render::share::{Rect, Sampling, Share, ShareSums};
 use crate::render::stats::{Counter, RayStats};
@@ -785,13 +785,13 @@ impl StratifiedPixels<'_> {
                 }
             }
             let hits = job.scene.intersect_packet(&p.rays, live, 0.0, &[f64::INFINITY; PACKET], &mut p.hits);
+            // The block's hits shaded together (`Integrator::radiance_packet`).
+            trace_packet_from(job, setup, &p.ids, &p.rays, (live, hits), &p.hits, accs, layers.as_deref_mut(), stats);
             let mut m = live;
             while m != 0 {
                 let k = m.trailing_zeros() as usize;
                 m &= m - 1;
                 let acc = &mut accs[k];
-                let hit = (hits >> k & 1 != 0).then_some(&p.hits[k]);
-                trace_sample_from(job, setup, p.ids[k], &p.rays[k], hit, acc, layers.as_deref_mut().map(|l| &mut l[k]), stats);
                 acc.samples += 1;
                 if !wants(acc, x0 + k as u32) {
                     live &= !(1 << k);
