@@ -2,7 +2,8 @@
 //! streams. The render, its depth/normal/albedo layers and `raylab trace` all go through
 //! [`camera_rays`], so an explained sample is exactly the sample the render computed.
 
-use crate::geometry::Hit;
+use crate::geometry::{Hit, PACKET};
+use crate::math::color::Color;
 use crate::math::ray::Ray;
 use crate::math::sampler::{PixelKey, Sampler, SeedKey, StratifiedSet, mix64, sobol_02, stratified_2d};
 use crate::render::accum::{AovSum, PixelSum};
@@ -321,6 +322,45 @@ pub fn trace_pixel_sample(
     trace_rays(job, setup, id, pixel.rays(job, setup, index, at), None, acc, layers, stats)
 }
 
+/// A pixel sample whose one camera ray is gathered into a packet ([`PixelSetup::prepare`]): its
+/// index and place in the pixel, kept until its hit is found.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PreparedSample {
+    index: u32,
+    at: DVec2,
+}
+
+impl PixelSetup {
+    /// Sample `index` of the pixel, whose place in the pixel is `at` (as for
+    /// [`trace_pixel_sample`]), prepared for a packet, and its camera ray: `None` when it has
+    /// more than one camera ray (lens samples).
+    #[inline(always)]
+    pub fn prepare(&self, job: &RenderJob, image: &ImageSetup, index: u32, at: DVec2) -> Option<(PreparedSample, Ray)> {
+        let rays = self.rays(job, image, index, at);
+        (rays.count == 1).then(|| (PreparedSample { index, at }, rays.ray(0)))
+    }
+}
+
+/// [`trace_pixel_sample`] for a sample of `pixel` prepared for a packet, whose camera ray `ray`
+/// (from [`PixelSetup::prepare`]) has the closest hit `hit` (see [`trace_sample_from`]): the
+/// same sums.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn trace_prepared_sample(
+    job: &RenderJob,
+    setup: &ImageSetup,
+    pixel: &PixelSetup,
+    sample: PreparedSample,
+    ray: &Ray,
+    hit: Option<&Hit>,
+    acc: &mut PixelSum,
+    layers: Option<&mut AovSum>,
+    stats: &mut RayStats,
+) -> u64 {
+    let id = SampleId::Pixel { x: pixel.x, y: pixel.y, index: sample.index };
+    trace_rays(job, setup, id, pixel.rays(job, setup, sample.index, sample.at), Some((ray, hit)), acc, layers, stats)
+}
+
 /// The camera ray of sample `id` when it has only one (no lens samples): what the render loop
 /// gathers into packets, then traces with [`trace_sample_from`].
 #[inline(always)]
@@ -347,6 +387,82 @@ pub fn trace_sample_from(
     trace_rays(job, setup, id, camera_rays_in(job, setup, id), Some((ray, hit)), acc, layers, stats)
 }
 
+/// [`trace_sample_from`] for the samples `ids[k]` of mask `live`, one camera ray each
+/// (`rays[k]`, [`single_camera_ray`]) with its closest hit (`hit[k]` where bit `k` of `hits` is
+/// set), shaded together ([`crate::render::integrator::Integrator::radiance_packet`]): pixel
+/// `k`'s `accs[k]` (and `layers[k]`) gets exactly the sums `trace_sample_from` adds.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn trace_packet_from(
+    job: &RenderJob,
+    setup: &ImageSetup,
+    ids: &[SampleId; PACKET],
+    rays: &[Ray; PACKET],
+    (live, hits): (u32, u32),
+    hit: &[Hit; PACKET],
+    accs: &mut [PixelSum],
+    mut layers: Option<&mut [AovSum]>,
+    stats: &mut RayStats,
+) {
+    let mut second = 0u32;
+    let mut samplers: [Sampler; PACKET] = std::array::from_fn(|k| {
+        let r = camera_rays_in(job, setup, ids[k]);
+        if live >> k & 1 != 0 {
+            second |= u32::from(second_half(setup, ids[k], r.film, &mut accs[k])) << k;
+        }
+        r.sampler(0)
+    });
+    let mut aovs = [setup.miss; PACKET];
+    for a in &mut aovs {
+        // Summed layers are a denoiser's guides, as in `trace_rays`.
+        a.guides = layers.is_some();
+    }
+    let mut out = [Color::ZERO; PACKET];
+    job.integrator.radiance_packet(&job.scene, rays, live, hits, hit, &mut samplers, stats, &mut aovs, &mut out);
+    let mut m = live;
+    while m != 0 {
+        let k = m.trailing_zeros() as usize;
+        m &= m - 1;
+        if out[k].is_finite() {
+            accs[k].add_sample(out[k], second >> k & 1 != 0);
+        } else {
+            stats.nonfinite_samples += 1;
+        }
+        if let Some(l) = layers.as_deref_mut() {
+            l[k].add(&aovs[k]);
+        }
+    }
+}
+
+/// Which of the error estimate's two halves sample `id` (on the film at `film`) joins.
+#[inline(always)]
+fn second_half(setup: &ImageSetup, id: SampleId, film: DVec2, acc: &mut PixelSum) -> bool {
+    // Which half of the error estimate's two the sample joins. Stratified sets: its stratum `s`
+    // of the pixel's `spp` rows is column `s mod m` of band `s / m` of the set's m × n grid, and
+    // the halves are the grid's checkerboard, `(s mod m + s / m)` odd or even, so both halves
+    // cover every band and every column. (`s + s / m`, the same for an even `m`, put each column
+    // wholly in one half for an odd `m`, as at 25, 49 or 512 spp: the halves were stripes of
+    // the pixel, and the estimate 2.5–6× too high on path-cornell.) Sobol points (an error
+    // target, a time budget): a pixel stopping at `n` samples (a power of two) has halves
+    // [0, n/2) and [n/2, n), each a (0, 2)-net; so at each power of two the second half starts
+    // again, the samples before it becoming the first. (The parity of the index's bits split
+    // the pixel in two along y: the Sobol y's top bit is that parity.)
+    match id {
+        SampleId::Pixel { index, .. } if setup.progressive => {
+            if index.is_power_of_two() {
+                acc.restart_second_half();
+            }
+            index > 0
+        }
+        SampleId::Pixel { y, .. } if setup.strata.1 > 1 => {
+            let s = ((film.y - f64::from(y)) * setup.strata.0) as u32;
+            let band = s / setup.strata.1;
+            (s - band * setup.strata.1 + band) & 1 == 1
+        }
+        _ => false,
+    }
+}
+
 /// [`trace_sample`] with sample `id`'s camera rays `rays` built; `given`: its one camera ray
 /// with its closest hit, found by the caller.
 #[allow(clippy::too_many_arguments)]
@@ -362,30 +478,7 @@ fn trace_rays(
     stats: &mut RayStats,
 ) -> u64 {
     let mut signature = 0u64;
-    // Which half of the error estimate's two the sample joins. Stratified sets: its stratum `s`
-    // of the pixel's `spp` rows is column `s mod m` of band `s / m` of the set's m × n grid, and
-    // the halves are the grid's checkerboard, `(s mod m + s / m)` odd or even, so both halves
-    // cover every band and every column. (`s + s / m`, the same for an even `m`, put each column
-    // wholly in one half for an odd `m`, as at 25, 49 or 512 spp: the halves were stripes of
-    // the pixel, and the estimate 2.5–6× too high on path-cornell.) Sobol points (an error
-    // target, a time budget): a pixel stopping at `n` samples (a power of two) has halves
-    // [0, n/2) and [n/2, n), each a (0, 2)-net; so at each power of two the second half starts
-    // again, the samples before it becoming the first. (The parity of the index's bits split
-    // the pixel in two along y: the Sobol y's top bit is that parity.)
-    let second = match id {
-        SampleId::Pixel { index, .. } if setup.progressive => {
-            if index.is_power_of_two() {
-                acc.restart_second_half();
-            }
-            index > 0
-        }
-        SampleId::Pixel { y, .. } if setup.strata.1 > 1 => {
-            let s = ((rays.film.y - f64::from(y)) * setup.strata.0) as u32;
-            let band = s / setup.strata.1;
-            (s - band * setup.strata.1 + band) & 1 == 1
-        }
-        _ => false,
-    };
+    let second = second_half(setup, id, rays.film, acc);
     // The rays of the iterator, each built where the integrator reads it: taken from the
     // iterator's `(Ray, Sampler)`, the ray was copied in pieces that straddled its stores (a
     // store-forwarding stall on every camera ray).
