@@ -119,9 +119,8 @@ impl PixelSum {
     }
 
     /// Adds one ray's radiance `c` (finite), to the second of the two halves of the error
-    /// estimate when `second` ([`PixelSum::half_variance`]). Always inlined: called once per
-    /// camera ray by the render loop, where a call cost about a tenth of the sums.
-    #[inline(always)]
+    /// estimate when `second` ([`PixelSum::half_variance`]).
+    #[inline]
     pub fn add_sample(&mut self, c: Color, second: bool) {
         let y = self.add_luminance(c);
         if second {
