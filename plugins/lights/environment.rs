@@ -287,6 +287,38 @@ impl Environment {
         if sin_theta > 0.0 { density.pdf(uv) / (2.0 * PI * PI * sin_theta) } else { 0.0 }
     }
 
+    /// A sample drawn with `u` and its density ([`LightSource::illuminate_pdf`]); with `facing`,
+    /// an image's radiance is looked up only for directions on that normal's side (elsewhere
+    /// zero: [`LightSource::illuminate_facing`]).
+    #[inline]
+    fn draw(&self, u: DVec2, facing: Option<DVec3>) -> Option<(LightSample, LightPdf)> {
+        let (sample, pdf) = match &self.image {
+            None => {
+                // Uniform over the sphere.
+                let z = 1.0 - 2.0 * u.y;
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                let (s, c) = (TAU * u.x).sin_cos();
+                let (cr, sr) = self.rotation;
+                let local = DVec3::new(r * c, z, r * s);
+                let dir = DVec3::new(cr * local.x + sr * local.z, local.y, -sr * local.x + cr * local.z);
+                (self.sample(dir, self.radiance, UNIFORM_DENSITY), UNIFORM_DENSITY)
+            }
+            Some((image, density)) => {
+                // The radiance at the drawn texel's coordinates and the density it was drawn
+                // with: no round trip through the direction.
+                let (uv, pdf_uv) = density.sample(u);
+                let (dir, sin_theta) = self.direction_of(uv);
+                let pdf = pdf_uv / (2.0 * PI * PI * sin_theta);
+                let sample = match facing {
+                    Some(n) if !(dir.dot(n) > 0.0) => LightSample { dir, distance: f64::INFINITY, intensity: Color::ZERO },
+                    _ => self.sample(dir, self.radiance_at(image, uv), pdf),
+                };
+                (sample, pdf)
+            }
+        };
+        Some((sample, LightPdf::SolidAngle(pdf)))
+    }
+
     /// The sample for direction `dir` with density `pdf`: the light's whole contribution as one
     /// sample's intensity (radiance ÷ π·pdf, in the lights' intensity convention), zero where the
     /// density is not a finite positive number.
@@ -368,27 +400,12 @@ impl LightSource for Environment {
     }
 
     fn illuminate_pdf(&self, _p: DVec3, u: DVec2) -> Option<(LightSample, LightPdf)> {
-        let (sample, pdf) = match &self.image {
-            None => {
-                // Uniform over the sphere.
-                let z = 1.0 - 2.0 * u.y;
-                let r = (1.0 - z * z).max(0.0).sqrt();
-                let (s, c) = (TAU * u.x).sin_cos();
-                let (cr, sr) = self.rotation;
-                let local = DVec3::new(r * c, z, r * s);
-                let dir = DVec3::new(cr * local.x + sr * local.z, local.y, -sr * local.x + cr * local.z);
-                (self.sample(dir, self.radiance, UNIFORM_DENSITY), UNIFORM_DENSITY)
-            }
-            Some((image, density)) => {
-                // The radiance at the drawn texel's coordinates and the density it was drawn
-                // with: no round trip through the direction.
-                let (uv, pdf_uv) = density.sample(u);
-                let (dir, sin_theta) = self.direction_of(uv);
-                let pdf = pdf_uv / (2.0 * PI * PI * sin_theta);
-                (self.sample(dir, self.radiance_at(image, uv), pdf), pdf)
-            }
-        };
-        Some((sample, LightPdf::SolidAngle(pdf)))
+        self.draw(u, None)
+    }
+
+    /// The image is looked up only for directions on `n`'s side.
+    fn illuminate_facing(&self, _p: DVec3, n: DVec3, u: DVec2) -> Option<(LightSample, LightPdf)> {
+        self.draw(u, Some(n))
     }
 
     fn pdf(&self, _p: DVec3, sample: &LightSample) -> LightPdf {

@@ -119,6 +119,16 @@ pub trait LightSource: Send + Sync {
         Some((sample, self.pdf(p, &sample)))
     }
 
+    /// [`LightSource::illuminate_pdf`] at a point `p` lit only from the side unit `n` faces: the
+    /// same sample's direction, distance and density, but where `dir · n ≤ 0` (light the caller
+    /// discards unseen) a light may leave the intensity zero rather than look it up (an
+    /// environment image: a bilinear lookup and a division, for nearly half of a surface's
+    /// samples). The default is `illuminate_pdf`.
+    fn illuminate_facing(&self, p: DVec3, n: DVec3, u: DVec2) -> Option<(LightSample, LightPdf)> {
+        let _ = n;
+        self.illuminate_pdf(p, u)
+    }
+
     /// The density with which `illuminate(p, u)`, for `u` uniform in [0, 1]², picks `sample`'s
     /// direction (a sample it returned for `p`, or one [`LightSource::intersect`] returned for a
     /// ray from `p`). Monte Carlo integrators weigh light samples with it; `phong` never asks.
@@ -215,6 +225,9 @@ impl<T: LightSource + ?Sized> LightSource for Box<T> {
     }
     fn illuminate_pdf(&self, p: DVec3, u: DVec2) -> Option<(LightSample, LightPdf)> {
         (**self).illuminate_pdf(p, u)
+    }
+    fn illuminate_facing(&self, p: DVec3, n: DVec3, u: DVec2) -> Option<(LightSample, LightPdf)> {
+        (**self).illuminate_facing(p, n, u)
     }
     fn pdf(&self, p: DVec3, sample: &LightSample) -> LightPdf {
         (**self).pdf(p, sample)

@@ -136,7 +136,10 @@ impl PathTracer {
                 // environment says the density it drew with (finding it again from the direction
                 // costs a turn and a lookup); other lights are asked only for samples that count.
                 let sample = if facts[index].environment {
-                    light.illuminate_pdf(si.point(), u).map(|(ls, pdf)| (ls, Some(pdf)))
+                    // Lit from `n`'s side only: a sample behind is skipped below, unseen (the
+                    // explanation shows what it would have brought).
+                    let drawn = if R::ON { light.illuminate_pdf(si.point(), u) } else { light.illuminate_facing(si.point(), si.n, u) };
+                    drawn.map(|(ls, pdf)| (ls, Some(pdf)))
                 } else {
                     light.illuminate(si.point(), u).map(|ls| (ls, None))
                 };
@@ -189,8 +192,11 @@ impl PathTracer {
         c.stats.add(counter::SHADOW_RAYS, 1);
         let (ray, t_max) = si.spawn_shadow_ray(es.dir, es.hit.t);
         // An emitter that cannot hide its point (convex, facing here) is not asked.
-        let blocked =
-            if es.clear_of_itself { scene.occludes_except(&ray, 0.0, t_max, es.object) } else { scene.occludes(&ray, 0.0, t_max) };
+        let blocked = if es.clear_of_itself {
+            scene.occludes_except(&ray, 0.0, t_max, es.object)
+        } else {
+            scene.occludes_leaving(&ray, t_max, &si.hit)
+        };
         let visible = !blocked;
         let contribution = if visible { f * cos * es.radiance * (mis / p) } else { Color::ZERO };
         rec.light(|| {
@@ -290,7 +296,8 @@ impl PathTracer {
         };
         c.stats.add(counter::SHADOW_RAYS, 1);
         let (ray, t_max) = si.spawn_shadow_ray(ls.dir, ls.distance);
-        let visible = !scene.occludes(&ray, 0.0, t_max);
+        // The flat primitive the ray leaves is not asked (it cannot block: the same answer).
+        let visible = !scene.occludes_leaving(&ray, t_max, &si.hit);
         let contribution = if visible { f * cos * IRRADIANCE_PER_INTENSITY * ls.intensity * mis } else { Color::ZERO };
         rec.light(|| {
             let occluder = if visible { None } else { scene.intersect(&ray, 0.0, t_max).map(|h| h.object) };

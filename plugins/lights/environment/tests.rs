@@ -80,6 +80,37 @@ fn samples_rays_and_densities_agree() {
     }
 }
 
+/// A sample for a point lit from one side is the same sample as without the side, its
+/// intensity left zero only where it arrives from behind: to the bit, so images do not change.
+#[test]
+fn facing_samples_are_the_samples_and_only_behind_are_dark() {
+    let mut u = Uniform::new(11);
+    for (name, light) in lights() {
+        let (mut behind, mut facing) = (0, 0);
+        for k in 0..4000 {
+            let n = match k % 3 {
+                0 => DVec3::Y,
+                1 => DVec3::new(0.3, -0.5, 0.8).normalize(),
+                _ => DVec3::NEG_Z,
+            };
+            let r = u.next_2d();
+            let (a, pa) = light.illuminate_pdf(DVec3::ZERO, r).unwrap();
+            let (b, pb) = light.illuminate_facing(DVec3::ZERO, n, r).unwrap();
+            assert!(a.dir == b.dir && a.distance == b.distance && pa == pb, "{name}: {a:?} {pa:?} vs {b:?} {pb:?}");
+            if a.dir.dot(n) > 0.0 {
+                facing += 1;
+                assert!(a.intensity == b.intensity, "{name}: facing {a:?} vs {b:?}");
+            } else {
+                behind += 1;
+                // An image is not looked up behind; one colour costs nothing to give in full.
+                let expected = if light.uniform() { a.intensity } else { Color::ZERO };
+                assert!(b.intensity == expected, "{name}: behind {a:?} vs {b:?}");
+            }
+        }
+        assert!(behind > 100 && facing > 100, "{name}: {behind} behind, {facing} facing");
+    }
+}
+
 /// The camera sees the radiance the light's samples and rays imply: `environment(dir)` is
 /// `π × intensity × pdf` of the ray leaving along `dir`.
 #[test]
