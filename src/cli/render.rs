@@ -746,7 +746,7 @@ pub fn error_line(e: &crate::render::share::ErrorEstimate, target: bool, rare: O
     let warning = match rare {
         Some((share, first)) if share >= crate::render::job::ErrorTarget::RARE_SHARE => format!(
             "; may read low: {:.1} % of it is in pixels lit by samples rarer than 1 in {first} (caustics, glints), \
-             and pixels like them that stopped at {first} samples likely missed theirs",
+             and pixels like them that stopped at {first} samples likely missed theirs (a larger target_min_spp looks longer)",
             100.0 * share
         ),
         _ => String::new(),
