@@ -187,6 +187,27 @@ fn progressive_passes_end_with_the_single_pass_image() {
     assert!(errors[0] > 0.0);
 }
 
+/// A pixel's stratified film positions are computed per pixel, from tables of the set's permuted
+/// columns and rows where enough samples are taken in one pass (grids up to 64 × 64), per sample
+/// otherwise: both give the per-sample path's image (`render_pixel`, every sample on its own),
+/// in one pass or in doubling passes, for grids of every shape and beyond the tables.
+#[test]
+fn stratified_film_positions_do_not_depend_on_how_they_are_computed() {
+    for (spp, size) in [(2, 12), (3, 12), (7, 12), (16, 12), (64, 6), (100, 6), (4100, 2)] {
+        let mut j = with(EDGES, spp, Antialiasing::Stratified);
+        (j.settings.width, j.settings.height) = (size, size * 3 / 4);
+        let single = run(&j, Some(2)).film;
+        let mut stats = raylab::render::stats::RayStats::new(j.integrator.counters());
+        for y in 0..single.height {
+            for x in 0..single.width {
+                assert_eq!(single.get(x, y), raylab::render::render_pixel(&j, x, y, &mut stats), "spp {spp}, pixel ({x}, {y})");
+            }
+        }
+        let passes = render_progressive(&j, &RenderOptions::default(), &raylab::render::DOUBLING_PASSES, &|_, _| {}, &mut |_| {}).unwrap();
+        assert_eq!(passes.film, single, "spp {spp}");
+    }
+}
+
 /// A Lambert sphere under a directional light, sampled at pixel centres: every pixel is
 /// `kd · max(0, n·l)` at the point the report's pixel-centre ray hits, or the background.
 #[test]

@@ -338,6 +338,19 @@ impl Intersectable for MeshObject {
     fn walks_packets(&self) -> bool {
         self.mesh.is_bvh()
     }
+    /// Shadow rays of a block walk the hierarchy together, each leaving out its own triangle.
+    #[inline]
+    fn occludes_packet(
+        &self,
+        rays: &[Ray; PACKET],
+        live: u32,
+        t_min: f64,
+        t_max: &[f64; PACKET],
+        leaving: u32,
+        prims: &[u32; PACKET],
+    ) -> u32 {
+        self.mesh.occludes_packet(rays, live, t_min, t_max, leaving, prims)
+    }
 }
 
 impl Geometry for MeshObject {

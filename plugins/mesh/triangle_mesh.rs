@@ -517,6 +517,55 @@ impl TriangleMesh {
         hits
     }
 
+    /// [`TriangleMesh::occludes_leaving`] for the shadow rays `rays[k]` of mask `live`, each up
+    /// to its own `t_max[k]` and leaving out the triangle at `prims[k]` where bit `k` of
+    /// `leaving` is set, walked together ([`PrimitiveIndex::any_packet_leaves`]): the mask of
+    /// the rays blocked, exactly the single rays' answers (each ray meets the leaves its own walk
+    /// could, the same exact tests decide). A mesh whose materials cut parts away answers ray by
+    /// ray.
+    pub fn occludes_packet(
+        &self,
+        rays: &[Ray; PACKET],
+        live: u32,
+        t_min: f64,
+        t_max: &[f64; PACKET],
+        leaving: u32,
+        prims: &[u32; PACKET],
+    ) -> u32 {
+        let skip = |k: usize| if leaving >> k & 1 != 0 { prims[k] } else { NO_SLOT };
+        if self.cutouts.is_some() {
+            let mut blocked = 0;
+            for (k, ray) in rays.iter().enumerate().filter(|(k, _)| live >> k & 1 != 0) {
+                blocked |= u32::from(self.occludes_leaving(ray, t_min, t_max[k], skip(k))) << k;
+            }
+            return blocked;
+        }
+        // Each ray prepared at its first leaf, as in `occludes_kept`.
+        let mut prepared: [Option<(TriangleRay, PackRay)>; PACKET] = [None; PACKET];
+        self.index.any_packet_leaves(rays, live, t_min, t_max, |first, count, mut who, base| {
+            let mut hit = 0u32;
+            while who != 0 {
+                let k = who.trailing_zeros() as usize;
+                who &= who - 1;
+                let ray = &rays[k];
+                let (tr, pr) = &*prepared[k].get_or_insert_with(|| {
+                    let tr = TriangleRay::new(ray);
+                    (tr, PackRay::new(ray, &tr, base[k], self.filter_error, self.filter_scale))
+                });
+                let (skip, limit) = (skip(k), t_max[k]);
+                let found = self.candidates(pr, first, count, |slot| {
+                    if slot == skip {
+                        return false;
+                    }
+                    let [p0, p1, p2] = self.vertices(slot);
+                    tr.intersect(p0, p1, p2, t_min, limit, EdgeRule::Inclusive).is_some_and(|h| !on_surface(ray, h.t, p0, p1, p2))
+                });
+                hit |= u32::from(found) << k;
+            }
+            hit
+        })
+    }
+
     /// [`TriangleMesh::occludes`], counting only hits `keep(slot, barycentrics)` accepts and
     /// leaving out the triangle at `skip` ([`NO_SLOT`]: none).
     #[inline(always)]

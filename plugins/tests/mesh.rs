@@ -527,15 +527,9 @@ fn occludes_leaving_skips_the_own_triangle_only() {
     }
 }
 
-/// Camera rays traced in packets (8 pixels of a row walked together through a mesh's hierarchy)
-/// give every pixel exactly the colour of the single-ray path (`render_pixel`), with layers, at
-/// 1 and 2 threads: a lumpy sphere of 9k triangles over a ground plane, a width that leaves a
-/// short packet at each tile's end.
-#[test]
-fn packets_of_camera_rays_render_what_single_rays_render() {
+/// A lumpy sphere of 9k triangles (radius 1 ± 0.08) as OBJ text: its bumps shadow each other.
+fn lumpy_obj() -> String {
     use std::fmt::Write as _;
-    let dir = std::env::temp_dir().join(format!("raylab-packets-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
     let mut obj = String::new();
     let (nu, nv) = (96u32, 48u32);
     for j in 0..=nv {
@@ -552,7 +546,19 @@ fn packets_of_camera_rays_render_what_single_rays_render() {
             writeln!(obj, "f {a} {c} {d}\nf {a} {d} {b}").unwrap();
         }
     }
-    std::fs::write(dir.join("lumpy.obj"), obj).unwrap();
+    obj
+}
+
+/// Camera rays traced in packets (8 pixels of a row walked together through a mesh's hierarchy,
+/// their hits shaded as a block with their shadow rays walked together) give every pixel exactly
+/// the colour of the single-ray path (`render_pixel`), and the same counters, with layers, at 1
+/// and 2 threads: a lumpy sphere of 9k triangles over a ground plane, a width that leaves a short
+/// packet at each tile's end; the sphere reflecting (shaded hit by hit) and not (as a block).
+#[test]
+fn packets_of_camera_rays_render_what_single_rays_render() {
+    let dir = std::env::temp_dir().join(format!("raylab-packets-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("lumpy.obj"), lumpy_obj()).unwrap();
     let scene = "[render]\nwidth = 75\nheight = 41\nspp = 1\n\
                  [camera]\nposition = [0.4, 0.8, 3.2]\nlook_at = [0, 0, 0]\nfov = 45\n\
                  [integrator]\ntype = \"phong\"\nmax_depth = 2\n\
@@ -560,9 +566,19 @@ fn packets_of_camera_rays_render_what_single_rays_render() {
                  [[object]]\ntype = \"plane\"\npoint = [0, -1.1, 0]\nnormal = [0, 1, 0]\nmaterial = { kd = 0.5, ka = 1 }\n\
                  [[light]]\ntype = \"directional\"\ndirection = [-0.3, -1, -0.5]\ncolor = 1\n\
                  [[light]]\ntype = \"ambient\"\ncolor = 1\nka = 0.1\n";
-    std::fs::write(dir.join("packets.toml"), scene).unwrap();
-    let job = load_file(&raylab_plugins::registry(), &dir.join("packets.toml"), &options(AccelChoice::Auto))
-        .unwrap_or_else(|e| panic!("{}", e.report()));
+    // The reflecting mesh is shaded hit by hit, the plane as a block (its shadow rays traced
+    // together); with `kr = 0` both are, and the mesh shadows itself.
+    for (name, scene) in [("packets", scene.to_string()), ("plain", scene.replace(", kr = 0.3", ""))] {
+        std::fs::write(dir.join(format!("{name}.toml")), scene).unwrap();
+        packets_render_single_rays(&dir.join(format!("{name}.toml")));
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The checks of [`packets_of_camera_rays_render_what_single_rays_render`] for the scene at
+/// `path` (75×41): the same pixels and the same counters as `render_pixel`, pixel by pixel.
+fn packets_render_single_rays(path: &Path) {
+    let job = load_file(&raylab_plugins::registry(), path, &options(AccelChoice::Auto)).unwrap_or_else(|e| panic!("{}", e.report()));
     assert!(job.integrator.takes_camera_hits());
     assert_eq!(job.scene.walks_packets(), raylab::accel::BVH_AVAILABLE, "the render takes packets through the mesh's hierarchy");
     let mut stats = raylab::RayStats::new(job.integrator.counters());
@@ -570,14 +586,65 @@ fn packets_of_camera_rays_render_what_single_rays_render() {
         (0..41).flat_map(|y| (0..75).map(move |x| (x, y))).map(|(x, y)| raylab::render::render_pixel(&job, x, y, &mut stats)).collect();
     for threads in [1, 2] {
         let options = raylab::render::RenderOptions { threads: Some(threads), layers: true, ..Default::default() };
-        let film = raylab::render::render(&job, &options, &|_, _| {}).unwrap().film;
+        let rendered = raylab::render::render(&job, &options, &|_, _| {}).unwrap();
+        let film = rendered.film;
         let mut hits = 0;
         for (i, c) in single.iter().enumerate() {
             let (x, y) = (i as u32 % 75, i as u32 / 75);
-            assert_eq!(film.get(x, y), *c, "pixel ({x}, {y}), {threads} thread(s)");
+            assert_eq!(film.get(x, y), *c, "pixel ({x}, {y}), {threads} thread(s), {}", path.display());
             hits += usize::from(c.max_element() > 0.2);
         }
         assert!(hits > 1000, "{hits} lit pixels");
+        assert_eq!(rendered.stats.camera_rays, stats.camera_rays);
+        for (i, c) in job.integrator.counters().iter().enumerate() {
+            assert_eq!(rendered.stats.count(i), stats.count(i), "counter {}, {}", c.name, path.display());
+        }
     }
-    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Shadow rays of a packet (8 rays toward one light from points on a lumpy mesh, some leaving
+/// their own triangle, some not, some stopped short) get exactly the single rays' answers, with
+/// a hierarchy and as a list; so do packets whose directions differ (walked ray by ray).
+#[test]
+fn packets_of_shadow_rays_answer_as_single_rays() {
+    let dir = assets();
+    for accel in [AccelChoice::Auto, AccelChoice::List] {
+        let options = options(accel);
+        let ctx = raylab::LoadContext::new(&dir, &options);
+        let mesh = raylab_plugins::mesh::mesh_from_bytes(&ctx, "lumpy.obj", "obj", lumpy_obj().as_bytes()).unwrap();
+        let g = MeshObject::new(Arc::new(mesh));
+        let (mut blocked, mut open) = (0, 0);
+        for p in 0..400u32 {
+            // Camera rays of 8 neighbouring pixels, their hits' shadow rays toward one light.
+            let light = if p % 5 == 4 { DVec3::new(0.2, 1.0, 0.1) } else { DVec3::new(0.3, 1.0, 0.5) }.normalize();
+            let mut rays = [Ray::new(DVec3::ZERO, light); 8];
+            let (mut live, mut leaving, mut prims, mut t_max) = (0u32, 0u32, [0u32; 8], [f64::INFINITY; 8]);
+            for k in 0..8 {
+                let (u, v) = (f64::from(p % 20) / 10.0 - 1.0 + f64::from(k as u32) * 0.004, f64::from(p / 20) / 10.0 - 1.0);
+                let camera = Ray::new(DVec3::new(0.4, 0.8, 3.2), (DVec3::new(u, v, 0.0) - DVec3::new(0.4, 0.8, 3.2)).normalize());
+                let Some(h) = g.intersect(&camera, 0.0, f64::INFINITY) else { continue };
+                let n = g.normal(&h, camera.dir);
+                // A few rays of mixed directions (lanes of another light).
+                let dir = if p % 7 == 6 && k % 2 == 1 { DVec3::new(-0.3, 1.0, -0.5).normalize() } else { light };
+                rays[k] = Ray::new(offset_ray_origin(h.point, h.error, n, dir), dir);
+                live |= 1 << k;
+                leaving |= u32::from(k % 3 != 2) << k;
+                prims[k] = h.prim;
+                if k % 4 == 3 {
+                    t_max[k] = 0.05;
+                }
+            }
+            let got = g.occludes_packet(&rays, live, 0.0, &t_max, leaving, &prims);
+            assert_eq!(got & !live, 0, "lanes not asked are not answered");
+            for k in (0..8).filter(|k| live >> k & 1 != 0) {
+                let single = match leaving >> k & 1 != 0 {
+                    true => g.occludes_leaving(&rays[k], 0.0, t_max[k], prims[k]),
+                    false => g.occludes(&rays[k], 0.0, t_max[k]),
+                };
+                assert_eq!(got >> k & 1 != 0, single, "packet {p}, lane {k}, {accel:?}");
+                if single { blocked += 1 } else { open += 1 }
+            }
+        }
+        assert!(blocked > 200 && open > 200, "{blocked} blocked, {open} open");
+    }
 }

@@ -420,6 +420,84 @@ impl PrimitiveIndex {
     }
 }
 
+impl PrimitiveIndex {
+    /// [`Query::any_leaves`] for the rays `rays[k]` of mask `live` (each in `(t_min, t_max[k])`):
+    /// walked together through a hierarchy when more than one meets its box and their
+    /// directions allow it (shadow rays toward one light), else one after the other.
+    /// `test(first, count, rays, base)` tests the leaf's primitives for the rays of mask `rays`
+    /// and returns the mask of those it found a hit for; `base[k]` is ray `k`'s
+    /// [`Query::base`]. A ray is dropped from the walk once hit, and is handed (until then) the
+    /// leaves its own walk could hand it: with exact leaf tests its answer is the single ray's.
+    /// Returns the mask of the rays hit.
+    #[inline]
+    pub fn any_packet_leaves(
+        &self,
+        rays: &[Ray; PACKET],
+        live: u32,
+        t_min: f64,
+        t_max: &[f64; PACKET],
+        mut test: impl FnMut(u32, u32, u32, &[f64; PACKET]) -> u32,
+    ) -> u32 {
+        let mut base = [0.0; PACKET];
+        let mut blocked = 0u32;
+        #[cfg(feature = "bvh")]
+        if let (Some(b), Some(root)) = (&self.bvh, &self.bounds) {
+            let mut met = 0u32;
+            let mut lanes = [None; PACKET];
+            let mut m = live;
+            while m != 0 {
+                let k = m.trailing_zeros() as usize;
+                m &= m - 1;
+                if let Some(at) = clip(root, &rays[k], t_min, t_max[k]) {
+                    base[k] = at;
+                    lanes[k] = Some(wide::NodeRay::new(rays[k].at(at), rays[k].dir));
+                    met |= 1 << k;
+                }
+            }
+            if met.count_ones() > 1
+                && let Some(p) = wide::PacketRay::new(&lanes, met)
+            {
+                let mut hi = [f32::NEG_INFINITY; PACKET];
+                let mut m = met;
+                while m != 0 {
+                    let k = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    hi[k] = wide::far_limit(t_max[k] - base[k]);
+                }
+                // A ray hit leaves the walk: a far limit of −∞ enters no box.
+                b.traverse_packet(&p, &mut hi, &mut |first, count, rays, hi: &mut [f32; PACKET]| {
+                    let mut hit = test(first, count, rays, &base) & rays;
+                    blocked |= hit;
+                    while hit != 0 {
+                        let k = hit.trailing_zeros() as usize;
+                        hit &= hit - 1;
+                        hi[k] = f32::NEG_INFINITY;
+                    }
+                });
+                return blocked;
+            }
+            let mut m = met;
+            while m != 0 {
+                let k = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let q = Query { index: self, base: base[k], t_max: t_max[k], node_ray: lanes[k] };
+                if q.any_leaves(|first, count| test(first, count, 1 << k, &base) != 0) {
+                    blocked |= 1 << k;
+                }
+            }
+            return blocked;
+        }
+        for (k, ray) in rays.iter().enumerate().filter(|(k, _)| live >> k & 1 != 0) {
+            let Some(q) = self.query(ray, t_min, t_max[k]) else { continue };
+            base[k] = q.base;
+            if q.any_leaves(|first, count| test(first, count, 1 << k, &base) != 0) {
+                blocked |= 1 << k;
+            }
+        }
+        blocked
+    }
+}
+
 /// Clips `ray` to `root` over `(t_min, t_max)`: the `t` the `f32` frame starts at (where the ray
 /// enters the box, or `t_min`), or `None` when the ray misses the box. The slab test of
 /// [`Aabb::hit`], keeping the entry distance.

@@ -225,6 +225,52 @@ impl<O: Intersectable> Accelerated<'_, O> {
         blocked || objects[own as usize].occludes_leaving(ray, t_min, t_max, from.prim)
     }
 
+    /// [`Accelerated::occludes_leaving`] for the shadow rays `rays[k]` of mask `live`, ray `k` up
+    /// to `t_max[k]` and leaving `from[k]`: the mask of the rays blocked, exactly
+    /// `occludes_leaving`'s answers. The unbounded objects ray by ray, then a lone bounded
+    /// object's packet query ([`Intersectable::occludes_packet`]) for the rays still open, each
+    /// leaving out its primitive where it leaves that object; with other arrangements, ray by
+    /// ray.
+    #[inline]
+    pub fn occludes_packet_leaving(&self, rays: &[Ray; PACKET], live: u32, t_min: f64, t_max: &[f64; PACKET], from: &[Hit; PACKET]) -> u32 {
+        let (accel, objects) = (self.accel, self.objects);
+        let mut blocked = 0u32;
+        let lone = match accel.bounded[..] {
+            [(_, i)] if !accel.index.is_bvh() => i,
+            _ => {
+                for (k, ray) in rays.iter().enumerate().filter(|(k, _)| live >> k & 1 != 0) {
+                    blocked |= u32::from(self.occludes_leaving(ray, t_min, t_max[k], &from[k])) << k;
+                }
+                return blocked;
+            }
+        };
+        for &i in &accel.unbounded {
+            let o = &objects[i as usize];
+            let mut m = live & !blocked;
+            while m != 0 {
+                let k = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let hit = match from[k].object == i {
+                    true => o.occludes_leaving(&rays[k], t_min, t_max[k], from[k].prim),
+                    false => o.occludes(&rays[k], t_min, t_max[k]),
+                };
+                blocked |= u32::from(hit) << k;
+            }
+        }
+        let open = live & !blocked;
+        if open == 0 {
+            return blocked;
+        }
+        let mut leaving = 0u32;
+        let mut prims = [0u32; PACKET];
+        for k in 0..PACKET {
+            leaving |= u32::from(from[k].object == lone) << k;
+            prims[k] = from[k].prim;
+        }
+        // As in `occludes`: a lone bounded object is asked without its box test.
+        blocked | objects[lone as usize].occludes_packet(rays, open, t_min, t_max, leaving & open, &prims)
+    }
+
     /// [`Intersectable::occludes`] leaving out object `skip` (the object not asked): for a
     /// shadow ray that object cannot stop (an emitter's own point, facing the ray, on a convex
     /// shape).

@@ -808,7 +808,8 @@ fn walk_packet<const N: usize, const AVX: bool>(
                         hi[k] = *h;
                         leaf(first, count, 1 << k, hi);
                         *h = hi[k];
-                        false
+                        // A limit of −∞ (an any-hit query answered) ends the ray's walk.
+                        *h == f32::NEG_INFINITY
                     });
                 }
                 far = max_limit(hi);

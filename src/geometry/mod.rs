@@ -84,6 +84,34 @@ pub trait Intersectable: Send + Sync {
     fn walks_packets(&self) -> bool {
         false
     }
+
+    /// Shadow rays of a packet: the mask of the lanes `k` of `live` for which
+    /// `occludes_leaving(&rays[k], t_min, t_max[k], prims[k])` holds where bit `k` of `leaving`
+    /// is set (the ray leaves this shape's primitive `prims[k]`), `occludes(&rays[k], t_min,
+    /// t_max[k])` where it is not: exactly those answers. A shape that walks such a packet
+    /// together (shadow rays of a block of camera hits toward one light) overrides it; the
+    /// default asks ray by ray.
+    #[inline]
+    fn occludes_packet(
+        &self,
+        rays: &[Ray; PACKET],
+        live: u32,
+        t_min: f64,
+        t_max: &[f64; PACKET],
+        leaving: u32,
+        prims: &[u32; PACKET],
+    ) -> u32 {
+        let mut blocked = 0;
+        for (k, ray) in rays.iter().enumerate().filter(|(k, _)| live >> k & 1 != 0) {
+            let hit = if leaving >> k & 1 != 0 {
+                self.occludes_leaving(ray, t_min, t_max[k], prims[k])
+            } else {
+                self.occludes(ray, t_min, t_max[k])
+            };
+            blocked |= u32::from(hit) << k;
+        }
+        blocked
+    }
 }
 
 /// Rays of a packet ([`Intersectable::intersect_packet`]): one per lane of an 8-wide node.
@@ -239,6 +267,18 @@ macro_rules! forward_impls {
             }
             fn walks_packets(&self) -> bool {
                 (**self).walks_packets()
+            }
+            #[inline]
+            fn occludes_packet(
+                &self,
+                rays: &[Ray; PACKET],
+                live: u32,
+                t_min: f64,
+                t_max: &[f64; PACKET],
+                leaving: u32,
+                prims: &[u32; PACKET],
+            ) -> u32 {
+                (**self).occludes_packet(rays, live, t_min, t_max, leaving, prims)
             }
         }
         impl<T: Geometry + ?Sized> Geometry for $ptr<T> {

@@ -166,12 +166,66 @@ impl StratifiedSet {
     pub fn point(&self, index: u32) -> DVec2 {
         let s = self.count.apply(index);
         let (row, col) = self.m.div_rem(s);
-        let sx = self.m.apply(col);
-        let sy = self.n.apply(row);
+        self.point_at(s, self.m.apply(col), self.n.apply(row))
+    }
+
+    /// The point of stratum `s`, whose column and row are permuted to `sx` and `sy`.
+    #[inline(always)]
+    fn point_at(&self, s: u32, sx: u32, sy: u32) -> DVec2 {
         let jx = randfloat(s, self.jx);
         let jy = randfloat(s, self.jy);
         let (m, n, count) = (self.m.len as f64, self.n.len as f64, self.count.len as f64);
         DVec2::new(((sx as f64 + (sy as f64 + jx) / n) / m).min(ONE_MINUS_EPSILON), ((s as f64 + jy) / count).min(ONE_MINUS_EPSILON))
+    }
+
+    /// Whether [`TabledSet::new`] pays for itself over `points` calls of [`StratifiedSet::point`]:
+    /// the set's grid fits the table, and its `m + n` permuted columns and rows cost fewer
+    /// permutations than the two per point they save.
+    #[inline]
+    pub fn tabled_pays(&self, points: u32) -> bool {
+        let (m, n) = (self.m.len, self.n.len);
+        m as usize <= TABLED_STRATA && n as usize <= TABLED_STRATA && m + n < points.saturating_mul(2)
+    }
+}
+
+/// Most columns and rows of a [`TabledSet`]'s grid (sets of up to 64² = 4096 points).
+pub const TABLED_STRATA: usize = 64;
+
+/// A [`StratifiedSet`] with its permuted columns and rows computed once: the same points, two
+/// permutations fewer per point, for a loop over many points of one set (a pixel's samples).
+#[derive(Clone, Copy, Debug)]
+pub struct TabledSet {
+    set: StratifiedSet,
+    cols: [u16; TABLED_STRATA],
+    rows: [u16; TABLED_STRATA],
+}
+
+impl TabledSet {
+    /// `set` with its tables, or `None` when its grid is larger than [`TABLED_STRATA`] a side.
+    #[inline]
+    pub fn new(set: &StratifiedSet) -> Option<Self> {
+        let (m, n) = (set.m.len as usize, set.n.len as usize);
+        if m > TABLED_STRATA || n > TABLED_STRATA {
+            return None;
+        }
+        let mut t = TabledSet { set: *set, cols: [0; TABLED_STRATA], rows: [0; TABLED_STRATA] };
+        for (c, v) in t.cols[..m].iter_mut().enumerate() {
+            *v = set.m.apply(c as u32) as u16;
+        }
+        for (r, v) in t.rows[..n].iter_mut().enumerate() {
+            *v = set.n.apply(r as u32) as u16;
+        }
+        Some(t)
+    }
+
+    /// [`StratifiedSet::point`]`(index)`, to the bit.
+    #[inline]
+    pub fn point(&self, index: u32) -> DVec2 {
+        let set = &self.set;
+        let s = set.count.apply(index);
+        let (row, col) = set.m.div_rem(s);
+        // `col < m` and `row < n` (`s < count ≤ m·n`): within the tables' filled part.
+        set.point_at(s, u32::from(self.cols[col as usize % TABLED_STRATA]), u32::from(self.rows[row as usize % TABLED_STRATA]))
     }
 }
 
@@ -514,6 +568,26 @@ mod tests {
                     let want = reference_stratified_2d(i, count, pattern);
                     assert_eq!(set.point(i), want, "count {count}, pattern {pattern}, index {i}");
                     assert_eq!(stratified_2d(i, count, pattern), want);
+                }
+            }
+        }
+    }
+
+    /// The tabled set gives every point of the set it tables, for grids up to the table's size,
+    /// and declines larger ones.
+    #[test]
+    fn tabled_set_matches_the_set() {
+        for count in (0..=70).chain([100, 255, 256, 257, 1000, 4095, 4096, 4097, 5000]) {
+            for pattern in [0u32, 1, 9, 0x5eed, 0xdead_beef, u32::MAX] {
+                let set = StratifiedSet::new(count, pattern);
+                let Some(t) = TabledSet::new(&set) else {
+                    assert!(count > 4096, "count {count} fits the table");
+                    assert!(!set.tabled_pays(u32::MAX));
+                    continue;
+                };
+                assert!(count <= 4096, "count {count}");
+                for i in 0..count.max(1) {
+                    assert_eq!(t.point(i), set.point(i), "count {count}, pattern {pattern}, index {i}");
                 }
             }
         }

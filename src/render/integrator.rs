@@ -1,6 +1,6 @@
 //! The [`Integrator`] trait: turns a camera ray into a colour.
 
-use crate::geometry::Hit;
+use crate::geometry::{Hit, PACKET};
 use crate::math::color::Color;
 use crate::math::ray::Ray;
 use crate::math::ray::RayKind;
@@ -39,6 +39,38 @@ pub trait Integrator: Send + Sync {
     ) -> Color {
         let _ = hit;
         self.radiance(scene, ray, sampler, stats, aov)
+    }
+
+    /// [`Integrator::radiance_from`] for the camera rays `rays[k]` of mask `live` (a packet of
+    /// one sample each of neighbouring pixels), with their closest hits: `hit[k]` where bit `k`
+    /// of `hits` is set, none where it is not. Each ray's camera ray is counted here
+    /// (`stats.camera_rays`), and its colour written to `out[k]`, with `samplers[k]` and
+    /// `aovs[k]` as `radiance_from` would use them; the colours, layers and counters must be
+    /// exactly those of `radiance_from` called lane by lane, each lane's camera ray counted just
+    /// before it (as the default does), whatever the work budget allows. An integrator that
+    /// shades a packet together (shadow rays of the block toward one light walked as a packet)
+    /// overrides it. Called only when [`Integrator::takes_camera_hits`] is true.
+    #[allow(clippy::too_many_arguments)]
+    fn radiance_packet(
+        &self,
+        scene: &Scene,
+        rays: &[Ray; PACKET],
+        live: u32,
+        hits: u32,
+        hit: &[Hit; PACKET],
+        samplers: &mut [Sampler; PACKET],
+        stats: &mut RayStats,
+        aovs: &mut [AovSample; PACKET],
+        out: &mut [Color; PACKET],
+    ) {
+        let mut m = live;
+        while m != 0 {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            stats.camera_rays += 1;
+            let h = (hits >> k & 1 != 0).then_some(&hit[k]);
+            out[k] = self.radiance_from(scene, &rays[k], h, &mut samplers[k], stats, &mut aovs[k]);
+        }
     }
 
     /// Whether [`Integrator::radiance_from`] uses the hit it is given (then the render loop

@@ -33,16 +33,18 @@ pub use job::{ADAPTIVE_TILE_SIZE, AdaptiveSettings, Antialiasing, MAX_ADAPTIVE_D
 
 use crate::geometry::{Intersectable, PACKET};
 use crate::math::ray::Ray;
+use crate::math::sampler::TabledSet;
 use crate::render::accum::{AovSum, PixelSum};
 use crate::render::adaptive::Adaptive;
 use crate::render::aov::AovLayers;
 use crate::render::film::Film;
 use crate::render::sample::{
-    ImageSetup, SampleId, camera_rays, image_setup, pixel_setup, single_camera_ray, trace_pixel_sample, trace_sample, trace_sample_from,
+    ImageSetup, PixelSetup, SampleId, camera_rays, image_setup, pixel_setup, single_camera_ray, trace_packet_from, trace_pixel_sample,
+    trace_sample,
 };
 use crate::render::share::{Rect, Sampling, Share, ShareSums};
 use crate::render::stats::{Counter, RayStats};
-use glam::Vec3;
+use glam::{DVec2, Vec3};
 use rayon::prelude::*;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -619,14 +621,35 @@ impl StratifiedPixels<'_> {
             return;
         }
         // A stratified set of film positions: what the pixel's samples share (its streams' key,
-        // the set's permutations and divisors) computed once, not per sample.
+        // the set's permutations and divisors) computed once, not per sample; with many samples
+        // in this pass, the set's permuted columns and rows too (the same points).
         let pixel = pixel_setup(job, &self.setup, x, y);
+        let points = want.min(self.end).saturating_sub(acc.samples);
+        match pixel.film().tabled_pays(points).then(|| TabledSet::new(pixel.film())).flatten() {
+            Some(table) => self.add_pixel_samples(&pixel, |index| table.point(index), want, acc, layers, stats),
+            None => self.add_pixel_samples(&pixel, |index| pixel.film().point(index), want, acc, layers, stats),
+        }
+    }
+
+    /// The samples [`StratifiedPixels::add_samples`] adds to a pixel with stratified film
+    /// positions, sample `index` at `point(index)` in the pixel.
+    #[inline(always)]
+    fn add_pixel_samples(
+        &self,
+        pixel: &PixelSetup,
+        point: impl Fn(u32) -> DVec2,
+        want: u32,
+        acc: &mut PixelSum,
+        mut layers: Option<&mut AovSum>,
+        stats: &mut RayStats,
+    ) {
+        let (job, share) = (self.job, self.share);
         while acc.samples < want && share.sample_index(acc.samples) < self.end {
             if job.settings.target.is_some_and(|t| t.converged(acc)) {
                 break;
             }
             let index = share.sample_index(acc.samples);
-            trace_pixel_sample(job, &self.setup, &pixel, index, acc, layers.as_deref_mut(), stats);
+            trace_pixel_sample(job, &self.setup, pixel, index, point(index), acc, layers.as_deref_mut(), stats);
             acc.samples += 1;
         }
     }
@@ -678,13 +701,13 @@ impl StratifiedPixels<'_> {
                 }
             }
             let hits = job.scene.intersect_packet(&p.rays, live, 0.0, &[f64::INFINITY; PACKET], &mut p.hits);
+            // The block's hits shaded together (`Integrator::radiance_packet`).
+            trace_packet_from(job, setup, &p.ids, &p.rays, (live, hits), &p.hits, accs, layers.as_deref_mut(), stats);
             let mut m = live;
             while m != 0 {
                 let k = m.trailing_zeros() as usize;
                 m &= m - 1;
                 let acc = &mut accs[k];
-                let hit = (hits >> k & 1 != 0).then_some(&p.hits[k]);
-                trace_sample_from(job, setup, p.ids[k], &p.rays[k], hit, acc, layers.as_deref_mut().map(|l| &mut l[k]), stats);
                 acc.samples += 1;
                 if !wants(acc, x0 + k as u32) {
                     live &= !(1 << k);

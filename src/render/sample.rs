@@ -2,7 +2,8 @@
 //! streams. The render, its depth/normal/albedo layers and `raylab trace` all go through
 //! [`camera_rays`], so an explained sample is exactly the sample the render computed.
 
-use crate::geometry::Hit;
+use crate::geometry::{Hit, PACKET};
+use crate::math::color::Color;
 use crate::math::ray::Ray;
 use crate::math::sampler::{PixelKey, Sampler, SeedKey, StratifiedSet, mix64, sobol_02, stratified_2d};
 use crate::render::accum::{AovSum, PixelSum};
@@ -249,16 +250,23 @@ pub fn pixel_setup(job: &RenderJob, image: &ImageSetup, x: u32, y: u32) -> Pixel
 }
 
 impl PixelSetup {
-    /// The camera rays of the pixel's sample `index`: those [`camera_rays`] gives for
-    /// [`SampleId::Pixel`] (`film` is the set of its `stratified_2d(·, spp, pattern)`).
+    /// The stratified set of the pixel's film positions: point `index` is sample `index`'s
+    /// place in the pixel (`stratified_2d(index, spp, pattern)`).
+    #[inline]
+    pub fn film(&self) -> &StratifiedSet {
+        &self.film
+    }
+
+    /// The camera rays of the pixel's sample `index`, whose place in the pixel is `at` (point
+    /// `index` of [`PixelSetup::film`]): those [`camera_rays`] gives for [`SampleId::Pixel`].
     #[inline(always)]
-    fn rays<'a>(&self, job: &'a RenderJob, image: &ImageSetup, index: u32) -> CameraRays<'a> {
+    fn rays<'a>(&self, job: &'a RenderJob, image: &ImageSetup, index: u32, at: DVec2) -> CameraRays<'a> {
         let s = &job.settings;
         let per_sample = if job.scene.camera.aperture > 0.0 { s.lens_samples.max(1) } else { 1 };
         CameraRays {
             job,
             screen: image.screen,
-            film: DVec2::new(f64::from(self.x), f64::from(self.y)) + self.film.point(index),
+            film: DVec2::new(f64::from(self.x), f64::from(self.y)) + at,
             sampler: Sampler::with_pixel_key(self.key, index),
             first: index * s.lens_samples,
             count: per_sample,
@@ -295,19 +303,23 @@ pub fn trace_sample(
 }
 
 /// [`trace_sample`] for sample `index` of the pixel `pixel` describes (its [`pixel_setup`],
-/// computed once by the caller for all its samples): the same rays, streams and sums.
+/// computed once by the caller for all its samples), whose place in the pixel `at` is point
+/// `index` of [`PixelSetup::film`] (computed by the caller, from that set or its
+/// [`crate::math::sampler::TabledSet`]): the same rays, streams and sums.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub fn trace_pixel_sample(
     job: &RenderJob,
     setup: &ImageSetup,
     pixel: &PixelSetup,
     index: u32,
+    at: DVec2,
     acc: &mut PixelSum,
     layers: Option<&mut AovSum>,
     stats: &mut RayStats,
 ) -> u64 {
     let id = SampleId::Pixel { x: pixel.x, y: pixel.y, index };
-    trace_rays(job, setup, id, pixel.rays(job, setup, index), None, acc, layers, stats)
+    trace_rays(job, setup, id, pixel.rays(job, setup, index, at), None, acc, layers, stats)
 }
 
 /// The camera ray of sample `id` when it has only one (no lens samples): what the render loop
@@ -336,6 +348,82 @@ pub fn trace_sample_from(
     trace_rays(job, setup, id, camera_rays_in(job, setup, id), Some((ray, hit)), acc, layers, stats)
 }
 
+/// [`trace_sample_from`] for the samples `ids[k]` of mask `live`, one camera ray each
+/// (`rays[k]`, [`single_camera_ray`]) with its closest hit (`hit[k]` where bit `k` of `hits` is
+/// set), shaded together ([`crate::render::integrator::Integrator::radiance_packet`]): pixel
+/// `k`'s `accs[k]` (and `layers[k]`) gets exactly the sums `trace_sample_from` adds.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn trace_packet_from(
+    job: &RenderJob,
+    setup: &ImageSetup,
+    ids: &[SampleId; PACKET],
+    rays: &[Ray; PACKET],
+    (live, hits): (u32, u32),
+    hit: &[Hit; PACKET],
+    accs: &mut [PixelSum],
+    mut layers: Option<&mut [AovSum]>,
+    stats: &mut RayStats,
+) {
+    let mut second = 0u32;
+    let mut samplers: [Sampler; PACKET] = std::array::from_fn(|k| {
+        let r = camera_rays_in(job, setup, ids[k]);
+        if live >> k & 1 != 0 {
+            second |= u32::from(second_half(setup, ids[k], r.film, &mut accs[k])) << k;
+        }
+        r.sampler(0)
+    });
+    let mut aovs = [setup.miss; PACKET];
+    for a in &mut aovs {
+        // Summed layers are a denoiser's guides, as in `trace_rays`.
+        a.guides = layers.is_some();
+    }
+    let mut out = [Color::ZERO; PACKET];
+    job.integrator.radiance_packet(&job.scene, rays, live, hits, hit, &mut samplers, stats, &mut aovs, &mut out);
+    let mut m = live;
+    while m != 0 {
+        let k = m.trailing_zeros() as usize;
+        m &= m - 1;
+        if out[k].is_finite() {
+            accs[k].add_sample(out[k], second >> k & 1 != 0);
+        } else {
+            stats.nonfinite_samples += 1;
+        }
+        if let Some(l) = layers.as_deref_mut() {
+            l[k].add(&aovs[k]);
+        }
+    }
+}
+
+/// Which of the error estimate's two halves sample `id` (on the film at `film`) joins.
+#[inline(always)]
+fn second_half(setup: &ImageSetup, id: SampleId, film: DVec2, acc: &mut PixelSum) -> bool {
+    // Which half of the error estimate's two the sample joins. Stratified sets: its stratum `s`
+    // of the pixel's `spp` rows is column `s mod m` of band `s / m` of the set's m × n grid, and
+    // the halves are the grid's checkerboard, `(s mod m + s / m)` odd or even, so both halves
+    // cover every band and every column. (`s + s / m`, the same for an even `m`, put each column
+    // wholly in one half for an odd `m`, as at 25, 49 or 512 spp: the halves were stripes of
+    // the pixel, and the estimate 2.5–6× too high on path-cornell.) Sobol points (an error
+    // target, a time budget): a pixel stopping at `n` samples (a power of two) has halves
+    // [0, n/2) and [n/2, n), each a (0, 2)-net; so at each power of two the second half starts
+    // again, the samples before it becoming the first. (The parity of the index's bits split
+    // the pixel in two along y: the Sobol y's top bit is that parity.)
+    match id {
+        SampleId::Pixel { index, .. } if setup.progressive => {
+            if index.is_power_of_two() {
+                acc.restart_second_half();
+            }
+            index > 0
+        }
+        SampleId::Pixel { y, .. } if setup.strata.1 > 1 => {
+            let s = ((film.y - f64::from(y)) * setup.strata.0) as u32;
+            let band = s / setup.strata.1;
+            (s - band * setup.strata.1 + band) & 1 == 1
+        }
+        _ => false,
+    }
+}
+
 /// [`trace_sample`] with sample `id`'s camera rays `rays` built; `given`: its one camera ray
 /// with its closest hit, found by the caller.
 #[allow(clippy::too_many_arguments)]
@@ -351,30 +439,7 @@ fn trace_rays(
     stats: &mut RayStats,
 ) -> u64 {
     let mut signature = 0u64;
-    // Which half of the error estimate's two the sample joins. Stratified sets: its stratum `s`
-    // of the pixel's `spp` rows is column `s mod m` of band `s / m` of the set's m × n grid, and
-    // the halves are the grid's checkerboard, `(s mod m + s / m)` odd or even, so both halves
-    // cover every band and every column. (`s + s / m`, the same for an even `m`, put each column
-    // wholly in one half for an odd `m`, as at 25, 49 or 512 spp: the halves were stripes of
-    // the pixel, and the estimate 2.5–6× too high on path-cornell.) Sobol points (an error
-    // target, a time budget): a pixel stopping at `n` samples (a power of two) has halves
-    // [0, n/2) and [n/2, n), each a (0, 2)-net; so at each power of two the second half starts
-    // again, the samples before it becoming the first. (The parity of the index's bits split
-    // the pixel in two along y: the Sobol y's top bit is that parity.)
-    let second = match id {
-        SampleId::Pixel { index, .. } if setup.progressive => {
-            if index.is_power_of_two() {
-                acc.restart_second_half();
-            }
-            index > 0
-        }
-        SampleId::Pixel { y, .. } if setup.strata.1 > 1 => {
-            let s = ((rays.film.y - f64::from(y)) * setup.strata.0) as u32;
-            let band = s / setup.strata.1;
-            (s - band * setup.strata.1 + band) & 1 == 1
-        }
-        _ => false,
-    };
+    let second = second_half(setup, id, rays.film, acc);
     // The rays of the iterator, each built where the integrator reads it: taken from the
     // iterator's `(Ray, Sampler)`, the ray was copied in pieces that straddled its stores (a
     // store-forwarding stall on every camera ray).

@@ -104,6 +104,14 @@ impl RayStats {
         self.rays() > self.allowance
     }
 
+    /// Whether `n` more rays can be traced without passing the allowance
+    /// ([`RayStats::set_allowance`]): then no check of [`RayStats::exhausted`] on the way can
+    /// turn true, whatever the order the rays are counted in.
+    #[inline]
+    pub fn has_room(&self, n: u64) -> bool {
+        self.rays().saturating_add(n) <= self.allowance
+    }
+
     /// Counter `i` of the table.
     pub fn count(&self, i: usize) -> u64 {
         self.counts.get(i).copied().unwrap_or(0)

@@ -313,6 +313,37 @@ impl Scene {
         self.walk(&self.transmissive, ray, t_max).0
     }
 
+    /// [`Scene::transmittance_leaving`] for the shadow rays `rays[k]` of mask `live`, ray `k` up
+    /// to `t_max[k]` and leaving the hit `from[k]`, into `out[k]` (other lanes left alone): the
+    /// same colours. Where no object transmits, the rays' any-hit queries are asked together
+    /// ([`crate::accel::Accelerated::occludes_packet_leaving`]); otherwise ray by ray.
+    #[inline]
+    pub fn transmittance_packet_leaving(
+        &self,
+        rays: &[Ray; PACKET],
+        live: u32,
+        t_max: &[f64; PACKET],
+        from: &[Hit; PACKET],
+        out: &mut [Color; PACKET],
+    ) {
+        if self.transmissive.is_empty() {
+            let blocked = self.accel.over(&self.objects).occludes_packet_leaving(rays, live, 0.0, t_max, from);
+            let mut m = live;
+            while m != 0 {
+                let k = m.trailing_zeros() as usize;
+                m &= m - 1;
+                out[k] = if blocked >> k & 1 != 0 { Color::ZERO } else { Color::ONE };
+            }
+            return;
+        }
+        let mut m = live;
+        while m != 0 {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            out[k] = self.transmittance_leaving(&rays[k], t_max[k], &from[k]);
+        }
+    }
+
     /// Whether anything is hit along a shadow ray leaving the hit `from` (spawned off it, as
     /// [`Interaction::spawn_shadow_ray`] does) with `0 < t < t_max`: [`Intersectable::occludes`]
     /// that may skip the flat primitive the ray leaves ([`Intersectable::occludes_leaving`]).

@@ -189,4 +189,16 @@ impl Intersectable for Object {
     fn walks_packets(&self) -> bool {
         self.geometry.walks_packets()
     }
+    #[inline]
+    fn occludes_packet(
+        &self,
+        rays: &[Ray; PACKET],
+        live: u32,
+        t_min: f64,
+        t_max: &[f64; PACKET],
+        leaving: u32,
+        prims: &[u32; PACKET],
+    ) -> u32 {
+        self.geometry.occludes_packet(rays, live, t_min, t_max, leaving, prims)
+    }
 }

@@ -7,7 +7,7 @@ use super::{Branch, Ctx, Phong, TAG_EMITTERS, TAG_LIGHTS, counter};
 use raylab::glam::DVec2;
 use raylab::math::color::max_channel;
 use raylab::math::sampler::StratifiedSet;
-use raylab::render::trace::{Recorder, Term, TraceLight};
+use raylab::render::trace::{NoRecord, Recorder, Term, TraceLight};
 use raylab::scene::emitters::Selection;
 use raylab::scene::interaction::Interaction;
 use raylab::scene::material::Coefficients;
@@ -267,19 +267,44 @@ impl Phong {
     /// Always inlined: called from two loops, it went out of line (a call per light sample).
     #[inline(always)]
     fn single_sample<R: Recorder>(&self, c: &mut Ctx, sh: &Shade, rec: &mut R) -> Color {
+        match self.single_terms(c, sh, rec) {
+            Some((ls, t)) => t.unshadowed * self.shadowed(c, sh, &ls, &t, 1, rec),
+            None => Color::ZERO,
+        }
+    }
+
+    /// [`Phong::single_sample`] up to its shadow ray: the light sample and its terms where a
+    /// shadow ray is to be traced, `None` where the sample adds nothing (skips counted and
+    /// recorded here).
+    #[inline(always)]
+    fn single_terms<R: Recorder>(&self, c: &mut Ctx, sh: &Shade, rec: &mut R) -> Option<(LightSample, Terms)> {
         let scene = c.scene;
         let si = sh.si;
-        let Source::Light(_, light) = sh.light else { return Color::ZERO };
-        let Some(ls) = &light.illuminate(si.hit.point, DVec2::ZERO) else { return Color::ZERO };
+        let Source::Light(_, light) = sh.light else { return None };
+        let ls = light.illuminate(si.hit.point, DVec2::ZERO)?;
         if self.avoid && sh.no_response {
             c.stats.add(counter::LIGHTS_NO_RESPONSE, 1);
             rec.note(|| format!("{}: the surface has no diffuse or specular term; no shadow rays", sh.light.name(scene)));
-            return Color::ZERO;
+            return None;
         }
-        match self.unshadowed(c, sh, ls, rec) {
-            Ok(t) => t.unshadowed * self.shadowed(c, sh, ls, &t, 1, rec),
-            Err(_) => Color::ZERO,
-        }
+        self.unshadowed(c, sh, &ls, rec).ok().map(|t| (ls, t))
+    }
+
+    /// The camera hit `si` (with its material's coefficients `m`) lit by the one-sample light
+    /// `light` alone, up to its shadow ray: what [`Phong::direct`] computes there before tracing
+    /// it. `Some((shadow ray, t_max, unshadowed term))` where it traces one (counted here, as
+    /// [`Phong::shadowed`] counts it), `None` where the light adds nothing. The caller traces the
+    /// shadow rays of a block together and adds `unshadowed × transmittance` to a zero total,
+    /// as `direct` does.
+    #[inline(always)]
+    pub(super) fn block_light(&self, c: &mut Ctx, si: &Interaction, m: &Coefficients, light: usize) -> Option<(raylab::Ray, f64, Color)> {
+        let no_response = max_channel(m.kd) <= 0.0 && max_channel(m.ks) <= 0.0;
+        let source = Source::Light(light, c.scene.lights[light].as_ref());
+        let sh = Shade { si, m, weight: Color::ONE, full: 1, light: source, no_response };
+        let (ls, t) = self.single_terms(c, &sh, &mut NoRecord)?;
+        c.stats.add(counter::SHADOW_RAYS, 1);
+        let (ray, t_max) = si.spawn_shadow_ray(ls.dir, ls.distance);
+        Some((ray, t_max, t.unshadowed))
     }
 
     /// Takes the samples `draw` of the light `sh.source` and adds them to `acc`. False when the

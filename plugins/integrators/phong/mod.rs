@@ -51,8 +51,9 @@ mod direct;
 mod fan;
 
 use raylab::Intersectable;
-use raylab::geometry::Hit;
 use raylab::geometry::differential::RaySpread;
+use raylab::geometry::{Hit, PACKET};
+use raylab::glam::DVec3;
 use raylab::math::color::max_channel;
 use raylab::param::error::Result;
 use raylab::param::params::{Params, from_defaults};
@@ -62,7 +63,7 @@ use raylab::render::integrator::explain_recursion;
 use raylab::render::stats::{Counter, CounterKind};
 use raylab::render::trace::{NoRecord, Recorder, Term};
 use raylab::scene::interaction::Interaction;
-use raylab::scene::material::Coefficients;
+use raylab::scene::material::{Coefficients, Fresnel};
 use raylab::{Color, Integrator, LoadContext, PluginInfo, Ray, RayKind, RayStats, Sampler, Scene, TraceNode};
 
 pub use fan::{reflect, refract};
@@ -340,6 +341,126 @@ impl Phong {
     }
 }
 
+impl Phong {
+    /// The counter a reflection or refraction fan of coefficient `coef` at a camera hit is
+    /// skipped under (the tests of [`Phong::shade`], in its order, at depth 0 with weight 1), or
+    /// `None` where the ray is traced.
+    #[inline(always)]
+    fn camera_fan_skipped(&self, coef: Color) -> Option<usize> {
+        if self.avoid && max_channel(coef) <= 0.0 {
+            return Some(counter::ZERO_COEFFICIENT_RAYS);
+        }
+        if self.max_depth == 0 {
+            return Some(counter::DEPTH_LIMITED);
+        }
+        if max_channel(Color::ONE * coef) < self.prune_threshold {
+            return Some(counter::PRUNED_RAYS);
+        }
+        None
+    }
+
+    /// [`Phong::camera`] for the camera rays of a block with their hits
+    /// ([`Integrator::radiance_packet`]). Where the scene has one light that illuminates, with one
+    /// sample (point, spot, directional) and no emitter samples, a hit whose material neither
+    /// reflects nor transmits (no fan is traced there, Fresnel off) is shaded up to its shadow
+    /// ray, and the block's shadow rays are traced together
+    /// ([`Scene::transmittance_packet_leaving`]); every other hit by [`Phong::shade`]. Each lane is
+    /// taken in order (its camera ray counted, its shadow ray counted as it is made, the work
+    /// budget checked where `shade` checks it), so the counters any check sees, the colours and
+    /// the layers are those of the lanes shaded one by one.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn camera_block(
+        &self,
+        scene: &Scene,
+        rays: &[Ray; PACKET],
+        (live, hits): (u32, u32),
+        hit: &[Hit; PACKET],
+        samplers: &[Sampler; PACKET],
+        stats: &mut RayStats,
+        aovs: &mut [AovSample; PACKET],
+        out: &mut [Color; PACKET],
+    ) {
+        let light = match scene.one_sample_lights() {
+            Some(&[light]) if self.emitter_samples == 0 || scene.emitters().is_empty() => light,
+            _ => {
+                let mut m = live;
+                while m != 0 {
+                    let k = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    stats.camera_rays += 1;
+                    let h = (hits >> k & 1 != 0).then_some(&hit[k]);
+                    out[k] = self.camera(scene, &rays[k], Some(h), &samplers[k], stats, &mut aovs[k], &mut NoRecord);
+                }
+                return;
+            }
+        };
+        let c = &mut Ctx { scene, stats };
+        // The block's shadow rays (lanes of `traced`), and what the lanes shaded here add.
+        let mut shadow = [Ray { origin: DVec3::ZERO, dir: DVec3::Z }; PACKET];
+        let mut t_max = [0.0; PACKET];
+        let mut unshadowed = [Color::ZERO; PACKET];
+        let mut base = [Color::ZERO; PACKET];
+        let (mut traced, mut block) = (0u32, 0u32);
+        let mut m = live;
+        while m != 0 {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            c.stats.camera_rays += 1;
+            let ray = &rays[k];
+            let aov = &mut aovs[k];
+            if hits >> k & 1 == 0 {
+                let seen = scene.escaped(ray.dir);
+                aov.escape(scene, ray.dir);
+                out[k] = seen;
+                continue;
+            }
+            // As `camera` does.
+            let mut si = scene.interaction(ray, hit[k]);
+            si.spread = scene.camera_spread(ray);
+            let m = si.coefficients();
+            aov.set_surface(&si, m.kd + m.kr + m.kt);
+            aov.emitted = m.emission;
+            aov.look_through(scene, &si, guide_step);
+            let fans = match m.fresnel {
+                Fresnel::Off => self.camera_fan_skipped(m.kr).zip(self.camera_fan_skipped(m.kt)),
+                _ => None,
+            };
+            let Some((skip_r, skip_t)) = fans else {
+                let b = Branch { sampler: &samplers[k], depth: 0, weight: Color::ONE, spread: si.spread };
+                out[k] = self.shade(c, &si, &m, b, &mut NoRecord);
+                continue;
+            };
+            // `shade` up to its shadow ray.
+            if c.stats.exhausted() {
+                out[k] = Color::ZERO;
+                continue;
+            }
+            base[k] = m.emission + m.ka * scene.ambient;
+            block |= 1 << k;
+            if let Some((r, t, u)) = self.block_light(c, &si, &m, light) {
+                (shadow[k], t_max[k], unshadowed[k]) = (r, t, u);
+                traced |= 1 << k;
+            }
+            c.stats.add(skip_r, 1);
+            c.stats.add(skip_t, 1);
+        }
+        let mut tr = [Color::ZERO; PACKET];
+        scene.transmittance_packet_leaving(&shadow, traced, &t_max, hit, &mut tr);
+        let mut m = block;
+        while m != 0 {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            // `direct`'s total over the one light, then `shade`'s sum.
+            let mut total = Color::ZERO;
+            total += if traced >> k & 1 != 0 { unshadowed[k] * tr[k] } else { Color::ZERO };
+            let mut color = base[k];
+            color += total;
+            out[k] = color;
+        }
+    }
+}
+
 /// What the hit `si` is to the denoiser's guides ([`AovSample::look_through`]): a surface with a
 /// diffuse or highlight response (`kd`, `ks`) or a blurred reflection or refraction stops them
 /// (albedo `kd + kr + kt`, as at the first surface); a sharp mirror or glass sends them on along
@@ -375,6 +496,21 @@ impl Integrator for Phong {
         aov: &mut AovSample,
     ) -> Color {
         self.camera(scene, ray, Some(hit), sampler, stats, aov, &mut NoRecord)
+    }
+
+    fn radiance_packet(
+        &self,
+        scene: &Scene,
+        rays: &[Ray; PACKET],
+        live: u32,
+        hits: u32,
+        hit: &[Hit; PACKET],
+        samplers: &mut [Sampler; PACKET],
+        stats: &mut RayStats,
+        aovs: &mut [AovSample; PACKET],
+        out: &mut [Color; PACKET],
+    ) {
+        self.camera_block(scene, rays, (live, hits), hit, samplers, stats, aovs, out);
     }
 
     fn takes_camera_hits(&self) -> bool {
