@@ -35,6 +35,42 @@ fn a_constant_image_has_zero_estimated_error() {
     assert_eq!(r.sums.error_estimate().map(|e| e.relative_rmse), Some(0.0));
 }
 
+/// The share of the estimated variance in pixels lit by samples rarer than one per first test
+/// (`ShareSums::rare_light_share`, behind the summary's "may read low"): a pixel whose light came
+/// in one bright ray of 64 counts as rare for a first test at 16 samples and not at 128; a
+/// pixel as noisy but lit by every ray never does.
+#[test]
+fn rare_bright_samples_are_told_from_spread_light() {
+    use raylab::math::color::Color;
+    use raylab::render::accum::PixelSum;
+    let mut r = render_str(
+        r#"
+        background = 0.5
+        [render]
+        width = 3
+        height = 1
+        spp = 4
+        [camera]
+        position = [0, 0, 0]
+        look_at = [0, 0, -1]
+        "#,
+    );
+    let grey = |v: f64| Color::new(v, v, v);
+    let (mut rare, mut spread) = (PixelSum::default(), PixelSum::default());
+    for i in 0..64 {
+        rare.add(grey(if i == 17 { 40.0 } else { 0.1 }));
+        spread.add(grey(if i % 2 == 0 { 0.2 } else { 3.0 }));
+    }
+    r.sums.pixels = vec![rare, spread, PixelSum::default()];
+    let var = |p: &PixelSum| p.std_error().unwrap().powi(2);
+    let share = r.sums.rare_light_share(16);
+    assert!((share - var(&rare) / (var(&rare) + var(&spread))).abs() < 1e-12, "{share}");
+    assert!(share > 0.5, "{share}");
+    assert_eq!(r.sums.rare_light_share(128), 0.0);
+    r.sums.pixels = vec![spread, spread, spread];
+    assert_eq!(r.sums.rare_light_share(16), 0.0);
+}
+
 /// A pixel split in half by the edge of a black square in front of a white background: `N`
 /// stratified samples put exactly `N/2` on each side, so the sample variance of their luminance
 /// is `N / (4 (N − 1))` and the standard error of the mean `1 / (2 √(N − 1))`, in closed form.

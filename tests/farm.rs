@@ -98,6 +98,33 @@ fn an_environment_lit_frame_merges_to_the_whole_render() {
     assert_eq!(merged.film().unwrap(), whole.film);
 }
 
+/// Under an error target each pixel stops on its own samples: a frame cut into crops (bands of
+/// rows, one split in two columns), each rendered to the target alone, merges to the whole
+/// render's bits, the samples each pixel reached and its error halves included.
+#[test]
+fn an_error_target_frame_split_into_crops_merges_to_the_whole_render() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join("path-cornell.toml");
+    let src = raylab::param::error::Source::new("test", "");
+    let node = |v: Value| Node { value: v, loc: raylab::param::error::Loc::new(&src, 0..0) };
+    let render_params = vec![("target_error".to_string(), node(Value::Float(0.1)))];
+    let overrides = Overrides { width: Some(40), height: Some(30), spp: Some(128), render_params, ..Overrides::default() };
+    let j = load_file(&raylab_plugins::registry(), &path, &LoadOptions { overrides, ..LoadOptions::default() })
+        .unwrap_or_else(|e| panic!("{}", e.report()));
+    let whole = render(&j, &RenderOptions { layers: true, threads: Some(2), ..RenderOptions::default() }, &|_, _| {}).unwrap();
+    let spp: Vec<u32> = whole.sums.pixels.iter().map(|p| p.samples).collect();
+    assert!(spp.iter().min() < spp.iter().max(), "pixels stopped at different counts");
+    let mut rects = bands(30, &[0.2, 0.55]);
+    let first = rects.remove(0);
+    rects.push(Rect { x1: 13, ..first });
+    rects.push(Rect { x0: 13, ..first });
+    let parts: Vec<Part> = rects.into_iter().map(|bounds| part(&j, Share { bounds, pass: 0, passes: 1 }, true)).collect();
+    let merged = merge(&parts, false).unwrap();
+    assert_eq!(merged.pixels, whole.sums.pixels);
+    assert_eq!(merged.layers, whole.sums.layers);
+    assert_eq!(merged.film().unwrap(), whole.film);
+    assert_eq!(merged.error_estimate(), whole.sums.error_estimate());
+}
+
 #[test]
 fn missing_duplicated_overlapping_and_foreign_parts_are_refused() {
     let j = job("dozen.toml", "stratified", 2);

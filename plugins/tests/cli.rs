@@ -563,6 +563,16 @@ fn an_error_target_from_the_command_line() {
     assert!(out.status.success(), "{}", text(&out.stderr));
     let stdout = text(&out.stdout);
     assert!(stdout.contains("to error 0.1 (16..256 spp)") && stdout.contains("an error target:"), "{stdout}");
+    assert!(!stdout.contains("may read low"), "{stdout}");
+    // The sun's caustics on environment's floor, found by few samples: the estimate may read low.
+    let env = repo().join("scenes/environment.toml");
+    let out = raylab(
+        &dir,
+        &["render", env.to_str().unwrap(), "--width", "48", "--height", "27", "--spp", "1024", "--target-error", "0.1", "-o", "e.png"],
+    );
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    assert!(stdout.contains("may read low") && stdout.contains("rarer than 1 in 16"), "{stdout}");
     let out = raylab(
         &dir,
         &["render", scene.to_str().unwrap(), "--width", "24", "--height", "24", "--spp", "8", "--target-error", "0.1", "-o", "t.png"],

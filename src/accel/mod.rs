@@ -140,14 +140,17 @@ impl<O: Intersectable> Intersectable for Accelerated<'_, O> {
     }
 
     /// The unbounded objects ray by ray, then a lone bounded object's own packet query
-    /// ([`Intersectable::intersect_packet`]) with each ray's limit lowered to its hit so far;
-    /// with other arrangements, ray by ray. Each ray's answer is [`Accelerated::intersect`]'s.
+    /// ([`Intersectable::intersect_packet`]) with each ray's limit lowered to its hit so far, or
+    /// the hierarchy walked by the packet ([`PrimitiveIndex::closest_packet_leaves`]) with each
+    /// ray's exact tests at the leaves; with a list, ray by ray. Each ray's answer is
+    /// [`Accelerated::intersect`]'s.
     #[inline]
     fn intersect_packet(&self, rays: &[Ray; PACKET], live: u32, t_min: f64, t_max: &[f64; PACKET], out: &mut [Hit; PACKET]) -> u32 {
         let (accel, objects) = (self.accel, self.objects);
         let mut hits = 0;
         let lone = match accel.bounded[..] {
             [(_, i)] if !accel.index.is_bvh() => i,
+            _ if accel.index.is_bvh() => return self.intersect_packet_bvh(rays, live, t_min, t_max, out),
             _ => {
                 for (k, ray) in rays.iter().enumerate().filter(|(k, _)| live >> k & 1 != 0) {
                     if let Some(h) = self.intersect(ray, t_min, t_max[k]) {
@@ -179,9 +182,10 @@ impl<O: Intersectable> Intersectable for Accelerated<'_, O> {
         hits
     }
 
-    /// True when the bounded objects are one object that walks packets.
+    /// True when the bounded objects are in a hierarchy (walked by the packet), or are one
+    /// object that walks packets.
     fn walks_packets(&self) -> bool {
-        matches!(self.accel.bounded[..], [(_, i)] if !self.accel.index.is_bvh() && self.objects[i as usize].walks_packets())
+        self.accel.index.is_bvh() || matches!(self.accel.bounded[..], [(_, i)] if self.objects[i as usize].walks_packets())
     }
 
     /// Stops at the first object hit.
@@ -203,6 +207,53 @@ impl<O: Intersectable> Intersectable for Accelerated<'_, O> {
 }
 
 impl<O: Intersectable> Accelerated<'_, O> {
+    /// [`Intersectable::intersect_packet`] over a hierarchy: the unbounded objects ray by ray
+    /// (they win ties, as in [`Accelerated::intersect`]), then the rays walk the hierarchy
+    /// together and each ray tests the objects of the leaves its own slab tests enter, keeping
+    /// the index's tie rule ([`bvh::tie_limit`]: once a ray holds a hit, objects are asked up to
+    /// its tie limit and one is kept when closer, or as close in a smaller slot), so each ray's
+    /// hit is the one [`PrimitiveIndex::closest`] finds whatever the order of the leaves.
+    #[inline]
+    fn intersect_packet_bvh(&self, rays: &[Ray; PACKET], live: u32, t_min: f64, t_max: &[f64; PACKET], out: &mut [Hit; PACKET]) -> u32 {
+        let (accel, objects) = (self.accel, self.objects);
+        let mut hits = 0u32;
+        let mut limit = *t_max;
+        for &i in &accel.unbounded {
+            let mut m = live;
+            while m != 0 {
+                let k = m.trailing_zeros() as usize;
+                m &= m - 1;
+                if let Some(h) = objects[i as usize].intersect(&rays[k], t_min, limit[k]) {
+                    out[k] = Hit { object: i, ..h };
+                    limit[k] = h.t;
+                    hits |= 1 << k;
+                }
+            }
+        }
+        // The slot of each ray's hit among the bounded objects (`PAD_SLOT`: none yet).
+        let mut slot_of = [bvh::PAD_SLOT; PACKET];
+        accel.index.closest_packet_leaves(rays, live, t_min, &mut limit, |first, count, mut m, limit, _| {
+            while m != 0 {
+                let k = m.trailing_zeros() as usize;
+                m &= m - 1;
+                for slot in first..first + count {
+                    let held = slot_of[k] != bvh::PAD_SLOT;
+                    let upto = if held { bvh::tie_limit(limit[k]) } else { limit[k] };
+                    let i = accel.bounded[slot as usize].1;
+                    if let Some(h) = objects[i as usize].intersect(&rays[k], t_min, upto)
+                        && (!held || h.t < limit[k] || (h.t == limit[k] && slot < slot_of[k]))
+                    {
+                        out[k] = Hit { object: i, ..h };
+                        limit[k] = h.t;
+                        slot_of[k] = slot;
+                        hits |= 1 << k;
+                    }
+                }
+            }
+        });
+        hits
+    }
+
     /// [`Intersectable::occludes`] for a shadow ray leaving `from`, a hit of one of these
     /// objects (the ray's origin moved off it toward the ray): the others as by `occludes`, then
     /// `from`'s own object, asked [`Intersectable::occludes_leaving`] its primitive (which a flat

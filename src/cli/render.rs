@@ -674,7 +674,8 @@ fn summarize(plan: &Plan, written: &Written, trace_cpu: Option<f64>) -> Result<(
     );
     println!("  {}", accel_line(&accel));
     if let Some(e) = rendered.sums.error_estimate() {
-        println!("  {}{}", error_line(&e, s.target.is_some()), if a.denoise { " (before denoising)" } else { "" });
+        let rare = s.target.map(|t| (rendered.sums.rare_light_share(t.floor_spp()), t.floor_spp()));
+        println!("  {}{}", error_line(&e, s.target.is_some(), rare), if a.denoise { " (before denoising)" } else { "" });
     }
     if let Some(budget) = s.time_budget {
         let recorded = a.aov.iter().any(|l| l == "spp" || l == "error" || l == "variance");
@@ -721,10 +722,22 @@ fn save_state(path: &Path, sums: &ShareSums, job: &RenderJob, resume: Option<&st
     }
 }
 
-/// The summary's line on the image's estimated error ([`crate::render::share::ErrorEstimate`]).
-pub fn error_line(e: &crate::render::share::ErrorEstimate, target: bool) -> String {
+/// The summary's line on the image's estimated error ([`crate::render::share::ErrorEstimate`]);
+/// under an error target, `rare` is the share of the estimated variance in pixels lit by samples
+/// rarer than one per the target's first possible stop, and that count
+/// ([`crate::render::share::ShareSums::rare_light_share`]): from
+/// [`crate::render::job::ErrorTarget::RARE_SHARE`] on, the line says the estimate may read low.
+pub fn error_line(e: &crate::render::share::ErrorEstimate, target: bool, rare: Option<(f64, u32)>) -> String {
+    let warning = match rare {
+        Some((share, first)) if share >= crate::render::job::ErrorTarget::RARE_SHARE => format!(
+            "; may read low: {:.1} % of it is in pixels lit by samples rarer than 1 in {first} (caustics, glints), \
+             and pixels like them that stopped at {first} samples likely missed theirs (a larger target_min_spp looks longer)",
+            100.0 * share
+        ),
+        _ => String::new(),
+    };
     format!(
-        "estimated error: relative RMSE {:.3} % (from the spread of each pixel's samples; {}{:.1} spp on average)",
+        "estimated error: relative RMSE {:.3} % (from the spread of each pixel's samples; {}{:.1} spp on average){warning}",
         100.0 * e.relative_rmse,
         if target { "an error target: " } else { "" },
         e.mean_spp

@@ -212,6 +212,22 @@ impl PixelSum {
         self.n_odd = 0;
     }
 
+    /// How many of `count` samples carry the pixel's light, were it brought by a few bright
+    /// samples among dark ones: `count · Ȳ² / mean(Y²)` over its rays' luminances `Y` (Kish's
+    /// effective sample size `(ΣY)² / ΣY²` as a share of the rays, times `count`). Light spread
+    /// evenly over the rays gives `count`; one bright ray among `n` (and dark others) gives
+    /// `count / n`. Below 1, a pixel like this one that took only `count` samples more likely
+    /// than not saw none of its bright ones. `None` below two rays, or when the squares are zero
+    /// or saturated.
+    pub fn light_carriers(&self, count: u32) -> Option<f64> {
+        if self.n < 2 || self.sq <= 0 || self.sq == i128::MAX {
+            return None;
+        }
+        let mean = self.mean_luminance();
+        let mean_sq = float(self.sq) * COLOR_UNIT / f64::from(self.n);
+        Some(f64::from(count) * mean * mean / mean_sq)
+    }
+
     /// [`PixelSum::std_error`] relative to the mean luminance, or to `floor` where the pixel is
     /// darker than that (dark pixels would otherwise never converge).
     pub fn relative_error(&self, floor: f64) -> Option<f64> {
@@ -385,6 +401,27 @@ mod tests {
         for v in values {
             assert_eq!(fixed_color(v), fixed(v, COLOR_SCALE), "{v:e}");
         }
+    }
+
+    #[test]
+    fn light_carriers_count_the_bright_samples() {
+        let grey = |v: f64| Color::new(v, v, v);
+        // Light spread evenly: every one of `count` samples carries it.
+        let mut even = PixelSum::default();
+        for _ in 0..64 {
+            even.add(grey(0.7));
+        }
+        assert!((even.light_carriers(16).unwrap() - 16.0).abs() < 1e-9);
+        // One bright ray among 64 dark ones (black): 16 samples hold a quarter of one.
+        let mut rare = PixelSum::default();
+        rare.add(grey(100.0));
+        for _ in 0..63 {
+            rare.add(Color::ZERO);
+        }
+        assert!((rare.light_carriers(16).unwrap() - 0.25).abs() < 1e-9);
+        assert!((rare.light_carriers(128).unwrap() - 2.0).abs() < 1e-9);
+        assert_eq!(PixelSum::default().light_carriers(16), None);
+        assert_eq!(PixelSum::whole(grey(1.0)).light_carriers(16), None);
     }
 
     #[test]

@@ -96,6 +96,17 @@ impl ErrorTarget {
     /// no efficiency at equal error (0.5 costs some on `pbr-spheres`).
     pub const FLOOR: f64 = 0.25;
 
+    /// The share of an image's estimated variance in pixels lit by samples rarer than one per
+    /// first possible stop ([`crate::render::share::ShareSums::rare_light_share`] at
+    /// [`ErrorTarget::floor_spp`]) from which the summary says the estimate may read low: pixels
+    /// like those that stopped there most likely missed their bright samples (a caustic of a small
+    /// bright light), and no statistic of their own samples shows what they never saw. Chosen on
+    /// `benches/error` (three seeds a target): 0.043–0.14 on `environment` at `E` ≥ 0.05, where
+    /// the estimate read 0.5–0.7× the true error (the sun's caustics through the glass and off the
+    /// mirror); at most 0.022 wherever it was within 1.5× (`environment` from 0.025 on,
+    /// `pbr-spheres` ≤ 0.018, `path-cornell` ≤ 0.005, `quality` 0).
+    pub const RARE_SHARE: f64 = 0.03;
+
     /// The error `p` must reach to stop at its `n` samples: `error · √(n / min_spp)`.
     #[inline]
     pub fn allowed(&self, n: u32) -> f64 {

@@ -39,8 +39,8 @@ use crate::render::adaptive::Adaptive;
 use crate::render::aov::AovLayers;
 use crate::render::film::Film;
 use crate::render::sample::{
-    ImageSetup, PixelSetup, SampleId, camera_rays, image_setup, pixel_setup, single_camera_ray, trace_packet_from, trace_pixel_sample,
-    trace_sample,
+    ImageSetup, PixelSetup, PreparedSample, SampleId, camera_rays, image_setup, pixel_setup, single_camera_ray, trace_packet_from,
+    trace_pixel_sample, trace_prepared_sample, trace_sample,
 };
 use crate::render::share::{Rect, Sampling, Share, ShareSums};
 use crate::render::stats::{Counter, RayStats};
@@ -541,15 +541,19 @@ impl TileWork {
         // Camera rays in packets of 8 pixels of a row, where the scene walks them together and
         // the integrator takes their hits: one sample per pixel (an error target or a time budget
         // decides per sample, and stratified film positions are per pixel), one camera ray each.
-        let packets = s.spp == 1
-            && !s.progressive()
+        // With more samples per pixel, the samples of one pixel (a stratified set of film
+        // positions) are the packet, 8 at a time, in order.
+        let packable = !s.progressive()
             && s.target.is_none()
             && (job.scene.camera.aperture <= 0.0 || s.lens_samples <= 1)
             && job.integrator.takes_camera_hits()
             && job.scene.walks_packets();
+        let packets = s.spp == 1 && packable;
+        let pixel_packets = packable && pixels.setup.stratified_film();
         // A packet's rays and hits, written lane by lane as each round needs them.
         let mut scratch = PacketScratch {
             ids: [SampleId::Pixel { x: 0, y: 0, index: 0 }; PACKET],
+            samples: [PreparedSample::default(); PACKET],
             rays: [Ray { origin: glam::DVec3::ZERO, dir: glam::DVec3::Z }; PACKET],
             hits: [crate::geometry::Hit::new(0.0, glam::DVec3::ZERO, glam::DVec3::ZERO); PACKET],
         };
@@ -570,6 +574,14 @@ impl TileWork {
                 continue;
             }
             let row_sums = self.pixels[span.clone()].iter_mut().zip(t.x0..t.x1);
+            if pixel_packets {
+                let mut layers = self.layers.as_mut().map(|l| l[span].iter_mut());
+                for (acc, x) in row_sums {
+                    let l = layers.as_mut().and_then(|l| l.next());
+                    pixels.add_packet_pixel((x, y), acc, l, &mut scratch, stats);
+                }
+                continue;
+            }
             match self.layers.as_mut() {
                 None => {
                     for (acc, x) in row_sums {
@@ -655,9 +667,81 @@ impl StratifiedPixels<'_> {
     }
 }
 
+impl StratifiedPixels<'_> {
+    /// [`StratifiedPixels::add_samples`] for a pixel with stratified film positions, its
+    /// samples' camera rays traced in packets ([`StratifiedPixels::add_pixel_packet_samples`]);
+    /// the same choice of the set's points (from a table where it pays).
+    fn add_packet_pixel(
+        &self,
+        (x, y): (u32, u32),
+        acc: &mut PixelSum,
+        layers: Option<&mut AovSum>,
+        p: &mut PacketScratch,
+        stats: &mut RayStats,
+    ) {
+        let (job, share) = (self.job, self.share);
+        let want = self.row_map.map_or(self.want, |m| self.want.min(m[x as usize]));
+        if !(acc.samples < want && share.sample_index(acc.samples) < self.end) {
+            return;
+        }
+        let pixel = pixel_setup(job, &self.setup, x, y);
+        let points = want.min(self.end).saturating_sub(acc.samples);
+        match pixel.film().tabled_pays(points).then(|| TabledSet::new(pixel.film())).flatten() {
+            Some(table) => self.add_pixel_packet_samples(&pixel, |index| table.point(index), want, acc, layers, p, stats),
+            None => self.add_pixel_packet_samples(&pixel, |index| pixel.film().point(index), want, acc, layers, p, stats),
+        }
+    }
+
+    /// [`StratifiedPixels::add_pixel_samples`] with the camera rays of up to [`PACKET`] of the
+    /// pixel's samples at a time gathered and their closest hits found together
+    /// ([`Intersectable::intersect_packet`]), then each sample traced in order with its hit:
+    /// every sum is the one `add_pixel_samples` makes. (No error target here: it decides per
+    /// sample.)
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn add_pixel_packet_samples(
+        &self,
+        pixel: &PixelSetup,
+        point: impl Fn(u32) -> DVec2,
+        want: u32,
+        acc: &mut PixelSum,
+        mut layers: Option<&mut AovSum>,
+        p: &mut PacketScratch,
+        stats: &mut RayStats,
+    ) {
+        let (job, share, setup) = (self.job, self.share, &self.setup);
+        let wants = |n: u32| n < want && share.sample_index(n) < self.end;
+        while wants(acc.samples) {
+            let mut n = 0;
+            while n < PACKET && wants(acc.samples + n as u32) {
+                let index = share.sample_index(acc.samples + n as u32);
+                let Some((sample, ray)) = pixel.prepare(job, setup, index, point(index)) else { break };
+                (p.samples[n], p.rays[n]) = (sample, ray);
+                n += 1;
+            }
+            if n == 0 {
+                // A sample of several camera rays (not gathered: the render asks for packets
+                // only without lens samples), traced alone.
+                let index = share.sample_index(acc.samples);
+                trace_pixel_sample(job, setup, pixel, index, point(index), acc, layers.as_deref_mut(), stats);
+                acc.samples += 1;
+                continue;
+            }
+            let live = (1u32 << n) - 1;
+            let hits = job.scene.intersect_packet(&p.rays, live, 0.0, &[f64::INFINITY; PACKET], &mut p.hits);
+            for k in 0..n {
+                let hit = (hits >> k & 1 != 0).then_some(&p.hits[k]);
+                trace_prepared_sample(job, setup, pixel, p.samples[k], &p.rays[k], hit, acc, layers.as_deref_mut(), stats);
+                acc.samples += 1;
+            }
+        }
+    }
+}
+
 /// What a packet of camera rays is gathered in (kept for a tile, so no round initialises it).
 struct PacketScratch {
     ids: [SampleId; PACKET],
+    samples: [PreparedSample; PACKET],
     rays: [Ray; PACKET],
     hits: [crate::geometry::Hit; PACKET],
 }

@@ -322,6 +322,45 @@ pub fn trace_pixel_sample(
     trace_rays(job, setup, id, pixel.rays(job, setup, index, at), None, acc, layers, stats)
 }
 
+/// A pixel sample whose one camera ray is gathered into a packet ([`PixelSetup::prepare`]): its
+/// index and place in the pixel, kept until its hit is found.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PreparedSample {
+    index: u32,
+    at: DVec2,
+}
+
+impl PixelSetup {
+    /// Sample `index` of the pixel, whose place in the pixel is `at` (as for
+    /// [`trace_pixel_sample`]), prepared for a packet, and its camera ray: `None` when it has
+    /// more than one camera ray (lens samples).
+    #[inline(always)]
+    pub fn prepare(&self, job: &RenderJob, image: &ImageSetup, index: u32, at: DVec2) -> Option<(PreparedSample, Ray)> {
+        let rays = self.rays(job, image, index, at);
+        (rays.count == 1).then(|| (PreparedSample { index, at }, rays.ray(0)))
+    }
+}
+
+/// [`trace_pixel_sample`] for a sample of `pixel` prepared for a packet, whose camera ray `ray`
+/// (from [`PixelSetup::prepare`]) has the closest hit `hit` (see [`trace_sample_from`]): the
+/// same sums.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn trace_prepared_sample(
+    job: &RenderJob,
+    setup: &ImageSetup,
+    pixel: &PixelSetup,
+    sample: PreparedSample,
+    ray: &Ray,
+    hit: Option<&Hit>,
+    acc: &mut PixelSum,
+    layers: Option<&mut AovSum>,
+    stats: &mut RayStats,
+) -> u64 {
+    let id = SampleId::Pixel { x: pixel.x, y: pixel.y, index: sample.index };
+    trace_rays(job, setup, id, pixel.rays(job, setup, sample.index, sample.at), Some((ray, hit)), acc, layers, stats)
+}
+
 /// The camera ray of sample `id` when it has only one (no lens samples): what the render loop
 /// gathers into packets, then traces with [`trace_sample_from`].
 #[inline(always)]

@@ -315,6 +315,24 @@ impl ShareSums {
             mean_spp: samples as f64 / self.pixels.len().max(1) as f64,
         })
     }
+
+    /// The share of the image's estimated variance (the pixels' [`PixelSum::std_error`]²) held
+    /// by pixels whose light comes in samples rarer than one per `first` samples
+    /// ([`PixelSum::light_carriers`] below 1): under an error target whose first possible stop
+    /// is at `first` samples ([`crate::render::job::ErrorTarget::floor_spp`]), pixels like them
+    /// that stopped there most likely missed their bright samples and read quiet (caustics of a
+    /// small bright light, glints), so the image's estimate reads low. 0 without variance.
+    pub fn rare_light_share(&self, first: u32) -> f64 {
+        let (mut rare, mut all) = (0.0f64, 0.0f64);
+        for p in &self.pixels {
+            let Some(e) = p.std_error().filter(|e| e.is_finite()) else { continue };
+            all += e * e;
+            if p.light_carriers(first).is_some_and(|c| c < 1.0) {
+                rare += e * e;
+            }
+        }
+        if all > 0.0 { rare / all } else { 0.0 }
+    }
 }
 
 /// The estimated error of an image, from the spread of its pixels' samples
