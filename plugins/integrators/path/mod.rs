@@ -242,7 +242,17 @@ struct PathState<'s> {
 impl<'s> PathState<'s> {
     /// The state of a camera ray from `origin`, with its stream `sampler` and its `spread`.
     fn camera(origin: DVec3, sampler: &'s Sampler, spread: RaySpread) -> Self {
-        PathState { sampler, depth: 0, smooth_depth: 0, beta: Color::ONE, eta_scale: 1.0, bsdf_pdf: None, specular: true, from: origin, spread }
+        PathState {
+            sampler,
+            depth: 0,
+            smooth_depth: 0,
+            beta: Color::ONE,
+            eta_scale: 1.0,
+            bsdf_pdf: None,
+            specular: true,
+            from: origin,
+            spread,
+        }
     }
 }
 
