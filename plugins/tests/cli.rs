@@ -527,6 +527,14 @@ fn denoising_brings_a_noisy_render_closer_to_the_reference() {
     // The same layers, the same filter: `raylab denoise` of the EXR is `render --denoise`.
     let apart = denoised.pixels.iter().zip(&again.pixels).map(|(a, b)| (*a - *b).abs().max_element()).fold(0.0f32, f32::max);
     assert!(apart < 1e-3, "render --denoise and raylab denoise differ by {apart}");
+    // From 32 spp (a multiple of 4) the render and the denoiser work on 2 × 2 sub-pixels of 8
+    // spp, brought back to the frame: its size, its sample count, and the error estimate of its
+    // pixels, closer to the reference than the 4-spp image.
+    let summary = run(&["--spp", "32", "-o", "fine.pfm", "--denoise"]);
+    assert!(summary.contains("(48×48, 32 spp,") && summary.contains("32.0 spp on average"), "{summary}");
+    let fine = read("fine.pfm");
+    assert_eq!((fine.width, fine.height), (48, 48));
+    assert!(rmse(&fine) < rmse(&denoised), "RMSE denoised at 32 spp on the grid {}, at 4 spp {}", rmse(&fine), rmse(&denoised));
     // Never over its input.
     let out = raylab(&dir, &["denoise", "noisy.exr", "-o", "./noisy.exr"]);
     assert!(!out.status.success() && text(&out.stderr).contains("would overwrite its input"), "{}", text(&out.stderr));
@@ -563,6 +571,16 @@ fn an_error_target_from_the_command_line() {
     assert!(out.status.success(), "{}", text(&out.stderr));
     let stdout = text(&out.stdout);
     assert!(stdout.contains("to error 0.1 (16..256 spp)") && stdout.contains("an error target:"), "{stdout}");
+    assert!(!stdout.contains("may read low"), "{stdout}");
+    // The sun's caustics on environment's floor, found by few samples: the estimate may read low.
+    let env = repo().join("scenes/environment.toml");
+    let out = raylab(
+        &dir,
+        &["render", env.to_str().unwrap(), "--width", "48", "--height", "27", "--spp", "1024", "--target-error", "0.1", "-o", "e.png"],
+    );
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    assert!(stdout.contains("may read low") && stdout.contains("rarer than 1 in 16"), "{stdout}");
     let out = raylab(
         &dir,
         &["render", scene.to_str().unwrap(), "--width", "24", "--height", "24", "--spp", "8", "--target-error", "0.1", "-o", "t.png"],

@@ -602,6 +602,76 @@ fn packets_render_single_rays(path: &Path) {
     }
 }
 
+/// Phong's block of camera hits (`Integrator::radiance_packet`: plain hits shaded up to their
+/// shadow rays, which are traced together; other hits by `shade`) gives each lane exactly what
+/// `radiance_from` gives it lane by lane (colour, layers, every counter), under work budgets
+/// that run out anywhere inside the block, with a plain mesh and a reflecting one, a point light
+/// (finite shadow rays) and a highlight.
+#[test]
+fn a_block_of_camera_hits_shades_as_single_hits() {
+    use raylab::render::aov::AovSample;
+    use raylab::render::sample::{SampleId, image_setup, single_camera_ray};
+    let dir = std::env::temp_dir().join(format!("raylab-block-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("lumpy.obj"), lumpy_obj()).unwrap();
+    let scene = "[render]\nwidth = 64\nheight = 40\nspp = 1\n\
+                 [camera]\nposition = [0.4, 0.8, 3.2]\nlook_at = [0, 0, 0]\nfov = 45\n\
+                 [integrator]\ntype = \"phong\"\nmax_depth = 2\n\
+                 [[object]]\ntype = \"mesh\"\nfile = \"lumpy.obj\"\nmaterial = { kd = 0.7, ka = 1, ks = 0.4, shininess = 12, kr = 0.3 }\n\
+                 [[object]]\ntype = \"plane\"\npoint = [0, -1.1, 0]\nnormal = [0, 1, 0]\nmaterial = { kd = 0.5, ka = 1 }\n\
+                 [[light]]\ntype = \"point\"\nposition = [-2, 4, 3]\ncolor = 20\n\
+                 [[light]]\ntype = \"ambient\"\ncolor = 1\nka = 0.1\n";
+    let mut blocks = 0;
+    for (name, scene) in [("plain", scene.replace(", kr = 0.3", "")), ("mirror", scene.to_string())] {
+        std::fs::write(dir.join(format!("{name}.toml")), scene).unwrap();
+        let job = load_file(&raylab_plugins::registry(), &dir.join(format!("{name}.toml")), &options(AccelChoice::Auto))
+            .unwrap_or_else(|e| panic!("{}", e.report()));
+        let (scene, integrator, setup) = (&job.scene, &job.integrator, image_setup(&job));
+        for y in (0..40).step_by(3) {
+            for x0 in (0..64).step_by(8) {
+                let mut rays = [Ray::new(DVec3::ZERO, DVec3::Z); 8];
+                for (k, ray) in rays.iter_mut().enumerate() {
+                    *ray = single_camera_ray(&job, &setup, SampleId::Pixel { x: x0 + k as u32, y, index: 0 }).unwrap();
+                }
+                // Every lane, and a gap.
+                for live in [0xff, 0b1101_1011] {
+                    let mut hit = [raylab::geometry::Hit::new(0.0, DVec3::ZERO, DVec3::ZERO); 8];
+                    let hits = scene.intersect_packet(&rays, live, 0.0, &[f64::INFINITY; 8], &mut hit);
+                    for allowance in (0..=24).chain([u64::MAX]) {
+                        let guides = allowance % 2 == 1;
+                        let fresh = || {
+                            let mut stats = raylab::RayStats::new(integrator.counters());
+                            stats.set_allowance(allowance);
+                            let samplers: [raylab::Sampler; 8] =
+                                std::array::from_fn(|k| raylab::Sampler::new(u64::from(x0) + k as u64, 0, 7));
+                            let aovs = [AovSample { guides, ..AovSample::miss(scene.background) }; 8];
+                            (stats, samplers, aovs, [Color::ZERO; 8])
+                        };
+                        let (mut s1, mut r1, mut a1, mut c1) = fresh();
+                        integrator.radiance_packet(scene, &rays, live, hits, &hit, &mut r1, &mut s1, &mut a1, &mut c1);
+                        let (mut s2, mut r2, mut a2, mut c2) = fresh();
+                        for k in (0..8).filter(|k| live >> k & 1 != 0) {
+                            s2.camera_rays += 1;
+                            let h = (hits >> k & 1 != 0).then_some(&hit[k]);
+                            c2[k] = integrator.radiance_from(scene, &rays[k], h, &mut r2[k], &mut s2, &mut a2[k]);
+                        }
+                        let at = format!("{name}, row {y}, x {x0}, lanes {live:08b}, allowance {allowance}");
+                        assert_eq!(c1, c2, "{at}");
+                        assert_eq!(a1, a2, "{at}");
+                        assert_eq!((s1.camera_rays, s1.rays()), (s2.camera_rays, s2.rays()), "{at}");
+                        for (i, c) in integrator.counters().iter().enumerate() {
+                            assert_eq!(s1.count(i), s2.count(i), "{at}: {}", c.name);
+                        }
+                        blocks += 1;
+                    }
+                }
+            }
+        }
+    }
+    assert!(blocks > 1000);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// Shadow rays of a packet (8 rays toward one light from points on a lumpy mesh, some leaving
 /// their own triangle, some not, some stopped short) get exactly the single rays' answers, with
 /// a hierarchy and as a list; so do packets whose directions differ (walked ray by ray).
