@@ -9,7 +9,7 @@
 use raylab::geometry::samples::{Draw, ShapeSample, ShapeSampler};
 use raylab::geometry::sampling::{NARROW_CONE_SIN2, cone_solid_angle, uniform_sphere};
 use raylab::geometry::testing::ExactSurface;
-use raylab::geometry::{Geometry, Hit, Intersectable, SurfaceDerivatives, SurfacePdf, SurfaceSample};
+use raylab::geometry::{Geometry, Hit, Intersectable, PACKET, SurfaceDerivatives, SurfacePdf, SurfaceSample};
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::float::{gamma, max_abs};
 use raylab::param::error::Result;
@@ -126,6 +126,23 @@ impl Intersectable for Sphere {
     }
     fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
         self.first_root(ray, ray.origin - self.center, t_min, t_max).is_some()
+    }
+    /// The rays one after the other through the inlined test of [`Sphere::intersect`] (one call
+    /// for the packet, not one per ray): the same hits, bit for bit.
+    #[inline]
+    fn intersect_packet(&self, rays: &[Ray; PACKET], live: u32, t_min: f64, t_max: &[f64; PACKET], out: &mut [Hit; PACKET]) -> u32 {
+        let mut hits = 0;
+        let mut m = live;
+        while m != 0 {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            let f = rays[k].origin - self.center;
+            if let Some(t) = self.first_root(&rays[k], f, t_min, t_max[k]) {
+                out[k] = self.hit_at(&rays[k], f, t);
+                hits |= 1 << k;
+            }
+        }
+        hits
     }
 }
 

@@ -479,6 +479,17 @@ fn sweep_varies_the_denoiser() {
     }
     let csv = std::fs::read_to_string(dir.join("s/results.csv")).unwrap();
     assert!(csv.starts_with("spp,denoise,seconds,") && csv.contains("\n4,on,"), "{csv}");
+    // At 32 spp the denoised row is rendered and denoised on 2 × 2 sub-pixels of 8 spp, as
+    // `render --denoise` does, and measured on the frame's pixels (against a reference of 512
+    // spp: at 64 its own noise is most of the denoised row's error).
+    let fine = ["--width", "32", "--height", "32", "--reference-spp", "512", "--metric", "rmse", "-q"];
+    let out = raylab(&dir, &[&["sweep", scene, "--vary", "spp=32", "--vary", "denoise=off,on", "--out", "g"][..], &fine].concat());
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("g/results.json")).unwrap()).unwrap();
+    let rmse =
+        |label: &str| json["results"].as_array().unwrap().iter().find(|r| r["label"] == label).and_then(|r| r["rmse"].as_f64()).unwrap();
+    let (e_off, e_on) = (rmse("spp=32 denoise=off"), rmse("spp=32 denoise=on"));
+    assert!(e_on < 0.8 * e_off, "32 spp: RMSE noisy {e_off}, denoised on the grid {e_on}");
     std::fs::remove_dir_all(dir).unwrap();
 }
 
@@ -527,6 +538,14 @@ fn denoising_brings_a_noisy_render_closer_to_the_reference() {
     // The same layers, the same filter: `raylab denoise` of the EXR is `render --denoise`.
     let apart = denoised.pixels.iter().zip(&again.pixels).map(|(a, b)| (*a - *b).abs().max_element()).fold(0.0f32, f32::max);
     assert!(apart < 1e-3, "render --denoise and raylab denoise differ by {apart}");
+    // From 32 spp (a multiple of 4) the render and the denoiser work on 2 × 2 sub-pixels of 8
+    // spp, brought back to the frame: its size, its sample count, and the error estimate of its
+    // pixels, closer to the reference than the 4-spp image.
+    let summary = run(&["--spp", "32", "-o", "fine.pfm", "--denoise"]);
+    assert!(summary.contains("(48×48, 32 spp,") && summary.contains("32.0 spp on average"), "{summary}");
+    let fine = read("fine.pfm");
+    assert_eq!((fine.width, fine.height), (48, 48));
+    assert!(rmse(&fine) < rmse(&denoised), "RMSE denoised at 32 spp on the grid {}, at 4 spp {}", rmse(&fine), rmse(&denoised));
     // Never over its input.
     let out = raylab(&dir, &["denoise", "noisy.exr", "-o", "./noisy.exr"]);
     assert!(!out.status.success() && text(&out.stderr).contains("would overwrite its input"), "{}", text(&out.stderr));

@@ -219,31 +219,38 @@ impl<O: Intersectable> Accelerated<'_, O> {
         let mut hits = 0u32;
         let mut limit = *t_max;
         for &i in &accel.unbounded {
-            let mut m = live;
-            while m != 0 {
-                let k = m.trailing_zeros() as usize;
-                m &= m - 1;
-                if let Some(h) = objects[i as usize].intersect(&rays[k], t_min, limit[k]) {
-                    out[k] = Hit { object: i, ..h };
-                    limit[k] = h.t;
-                    hits |= 1 << k;
-                }
+            let mut found = objects[i as usize].intersect_packet(rays, live, t_min, &limit, out);
+            hits |= found;
+            while found != 0 {
+                let k = found.trailing_zeros() as usize;
+                found &= found - 1;
+                out[k].object = i;
+                limit[k] = out[k].t;
             }
         }
-        // The slot of each ray's hit among the bounded objects (`PAD_SLOT`: none yet).
+        // The slot of each ray's hit among the bounded objects (`PAD_SLOT`: none yet), and each
+        // object's hits for the rays that reach its leaf (kept when they win).
         let mut slot_of = [bvh::PAD_SLOT; PACKET];
-        accel.index.closest_packet_leaves(rays, live, t_min, &mut limit, |first, count, mut m, limit, _| {
-            while m != 0 {
-                let k = m.trailing_zeros() as usize;
-                m &= m - 1;
-                for slot in first..first + count {
-                    let held = slot_of[k] != bvh::PAD_SLOT;
-                    let upto = if held { bvh::tie_limit(limit[k]) } else { limit[k] };
-                    let i = accel.bounded[slot as usize].1;
-                    if let Some(h) = objects[i as usize].intersect(&rays[k], t_min, upto)
-                        && (!held || h.t < limit[k] || (h.t == limit[k] && slot < slot_of[k]))
-                    {
-                        out[k] = Hit { object: i, ..h };
+        let mut found = [Hit::new(0.0, glam::DVec3::ZERO, glam::DVec3::ZERO); PACKET];
+        accel.index.closest_packet_leaves(rays, live, t_min, &mut limit, |first, count, rays_in, limit, _| {
+            for slot in first..first + count {
+                let mut upto = *limit;
+                let mut m = rays_in;
+                while m != 0 {
+                    let k = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    if slot_of[k] != bvh::PAD_SLOT {
+                        upto[k] = bvh::tie_limit(limit[k]);
+                    }
+                }
+                let i = accel.bounded[slot as usize].1;
+                let mut m = objects[i as usize].intersect_packet(rays, rays_in, t_min, &upto, &mut found);
+                while m != 0 {
+                    let k = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    let h = &found[k];
+                    if slot_of[k] == bvh::PAD_SLOT || h.t < limit[k] || (h.t == limit[k] && slot < slot_of[k]) {
+                        out[k] = Hit { object: i, ..*h };
                         limit[k] = h.t;
                         slot_of[k] = slot;
                         hits |= 1 << k;
@@ -288,6 +295,7 @@ impl<O: Intersectable> Accelerated<'_, O> {
         let mut blocked = 0u32;
         let lone = match accel.bounded[..] {
             [(_, i)] if !accel.index.is_bvh() => i,
+            _ if accel.index.is_bvh() => return self.occludes_packet_leaving_bvh(rays, live, t_min, t_max, from),
             _ => {
                 for (k, ray) in rays.iter().enumerate().filter(|(k, _)| live >> k & 1 != 0) {
                     blocked |= u32::from(self.occludes_leaving(ray, t_min, t_max[k], &from[k])) << k;
@@ -320,6 +328,62 @@ impl<O: Intersectable> Accelerated<'_, O> {
         }
         // As in `occludes`: a lone bounded object is asked without its box test.
         blocked | objects[lone as usize].occludes_packet(rays, open, t_min, t_max, leaving & open, &prims)
+    }
+
+    /// [`Accelerated::occludes_packet_leaving`] over a hierarchy: what
+    /// [`Accelerated::occludes_leaving`] asks each ray, asked for the packet: the unbounded
+    /// objects other than the ray's own, then the rays still open walk the hierarchy together
+    /// ([`PrimitiveIndex::any_packet_leaves`], a ray leaving the walk once blocked) and each leaf's
+    /// object is asked for the rays that do not leave it ([`Intersectable::occludes_packet`]),
+    /// then each ray's own object, asked [`Intersectable::occludes_leaving`] its primitive. A
+    /// union of exact answers, so each ray's is `occludes_leaving`'s.
+    #[inline]
+    fn occludes_packet_leaving_bvh(&self, rays: &[Ray; PACKET], live: u32, t_min: f64, t_max: &[f64; PACKET], from: &[Hit; PACKET]) -> u32 {
+        let (accel, objects) = (self.accel, self.objects);
+        let mut blocked = 0u32;
+        let own: [u32; PACKET] = std::array::from_fn(|k| from[k].object);
+        let prims: [u32; PACKET] = std::array::from_fn(|k| from[k].prim);
+        let except = |i: u32, m: u32| {
+            let mut keep = m;
+            let mut n = m;
+            while n != 0 {
+                let k = n.trailing_zeros() as usize;
+                n &= n - 1;
+                if own[k] == i {
+                    keep &= !(1 << k);
+                }
+            }
+            keep
+        };
+        for &i in &accel.unbounded {
+            let open = except(i, live & !blocked);
+            if open != 0 {
+                blocked |= objects[i as usize].occludes_packet(rays, open, t_min, t_max, 0, &prims);
+            }
+        }
+        let open = live & !blocked;
+        if open != 0 {
+            blocked |= accel.index.any_packet_leaves(rays, open, t_min, t_max, |first, count, m, _| {
+                let mut hit = 0u32;
+                for slot in first..first + count {
+                    let i = accel.bounded[slot as usize].1;
+                    let ask = except(i, m & !hit);
+                    if ask != 0 {
+                        hit |= objects[i as usize].occludes_packet(rays, ask, t_min, t_max, 0, &prims);
+                    }
+                }
+                hit
+            });
+        }
+        let mut m = live & !blocked;
+        while m != 0 {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            if objects[own[k] as usize].occludes_leaving(&rays[k], t_min, t_max[k], prims[k]) {
+                blocked |= 1 << k;
+            }
+        }
+        blocked
     }
 
     /// [`Intersectable::occludes`] leaving out object `skip` (the object not asked): for a

@@ -157,7 +157,8 @@ pub(crate) fn run(app: &App, a: SweepArgs) -> Result<(), Failure> {
     }
 
     let mut outcomes = Vec::with_capacity(jobs.len());
-    for (i, (job, choice)) in jobs.iter().zip(&choices).enumerate() {
+    let count = jobs.len();
+    for (i, (job, choice)) in jobs.iter_mut().zip(&choices).enumerate() {
         let settings: Vec<(String, String)> = choice.iter().map(|&(k, v)| (knobs[k].name.clone(), knobs[k].values[v].0.clone())).collect();
         let label = if settings.is_empty() {
             "base".to_string()
@@ -165,17 +166,22 @@ pub(crate) fn run(app: &App, a: SweepArgs) -> Result<(), Failure> {
             settings.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(" ")
         };
         if !a.quiet {
-            eprint!("[{}/{}] {label} … ", i + 1, jobs.len());
+            eprint!("[{}/{}] {label} … ", i + 1, count);
         }
         let denoise = denoised[i];
         let options = RenderOptions { layers: denoise, ..options };
         // The fastest of the repeats, the denoiser's time included.
         let mut best: Option<(crate::render::Rendered, Option<std::time::Duration>)> = None;
+        // Denoised as `render --denoise` does: on a finer grid where it can.
+        let (pixels, grid) = (job.settings, if denoise { crate::image::denoise::grid(&job.settings) } else { 1 });
         for _ in 0..a.repeat {
-            let mut r = crate::render::render(job, &options, &|_, _| {})?;
+            job.settings = crate::image::denoise::fine_settings(&pixels, grid);
+            let rendered = crate::render::render(job, &options, &|_, _| {});
+            job.settings = pixels;
+            let mut r = rendered?;
             let denoise_time = if denoise {
                 let t = std::time::Instant::now();
-                r.film = crate::image::denoise::denoise_guided(&r.film, r.layers.as_ref(), crate::image::denoise::guides_are_clean(job))?;
+                crate::image::denoise::denoise_rendered(&mut r, &pixels, grid, crate::image::denoise::guides_are_clean(job))?;
                 Some(t.elapsed())
             } else {
                 None

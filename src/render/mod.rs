@@ -40,7 +40,7 @@ use crate::render::aov::AovLayers;
 use crate::render::film::Film;
 use crate::render::sample::{
     ImageSetup, PixelSetup, PreparedSample, SampleId, camera_rays, image_setup, pixel_setup, single_camera_ray, trace_packet_from,
-    trace_pixel_sample, trace_prepared_sample, trace_sample,
+    trace_pixel_packet, trace_pixel_sample, trace_sample,
 };
 use crate::render::share::{Rect, Sampling, Share, ShareSums};
 use crate::render::stats::{Counter, RayStats};
@@ -729,11 +729,9 @@ impl StratifiedPixels<'_> {
             }
             let live = (1u32 << n) - 1;
             let hits = job.scene.intersect_packet(&p.rays, live, 0.0, &[f64::INFINITY; PACKET], &mut p.hits);
-            for k in 0..n {
-                let hit = (hits >> k & 1 != 0).then_some(&p.hits[k]);
-                trace_prepared_sample(job, setup, pixel, p.samples[k], &p.rays[k], hit, acc, layers.as_deref_mut(), stats);
-                acc.samples += 1;
-            }
+            // The pixel's samples shaded together (`Integrator::radiance_packet`), in order.
+            trace_pixel_packet(job, setup, pixel, &p.samples, &p.rays, (live, hits), &p.hits, acc, layers.as_deref_mut(), stats);
+            acc.samples += n as u32;
         }
     }
 }

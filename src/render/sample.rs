@@ -434,6 +434,59 @@ pub fn trace_packet_from(
     }
 }
 
+/// [`trace_prepared_sample`] for the samples `samples[k]` of mask `live` of one pixel (in order
+/// of `k`), one camera ray each (`rays[k]`) with its closest hit (`hit[k]` where bit `k` of
+/// `hits` is set), shaded together ([`crate::render::integrator::Integrator::radiance_packet`]):
+/// `acc` (and `layers`) gets exactly the sums `trace_prepared_sample` adds sample after sample.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn trace_pixel_packet(
+    job: &RenderJob,
+    setup: &ImageSetup,
+    pixel: &PixelSetup,
+    samples: &[PreparedSample; PACKET],
+    rays: &[Ray; PACKET],
+    (live, hits): (u32, u32),
+    hit: &[Hit; PACKET],
+    acc: &mut PixelSum,
+    mut layers: Option<&mut AovSum>,
+    stats: &mut RayStats,
+) {
+    // The halves of a stratified set's samples depend on their places alone (`acc` is touched
+    // only by progressive samples, which never come here), so they are chosen before shading.
+    debug_assert!(!setup.progressive);
+    let mut second = 0u32;
+    let mut samplers: [Sampler; PACKET] = std::array::from_fn(|k| {
+        let s = samples[k];
+        let r = pixel.rays(job, setup, s.index, s.at);
+        if live >> k & 1 != 0 {
+            let id = SampleId::Pixel { x: pixel.x, y: pixel.y, index: s.index };
+            second |= u32::from(second_half(setup, id, r.film, acc)) << k;
+        }
+        r.sampler(0)
+    });
+    let mut aovs = [setup.miss; PACKET];
+    for a in &mut aovs {
+        // Summed layers are a denoiser's guides, as in `trace_rays`.
+        a.guides = layers.is_some();
+    }
+    let mut out = [Color::ZERO; PACKET];
+    job.integrator.radiance_packet(&job.scene, rays, live, hits, hit, &mut samplers, stats, &mut aovs, &mut out);
+    let mut m = live;
+    while m != 0 {
+        let k = m.trailing_zeros() as usize;
+        m &= m - 1;
+        if out[k].is_finite() {
+            acc.add_sample(out[k], second >> k & 1 != 0);
+        } else {
+            stats.nonfinite_samples += 1;
+        }
+        if let Some(l) = layers.as_deref_mut() {
+            l.add(&aovs[k]);
+        }
+    }
+}
+
 /// Which of the error estimate's two halves sample `id` (on the film at `film`) joins.
 #[inline(always)]
 fn second_half(setup: &ImageSetup, id: SampleId, film: DVec2, acc: &mut PixelSum) -> bool {

@@ -298,6 +298,44 @@ impl ShareSums {
         Ok((error, spp))
     }
 
+    /// The sums of the frame `k` times coarser, rendered at `settings`: each of its pixels the
+    /// merge of the `k × k` block of these pixels it covers, so its mean is the mean of all their
+    /// samples (the box filter over the coarse pixel: with the same count in every sub-pixel,
+    /// the mean of their means) and its layers and error estimate are those of all of them.
+    /// These must be the whole of a frame of `k · settings.width × k · settings.height` pixels,
+    /// in one pass, each pixel with `settings.spp / k²` stratified samples, as a render of
+    /// `settings` on the finer grid gives ([`crate::image::denoise::grid`]).
+    pub fn downsample(&self, k: u32, settings: &RenderSettings) -> Result<ShareSums, String> {
+        let whole = self.share == Share::whole(self.width, self.height);
+        let fits = k >= 1
+            && settings.width.checked_mul(k) == Some(self.width)
+            && settings.height.checked_mul(k) == Some(self.height)
+            && settings.spp.is_multiple_of(k * k)
+            && self.sampling == Sampling { spp: settings.spp / (k * k), ..Sampling::of(settings) };
+        if !whole || !fits {
+            return Err(format!(
+                "cannot downsample a {}×{} share ({}) by {k} to a {}×{} frame at {} spp",
+                self.width,
+                self.height,
+                self.share.describe(),
+                settings.width,
+                settings.height,
+                settings.spp
+            ));
+        }
+        let share = Share::whole(settings.width, settings.height);
+        let mut out = ShareSums::new(settings, share, self.layers.is_some()).map_err(|e| e.to_string())?;
+        let (w, cw) = (self.width as usize, settings.width as usize);
+        for (i, p) in self.pixels.iter().enumerate() {
+            let c = (i / w) / k as usize * cw + (i % w) / k as usize;
+            out.pixels[c].merge(p);
+            if let (Some(fine), Some(coarse)) = (&self.layers, out.layers.as_mut()) {
+                coarse[c].merge(&fine[i]);
+            }
+        }
+        Ok(out)
+    }
+
     /// The image's estimated error, from its pixels' samples; `None` when no pixel has two samples.
     pub fn error_estimate(&self) -> Option<ErrorEstimate> {
         let (mut pixels, mut variance, mut mean, mut samples) = (0u64, 0.0f64, 0.0f64, 0u64);
@@ -445,4 +483,50 @@ pub fn merge(parts: &[Part], allow_partial: bool) -> Result<ShareSums, String> {
         }
     }
     Ok(whole)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::color::Color;
+    use crate::render::aov::AovSample;
+
+    /// A 4 × 2 frame of 2 samples a pixel brought to 2 × 1 pixels of 8: each pixel holds its
+    /// block's samples (colour sums, squares, halves, counts, layers) exactly, so it is complete,
+    /// its mean is the mean of the block's means, and a frame that does not fit is refused.
+    #[test]
+    fn downsampling_merges_each_block_exactly() {
+        let (fine, coarse) = (RenderSettings::new(4, 2, 2), RenderSettings::new(2, 1, 8));
+        let mut sums = ShareSums::new(&fine, Share::whole(4, 2), true).unwrap();
+        for (i, (p, l)) in sums.pixels.iter_mut().zip(sums.layers.as_mut().unwrap()).enumerate() {
+            for s in 0..2 {
+                let v = (i * 2 + s) as f64 * 0.25;
+                p.add_sample(Color::new(v, 2.0 * v, 0.5), s == 1);
+                p.samples += 1;
+                l.add(&AovSample { depth: v, albedo: Color::splat(0.5), emitted: Color::splat(v), ..AovSample::miss(Color::ZERO) });
+            }
+        }
+        let down = sums.downsample(2, &coarse).unwrap();
+        assert_eq!((down.width, down.height, down.pixels.len()), (2, 1, 2));
+        assert!((0..2).all(|i| down.missing(i) == 0), "each pixel has its 8 samples");
+        let mut left = PixelSum::default();
+        for i in [0, 1, 4, 5] {
+            left.merge(&sums.pixels[i]);
+        }
+        assert_eq!(down.pixels[0], left);
+        let film = sums.film().unwrap();
+        let mean = (film.pixels[0] + film.pixels[1] + film.pixels[4] + film.pixels[5]) / 4.0;
+        assert!((down.film().unwrap().pixels[0] - mean).abs().max_element() < 1e-6);
+        let layers = down.aovs().unwrap().unwrap();
+        let fine_layers = sums.aovs().unwrap().unwrap();
+        let e = fine_layers.emitted.as_ref().unwrap();
+        assert!((layers.emitted.unwrap()[1] - (e[2] + e[3] + e[6] + e[7]) / 4.0).abs().max_element() < 1e-6);
+        assert!(down.error_estimate().is_some());
+        for wrong in [RenderSettings::new(2, 1, 4), RenderSettings::new(3, 1, 8), RenderSettings::new(2, 2, 8)] {
+            assert!(sums.downsample(2, &wrong).is_err(), "{wrong:?}");
+        }
+        let mut part = sums.clone();
+        part.share.bounds = Rect { x0: 0, y0: 0, x1: 2, y1: 2 };
+        assert!(part.downsample(2, &coarse).unwrap_err().contains("cannot downsample"));
+    }
 }

@@ -44,8 +44,9 @@
 //! `max_bounces` limits the scattering events that light passes through after the first
 //! surface: 0 is direct light (the lights and the emitters the first surface sees); the ray
 //! scattered at the last vertex still collects the lights it meets, so the two strategies stay
-//! balanced there. From vertex `roulette_depth` on (not at the last), Russian roulette ends a
-//! path with probability `1 − min(1, throughput)` and reweights the survivors (unbiased).
+//! balanced there. After `roulette_depth` diffuse or glossy bounces (specular events, which keep
+//! the throughput, do not count), at every vertex but the last, Russian roulette ends a path
+//! with probability `1 − min(1, throughput)` and reweights the survivors (unbiased).
 //!
 //! Every random number comes from a stream forked from the camera sample's by vertex and purpose
 //! (light samples, lobe choice and direction, roulette, next vertex), so work skipped anywhere
@@ -77,7 +78,7 @@ pub use lights::{IRRADIANCE_PER_INTENSITY, power_heuristic};
 pub struct PathTracer {
     /// Most scattering events light passes through after the first surface (0 = direct light).
     pub max_bounces: u32,
-    /// Bounces before Russian roulette may end a path (≥ `max_bounces`: never).
+    /// Diffuse or glossy bounces before Russian roulette may end a path (≥ `max_bounces`: never).
     pub roulette_depth: u32,
     /// Shadow rays per light with an extent at each vertex (0: each light's own `samples`).
     pub light_samples: u32,
@@ -103,7 +104,7 @@ pub const INFO: PluginInfo = PluginInfo {
             "roulette_depth",
             ParamKind::Int,
             ParamDefault::Int(3),
-            "bounces before Russian roulette may end a path (survivors are reweighted: no bias, more noise); ≥ max_bounces turns it off, 0..1024",
+            "diffuse or glossy bounces (specular ones do not count) before Russian roulette may end a path (survivors are reweighted: no bias, more noise); ≥ max_bounces turns it off, 0..1024",
         )
         .quality(Reference::Keep),
         ParamSpec::new(
@@ -218,6 +219,8 @@ struct PathState<'s> {
     sampler: &'s Sampler,
     /// Scattering events before this ray (0 for the camera ray).
     depth: u32,
+    /// Those of them by a smooth (diffuse or glossy) lobe: Russian roulette counts only these.
+    smooth_depth: u32,
     /// Throughput: how much the radiance this ray brings back counts in the pixel.
     beta: Color,
     /// Product of (η_t/η_i)² over the refractions so far: undoes their radiance scaling for
@@ -239,7 +242,17 @@ struct PathState<'s> {
 impl<'s> PathState<'s> {
     /// The state of a camera ray from `origin`, with its stream `sampler` and its `spread`.
     fn camera(origin: DVec3, sampler: &'s Sampler, spread: RaySpread) -> Self {
-        PathState { sampler, depth: 0, beta: Color::ONE, eta_scale: 1.0, bsdf_pdf: None, specular: true, from: origin, spread }
+        PathState {
+            sampler,
+            depth: 0,
+            smooth_depth: 0,
+            beta: Color::ONE,
+            eta_scale: 1.0,
+            bsdf_pdf: None,
+            specular: true,
+            from: origin,
+            spread,
+        }
     }
 }
 
@@ -317,7 +330,9 @@ impl PathTracer {
             rec.term(|| Term::number("bsdf pdf", q));
         }
         // The last vertex's ray only collects emitters: no roulette there.
-        if path.depth >= self.roulette_depth && path.depth < self.max_bounces {
+        // Specular events (mirrors, glass) keep the throughput: only smooth ones count toward
+        // `roulette_depth`, so a surface seen through glass is not gambled on sooner.
+        if path.smooth_depth >= self.roulette_depth && path.depth < self.max_bounces {
             let survive = (max_channel(path.beta * weight) * eta_scale).min(1.0);
             if !(sampler.fork(TAG_ROULETTE).next_1d() < survive) {
                 c.stats.add(counter::ROULETTE_ENDED, 1);
@@ -338,6 +353,7 @@ impl PathTracer {
         let next = PathState {
             sampler: &next_sampler,
             depth: path.depth + 1,
+            smooth_depth: path.smooth_depth + u32::from(s.pdf.is_some()),
             beta: path.beta * weight,
             eta_scale,
             bsdf_pdf: s.pdf,
