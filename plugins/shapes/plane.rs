@@ -100,6 +100,50 @@ impl PlaneEquation {
         self.crossing_at(ray, |p| p - n * n.dot(p - q), num, denom, t_min, t_max)
     }
 
+    /// [`PlaneEquation::intersect`] for the rays `rays[k]` of mask `live` (each up to
+    /// `t_max[k]`; hits written to `out[k]`, their mask returned) and a normal `sign` along axis
+    /// `K`: the tests of [`PlaneEquation::crossing_along`] on the same values in the same
+    /// operations, each lane's computed whole and its rejections combined without early exits
+    /// (every test only rejects, so their order changes no answer): the same hits, bit for bit,
+    /// without a branch per test.
+    #[inline(always)]
+    fn intersect_packet_along<const K: usize>(
+        &self,
+        sign: f64,
+        rays: &[Ray; PACKET],
+        live: u32,
+        t_min: f64,
+        t_max: &[f64; PACKET],
+        out: &mut [Hit; PACKET],
+    ) -> u32 {
+        let q = self.q[K];
+        let mut hits = 0;
+        for (k, ray) in rays.iter().enumerate() {
+            let denom = sign * ray.dir[K];
+            let num = sign * (q - ray.origin[K]);
+            let t = num / denom;
+            let p = ray.at(t);
+            let p = match K {
+                0 => DVec3::new(p.x - (p.x - q), p.y, p.z),
+                1 => DVec3::new(p.x, p.y - (p.y - q), p.z),
+                _ => DVec3::new(p.x, p.y, p.z - (p.z - q)),
+            };
+            // `&` on booleans: every test evaluated, no branch between them.
+            let crosses = (denom.abs() > gamma(3) * ray.dir[K].abs())
+                & !(t_min >= 0.0 && (num < 0.0) != (denom < 0.0))
+                & !(num.abs() <= gamma(5) * (max_abs(ray.origin) + self.q_max))
+                & (t > t_min)
+                & (t < t_max[k])
+                & t.is_finite()
+                & p.is_finite();
+            if crosses && live >> k & 1 != 0 {
+                out[k] = Hit { t, point: p, error: gamma(8) * (p.abs() + self.q_abs), uv: DVec2::ZERO, prim: 0, object: 0 };
+                hits |= 1 << k;
+            }
+        }
+        hits
+    }
+
     /// [`PlaneEquation::crossing`] for a normal `sign` along axis `k`: the products with the
     /// normal's zeros and its `±1` left out. Bit for bit the general result for a finite unit
     /// direction and points whose differences are finite: `0·x` is `±0`, which adds nothing to a
@@ -167,10 +211,18 @@ impl Intersectable for Plane {
     fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
         self.equation.crosses(ray, t_min, t_max)
     }
-    /// The rays one after the other through the inlined test of [`Plane::intersect`] (one call
-    /// for the packet, not one per ray): the same hits, bit for bit.
+    /// A normal along an axis: [`PlaneEquation::intersect_packet_along`]; else the rays one
+    /// after the other through the inlined test of [`Plane::intersect`]. The same hits, bit for
+    /// bit.
     #[inline]
     fn intersect_packet(&self, rays: &[Ray; PACKET], live: u32, t_min: f64, t_max: &[f64; PACKET], out: &mut [Hit; PACKET]) -> u32 {
+        let e = &self.equation;
+        match e.axis {
+            Some((0, sign)) => return e.intersect_packet_along::<0>(sign, rays, live, t_min, t_max, out),
+            Some((1, sign)) => return e.intersect_packet_along::<1>(sign, rays, live, t_min, t_max, out),
+            Some((_, sign)) => return e.intersect_packet_along::<2>(sign, rays, live, t_min, t_max, out),
+            None => {}
+        }
         let mut hits = 0;
         let mut m = live;
         while m != 0 {
@@ -360,6 +412,34 @@ mod tests {
             let tol = tolerance(mag, &ray);
             let hits = check_ray(&g, &ray, &tol, &exact, 1, &[])?;
             prop_assert_eq!(hits.len(), 1);
+        }
+
+        /// A packet (a normal along each axis, either way, and a general one) finds each live
+        /// ray's hit of `intersect`, bit for bit, and no other.
+        #[test]
+        fn a_packet_finds_each_rays_own_hit(
+            axis in 0..4usize, negative in any::<bool>(), general in unit(), c in cube(), s in scale(),
+            aims in proptest::collection::vec(aim(), PACKET), limits in proptest::collection::vec(0.05..20.0f64, PACKET), live in 0..256u32,
+        ) {
+            let mut normal = general;
+            if axis < 3 {
+                normal = DVec3::ZERO;
+                normal[axis] = if negative { -1.0 } else { 1.0 };
+            }
+            let point = 5.0 * s * c;
+            let g = Plane::new(point, normal);
+            let mag = max_abs(point) + s;
+            let rays: [Ray; PACKET] = std::array::from_fn(|k| aims[k].ray(point, mag));
+            let t_max: [f64; PACKET] = std::array::from_fn(|k| limits[k] * mag);
+            let mut out = [Hit::new(0.0, DVec3::ZERO, DVec3::ZERO); PACKET];
+            let hits = g.intersect_packet(&rays, live, 0.0, &t_max, &mut out);
+            for (k, ray) in rays.iter().enumerate() {
+                let single = if live >> k & 1 != 0 { g.intersect(ray, 0.0, t_max[k]) } else { None };
+                prop_assert_eq!(hits >> k & 1 != 0, single.is_some(), "lane {}", k);
+                if let Some(h) = single {
+                    prop_assert_eq!((out[k].t.to_bits(), out[k].point, out[k].error), (h.t.to_bits(), h.point, h.error));
+                }
+            }
         }
     }
 

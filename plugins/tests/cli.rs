@@ -479,6 +479,17 @@ fn sweep_varies_the_denoiser() {
     }
     let csv = std::fs::read_to_string(dir.join("s/results.csv")).unwrap();
     assert!(csv.starts_with("spp,denoise,seconds,") && csv.contains("\n4,on,"), "{csv}");
+    // At 32 spp the denoised row is rendered and denoised on 2 × 2 sub-pixels of 8 spp, as
+    // `render --denoise` does, and measured on the frame's pixels (against a reference of 512
+    // spp: at 64 its own noise is most of the denoised row's error).
+    let fine = ["--width", "32", "--height", "32", "--reference-spp", "512", "--metric", "rmse", "-q"];
+    let out = raylab(&dir, &[&["sweep", scene, "--vary", "spp=32", "--vary", "denoise=off,on", "--out", "g"][..], &fine].concat());
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("g/results.json")).unwrap()).unwrap();
+    let rmse =
+        |label: &str| json["results"].as_array().unwrap().iter().find(|r| r["label"] == label).and_then(|r| r["rmse"].as_f64()).unwrap();
+    let (e_off, e_on) = (rmse("spp=32 denoise=off"), rmse("spp=32 denoise=on"));
+    assert!(e_on < 0.8 * e_off, "32 spp: RMSE noisy {e_off}, denoised on the grid {e_on}");
     std::fs::remove_dir_all(dir).unwrap();
 }
 
