@@ -341,6 +341,26 @@ fn a_closed_furnace_without_roulette_sums_the_geometric_series_exactly() {
     }
 }
 
+/// Russian roulette counts only diffuse or glossy bounces: inside a closed half-silvered mirror
+/// (kr = 0.5, no smooth lobe) with `roulette_depth = 1`, no path is ever gambled on, so every
+/// estimate is the geometric series exactly (counting mirror bounces, from the second on each
+/// would end the path with probability ½ or more, the survivors reweighted: scattered estimates).
+#[test]
+fn specular_bounces_do_not_count_toward_roulette() {
+    let (le, bounces) = (0.7, 40);
+    let job = load(&format!(
+        "background = 0\n[render]\nwidth = 4\nheight = 4\n[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\nfov = 60\n\
+         [integrator]\ntype = \"path\"\nmax_bounces = {bounces}\nroulette_depth = 1\n\
+         [[object]]\ntype = \"sphere\"\nradius = 1\nmaterial = {{ kd = 0, ks = 0, kr = 0.5, emission = {le} }}\n"
+    ));
+    let expected = le * (1.0 - 0.5f64.powi(bounces + 2)) / 0.5;
+    for dir in [DVec3::NEG_Z, DVec3::new(0.3, -0.2, 0.9)] {
+        for v in estimates(&job, &Ray::new(DVec3::ZERO, dir), 64) {
+            assert!((v - Color::splat(expected)).abs().max_element() < 1e-14 * expected, "{v} vs {expected}");
+        }
+    }
+}
+
 #[test]
 fn the_deepest_path_allowed_renders_on_the_render_threads() {
     // A mirror sphere around the camera: every path goes the whole 1024 bounces, one stack
