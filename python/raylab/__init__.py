@@ -323,7 +323,7 @@ def _array(buf, height: int, width: int, channels: int) -> np.ndarray:
 class Image:
     """A render: ``rgb`` (linear float32, ``(H, W, 3)``, the numbers of the CLI's EXR), the
     layers asked for (``img["depth"]``, ``img["error"]``, ``img["spp"]`` ``(H, W)``,
-    ``img["normal"]``, ``img["albedo"]``, ``img["emission"]`` ``(H, W, 3)``), ``stats``, ``estimated_error``. Shown in Jupyter tone-mapped as the CLI's PNG."""
+    ``img["normal"]``, ``img["albedo"]``, ``img["emission"]`` ``(H, W, 3)``), ``stats``, ``estimated_error``, ``estimate_may_read_low``. Shown in Jupyter tone-mapped as the CLI's PNG."""
 
     def __init__(self, native, scene: Optional[Scene] = None):
         self._native = native
@@ -356,6 +356,14 @@ class Image:
         samples a pixel."""
         e = self._native.estimated_error()
         return None if e is None else e[0]
+
+    @property
+    def estimate_may_read_low(self) -> Optional[float]:
+        """Under an error target, where part of the image is lit by samples rarer than the
+        target's first stop (caustics, glints) and so ``estimated_error`` may read low: the share
+        of the estimated variance in those pixels (the CLI's "may read low"); None otherwise.
+        A larger ``target_min_spp`` looks longer."""
+        return self._native.estimate_reads_low()
 
     @property
     def mean_spp(self) -> Optional[float]:

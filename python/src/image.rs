@@ -37,6 +37,9 @@ pub struct Rendered {
     error: Option<(Vec<f32>, Vec<f32>)>,
     /// The image's estimated relative RMSE and mean samples per pixel, as the CLI's summary.
     estimate: Option<ErrorEstimate>,
+    /// Under an error target: the share of the estimated variance in pixels whose light came
+    /// from samples rarer than the first stop (`ShareSums::rare_light_share`), as the CLI's summary.
+    rare_share: Option<f64>,
 }
 
 impl Rendered {
@@ -48,6 +51,7 @@ impl Rendered {
             None
         };
         let estimate = r.sums.error_estimate();
+        let rare_share = job.settings.target.map(|t| r.sums.rare_light_share(t.floor_spp()));
         Ok(Rendered {
             film: r.film,
             layers: r.layers,
@@ -59,6 +63,7 @@ impl Rendered {
             part: is_part.then_some((r.sums, info)),
             error,
             estimate,
+            rare_share,
         })
     }
 
@@ -163,6 +168,13 @@ impl Rendered {
         self.estimate.map(|e| (e.relative_rmse, e.mean_spp))
     }
 
+    /// Under an error target, the share of the estimated variance held by pixels lit by samples
+    /// rarer than the target's first stop, when it is at least `ErrorTarget::RARE_SHARE`: the
+    /// estimate may read low (the CLI's "may read low"). None otherwise.
+    fn estimate_reads_low(&self) -> Option<f64> {
+        self.rare_share.filter(|&r| r >= raylab::render::job::ErrorTarget::RARE_SHARE)
+    }
+
     /// The image as PNG bytes: clamped and encoded as the CLI's PNG (the scene's encoding).
     fn png<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
         let rgb = raylab::image::output::try_rgb8(&self.film, self.encoding, None).map_err(runtime_error)?;
@@ -255,10 +267,11 @@ pub fn merge(
         encoding.get_or_insert(Encoding::parse(&info.encoding).unwrap_or_default());
         merged.push(raylab::render::share::Part { name, sums, fingerprint: info.fingerprint });
     }
-    let (film, layers, estimate) = py
+    let (film, layers, estimate, rare_share) = py
         .detach(|| -> Result<_, String> {
             let whole = raylab::render::share::merge(&merged, allow_partial)?;
-            Ok((whole.film().map_err(|e| e.to_string())?, whole.aovs().map_err(|e| e.to_string())?, whole.error_estimate()))
+            let rare = whole.sampling.target.map(|t| whole.rare_light_share(t.floor_spp()));
+            Ok((whole.film().map_err(|e| e.to_string())?, whole.aovs().map_err(|e| e.to_string())?, whole.error_estimate(), rare))
         })
         .map_err(runtime_error)?;
     let aov = if layers.is_some() { vec!["depth".into(), "normal".into(), "albedo".into(), "emission".into()] } else { Vec::new() };
@@ -273,6 +286,7 @@ pub fn merge(
         part: None,
         error: None,
         estimate,
+        rare_share,
     })
 }
 
