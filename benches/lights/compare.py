@@ -31,7 +31,10 @@ For each scene it prints:
 
 Scenes: the five lightings, then each again with a glass ball and a mirror ball in view (glossy
 materials are left out: raylab's lobes have no exact Mitsuba 3 counterpart). `--only` picks
-scenes by a part of their name, `--variant scalar_rgb` compares with Mitsuba's scalar build.
+scenes by a part of their name, `--variant scalar_rgb` compares with Mitsuba's scalar build,
+`--mitsuba-sampler multijitter` (or `stratified`, `orthogonal`, `ldsampler`) gives Mitsuba a
+stratified sampler instead of its `independent` one, `--raylab-set stratify=false` gives raylab's
+path tracer independent numbers (it stratifies them across a pixel's samples by default).
 
 Setup: python3 -m venv venv && venv/bin/pip install mitsuba numpy; Mitsuba's LLVM variant needs
 libLLVM (Debian: apt-get install libllvm19). Build raylab with `cargo build --release --features
@@ -216,13 +219,13 @@ def read_pfm(path):
     return np.flipud(data.reshape(h, w, channels)).astype(np.float64)
 
 
-def render_raylab(binary, s, size, spp, seed, bounces):
+def render_raylab(binary, s, size, spp, seed, bounces, sets=()):
     with tempfile.TemporaryDirectory() as d:
         with open(os.path.join(d, "scene.toml"), "w") as f:
             f.write(raylab_scene(s, d, size, spp, bounces))
         out = os.path.join(d, "out.pfm")
         t, cpu = time.perf_counter(), children_cpu()
-        subprocess.run([binary, "render", os.path.join(d, "scene.toml"), "-o", out, "--threads", "2", "--seed", str(seed)], check=True, capture_output=True)
+        subprocess.run([binary, "render", os.path.join(d, "scene.toml"), "-o", out, "--threads", "2", "--seed", str(seed)] + [x for kv in sets for x in ("--set", kv)], check=True, capture_output=True)
         return read_pfm(out), time.perf_counter() - t, children_cpu() - cpu
 
 
@@ -236,8 +239,9 @@ def children_cpu():
 # Mitsuba
 
 
-def build_mitsuba(mi, s, size, bounces):
-    """The Mitsuba scene of `s`; flat shapes and meshes as OBJ files in a temporary folder."""
+def build_mitsuba(mi, s, size, bounces, sampler="independent"):
+    """The Mitsuba scene of `s`, its pixels sampled by `sampler` (a Mitsuba sampler plugin); flat
+    shapes and meshes as OBJ files in a temporary folder."""
     T = mi.ScalarTransform4f
     c = s["camera"]
     folder = tempfile.mkdtemp(prefix="raylab-mi-")
@@ -250,7 +254,7 @@ def build_mitsuba(mi, s, size, bounces):
             "fov_axis": "y",
             "to_world": T().look_at(origin=c["position"], target=c["look_at"], up=(0, 1, 0)),
             "film": {"type": "hdrfilm", "width": size, "height": size, "rfilter": {"type": "box"}, "pixel_format": "rgb"},
-            "sampler": {"type": "independent"},
+            "sampler": {"type": sampler},
         },
     }
     for i, (kind, geo, kd, emission) in enumerate(s["parts"]):
@@ -345,28 +349,37 @@ def main():
     ap.add_argument("--ref-spp", type=int, default=4096)
     ap.add_argument("--bounces", type=int, default=8)
     ap.add_argument("--variant", default="llvm_ad_rgb")
+    ap.add_argument(
+        "--mitsuba-sampler",
+        default="independent",
+        help="Mitsuba's sampler for its renders and its reference: independent (the default, as its docs' examples), or a "
+        "stratified one (stratified, multijitter, orthogonal, ldsampler: per-pixel sets of a known count; use a --spp they accept, "
+        "a square or a power of two); raylab's path tracer stratifies its numbers across the pixel's samples unless given "
+        "--raylab-set stratify=false",
+    )
+    ap.add_argument("--raylab-set", action="append", default=[], metavar="KEY=VALUE", help="an integrator parameter for raylab's renders (repeatable)")
     ap.add_argument("--only", default=None, help="run only scenes whose name contains this")
     ap.add_argument("--exclude", default=None, help="skip scenes whose name contains this")
     args = ap.parse_args()
     import mitsuba as mi
 
     mi.set_variant(args.variant)
-    print(f"raylab {args.binary} vs Mitsuba {mi.__version__} {args.variant}; {args.size}², {args.spp} spp × {args.seeds} seeds, reference {args.ref_spp} spp (Mitsuba)")
+    print(f"raylab {args.binary} {' '.join(args.raylab_set)} vs Mitsuba {mi.__version__} {args.variant} ({args.mitsuba_sampler} sampler); {args.size}², {args.spp} spp × {args.seeds} seeds, reference {args.ref_spp} spp (Mitsuba)")
     print("wall times are measured under load (a shared 2-core machine): not benchmarks\n")
     rows = []
     for name, s in scenes().items():
         if (args.only and args.only not in name) or (args.exclude and args.exclude in name):
             continue
-        scene = build_mitsuba(mi, s, args.size, args.bounces)
+        scene = build_mitsuba(mi, s, args.size, args.bounces, args.mitsuba_sampler)
         ref, ref_mse = reference(mi, scene, args.ref_spp)
         # One sample per pixel, for each renderer's cost outside its samples (raylab's process and
         # scene loading; Mitsuba's first render compiles its kernels, so it is done twice).
         render_mitsuba(mi, scene, 1, 0)
         c1_m = render_mitsuba(mi, scene, 1, 0)[2]
-        c1_r = render_raylab(args.binary, s, args.size, 1, 0, args.bounces)[2]
+        c1_r = render_raylab(args.binary, s, args.size, 1, 0, args.bounces, args.raylab_set)[2]
         rl, mt, t_r, t_m, c_r, c_m = [], [], 0.0, 0.0, 0.0, 0.0
         for k in range(args.seeds):
-            a, ta, ca = render_raylab(args.binary, s, args.size, args.spp, k + 1, args.bounces)
+            a, ta, ca = render_raylab(args.binary, s, args.size, args.spp, k + 1, args.bounces, args.raylab_set)
             b, tb, cb = render_mitsuba(mi, scene, args.spp, k + 1)
             rl.append(a)
             mt.append(b)

@@ -3,14 +3,32 @@
 //!
 //! Stratified 2-D patterns use correlated multi-jittered sampling (Kensler 2013, "Correlated
 //! Multi-Jittered Sampling"), which stratifies any sample count, not only perfect squares.
+//!
+//! A stream also draws numbers stratified *across a pixel's samples*
+//! ([`Sampler::pixel_1d`], [`Sampler::pixel_2d`]), as pbrt-v4's padded Sobol sampler does: each
+//! dimension (the `dim`-th draw of the stream reached by the same chain of [`Sampler::fork`]s,
+//! e.g. "the second bounce's light sample") is, over the pixel's samples `0, 1, 2, …`, the
+//! first one or two dimensions of the Sobol sequence, Owen-scrambled with its own key per
+//! (pixel, seed, fork chain, dimension) ("padded": dimensions are independent of each other).
+//! Every prefix of `2^k` samples of a pixel then holds one point in each elementary interval
+//! of area `2^-k` of each such pair, whatever the pixel's final count (passes, error targets);
+//! each value is still a pure function of (pixel, sample, fork chain, dimension, seed), and
+//! uniform on its own (Owen scrambling is a random nested permutation of the digits).
 
 use glam::{DVec2, DVec3};
 
 /// A stream of uniform numbers in [0, 1) for one (pixel, sample, seed).
 #[derive(Clone, Debug)]
 pub struct Sampler {
+    /// This sample's stream key (what [`Sampler::next_1d`] hashes).
     key: u64,
+    /// The key of this stream's place in the fork tree for the whole pixel: the same for every
+    /// sample of the pixel (what [`Sampler::pixel_1d`] scrambles with).
+    chain: u64,
+    /// Numbers drawn so far.
     dim: u32,
+    /// The sample's number in its pixel, bit-reversed (as [`shuffle`] takes it).
+    reversed_index: u32,
 }
 
 impl Sampler {
@@ -31,7 +49,7 @@ impl Sampler {
     #[inline]
     pub fn with_pixel_key(pixel: PixelKey, sample: u32) -> Self {
         let key = mix64(pixel.0 ^ u64::from(sample).wrapping_mul(0xD1B5_4A32_D192_ED03));
-        Sampler { key, dim: 0 }
+        Sampler { key, chain: pixel.0, dim: 0, reversed_index: sample.reverse_bits() }
     }
 
     /// The next number in [0, 1).
@@ -51,9 +69,48 @@ impl Sampler {
     /// An independent stream for a sub-task (a child ray, a light's samples), keyed by `tag`. It
     /// depends only on this stream's key and `tag`, not on how many numbers were drawn, so work
     /// skipped in one branch of a ray tree never shifts the numbers another branch sees.
+    ///
+    /// The fork of every sample of a pixel by the same chain of tags draws its
+    /// [`Sampler::pixel_1d`] and [`Sampler::pixel_2d`] numbers from the same scrambled sequences.
     #[inline]
     pub fn fork(&self, tag: u64) -> Sampler {
-        Sampler { key: mix64(self.key ^ mix64(tag.wrapping_add(0x2545_F491_4F6C_DD1D))), dim: 0 }
+        let t = tag.wrapping_add(0x2545_F491_4F6C_DD1D);
+        // The chain only needs distinct values per chain of tags (it is hashed when drawn from):
+        // an odd multiplication and a rotation, not a full hash.
+        let chain = ((self.chain ^ t).wrapping_mul(0x9FB2_1C65_1E98_DF25)).rotate_left(29);
+        Sampler { key: mix64(self.key ^ mix64(t)), chain, dim: 0, reversed_index: self.reversed_index }
+    }
+
+    /// The next number in [0, 1), stratified across the pixel's samples: sample `i` of the pixel
+    /// takes point `shuffle(i)` of this dimension's Owen-scrambled van der Corput sequence (the
+    /// Sobol sequence's first dimension), shuffle and scramble keyed by the dimension (Burley
+    /// 2020, "Practical Hash-based Owen Scrambling"). It takes the place of one
+    /// [`Sampler::next_1d`]: the numbers drawn after it are the same either way.
+    #[inline]
+    pub fn pixel_1d(&mut self) -> f64 {
+        let h = self.dimension_key();
+        sobol_unit(owen_scramble(shuffle(self.reversed_index, (h >> 32) as u32), h as u32))
+    }
+
+    /// The next pair in [0, 1)², stratified across the pixel's samples: sample `i` of the pixel
+    /// takes point `shuffle(i)` of this dimension pair's Sobol (0, 2)-sequence, each coordinate
+    /// Owen-scrambled with its own key. It takes the place of one [`Sampler::next_2d`] (two
+    /// numbers).
+    #[inline]
+    pub fn pixel_2d(&mut self) -> DVec2 {
+        let h = self.dimension_key();
+        self.dim += 1;
+        // The shuffle's key: the top half of a multiplicative hash of both scramble keys.
+        let i = shuffle(self.reversed_index, (h.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 32) as u32);
+        DVec2::new(sobol_unit(owen_scramble(i, h as u32)), sobol_unit(owen_scramble(sobol_second(i), (h >> 32) as u32)))
+    }
+
+    /// The scramble keys of the next dimension (one draw) for the whole pixel.
+    #[inline(always)]
+    fn dimension_key(&mut self) -> u64 {
+        let h = mix64(self.chain ^ u64::from(self.dim).wrapping_mul(0xC2B2_AE3D_27D4_EB4F));
+        self.dim += 1;
+        h
     }
 
     /// A 32-bit pattern key for [`stratified_2d`], unique to this stream and dimension.
@@ -132,6 +189,64 @@ pub fn sobol_02(index: u32, pattern: u32) -> DVec2 {
     let y = y ^ ((h >> 32) as u32);
     let unit = |b: u32| (f64::from(b) * (1.0 / 4_294_967_296.0)).min(ONE_MINUS_EPSILON);
     DVec2::new(unit(x), unit(y))
+}
+
+/// The second dimension of the Sobol sequence at `index`, bit-reversed (its least significant
+/// bit is the point's most significant digit): the Pascal triangle mod 2 applied to `index`'s
+/// bits. Bit `j` of the result is the parity of the bits `k` of `index` with `C(k, j)` odd,
+/// that is (Lucas) with `j`'s bits a subset of `k`'s: a superset-sum transform over the five
+/// bits of a bit position, five masked shifts.
+#[inline(always)]
+fn sobol_second(index: u32) -> u32 {
+    let mut x = index;
+    x ^= (x >> 1) & 0x5555_5555;
+    x ^= (x >> 2) & 0x3333_3333;
+    x ^= (x >> 4) & 0x0f0f_0f0f;
+    x ^= (x >> 8) & 0x00ff_00ff;
+    x ^= (x >> 16) & 0x0000_ffff;
+    x
+}
+
+/// A nested uniform scramble (Owen) of the digits of the bit-reversed value `v` (least
+/// significant bit = first binary digit), keyed by `seed`, returned in the usual order (most
+/// significant bit first): the Laine–Karras hash as pbrt-v4's `FastOwenScrambler` applies it.
+/// Each step flips a digit by a function of the digits before it only (multiplications by even
+/// numbers, an addition, a multiplication by an odd one, all in the reversed order), so every
+/// elementary interval is carried onto one of the same size: nets stay nets.
+#[inline(always)]
+fn owen_scramble(v: u32, seed: u32) -> u32 {
+    laine_karras(v, seed).reverse_bits()
+}
+
+/// The Laine–Karras hash: bit `b` of the result is bit `b` of `v` flipped by a function of the
+/// bits below it and `seed` (a nested permutation, read from the least significant bit).
+#[inline(always)]
+fn laine_karras(mut v: u32, seed: u32) -> u32 {
+    v ^= v.wrapping_mul(0x3d20_adea);
+    v = v.wrapping_add(seed);
+    v = v.wrapping_mul((seed >> 16) | 1);
+    v ^= v.wrapping_mul(0x0552_6c56);
+    v ^= v.wrapping_mul(0x53a2_2864);
+    v
+}
+
+/// A sample index shuffled by a nested permutation keyed by `seed`, from the index
+/// bit-reversed (`reversed_index`): bit `j` of the index is flipped by a function of its bits
+/// above `j`. The indices `0 .. 2^k` then go to one aligned block `c·2^k .. (c+1)·2^k` of
+/// the sequence (their bits from `k` up were all zero, so they all flip alike), and such a block
+/// of Sobol points is a (0, k, 2)-net like the first: every power-of-two prefix stays
+/// stratified, while dimensions with different keys take their points in unrelated orders (not
+/// all from one shared order, which would tie a pixel's samples' numbers in one dimension to
+/// their numbers in every other).
+#[inline(always)]
+fn shuffle(reversed_index: u32, seed: u32) -> u32 {
+    laine_karras(reversed_index, seed).reverse_bits()
+}
+
+/// A 32-bit binary fraction as the centre of its interval of width 2⁻³²: never 0, never 1.
+#[inline(always)]
+fn sobol_unit(v: u32) -> f64 {
+    (f64::from(v) + 0.5) * (1.0 / 4_294_967_296.0)
 }
 
 /// The `m` columns and `n` rows of strata of a stratified set of `count` points (0 counts as 1):
@@ -434,6 +549,170 @@ mod tests {
     }
 
     use super::*;
+
+    /// The second Sobol dimension by the superset-sum transform is the Pascal-matrix loop's,
+    /// bit-reversed (what `sobol_02` computes).
+    #[test]
+    fn sobol_second_dimension_matches_the_generator_loop() {
+        let reference = |index: u32| {
+            let (mut y, mut v, mut k) = (0u32, 1u32 << 31, index);
+            while k != 0 {
+                if k & 1 != 0 {
+                    y ^= v;
+                }
+                k >>= 1;
+                v ^= v >> 1;
+            }
+            y
+        };
+        let mut h = 1u64;
+        for i in (0..70_000u32).chain((0..2000).map(|_| {
+            h = mix64(h);
+            h as u32
+        })) {
+            assert_eq!(sobol_second(i).reverse_bits(), reference(i), "index {i}");
+        }
+    }
+
+    /// The samples `0 .. 2^k` of a pixel, for every `k`, put their [`Sampler::pixel_2d`] points
+    /// of one dimension pair (one fork chain, one draw) in every elementary interval of area
+    /// `2^-k` once (a (0, 2)-net), and their [`Sampler::pixel_1d`] numbers in every interval of
+    /// width `2^-k` once: whatever the pixel's final count, each prefix is stratified.
+    #[test]
+    fn pixel_numbers_stratify_every_power_of_two_prefix() {
+        let seed = SeedKey::new(17);
+        for pixel in [0u64, 5, 123_456] {
+            let key = seed.pixel(pixel);
+            // The camera sample's stream, the second bounce's, a light's stream within it.
+            let chains: [&dyn Fn(Sampler) -> Sampler; 3] = [&|s| s, &|s| s.fork(4).fork(4), &|s| s.fork(4).fork(1).fork(2)];
+            for (c, chain) in chains.iter().enumerate() {
+                // Draws 0 and 1: a pair, then a number, after one plain number.
+                let draw = |i: u32| {
+                    let mut s = chain(Sampler::with_pixel_key(key, i));
+                    s.next_1d();
+                    let p = s.pixel_2d();
+                    (p, s.pixel_1d())
+                };
+                let points: Vec<(DVec2, f64)> = (0..512).map(draw).collect();
+                for k in 0..=9u32 {
+                    let n = 1usize << k;
+                    let mut seen = vec![false; n];
+                    for &(_, x) in &points[..n] {
+                        let cell = (x * n as f64) as usize;
+                        assert!(!seen[cell], "pixel {pixel}, chain {c}: {n} samples, two 1-D numbers in interval {cell}");
+                        seen[cell] = true;
+                    }
+                    for a in 0..=k {
+                        let (cols, rows) = (1u32 << a, 1u32 << (k - a));
+                        let mut seen = vec![false; n];
+                        for (p, _) in &points[..n] {
+                            let cell = (p.y * f64::from(rows)) as u32 * cols + (p.x * f64::from(cols)) as u32;
+                            assert!(!seen[cell as usize], "pixel {pixel}, chain {c}: {n} samples, {cols}×{rows} cells: two in {cell}");
+                            seen[cell as usize] = true;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// A pixel number takes the place of the plain draws it replaces (the numbers after it are
+    /// the same), and the pixel's sequences differ by pixel, by fork chain and by draw.
+    #[test]
+    fn pixel_numbers_keep_the_draw_count_and_differ_by_dimension() {
+        let (mut a, mut b) = (Sampler::new(3, 5, 9), Sampler::new(3, 5, 9));
+        a.next_2d();
+        b.pixel_2d();
+        a.next_1d();
+        b.pixel_1d();
+        assert_eq!(a.next_1d(), b.next_1d());
+        let first = |s: &Sampler| s.clone().pixel_2d();
+        let s = Sampler::new(3, 5, 9);
+        let mut t = s.clone();
+        t.pixel_2d();
+        assert_ne!(first(&s), t.pixel_2d());
+        assert_ne!(first(&s), first(&s.fork(1)));
+        assert_ne!(first(&s.fork(1)), first(&s.fork(2)));
+        assert_ne!(first(&s.fork(1).fork(2)), first(&s.fork(2).fork(1)));
+        assert_ne!(first(&s), first(&Sampler::new(4, 5, 9)));
+        assert_ne!(first(&s), first(&Sampler::new(3, 5, 10)));
+        // Samples of one pixel share the chain: the forks of sample 5 and 6 differ (their points do).
+        assert_ne!(first(&Sampler::new(3, 6, 9).fork(1)), first(&s.fork(1)));
+    }
+
+    /// Two dimensions of a pixel are not tied: without the shuffle, the nested scrambles of one
+    /// shared order would put a sample's numbers of every dimension in the same half of [0, 1)
+    /// for all of a pixel's samples, or in opposite halves for all (a per-pixel error that
+    /// never averages out). With it, a pixel's samples agree about half the time.
+    #[test]
+    fn pixel_dimensions_are_not_tied_to_each_other() {
+        let seed = SeedKey::new(3);
+        let mut tied = 0;
+        let mut agree_total = 0;
+        for pixel in 0..200u64 {
+            let agree = (0..64u32)
+                .filter(|&i| {
+                    let mut s = Sampler::with_pixel_key(seed.pixel(pixel), i).fork(2);
+                    let (a, b) = (s.pixel_1d(), s.pixel_2d());
+                    let c = s.fork(9).pixel_1d();
+                    (a < 0.5) == (b.x < 0.5) && (b.y < 0.5) == (c < 0.5)
+                })
+                .count();
+            tied += usize::from(agree == 0 || agree == 64);
+            agree_total += agree;
+        }
+        assert!(tied <= 2, "{tied} of 200 pixels have dimensions tied in halves");
+        // Both pairs agree for a quarter of the samples, as for independent numbers.
+        let share = agree_total as f64 / (200.0 * 64.0);
+        assert!((share - 0.25).abs() < 0.03, "both agree in {share:.3} of samples");
+    }
+
+    /// Pixel numbers are uniform: a few samples of each of many pixels (a prefix that is no net,
+    /// so the histogram shows the scrambles' randomness), a pair's two coordinates, and two
+    /// draws of one sample against each other (padding: their scrambles are independent).
+    #[test]
+    fn pixel_numbers_pass_the_chi2_test() {
+        use crate::testing::chi2::{Chi2Test, Rect};
+        let test = Chi2Test::new(Rect { min: DVec2::ZERO, max: DVec2::ONE }).res(32, 32).tests(3);
+        let seed = SeedKey::new(5);
+        let (mut pixel, mut index) = (0u64, 0u32);
+        let mut next = || {
+            index += 1;
+            if index == 3 {
+                (pixel, index) = (pixel + 1, 0);
+            }
+            Sampler::with_pixel_key(seed.pixel(pixel), index).fork(7)
+        };
+        test.run(|_| Some(next().pixel_2d()), |_| 1.0).assert_passes("pixel_2d");
+        test.run(
+            |_| {
+                let mut s = next();
+                Some(DVec2::new(s.pixel_1d(), s.pixel_1d()))
+            },
+            |_| 1.0,
+        )
+        .assert_passes("two pixel_1d draws");
+        test.run(
+            |_| {
+                let mut s = next();
+                let a = s.pixel_2d();
+                Some(DVec2::new(a.y, s.pixel_2d().x))
+            },
+            |_| 1.0,
+        )
+        .assert_passes("two pixel_2d draws");
+        // Over all 64 samples of each pixel too (a net per pixel: only uniformity is tested).
+        let (mut pixel, mut index) = (0u64, 0u32);
+        test.run(
+            |_| {
+                index = (index + 1) % 64;
+                pixel += u64::from(index == 0);
+                Some(Sampler::with_pixel_key(seed.pixel(pixel), index).fork(2).pixel_2d())
+            },
+            |_| 1.0,
+        )
+        .assert_passes("whole pixels");
+    }
 
     #[test]
     fn streams_are_deterministic_and_distinct() {

@@ -106,7 +106,17 @@ impl PathTracer {
     /// the smooth lobes of `bsdf`, weighed against `bsdf`'s own sampling when the light has an
     /// extent; then the emitting objects, [`PathTracer::emitter_samples`] points chosen among
     /// them by [`PathTracer::light_selection`], each weighed against `bsdf`'s sampling.
-    pub(super) fn direct<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, bsdf: &dyn Bsdf, sampler: &Sampler, rec: &mut R) -> Color {
+    /// `sampler` is the vertex's stream, `depth` its diffuse or glossy bounces so far. Out of
+    /// line, so its streams and samples are not part of every frame of the path's recursion.
+    #[inline(never)]
+    pub(super) fn direct<R: Recorder>(
+        &self,
+        c: &mut Ctx,
+        si: &Interaction,
+        bsdf: &dyn Bsdf,
+        (sampler, depth): (&Sampler, u32),
+        rec: &mut R,
+    ) -> Color {
         let scene = c.scene;
         if !bsdf.has_smooth_lobes() {
             if !scene.lights.is_empty() || self.samples_emitters(scene) {
@@ -131,7 +141,9 @@ impl PathTracer {
             let pattern = stream.next_pattern();
             let mut sum = Color::ZERO;
             for s in 0..n {
-                let u = if n == 1 { stream.next_2d() } else { stratified_2d(s, n, pattern) };
+                // One sample: stratified across the pixel's samples (as `stratify` says); several:
+                // across each other at this vertex.
+                let u = if n == 1 { self.draw_2d(depth, &mut stream) } else { stratified_2d(s, n, pattern) };
                 // No direction here (an ambient light): its light comes from escaping rays. An
                 // environment says the density it drew with (finding it again from the direction
                 // costs a turn and a lookup); other lights are asked only for samples that count.
@@ -153,7 +165,7 @@ impl PathTracer {
             let mut stream = sampler.fork(TAG_EMITTERS);
             let mut sum = Color::ZERO;
             for _ in 0..n {
-                let (pick, u) = (stream.next_1d(), stream.next_2d());
+                let (pick, u) = (self.draw_1d(depth, &mut stream), self.draw_2d(depth, &mut stream));
                 if let Some(es) = scene.emitters().sample(&scene.objects, si.point(), pick, u, self.light_selection) {
                     sum += self.emitter_sample(c, v, &es, n, rec);
                 }

@@ -50,7 +50,13 @@
 //!
 //! Every random number comes from a stream forked from the camera sample's by vertex and purpose
 //! (light samples, lobe choice and direction, roulette, next vertex), so work skipped anywhere
-//! never shifts the numbers used elsewhere. The recursion is written once, generic over a
+//! never shifts the numbers used elsewhere. At vertices reached after fewer than `stratify` (2)
+//! diffuse or glossy bounces each of these numbers is also stratified across the pixel's
+//! samples ([`Sampler::pixel_2d`]): the pixel's samples take successive points of one
+//! Owen-scrambled Sobol sequence per (vertex, purpose, draw), so every power-of-two prefix of
+//! them (a pass, an error target's stop) covers, say, the first surface's light directions
+//! evenly. Deeper vertices draw independent numbers: there stratification gains little (their
+//! integrand has too many dimensions) for its ~60–100 instructions a draw. The recursion is written once, generic over a
 //! [`Recorder`]: [`NoRecord`] renders, a [`TraceNode`] explains. No allocation per ray.
 
 mod lights;
@@ -86,6 +92,11 @@ pub struct PathTracer {
     pub sample_emitters: bool,
     /// How an emitter is chosen for each emitter sample.
     pub light_selection: Selection,
+    /// The path vertices whose numbers (light and emitter samples, lobe and direction,
+    /// roulette) are stratified across the pixel's samples ([`Sampler::pixel_2d`]): those
+    /// reached after fewer than this many diffuse or glossy bounces (specular ones do not
+    /// count); later ones draw independent numbers (0: all do).
+    pub stratify: u32,
 }
 
 /// The `path` plugin's description.
@@ -128,6 +139,13 @@ pub const INFO: PluginInfo = PluginInfo {
             "how each emitter sample chooses among the emitting objects: \"power\" (emission × area: a dim one among bright ones costs almost nothing) or \"uniform\"",
         )
         .quality(Reference::Keep),
+        ParamSpec::new(
+            "stratify",
+            ParamKind::Int,
+            ParamDefault::Int(2),
+            "path vertices whose light, emitter, BSDF and roulette numbers are stratified across the pixel's samples (each a padded, Owen-scrambled Sobol sequence over the sample index, as pbrt-v4's samplers do): those reached after fewer than this many diffuse or glossy bounces (specular ones do not count: the first surface and the one after it, seen directly or through glass, by default); later vertices draw independent numbers, where stratification gains little for its cost; 0 = none, 0..1024",
+        )
+        .quality(Reference::Keep),
     ],
 };
 
@@ -145,6 +163,7 @@ impl PathTracer {
             light_samples: p.int_in("light_samples", 0..=4096)? as u32,
             sample_emitters: p.bool("sample_emitters")?,
             light_selection: Selection::parse(&p.choice("light_selection", &Selection::NAMES)?).unwrap_or_default(),
+            stratify: p.int_in("stratify", 0..=1024)? as u32,
         })
     }
 }
@@ -257,6 +276,37 @@ impl<'s> PathState<'s> {
 }
 
 impl PathTracer {
+    /// The BSDF's numbers at a vertex after `depth` diffuse or glossy bounces (lobe choice,
+    /// direction, Fresnel choice), from `sampler`'s [`TAG_BSDF`] stream. Out of line: the
+    /// recursion's stack frames (1024 bounces on a render thread's default stack) stay as small
+    /// as they were.
+    #[inline(never)]
+    fn bsdf_numbers(&self, depth: u32, sampler: &Sampler) -> (f64, DVec2, f64) {
+        let mut stream = sampler.fork(TAG_BSDF);
+        (self.draw_1d(depth, &mut stream), self.draw_2d(depth, &mut stream), self.draw_1d(depth, &mut stream))
+    }
+
+    /// The roulette's number at a vertex after `depth` diffuse or glossy bounces (out of line,
+    /// as [`PathTracer::bsdf_numbers`]).
+    #[inline(never)]
+    fn roulette_number(&self, depth: u32, sampler: &Sampler) -> f64 {
+        self.draw_1d(depth, &mut sampler.fork(TAG_ROULETTE))
+    }
+
+    /// The next number of `stream`, at a vertex after `depth` diffuse or glossy bounces:
+    /// stratified across the pixel's samples there when [`PathTracer::stratify`] says, else
+    /// independent (the same draws counted either way).
+    #[inline(always)]
+    fn draw_1d(&self, depth: u32, stream: &mut Sampler) -> f64 {
+        if depth < self.stratify { stream.pixel_1d() } else { stream.next_1d() }
+    }
+
+    /// The next pair of `stream`, as [`PathTracer::draw_1d`].
+    #[inline(always)]
+    fn draw_2d(&self, depth: u32, stream: &mut Sampler) -> DVec2 {
+        if depth < self.stratify { stream.pixel_2d() } else { stream.next_2d() }
+    }
+
     /// Radiance arriving along `ray` (its state and stream `path`).
     fn li<R: Recorder>(&self, c: &mut Ctx, ray: &Ray, path: PathState, rec: &mut R) -> Color {
         let hit = c.scene.trace(ray).map(|si| si.with_spread(path.spread));
@@ -301,7 +351,7 @@ impl PathTracer {
             c.emitted = radiance;
         }
         if let Some(bsdf) = bsdf {
-            radiance += self.direct(c, si, bsdf, path.sampler, rec);
+            radiance += self.direct(c, si, bsdf, (path.sampler, path.smooth_depth), rec);
             radiance += self.scatter(c, si, bsdf, path, rec);
         } else {
             c.stats.add(counter::DEPTH_LIMITED, 1);
@@ -315,8 +365,8 @@ impl PathTracer {
     /// when the path ends here (absorbed, or by Russian roulette).
     fn scatter<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, bsdf: &dyn Bsdf, path: PathState, rec: &mut R) -> Color {
         let sampler = path.sampler;
-        let mut stream = sampler.fork(TAG_BSDF);
-        let (pick, u, fresnel) = (stream.next_1d(), stream.next_2d(), stream.next_1d());
+        let d = path.smooth_depth;
+        let (pick, u, fresnel) = self.bsdf_numbers(d, sampler);
         let Some(s) = bsdf.sample(pick, u, fresnel) else {
             c.stats.add(counter::ABSORBED, 1);
             rec.note(|| "absorbed: the surface scatters nothing in the sampled direction".into());
@@ -334,7 +384,7 @@ impl PathTracer {
         // `roulette_depth`, so a surface seen through glass is not gambled on sooner.
         if path.smooth_depth >= self.roulette_depth && path.depth < self.max_bounces {
             let survive = (max_channel(path.beta * weight) * eta_scale).min(1.0);
-            if !(sampler.fork(TAG_ROULETTE).next_1d() < survive) {
+            if !(self.roulette_number(d, sampler) < survive) {
                 c.stats.add(counter::ROULETTE_ENDED, 1);
                 rec.note(|| format!("Russian roulette ends the path (survival probability {survive:.4})"));
                 return Color::ZERO;
