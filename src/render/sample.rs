@@ -403,6 +403,14 @@ pub fn single_camera_ray(job: &RenderJob, setup: &ImageSetup, id: SampleId) -> O
     (rays.count == 1).then(|| rays.ray(0))
 }
 
+/// [`single_camera_ray`] with the random stream the integrator draws from for it (what
+/// [`trace_packet_from`] takes, so the sample's stream is not set up twice).
+#[inline(always)]
+pub fn single_camera_sample(job: &RenderJob, setup: &ImageSetup, id: SampleId) -> Option<(Ray, Sampler)> {
+    let rays = camera_rays_in(job, setup, id);
+    (rays.count == 1).then(|| (rays.ray(0), rays.sampler(0)))
+}
+
 /// [`trace_sample`] for a sample whose one camera ray `ray` ([`single_camera_ray`]) has the
 /// closest hit `hit` in the scene (found for a packet of them), for an integrator that
 /// [takes camera hits](crate::render::integrator::Integrator::takes_camera_hits): the same sums.
@@ -422,16 +430,17 @@ pub fn trace_sample_from(
 }
 
 /// [`trace_sample_from`] for the samples `ids[k]` of mask `live`, one camera ray each
-/// (`rays[k]`, [`single_camera_ray`]) with its closest hit (`hit[k]` where bit `k` of `hits` is
-/// set), shaded together ([`crate::render::integrator::Integrator::radiance_packet`]): pixel
-/// `k`'s `accs[k]` (and `layers[k]`) gets exactly the sums `trace_sample_from` adds.
+/// (`rays[k]`, [`single_camera_sample`], whose stream `samplers[k]` is) with its closest hit
+/// (`hit[k]` where bit `k` of `hits` is set), shaded together
+/// ([`crate::render::integrator::Integrator::radiance_packet`]): pixel `k`'s `accs[k]` (and
+/// `layers[k]`) gets exactly the sums `trace_sample_from` adds.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub fn trace_packet_from(
     job: &RenderJob,
     setup: &ImageSetup,
     ids: &[SampleId; PACKET],
-    rays: &[Ray; PACKET],
+    (rays, samplers): (&[Ray; PACKET], &mut [Sampler; PACKET]),
     (live, hits): (u32, u32),
     hit: &[Hit; PACKET],
     accs: &mut [PixelSum],
@@ -439,20 +448,22 @@ pub fn trace_packet_from(
     stats: &mut RayStats,
 ) {
     let mut second = 0u32;
-    let mut samplers: [Sampler; PACKET] = std::array::from_fn(|k| {
-        let r = camera_rays_in(job, setup, ids[k]);
-        if live >> k & 1 != 0 {
-            second |= u32::from(second_half(setup, ids[k], r.film, &mut accs[k])) << k;
-        }
-        r.sampler(0)
-    });
+    // One sample per pixel here (`spp = 1`), never progressive: the film position matters to
+    // `second_half` only for a stratified set of several, so no sample's is computed again.
+    debug_assert!(!setup.progressive && setup.strata.1 <= 1);
+    let mut m = live;
+    while m != 0 {
+        let k = m.trailing_zeros() as usize;
+        m &= m - 1;
+        second |= u32::from(second_half(setup, ids[k], DVec2::ZERO, &mut accs[k])) << k;
+    }
     let mut aovs = [setup.miss; PACKET];
     for a in &mut aovs {
         // Summed layers are a denoiser's guides, as in `trace_rays`.
         a.guides = layers.is_some();
     }
     let mut out = [Color::ZERO; PACKET];
-    job.integrator.radiance_packet(&job.scene, rays, live, hits, hit, &mut samplers, stats, &mut aovs, &mut out);
+    job.integrator.radiance_packet(&job.scene, rays, live, hits, hit, samplers, stats, &mut aovs, &mut out);
     let mut m = live;
     while m != 0 {
         let k = m.trailing_zeros() as usize;
