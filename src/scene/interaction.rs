@@ -3,7 +3,7 @@
 //! coefficients there ([`Interaction::coefficients`]: textures looked up at the hit's texture
 //! coordinates).
 
-use crate::geometry::differential::{RayDifferential, RaySpread};
+use crate::geometry::differential::RaySpread;
 use crate::geometry::{Hit, Surface};
 use crate::math::color::Color;
 use crate::math::float::offset_ray_origin;
@@ -98,43 +98,29 @@ impl<'s> Interaction<'s> {
     /// The spread of the ray mirrored at the hit into unit direction `wi`: the incoming ray's
     /// differential reflected (Igehy), with the normal's turn where the shape gives it; a ray
     /// without an exact differential keeps what it has.
-    ///
-    /// Always inlined, the differential's work out of line: without textures to filter (no
-    /// spread), a mirror ray's spread is the tag alone, not a call returning the whole enum.
-    #[inline(always)]
+    #[inline]
     pub fn reflected_spread(&self, wi: DVec3) -> RaySpread {
         let _ = wi;
         match self.spread {
-            RaySpread::Off => RaySpread::Off,
-            RaySpread::Differential(d) => self.reflected_differential(d),
+            RaySpread::Differential(d) => {
+                let dp = d.on_plane(self.dir, self.hit.t, self.n);
+                RaySpread::Differential(d.reflect(self.dir, self.ns, dp, self.normal_turn(dp)))
+            }
             s => s,
         }
-    }
-
-    /// [`Interaction::reflected_spread`] of the differential `d`.
-    #[inline(never)]
-    fn reflected_differential(&self, d: RayDifferential) -> RaySpread {
-        let dp = d.on_plane(self.dir, self.hit.t, self.n);
-        RaySpread::Differential(d.reflect(self.dir, self.ns, dp, self.normal_turn(dp)))
     }
 
     /// The spread of the ray refracted at the hit into unit direction `wi`, `eta` being the ratio
-    /// of refractive indices (incident over transmitted side; 1 through a thin sheet). Always
-    /// inlined, as [`Interaction::reflected_spread`].
-    #[inline(always)]
+    /// of refractive indices (incident over transmitted side; 1 through a thin sheet).
+    #[inline]
     pub fn refracted_spread(&self, wi: DVec3, eta: f64) -> RaySpread {
         match self.spread {
-            RaySpread::Off => RaySpread::Off,
-            RaySpread::Differential(d) => self.refracted_differential(d, wi, eta),
+            RaySpread::Differential(d) => {
+                let dp = d.on_plane(self.dir, self.hit.t, self.n);
+                RaySpread::Differential(d.refract(self.dir, self.ns, wi, eta, dp, self.normal_turn(dp)))
+            }
             s => s,
         }
-    }
-
-    /// [`Interaction::refracted_spread`] of the differential `d`.
-    #[inline(never)]
-    fn refracted_differential(&self, d: RayDifferential, wi: DVec3, eta: f64) -> RaySpread {
-        let dp = d.on_plane(self.dir, self.hit.t, self.n);
-        RaySpread::Differential(d.refract(self.dir, self.ns, wi, eta, dp, self.normal_turn(dp)))
     }
 
     /// How the facing normal turns with the moves `dp` ([`crate::Geometry::derivatives`]; zero
