@@ -3,6 +3,7 @@
 //! (one ray at a sharp surface; `glossy_rays` jittered in a disc of radius `blur` otherwise).
 
 use super::{Branch, Ctx, Front, Phong, TAG_REFLECTION, TAG_REFRACTION, counter};
+use raylab::geometry::differential::RaySpread;
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::color::max_channel;
 use raylab::math::sampler::{StratifiedSet, concentric_disc, orthonormal_basis};
@@ -152,6 +153,8 @@ impl Phong {
             // A sharp mirror or refraction carries the ray differential on; a glossy fan's rays
             // take the camera's approximation.
             let spread = match (sharp, fan.eta) {
+                // Without textures to filter, no spread: the tag, not a call returning the enum.
+                (true, _) if matches!(si.spread, RaySpread::Off) => RaySpread::Off,
                 (false, _) => c.scene.scattered_spread(si.spread),
                 (true, None) => si.reflected_spread(dir),
                 (true, Some(eta)) => si.refracted_spread(dir, eta),
