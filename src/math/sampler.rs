@@ -227,7 +227,71 @@ impl TabledSet {
         // `col < m` and `row < n` (`s < count ≤ m·n`): within the tables' filled part.
         set.point_at(s, u32::from(self.cols[col as usize % TABLED_STRATA]), u32::from(self.rows[row as usize % TABLED_STRATA]))
     }
+
+    /// [`TabledSet::point`] for [`FILM_LANES`] indices at once (each below the set's size), to
+    /// the bit: each step written lane by lane over arrays, so that a caller compiled for wider
+    /// vectors (AVX2) runs each in a few vector instructions. The same integer operations; the
+    /// quotients of [`Permutation::div_rem`] by `f64` division and truncation, which is exact
+    /// here: for `a < 2³²` and `0 < len < 2³²`, `a / len` is either whole or at least
+    /// `1 / len` below the next integer, a relative gap above 2⁻³³, far wider than the
+    /// division's rounding (2⁻⁵³), so the truncated quotient is `⌊a / len⌋`.
+    #[inline(always)]
+    pub fn points(&self, index: &[u32; FILM_LANES]) -> [DVec2; FILM_LANES] {
+        const L: usize = FILM_LANES;
+        let set = &self.set;
+        // `(⌊a / len⌋, a mod len)` lane by lane, as `Permutation::div_rem`.
+        #[inline(always)]
+        fn div_rem(p: &Permutation, a: &[u32; L], quot: &mut [u32; L], rem: &mut [u32; L]) {
+            if p.len <= 1 {
+                (*quot, *rem) = (*a, [0; L]);
+                return;
+            }
+            let len = f64::from(p.len);
+            for k in 0..L {
+                quot[k] = (f64::from(a[k]) / len) as u32;
+            }
+            for k in 0..L {
+                rem[k] = a[k] - quot[k] * p.len;
+            }
+        }
+        // `s = count.apply(index)`: one round of Kensler's permutation for every lane, then
+        // the lanes it left at or above `len` walked on one at a time (`permute`'s loop).
+        let c = &set.count;
+        let mut s = [0u32; L];
+        if c.len > 1 {
+            let mut i = [0u32; L];
+            for k in 0..L {
+                i[k] = permute_round(index[k], c.mask, c.p);
+            }
+            for v in &mut i {
+                if *v >= c.len {
+                    *v = permute(*v, c.mask, c.len, c.p);
+                }
+            }
+            for v in &mut i {
+                *v = v.wrapping_add(c.p);
+            }
+            div_rem(c, &i, &mut [0; L], &mut s);
+        }
+        let (mut row, mut col) = ([0u32; L], [0u32; L]);
+        div_rem(&set.m, &s, &mut row, &mut col);
+        let (m, n, count) = (set.m.len as f64, set.n.len as f64, set.count.len as f64);
+        let mut out = [DVec2::ZERO; L];
+        for k in 0..L {
+            let sx = f64::from(self.cols[col[k] as usize % TABLED_STRATA]);
+            let sy = f64::from(self.rows[row[k] as usize % TABLED_STRATA]);
+            // As `StratifiedSet::point_at`.
+            out[k] = DVec2::new(
+                ((sx + (sy + randfloat(s[k], set.jx)) / n) / m).min(ONE_MINUS_EPSILON),
+                ((s[k] as f64 + randfloat(s[k], set.jy)) / count).min(ONE_MINUS_EPSILON),
+            );
+        }
+        out
+    }
 }
+
+/// The points [`TabledSet::points`] computes at once.
+pub const FILM_LANES: usize = 8;
 
 /// Kensler's hash-based permutation of `0..len` for key `p`, with its mask and an exact division
 /// by `len` by multiplication (Lemire et al. 2019, "Faster remainder by direct computation":
@@ -371,28 +435,35 @@ fn to_unit(h: u64) -> f64 {
 #[inline]
 fn permute(mut i: u32, w: u32, l: u32, p: u32) -> u32 {
     loop {
-        i ^= p;
-        i = i.wrapping_mul(0xe170893d);
-        i ^= p >> 16;
-        i ^= (i & w) >> 4;
-        i ^= p >> 8;
-        i = i.wrapping_mul(0x0929eb3f);
-        i ^= p >> 23;
-        i ^= (i & w) >> 1;
-        i = i.wrapping_mul(1 | (p >> 27));
-        i = i.wrapping_mul(0x6935fa69);
-        i ^= (i & w) >> 11;
-        i = i.wrapping_mul(0x74dcb303);
-        i ^= (i & w) >> 2;
-        i = i.wrapping_mul(0x9e501cc3);
-        i ^= (i & w) >> 2;
-        i = i.wrapping_mul(0xc860a3df);
-        i &= w;
-        i ^= i >> 5;
+        i = permute_round(i, w, p);
         if i < l {
             return i;
         }
     }
+}
+
+/// One round of [`permute`]'s cycle walk (within `0..=w`).
+#[inline(always)]
+fn permute_round(mut i: u32, w: u32, p: u32) -> u32 {
+    i ^= p;
+    i = i.wrapping_mul(0xe170893d);
+    i ^= p >> 16;
+    i ^= (i & w) >> 4;
+    i ^= p >> 8;
+    i = i.wrapping_mul(0x0929eb3f);
+    i ^= p >> 23;
+    i ^= (i & w) >> 1;
+    i = i.wrapping_mul(1 | (p >> 27));
+    i = i.wrapping_mul(0x6935fa69);
+    i ^= (i & w) >> 11;
+    i = i.wrapping_mul(0x74dcb303);
+    i ^= (i & w) >> 2;
+    i = i.wrapping_mul(0x9e501cc3);
+    i ^= (i & w) >> 2;
+    i = i.wrapping_mul(0xc860a3df);
+    i &= w;
+    i ^= i >> 5;
+    i
 }
 
 #[inline]
@@ -589,6 +660,48 @@ mod tests {
                 for i in 0..count.max(1) {
                     assert_eq!(t.point(i), set.point(i), "count {count}, pattern {pattern}, index {i}");
                 }
+            }
+        }
+    }
+
+    /// `TabledSet::points` gives `TabledSet::point` for each of its lanes, to the bit, for
+    /// every index of sets up to the table's size (lanes in order and in reverse, so each index
+    /// is met in several lanes).
+    #[test]
+    fn eight_points_at_once_match_the_points() {
+        for count in (0..=70).chain([100, 255, 256, 257, 1000, 4095, 4096]) {
+            for pattern in [0u32, 1, 9, 0x5eed, 0xdead_beef, u32::MAX] {
+                let set = StratifiedSet::new(count, pattern);
+                let t = TabledSet::new(&set).unwrap();
+                let count = count.max(1);
+                for first in 0..count {
+                    let index: [u32; super::FILM_LANES] = std::array::from_fn(|k| (first + k as u32) % count);
+                    let at = t.points(&index);
+                    let back = t.points(&std::array::from_fn(|k| index[super::FILM_LANES - 1 - k]));
+                    for k in 0..super::FILM_LANES {
+                        assert_eq!(at[k], t.point(index[k]), "count {count}, pattern {pattern}, index {}", index[k]);
+                        assert_eq!(back[super::FILM_LANES - 1 - k], at[k]);
+                    }
+                }
+            }
+        }
+    }
+
+    /// The quotient `TabledSet::points` takes by `f64` division and truncation is `⌊a / len⌋`
+    /// for 32-bit `a` and `len`, at the edges where rounding could reach the next integer.
+    #[test]
+    fn truncated_float_quotients_are_exact() {
+        let mut a_values: Vec<u32> = (0..3000).collect();
+        a_values.extend([u32::MAX, u32::MAX - 1, 1 << 31, (1 << 31) - 1, (1 << 31) + 1, 0xdead_beef, 4_294_967_291]);
+        for len in (1..300).chain([1023, 1024, 1025, 4095, 4096, 4097, 65535, 65536, 65537, 4_294_967_291, u32::MAX]) {
+            // Just below, at and just above each multiple of `len` near the top of the range.
+            let top = (u32::MAX / len) * len;
+            let mut values = a_values.clone();
+            for q in [top, top - top % len, (top / 2) / len * len] {
+                values.extend([q.wrapping_sub(1), q, q.wrapping_add(1)]);
+            }
+            for &a in &values {
+                assert_eq!((f64::from(a) / f64::from(len)) as u32, a / len, "{a} / {len}");
             }
         }
     }

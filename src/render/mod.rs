@@ -33,13 +33,13 @@ pub use job::{ADAPTIVE_TILE_SIZE, AdaptiveSettings, Antialiasing, MAX_ADAPTIVE_D
 
 use crate::geometry::{Intersectable, PACKET};
 use crate::math::ray::Ray;
-use crate::math::sampler::TabledSet;
+use crate::math::sampler::{Sampler, TabledSet};
 use crate::render::accum::{AovSum, PixelSum};
 use crate::render::adaptive::Adaptive;
 use crate::render::aov::AovLayers;
 use crate::render::film::Film;
 use crate::render::sample::{
-    ImageSetup, PixelSetup, PreparedSample, SampleId, camera_rays, image_setup, pixel_setup, single_camera_ray, trace_packet_from,
+    ImageSetup, PixelSetup, PreparedSample, SampleId, camera_rays, image_setup, pixel_setup, single_camera_sample, trace_packet_from,
     trace_pixel_packet, trace_pixel_sample, trace_sample,
 };
 use crate::render::share::{Rect, Sampling, Share, ShareSums};
@@ -555,6 +555,7 @@ impl TileWork {
             ids: [SampleId::Pixel { x: 0, y: 0, index: 0 }; PACKET],
             samples: [PreparedSample::default(); PACKET],
             rays: [Ray { origin: glam::DVec3::ZERO, dir: glam::DVec3::Z }; PACKET],
+            samplers: std::array::from_fn(|_| Sampler::new(0, 0, 0)),
             hits: [crate::geometry::Hit::new(0.0, glam::DVec3::ZERO, glam::DVec3::ZERO); PACKET],
         };
         for (row, y) in (t.y0..t.y1).enumerate() {
@@ -687,8 +688,14 @@ impl StratifiedPixels<'_> {
         let pixel = pixel_setup(job, &self.setup, x, y);
         let points = want.min(self.end).saturating_sub(acc.samples);
         match pixel.film().tabled_pays(points).then(|| TabledSet::new(pixel.film())).flatten() {
-            Some(table) => self.add_pixel_packet_samples(&pixel, |index| table.point(index), want, acc, layers, p, stats),
-            None => self.add_pixel_packet_samples(&pixel, |index| pixel.film().point(index), want, acc, layers, p, stats),
+            Some(table) => {
+                let at = |index: &[u32; PACKET]| film_points(&table, index);
+                self.add_pixel_packet_samples(&pixel, |index| table.point(index), at, want, acc, layers, p, stats)
+            }
+            None => {
+                let at = |index: &[u32; PACKET]| index.map(|i| pixel.film().point(i));
+                self.add_pixel_packet_samples(&pixel, |index| pixel.film().point(index), at, want, acc, layers, p, stats)
+            }
         }
     }
 
@@ -703,6 +710,7 @@ impl StratifiedPixels<'_> {
         &self,
         pixel: &PixelSetup,
         point: impl Fn(u32) -> DVec2,
+        points: impl Fn(&[u32; PACKET]) -> [DVec2; PACKET],
         want: u32,
         acc: &mut PixelSum,
         mut layers: Option<&mut AovSum>,
@@ -712,10 +720,19 @@ impl StratifiedPixels<'_> {
         let (job, share, setup) = (self.job, self.share, &self.setup);
         let wants = |n: u32| n < want && share.sample_index(n) < self.end;
         while wants(acc.samples) {
+            // The next samples' indices (the lanes past them repeat the first, a valid index)
+            // and their film positions, computed together.
+            let first = share.sample_index(acc.samples);
+            let mut index = [first; PACKET];
+            let mut taken = 1;
+            while taken < PACKET && wants(acc.samples + taken as u32) {
+                index[taken] = share.sample_index(acc.samples + taken as u32);
+                taken += 1;
+            }
+            let at = points(&index);
             let mut n = 0;
-            while n < PACKET && wants(acc.samples + n as u32) {
-                let index = share.sample_index(acc.samples + n as u32);
-                let Some((sample, ray)) = pixel.prepare(job, setup, index, point(index)) else { break };
+            while n < taken {
+                let Some((sample, ray)) = pixel.prepare(job, setup, index[n], at[n]) else { break };
                 (p.samples[n], p.rays[n]) = (sample, ray);
                 n += 1;
             }
@@ -736,11 +753,36 @@ impl StratifiedPixels<'_> {
     }
 }
 
+/// The film positions of points `index[k]` of `table` ([`TabledSet::points`]), in the copy
+/// compiled for AVX2 where the CPU has it (and `RAYLAB_SIMD` is not `baseline`): the same
+/// operations on the same values, so the same bits either way.
+#[inline(always)]
+fn film_points(table: &TabledSet, index: &[u32; PACKET]) -> [DVec2; PACKET] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        #[target_feature(enable = "avx2")]
+        fn avx2(table: &TabledSet, index: &[u32; PACKET]) -> [DVec2; PACKET] {
+            table.points(index)
+        }
+        static AVX2: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+        let fast = *AVX2
+            .get_or_init(|| std::env::var_os("RAYLAB_SIMD").is_none_or(|v| v != "baseline") && std::arch::is_x86_feature_detected!("avx2"));
+        if fast {
+            // SAFETY: `avx2` only runs AVX2 instructions, and is called only after
+            // `is_x86_feature_detected!` found AVX2 on this CPU.
+            return unsafe { avx2(table, index) };
+        }
+    }
+    table.points(index)
+}
+
 /// What a packet of camera rays is gathered in (kept for a tile, so no round initialises it).
 struct PacketScratch {
     ids: [SampleId; PACKET],
     samples: [PreparedSample; PACKET],
     rays: [Ray; PACKET],
+    /// The streams of the rays of `ids`.
+    samplers: [Sampler; PACKET],
     hits: [crate::geometry::Hit; PACKET],
 }
 
@@ -773,8 +815,8 @@ impl StratifiedPixels<'_> {
                 let k = m.trailing_zeros() as usize;
                 m &= m - 1;
                 let id = SampleId::Pixel { x: x0 + k as u32, y, index: share.sample_index(accs[k].samples) };
-                match single_camera_ray(job, setup, id) {
-                    Some(ray) => (p.ids[k], p.rays[k]) = (id, ray),
+                match single_camera_sample(job, setup, id) {
+                    Some((ray, sampler)) => (p.ids[k], p.rays[k], p.samplers[k]) = (id, ray, sampler),
                     None => {
                         trace_sample(job, setup, id, &mut accs[k], layers.as_deref_mut().map(|l| &mut l[k]), stats);
                         accs[k].samples += 1;
@@ -784,7 +826,7 @@ impl StratifiedPixels<'_> {
             }
             let hits = job.scene.intersect_packet(&p.rays, live, 0.0, &[f64::INFINITY; PACKET], &mut p.hits);
             // The block's hits shaded together (`Integrator::radiance_packet`).
-            trace_packet_from(job, setup, &p.ids, &p.rays, (live, hits), &p.hits, accs, layers.as_deref_mut(), stats);
+            trace_packet_from(job, setup, &p.ids, (&p.rays, &mut p.samplers), (live, hits), &p.hits, accs, layers.as_deref_mut(), stats);
             let mut m = live;
             while m != 0 {
                 let k = m.trailing_zeros() as usize;

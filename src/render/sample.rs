@@ -72,11 +72,13 @@ pub struct CameraRays<'a> {
     screen: ScreenMap,
     film: DVec2,
     sampler: Sampler,
-    /// Lens points `first .. first + count` of a stratified set of `total`.
+    /// Lens points `first .. first + count` of a stratified set of `total`, or with
+    /// `progressive` of the pixel's progressive lens sequence ([`progressive_lens`]).
     first: u32,
     count: u32,
     total: u32,
     pattern: u32,
+    progressive: bool,
     next: u32,
 }
 
@@ -100,7 +102,13 @@ impl CameraRays<'_> {
     #[inline(always)]
     fn ray(&self, l: u32) -> Ray {
         let camera = &self.job.scene.camera;
-        let lens = if camera.aperture > 0.0 { stratified_2d(self.first + l, self.total.max(1), self.pattern) } else { DVec2::ZERO };
+        let lens = if camera.aperture <= 0.0 {
+            DVec2::ZERO
+        } else if self.progressive {
+            progressive_lens(self.first + l, self.pattern)
+        } else {
+            stratified_2d(self.first + l, self.total.max(1), self.pattern)
+        };
         camera.ray_in(&self.screen, self.film, lens)
     }
 
@@ -109,6 +117,25 @@ impl CameraRays<'_> {
     fn sampler(&self, l: u32) -> Sampler {
         if l == 0 { self.sampler.clone() } else { self.sampler.fork(u64::from(l)) }
     }
+}
+
+/// Lens point `j` (the pixel's `j`-th camera ray) of a pixel whose samples may stop after any
+/// power of two (an error target, a time budget), for lens pattern `pattern`: the Sobol
+/// (0, 2)-sequence ([`sobol_02`]) at `j` shuffled by a nested uniform scramble of its bits
+/// (Burley 2020, "Practical Hash-based Owen Scrambling": each bit flipped by a hash of the bits
+/// above it, Laine–Karras), so the first `2^k` rays take an aligned block of `2^k` points of the
+/// sequence, a (0, k, 2)-net: stratified on the lens whatever the pixel's final count, and in
+/// another order than the film positions `sobol_02` gives the same pixel's samples.
+#[inline]
+fn progressive_lens(j: u32, pattern: u32) -> DVec2 {
+    let seed = pattern.wrapping_mul(0x9e37_79b9) | 1;
+    let mut v = j.reverse_bits();
+    v = v.wrapping_add(seed);
+    v ^= v.wrapping_mul(0x6c50_b47c);
+    v ^= v.wrapping_mul(0xb82f_1e52);
+    v ^= v.wrapping_mul(0xc7af_e638);
+    v ^= v.wrapping_mul(0x8d22_f6e6);
+    sobol_02(v.reverse_bits(), pattern)
 }
 
 /// The camera rays of sample `id` of `job`: where it lies on the film, and for each lens point
@@ -176,6 +203,10 @@ pub fn camera_rays_in<'a>(job: &'a RenderJob, image: &ImageSetup, id: SampleId) 
                 count: per_sample,
                 total: s.spp * s.lens_samples,
                 pattern: pattern ^ LENS_PATTERN,
+                // A pixel that may stop after any power of two of samples takes its lens points
+                // from a sequence whose every such prefix is stratified too: the first `n` points
+                // of a stratified set of `spp` (the cap) are a random choice of its strata.
+                progressive: s.progressive(),
                 next: 0,
             }
         }
@@ -193,6 +224,7 @@ pub fn camera_rays_in<'a>(job: &'a RenderJob, image: &ImageSetup, id: SampleId) 
                 count: per_sample,
                 total: s.lens_samples,
                 pattern,
+                progressive: false,
                 next: 0,
             }
         }
@@ -210,6 +242,7 @@ pub fn camera_rays_in<'a>(job: &'a RenderJob, image: &ImageSetup, id: SampleId) 
                 count: per_sample,
                 total: count * s.lens_samples,
                 pattern: cell ^ LENS_PATTERN,
+                progressive: false,
                 next: 0,
             }
         }
@@ -272,6 +305,7 @@ impl PixelSetup {
             count: per_sample,
             total: s.spp * s.lens_samples,
             pattern: self.pattern ^ LENS_PATTERN,
+            progressive: false,
             next: 0,
         }
     }
@@ -369,6 +403,14 @@ pub fn single_camera_ray(job: &RenderJob, setup: &ImageSetup, id: SampleId) -> O
     (rays.count == 1).then(|| rays.ray(0))
 }
 
+/// [`single_camera_ray`] with the random stream the integrator draws from for it (what
+/// [`trace_packet_from`] takes, so the sample's stream is not set up twice).
+#[inline(always)]
+pub fn single_camera_sample(job: &RenderJob, setup: &ImageSetup, id: SampleId) -> Option<(Ray, Sampler)> {
+    let rays = camera_rays_in(job, setup, id);
+    (rays.count == 1).then(|| (rays.ray(0), rays.sampler(0)))
+}
+
 /// [`trace_sample`] for a sample whose one camera ray `ray` ([`single_camera_ray`]) has the
 /// closest hit `hit` in the scene (found for a packet of them), for an integrator that
 /// [takes camera hits](crate::render::integrator::Integrator::takes_camera_hits): the same sums.
@@ -388,16 +430,17 @@ pub fn trace_sample_from(
 }
 
 /// [`trace_sample_from`] for the samples `ids[k]` of mask `live`, one camera ray each
-/// (`rays[k]`, [`single_camera_ray`]) with its closest hit (`hit[k]` where bit `k` of `hits` is
-/// set), shaded together ([`crate::render::integrator::Integrator::radiance_packet`]): pixel
-/// `k`'s `accs[k]` (and `layers[k]`) gets exactly the sums `trace_sample_from` adds.
+/// (`rays[k]`, [`single_camera_sample`], whose stream `samplers[k]` is) with its closest hit
+/// (`hit[k]` where bit `k` of `hits` is set), shaded together
+/// ([`crate::render::integrator::Integrator::radiance_packet`]): pixel `k`'s `accs[k]` (and
+/// `layers[k]`) gets exactly the sums `trace_sample_from` adds.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub fn trace_packet_from(
     job: &RenderJob,
     setup: &ImageSetup,
     ids: &[SampleId; PACKET],
-    rays: &[Ray; PACKET],
+    (rays, samplers): (&[Ray; PACKET], &mut [Sampler; PACKET]),
     (live, hits): (u32, u32),
     hit: &[Hit; PACKET],
     accs: &mut [PixelSum],
@@ -405,20 +448,22 @@ pub fn trace_packet_from(
     stats: &mut RayStats,
 ) {
     let mut second = 0u32;
-    let mut samplers: [Sampler; PACKET] = std::array::from_fn(|k| {
-        let r = camera_rays_in(job, setup, ids[k]);
-        if live >> k & 1 != 0 {
-            second |= u32::from(second_half(setup, ids[k], r.film, &mut accs[k])) << k;
-        }
-        r.sampler(0)
-    });
+    // One sample per pixel here (`spp = 1`), never progressive: the film position matters to
+    // `second_half` only for a stratified set of several, so no sample's is computed again.
+    debug_assert!(!setup.progressive && setup.strata.1 <= 1);
+    let mut m = live;
+    while m != 0 {
+        let k = m.trailing_zeros() as usize;
+        m &= m - 1;
+        second |= u32::from(second_half(setup, ids[k], DVec2::ZERO, &mut accs[k])) << k;
+    }
     let mut aovs = [setup.miss; PACKET];
     for a in &mut aovs {
         // Summed layers are a denoiser's guides, as in `trace_rays`.
         a.guides = layers.is_some();
     }
     let mut out = [Color::ZERO; PACKET];
-    job.integrator.radiance_packet(&job.scene, rays, live, hits, hit, &mut samplers, stats, &mut aovs, &mut out);
+    job.integrator.radiance_packet(&job.scene, rays, live, hits, hit, samplers, stats, &mut aovs, &mut out);
     let mut m = live;
     while m != 0 {
         let k = m.trailing_zeros() as usize;
@@ -557,4 +602,35 @@ fn trace_rays(
         signature = mix64(signature.rotate_left(1) ^ first.signature);
     }
     signature
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Under an error target or a time budget a pixel's first `2^k` lens points, for every `k`,
+    /// put one point in each elementary interval of area `2^-k` (a (0, k, 2)-net): stratified on
+    /// the lens whatever the pixel's final count. (The first `n` points of a stratified set of
+    /// the cap, as before, are not: they are a random choice of its strata.)
+    #[test]
+    fn progressive_lens_points_stratify_every_power_of_two_prefix() {
+        for pattern in [0u32, 1, 0x5bd1_e995, 0xdead_beef, 123_456_789] {
+            let points: Vec<DVec2> = (0..1024).map(|j| progressive_lens(j, pattern)).collect();
+            for k in 0..=10u32 {
+                let n = 1usize << k;
+                for a in 0..=k {
+                    let (cols, rows) = (1u32 << a, 1u32 << (k - a));
+                    let mut seen = vec![false; n];
+                    for p in &points[..n] {
+                        assert!((0.0..1.0).contains(&p.x) && (0.0..1.0).contains(&p.y));
+                        let cell = (p.y * f64::from(rows)) as usize * cols as usize + (p.x * f64::from(cols)) as usize;
+                        assert!(!seen[cell], "pattern {pattern}: {n} points, {cols}×{rows} cells: two in cell {cell}");
+                        seen[cell] = true;
+                    }
+                }
+            }
+            // In another order than the film's Sobol points of the same pixel.
+            assert!((0..64).any(|j| progressive_lens(j, pattern) != sobol_02(j, pattern)));
+        }
+    }
 }
