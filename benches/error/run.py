@@ -3,7 +3,8 @@
 equal error, and what the denoiser buys and where it stops paying (its bias floor).
 
     python3 benches/error/run.py RAYLAB [--scenes path-cornell,pbr-spheres,environment,quality]
-        [--scale 1] [--max-spp 1024] [--out target/error-bench] [--plot docs/error-trade.png]
+        [--scale 1] [--ref-spp N] [--max-spp 1024] [--no-targets] [--out target/error-bench]
+        [--plot docs/error-trade.png]
 
 For each scene (small sizes: a loaded machine), against a high-sample reference rendered once and
 cached in --out:
@@ -171,8 +172,9 @@ def less_noise(err, noise):
     return math.sqrt(max(err * err - noise * noise, 0.0))
 
 
-def measure(b, name, cfg, max_spp, scale, target_seeds=3, denoise=True):
-    file, w, h, ref_spp, _ = cfg
+def measure(b, name, cfg, max_spp, scale, target_seeds=3, denoise=True, targets=TARGETS, ref_spp=None):
+    file, w, h, scene_ref_spp, _ = cfg
+    ref_spp = ref_spp or scene_ref_spp
     w, h = w * scale, h * scale
     scene = os.path.join(ROOT, file)
     ref = reference(b, name, scene, w, h, ref_spp, 12345)
@@ -191,7 +193,7 @@ def measure(b, name, cfg, max_spp, scale, target_seeds=3, denoise=True):
             r = b.render(scene, w, h, out, "--spp", str(spp), "--denoise")
             img = pfm(out)
             rows["denoised"].append(dict(r, spp=spp, mean_spp=spp, rmse=rel_rmse(img, ref), disp=display_rmse(img, ref), flip=flip(img, ref)))
-    for target in TARGETS:
+    for target in targets:
         print(f"[{name}] target {target} …", file=sys.stderr, flush=True)
         r = b.render(scene, w, h, out, "--spp", str(4 * max_spp), "--target-error", str(target), "--max-rays", str(2**63))
         img = pfm(out)
@@ -297,10 +299,10 @@ def report(results, max_spp):
         print("| " + " | ".join(cells) + " |")
     print(f"\n### The spp at the noisy {max_spp}-spp error, interpolated\n")
     print(f"Log-log between the measured counts: the samples per pixel (the mean, under a target) at which each way reaches the "
-          f"noisy {max_spp}-spp render's error, ÷ {max_spp} (the target of issue 30: ≤ 0.2×). CPU seconds scale with the samples "
-          "(the denoiser's own cost is in the CPU columns above).\n")
-    print("| scene | by | uniform + denoiser | ratio | error target + denoiser | ratio |")
-    print("|---|---|---|---|---|---|")
+          f"noisy {max_spp}-spp render's error, ÷ {max_spp}; then the CPU seconds (render and denoiser) interpolated the same way "
+          f"at that count, ÷ the noisy {max_spp}-spp render's (the target of issue 30: ≤ 0.2×).\n")
+    print("| scene | by | uniform + denoiser | ratio | CPU ratio | error target + denoiser | ratio | CPU ratio |")
+    print("|---|---|---|---|---|---|---|---|")
     for res in results:
         u, d, td = res["rows"]["uniform"], res["rows"]["denoised"], res["rows"].get("target_denoised", [])
         res["denoise_crossing"] = {}
@@ -313,7 +315,10 @@ def report(results, max_spp):
                 reached = len(pts) >= 2 and min(v for _, v in pts) <= goal
                 spp = spp_at(pts, goal) if reached else float("nan")
                 crossing[name] = spp if spp == spp else None
-                cells += [f"{spp:.0f} spp", f"{spp / max_spp:.2f}"] if spp == spp else ["not reached" if pts else "—", "—"]
+                cpu = value_at([(r[x], r["cpu"]) for r in rows], spp) / u[-1]["cpu"] if spp == spp else float("nan")
+                if spp == spp:
+                    crossing[f"{name}_cpu_ratio"] = cpu
+                cells += [f"{spp:.0f} spp", f"{spp / max_spp:.2f}", f"{cpu:.2f}"] if spp == spp else ["not reached" if pts else "—", "—", "—"]
             res["denoise_crossing"][key] = crossing
             print("| " + " | ".join(cells) + " |")
 
@@ -355,6 +360,8 @@ def main():
     ap.add_argument("--from-json", help="report and plot the rows.json of an earlier run instead of rendering")
     ap.add_argument("--target-seeds", type=int, default=3, help="seeds of each error target, for the estimate's honesty (table (a′))")
     ap.add_argument("--no-denoise", action="store_true", help="skip the denoised renders")
+    ap.add_argument("--no-targets", action="store_true", help="skip the error targets (tables (a′) and (b)): uniform and denoised rows only")
+    ap.add_argument("--ref-spp", type=int, help="the references' samples per pixel instead of each scene's own (e.g. 8192 at --scale 2)")
     ap.add_argument("--keep", help="a rows.json whose denoised rows to keep for scenes this run does not denoise")
     a = ap.parse_args()
     if a.from_json:
@@ -374,7 +381,8 @@ def main():
     except subprocess.CalledProcessError:
         print("no pyoidn: the denoised rows are skipped (pip install pyoidn)", file=sys.stderr)
     b = Bench(os.path.abspath(a.raylab), a.out, env)
-    results = [measure(b, n, SCENES[n], a.max_spp, a.scale, a.target_seeds, not a.no_denoise) for n in a.scenes.split(",")]
+    targets = [] if a.no_targets else TARGETS
+    results = [measure(b, n, SCENES[n], a.max_spp, a.scale, a.target_seeds, not a.no_denoise, targets, a.ref_spp) for n in a.scenes.split(",")]
     if a.keep:
         with open(a.keep) as f:
             kept = {r["scene"]: r for r in json.load(f)}

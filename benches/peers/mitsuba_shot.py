@@ -1,6 +1,7 @@
 """Mitsuba 3 (PyPI `mitsuba`) render of one of raylab's peer shots with the `direct` integrator.
 
     python mitsuba_shot.py SCENE.toml --variant scalar_rgb|llvm_ad_rgb --threads N [--scale S] [--png OUT.png]
+                           [--renders R] [--kernels]
 
 SCENE.toml is one of the shots of this folder (`bunny/bunny.toml`, `big/big.toml`,
 `spheres/spheres.toml`), read as raylab reads it: its camera, `[render]` size and samples per
@@ -17,7 +18,11 @@ raylab does for an OBJ without normals. Irradiance π makes Mitsuba's diffuse (a
 as raylab's kd·(n·l).
 
 The render is timed twice in one process; the second time is reported as `render_s` (for the
-llvm variant the first includes compiling the kernel; `first_render_s` shows it).
+llvm variant the first includes compiling the kernel; `first_render_s` shows it). `--renders R`
+(default 2) renders R times in all, the last one reported: `profile.sh` counts the instructions of
+R = 3 and R = 2 and takes the difference, one warm render. `--kernels` (llvm variants) prints the
+Dr.Jit kernels the last render launched: their sizes, IR operation counts, execution times and
+SIMD width (from the kernel's LLVM IR).
 """
 
 import argparse
@@ -91,6 +96,8 @@ def main():
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--scale", type=float, default=1.0)
     ap.add_argument("--png")
+    ap.add_argument("--renders", type=int, default=2)
+    ap.add_argument("--kernels", action="store_true")
     a = ap.parse_args()
 
     import drjit as dr
@@ -105,15 +112,33 @@ def main():
     img = mi.render(scene, spp=spp)
     dr.eval(img)
     dr.sync_thread()
-    t2 = time.perf_counter()
-    c2 = time.process_time()
-    img = mi.render(scene, spp=spp, seed=1)
-    dr.eval(img)
-    dr.sync_thread()
-    t3 = time.perf_counter()
-    c3 = time.process_time()
+    t_first = time.perf_counter()
+    if a.kernels:
+        dr.set_flag(dr.JitFlag.KernelHistory, True)
+        dr.kernel_history()  # empties the history: only the last render's kernels are printed
+    for seed in range(1, max(2, a.renders)):
+        if a.kernels:
+            dr.kernel_history()
+        t2 = time.perf_counter()
+        c2 = time.process_time()
+        img = mi.render(scene, spp=spp, seed=seed)
+        dr.eval(img)
+        dr.sync_thread()
+        t3 = time.perf_counter()
+        c3 = time.process_time()
+    if a.kernels:
+        import re
+
+        for k in dr.kernel_history():
+            ir = k.get("ir", "")
+            ir = ir.read() if hasattr(ir, "read") else str(ir)
+            widths = sorted({int(w) for w in re.findall(r"<(\d+) x float>", ir)})
+            print(
+                f"kernel type={str(k['type']).split('.')[-1]} size={k.get('size')} ops={k.get('operation_count', '')} "
+                f"execution_ms={k.get('execution_time', 0):.3f} float_vector_widths={widths}"
+            )
     print(f"mitsuba {mi.__version__} variant={a.variant} threads={a.threads}")
-    print(f"load_s {t1 - t0:.4f} first_render_s {t2 - t1:.4f} render_s {t3 - t2:.4f} render_cpu_s {c3 - c2:.4f}")
+    print(f"load_s {t1 - t0:.4f} first_render_s {t_first - t1:.4f} render_s {t3 - t2:.4f} render_cpu_s {c3 - c2:.4f}")
     if a.png:
         mi.util.write_bitmap(a.png, img)
 

@@ -546,6 +546,21 @@ fn denoising_brings_a_noisy_render_closer_to_the_reference() {
     let fine = read("fine.pfm");
     assert_eq!((fine.width, fine.height), (48, 48));
     assert!(rmse(&fine) < rmse(&denoised), "RMSE denoised at 32 spp on the grid {}, at 4 spp {}", rmse(&fine), rmse(&denoised));
+    // The same sub-pixels rendered as a frame of twice the width and height at 8 spp (as a farm
+    // would render them, tile by tile) and given to `raylab denoise --subpixels 2`: the image
+    // `render --denoise` wrote. Without --subpixels it says it denoised the pixels it was given.
+    let wide = ["--width", "96", "--height", "96", "--spp", "8", "-o", "sub.exr", "--aov", "albedo,normal,emission"];
+    let out = raylab(&dir, &[&["render", scene][..], &wide[..], &["-q", "--seed", "3"]].concat());
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let out = raylab(&dir, &["denoise", "sub.exr", "--subpixels", "2", "-o", "sub.pfm"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(text(&out.stdout).contains("(48×48, ") && text(&out.stdout).contains("on 2 × 2 sub-pixels"), "{}", text(&out.stdout));
+    let sub = read("sub.pfm");
+    let apart = fine.pixels.iter().zip(&sub.pixels).map(|(a, b)| (*a - *b).abs().max_element()).fold(0.0f32, f32::max);
+    assert!(apart < 1e-3, "render --denoise on 2 × 2 and raylab denoise --subpixels 2 differ by {apart}");
+    assert!(text(&raylab(&dir, &["denoise", "noisy.exr", "-o", "pixels.pfm"]).stdout).contains("on the frame's pixels"));
+    let out = raylab(&dir, &["denoise", "noisy.exr", "--subpixels", "5", "-o", "odd.pfm"]);
+    assert!(!out.status.success() && text(&out.stderr).contains("multiples of 5"), "{}", text(&out.stderr));
     // Never over its input.
     let out = raylab(&dir, &["denoise", "noisy.exr", "-o", "./noisy.exr"]);
     assert!(!out.status.success() && text(&out.stderr).contains("would overwrite its input"), "{}", text(&out.stderr));

@@ -1,5 +1,7 @@
 //! `raylab denoise`: a finished image (an EXR with `--aov albedo,normal`, or a PFM) denoised by
-//! Intel Open Image Denoise ([`crate::image::denoise`]), e.g. a frame merged from a farm's tiles.
+//! Intel Open Image Denoise ([`crate::image::denoise`]), e.g. a frame merged from a farm's tiles;
+//! with `--subpixels K`, an image rendered on `K × K` sub-pixels per pixel denoised there and
+//! averaged back over each pixel, as `render --denoise` does ([`crate::image::denoise::grid`]).
 
 use super::{App, Failure};
 use crate::image::denoise::{Layers, denoise};
@@ -20,7 +22,16 @@ pub(crate) struct DenoiseArgs {
     /// does by itself for such a camera).
     #[arg(long)]
     noisy_guides: bool,
+    /// The input holds K × K sub-pixels per pixel of the frame (rendered at K times its width and
+    /// height with spp / K² samples: `render --denoise`'s finer grid, e.g. by a farm): denoised
+    /// there, then averaged over each K × K block, the frame's pixels. Less error than denoising
+    /// the frame's pixels (docs/error-targets.md, "On a finer grid").
+    #[arg(long, value_name = "K", default_value_t = 1, value_parser = super::int_in::<u32>(1, i128::from(MAX_SUBPIXELS)))]
+    subpixels: u32,
 }
+
+/// The most sub-pixels per pixel side `--subpixels` takes.
+const MAX_SUBPIXELS: u32 = 16;
 
 pub(crate) fn run(app: &App, a: DenoiseArgs) -> Result<(), Failure> {
     super::refuse_overwrite("denoise", &[a.output.as_path()], [a.input.as_path()])?;
@@ -34,11 +45,32 @@ pub(crate) fn run(app: &App, a: DenoiseArgs) -> Result<(), Failure> {
         _ => "no guides (render with --aov albedo,normal,emission for better results)",
     };
     let emission = if l.emitted.is_some() { ", its emission left out of the filter" } else { "" };
+    let k = a.subpixels;
+    let (w, h) = (l.color.width, l.color.height);
+    if !(w.is_multiple_of(k) && h.is_multiple_of(k)) {
+        return Err(Failure::Other(format!(
+            "{}: {w}×{h} pixels cannot be {k} × {k} sub-pixels of a frame's pixels (--subpixels {k} needs a width and height that are multiples of {k})",
+            a.input.display()
+        )));
+    }
     let film = denoise(&l.color, l.albedo.as_ref(), l.normal.as_ref(), l.emitted.as_ref(), !a.noisy_guides).map_err(Failure::Other)?;
+    let film = if k > 1 { crate::image::denoise::box_down(&film, k).map_err(Failure::Other)? } else { film };
+    let grid = if k > 1 {
+        format!(", on {k} × {k} sub-pixels averaged back over each pixel")
+    } else {
+        // Why not finer: this file holds the frame's pixels alone.
+        ", on the frame's pixels (a frame rendered at K× its width and height with spp/K² samples, denoised with --subpixels K, has less error)".into()
+    };
     let settings =
         crate::image::output::WriteSettings { encoding: crate::math::color::Encoding::Srgb, grid: None, layers: None, half: false };
     format.write(&a.output, &film, &settings).map_err(|e| e.to_string())?;
-    println!("wrote {} ({}×{}, denoised with {guides}{emission}) from {}", a.output.display(), film.width, film.height, a.input.display());
+    println!(
+        "wrote {} ({}×{}, denoised with {guides}{emission}{grid}) from {}",
+        a.output.display(),
+        film.width,
+        film.height,
+        a.input.display()
+    );
     Ok(())
 }
 

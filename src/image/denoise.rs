@@ -172,11 +172,14 @@ pub fn denoise_guided(film: &Film, layers: Option<&crate::render::aov::AovLayers
 }
 
 /// The fewest samples a sub-pixel takes when the denoiser works on a finer grid ([`grid`]).
-/// Measured on `path-cornell` at 64² (docs/error-targets.md), displayed RMSE of the denoised
-/// image: at 128 spp 0.0114 on the pixel grid, 0.0089 on a 2 × 2 grid (32 spp a sub-pixel),
-/// 0.0081 on 4 × 4 (8 spp), 0.0088 on 8 × 8 (2 spp); at 32 spp 0.0176, 0.0150 (8 spp), 0.0132
-/// (2 spp); at 16 spp 0.0222 on the pixel grid, 0.0211 on 4 × 4 (1 spp). So 4 × 4 won down to
-/// 2 samples a sub-pixel there; 8 is the count `benches/error` measured this rule at.
+/// Measured on `path-cornell` at 64² over six seeds (benches/error/RESULTS.md, 2026-11-28),
+/// displayed RMSE of the denoised image: at 128 spp 0.0109 on the pixel grid, 0.0095 on 2 × 2
+/// (32 a sub-pixel), 0.0089 on 4 × 4 (8), 0.0081 on 8 × 8 (2); at 32 spp 0.0166, 0.0149 (8),
+/// 0.0137 on 4 × 4 (2); at 16 spp 0.0210, 0.0193 on 2 × 2 (4), 0.0220 on 4 × 4 (1). So at equal
+/// samples the finest grid with 2 a sub-pixel wins; but the denoiser costs about three samples'
+/// CPU per sub-pixel, and at equal CPU this count's grids win (4 × 4 at 160 spp reaches the
+/// noisy 1024-spp error in 0.24× its time, 2 × 2 at ~220 in 0.26×, 8 × 8 at 128 not quite, in
+/// 0.34×).
 pub const MIN_GRID_SPP: u32 = 8;
 
 /// The most sub-pixels a finer grid may have ([`grid`]): its sums take about 200 bytes each
@@ -188,7 +191,7 @@ pub const MAX_GRID_PIXELS: u64 = 1 << 22;
 /// (the same camera rays), and its result is averaged back over each pixel (the box filter the
 /// pixels have). Open Image Denoise removes more noise from more pixels at fewer samples than
 /// from fewer at more: on `path-cornell` at 64² the denoised image reaches the noisy 1024-spp
-/// error from about 120 spp on a 4 × 4 grid, against 340 on the pixel grid. `k` is the largest
+/// error from about 160 spp on a 4 × 4 grid, against ~410 on the pixel grid. `k` is the largest
 /// of 4 and 2 that divides the samples evenly (`spp` a multiple of `k²`), leaves each sub-pixel
 /// at least [`MIN_GRID_SPP`], and keeps the grid within [`MAX_GRID_PIXELS`]; only for plain
 /// stratified sampling (an error target, a time budget and adaptive anti-aliasing decide each
@@ -235,8 +238,15 @@ pub fn denoise_rendered(
     Ok(())
 }
 
-/// `film` averaged over blocks of `k × k` pixels (its sides multiples of `k`).
-fn box_down(film: &Film, k: u32) -> Result<Film, String> {
+/// `film` averaged over blocks of `k × k` pixels (its sides multiples of `k`; `k` = 1: `film`
+/// as it is), the box filter a frame's pixels have over their sub-pixels.
+pub fn box_down(film: &Film, k: u32) -> Result<Film, String> {
+    if k == 1 {
+        return Ok(film.clone());
+    }
+    if k == 0 || !(film.width.is_multiple_of(k) && film.height.is_multiple_of(k)) {
+        return Err(format!("a {}×{} image is not made of {k} × {k} blocks", film.width, film.height));
+    }
     let mut out = Film::new(film.width / k, film.height / k).map_err(|e| e.to_string())?;
     let (w, cw) = (film.width as usize, out.width as usize);
     let mut sums = vec![glam::DVec3::ZERO; out.pixels.len()];

@@ -3,7 +3,7 @@
 //
 //   bunny_embree render MESH.obj --camera PX PY PZ TX TY TZ FOV --light DX DY DZ [--plane Y]
 //                 [--width 800] [--height 600] [--threads N] [--quality medium|high] [--robust]
-//                 [--ppm OUT.ppm]
+//                 [--packet 1|4|8|16] [--device CONFIG] [--repeat N] [--ppm OUT.ppm]
 //   bunny_embree load MESH.obj [--quality medium|high] [--robust]
 //
 // `render` traces, per pixel, one camera ray through the pixel centre (rtcIntersect1) and, on a
@@ -18,6 +18,15 @@
 // stealing in raylab). In each band the camera rays are traced first, then the shadow rays of
 // that band's hits, each phase timed by the thread's CPU clock; the frame is timed by the wall
 // clock. Embree's own (TBB) threads are used for the BVH build only.
+//
+// `--packet N` (4, 8 or 16; default 1) traces the same rays as packets of N: the camera rays of N
+// neighbouring pixels of a row (`rtcIntersectN`; the last packet of a row has fewer valid lanes),
+// then the band's shadow rays N at a time in the order the single-ray path traces them
+// (`rtcOccludedN`; a ray the plane blocks is an invalid lane). Same counts, same image; it is the
+// "8-wide packets" row of issue 29's targets (`benches/peers/profile.sh` profiles both).
+//
+// `--device CONFIG` is handed to rtcNewDevice, e.g. "max_isa=avx2": the code valgrind runs (it has
+// no AVX-512), so a native run's instruction rate can be set beside callgrind's count.
 //
 // `load` reads the OBJ (one pass over the bytes, read whole into memory), builds the scene and
 // exits: time it and its peak memory with /usr/bin/time -v.
@@ -37,6 +46,7 @@
 #include <string>
 #include <sys/resource.h>
 #include <thread>
+#include <type_traits>
 #include <vector>
 
 namespace {
@@ -147,7 +157,7 @@ Mesh read_obj(const std::string &path) {
 // ---------------------------------------------------------------------------------------------
 
 struct Options {
-    std::string mode, mesh, ppm;
+    std::string mode, mesh, ppm, device;
     double cam[7] = {0, 0, 1, 0, 0, 0, 45};
     double light[3] = {0, -1, 0};
     bool plane = false;
@@ -155,6 +165,8 @@ struct Options {
     int width = 800, height = 600, threads = 1;
     RTCBuildQuality quality = RTC_BUILD_QUALITY_MEDIUM;
     bool robust = false;
+    int packet = 1;
+    int repeat = 1;
 };
 
 Options parse_args(int argc, char **argv) {
@@ -179,6 +191,12 @@ Options parse_args(int argc, char **argv) {
         else if (a == "--height") o.height = int(num(i));
         else if (a == "--threads") o.threads = int(num(i));
         else if (a == "--robust") o.robust = true;
+        else if (a == "--packet") {
+            o.packet = int(num(i));
+            if (o.packet != 1 && o.packet != 4 && o.packet != 8 && o.packet != 16) die("--packet: 1, 4, 8 or 16");
+        }
+        else if (a == "--repeat") { o.repeat = int(num(i)); if (o.repeat < 1 || o.repeat > 100000) die("--repeat: 1..100000"); }
+        else if (a == "--device") { if (++i >= argc) die("missing value after --device"); o.device = argv[i]; }
         else if (a == "--ppm") { if (++i >= argc) die("missing file after --ppm"); o.ppm = argv[i]; }
         else if (a == "--quality") {
             if (++i >= argc) die("missing value after --quality");
@@ -266,8 +284,21 @@ struct PendingShadow {
     uint32_t pixel;
 };
 
+// Packets of N rays: Embree's fixed-size entry points, on the SOA layout of RTCRayHitNt<N>
+// (the same layout as RTCRayHit4/8/16; Embree wants the packet aligned to its size).
+template <int N> void intersect_n(const int *valid, RTCScene s, RTCIntersectContext *c, RTCRayHitNt<N> *rh) {
+    if constexpr (N == 4) rtcIntersect4(valid, s, c, reinterpret_cast<RTCRayHit4 *>(rh));
+    else if constexpr (N == 8) rtcIntersect8(valid, s, c, reinterpret_cast<RTCRayHit8 *>(rh));
+    else rtcIntersect16(valid, s, c, reinterpret_cast<RTCRayHit16 *>(rh));
+}
+template <int N> void occluded_n(const int *valid, RTCScene s, RTCIntersectContext *c, RTCRayNt<N> *r) {
+    if constexpr (N == 4) rtcOccluded4(valid, s, c, reinterpret_cast<RTCRay4 *>(r));
+    else if constexpr (N == 8) rtcOccluded8(valid, s, c, reinterpret_cast<RTCRay8 *>(r));
+    else rtcOccluded16(valid, s, c, reinterpret_cast<RTCRay16 *>(r));
+}
+
 int render(const Options &o) {
-    RTCDevice dev = rtcNewDevice(nullptr);
+    RTCDevice dev = rtcNewDevice(o.device.empty() ? nullptr : o.device.c_str());
     if (!dev) die("rtcNewDevice failed");
     double t0 = now_s();
     Mesh mesh = read_obj(o.mesh);
@@ -286,6 +317,102 @@ int render(const Options &o) {
     std::vector<Counts> counts(size_t(o.threads));
     std::atomic<int> next{0};
 
+    // One band as packets of N (see `--packet`): the same rays, hits and shading as the single-ray
+    // band below.
+    auto packet_band = [&](auto n_tag, int b, Counts &c, std::vector<PendingShadow> &pending, RTCIntersectContext &ctx) {
+        constexpr int N = decltype(n_tag)::value;
+        alignas(64) RTCRayHitNt<N> rh;
+        alignas(64) RTCRayNt<N> sr;
+        alignas(64) int valid[N];
+        float tplanes[N];
+        int xs[N];
+        V3 ds[N];
+        const double ta = thread_cpu_s();
+        pending.clear();
+        for (int y = b * band; y < std::min(H, (b + 1) * band); ++y) {
+            for (int x0 = 0; x0 < W; x0 += N) {
+                for (int k = 0; k < N; ++k) {
+                    const int x = x0 + k;
+                    valid[k] = x < W ? -1 : 0;
+                    const V3 d = cam.dir(x < W ? x : W - 1, y, W, H);
+                    float tplane = INFINITY;
+                    if (o.plane && d.y != 0.0) {
+                        double t = (o.plane_y - cam.pos.y) / d.y;
+                        if (t > 0) tplane = float(t);
+                    }
+                    xs[k] = x; ds[k] = d; tplanes[k] = tplane;
+                    rh.ray.org_x[k] = float(cam.pos.x); rh.ray.org_y[k] = float(cam.pos.y); rh.ray.org_z[k] = float(cam.pos.z);
+                    rh.ray.dir_x[k] = float(d.x); rh.ray.dir_y[k] = float(d.y); rh.ray.dir_z[k] = float(d.z);
+                    rh.ray.tnear[k] = 0.0f;
+                    rh.ray.tfar[k] = tplane;
+                    rh.ray.mask[k] = 0xFFFFFFFFu;
+                    rh.ray.time[k] = 0.0f;
+                    rh.ray.id[k] = 0;
+                    rh.ray.flags[k] = 0;
+                    rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+                    rh.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
+                }
+                intersect_n<N>(valid, scene, &ctx, &rh);
+                for (int k = 0; k < N && valid[k]; ++k) {
+                    ++c.camera;
+                    const uint32_t pixel = uint32_t(y) * W + xs[k];
+                    V3 n;
+                    double kd;
+                    if (rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID) {
+                        ++c.hits_mesh;
+                        n = V3{rh.hit.Ng_x[k], rh.hit.Ng_y[k], rh.hit.Ng_z[k]}.normalized();
+                        kd = KD_BUNNY;
+                    } else if (std::isfinite(tplanes[k])) {
+                        ++c.hits_plane;
+                        n = {0, 1, 0};
+                        kd = KD_GROUND;
+                    } else {
+                        continue;
+                    }
+                    if (n.dot(ds[k]) > 0) n = n * -1.0;
+                    const float t = rh.ray.tfar[k];
+                    pending.push_back({rh.ray.org_x[k] + t * rh.ray.dir_x[k], rh.ray.org_y[k] + t * rh.ray.dir_y[k],
+                                       rh.ray.org_z[k] + t * rh.ray.dir_z[k], float(n.dot(to_light)), kd, pixel});
+                }
+            }
+        }
+        const double tb = thread_cpu_s();
+        bool blocked[N];
+        for (size_t i0 = 0; i0 < pending.size(); i0 += N) {
+            for (int k = 0; k < N; ++k) {
+                const size_t i = i0 + size_t(k);
+                const PendingShadow &s = pending[i < pending.size() ? i : pending.size() - 1];
+                sr.org_x[k] = s.px; sr.org_y[k] = s.py; sr.org_z[k] = s.pz;
+                sr.dir_x[k] = float(to_light.x); sr.dir_y[k] = float(to_light.y); sr.dir_z[k] = float(to_light.z);
+                sr.tnear[k] = tnear_shadow;
+                sr.tfar[k] = INFINITY;
+                sr.mask[k] = 0xFFFFFFFFu;
+                sr.time[k] = 0.0f;
+                sr.id[k] = 0;
+                sr.flags[k] = 0;
+                blocked[k] = false;
+                if (o.plane && to_light.y != 0.0) {
+                    double tp = (o.plane_y - double(s.py)) / to_light.y;
+                    blocked[k] = tp > tnear_shadow;
+                }
+                valid[k] = (i < pending.size() && !blocked[k]) ? -1 : 0;
+            }
+            occluded_n<N>(valid, scene, &ctx, &sr);
+            for (int k = 0; k < N && i0 + size_t(k) < pending.size(); ++k) {
+                const PendingShadow &s = pending[i0 + size_t(k)];
+                const bool bl = blocked[k] || sr.tfar[k] < 0.0f;
+                ++c.shadow;
+                c.occluded += bl;
+                const double lit = (!bl && s.nl > 0) ? s.kd * s.nl * LIGHT : 0.0;
+                const uint8_t v = srgb8(KA * AMBIENT + lit);
+                image[size_t(s.pixel) * 3 + 0] = image[size_t(s.pixel) * 3 + 1] = image[size_t(s.pixel) * 3 + 2] = v;
+            }
+        }
+        const double tc = thread_cpu_s();
+        c.camera_cpu += tb - ta;
+        c.shadow_cpu += tc - tb;
+    };
+
     auto worker = [&](int tid) {
         Counts &c = counts[size_t(tid)];
         std::vector<PendingShadow> pending;
@@ -293,6 +420,9 @@ int render(const Options &o) {
         RTCIntersectContext ctx;
         rtcInitIntersectContext(&ctx);
         for (int b; (b = next.fetch_add(1)) < bands;) {
+            if (o.packet == 4) { packet_band(std::integral_constant<int, 4>{}, b, c, pending, ctx); continue; }
+            if (o.packet == 8) { packet_band(std::integral_constant<int, 8>{}, b, c, pending, ctx); continue; }
+            if (o.packet == 16) { packet_band(std::integral_constant<int, 16>{}, b, c, pending, ctx); continue; }
             const double ta = thread_cpu_s();
             pending.clear();
             for (int y = b * band; y < std::min(H, (b + 1) * band); ++y) {
@@ -366,13 +496,20 @@ int render(const Options &o) {
         }
     };
 
-    const double cpu0 = process_cpu_s();
-    const double f0 = now_s();
-    std::vector<std::thread> pool;
-    for (int t = 0; t < o.threads; ++t) pool.emplace_back(worker, t);
-    for (auto &t : pool) t.join();
-    const double frame = now_s() - f0;
-    const double cpu = process_cpu_s() - cpu0;
+    // `--repeat N`: the frame N times, the last one reported (a profiler then sees the trace, not
+    // the load and build).
+    double frame = 0, cpu = 0;
+    for (int r = 0; r < o.repeat; ++r) {
+        for (Counts &c : counts) c = Counts{};
+        next = 0;
+        const double cpu0 = process_cpu_s();
+        const double f0 = now_s();
+        std::vector<std::thread> pool;
+        for (int t = 0; t < o.threads; ++t) pool.emplace_back(worker, t);
+        for (auto &t : pool) t.join();
+        frame = now_s() - f0;
+        cpu = process_cpu_s() - cpu0;
+    }
 
     Counts sum;
     for (const Counts &c : counts) {
@@ -382,8 +519,8 @@ int render(const Options &o) {
     }
     const double T = o.threads;
     const uint64_t all = sum.camera + sum.shadow;
-    std::printf("embree3 %s quality=%s robust=%d threads=%d triangles=%zu\n", RTC_VERSION_STRING,
-                o.quality == RTC_BUILD_QUALITY_HIGH ? "high" : "medium", int(o.robust), o.threads,
+    std::printf("embree3 %s quality=%s robust=%d threads=%d packet=%d triangles=%zu\n", RTC_VERSION_STRING,
+                o.quality == RTC_BUILD_QUALITY_HIGH ? "high" : "medium", int(o.robust), o.threads, o.packet,
                 mesh.indices.size() / 3);
     std::printf("load_s %.4f build_s %.4f\n", t1 - t0, t2 - t1);
     std::printf("trace_s %.4f cpu_busy %.2f\n", frame, cpu / (frame * T));
@@ -411,7 +548,7 @@ int render(const Options &o) {
 }
 
 int load(const Options &o) {
-    RTCDevice dev = rtcNewDevice(nullptr);
+    RTCDevice dev = rtcNewDevice(o.device.empty() ? nullptr : o.device.c_str());
     if (!dev) die("rtcNewDevice failed");
     double t0 = now_s();
     Mesh mesh = read_obj(o.mesh);
