@@ -103,6 +103,11 @@ def M(x):
     return f"{x / 1e6:,.1f} M"
 
 
+def nz(x, digits):
+    """A small count per ray; a difference of two runs can come out a hair below zero."""
+    return f"{max(0.0, x):.{digits}f}"
+
+
 def pct(x, t):
     return f"{100 * x / t:.1f} %" if t else "–"
 
@@ -168,7 +173,7 @@ def main():
                     _, tot2 = diff_profiles(e2, e)
                     nn = cam + sh
                     brs = (tot2.get("Bcm", 0) + tot2.get("Bim", 0)) / nn if "Bcm" in tot2 else None
-                    extra = f"| {(tot2.get('D1mr', 0) + tot2.get('D1mw', 0)) / nn:.2f} | {(tot2.get('DLmr', 0) + tot2.get('DLmw', 0) + tot2.get('ILmr', 0)) / nn:.3f} | {tot2.get('I1mr', 0) / nn:.2f} | {'' if brs is None else f'{brs:.2f}'} |"
+                    extra = f"| {nz((tot2.get('D1mr', 0) + tot2.get('D1mw', 0)) / nn, 2)} | {nz((tot2.get('DLmr', 0) + tot2.get('DLmw', 0) + tot2.get('ILmr', 0)) / nn, 3)} | {nz(tot2.get('I1mr', 0) / nn, 2)} | {'' if brs is None else nz(brs, 2)} |"
                 print(f"| | {label} | the worker thread (camera rays, plane, shading, sRGB) | {M(w)} | {cam + sh:,} | **{w / (cam + sh):,.0f}** {extra}")
                 print(f"| | | of which Embree's own calls | {M(tr)} | | {tr / (cam + sh):,.0f} | | | | |")
         if row in ("bunny", "big", "spheres"):
@@ -182,7 +187,7 @@ def main():
                 d1 = tot.get("D1mr", 0) + tot.get("D1mw", 0)
                 ll = tot.get("DLmr", 0) + tot.get("DLmw", 0) + tot.get("ILmr", 0)
                 brs = (tot.get("Bcm", 0) + tot.get("Bim", 0)) / n if "Bcm" in tot else None
-                print(f"| | {label} | one warm `mi.render` (3 renders less 2) | {M(t)} | {n:,} (raylab's) | **{t / n:,.0f}** | {d1 / n:.2f} | {ll / n:.3f} | {tot.get('I1mr', 0) / n:.2f} | {'' if brs is None else f'{brs:.2f}'} |")
+                print(f"| | {label} | one warm `mi.render` (3 renders less 2) | {M(t)} | {n:,} (raylab's) | **{t / n:,.0f}** | {nz(d1 / n, 2)} | {nz(ll / n, 3)} | {nz(tot.get('I1mr', 0) / n, 2)} | {'' if brs is None else nz(brs, 2)} |")
         if row in ("dozen", "whitted"):
             a, b = load(out, f"pov-{row}"), load(out, f"pov-{row}-tiny")
             if a and b:
@@ -328,7 +333,10 @@ def main():
                 if "libpython" in (o or "") or "ld-linux" in (o or "") or "libLLVM" in (o or ""):
                     continue
                 t = sum(m.values()) or 1
-                print(f"| {row} | {label} ({short_obj(o)}) | {M(t)} | " + " | ".join(f"{100 * m[k] / t:.1f}" for k in keys) + " |")
+                if not o or o == "???":
+                    print(f"| {row} | {label} ({short_obj(o)}) | {M(t)} | " + " | ".join(["not visible"] + [""] * (len(keys) - 1)) + " |")
+                    continue
+                print(f"| {row} | {label} ({short_obj(o)}) | {M(t)} | " + " | ".join(f"{max(0.0, 100 * m[k] / t):.1f}" for k in keys) + " |")
     print()
 
     # ---- 5. perf: time shares --------------------------------------------------------------------

@@ -77,3 +77,112 @@ fn packets_of_a_pixels_samples_render_what_single_rays_render() {
     check(23, 17, 16);
     check(19, 13, 5);
 }
+
+/// A bundled Whitted speed scene (`scenes/<name>.toml`) at `width` × `height` and `spp`, every
+/// ray to depth 5 (`prune_threshold = 0`, as `benches/peers/run.sh` renders it).
+fn bundled(name: &str, width: u32, height: u32, spp: u32) -> RenderJob {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes").join(format!("{name}.toml"));
+    let text = std::fs::read_to_string(&path).unwrap();
+    for line in ["width = 800\n", "height = 600\n", "max_depth = 5\n"] {
+        assert!(text.contains(line), "{name}.toml: no `{line}`");
+    }
+    let text = text
+        .replace("width = 800\n", &format!("width = {width}\n"))
+        .replace("height = 600\n", &format!("height = {height}\nspp = {spp}\n"))
+        .replace("max_depth = 5\n", "max_depth = 5\nprune_threshold = 0\n");
+    load_str(&raylab_plugins::registry(), &format!("{name}.toml"), &text, std::path::Path::new("."), &LoadOptions::default())
+        .unwrap_or_else(|e| panic!("{}", e.report()))
+}
+
+/// The Whitted speed scenes, `dozen` (a dozen objects: a hierarchy with the `bvh` feature, whose
+/// camera rays go in packets and whose camera hits are shaded as blocks; two point lights) and
+/// `whitted` (three spheres: a list, one ray at a time; glass; a point and a spot light), every
+/// ray to depth 5, render exactly what the single-ray path (`render_pixel`) renders, pixel for
+/// pixel and counter for counter, at 1, 2 and 3 threads and in passes, at one sample per pixel
+/// and several (the samples of a pixel a packet).
+#[test]
+fn whitted_scenes_render_what_single_rays_render() {
+    for (name, spp) in [("dozen", 1), ("whitted", 1), ("dozen", 5), ("whitted", 3)] {
+        let (width, height) = (45, 29);
+        let job = bundled(name, width, height, spp);
+        if name == "dozen" {
+            assert_eq!(job.scene.walks_packets(), raylab::accel::BVH_AVAILABLE, "dozen: packets through its hierarchy");
+        }
+        let mut stats = raylab::RayStats::new(job.integrator.counters());
+        let single: Vec<_> =
+            (0..height).flat_map(|y| (0..width).map(move |x| (x, y))).map(|(x, y)| render_pixel(&job, x, y, &mut stats)).collect();
+        let compare = |rendered: &raylab::render::Rendered, what: &str| {
+            for (i, c) in single.iter().enumerate() {
+                let (x, y) = (i as u32 % width, i as u32 / width);
+                assert_eq!(rendered.film.get(x, y), *c, "{name}: pixel ({x}, {y}), {spp} spp, {what}");
+            }
+            assert_eq!(rendered.stats.camera_rays, stats.camera_rays, "{name}, {what}");
+            for (i, c) in job.integrator.counters().iter().enumerate() {
+                assert_eq!(rendered.stats.count(i), stats.count(i), "{name}, {what}: counter {}", c.name);
+            }
+        };
+        assert!(stats.count(0) > u64::from(width * height * spp), "{name}: shadow rays");
+        for threads in [1, 2, 3] {
+            let options = RenderOptions { threads: Some(threads), layers: threads == 2, ..Default::default() };
+            compare(&render(&job, &options, &|_, _| {}).unwrap(), &format!("{threads} thread(s)"));
+        }
+        let options = RenderOptions { threads: Some(2), ..Default::default() };
+        let passes = render_progressive(&job, &options, &[1, 3, 8], &|_, _| {}, &mut |_| {}).unwrap();
+        compare(&passes, "in passes");
+    }
+}
+
+/// Phong's block of camera hits on the Whitted speed scenes (two one-sample lights each; mirrors
+/// and glass, whose hits go through the recursion) gives each lane exactly what `radiance_from`
+/// gives it lane by lane: colour, layers and every counter, under work budgets that run out
+/// anywhere inside the block.
+#[test]
+fn a_block_of_whitted_camera_hits_shades_as_single_hits() {
+    use raylab::render::aov::AovSample;
+    use raylab::render::sample::{SampleId, image_setup, single_camera_ray};
+    use raylab::{Color, Ray};
+    let mut blocks = 0;
+    for name in ["dozen", "whitted"] {
+        let (width, height) = (64, 48);
+        let job = bundled(name, width, height, 1);
+        let (scene, integrator, setup) = (&job.scene, &job.integrator, image_setup(&job));
+        for y in (0..height).step_by(5) {
+            for x0 in (0..width).step_by(8) {
+                let rays: [Ray; 8] =
+                    std::array::from_fn(|k| single_camera_ray(&job, &setup, SampleId::Pixel { x: x0 + k as u32, y, index: 0 }).unwrap());
+                for live in [0xff, 0b1011_0110] {
+                    let mut hit = [raylab::geometry::Hit::new(0.0, raylab::glam::DVec3::ZERO, raylab::glam::DVec3::ZERO); 8];
+                    let hits = scene.intersect_packet(&rays, live, 0.0, &[f64::INFINITY; 8], &mut hit);
+                    for allowance in (0..=40).step_by(3).chain([u64::MAX]) {
+                        let guides = allowance % 2 == 1;
+                        let fresh = || {
+                            let mut stats = raylab::RayStats::new(integrator.counters());
+                            stats.set_allowance(allowance);
+                            let samplers: [raylab::Sampler; 8] =
+                                std::array::from_fn(|k| raylab::Sampler::new(u64::from(x0) + k as u64, 0, 7));
+                            let aovs = [AovSample { guides, ..AovSample::miss(scene.background) }; 8];
+                            (stats, samplers, aovs, [Color::ZERO; 8])
+                        };
+                        let (mut s1, mut r1, mut a1, mut c1) = fresh();
+                        integrator.radiance_packet(scene, &rays, live, hits, &hit, &mut r1, &mut s1, &mut a1, &mut c1);
+                        let (mut s2, mut r2, mut a2, mut c2) = fresh();
+                        for k in (0..8).filter(|k| live >> k & 1 != 0) {
+                            s2.camera_rays += 1;
+                            let h = (hits >> k & 1 != 0).then_some(&hit[k]);
+                            c2[k] = integrator.radiance_from(scene, &rays[k], h, &mut r2[k], &mut s2, &mut a2[k]);
+                        }
+                        let at = format!("{name}, row {y}, x {x0}, lanes {live:08b}, allowance {allowance}");
+                        assert_eq!(c1, c2, "{at}");
+                        assert_eq!(a1, a2, "{at}");
+                        assert_eq!((s1.camera_rays, s1.rays()), (s2.camera_rays, s2.rays()), "{at}");
+                        for (i, c) in integrator.counters().iter().enumerate() {
+                            assert_eq!(s1.count(i), s2.count(i), "{at}: {}", c.name);
+                        }
+                        blocks += 1;
+                    }
+                }
+            }
+        }
+    }
+    assert!(blocks > 1000);
+}

@@ -43,7 +43,13 @@ impl Hit {
     /// [`SHADOW_EPSILON`] (relative) short of the light.
     #[inline(always)]
     pub fn spawn_shadow_ray(&self, n: DVec3, dir: DVec3, distance: f64) -> (Ray, f64) {
-        let ray = self.spawn_ray(n, dir);
+        self.shadow_ray_from(self.spawn_ray(n, dir), distance)
+    }
+
+    /// The shadow ray `ray` (leaving the hit from the origin [`Hit::spawn_ray`] gives it) toward
+    /// a light `distance` away, with the `t_max` of [`Hit::spawn_shadow_ray`].
+    #[inline(always)]
+    pub fn shadow_ray_from(&self, ray: Ray, distance: f64) -> (Ray, f64) {
         let t_max =
             if distance.is_finite() { (distance - (ray.origin - self.point).length()) * (1.0 - SHADOW_EPSILON) } else { f64::INFINITY };
         (ray, t_max)

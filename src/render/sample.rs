@@ -72,11 +72,13 @@ pub struct CameraRays<'a> {
     screen: ScreenMap,
     film: DVec2,
     sampler: Sampler,
-    /// Lens points `first .. first + count` of a stratified set of `total`.
+    /// Lens points `first .. first + count` of a stratified set of `total`, or with
+    /// `progressive` of the pixel's progressive lens sequence ([`progressive_lens`]).
     first: u32,
     count: u32,
     total: u32,
     pattern: u32,
+    progressive: bool,
     next: u32,
 }
 
@@ -100,7 +102,13 @@ impl CameraRays<'_> {
     #[inline(always)]
     fn ray(&self, l: u32) -> Ray {
         let camera = &self.job.scene.camera;
-        let lens = if camera.aperture > 0.0 { stratified_2d(self.first + l, self.total.max(1), self.pattern) } else { DVec2::ZERO };
+        let lens = if camera.aperture <= 0.0 {
+            DVec2::ZERO
+        } else if self.progressive {
+            progressive_lens(self.first + l, self.pattern)
+        } else {
+            stratified_2d(self.first + l, self.total.max(1), self.pattern)
+        };
         camera.ray_in(&self.screen, self.film, lens)
     }
 
@@ -109,6 +117,25 @@ impl CameraRays<'_> {
     fn sampler(&self, l: u32) -> Sampler {
         if l == 0 { self.sampler.clone() } else { self.sampler.fork(u64::from(l)) }
     }
+}
+
+/// Lens point `j` (the pixel's `j`-th camera ray) of a pixel whose samples may stop after any
+/// power of two (an error target, a time budget), for lens pattern `pattern`: the Sobol
+/// (0, 2)-sequence ([`sobol_02`]) at `j` shuffled by a nested uniform scramble of its bits
+/// (Burley 2020, "Practical Hash-based Owen Scrambling": each bit flipped by a hash of the bits
+/// above it, Laine–Karras), so the first `2^k` rays take an aligned block of `2^k` points of the
+/// sequence, a (0, k, 2)-net: stratified on the lens whatever the pixel's final count, and in
+/// another order than the film positions `sobol_02` gives the same pixel's samples.
+#[inline]
+fn progressive_lens(j: u32, pattern: u32) -> DVec2 {
+    let seed = pattern.wrapping_mul(0x9e37_79b9) | 1;
+    let mut v = j.reverse_bits();
+    v = v.wrapping_add(seed);
+    v ^= v.wrapping_mul(0x6c50_b47c);
+    v ^= v.wrapping_mul(0xb82f_1e52);
+    v ^= v.wrapping_mul(0xc7af_e638);
+    v ^= v.wrapping_mul(0x8d22_f6e6);
+    sobol_02(v.reverse_bits(), pattern)
 }
 
 /// The camera rays of sample `id` of `job`: where it lies on the film, and for each lens point
@@ -176,6 +203,10 @@ pub fn camera_rays_in<'a>(job: &'a RenderJob, image: &ImageSetup, id: SampleId) 
                 count: per_sample,
                 total: s.spp * s.lens_samples,
                 pattern: pattern ^ LENS_PATTERN,
+                // A pixel that may stop after any power of two of samples takes its lens points
+                // from a sequence whose every such prefix is stratified too: the first `n` points
+                // of a stratified set of `spp` (the cap) are a random choice of its strata.
+                progressive: s.progressive(),
                 next: 0,
             }
         }
@@ -193,6 +224,7 @@ pub fn camera_rays_in<'a>(job: &'a RenderJob, image: &ImageSetup, id: SampleId) 
                 count: per_sample,
                 total: s.lens_samples,
                 pattern,
+                progressive: false,
                 next: 0,
             }
         }
@@ -210,6 +242,7 @@ pub fn camera_rays_in<'a>(job: &'a RenderJob, image: &ImageSetup, id: SampleId) 
                 count: per_sample,
                 total: count * s.lens_samples,
                 pattern: cell ^ LENS_PATTERN,
+                progressive: false,
                 next: 0,
             }
         }
@@ -272,6 +305,7 @@ impl PixelSetup {
             count: per_sample,
             total: s.spp * s.lens_samples,
             pattern: self.pattern ^ LENS_PATTERN,
+            progressive: false,
             next: 0,
         }
     }
@@ -568,4 +602,35 @@ fn trace_rays(
         signature = mix64(signature.rotate_left(1) ^ first.signature);
     }
     signature
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Under an error target or a time budget a pixel's first `2^k` lens points, for every `k`,
+    /// put one point in each elementary interval of area `2^-k` (a (0, k, 2)-net): stratified on
+    /// the lens whatever the pixel's final count. (The first `n` points of a stratified set of
+    /// the cap, as before, are not: they are a random choice of its strata.)
+    #[test]
+    fn progressive_lens_points_stratify_every_power_of_two_prefix() {
+        for pattern in [0u32, 1, 0x5bd1_e995, 0xdead_beef, 123_456_789] {
+            let points: Vec<DVec2> = (0..1024).map(|j| progressive_lens(j, pattern)).collect();
+            for k in 0..=10u32 {
+                let n = 1usize << k;
+                for a in 0..=k {
+                    let (cols, rows) = (1u32 << a, 1u32 << (k - a));
+                    let mut seen = vec![false; n];
+                    for p in &points[..n] {
+                        assert!((0.0..1.0).contains(&p.x) && (0.0..1.0).contains(&p.y));
+                        let cell = (p.y * f64::from(rows)) as usize * cols as usize + (p.x * f64::from(cols)) as usize;
+                        assert!(!seen[cell], "pattern {pattern}: {n} points, {cols}×{rows} cells: two in cell {cell}");
+                        seen[cell] = true;
+                    }
+                }
+            }
+            // In another order than the film's Sobol points of the same pixel.
+            assert!((0..64).any(|j| progressive_lens(j, pattern) != sobol_02(j, pattern)));
+        }
+    }
 }

@@ -6,6 +6,7 @@
 use crate::geometry::differential::RaySpread;
 use crate::geometry::{Hit, Surface};
 use crate::math::color::Color;
+use crate::math::float::offset_ray_origin;
 use crate::math::ray::Ray;
 use crate::scene::bsdf::{MaterialModel, Shading};
 use crate::scene::material::{CoefficientsAt, Material};
@@ -210,6 +211,29 @@ impl<'s> Interaction<'s> {
     #[inline(always)]
     pub fn spawn_shadow_ray(&self, dir: DVec3, distance: f64) -> (Ray, f64) {
         self.hit.spawn_shadow_ray(self.n, dir, distance)
+    }
+
+    /// The origin [`Interaction::spawn_ray`] gives every ray leaving on the geometric normal's
+    /// side (`dir · n ≥ 0`, [`Interaction::leaves_front`]): [`offset_ray_origin`] reads a ray's
+    /// direction only for the side it leaves by, so a shading point whose shadow rays and mirror
+    /// ray all leave in front can compute it once for all of them, with the same bits.
+    #[inline(always)]
+    pub fn front_origin(&self) -> DVec3 {
+        offset_ray_origin(self.hit.point, self.hit.error, self.n, self.n)
+    }
+
+    /// Whether a ray along `dir` leaves on the geometric normal's side, where it starts at
+    /// [`Interaction::front_origin`] (`dir · n` not negative, as [`offset_ray_origin`] decides).
+    #[inline(always)]
+    pub fn leaves_front(&self, dir: DVec3) -> bool {
+        !(dir.dot(self.n) < 0.0)
+    }
+
+    /// [`Interaction::spawn_shadow_ray`] for a `dir` that [leaves in front](Interaction::leaves_front),
+    /// from its [`Interaction::front_origin`] `front`: the same ray and `t_max`.
+    #[inline(always)]
+    pub fn front_shadow_ray(&self, front: DVec3, dir: DVec3, distance: f64) -> (Ray, f64) {
+        self.hit.shadow_ray_from(Ray { origin: front, dir }, distance)
     }
 }
 

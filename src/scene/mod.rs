@@ -369,14 +369,19 @@ impl Scene {
 
     /// Walks the surfaces of `list` along the ray, multiplying their `kt`.
     fn walk(&self, list: &ObjectAccel, ray: &Ray, t_max: f64) -> (Color, Option<u32>) {
+        let surfaces = list.over(&self.objects);
+        // Most shadow rays cross nothing: asked before the walk's set-up.
+        let Some(mut h) = surfaces.intersect(ray, 0.0, t_max) else { return (Color::ONE, None) };
+        let first = Some(h.object);
         let mut tr = Color::ONE;
-        let mut first = None;
         let mut r = *ray;
         let target = t_max.is_finite().then(|| ray.at(t_max));
         let mut t_max = t_max;
-        for _ in 0..MAX_TRANSPARENT_LAYERS {
-            let Some(h) = list.over(&self.objects).intersect(&r, 0.0, t_max) else { return (tr, first) };
-            first.get_or_insert(h.object);
+        for layer in 0..MAX_TRANSPARENT_LAYERS {
+            if layer > 0 {
+                let Some(next) = surfaces.intersect(&r, 0.0, t_max) else { return (tr, first) };
+                h = next;
+            }
             let si = self.interaction(&r, h);
             tr *= si.coefficients().kt;
             if tr.max_element() <= 0.0 {

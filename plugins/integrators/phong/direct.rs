@@ -3,7 +3,7 @@
 //! an area light first; take its full sample set only where the probes disagree).
 
 use super::fan::reflect;
-use super::{Branch, Ctx, Phong, TAG_EMITTERS, TAG_LIGHTS, counter};
+use super::{Branch, Ctx, Front, Phong, TAG_EMITTERS, TAG_LIGHTS, counter};
 use raylab::glam::DVec2;
 use raylab::math::color::max_channel;
 use raylab::math::sampler::StratifiedSet;
@@ -72,6 +72,8 @@ const PROBE_CORNERS: [DVec2; 4] = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 1.0), D
 /// What one light's samples at a shading point share.
 struct Shade<'a> {
     si: &'a Interaction<'a>,
+    /// Where its shadow rays start.
+    front: &'a Front<'a>,
     /// The material's coefficients at the hit.
     m: &'a Coefficients,
     /// The ray's weight in the pixel.
@@ -119,7 +121,15 @@ struct Terms {
 impl Phong {
     /// Direct light at `si` (met by the ray at `b` in the recursion): diffuse and specular from
     /// every light, shadowed.
-    pub(super) fn direct<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, m: &Coefficients, b: Branch, rec: &mut R) -> Color {
+    pub(super) fn direct<R: Recorder>(
+        &self,
+        c: &mut Ctx,
+        si: &Interaction,
+        m: &Coefficients,
+        b: Branch,
+        front: &Front,
+        rec: &mut R,
+    ) -> Color {
         let Branch { sampler, weight, .. } = b;
         let scene = c.scene;
         let no_response = max_channel(m.kd) <= 0.0 && max_channel(m.ks) <= 0.0;
@@ -130,10 +140,10 @@ impl Phong {
             let mut total = Color::ZERO;
             for &li in lights {
                 let light = Source::Light(li, scene.lights[li].as_ref());
-                total += self.single_sample(c, &Shade { si, m, weight, full: 1, light, no_response }, rec);
+                total += self.single_sample(c, &Shade { si, front, m, weight, full: 1, light, no_response }, rec);
             }
             if self.emitter_samples > 0 && !scene.emitters().is_empty() {
-                total += self.emitters(c, si, m, b, no_response, rec);
+                total += self.emitters(c, si, m, b, front, no_response, rec);
             }
             return total;
         }
@@ -150,8 +160,11 @@ impl Phong {
             if !area && facts.sample_count <= 1 {
                 // One sample at u = (0, 0), no stream, no probes: the stratified set of one
                 // without its bookkeeping (same numbers, same counters).
-                total +=
-                    self.single_sample(c, &Shade { si, m, weight, full: 1, light: Source::Light(li, light.as_ref()), no_response }, rec);
+                total += self.single_sample(
+                    c,
+                    &Shade { si, front, m, weight, full: 1, light: Source::Light(li, light.as_ref()), no_response },
+                    rec,
+                );
                 continue;
             }
             let full = match area && self.shadow_rays > 0 {
@@ -177,7 +190,7 @@ impl Phong {
             }
             let mut stream = area.then(|| streams.get_or_insert_with(|| sampler.fork(TAG_LIGHTS)).fork(li as u64));
             let mut acc = LightSum { sum: Color::ZERO, n: 0, first: None, agree: true };
-            let shade = Shade { si, m, weight, full, light: Source::Light(li, light.as_ref()), no_response };
+            let shade = Shade { si, front, m, weight, full, light: Source::Light(li, light.as_ref()), no_response };
             let first_set = if probes > 0 { Samples::Probes(probes) } else { Samples::Stratified(full) };
             let (pattern, u0) = match &mut stream {
                 Some(s) => (s.next_pattern(), s.next_2d()),
@@ -203,7 +216,7 @@ impl Phong {
             }
         }
         if self.emitter_samples > 0 && !scene.emitters().is_empty() {
-            total += self.emitters(c, si, m, b, no_response, rec);
+            total += self.emitters(c, si, m, b, front, no_response, rec);
         }
         total
     }
@@ -212,7 +225,17 @@ impl Phong {
     /// them (the object chosen by power, the point by its shape's own sampling, stratified), each
     /// a light sample of intensity radiance ÷ (π·pdf), so that its diffuse term's mean is the
     /// Lambertian response to the emitters, as an environment's samples are.
-    fn emitters<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, m: &Coefficients, b: Branch, no_response: bool, rec: &mut R) -> Color {
+    #[allow(clippy::too_many_arguments)]
+    fn emitters<R: Recorder>(
+        &self,
+        c: &mut Ctx,
+        si: &Interaction,
+        m: &Coefficients,
+        b: Branch,
+        front: &Front,
+        no_response: bool,
+        rec: &mut R,
+    ) -> Color {
         let scene = c.scene;
         let n = self.emitter_samples;
         if self.avoid && no_response {
@@ -228,7 +251,7 @@ impl Phong {
             let Some(es) = scene.emitters().sample(&scene.objects, si.hit.point, pick, points.point(s), Selection::Power) else { continue };
             let intensity = if es.pdf > 0.0 && es.pdf.is_finite() { es.radiance / (PI * es.pdf) } else { Color::ZERO };
             let ls = LightSample { dir: es.dir, distance: es.hit.t, intensity };
-            let sh = Shade { si, m, weight: b.weight, full: n, light: Source::Emitter(es.object), no_response };
+            let sh = Shade { si, front, m, weight: b.weight, full: n, light: Source::Emitter(es.object), no_response };
             if let Ok(t) = self.unshadowed(c, &sh, &ls, rec) {
                 sum += t.unshadowed * self.shadowed(c, &sh, &ls, &t, n, rec);
             }
@@ -300,7 +323,8 @@ impl Phong {
     pub(super) fn block_light(&self, c: &mut Ctx, si: &Interaction, m: &Coefficients, light: usize) -> Option<(raylab::Ray, f64, Color)> {
         let no_response = max_channel(m.kd) <= 0.0 && max_channel(m.ks) <= 0.0;
         let source = Source::Light(light, c.scene.lights[light].as_ref());
-        let sh = Shade { si, m, weight: Color::ONE, full: 1, light: source, no_response };
+        let front = Front::new(si);
+        let sh = Shade { si, front: &front, m, weight: Color::ONE, full: 1, light: source, no_response };
         let (ls, t) = self.single_terms(c, &sh, &mut NoRecord)?;
         c.stats.add(counter::SHADOW_RAYS, 1);
         let (ray, t_max) = si.spawn_shadow_ray(ls.dir, ls.distance);
@@ -405,7 +429,7 @@ impl Phong {
     fn shadowed<R: Recorder>(&self, c: &mut Ctx, sh: &Shade, ls: &LightSample, t: &Terms, count: u32, rec: &mut R) -> Color {
         let scene = c.scene;
         c.stats.add(counter::SHADOW_RAYS, 1);
-        let (shadow_ray, t_max) = sh.si.spawn_shadow_ray(ls.dir, ls.distance);
+        let (shadow_ray, t_max) = sh.front.shadow_ray(ls.dir, ls.distance);
         if R::ON {
             let (tr, occ) = scene.transmittance_and_occluder(&shadow_ray, t_max);
             let k = f64::from(count);

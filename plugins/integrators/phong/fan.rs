@@ -2,7 +2,8 @@
 //! Fresnel, `F·kr` and `(1 − F)·kt`), the ideal direction, and the fan of child rays around it
 //! (one ray at a sharp surface; `glossy_rays` jittered in a disc of radius `blur` otherwise).
 
-use super::{Branch, Ctx, Phong, TAG_REFLECTION, TAG_REFRACTION, counter};
+use super::{Branch, Ctx, Front, Phong, TAG_REFLECTION, TAG_REFRACTION, counter};
+use raylab::geometry::differential::RaySpread;
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::color::max_channel;
 use raylab::math::sampler::{StratifiedSet, concentric_disc, orthonormal_basis};
@@ -122,8 +123,9 @@ impl Phong {
     /// of radius `blur`, each flipped onto the `side` hemisphere if jitter pushed it through the
     /// surface. Returns their mean radiance. At a sharp surface with `avoid` off, the fan is
     /// `glossy_rays` copies of the one ideal ray (same stream, same weight). `b` is the place in
-    /// the recursion of the ray that met `si`, with the fan's weight.
-    pub(super) fn spread<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, fan: &Fan, b: Branch, rec: &mut R) -> Color {
+    /// the recursion of the ray that met `si`, with the fan's weight; `front` its rays' origin
+    /// in front of the surface.
+    pub(super) fn spread<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, fan: &Fan, b: Branch, front: &Front, rec: &mut R) -> Color {
         let Branch { sampler, depth, weight, .. } = b;
         let sharp = fan.blur <= 0.0;
         // A fan gets rays in proportion to its weight in the pixel (at least one), so nested
@@ -146,11 +148,13 @@ impl Phong {
                 dir = fan.jitter(b1, b2, points.point(i));
             }
             c.stats.add(counter, 1);
-            let ray = si.spawn_ray(dir);
+            let ray = front.ray(dir);
             let child_sampler = sampler.fork(fan.tag | if sharp { 0 } else { u64::from(i) });
             // A sharp mirror or refraction carries the ray differential on; a glossy fan's rays
             // take the camera's approximation.
             let spread = match (sharp, fan.eta) {
+                // Without textures to filter, no spread: the tag, not a call returning the enum.
+                (true, _) if matches!(si.spread, RaySpread::Off) => RaySpread::Off,
                 (false, _) => c.scene.scattered_spread(si.spread),
                 (true, None) => si.reflected_spread(dir),
                 (true, Some(eta)) => si.refracted_spread(dir, eta),

@@ -65,6 +65,7 @@ use raylab::render::trace::{NoRecord, Recorder, Term};
 use raylab::scene::interaction::Interaction;
 use raylab::scene::material::{Coefficients, Fresnel};
 use raylab::{Color, Integrator, LoadContext, PluginInfo, Ray, RayKind, RayStats, Sampler, Scene, TraceNode};
+use std::cell::Cell;
 
 pub use fan::{reflect, refract};
 
@@ -235,6 +236,50 @@ struct Ctx<'a> {
     stats: &'a mut RayStats,
 }
 
+/// The origin of a shading point's rays that leave in front of its surface (shadow rays toward
+/// lights on the viewer's side, the mirror ray), computed on first use and shared by them
+/// ([`Interaction::front_origin`]: the same bits as each ray's own); rays that leave behind
+/// (refraction) start where [`Interaction::spawn_ray`] puts them.
+pub(crate) struct Front<'a> {
+    si: &'a Interaction<'a>,
+    origin: Cell<Option<DVec3>>,
+}
+
+impl<'a> Front<'a> {
+    #[inline(always)]
+    fn new(si: &'a Interaction<'a>) -> Self {
+        Front { si, origin: Cell::new(None) }
+    }
+
+    #[inline(always)]
+    fn origin(&self) -> DVec3 {
+        match self.origin.get() {
+            Some(o) => o,
+            None => {
+                let o = self.si.front_origin();
+                self.origin.set(Some(o));
+                o
+            }
+        }
+    }
+
+    /// [`Interaction::spawn_ray`] along `dir`.
+    #[inline(always)]
+    fn ray(&self, dir: DVec3) -> Ray {
+        if self.si.leaves_front(dir) { Ray { origin: self.origin(), dir } } else { self.si.spawn_ray(dir) }
+    }
+
+    /// [`Interaction::spawn_shadow_ray`] along `dir` toward a light `distance` away.
+    #[inline(always)]
+    fn shadow_ray(&self, dir: DVec3, distance: f64) -> (Ray, f64) {
+        if self.si.leaves_front(dir) {
+            self.si.front_shadow_ray(self.origin(), dir, distance)
+        } else {
+            self.si.spawn_shadow_ray(dir, distance)
+        }
+    }
+}
+
 /// A ray's place in the recursion: its own random stream, its depth (0: a camera ray) and its
 /// weight in the pixel (what pruning compares with the threshold).
 #[derive(Clone, Copy)]
@@ -280,8 +325,10 @@ impl Phong {
         rec.term(|| Term::color("emission", m.emission));
         rec.term(|| Term::color("ambient", ambient));
         let mut color = m.emission + ambient;
-        color += self.direct(c, si, m, b, rec);
-        let (kr, kt) = fan::fresnel_weights(si, m, rec);
+        let front = Front::new(si);
+        color += self.direct(c, si, m, b, &front, rec);
+        // (Without Fresnel, its weights without the call.)
+        let (kr, kt) = if m.fresnel == Fresnel::Off { (m.kr, m.kt) } else { fan::fresnel_weights(si, m, rec) };
         for kind in [RayKind::Reflection, RayKind::Refraction] {
             let (coef, what) = if kind == RayKind::Reflection { (kr, "reflection") } else { (kt, "refraction") };
             if self.avoid && max_channel(coef) <= 0.0 {
@@ -300,7 +347,7 @@ impl Phong {
                 continue;
             }
             let fan = fan::Fan::new(si, m, kind, rec);
-            color += coef * self.spread(c, si, &fan, Branch { weight: w, ..b }, rec);
+            color += coef * self.spread(c, si, &fan, Branch { weight: w, ..b }, &front, rec);
         }
         rec.color(color);
         color
