@@ -301,6 +301,20 @@ fn the_denoise_control_shows_the_image_render_denoise_writes() {
     assert!(denoised != noisy, "denoising changed the image");
     assert!(denoised == render_png(&dir, &scene, &[&args[..], &["--denoise"]].concat()), "the view's image is raylab render --denoise's");
     drop(view);
+    // At 32 spp `render --denoise` works on 2 × 2 sub-pixels of 8 spp: the view does too.
+    let fine = ["--width", "32", "--height", "32", "--spp", "32"];
+    let LiveView { process: view, addr, token, .. } = start_view(&dir, &scene, &[&fine[..], &["--threads", "2", "--no-refine"]].concat());
+    wait_for(&addr, &token, "the first render at 32 spp", |s| s["phase"] == "done");
+    let (code, _) = http(&addr, "POST", &format!("/{token}/api/settings"), &addr, Some(&json!({ "denoise": true, "params": {} })));
+    assert_eq!(code, 200);
+    let done = wait_for(&addr, &token, "the denoised render at 32 spp", |s| s["phase"] == "done" && s["denoised"] == true);
+    assert_eq!(done["status"]["samples"][0], 32, "{}", done["status"]);
+    let grid = served_png(&addr, &token);
+    assert!(
+        grid == render_png(&dir, &scene, &[&fine[..], &["--denoise"]].concat()),
+        "the view's image is raylab render --denoise's on 2 × 2"
+    );
+    drop(view);
     // Refining: each pass is shown denoised; Stop keeps the last one.
     let LiveView { process: _view, addr, token, .. } = start_view(&dir, &scene, &[&args[..], &["--threads", "2"]].concat());
     let (code, _) = http(&addr, "POST", &format!("/{token}/api/settings"), &addr, Some(&json!({ "denoise": true, "params": {} })));

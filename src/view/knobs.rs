@@ -141,7 +141,8 @@ pub fn denoise_knob(on: bool, denoiser: Result<(), &str>) -> Knob {
         choices: Vec::new(),
         doc:
             "show the image denoised by Intel Open Image Denoise, guided by the albedo and normal at each pixel's first non-specular hit: \
-              the scene's render once its samples are done, then every refined pass (the whole frame at once, never a tile)"
+              the scene's render once its samples are done (on raylab render --denoise's finer grid of sub-pixels where they divide evenly), \
+              then every refined pass (the whole frame at once, never a tile)"
                 .into(),
         group: "image",
         active: denoiser.is_ok(),

@@ -504,24 +504,34 @@ impl Session {
             self.bump(&mut st);
         }
 
+        // Denoised, on the finer grid `raylab render --denoise` uses where the samples divide
+        // evenly (`denoise::grid`): the scene's samples on `grid × grid` sub-pixels, denoised
+        // there and averaged back over each pixel. Its tiles are of sub-pixels, so the image is
+        // shown once denoised, and pixels are explained once it is done.
+        let grid = if denoise { crate::image::denoise::grid(&s) } else { 1 };
+        if grid > 1 {
+            job.settings = crate::image::denoise::fine_settings(&s, grid);
+        }
         // The frame, in passes of 1, 2, 4, … samples per pixel, each tile shown as it finishes.
         let job = Arc::new(job);
         {
             let mut st = self.lock();
-            st.job = Some(job.clone());
+            st.job = if grid > 1 { None } else { Some(job.clone()) };
             st.status.phase = Phase::Rendering;
             self.bump(&mut st);
         }
         let work = [AtomicU64::new(0), AtomicU64::new(1)];
         let on_tile = |t: &TileDone| {
             let mut st = self.lock();
-            self.show_tile(&mut st, t, &s);
+            if grid == 1 {
+                self.show_tile(&mut st, t, &s);
+            }
             let secs = t.elapsed.as_secs_f64();
             let rays = t.stats.total_rays();
             st.status.seconds = secs;
             st.status.rays = rays;
             st.status.rays_per_second = if secs > 0.0 { rays as f64 / secs } else { 0.0 };
-            st.status.samples[0] = t.pass_end.min(st.status.samples[1]);
+            st.status.samples[0] = t.pass_end.saturating_mul(grid * grid).min(st.status.samples[1]);
             st.status.progress = work[0].load(Ordering::Relaxed) as f64 / work[1].load(Ordering::Relaxed).max(1) as f64;
             self.bump(&mut st);
         };
@@ -537,21 +547,37 @@ impl Session {
             &mut |_| {},
         )
         .map_err(ErrorInfo::plain)?;
+        let mut rendered = rendered;
+        let job = if grid > 1 {
+            // The job at the frame's pixels again, for explaining them (no one else holds it).
+            let mut job = Arc::try_unwrap(job).map_err(|_| ErrorInfo::plain("the render's job is still in use".to_string()))?;
+            job.settings = s;
+            let job = Arc::new(job);
+            self.lock().job = Some(job.clone());
+            job
+        } else {
+            job
+        };
+        let undenoised = |film: Film| if grid > 1 { crate::image::denoise::box_down(&film, grid).ok() } else { Some(film) };
         if cancel.load(Ordering::Relaxed) {
-            self.on_cancel(Some(rendered.film), "before the scene's samples were done");
+            self.on_cancel(undenoised(rendered.film), "before the scene's samples were done");
             return Ok(());
         }
         // The finished image denoised whole, as `raylab render --denoise` writes it.
+        let clean = crate::image::denoise::guides_are_clean(&job);
         let denoised = if denoise && rendered.budget_stop.is_none() {
-            Some(
-                crate::image::denoise::denoise_guided(
-                    &rendered.film,
-                    rendered.layers.as_ref(),
-                    crate::image::denoise::guides_are_clean(&job),
-                )
-                .map_err(ErrorInfo::plain)?,
-            )
+            if grid > 1 {
+                // The film, sums and layers are the frame's pixels' from here.
+                crate::image::denoise::denoise_rendered(&mut rendered, &s, grid, clean).map_err(ErrorInfo::plain)?;
+                Some(rendered.film.clone())
+            } else {
+                Some(crate::image::denoise::denoise_guided(&rendered.film, rendered.layers.as_ref(), clean).map_err(ErrorInfo::plain)?)
+            }
         } else {
+            if grid > 1 {
+                rendered.film =
+                    undenoised(rendered.film).ok_or_else(|| ErrorInfo::plain("the sub-pixels do not tile the frame".to_string()))?;
+            }
             None
         };
         let mut st = self.lock();
