@@ -166,16 +166,21 @@ pub fn render_progressive(
     progress: &(dyn Fn(u64, u64) + Sync),
     on_pass: &mut (dyn FnMut(&Pass) + Send),
 ) -> Result<Rendered, String> {
-    let mut run = || render_passes(job, options, checkpoints, progress, on_pass);
-    match options.threads {
-        None => run(),
-        Some(n) => {
-            let pool =
-                rayon::ThreadPoolBuilder::new().num_threads(n.max(1)).build().map_err(|e| format!("cannot start {n} threads: {e}"))?;
-            pool.install(run)
-        }
-    }
+    let run = || render_passes(job, options, checkpoints, progress, on_pass);
+    // A pool of our own in every case: rayon's global pool has the default 2 MiB stacks, which
+    // recursive integrators at their deepest allowed depth (1024 levels) overflow.
+    let n = options.threads.map_or(0, |n| n.max(1));
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .stack_size(RENDER_STACK_BYTES)
+        .build()
+        .map_err(|e| format!("cannot start {n} threads: {e}"))?;
+    pool.install(run)
 }
+
+/// Stack of each render thread, bytes: address space reserved, committed only as used; enough
+/// for 1024 levels of a recursive integrator (about 2 KiB a level optimised, several in debug).
+pub const RENDER_STACK_BYTES: usize = 64 << 20;
 
 /// The tiles of `bounds`: `size` squares on the frame's grid, clipped to the bounds.
 fn tiles(bounds: Rect, size: u32) -> Vec<Rect> {

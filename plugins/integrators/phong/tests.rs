@@ -432,3 +432,24 @@ fn emitter_samples_light_the_scene_with_emitting_objects() {
     let tree = phong.explain(&s, &down_ray(), &mut Sampler::new(0, 0, 0)).unwrap();
     assert!(tree.lights.iter().all(|t| t.light == "emitter object 1") && tree.lights.len() == 256, "{:?}", tree.lights.first());
 }
+
+#[test]
+fn the_deepest_recursion_allowed_renders_on_the_render_threads() {
+    // A mirror sphere around the camera: every ray is reflected the whole 1024 levels, one stack
+    // frame of recursion each, on the render pool's worker threads (with and without a thread count).
+    let depth = 1024;
+    let text = format!(
+        "background = 0\n[render]\nwidth = 2\nheight = 2\n[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\n\
+         [integrator]\ntype = \"phong\"\nmax_depth = {depth}\nprune_threshold = 0\n\
+         [[object]]\ntype = \"sphere\"\nradius = 1\nmaterial = {{ kd = 0, ks = 0, kr = 1, emission = 0.5 }}\n"
+    );
+    let options = raylab::load::context::LoadOptions { limits: raylab::param::limits::Limits::unlimited(), ..Default::default() };
+    let job = raylab::load::loader::load_str(&crate::registry(), "test.toml", &text, std::path::Path::new("."), &options)
+        .unwrap_or_else(|e| panic!("{}", e.report()));
+    for threads in [Some(2), None] {
+        let options = raylab::render::RenderOptions { threads, ..raylab::render::RenderOptions::default() };
+        let r = raylab::render::render(&job, &options, &|_, _| {}).unwrap();
+        let c = r.film.get(0, 0).as_dvec3();
+        assert!(c.is_finite() && c.x > 0.5 * f64::from(depth), "{c:?}");
+    }
+}
