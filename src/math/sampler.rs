@@ -177,16 +177,7 @@ pub struct StratifiedSet {
 pub fn sobol_02(index: u32, pattern: u32) -> DVec2 {
     let h = mix64(u64::from(pattern) ^ 0x5851_f42d_4c95_7f2d);
     let x = index.reverse_bits() ^ (h as u32);
-    // The second dimension's generator matrix: the Pascal triangle mod 2, column by column.
-    let (mut y, mut v, mut k) = (0u32, 1u32 << 31, index);
-    while k != 0 {
-        if k & 1 != 0 {
-            y ^= v;
-        }
-        k >>= 1;
-        v ^= v >> 1;
-    }
-    let y = y ^ ((h >> 32) as u32);
+    let y = sobol_second(index).reverse_bits() ^ ((h >> 32) as u32);
     let unit = |b: u32| (f64::from(b) * (1.0 / 4_294_967_296.0)).min(ONE_MINUS_EPSILON);
     DVec2::new(unit(x), unit(y))
 }
@@ -240,7 +231,8 @@ fn laine_karras(mut v: u32, seed: u32) -> u32 {
 /// their numbers in every other).
 #[inline(always)]
 fn shuffle(reversed_index: u32, seed: u32) -> u32 {
-    laine_karras(reversed_index, seed).reverse_bits()
+    // The same nested permutation as a digit scramble, applied to the index.
+    owen_scramble(reversed_index, seed)
 }
 
 /// A 32-bit binary fraction as the centre of its interval of width 2⁻³²: never 0, never 1.
