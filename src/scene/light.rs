@@ -129,6 +129,22 @@ pub trait LightSource: Send + Sync {
         self.illuminate_pdf(p, u)
     }
 
+    /// A sample for an integrator that weighs it against rays sampled by BSDFs, by multiple
+    /// importance sampling with [`LightSource::environment_pdf`]'s density for those rays:
+    /// [`LightSource::illuminate_facing`] (`facing` the normal `n`) or
+    /// [`LightSource::illuminate_pdf`] (`None`), with the density it was drawn with. Those rays
+    /// find every part of an environment, so it may draw from a density of its own that leaves
+    /// them what they find well: an image samples only its parts brighter than its mean (MIS
+    /// compensation, Karlík et al. 2019), the BSDF's rays take the smooth rest. An integrator
+    /// without that second strategy (`phong`) asks [`LightSource::illuminate`], which must cover
+    /// the whole light. The default: the light's own samples.
+    fn illuminate_mis(&self, p: DVec3, facing: Option<DVec3>, u: DVec2) -> Option<(LightSample, LightPdf)> {
+        match facing {
+            Some(n) => self.illuminate_facing(p, n, u),
+            None => self.illuminate_pdf(p, u),
+        }
+    }
+
     /// The density with which `illuminate(p, u)`, for `u` uniform in [0, 1]², picks `sample`'s
     /// direction (a sample it returned for `p`, or one [`LightSource::intersect`] returned for a
     /// ray from `p`). Monte Carlo integrators weigh light samples with it; `phong` never asks.
@@ -207,11 +223,12 @@ pub trait LightSource: Send + Sync {
     /// For an environment light ([`LightSource::environment`] answers), what a Monte Carlo
     /// integrator weighs a ray that leaves the scene from `origin` along unit `dir` with, in one
     /// call: the radiance arriving along it ([`LightSource::environment`]`(dir)`) and the density
-    /// per steradian with which [`LightSource::illuminate`] at `origin` picks `dir` ([`LightSource::pdf`]
-    /// of the sample [`LightSource::intersect`] gives for that ray); `None` for every other light
-    /// (and for a delta density). The default asks those three; an environment that can answer
-    /// both from one lookup (one turn of the direction into image coordinates) should, as this is
-    /// asked for every ray that leaves the scene.
+    /// per steradian with which [`LightSource::illuminate_mis`] at `origin` picks `dir` (by
+    /// default [`LightSource::illuminate`]'s: [`LightSource::pdf`] of the sample
+    /// [`LightSource::intersect`] gives for that ray); `None` for every other light (and for a
+    /// delta density). The default asks those three; an environment that can answer both from
+    /// one lookup (one turn of the direction into image coordinates) should, as this is asked for
+    /// every ray that leaves the scene.
     fn environment_pdf(&self, origin: DVec3, dir: DVec3) -> Option<(Color, f64)> {
         let radiance = self.environment(dir)?;
         let sample = self.intersect(&Ray { origin, dir }, f64::INFINITY)?;
@@ -228,6 +245,9 @@ impl<T: LightSource + ?Sized> LightSource for Box<T> {
     }
     fn illuminate_facing(&self, p: DVec3, n: DVec3, u: DVec2) -> Option<(LightSample, LightPdf)> {
         (**self).illuminate_facing(p, n, u)
+    }
+    fn illuminate_mis(&self, p: DVec3, facing: Option<DVec3>, u: DVec2) -> Option<(LightSample, LightPdf)> {
+        (**self).illuminate_mis(p, facing, u)
     }
     fn pdf(&self, p: DVec3, sample: &LightSample) -> LightPdf {
         (**self).pdf(p, sample)

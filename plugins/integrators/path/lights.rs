@@ -149,8 +149,9 @@ impl PathTracer {
                 // costs a turn and a lookup); other lights are asked only for samples that count.
                 let sample = if facts[index].environment {
                     // Lit from `n`'s side only: a sample behind is skipped below, unseen (the
-                    // explanation shows what it would have brought).
-                    let drawn = if R::ON { light.illuminate_pdf(si.point(), u) } else { light.illuminate_facing(si.point(), si.n, u) };
+                    // explanation shows what it would have brought). Weighed against the BSDF's
+                    // rays: drawn by the light's density for MIS (an image's above its mean).
+                    let drawn = light.illuminate_mis(si.point(), (!R::ON).then_some(si.n), u);
                     drawn.map(|(ls, pdf)| (ls, Some(pdf)))
                 } else {
                     light.illuminate(si.point(), u).map(|ls| (ls, None))

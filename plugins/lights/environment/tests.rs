@@ -294,3 +294,143 @@ fn no_sample_outweighs_the_mean_by_much() {
         assert!(most < bound * mean, "{name}: a sample carries {:.1}× the mean", most / mean);
     }
 }
+
+/// The compensated density ([`LightSource::illuminate_mis`]) passes the χ² test against its own
+/// density, the one [`LightSource::environment_pdf`] gives the rays it is weighed against.
+#[test]
+fn compensated_sampling_passes_the_chi2_test() {
+    let test = Chi2Test::new(Sphere).res(72, 36).samples(400_000).integration(32).tests(4);
+    let cases = [
+        ("glow", Environment::image(glow(64, 32, 0.3), Color::ONE, 0.0, 16, 1024)),
+        ("turned glow", Environment::image(glow(64, 32, 0.7), Color::new(1.0, 0.5, 2.0), 1.1, 16, 1024)),
+        ("coarse glow", Environment::image(glow(64, 32, 0.55), Color::ONE, -2.0, 16, 16)),
+    ];
+    for (name, light) in cases {
+        assert!(light.compensated.is_some(), "{name}: a glow has cells above the mean");
+        let turn = |d: DVec3| DVec3::new(d.x, -d.z, d.y);
+        let back = |w: DVec3| DVec3::new(w.x, w.z, -w.y);
+        test.run(|u| Some(turn(light.illuminate_mis(DVec3::ZERO, None, u.next_2d())?.0.dir)), |w| light.mis_density(back(w)))
+            .assert_passes(name);
+        // And not against the density by luminance, which it is not.
+        test.run(|u| Some(turn(light.illuminate_mis(DVec3::ZERO, None, u.next_2d())?.0.dir)), |w| light.density(back(w)))
+            .assert_fails(&format!("{name}, against the uncompensated density"));
+    }
+}
+
+/// A compensated sample says the density that [`LightSource::environment_pdf`] gives a ray
+/// leaving along its direction, with the radiance the ray sees; lit from one side, the same
+/// sample, dark only behind; the power heuristic's weights of the two strategies sum to one.
+#[test]
+fn compensated_samples_and_escaping_rays_agree() {
+    let mut u = Uniform::new(29);
+    for (name, light) in lights() {
+        for _ in 0..4000 {
+            let r = u.next_2d();
+            let (s, p) = light.illuminate_mis(DVec3::ZERO, None, r).unwrap();
+            let p = p.solid_angle().unwrap();
+            let (seen, q) = light.environment_pdf(DVec3::ZERO, s.dir).unwrap();
+            assert!((p - q).abs() <= 1e-9 * p, "{name}: drawn with {p}, the ray says {q}");
+            let implied = s.intensity * PI * p;
+            assert!((implied - seen).abs().max_element() <= 1e-9 * seen.max_element().max(1e-300), "{name}: {implied} vs {seen}");
+            let n = DVec3::new(0.3, 0.8, -0.2).normalize();
+            let (f, pf) = light.illuminate_mis(DVec3::ZERO, Some(n), r).unwrap();
+            assert!(f.dir == s.dir && pf.solid_angle() == Some(p), "{name}");
+            assert!(if s.dir.dot(n) > 0.0 { f.intensity == s.intensity } else { f.intensity == Color::ZERO || light.uniform() }, "{name}");
+            let bsdf_pdf = 0.3;
+            let sum = power_heuristic(p, bsdf_pdf) + power_heuristic(bsdf_pdf, p);
+            assert!((sum - 1.0).abs() < 1e-12, "{name}: {sum}");
+        }
+    }
+}
+
+/// Compensation leaves the sky below its mean to the BSDF's rays: almost no compensated sample
+/// goes where the sky is dimmer than its mean (the density floor's share, and cells the sun's
+/// rim reaches into), and they go to the sun twice as often as by luminance.
+#[test]
+fn compensated_samples_leave_the_dim_sky_to_the_bsdf() {
+    let light = Environment::image(sky(64, 32, 0.3), Color::ONE, 0.0, 16, 1024);
+    let mut u = Uniform::new(31);
+    // The sky's mean luminance over the sphere (uniform directions).
+    let n = 100_000;
+    let mean = (0..n)
+        .map(|_| {
+            let r = u.next_2d();
+            let z = 1.0 - 2.0 * r.x;
+            let s = (1.0 - z * z).max(0.0).sqrt();
+            luminance(light.environment(DVec3::new(s * (TAU * r.y).cos(), z, s * (TAU * r.y).sin())).unwrap())
+        })
+        .sum::<f64>()
+        / f64::from(n);
+    let (mut dim, mut sun_mis, mut sun_all) = (0, 0, 0);
+    for _ in 0..n {
+        let r = u.next_2d();
+        let seen = |s: LightSample, pdf: LightPdf| luminance(s.intensity * PI * pdf.solid_angle().unwrap());
+        let (a, pa) = light.illuminate_mis(DVec3::ZERO, None, r).unwrap();
+        let (b, pb) = light.illuminate_pdf(DVec3::ZERO, r).unwrap();
+        dim += usize::from(seen(a, pa) < 0.5 * mean);
+        sun_mis += usize::from(seen(a, pa) > 50.0);
+        sun_all += usize::from(seen(b, pb) > 50.0);
+    }
+    assert!(dim < n as usize / 200, "{dim} of {n} compensated samples where the sky is below half its mean {mean}");
+    assert!(sun_mis > 2 * sun_all, "{sun_mis} compensated samples in the sun, {sun_all} by luminance");
+    // One colour: nothing above the mean, no compensated grid.
+    let flat = Environment::image(Arc::new(Image::from_linear(8, 4, vec![0.5; 96]).unwrap()), Color::ONE, 0.0, 1, 1024);
+    assert!(flat.compensated.is_none());
+}
+
+/// A white furnace under a sky: a white diffuse surface lit by the environment shows (1/π) ∫ L cos,
+/// estimated as `path` does, one compensated light sample and one cosine-distributed ray, each
+/// weighed by the power heuristic against the other's density (the ray's from
+/// [`LightSource::environment_pdf`]); the integral by quadrature of what rays see. The same
+/// estimator weighing the rays by the uncompensated density (what the samples were not drawn
+/// with) misses the light's share of the dim sky: the test can fail.
+#[test]
+fn a_white_surface_under_the_sky_shows_the_skys_irradiance() {
+    let light = Environment::image(sky(64, 32, 0.3), Color::new(1.0, 0.8, 0.6), 0.4, 16, 1024);
+    let (gu, gv) = (1024, 512);
+    for n in [DVec3::Y, DVec3::new(0.6, 0.5, -0.62).normalize(), DVec3::new(-0.3, -0.2, 0.93).normalize()] {
+        // (1/π) ∫ L(ω) max(0, n·ω) dω over the image's coordinates, dω = 2π² sin θ du dv.
+        let mut exact = Color::ZERO;
+        for j in 0..gv {
+            for i in 0..gu {
+                let uv = DVec2::new((i as f64 + 0.5) / gu as f64, (j as f64 + 0.5) / gv as f64);
+                let (dir, sin_theta) = light.direction_of(uv);
+                let cos = dir.dot(n).max(0.0);
+                exact += light.environment(dir).unwrap() * (cos * 2.0 * PI * PI * sin_theta / (gu * gv) as f64 / PI);
+            }
+        }
+        let estimate = |wrong: bool| {
+            let mut u = Uniform::new(37);
+            let (b1, b2) = raylab::math::sampler::orthonormal_basis(n);
+            let count = 1 << 18;
+            let (mut sum, mut sum2) = (Color::ZERO, Color::ZERO);
+            for _ in 0..count {
+                let mut v = Color::ZERO;
+                // The light sample: f·cos·π·intensity·w with f = 1/π.
+                let (s, p) = light.illuminate_mis(DVec3::ZERO, Some(n), u.next_2d()).unwrap();
+                let (p, cos) = (p.solid_angle().unwrap(), s.dir.dot(n));
+                if cos > 0.0 {
+                    v += s.intensity * cos * power_heuristic(p, cos / PI);
+                }
+                // The cosine-distributed ray: weight 1, the radiance it sees weighed.
+                let r = u.next_2d();
+                let (sin, c) = (r.x.sqrt(), (1.0 - r.x).sqrt());
+                let dir = sin * (TAU * r.y).cos() * b1 + sin * (TAU * r.y).sin() * b2 + c * n;
+                let (seen, q) = light.environment_pdf(DVec3::ZERO, dir).unwrap();
+                let q = if wrong { light.density(dir) } else { q };
+                v += seen * power_heuristic(c / PI, q);
+                sum += v;
+                sum2 += v * v;
+            }
+            let mean = sum / f64::from(count);
+            (mean, ((sum2 / f64::from(count) - mean * mean) / f64::from(count)).max(Color::ZERO).powf(0.5))
+        };
+        let (mean, error) = estimate(false);
+        let (biased, biased_error) = estimate(true);
+        for c in 0..3 {
+            assert!((mean[c] - exact[c]).abs() <= 4.0 * error[c] + 2e-3 * exact[c], "n {n}: {mean} ± {error}, exact {exact}");
+        }
+        let off = (biased - exact).abs() - 4.0 * biased_error - 2e-3 * exact;
+        assert!(off.max_element() > 0.0, "n {n}: the wrong weights gave {biased} ± {biased_error}, exact {exact}");
+    }
+}
