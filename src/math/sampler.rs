@@ -60,6 +60,15 @@ impl Sampler {
         to_unit(h)
     }
 
+    /// Passes over the next `n` numbers without computing them: what is drawn after is what it
+    /// would have been had they been drawn ([`Sampler::next_1d`], [`Sampler::pixel_1d`] take
+    /// one, [`Sampler::next_2d`], [`Sampler::pixel_2d`] two). For a draw whose value would go
+    /// unused (a lobe choice at a surface with one lobe).
+    #[inline]
+    pub fn skip(&mut self, n: u32) {
+        self.dim += n;
+    }
+
     /// The next pair in [0, 1)².
     #[inline]
     pub fn next_2d(&mut self) -> DVec2 {
@@ -1041,6 +1050,23 @@ mod tests {
             .res(50, 50)
             .run(|u| Some(concentric_disc(u.next_2d())), |p| if p.length_squared() <= 1.0 { std::f64::consts::FRAC_1_PI } else { 0.0 })
             .assert_passes("concentric disc");
+    }
+
+    /// A number passed over ([`Sampler::skip`]) leaves every later draw as it was when drawn:
+    /// independent and stratified draws, one or two numbers at a time.
+    #[test]
+    fn skipped_numbers_leave_the_later_draws_as_they_were() {
+        for sample in [0u32, 1, 5, 63] {
+            let base = Sampler::new(17, sample, 3).fork(2);
+            let (mut drawn, mut skipped) = (base.clone(), base.clone());
+            let _ = (drawn.pixel_1d(), drawn.next_2d());
+            skipped.skip(3);
+            assert_eq!((drawn.pixel_2d(), drawn.next_1d()), (skipped.pixel_2d(), skipped.next_1d()), "sample {sample}");
+            let (mut drawn, mut skipped) = (base.clone(), base);
+            let _ = drawn.pixel_2d();
+            skipped.skip(1);
+            assert_ne!(drawn.pixel_1d(), skipped.pixel_1d(), "sample {sample}: a skip of one is not a pair's");
+        }
     }
 
     #[test]

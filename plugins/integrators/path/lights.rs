@@ -126,10 +126,13 @@ impl PathTracer {
             return Color::ZERO;
         }
         let v = Vertex { si, bsdf };
-        let streams = sampler.fork(TAG_LIGHTS);
         let facts = scene.light_facts();
         let mut total = Color::ZERO;
-        for (index, light) in scene.lights.iter().enumerate() {
+        // Nothing to sample (no lights, or only uniform ones: a constant environment) and nothing
+        // to explain: no streams, and none of the loop's set-up.
+        let lights = if R::ON || facts.iter().any(|f| !f.uniform) { scene.lights.as_slice() } else { &[] };
+        let streams = if lights.is_empty() { sampler.clone() } else { sampler.fork(TAG_LIGHTS) };
+        for (index, light) in lights.iter().enumerate() {
             if facts[index].uniform {
                 rec.note(|| {
                     format!("{}: one radiance all around: found by the BSDF's ray, in full (no light sample)", scene.light_names[index])
@@ -138,7 +141,13 @@ impl PathTracer {
             }
             let n = self.samples_for(facts[index]);
             let mut stream = streams.fork(index as u64);
-            let pattern = stream.next_pattern();
+            // A lone sample's pattern would go unread: passed over, the same numbers after it.
+            let pattern = if n == 1 {
+                stream.skip(1);
+                0
+            } else {
+                stream.next_pattern()
+            };
             let mut sum = Color::ZERO;
             for s in 0..n {
                 // One sample: stratified across the pixel's samples (as `stratify` says); several:
@@ -164,8 +173,16 @@ impl PathTracer {
             let n = self.emitter_samples();
             let mut stream = sampler.fork(TAG_EMITTERS);
             let mut sum = Color::ZERO;
+            // A lone emitter is chosen whatever the number: it is passed over, not computed.
+            let choose = scene.emitters().len() > 1;
             for _ in 0..n {
-                let (pick, u) = (self.draw_1d(depth, &mut stream), self.draw_2d(depth, &mut stream));
+                let pick = if choose {
+                    self.draw_1d(depth, &mut stream)
+                } else {
+                    stream.skip(1);
+                    0.0
+                };
+                let u = self.draw_2d(depth, &mut stream);
                 if let Some(es) = scene.emitters().sample(&scene.objects, si.point(), pick, u, self.light_selection) {
                     sum += self.emitter_sample(c, v, &es, n, rec);
                 }
@@ -287,9 +304,11 @@ impl PathTracer {
             return Color::ZERO;
         }
         // An environment's sample (it says its density) is weighed against the BSDF's rays,
-        // every one of which that leaves the scene meets it: its value and density in one call.
-        let environment = scene.light_facts()[index].environment;
-        let (f, q) = if environment { bsdf.eval_pdf(ls.dir) } else { (bsdf.eval(ls.dir), f64::NAN) };
+        // every one of which that leaves the scene meets it, and so is nearly every sample of
+        // another light with an extent: their value and density in one call (the same values).
+        let facts = scene.light_facts()[index];
+        let environment = facts.environment;
+        let (f, q) = if environment || facts.is_area { bsdf.eval_pdf(ls.dir) } else { (bsdf.eval(ls.dir), f64::NAN) };
         if !(max_channel(f) > 0.0) {
             c.stats.add(counter::LIGHTS_NO_RESPONSE, 1);
             rec.light(|| traced.record(Some("the surface reflects nothing toward this light"), false, None, &[]));
@@ -301,7 +320,7 @@ impl PathTracer {
             |light: &dyn LightSource| environment || light.intersect(&Ray { origin: si.point(), dir: ls.dir }, f64::INFINITY).is_some();
         let (mis, pdfs) = match pdf.unwrap_or_else(|| light.pdf(si.point(), ls)) {
             LightPdf::SolidAngle(p) if can_meet(light) => {
-                let q = if environment { q } else { bsdf.pdf(ls.dir) };
+                let q = if environment || facts.is_area { q } else { bsdf.pdf(ls.dir) };
                 (power_heuristic(f64::from(n) * p, q), Some((p, q)))
             }
             _ => (1.0, None),
