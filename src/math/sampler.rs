@@ -60,15 +60,6 @@ impl Sampler {
         to_unit(h)
     }
 
-    /// Passes over the next `n` numbers without computing them: what is drawn after is what it
-    /// would have been had they been drawn ([`Sampler::next_1d`], [`Sampler::pixel_1d`] take
-    /// one, [`Sampler::next_2d`], [`Sampler::pixel_2d`] two). For a draw whose value would go
-    /// unused (a lobe choice at a surface with one lobe).
-    #[inline]
-    pub fn skip(&mut self, n: u32) {
-        self.dim += n;
-    }
-
     /// The next pair in [0, 1)².
     #[inline]
     pub fn next_2d(&mut self) -> DVec2 {
@@ -120,6 +111,14 @@ impl Sampler {
         let h = mix64(self.chain ^ u64::from(self.dim).wrapping_mul(0xC2B2_AE3D_27D4_EB4F));
         self.dim += 1;
         h
+    }
+
+    /// Skips one number: the stream goes on as if one had been drawn ([`Sampler::next_1d`],
+    /// [`Sampler::pixel_1d`] or [`Sampler::next_pattern`]) and dropped, without computing it
+    /// (a light's choice among one, the pattern of a single sample).
+    #[inline]
+    pub fn skip_1d(&mut self) {
+        self.dim += 1;
     }
 
     /// A 32-bit pattern key for [`stratified_2d`], unique to this stream and dimension.
@@ -698,6 +697,13 @@ mod tests {
         a.next_1d();
         b.pixel_1d();
         assert_eq!(a.next_1d(), b.next_1d());
+        // A skipped number counts as one drawn, of any kind.
+        for draw in [Sampler::next_1d, Sampler::pixel_1d, |s: &mut Sampler| f64::from(s.next_pattern())] {
+            let (mut a, mut b) = (Sampler::new(3, 5, 9), Sampler::new(3, 5, 9));
+            draw(&mut a);
+            b.skip_1d();
+            assert_eq!((a.pixel_2d(), a.next_1d()), (b.pixel_2d(), b.next_1d()));
+        }
         let first = |s: &Sampler| s.clone().pixel_2d();
         let s = Sampler::new(3, 5, 9);
         let mut t = s.clone();
@@ -1052,20 +1058,23 @@ mod tests {
             .assert_passes("concentric disc");
     }
 
-    /// A number passed over ([`Sampler::skip`]) leaves every later draw as it was when drawn:
-    /// independent and stratified draws, one or two numbers at a time.
+    /// A pair passed over is two numbers skipped ([`Sampler::skip_1d`], as the path tracer's
+    /// BSDF numbers skip an unread direction): every later draw is as it was when drawn; one
+    /// skip is not a pair's.
     #[test]
-    fn skipped_numbers_leave_the_later_draws_as_they_were() {
+    fn a_skipped_pair_is_two_numbers() {
         for sample in [0u32, 1, 5, 63] {
             let base = Sampler::new(17, sample, 3).fork(2);
             let (mut drawn, mut skipped) = (base.clone(), base.clone());
-            let _ = (drawn.pixel_1d(), drawn.next_2d());
-            skipped.skip(3);
+            let _ = (drawn.pixel_1d(), drawn.pixel_2d(), drawn.next_2d());
+            for _ in 0..5 {
+                skipped.skip_1d();
+            }
             assert_eq!((drawn.pixel_2d(), drawn.next_1d()), (skipped.pixel_2d(), skipped.next_1d()), "sample {sample}");
             let (mut drawn, mut skipped) = (base.clone(), base);
             let _ = drawn.pixel_2d();
-            skipped.skip(1);
-            assert_ne!(drawn.pixel_1d(), skipped.pixel_1d(), "sample {sample}: a skip of one is not a pair's");
+            skipped.skip_1d();
+            assert_ne!(drawn.pixel_1d(), skipped.pixel_1d(), "sample {sample}: one skip is not a pair's");
         }
     }
 

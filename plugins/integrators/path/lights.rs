@@ -141,12 +141,13 @@ impl PathTracer {
             }
             let n = self.samples_for(facts[index]);
             let mut stream = streams.fork(index as u64);
-            // A lone sample's pattern would go unread: passed over, the same numbers after it.
-            let pattern = if n == 1 {
-                stream.skip(1);
-                0
-            } else {
+            // A single sample needs no pattern: its number is skipped, not drawn (the same
+            // numbers after it).
+            let pattern = if n > 1 {
                 stream.next_pattern()
+            } else {
+                stream.skip_1d();
+                0
             };
             let mut sum = Color::ZERO;
             for s in 0..n {
@@ -172,15 +173,16 @@ impl PathTracer {
         if self.samples_emitters(scene) {
             let n = self.emitter_samples();
             let mut stream = sampler.fork(TAG_EMITTERS);
+            // A lone emitter is chosen whatever the number: it is skipped, not drawn (the same
+            // numbers after it).
+            let lone = scene.emitters().len() == 1;
             let mut sum = Color::ZERO;
-            // A lone emitter is chosen whatever the number: it is passed over, not computed.
-            let choose = scene.emitters().len() > 1;
             for _ in 0..n {
-                let pick = if choose {
-                    self.draw_1d(depth, &mut stream)
-                } else {
-                    stream.skip(1);
+                let pick = if lone {
+                    stream.skip_1d();
                     0.0
+                } else {
+                    self.draw_1d(depth, &mut stream)
                 };
                 let u = self.draw_2d(depth, &mut stream);
                 if let Some(es) = scene.emitters().sample(&scene.objects, si.point(), pick, u, self.light_selection) {
@@ -304,23 +306,21 @@ impl PathTracer {
             return Color::ZERO;
         }
         // An environment's sample (it says its density) is weighed against the BSDF's rays,
-        // every one of which that leaves the scene meets it, and so is nearly every sample of
-        // another light with an extent: their value and density in one call (the same values).
-        let facts = scene.light_facts()[index];
-        let environment = facts.environment;
-        let (f, q) = if environment || facts.is_area { bsdf.eval_pdf(ls.dir) } else { (bsdf.eval(ls.dir), f64::NAN) };
+        // every one of which that leaves the scene meets it, and so is the sample of a light
+        // that says rays meet its samples: the BSDF's value and density in one call.
+        let met = scene.light_facts()[index].environment || light.meets_its_samples();
+        let (f, q) = if met { bsdf.eval_pdf(ls.dir) } else { (bsdf.eval(ls.dir), f64::NAN) };
         if !(max_channel(f) > 0.0) {
             c.stats.add(counter::LIGHTS_NO_RESPONSE, 1);
             rec.light(|| traced.record(Some("the surface reflects nothing toward this light"), false, None, &[]));
             return Color::ZERO;
         }
-        // Weighed against the BSDF's own rays where they can meet the light too (an environment
-        // is not asked).
-        let can_meet =
-            |light: &dyn LightSource| environment || light.intersect(&Ray { origin: si.point(), dir: ls.dir }, f64::INFINITY).is_some();
+        // Weighed against the BSDF's own rays where they can meet the light too (an environment,
+        // or a light that says so, is not asked).
+        let can_meet = |light: &dyn LightSource| met || light.intersect(&Ray { origin: si.point(), dir: ls.dir }, f64::INFINITY).is_some();
         let (mis, pdfs) = match pdf.unwrap_or_else(|| light.pdf(si.point(), ls)) {
             LightPdf::SolidAngle(p) if can_meet(light) => {
-                let q = if environment || facts.is_area { q } else { bsdf.pdf(ls.dir) };
+                let q = if met { q } else { bsdf.pdf(ls.dir) };
                 (power_heuristic(f64::from(n) * p, q), Some((p, q)))
             }
             _ => (1.0, None),

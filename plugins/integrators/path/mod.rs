@@ -282,7 +282,7 @@ impl PathTracer {
     /// recursion's stack frames (1024 bounces on a render thread's default stack) stay as small
     /// as they were.
     /// Only the numbers the BSDF reads (`draws`) are computed; the others are passed over
-    /// ([`Sampler::skip`]) and given as 0.5, which the BSDF does not read: the same scatter.
+    /// ([`Sampler::skip_1d`]) and given as 0.5, which the BSDF does not read: the same scatter.
     #[inline(never)]
     fn bsdf_numbers(&self, depth: u32, sampler: &Sampler, draws: Draws) -> (f64, DVec2, f64) {
         const UNREAD: f64 = 0.5;
@@ -508,10 +508,12 @@ impl Draws {
     const ALL: Draws = Draws { pick: true, dir: true, fresnel: true };
 }
 
-/// Passes `stream` over `n` numbers ([`Sampler::skip`]) and returns `unread`.
+/// Passes `stream` over `n` numbers ([`Sampler::skip_1d`]) and returns `unread`.
 #[inline(always)]
 fn skip(stream: &mut Sampler, n: u32, unread: f64) -> f64 {
-    stream.skip(n);
+    for _ in 0..n {
+        stream.skip_1d();
+    }
     unread
 }
 
