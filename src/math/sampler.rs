@@ -113,6 +113,14 @@ impl Sampler {
         h
     }
 
+    /// Skips one number: the stream goes on as if one had been drawn ([`Sampler::next_1d`],
+    /// [`Sampler::pixel_1d`] or [`Sampler::next_pattern`]) and dropped, without computing it
+    /// (a light's choice among one, the pattern of a single sample).
+    #[inline]
+    pub fn skip_1d(&mut self) {
+        self.dim += 1;
+    }
+
     /// A 32-bit pattern key for [`stratified_2d`], unique to this stream and dimension.
     #[inline]
     pub fn next_pattern(&mut self) -> u32 {
@@ -689,6 +697,13 @@ mod tests {
         a.next_1d();
         b.pixel_1d();
         assert_eq!(a.next_1d(), b.next_1d());
+        // A skipped number counts as one drawn, of any kind.
+        for draw in [Sampler::next_1d, Sampler::pixel_1d, |s: &mut Sampler| f64::from(s.next_pattern())] {
+            let (mut a, mut b) = (Sampler::new(3, 5, 9), Sampler::new(3, 5, 9));
+            draw(&mut a);
+            b.skip_1d();
+            assert_eq!((a.pixel_2d(), a.next_1d()), (b.pixel_2d(), b.next_1d()));
+        }
         let first = |s: &Sampler| s.clone().pixel_2d();
         let s = Sampler::new(3, 5, 9);
         let mut t = s.clone();
