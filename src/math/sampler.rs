@@ -1058,6 +1058,26 @@ mod tests {
             .assert_passes("concentric disc");
     }
 
+    /// A pair passed over is two numbers skipped ([`Sampler::skip_1d`], as the path tracer's
+    /// BSDF numbers skip an unread direction): every later draw is as it was when drawn; one
+    /// skip is not a pair's.
+    #[test]
+    fn a_skipped_pair_is_two_numbers() {
+        for sample in [0u32, 1, 5, 63] {
+            let base = Sampler::new(17, sample, 3).fork(2);
+            let (mut drawn, mut skipped) = (base.clone(), base.clone());
+            let _ = (drawn.pixel_1d(), drawn.pixel_2d(), drawn.next_2d());
+            for _ in 0..5 {
+                skipped.skip_1d();
+            }
+            assert_eq!((drawn.pixel_2d(), drawn.next_1d()), (skipped.pixel_2d(), skipped.next_1d()), "sample {sample}");
+            let (mut drawn, mut skipped) = (base.clone(), base);
+            let _ = drawn.pixel_2d();
+            skipped.skip_1d();
+            assert_ne!(drawn.pixel_1d(), skipped.pixel_1d(), "sample {sample}: one skip is not a pair's");
+        }
+    }
+
     #[test]
     fn concentric_mapping_stays_in_disc() {
         for i in 0..100 {

@@ -126,10 +126,13 @@ impl PathTracer {
             return Color::ZERO;
         }
         let v = Vertex { si, bsdf };
-        let streams = sampler.fork(TAG_LIGHTS);
         let facts = scene.light_facts();
         let mut total = Color::ZERO;
-        for (index, light) in scene.lights.iter().enumerate() {
+        // Nothing to sample (no lights, or only uniform ones: a constant environment) and nothing
+        // to explain: no streams, and none of the loop's set-up.
+        let lights = if R::ON || facts.iter().any(|f| !f.uniform) { scene.lights.as_slice() } else { &[] };
+        let streams = if lights.is_empty() { sampler.clone() } else { sampler.fork(TAG_LIGHTS) };
+        for (index, light) in lights.iter().enumerate() {
             if facts[index].uniform {
                 rec.note(|| {
                     format!("{}: one radiance all around: found by the BSDF's ray, in full (no light sample)", scene.light_names[index])
