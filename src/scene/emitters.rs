@@ -140,6 +140,7 @@ impl Emitters {
     /// An emitter chosen by `selection` with `pick` uniform in `[0, 1)`, and a point of it seen
     /// from `reference` for `u` uniform in `[0, 1)²`. `None` when there is no emitter or its shape
     /// gives no point there.
+    #[inline]
     pub fn sample(&self, objects: &[Object], reference: DVec3, pick: f64, u: DVec2, selection: Selection) -> Option<EmitterSample> {
         let (e, pmf) = match selection {
             // A lone emitter is chosen with probability 1, which is its table's pmf exactly.
