@@ -235,4 +235,9 @@ pub struct AovLayers {
     pub error: Option<Vec<f32>>,
     /// Samples per pixel (they differ under an error target).
     pub spp: Option<Vec<f32>>,
+    /// With the `error` layer: the image's estimated relative RMSE and whether it may read
+    /// `"high"`, `"low"` or `"no"` (the summary's line; [`crate::render::share::ErrorEstimate`]),
+    /// written to an EXR's header as `raylab.estimated_relative_rmse` and
+    /// `raylab.estimate_may_read`.
+    pub estimate: Option<(f64, &'static str)>,
 }
