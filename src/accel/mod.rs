@@ -278,7 +278,8 @@ impl<O: Intersectable> Accelerated<'_, O> {
             other(i)
         } else {
             let inv = ray.dir.recip();
-            accel.bounded.iter().any(|(b, i)| b.hit(ray, inv, t_min, t_max) && other(*i))
+            // The own object first: it is asked below, without its box.
+            accel.bounded.iter().any(|(b, i)| *i != own && b.hit(ray, inv, t_min, t_max) && other(*i))
         };
         blocked || objects[own as usize].occludes_leaving(ray, t_min, t_max, from.prim)
     }
