@@ -21,8 +21,12 @@ pub struct RectLight {
     edge2: DVec3,
     /// Unit normal `edge1 × edge2 / area`.
     normal: DVec3,
-    /// `|edge1 × edge2|`, scene units².
-    area: f64,
+    /// `1 / |edge1 × edge2|`: the samples' density per unit area, scene units⁻².
+    per_area: f64,
+    /// The dual basis of `edge1`, `edge2` in the plane, `edge2 × normal / area` and
+    /// `normal × edge1 / area`: a point `corner + q` of the plane is at `q · dual.0` along
+    /// `edge1` and `q · dual.1` along `edge2`.
+    dual: (DVec3, DVec3),
     kc: f64,
     kl: f64,
     kq: f64,
@@ -70,7 +74,9 @@ impl RectLight {
         let cross = edge1.cross(edge2);
         let area = cross.length();
         let corner = center - 0.5 * (edge1 + edge2);
-        RectLight { color, corner, edge1, edge2, normal: cross / area, area, kc, kl, kq, samples: samples.max(1) }
+        let normal = cross / area;
+        let dual = (edge2.cross(normal) / area, normal.cross(edge1) / area);
+        RectLight { color, corner, edge1, edge2, normal, per_area: 1.0 / area, dual, kc, kl, kq, samples: samples.max(1) }
     }
 
     /// The sample from the point `d` away along unit `dir`.
@@ -103,7 +109,7 @@ impl LightSource for RectLight {
 
     /// Uniform over the rectangle.
     fn pdf(&self, _: DVec3, sample: &LightSample) -> LightPdf {
-        LightPdf::from_area(1.0 / self.area, sample.distance, sample.dir.dot(self.normal))
+        LightPdf::from_area(self.per_area, sample.distance, sample.dir.dot(self.normal))
     }
 
     /// The rectangle, from either side.
@@ -115,12 +121,16 @@ impl LightSource for RectLight {
         }
         // Coordinates along the edges (the dual basis of edge1, edge2 in the plane).
         let q = ray.at(t) - self.corner;
-        let a = q.cross(self.edge2).dot(self.normal) / self.area;
-        let b = self.edge1.cross(q).dot(self.normal) / self.area;
+        let (a, b) = (q.dot(self.dual.0), q.dot(self.dual.1));
         if !((0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b)) {
             return None;
         }
         Some(self.sample(ray.dir, t))
+    }
+
+    /// Its samples lie on the rectangle (`u` ∈ [0, 1]²), which [`LightSource::intersect`] meets.
+    fn meets_its_samples(&self) -> bool {
+        true
     }
 
     fn sample_count(&self) -> u32 {

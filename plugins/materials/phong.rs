@@ -201,6 +201,22 @@ impl PhongBsdf {
         }
     }
 
+    /// Which of [`Bsdf::sample`]'s numbers this model reads, as `(pick, u, fresnel)`: the lobe
+    /// choice only where more than one lobe can be picked, the direction's pair only for a smooth
+    /// lobe or a blurry dielectric, the Fresnel choice only for a dielectric. A caller may pass
+    /// anything for the others (the same scatter): a diffuse surface reads only `u`, a sharp
+    /// mirror none.
+    ///
+    /// The lobe choice goes unread when the first lobe with weight has probability 1 (`pick`,
+    /// below 1, then always picks it: a lone lobe's share is exactly 1), or none has weight.
+    #[inline]
+    pub fn numbers_read(&self) -> (bool, bool, bool) {
+        let c = &self.choice;
+        let first = if c[0] > 0.0 { c[0] } else { c[1..].iter().copied().find(|&p| p > 0.0).unwrap_or(1.0) };
+        let dir = c[0] > 0.0 || c[1] > 0.0 || c[2] > 0.0 || (c[4] > 0.0 && self.blur_lobe > 0.0);
+        (first < 1.0, dir, c[4] > 0.0)
+    }
+
     /// Fresnel reflection or transmission of the `kt` part, jittered when blurry.
     fn sample_dielectric(&self, u: DVec2, fresnel: f64) -> Scatter {
         let d = -self.wo;

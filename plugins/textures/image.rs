@@ -307,7 +307,7 @@ impl Image {
                 let (fx, fy) = ((x - x0) as f32, (y - y0) as f32);
                 // Each of the four texels' column and row wrapped once.
                 let (c0, c1, r0, r1) = (column(x0), column(x0 + 1.0), row(y0), row(y0 + 1.0));
-                let [t00, t10, t01, t11] = self.texels([(c0, r0), (c1, r0), (c0, r1), (c1, r1)]);
+                let [t00, t10, t01, t11] = self.texels([c0, c1], [r0, r1]);
                 let top = t00.lerp(t10, fx);
                 let bottom = t01.lerp(t11, fx);
                 top.lerp(bottom, fy).as_dvec3()
@@ -341,28 +341,35 @@ impl Image {
         let c1 = if x0 + 1 >= width { 0 } else { x0 + 1 } as usize;
         let r0 = y0.max(0) as usize;
         let r1 = (y0 + 1).min(height - 1) as usize;
-        let [t00, t10, t01, t11] = self.texels([(c0, r0), (c1, r0), (c0, r1), (c1, r1)]);
+        let [t00, t10, t01, t11] = self.texels([c0, c1], [r0, r1]);
         let top = t00.lerp(t10, fx);
         let bottom = t01.lerp(t11, fx);
         top.lerp(bottom, fy).as_dvec3()
     }
 
-    /// The linear values of texels `at` (each (`x`, `y`) as [`Image::texel`]'s), the storage
-    /// matched once for all of them.
+    /// The linear values of the four texels a bilinear lookup blends, at columns `c0`, `c1` of
+    /// rows `r0`, `r1` (as [`Image::texel`]'s; in the order (c0, r0), (c1, r0), (c0, r1),
+    /// (c1, r1)), the storage matched once for all four. Written out for the four rather than
+    /// mapped over an array: the map was a call of its own at every lookup.
     #[inline(always)]
-    fn texels<const N: usize>(&self, at: [(usize, usize); N]) -> [Vec3; N] {
+    fn texels(&self, [c0, c1]: [usize; 2], [r0, r1]: [usize; 2]) -> [Vec3; 4] {
         let w = self.width;
+        let at = [3 * (r0 * w + c0), 3 * (r0 * w + c1), 3 * (r1 * w + c0), 3 * (r1 * w + c1)];
         match &self.texels {
-            Texels::Eight { rgb, linear } => at.map(|(x, y)| {
-                let i = 3 * (y * w + x);
-                let t = &rgb[i..i + 3];
-                Vec3::new(linear[t[0] as usize], linear[t[1] as usize], linear[t[2] as usize])
-            }),
-            Texels::Float(texels) => at.map(|(x, y)| {
-                let i = 3 * (y * w + x);
-                let t = &texels[i..i + 3];
-                Vec3::new(t[0], t[1], t[2])
-            }),
+            Texels::Eight { rgb, linear } => {
+                let one = |i: usize| {
+                    let t = &rgb[i..i + 3];
+                    Vec3::new(linear[t[0] as usize], linear[t[1] as usize], linear[t[2] as usize])
+                };
+                [one(at[0]), one(at[1]), one(at[2]), one(at[3])]
+            }
+            Texels::Float(texels) => {
+                let one = |i: usize| {
+                    let t = &texels[i..i + 3];
+                    Vec3::new(t[0], t[1], t[2])
+                };
+                [one(at[0]), one(at[1]), one(at[2]), one(at[3])]
+            }
         }
     }
 }

@@ -200,14 +200,15 @@ impl Piecewise1d {
     }
 
     /// A point for `u` uniform in `[0, 1)`: `x` in `[0, 1)`, its density, and its bin.
-    #[inline]
+    #[inline(always)]
     pub fn sample(&self, u: f64) -> (f64, f64, usize) {
         let n = self.func.len();
         let u = below_one(u.max(0.0));
         // The last bin whose cdf is ≤ u, among those with a probability: the first cdf entry
         // above u, from the guide's start for u's cell on (about two steps on average; back
         // first where rounding put u before that start: the same answer either way).
-        let mut first_above = self.guide[bin(u, n)] as usize;
+        // `bin(u, n)`, `u` already clamped.
+        let mut first_above = self.guide[((u * float(n)) as u32 as usize).min(n - 1)] as usize;
         // cdf[0] = 0 ≤ u ends the first scan, cdf[n] = 1 > u the second.
         while self.cdf[first_above - 1] > u {
             first_above -= 1;

@@ -113,6 +113,14 @@ impl Sampler {
         h
     }
 
+    /// Skips one number: the stream goes on as if one had been drawn ([`Sampler::next_1d`],
+    /// [`Sampler::pixel_1d`] or [`Sampler::next_pattern`]) and dropped, without computing it
+    /// (a light's choice among one, the pattern of a single sample).
+    #[inline]
+    pub fn skip_1d(&mut self) {
+        self.dim += 1;
+    }
+
     /// A 32-bit pattern key for [`stratified_2d`], unique to this stream and dimension.
     #[inline]
     pub fn next_pattern(&mut self) -> u32 {
@@ -689,6 +697,13 @@ mod tests {
         a.next_1d();
         b.pixel_1d();
         assert_eq!(a.next_1d(), b.next_1d());
+        // A skipped number counts as one drawn, of any kind.
+        for draw in [Sampler::next_1d, Sampler::pixel_1d, |s: &mut Sampler| f64::from(s.next_pattern())] {
+            let (mut a, mut b) = (Sampler::new(3, 5, 9), Sampler::new(3, 5, 9));
+            draw(&mut a);
+            b.skip_1d();
+            assert_eq!((a.pixel_2d(), a.next_1d()), (b.pixel_2d(), b.next_1d()));
+        }
         let first = |s: &Sampler| s.clone().pixel_2d();
         let s = Sampler::new(3, 5, 9);
         let mut t = s.clone();
@@ -1041,6 +1056,26 @@ mod tests {
             .res(50, 50)
             .run(|u| Some(concentric_disc(u.next_2d())), |p| if p.length_squared() <= 1.0 { std::f64::consts::FRAC_1_PI } else { 0.0 })
             .assert_passes("concentric disc");
+    }
+
+    /// A pair passed over is two numbers skipped ([`Sampler::skip_1d`], as the path tracer's
+    /// BSDF numbers skip an unread direction): every later draw is as it was when drawn; one
+    /// skip is not a pair's.
+    #[test]
+    fn a_skipped_pair_is_two_numbers() {
+        for sample in [0u32, 1, 5, 63] {
+            let base = Sampler::new(17, sample, 3).fork(2);
+            let (mut drawn, mut skipped) = (base.clone(), base.clone());
+            let _ = (drawn.pixel_1d(), drawn.pixel_2d(), drawn.next_2d());
+            for _ in 0..5 {
+                skipped.skip_1d();
+            }
+            assert_eq!((drawn.pixel_2d(), drawn.next_1d()), (skipped.pixel_2d(), skipped.next_1d()), "sample {sample}");
+            let (mut drawn, mut skipped) = (base.clone(), base);
+            let _ = drawn.pixel_2d();
+            skipped.skip_1d();
+            assert_ne!(drawn.pixel_1d(), skipped.pixel_1d(), "sample {sample}: one skip is not a pair's");
+        }
     }
 
     #[test]

@@ -140,6 +140,7 @@ impl Emitters {
     /// An emitter chosen by `selection` with `pick` uniform in `[0, 1)`, and a point of it seen
     /// from `reference` for `u` uniform in `[0, 1)²`. `None` when there is no emitter or its shape
     /// gives no point there.
+    #[inline]
     pub fn sample(&self, objects: &[Object], reference: DVec3, pick: f64, u: DVec2, selection: Selection) -> Option<EmitterSample> {
         let (e, pmf) = match selection {
             // A lone emitter is chosen with probability 1, which is its table's pmf exactly.
@@ -157,12 +158,18 @@ impl Emitters {
         let o = &objects[object as usize];
         let s = o.geometry().sample_surface(reference, u)?;
         let to = s.hit.point - reference;
-        let distance = to.length();
+        let d2 = to.length_squared();
+        let distance = d2.sqrt();
         if !(distance > 0.0 && distance.is_finite()) {
             return None;
         }
         let dir = to / distance;
-        let pdf = pmf * s.pdf.solid_angle(reference, s.hit.point, s.normal);
+        // `SurfacePdf::solid_angle` from the distance already found (the same operations).
+        let pdf = pmf
+            * match s.pdf {
+                SurfacePdf::Area(p) if p > 0.0 => p * d2 / (s.normal.dot(to).abs() / distance),
+                pdf => pdf.solid_angle(reference, s.hit.point, s.normal),
+            };
         let hit = Hit { t: distance, object, ..s.hit };
         // The emission as a ray from the reference would see it there (side, textures): one
         // constant by the side the ray arrives at (the outward normal's, as `Geometry::surface`

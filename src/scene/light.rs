@@ -150,6 +150,16 @@ pub trait LightSource: Send + Sync {
         None
     }
 
+    /// True when [`LightSource::intersect`] answers the ray from `p` toward every sample
+    /// [`LightSource::illuminate`] gives at `p` with a density per solid angle (the sample lies
+    /// on the emitter a ray can meet; up to rounding at the emitter's edges): an integrator then
+    /// weighs such a sample against its own rays without asking `intersect` (for a rectangle, a
+    /// plane and two edge tests at every light sample). False (the default): it asks.
+    /// [`testing::check_light`] checks the claim.
+    fn meets_its_samples(&self) -> bool {
+        false
+    }
+
     /// Constant light this source adds everywhere, independent of direction (ambient light).
     /// Zero for lights with a position or direction.
     fn ambient(&self) -> Color {
@@ -234,6 +244,9 @@ impl<T: LightSource + ?Sized> LightSource for Box<T> {
     }
     fn intersect(&self, ray: &Ray, t_max: f64) -> Option<LightSample> {
         (**self).intersect(ray, t_max)
+    }
+    fn meets_its_samples(&self) -> bool {
+        (**self).meets_its_samples()
     }
     fn ambient(&self) -> Color {
         (**self).ambient()

@@ -126,10 +126,13 @@ impl PathTracer {
             return Color::ZERO;
         }
         let v = Vertex { si, bsdf };
-        let streams = sampler.fork(TAG_LIGHTS);
         let facts = scene.light_facts();
         let mut total = Color::ZERO;
-        for (index, light) in scene.lights.iter().enumerate() {
+        // Nothing to sample (no lights, or only uniform ones: a constant environment) and nothing
+        // to explain: no streams, and none of the loop's set-up.
+        let lights = if R::ON || facts.iter().any(|f| !f.uniform) { scene.lights.as_slice() } else { &[] };
+        let streams = if lights.is_empty() { sampler.clone() } else { sampler.fork(TAG_LIGHTS) };
+        for (index, light) in lights.iter().enumerate() {
             if facts[index].uniform {
                 rec.note(|| {
                     format!("{}: one radiance all around: found by the BSDF's ray, in full (no light sample)", scene.light_names[index])
@@ -138,7 +141,14 @@ impl PathTracer {
             }
             let n = self.samples_for(facts[index]);
             let mut stream = streams.fork(index as u64);
-            let pattern = stream.next_pattern();
+            // A single sample needs no pattern: its number is skipped, not drawn (the same
+            // numbers after it).
+            let pattern = if n > 1 {
+                stream.next_pattern()
+            } else {
+                stream.skip_1d();
+                0
+            };
             let mut sum = Color::ZERO;
             for s in 0..n {
                 // One sample: stratified across the pixel's samples (as `stratify` says); several:
@@ -163,9 +173,18 @@ impl PathTracer {
         if self.samples_emitters(scene) {
             let n = self.emitter_samples();
             let mut stream = sampler.fork(TAG_EMITTERS);
+            // A lone emitter is chosen whatever the number: it is skipped, not drawn (the same
+            // numbers after it).
+            let lone = scene.emitters().len() == 1;
             let mut sum = Color::ZERO;
             for _ in 0..n {
-                let (pick, u) = (self.draw_1d(depth, &mut stream), self.draw_2d(depth, &mut stream));
+                let pick = if lone {
+                    stream.skip_1d();
+                    0.0
+                } else {
+                    self.draw_1d(depth, &mut stream)
+                };
+                let u = self.draw_2d(depth, &mut stream);
                 if let Some(es) = scene.emitters().sample(&scene.objects, si.point(), pick, u, self.light_selection) {
                     sum += self.emitter_sample(c, v, &es, n, rec);
                 }
@@ -287,21 +306,21 @@ impl PathTracer {
             return Color::ZERO;
         }
         // An environment's sample (it says its density) is weighed against the BSDF's rays,
-        // every one of which that leaves the scene meets it: its value and density in one call.
-        let environment = scene.light_facts()[index].environment;
-        let (f, q) = if environment { bsdf.eval_pdf(ls.dir) } else { (bsdf.eval(ls.dir), f64::NAN) };
+        // every one of which that leaves the scene meets it, and so is the sample of a light
+        // that says rays meet its samples: the BSDF's value and density in one call.
+        let met = scene.light_facts()[index].environment || light.meets_its_samples();
+        let (f, q) = if met { bsdf.eval_pdf(ls.dir) } else { (bsdf.eval(ls.dir), f64::NAN) };
         if !(max_channel(f) > 0.0) {
             c.stats.add(counter::LIGHTS_NO_RESPONSE, 1);
             rec.light(|| traced.record(Some("the surface reflects nothing toward this light"), false, None, &[]));
             return Color::ZERO;
         }
-        // Weighed against the BSDF's own rays where they can meet the light too (an environment
-        // is not asked).
-        let can_meet =
-            |light: &dyn LightSource| environment || light.intersect(&Ray { origin: si.point(), dir: ls.dir }, f64::INFINITY).is_some();
+        // Weighed against the BSDF's own rays where they can meet the light too (an environment,
+        // or a light that says so, is not asked).
+        let can_meet = |light: &dyn LightSource| met || light.intersect(&Ray { origin: si.point(), dir: ls.dir }, f64::INFINITY).is_some();
         let (mis, pdfs) = match pdf.unwrap_or_else(|| light.pdf(si.point(), ls)) {
             LightPdf::SolidAngle(p) if can_meet(light) => {
-                let q = if environment { q } else { bsdf.pdf(ls.dir) };
+                let q = if met { q } else { bsdf.pdf(ls.dir) };
                 (power_heuristic(f64::from(n) * p, q), Some((p, q)))
             }
             _ => (1.0, None),

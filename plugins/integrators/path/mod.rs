@@ -232,7 +232,8 @@ struct Ctx<'a> {
     emitted: Color,
 }
 
-/// The state a ray carries from the vertex that sent it, and its own random stream.
+/// The state a ray carries from the vertex that sent it, and its own random stream. Passed by
+/// reference down the recursion (it is ~200 bytes with its spread: not copied at each call).
 #[derive(Clone, Copy, Debug)]
 struct PathState<'s> {
     /// The ray's random stream.
@@ -281,10 +282,19 @@ impl PathTracer {
     /// direction, Fresnel choice), from `sampler`'s [`TAG_BSDF`] stream. Out of line: the
     /// recursion's stack frames (1024 bounces on a render thread's default stack) stay as small
     /// as they were.
+    /// Only the numbers the BSDF reads (`draws`) are computed; the others are passed over
+    /// ([`Sampler::skip_1d`]) and given as 0.5, which the BSDF does not read: the same scatter.
     #[inline(never)]
-    fn bsdf_numbers(&self, depth: u32, sampler: &Sampler) -> (f64, DVec2, f64) {
+    fn bsdf_numbers(&self, depth: u32, sampler: &Sampler, draws: Draws) -> (f64, DVec2, f64) {
+        const UNREAD: f64 = 0.5;
+        if !(draws.pick || draws.dir || draws.fresnel) {
+            return (UNREAD, DVec2::splat(UNREAD), UNREAD);
+        }
         let mut stream = sampler.fork(TAG_BSDF);
-        (self.draw_1d(depth, &mut stream), self.draw_2d(depth, &mut stream), self.draw_1d(depth, &mut stream))
+        let pick = if draws.pick { self.draw_1d(depth, &mut stream) } else { skip(&mut stream, 1, UNREAD) };
+        let u = if draws.dir { self.draw_2d(depth, &mut stream) } else { DVec2::splat(skip(&mut stream, 2, UNREAD)) };
+        let fresnel = if draws.fresnel { self.draw_1d(depth, &mut stream) } else { UNREAD };
+        (pick, u, fresnel)
     }
 
     /// The roulette's number at a vertex after `depth` diffuse or glossy bounces (out of line,
@@ -309,11 +319,11 @@ impl PathTracer {
     }
 
     /// Radiance arriving along `ray` (its state and stream `path`), spawned off the hit `from`.
-    fn li<R: Recorder>(&self, c: &mut Ctx, ray: &Ray, from: &Hit, path: PathState, rec: &mut R) -> Color {
+    fn li<R: Recorder>(&self, c: &mut Ctx, ray: &Ray, from: &Hit, path: &PathState, rec: &mut R) -> Color {
         // The surface the ray leaves is not asked again where it is flat (the same hit).
         let hit = c.scene.trace_leaving(ray, from).map(|si| si.with_spread(path.spread));
         match hit.as_ref().filter(|_| path.depth <= self.max_bounces) {
-            Some(si) => at_bsdf(si, |bsdf| self.arrive(c, ray, Some(si), Some(bsdf), path, rec)),
+            Some(si) => at_bsdf(si, |bsdf, draws| self.arrive(c, ray, Some(si), Some((bsdf, draws)), path, rec)),
             None => self.arrive(c, ray, hit.as_ref(), None, path, rec),
         }
     }
@@ -326,8 +336,8 @@ impl PathTracer {
         c: &mut Ctx,
         ray: &Ray,
         hit: Option<&Interaction>,
-        bsdf: Option<&dyn Bsdf>,
-        path: PathState,
+        bsdf: Option<(&dyn Bsdf, Draws)>,
+        path: &PathState,
         rec: &mut R,
     ) -> Color {
         let t_hit = hit.map_or(f64::INFINITY, |si| si.hit.t);
@@ -352,9 +362,9 @@ impl PathTracer {
         if path.depth == 0 {
             c.emitted = radiance;
         }
-        if let Some(bsdf) = bsdf {
+        if let Some((bsdf, draws)) = bsdf {
             radiance += self.direct(c, si, bsdf, (path.sampler, path.smooth_depth), rec);
-            radiance += self.scatter(c, si, bsdf, path, rec);
+            radiance += self.scatter(c, si, (bsdf, draws), path, rec);
         } else {
             c.stats.add(counter::DEPTH_LIMITED, 1);
             rec.note(|| format!("max_bounces {} reached: only the emitters this ray meets count", self.max_bounces));
@@ -365,10 +375,17 @@ impl PathTracer {
 
     /// The light brought back by one ray scattered at `si` by `bsdf`, times its weight; zero
     /// when the path ends here (absorbed, or by Russian roulette).
-    fn scatter<R: Recorder>(&self, c: &mut Ctx, si: &Interaction, bsdf: &dyn Bsdf, path: PathState, rec: &mut R) -> Color {
+    fn scatter<R: Recorder>(
+        &self,
+        c: &mut Ctx,
+        si: &Interaction,
+        (bsdf, draws): (&dyn Bsdf, Draws),
+        path: &PathState,
+        rec: &mut R,
+    ) -> Color {
         let sampler = path.sampler;
         let d = path.smooth_depth;
-        let (pick, u, fresnel) = self.bsdf_numbers(d, sampler);
+        let (pick, u, fresnel) = self.bsdf_numbers(d, sampler, draws);
         let Some(s) = bsdf.sample(pick, u, fresnel) else {
             c.stats.add(counter::ABSORBED, 1);
             rec.note(|| "absorbed: the surface scatters nothing in the sampled direction".into());
@@ -414,7 +431,7 @@ impl PathTracer {
             spread,
         };
         let mut child = rec.child(s.kind, &ray, next.depth, next.beta);
-        let li = self.li(c, &ray, &si.hit, next, &mut child);
+        let li = self.li(c, &ray, &si.hit, &next, &mut child);
         rec.adopt(child);
         weight * li
     }
@@ -434,14 +451,14 @@ impl PathTracer {
         let hit = scene.trace(ray).map(|si| si.with_spread(spread));
         // A camera ray is always within the bounce limit (depth 0).
         let color = match &hit {
-            Some(si) => at_bsdf(si, |bsdf| {
+            Some(si) => at_bsdf(si, |bsdf, draws| {
                 aov.set_surface(si, bsdf.albedo());
-                aov.look_through(scene, si, |s| at_bsdf(s, guide_step));
-                self.arrive(c, ray, Some(si), Some(bsdf), PathState::camera(ray.origin, sampler, spread), rec)
+                aov.look_through(scene, si, |s| at_bsdf(s, |b, _| guide_step(b)));
+                self.arrive(c, ray, Some(si), Some((bsdf, draws)), &PathState::camera(ray.origin, sampler, spread), rec)
             }),
             None => {
                 aov.escape(scene, ray.dir);
-                self.arrive(c, ray, None, None, PathState::camera(ray.origin, sampler, spread), rec)
+                self.arrive(c, ray, None, None, &PathState::camera(ray.origin, sampler, spread), rec)
             }
         };
         aov.emitted = c.emitted;
@@ -465,13 +482,41 @@ fn guide_step(bsdf: &dyn Bsdf) -> GuideStep {
     }
 }
 
-/// `f` of the BSDF at `si`: its material's model's, or the coefficients' ([`PhongBsdf`]).
+/// `f` of the BSDF at `si` and the numbers its sampling reads: its material's model's (all
+/// of them), or the coefficients' ([`PhongBsdf`], [`PhongBsdf::numbers_read`]).
 #[inline]
-fn at_bsdf<T>(si: &Interaction, f: impl FnOnce(&dyn Bsdf) -> T) -> T {
+fn at_bsdf<T>(si: &Interaction, f: impl FnOnce(&dyn Bsdf, Draws) -> T) -> T {
     match si.model() {
-        Some(m) => with_bsdf(m, si, f),
-        None => f(&PhongBsdf::new(si)),
+        Some(m) => with_bsdf(m, si, |b| f(b, Draws::ALL)),
+        None => {
+            let bsdf = PhongBsdf::new(si);
+            let (pick, dir, fresnel) = bsdf.numbers_read();
+            f(&bsdf, Draws { pick, dir, fresnel })
+        }
     }
+}
+
+/// Which of [`Bsdf::sample`]'s numbers a vertex's BSDF reads: the lobe choice, the direction's
+/// pair, the Fresnel choice. The path tracer computes only these ([`PathTracer::bsdf_numbers`]).
+#[derive(Clone, Copy, Debug)]
+struct Draws {
+    pick: bool,
+    dir: bool,
+    fresnel: bool,
+}
+
+impl Draws {
+    /// Every number (a material model's BSDF, which does not say).
+    const ALL: Draws = Draws { pick: true, dir: true, fresnel: true };
+}
+
+/// Passes `stream` over `n` numbers ([`Sampler::skip_1d`]) and returns `unread`.
+#[inline(always)]
+fn skip(stream: &mut Sampler, n: u32, unread: f64) -> f64 {
+    for _ in 0..n {
+        stream.skip_1d();
+    }
+    unread
 }
 
 impl Integrator for PathTracer {

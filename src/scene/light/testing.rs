@@ -20,7 +20,8 @@ pub const SAMPLE_TOLERANCE: f64 = 1e-9;
 /// - every sample lies within the light's [`LightSource::bound`] (if it has one), and its
 ///   intensity within the bound's (both within [`SAMPLE_TOLERANCE`], relative);
 /// - a light whose samples are [`LightPdf::Delta`] ([`LightSource::pdf`]) is met by no ray;
-/// - otherwise every sample that carries light comes back from [`LightSource::intersect`] for
+/// - otherwise every sample that carries light (every sample, when the light says
+///   [`LightSource::meets_its_samples`]) comes back from [`LightSource::intersect`] for
 ///   the ray from `p` along its direction, with the same distance, intensity and density
 ///   (within [`SAMPLE_TOLERANCE`], relative);
 /// - the radiance the light's samples imply (`intensity × pdf`), integrated over all directions
@@ -55,6 +56,8 @@ pub fn check_light(light: &dyn LightSource, p: DVec3, n: u32, grid: u32, relativ
             assert!(met.is_none(), "a ray met a delta light (sample {ls:?})");
             continue;
         };
+        // A light that says rays meet its samples is met there, whatever the sample carries.
+        assert!(!light.meets_its_samples() || met.is_some(), "the light says rays meet its samples, but not sample {ls:?} from {p}");
         if !(ls.intensity.max_element() > 0.0) {
             continue;
         }
