@@ -125,6 +125,61 @@ fn an_error_target_frame_split_into_crops_merges_to_the_whole_render() {
     assert_eq!(merged.error_estimate(), whole.sums.error_estimate());
 }
 
+/// `render --denoise`'s finer grid under an error target: the frame's pixels are the 2 × 2
+/// sub-pixels of a frame half as wide and high, and each block stops on its merged sums, all its
+/// sub-pixels at the same count. Where blocks stop depends on their own samples alone: 1 and 3
+/// threads give the same bits, and crops of whole blocks (rows cut at even rows, a band split at
+/// an even column), each rendered alone, merge to the whole render's bits; a crop that cuts
+/// blocks is refused.
+#[test]
+fn an_error_target_on_sub_pixels_stops_blocks_together_and_merges_from_crops() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join("path-cornell.toml");
+    let src = raylab::param::error::Source::new("test", "");
+    let node = |v: Value| Node { value: v, loc: raylab::param::error::Loc::new(&src, 0..0) };
+    let render_params = vec![("target_error".to_string(), node(Value::Float(0.025)))];
+    let overrides = Overrides { width: Some(20), height: Some(16), spp: Some(256), render_params, ..Overrides::default() };
+    let mut j = load_file(&raylab_plugins::registry(), &path, &LoadOptions { overrides, ..LoadOptions::default() })
+        .unwrap_or_else(|e| panic!("{}", e.report()));
+    let target = j.settings.target.unwrap();
+    assert_eq!((target.floor_spp(), raylab::image::denoise::grid(&j.settings)), (64, 2));
+    j.settings = raylab::image::denoise::fine_settings(&j.settings, 2);
+    let whole = render(&j, &RenderOptions { layers: true, threads: Some(3), ..RenderOptions::default() }, &|_, _| {}).unwrap();
+    let (w, h) = (40usize, 32usize);
+    let mut counts = Vec::new();
+    for by in (0..h).step_by(2) {
+        for bx in (0..w).step_by(2) {
+            let subs = [(0, 0), (1, 0), (0, 1), (1, 1)].map(|(i, j)| whole.sums.pixels[(by + j) * w + bx + i]);
+            assert!(subs.iter().all(|p| p.samples == subs[0].samples), "block ({bx}, {by}): {:?}", subs.map(|p| p.samples));
+            let mut merged = raylab::render::accum::PixelSum::default();
+            subs.iter().for_each(|p| merged.merge(p));
+            // Each block stopped where its merged sums met the target, or at the most it may take.
+            assert!(
+                merged.samples == 256 || (target.converged(&merged) && merged.samples >= 64),
+                "block ({bx}, {by}) at {}",
+                merged.samples
+            );
+            counts.push(merged.samples);
+        }
+    }
+    assert!(counts.iter().min() < counts.iter().max(), "blocks stopped at different counts: {counts:?}");
+    let one = render(&j, &RenderOptions { layers: true, threads: Some(1), ..RenderOptions::default() }, &|_, _| {}).unwrap();
+    assert_eq!(one.sums.pixels, whole.sums.pixels);
+    let rects = [
+        Rect { x0: 0, y0: 0, x1: 40, y1: 10 },
+        Rect { x0: 0, y0: 10, x1: 18, y1: 22 },
+        Rect { x0: 18, y0: 10, x1: 40, y1: 22 },
+        Rect { x0: 0, y0: 22, x1: 40, y1: 32 },
+    ];
+    let parts: Vec<Part> = rects.into_iter().map(|bounds| part(&j, Share { bounds, pass: 0, passes: 1 }, true)).collect();
+    let merged = merge(&parts, false).unwrap();
+    assert_eq!(merged.pixels, whole.sums.pixels);
+    assert_eq!(merged.layers, whole.sums.layers);
+    assert_eq!(merged.film().unwrap(), whole.film);
+    let cut = Share { bounds: Rect { x0: 0, y0: 0, x1: 40, y1: 11 }, pass: 0, passes: 1 };
+    let e = render(&j, &RenderOptions { share: Some(cut), threads: Some(1), ..RenderOptions::default() }, &|_, _| {}).err().unwrap();
+    assert!(e.contains("whole blocks of 2 × 2 sub-pixels"), "{e}");
+}
+
 #[test]
 fn missing_duplicated_overlapping_and_foreign_parts_are_refused() {
     let j = job("dozen.toml", "stratified", 2);

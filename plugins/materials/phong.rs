@@ -73,9 +73,11 @@ pub struct PhongBsdf {
     /// Shading normal facing `wo`.
     ns: DVec3,
     /// The valid shading normal perfect specular events turn about
-    /// (`Interaction::specular_normal`).
+    /// (`Interaction::specular_normal`), where a mirror or dielectric lobe has weight (else `n`,
+    /// never read).
     ms: DVec3,
-    /// Mirror direction of `wo` about `ns`: the Phong lobes' axis.
+    /// Mirror direction of `wo` about `ns`: the Phong lobes' axis, where one has weight (else
+    /// `ns`, never read).
     axis: DVec3,
     kd: Color,
     ks: Color,
@@ -180,12 +182,16 @@ impl PhongBsdf {
             *p = if total > 0.0 { *p / total } else { 0.0 };
         }
         let wo = -si.dir;
+        // Only the lobes that can be chosen read their axes (the others' values are never
+        // used): the Phong lobes' mirror axis, the specular events' normal.
+        let axis = if choice[1] > 0.0 || choice[2] > 0.0 { reflect(si.dir, si.ns) } else { si.ns };
+        let ms = if choice[3] > 0.0 || choice[4] > 0.0 { si.specular_normal() } else { si.n };
         PhongBsdf {
             wo,
             n: si.n,
             ns: si.ns,
-            ms: si.specular_normal(),
-            axis: reflect(si.dir, si.ns),
+            ms,
+            axis,
             kd,
             ks,
             shininess: m.shininess,

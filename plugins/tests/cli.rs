@@ -570,6 +570,69 @@ fn denoising_brings_a_noisy_render_closer_to_the_reference() {
     std::fs::remove_dir_all(dir).unwrap();
 }
 
+/// `render --target-error --denoise` on the finer grid (here 2 × 2 sub-pixels: the target's first
+/// stop is 64 samples a pixel), each pixel's sub-pixels stopping together: the image has the
+/// frame's size, pixels stopped at different counts (each a multiple of 4, the `spp` layer the
+/// pixel's samples), and the denoised image is closer to the reference than the same target's
+/// noisy one. Under a time budget the render goes to the same grid, and the `spp` layer of the
+/// denoised render (or any map of counts its sub-pixels can share) repeats it bit for bit.
+#[test]
+fn an_error_target_or_time_budget_with_the_denoiser_stops_each_pixels_sub_pixels_together() {
+    if !raylab::image::denoise::available() {
+        assert!(std::env::var_os("CI").is_none(), "CI must have the denoiser: {}", raylab::image::denoise::INSTALL_HINT);
+        eprintln!("SKIPPED: no oidnDenoise ({})", raylab::image::denoise::INSTALL_HINT);
+        return;
+    }
+    let dir = temp_dir("target-denoise");
+    let scene = repo().join("scenes/path-cornell.toml");
+    let scene = scene.to_str().unwrap();
+    let size = ["--width", "32", "--height", "32", "-q", "--seed", "5"];
+    let run = |args: &[&str]| {
+        let out = raylab(&dir, &[&["render", scene][..], &size[..], args].concat());
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        text(&out.stdout)
+    };
+    run(&["--spp", "512", "-o", "ref.pfm"]);
+    let target = ["--spp", "256", "--target-error", "0.025"];
+    run(&[&target[..], &["-o", "noisy.pfm"]].concat());
+    let summary = run(&[&target[..], &["-o", "denoised.exr", "--denoise", "--aov", "spp"]].concat());
+    assert!(summary.contains("(32×32, to error 0.025 (64..256 spp)") && summary.contains("(before denoising)"), "{summary}");
+    let read = |name: &str, layer| {
+        raylab::image::tonemap::read_layer(&std::fs::read(dir.join(name)).unwrap(), name.rsplit('.').next().unwrap(), layer).unwrap()
+    };
+    use raylab::image::tonemap::Layer;
+    let (reference, noisy, denoised) = (read("ref.pfm", Layer::Color), read("noisy.pfm", Layer::Color), read("denoised.exr", Layer::Color));
+    let spp: Vec<u32> = read("denoised.exr", Layer::Spp).pixels.iter().map(|p| p.x as u32).collect();
+    assert_eq!((denoised.width, denoised.height), (32, 32));
+    assert!(spp.iter().all(|&n| (64..=256).contains(&n) && n % 4 == 0), "{spp:?}");
+    assert!(spp.iter().min() < spp.iter().max(), "pixels stopped at different counts");
+    let rmse = |f: &raylab::Film| {
+        let d = f
+            .pixels
+            .iter()
+            .zip(&reference.pixels)
+            .map(|(a, b)| (a.min(raylab::glam::Vec3::ONE) - b.min(raylab::glam::Vec3::ONE)).length_squared() as f64);
+        (d.sum::<f64>() / f.pixels.len() as f64).sqrt()
+    };
+    assert!(rmse(&denoised) < 0.75 * rmse(&noisy), "RMSE noisy {}, denoised {}", rmse(&noisy), rmse(&denoised));
+    // A time budget it does not reach: every pixel at 128, on 4 × 4 sub-pixels of 8; its `spp`
+    // layer, and the target's (counts its 4 × 4 sub-pixels share), as maps.
+    let budget = ["--spp", "128", "--time-budget", "100000", "--denoise", "--aov", "spp"];
+    let summary = run(&[&budget[..], &["-o", "budget.exr"]].concat());
+    assert!(summary.contains("at 128 spp"), "{summary}");
+    run(&[&budget[..], &["-o", "again.exr", "--spp-map", "budget.exr"]].concat());
+    assert_eq!(read("budget.exr", Layer::Color), read("again.exr", Layer::Color));
+    let mapped = ["--spp", "256", "--time-budget", "100000", "--denoise", "--aov", "spp", "-o", "mapped.exr", "--spp-map", "denoised.exr"];
+    run(&mapped);
+    assert_eq!(read("mapped.exr", Layer::Spp), read("denoised.exr", Layer::Spp));
+    // A map of the frame's pixels at 8 spp: not counts 4 × 4 sub-pixels can share.
+    run(&["--spp", "8", "--time-budget", "100000", "--aov", "spp", "-o", "small.exr"]);
+    let out = raylab(&dir, &[&["render", scene][..], &size[..], &budget[..], &["-o", "no.exr", "--spp-map", "small.exr"]].concat());
+    let err = text(&out.stderr);
+    assert!(!out.status.success() && err.contains("cannot share evenly"), "{err}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
 /// `--target-error` reaches the render: pixels stop at different counts, the summary says so,
 /// and `--aov error` writes the estimate and the samples per pixel.
 #[test]

@@ -227,7 +227,7 @@ fn a_partial_claiming_a_huge_frame_is_refused_before_decoding() {
     let sums = ShareSums {
         width: 100_000,
         height: 100_000,
-        sampling: Sampling { spp: 1, adaptive: false, target: None },
+        sampling: Sampling { spp: 1, adaptive: false, target: None, subpixels: 1 },
         share,
         pixels: vec![Default::default(); 4],
         layers: None,

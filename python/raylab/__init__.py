@@ -323,7 +323,7 @@ def _array(buf, height: int, width: int, channels: int) -> np.ndarray:
 class Image:
     """A render: ``rgb`` (linear float32, ``(H, W, 3)``, the numbers of the CLI's EXR), the
     layers asked for (``img["depth"]``, ``img["error"]``, ``img["spp"]`` ``(H, W)``,
-    ``img["normal"]``, ``img["albedo"]``, ``img["emission"]`` ``(H, W, 3)``), ``stats``, ``estimated_error``, ``estimate_may_read_low``. Shown in Jupyter tone-mapped as the CLI's PNG."""
+    ``img["normal"]``, ``img["albedo"]``, ``img["emission"]`` ``(H, W, 3)``), ``stats``, ``estimated_error``, ``estimate_may_read_low``, ``estimate_may_read_high``. Shown in Jupyter tone-mapped as the CLI's PNG."""
 
     def __init__(self, native, scene: Optional[Scene] = None):
         self._native = native
@@ -364,6 +364,13 @@ class Image:
         of the estimated variance in those pixels (the CLI's "may read low"); None otherwise.
         A larger ``target_min_spp`` looks longer."""
         return self._native.estimate_reads_low()
+
+    @property
+    def estimate_may_read_high(self) -> Optional[bool]:
+        """Whether ``estimated_error`` may read high: below 16 samples a pixel on average, each
+        half of a pixel's samples is stratified much less well than the whole (the CLI's "may read
+        high"; up to 2.3× the true error at 8 spp); None without an estimate."""
+        return self._native.estimate_reads_high()
 
     @property
     def mean_spp(self) -> Optional[float]:

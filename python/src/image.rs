@@ -168,6 +168,12 @@ impl Rendered {
         self.estimate.map(|e| (e.relative_rmse, e.mean_spp))
     }
 
+    /// Whether the estimate may read high: fewer than `ErrorEstimate::FEW_SPP` samples a pixel on
+    /// average (the CLI's "may read high"); None without an estimate.
+    fn estimate_reads_high(&self) -> Option<bool> {
+        self.estimate.map(|e| e.reads_high)
+    }
+
     /// Under an error target, the share of the estimated variance held by pixels lit by samples
     /// rarer than the target's first stop, when it is at least `ErrorTarget::RARE_SHARE`: the
     /// estimate may read low (the CLI's "may read low"). None otherwise.

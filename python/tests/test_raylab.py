@@ -87,14 +87,21 @@ def test_the_error_layer_and_target_are_the_cli_s(cli, tmp_path):
     line = next(l for l in text.splitlines() if "estimated error" in l)
     assert f"relative RMSE {100 * img.estimated_error:.3f} %" in line, line
     assert f"{img.mean_spp:.1f} spp on average" in line, line
-    assert img.estimate_may_read_low is None and "may read low" not in line
+    # (Its caustic under the glass ball holds about 1 % of the estimated variance here, at the
+    # flag's threshold: the Python property and the CLI's line agree either way.)
+    assert (img.estimate_may_read_low is None) == ("may read low" not in line), line
+    assert img.estimate_may_read_high is False and "may read high" not in line
+    # Below 16 samples a pixel the estimate may read high, and says so.
+    few = raylab.load("scenes/path-cornell.toml", **SMALL, spp=8).render()
+    text = cli("render", "scenes/path-cornell.toml", "-o", tmp_path / "few.png", "--width", SMALL["width"], "--height", SMALL["height"], "--spp", 8).stdout
+    assert few.estimate_may_read_high is True and "may read high" in text, text
     # The sun's caustics on environment's floor, found by few samples: the estimate may read low,
     # as the CLI says (its share of the variance is the one the summary prints).
     env = dict(width=48, height=27, spp=1024, target_error=0.1)
     low = raylab.load("scenes/environment.toml", **env).render().estimate_may_read_low
     flags = ["--width", 48, "--height", 27, "--spp", 1024, "--target-error", 0.1]
     text = cli("render", "scenes/environment.toml", "-o", tmp_path / "e.png", *flags).stdout
-    assert low is not None and low >= 0.03 and f"may read low: {100 * low:.1f} %" in text, (low, text)
+    assert low is not None and low >= 0.01 and f"may read low: {100 * low:.1f} %" in text, (low, text)
     assert raylab.load("scenes/environment.toml", width=48, height=27, spp=16).render().estimate_may_read_low is None
     # Without the layer asked for, none; below two samples a pixel, no estimate.
     assert "error" not in raylab.load("scenes/path-cornell.toml", **SMALL, spp=2).render()

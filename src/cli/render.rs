@@ -49,8 +49,9 @@ pub(crate) struct RenderArgs {
     /// layers the render also takes (needs its `oidnDenoise` tool: `pip install pyoidn`, or
     /// RAYLAB_OIDN). Where --spp divides evenly, the render and the denoiser work on 4 × 4 (or
     /// 2 × 2) sub-pixels of spp/16 (spp/4) samples each, averaged back over each pixel: the same
-    /// camera rays, less error. Not with --tile, --crop or --pass: denoise the merged frame
-    /// (`raylab denoise`).
+    /// camera rays, less error. With --target-error (from a first stop of 32 samples a pixel) and
+    /// --time-budget too: each pixel's sub-pixels stop together. Not with --tile, --crop or
+    /// --pass: denoise the merged frame (`raylab denoise`).
     #[arg(long)]
     denoise: bool,
     /// Print the counters of traced and avoided work after the summary.
@@ -434,8 +435,15 @@ fn plan<'a>(app: &App, a: &'a RenderArgs, request: Request<'a>, resumed: Option<
     let load_time = t0.elapsed();
     let denoiser = if a.denoise { Some(crate::image::denoise::find_tool().map_err(Failure::Other)?) } else { None };
     // Not with an error log against a reference: it measures each pass on the frame's pixels.
-    let grid =
-        if denoiser.is_some() && spp_map.is_none() && a.error_csv.is_none() { crate::image::denoise::grid(&job.settings) } else { 1 };
+    let grid = if denoiser.is_some() && a.error_csv.is_none() { crate::image::denoise::grid(&job.settings) } else { 1 };
+    // A time budget's map (the `spp` layer of the frame's pixels) repeated on the finer grid.
+    let spp_map = match spp_map {
+        Some(m) if grid > 1 => Some(
+            crate::image::denoise::fine_spp_map(&m, job.settings.width, grid)
+                .map_err(|e| Failure::Other(format!("{}: {e}", a.spp_map.as_deref().unwrap_or(Path::new("")).display())))?,
+        ),
+        m => m,
+    };
     // Checkpoints: the state as a partial image, with the command that continues it.
     let resume_info = serde_json::to_string(&super::farm::ResumeInfo {
         cwd: std::env::current_dir().unwrap_or_default(),
@@ -743,11 +751,16 @@ fn save_state(path: &Path, sums: &ShareSums, job: &RenderJob, resume: Option<&st
 /// ([`crate::render::share::ShareSums::rare_light_share`]): from
 /// [`crate::render::job::ErrorTarget::RARE_SHARE`] on, the line says the estimate may read low.
 pub fn error_line(e: &crate::render::share::ErrorEstimate, target: bool, rare: Option<(f64, u32)>) -> String {
-    let warning = match rare {
-        Some((share, first)) if share >= crate::render::job::ErrorTarget::RARE_SHARE => format!(
+    let warning = match (estimate_may_read(e, rare), rare) {
+        ("low", Some((share, first))) => format!(
             "; may read low: {:.1} % of it is in pixels lit by samples rarer than 1 in {first} (caustics, glints), \
              and pixels like them that stopped at {first} samples likely missed theirs (a larger target_min_spp looks longer)",
             100.0 * share
+        ),
+        ("high", _) => format!(
+            "; may read high: below {} samples a pixel, each half of a pixel's samples is stratified much less well than the whole \
+             (it read up to 2.3× the true error at 8 spp, benches/error)",
+            crate::render::share::ErrorEstimate::FEW_SPP
         ),
         _ => String::new(),
     };
@@ -757,6 +770,18 @@ pub fn error_line(e: &crate::render::share::ErrorEstimate, target: bool, rare: O
         if target { "an error target: " } else { "" },
         e.mean_spp
     )
+}
+
+/// Which way the estimate `e` may be wrong, as the summary's line says: `"low"` where pixels lit by
+/// rare samples hold [`crate::render::job::ErrorTarget::RARE_SHARE`] of it (`rare`, under an error
+/// target), else `"high"` below [`crate::render::share::ErrorEstimate::FEW_SPP`] samples a pixel,
+/// else `"no"`.
+pub fn estimate_may_read(e: &crate::render::share::ErrorEstimate, rare: Option<(f64, u32)>) -> &'static str {
+    match rare {
+        Some((share, _)) if share >= crate::render::job::ErrorTarget::RARE_SHARE => "low",
+        _ if e.reads_high => "high",
+        _ => "no",
+    }
 }
 
 /// The summary's line on a render under a time budget: where it stopped, and how to repeat it.
@@ -827,6 +852,8 @@ fn write(plan: &Plan, path: &Path, film: &Film, layers: Option<&AovLayers>, sums
         let (error, spp) = sums.error_layers().map_err(|e| e.to_string())?;
         let c = chosen.get_or_insert_with(AovLayers::default);
         (c.error, c.spp) = (Some(error), Some(spp));
+        let rare = plan.job.settings.target.map(|t| (sums.rare_light_share(t.floor_spp()), t.floor_spp()));
+        c.estimate = sums.error_estimate().map(|e| (e.relative_rmse, estimate_may_read(&e, rare)));
     }
     let settings = crate::image::output::WriteSettings {
         encoding: plan.job.settings.encoding,

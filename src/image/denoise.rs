@@ -193,27 +193,66 @@ pub const MAX_GRID_PIXELS: u64 = 1 << 22;
 /// from fewer at more: on `path-cornell` at 64² the denoised image reaches the noisy 1024-spp
 /// error from about 160 spp on a 4 × 4 grid, against ~410 on the pixel grid. `k` is the largest
 /// of 4 and 2 that divides the samples evenly (`spp` a multiple of `k²`), leaves each sub-pixel
-/// at least [`MIN_GRID_SPP`], and keeps the grid within [`MAX_GRID_PIXELS`]; only for plain
-/// stratified sampling (an error target, a time budget and adaptive anti-aliasing decide each
-/// pixel's samples as a whole).
+/// at least [`MIN_GRID_SPP`], and keeps the grid within [`MAX_GRID_PIXELS`]. Under an error target
+/// the samples counted are those of a pixel's first possible stop ([`ErrorTarget::floor_spp`]:
+/// a loose target that stops pixels at 16 samples stays on the pixel grid), under a time
+/// budget the most a pixel takes; each pixel's `k × k` sub-pixels then stop together
+/// ([`crate::render::job::RenderSettings::subpixels`]). Not under adaptive anti-aliasing.
+///
+/// [`ErrorTarget::floor_spp`]: crate::render::job::ErrorTarget::floor_spp
 pub fn grid(settings: &crate::render::job::RenderSettings) -> u32 {
     use crate::render::job::Antialiasing;
-    if settings.target.is_some() || settings.time_budget.is_some() || !matches!(settings.aa, Antialiasing::Stratified) {
+    if !matches!(settings.aa, Antialiasing::Stratified) {
         return 1;
     }
     let pixels = u64::from(settings.width) * u64::from(settings.height);
+    // The first stop is a power of two of min_spp: from there every tested count divides as it does.
+    let first = settings.target.map_or(settings.spp, |t| t.floor_spp().min(settings.spp));
     [4u32, 2]
         .into_iter()
         .find(|&k| {
-            settings.spp.is_multiple_of(k * k) && settings.spp / (k * k) >= MIN_GRID_SPP && pixels * u64::from(k * k) <= MAX_GRID_PIXELS
+            settings.spp.is_multiple_of(k * k)
+                && first.is_multiple_of(k * k)
+                && first / (k * k) >= MIN_GRID_SPP
+                && pixels * u64::from(k * k) <= MAX_GRID_PIXELS
         })
         .unwrap_or(1)
 }
 
 /// `settings` on a grid `k` times finer: `k ×` the width and height, `spp / k²` samples a
-/// sub-pixel (see [`grid`]).
+/// sub-pixel, the sub-pixels of each pixel deciding together under an error target or a time
+/// budget (see [`grid`]).
 pub fn fine_settings(settings: &crate::render::job::RenderSettings, k: u32) -> crate::render::job::RenderSettings {
-    crate::render::job::RenderSettings { width: settings.width * k, height: settings.height * k, spp: settings.spp / (k * k), ..*settings }
+    crate::render::job::RenderSettings {
+        width: settings.width * k,
+        height: settings.height * k,
+        spp: settings.spp / (k * k),
+        subpixels: k,
+        ..*settings
+    }
+}
+
+/// A map of samples per pixel of the frame (`width` pixels a row; under a time budget, the `spp`
+/// layer of a render denoised on [`grid`] `k`, which holds each pixel's samples, all its
+/// sub-pixels' together) as the map of its finer grid: each sub-pixel `1 / k²` of its pixel's.
+pub fn fine_spp_map(map: &[u32], width: u32, k: u32) -> Result<Vec<u32>, String> {
+    let (w, kk) = (width as usize, k * k);
+    if let Some((i, m)) = map.iter().enumerate().find(|(_, m)| !m.is_multiple_of(kk)) {
+        return Err(format!(
+            "the map gives pixel ({}, {}) {m} samples, which its {k} × {k} sub-pixels cannot share evenly: it is not of a render denoised on that grid",
+            i % w.max(1),
+            i / w.max(1)
+        ));
+    }
+    let fw = w * k as usize;
+    let mut fine = Vec::new();
+    fine.try_reserve_exact(map.len() * kk as usize).map_err(|_| "out of memory for the map of samples per pixel".to_string())?;
+    fine.resize(map.len() * kk as usize, 0);
+    for (i, f) in fine.iter_mut().enumerate() {
+        let (x, y) = (i % fw / k as usize, i / fw / k as usize);
+        *f = map[y * w + x] / kk;
+    }
+    Ok(fine)
 }
 
 /// A finished render on a grid `k` times finer than `settings` ([`fine_settings`]) denoised
@@ -368,21 +407,31 @@ mod tests {
     }
 
     /// The finer grid: 4 × 4 where the samples divide evenly and leave each sub-pixel
-    /// `MIN_GRID_SPP`, else 2 × 2, else the pixels; never under a target, a time budget or
-    /// adaptive anti-aliasing, nor beyond `MAX_GRID_PIXELS`.
+    /// `MIN_GRID_SPP`, else 2 × 2, else the pixels; under a target, by the samples of the first
+    /// possible stop, under a time budget by the most a pixel takes; never under adaptive
+    /// anti-aliasing, nor beyond `MAX_GRID_PIXELS`.
     #[test]
     fn the_grid_divides_the_samples_evenly() {
         use crate::render::job::{Antialiasing, ErrorTarget, RenderSettings};
         let at = |spp| grid(&RenderSettings::new(64, 64, spp));
         assert_eq!([at(1), at(16), at(24), at(32), at(48), at(64), at(100), at(128), at(144), at(1024)], [1, 1, 1, 2, 2, 2, 2, 4, 4, 4]);
         let fine = fine_settings(&RenderSettings::new(64, 48, 128), 4);
-        assert_eq!((fine.width, fine.height, fine.spp), (256, 192, 8));
-        let mut s = RenderSettings::new(64, 64, 128);
-        s.target = Some(ErrorTarget { error: 0.01, min_spp: 16 });
-        assert_eq!(grid(&s), 1);
-        s = RenderSettings { time_budget: Some(std::time::Duration::from_secs(1)), ..RenderSettings::new(64, 64, 128) };
-        assert_eq!(grid(&s), 1);
-        s = RenderSettings {
+        assert_eq!((fine.width, fine.height, fine.spp, fine.subpixels), (256, 192, 8, 4));
+        // Error targets: first stops at 128 (4 × 4), 64 and 32 (2 × 2), 16 (the pixels).
+        let target = |error, min_spp, spp| {
+            let mut s = RenderSettings::new(64, 64, spp);
+            s.target = Some(ErrorTarget { error, min_spp });
+            (s.target.unwrap().floor_spp(), grid(&s))
+        };
+        assert_eq!(target(0.01, 16, 4096), (128, 4));
+        assert_eq!(target(0.025, 16, 4096), (64, 2));
+        assert_eq!(target(0.05, 16, 4096), (32, 2));
+        assert_eq!(target(0.2, 16, 4096), (16, 1));
+        assert_eq!(target(0.01, 16, 64), (128, 2), "the cap is the first stop");
+        assert_eq!(target(0.01, 12, 4096), (96, 2), "96 leaves 4 × 4 sub-pixels 6 each");
+        let s = RenderSettings { time_budget: Some(std::time::Duration::from_secs(1)), ..RenderSettings::new(64, 64, 128) };
+        assert_eq!(grid(&s), 4);
+        let s = RenderSettings {
             aa: Antialiasing::Adaptive(crate::render::job::AdaptiveSettings::new(0.1, 2)),
             ..RenderSettings::new(64, 64, 128)
         };

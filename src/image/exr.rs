@@ -1,7 +1,8 @@
 //! OpenEXR output (feature `exr`): the film's linear, unclamped RGB as 32-bit floats (or half
 //! floats), with optional extra layers for denoisers: depth `Z`, `normal.X/Y/Z`, `albedo.R/G/B`,
 //! `emission.R/G/B` ([`crate::render::aov`]), and the error estimate `error` and samples per pixel `spp`
-//! ([`crate::render::share::ShareSums::error_layers`]). One part, channels by name, lossless ZIP compression; depth is always 32-bit.
+//! ([`crate::render::share::ShareSums::error_layers`]), with the image's estimated error in the
+//! header (`raylab.estimated_relative_rmse`, `raylab.estimate_may_read`). One part, channels by name, lossless ZIP compression; depth is always 32-bit.
 //! Written atomically, like every raylab image.
 
 use crate::image::write::{WriteError, write_atomically};
@@ -62,7 +63,12 @@ pub fn encode_exr(film: &Film, aovs: &AovLayers, half: bool) -> Result<Vec<u8>, 
         }
     }
     let size = Vec2(film.width as usize, film.height as usize);
-    let layer = Layer::new(size, LayerAttributes::default(), Encoding::SMALL_LOSSLESS, AnyChannels::sort(SmallVec::from_vec(channels)));
+    let mut attributes = LayerAttributes::default();
+    if let Some((rmse, reads)) = aovs.estimate {
+        attributes.other.insert(Text::from("raylab.estimated_relative_rmse"), AttributeValue::F64(rmse));
+        attributes.other.insert(Text::from("raylab.estimate_may_read"), AttributeValue::Text(Text::from(reads)));
+    }
+    let layer = Layer::new(size, attributes, Encoding::SMALL_LOSSLESS, AnyChannels::sort(SmallVec::from_vec(channels)));
     // The file is at most about its raw size: reserved up front, so the encoder never has to grow it.
     let raw: usize = n.saturating_mul(if half { 2 } else { 4 }).saturating_mul(layer.channel_data.list.len());
     let mut bytes = Vec::new();

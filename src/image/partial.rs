@@ -148,6 +148,9 @@ pub fn encode_partial(sums: &ShareSums, info: &PartialInfo) -> Result<Vec<u8>, S
         attr("raylab.target_error", AttributeValue::F64(t.error));
         attr("raylab.target_min_spp", AttributeValue::I32(t.min_spp.min(i32::MAX as u32) as i32));
     }
+    if sums.sampling.subpixels > 1 {
+        attr("raylab.subpixels", AttributeValue::I32(sums.sampling.subpixels.min(i32::MAX as u32) as i32));
+    }
     attr("raylab.pass", AttributeValue::I32(sums.share.pass as i32));
     attr("raylab.passes", AttributeValue::I32(sums.share.passes as i32));
     attr("raylab.sampling", AttributeValue::Text(Text::from(info.sampling.as_str())));
@@ -257,7 +260,14 @@ pub fn read_partial(bytes: &[u8], name: &str, max_pixels: u64) -> Result<(ShareS
         }
         Some(_) => return Err(err("attribute raylab.target_error is not a number > 0".into())),
     };
-    let sampling = Sampling { spp: spp as u32, adaptive: adaptive == 1, target };
+    let subpixels = match attrs.get(&Text::from("raylab.subpixels")) {
+        None => 1,
+        Some(_) => match int("raylab.subpixels")? {
+            k @ 1..=crate::render::share::MAX_SUBPIXELS => k as u32,
+            k => return Err(err(format!("raylab.subpixels is {k}: expected 1 to {}", crate::render::share::MAX_SUBPIXELS))),
+        },
+    };
+    let sampling = Sampling { spp: spp as u32, adaptive: adaptive == 1, target, subpixels };
     let (pass, passes) = (int("raylab.pass")?, int("raylab.passes")?);
     if !(passes >= 1 && pass >= 0 && pass < passes) {
         return Err(err(format!("sample pass {pass}/{passes} is not a pass of 1 or more (0 ≤ pass < passes)")));
@@ -380,7 +390,7 @@ mod tests {
         ShareSums {
             width: 10,
             height: 8,
-            sampling: Sampling { spp: 12, adaptive: false, target: None },
+            sampling: Sampling { spp: 12, adaptive: false, target: None, subpixels: 1 },
             share,
             pixels,
             layers: Some(layers),
@@ -416,6 +426,9 @@ mod tests {
         assert_eq!(back, s);
         assert_eq!(info2, info);
         assert!(read_partial(&bytes, "p.exr", 79).unwrap_err().0.contains("exceeds the limit"));
+        // The blocks of sub-pixels an error target decides on (`render --denoise`'s finer grid).
+        let fine = ShareSums { sampling: Sampling { subpixels: 2, ..s.sampling }, ..s };
+        assert_eq!(read_partial(&encode_partial(&fine, &info).unwrap(), "p.exr", u64::MAX).unwrap().0, fine);
     }
 
     #[test]

@@ -385,6 +385,7 @@ fn render_section(node: Option<&Node>, desc: &SceneDescription, ctx: &LoadContex
             lens_samples,
             target,
             time_budget,
+            subpixels: 1,
         },
     ))
 }

@@ -298,6 +298,20 @@ fn starting_sums(s: &RenderSettings, share: Share, options: &RenderOptions) -> R
     if share.bounds.is_empty() || !share.bounds.within(&Rect::frame(s.width, s.height)) || share.passes == 0 || share.pass >= share.passes {
         return Err(format!("{} is not a share of the {}×{} frame", share.describe(), s.width, s.height));
     }
+    let k = s.subpixels;
+    if k != 1
+        && !(k > 1
+            && TILE_SIZE.is_multiple_of(k)
+            && [share.bounds.x0, share.bounds.y0, share.bounds.x1, share.bounds.y1].iter().all(|v| v.is_multiple_of(k))
+            && matches!(s.aa, Antialiasing::Stratified))
+    {
+        return Err(format!(
+            "{} of the {}×{} frame is not made of whole blocks of {k} × {k} sub-pixels (stratified sampling; tiles, crops and the frame's sides multiples of {k}, at most {TILE_SIZE})",
+            share.describe(),
+            s.width,
+            s.height
+        ));
+    }
     if (s.target.is_some() || s.time_budget.is_some()) && share.passes > 1 {
         return Err(format!(
             "{}: with an error target or a time budget, where a pixel stops depends on all its samples so far, so its samples cannot be split into passes; split the frame by tiles or crops instead",
@@ -542,6 +556,9 @@ impl TileWork {
         // The tile lies inside the share's bounds, where every pixel takes the same samples.
         let want = share.samples_of(Sampling::of(s), s.width, t.x0, t.y0);
         let mut pixels = StratifiedPixels { job, setup: image_setup(job), share, want, end, row_map: None };
+        if s.subpixels > 1 && s.progressive() {
+            return self.render_blocks(&mut pixels, stop, map, stats);
+        }
         let w = t.width() as usize;
         // Camera rays in packets of 8 pixels of a row, where the scene walks them together and
         // the integrator takes their hits: one sample per pixel (an error target or a time budget
@@ -604,6 +621,64 @@ impl TileWork {
     }
 }
 
+impl TileWork {
+    /// [`TileWork::render_stratified`] on the sub-pixels of a finer grid under an error target or
+    /// a time budget ([`RenderSettings::subpixels`] = `k`): block by block, the `k × k`
+    /// sub-pixels of a block taken together, all to the same count, up to each count the target
+    /// tests (the coarse pixel's `min_spp · 2^j` samples, `k²` times the sub-pixels') until
+    /// their merged sums meet the target, or to the pass's end; a stop (the clock, a cancel) only
+    /// between rows of blocks. A block's samples and where it stops depend on its own samples
+    /// alone, as a pixel's do on the pixel grid.
+    fn render_blocks(&mut self, pixels: &mut StratifiedPixels, stop: &Stop, map: Option<&[u32]>, stats: &mut RayStats) {
+        let s = &pixels.job.settings;
+        let k = s.subpixels as usize;
+        let kk = s.subpixels * s.subpixels;
+        let t = self.tile;
+        let w = t.width() as usize;
+        debug_assert!([t.x0, t.y0, t.x1, t.y1].iter().all(|v| v.is_multiple_of(s.subpixels)), "tiles hold whole blocks");
+        let (want, end) = (pixels.want, pixels.end);
+        pixels.row_map = None;
+        for by in (0..t.height() as usize).step_by(k) {
+            if stop.now() || stats.exhausted() {
+                break;
+            }
+            for bx in (0..w).step_by(k) {
+                let at = |j: usize, i: usize| (by + j) * w + bx + i;
+                // A map of samples per pixel gives each sub-pixel of a block the same count.
+                let cap = map.map_or(want, |m| want.min(m[(t.y0 as usize + by) * s.width as usize + t.x0 as usize + bx]));
+                loop {
+                    let n = self.pixels[at(0, 0)].samples;
+                    let next = match s.target {
+                        Some(target) => {
+                            let mut merged = PixelSum::default();
+                            (0..k).for_each(|j| (0..k).for_each(|i| merged.merge(&self.pixels[at(j, i)])));
+                            if target.converged(&merged) {
+                                break;
+                            }
+                            target.next_block_test(n, kk)
+                        }
+                        None => end,
+                    }
+                    .min(cap)
+                    .min(end);
+                    if next <= n {
+                        break;
+                    }
+                    pixels.want = next;
+                    for j in 0..k {
+                        for i in 0..k {
+                            let xy = (t.x0 + (bx + i) as u32, t.y0 + (by + j) as u32);
+                            let l = self.layers.as_mut().map(|l| &mut l[at(j, i)]);
+                            pixels.add_samples(xy, &mut self.pixels[at(j, i)], l, stats);
+                        }
+                    }
+                }
+            }
+        }
+        pixels.want = want;
+    }
+}
+
 /// What every pixel of a tile shares in one pass of stratified sampling.
 struct StratifiedPixels<'a> {
     job: &'a RenderJob,
@@ -626,7 +701,8 @@ impl StratifiedPixels<'_> {
         let want = self.row_map.map_or(self.want, |m| self.want.min(m[x as usize]));
         if !self.setup.stratified_film() {
             while acc.samples < want && share.sample_index(acc.samples) < self.end {
-                if job.settings.target.is_some_and(|t| t.converged(acc)) {
+                // On sub-pixels the block decides ([`TileWork::render_blocks`]).
+                if job.settings.target.is_some_and(|t| job.settings.subpixels == 1 && t.converged(acc)) {
                     break;
                 }
                 let index = share.sample_index(acc.samples);

@@ -84,6 +84,10 @@ impl Rect {
     }
 }
 
+/// The most sub-pixels per side a block of [`Sampling::subpixels`] may have (a partial image's
+/// attribute is checked against it).
+pub const MAX_SUBPIXELS: i32 = 16;
+
 /// How many samples each pixel of a whole render has: `spp` stratified samples, or one adaptive
 /// value (whose lattice samples are not counted).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
@@ -94,12 +98,20 @@ pub struct Sampling {
     pub adaptive: bool,
     /// Pixels stop at this error (then `spp` is the most a pixel takes).
     pub target: Option<crate::render::job::ErrorTarget>,
+    /// The pixels are sub-pixels in blocks of `subpixels × subpixels` that stop together
+    /// ([`RenderSettings::subpixels`]; 1: each pixel alone).
+    pub subpixels: u32,
 }
 
 impl Sampling {
     /// The sampling of `settings`.
     pub fn of(settings: &RenderSettings) -> Self {
-        Sampling { spp: settings.spp.max(1), adaptive: matches!(settings.aa, Antialiasing::Adaptive(_)), target: settings.target }
+        Sampling {
+            spp: settings.spp.max(1),
+            adaptive: matches!(settings.aa, Antialiasing::Adaptive(_)),
+            target: settings.target,
+            subpixels: settings.subpixels.max(1),
+        }
     }
 
     /// In words, for messages: "4 spp", "adaptive anti-aliasing", "at most 64 spp to a relative
@@ -108,6 +120,13 @@ impl Sampling {
         match (self.adaptive, self.target) {
             (true, _) => "adaptive anti-aliasing".into(),
             (false, None) => format!("{} spp", self.spp),
+            (false, Some(t)) if self.subpixels > 1 => format!(
+                "at most {} spp a sub-pixel to a relative error of {} (at least {}) over each {k} × {k} block",
+                self.spp,
+                t.error,
+                t.min_spp,
+                k = self.subpixels
+            ),
             (false, Some(t)) => format!("at most {} spp to a relative error of {} (at least {})", self.spp, t.error, t.min_spp),
         }
     }
@@ -200,10 +219,30 @@ impl ShareSums {
     pub fn missing(&self, i: usize) -> u32 {
         let (x, y) = self.share.bounds.pixel(i);
         let p = &self.pixels[i];
-        if self.sampling.target.is_some_and(|t| t.converged(p)) {
+        if self.sampling.target.is_some_and(|t| t.converged(&self.block_sums(x, y).unwrap_or(*p))) {
             return 0;
         }
         self.share.samples_of(self.sampling, self.width, x, y).saturating_sub(p.samples)
+    }
+
+    /// Under [`Sampling::subpixels`] `k` > 1, the merged sums of the `k × k` block of pixel
+    /// (`x`, `y`), where the share holds all of it: what an error target tests.
+    fn block_sums(&self, x: u32, y: u32) -> Option<PixelSum> {
+        let (k, b) = (self.sampling.subpixels, self.share.bounds);
+        if k <= 1 {
+            return None;
+        }
+        let (x0, y0) = (x - x % k, y - y % k);
+        if !(x0 >= b.x0 && y0 >= b.y0 && x0 + k <= b.x1 && y0 + k <= b.y1) {
+            return None;
+        }
+        let mut m = PixelSum::default();
+        for yy in y0..y0 + k {
+            for xx in x0..x0 + k {
+                m.merge(&self.pixels[b.index(xx, yy)]);
+            }
+        }
+        Some(m)
     }
 
     /// How far the share is: (samples done, samples of the whole share, pixels still lacking
@@ -311,7 +350,7 @@ impl ShareSums {
             && settings.width.checked_mul(k) == Some(self.width)
             && settings.height.checked_mul(k) == Some(self.height)
             && settings.spp.is_multiple_of(k * k)
-            && self.sampling == Sampling { spp: settings.spp / (k * k), ..Sampling::of(settings) };
+            && self.sampling == Sampling { spp: settings.spp / (k * k), subpixels: k, ..Sampling::of(settings) };
         if !whole || !fits {
             return Err(format!(
                 "cannot downsample a {}×{} share ({}) by {k} to a {}×{} frame at {} spp",
@@ -347,10 +386,12 @@ impl ShareSums {
                 mean += p.mean_luminance();
             }
         }
+        let mean_spp = samples as f64 / self.pixels.len().max(1) as f64;
         (pixels > 0).then(|| ErrorEstimate {
             relative_rmse: (variance / pixels as f64).sqrt() / (mean / pixels as f64).max(f64::MIN_POSITIVE),
             pixels,
-            mean_spp: samples as f64 / self.pixels.len().max(1) as f64,
+            mean_spp,
+            reads_high: mean_spp < ErrorEstimate::FEW_SPP,
         })
     }
 
@@ -385,6 +426,20 @@ pub struct ErrorEstimate {
     pub pixels: u64,
     /// Mean samples per pixel.
     pub mean_spp: f64,
+    /// Whether the estimate may read high: with fewer than [`ErrorEstimate::FEW_SPP`] samples a
+    /// pixel on average, each of a pixel's two halves is stratified much less well than the
+    /// whole (a few of a stratified set's points, or of a Sobol net's), so the halves' spread
+    /// over-reads the error of their mean.
+    pub reads_high: bool,
+}
+
+impl ErrorEstimate {
+    /// The mean samples per pixel below which the estimate may read high
+    /// ([`ErrorEstimate::reads_high`]). Measured against the spread between 12 seeds
+    /// (`benches/error/spread.py`, 2026-11-28): at 2, 4 and 8 spp it read 1.52,
+    /// 1.34 and 2.30× the spread on `path-cornell` (stratified; 1.60, 1.34, 2.20 with the Sobol points
+    /// of a time budget), 1.04–1.25× on `pbr-spheres` and `environment`; from 16 spp on 1.13–1.36×.
+    pub const FEW_SPP: f64 = 16.0;
 }
 
 /// One part of a frame to merge, named for messages.
@@ -496,7 +551,7 @@ mod tests {
     /// its mean is the mean of the block's means, and a frame that does not fit is refused.
     #[test]
     fn downsampling_merges_each_block_exactly() {
-        let (fine, coarse) = (RenderSettings::new(4, 2, 2), RenderSettings::new(2, 1, 8));
+        let (fine, coarse) = (RenderSettings { subpixels: 2, ..RenderSettings::new(4, 2, 2) }, RenderSettings::new(2, 1, 8));
         let mut sums = ShareSums::new(&fine, Share::whole(4, 2), true).unwrap();
         for (i, (p, l)) in sums.pixels.iter_mut().zip(sums.layers.as_mut().unwrap()).enumerate() {
             for s in 0..2 {
