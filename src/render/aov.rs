@@ -28,7 +28,9 @@
 //! - `emission` (`emission.R/G/B`): what the camera ray met emitted on its way to its first
 //!   surface and brought back as it is, free of Monte Carlo noise but for anti-aliasing: the
 //!   lights and emitting surfaces it sees (`path`: the lights with an extent its ray meets and
-//!   the first surface's emission; `phong`: the first surface's emission). Not the background or
+//!   the first surface's emission, and, where that surface only reflects or refracts
+//!   specularly, the lights and emitting surfaces its reflection and refraction meet next,
+//!   counted as their expectation instead of sampled; `phong`: the first surface's emission). Not the background or
 //!   an environment a miss sees: left out of the filter, that made `environment`'s denoised
 //!   image worse by RMSE (`benches/error`). The denoiser leaves the layer out and adds it back
 //!   ([`crate::image::denoise::denoise_guided`]): a lamp seen directly keeps its edge.
@@ -82,7 +84,10 @@ pub struct AovSample {
     /// Radiance the camera ray met emitted up to its first surface and brought back unscattered
     /// (the lights and emitting surface it sees; not the background or environment of a miss):
     /// part of the sample's colour that has no noise but anti-aliasing. Zero unless the
-    /// integrator fills it.
+    /// integrator fills it. An integrator may add, when [`AovSample::guides`] is set, what a
+    /// first surface that only reflects or refracts specularly shows of the emitters, as long
+    /// as it computes it without noise (its branches followed together, weighed by their
+    /// probabilities) and the colour counts it the same way (`path` does).
     pub emitted: Color,
     /// Set by the render when it sums the layers: the integrator then takes the albedo and normal
     /// at the first non-specular hit ([`AovSample::look_through`]), which costs rays. Without it

@@ -61,7 +61,7 @@
 
 mod lights;
 
-use crate::materials::phong::PhongBsdf;
+use crate::materials::phong::{PhongBsdf, fresnel_dielectric};
 use raylab::geometry::differential::RaySpread;
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::color::max_channel;
@@ -72,7 +72,7 @@ use raylab::render::aov::{AovSample, GuideStep};
 use raylab::render::integrator::explain_recursion;
 use raylab::render::stats::{Counter, CounterKind};
 use raylab::render::trace::{NoRecord, Recorder, Term};
-use raylab::scene::bsdf::{Bsdf, with_bsdf};
+use raylab::scene::bsdf::{Bsdf, Lobe, Scatter, with_bsdf};
 use raylab::scene::emitters::Selection;
 use raylab::scene::interaction::Interaction;
 use raylab::{Color, Integrator, LoadContext, PluginInfo, Ray, RayKind, RayStats, Sampler, Scene, TraceNode};
@@ -229,6 +229,9 @@ struct Ctx<'a> {
     scene: &'a Scene,
     stats: &'a mut RayStats,
     emitted: Color,
+    /// The camera ray's first surface has its branches followed together
+    /// ([`PathTracer::specular_emission`]).
+    split: bool,
 }
 
 /// The state a ray carries from the vertex that sent it, and its own random stream. Passed by
@@ -251,6 +254,10 @@ struct PathState<'s> {
     bsdf_pdf: Option<f64>,
     /// Only specular events so far: a ray that leaves the scene sees the background, not the sky.
     specular: bool,
+    /// The camera ray's first surface was split ([`PathTracer::specular_emission`]) and this is
+    /// the ray it sent: the lights it meets before a surface and that surface's emission were
+    /// counted there, as their expectation.
+    counted: bool,
     /// The point of the vertex that sent this ray (the camera ray: its origin): where its light
     /// samples were taken from, so an emitter it meets is weighed with the same density.
     from: DVec3,
@@ -270,6 +277,7 @@ impl<'s> PathState<'s> {
             eta_scale: 1.0,
             bsdf_pdf: None,
             specular: true,
+            counted: false,
             from: origin,
             spread,
         }
@@ -339,7 +347,8 @@ impl PathTracer {
         rec: &mut R,
     ) -> Color {
         let t_hit = hit.map_or(f64::INFINITY, |si| si.hit.t);
-        let mut radiance = self.emitters(c, ray, t_hit, path.bsdf_pdf, rec);
+        let counted = path.counted && hit.is_some();
+        let mut radiance = if counted { Color::ZERO } else { self.emitters(c, ray, t_hit, path.bsdf_pdf, rec) };
         let Some(si) = hit else {
             c.stats.add(counter::ESCAPED, 1);
             // An environment light replaces the background: it was met above, like any light.
@@ -356,7 +365,9 @@ impl PathTracer {
             return radiance;
         };
         rec.hit(si);
-        radiance += self.emission(c, path.from, si, path.bsdf_pdf, rec);
+        if !counted {
+            radiance += self.emission(c, path.from, si, path.bsdf_pdf, rec);
+        }
         if path.depth == 0 {
             c.emitted = radiance;
         }
@@ -425,6 +436,7 @@ impl PathTracer {
             eta_scale,
             bsdf_pdf: s.pdf,
             specular: path.specular && s.pdf.is_none(),
+            counted: path.depth == 0 && c.split,
             from: si.point(),
             spread,
         };
@@ -444,7 +456,7 @@ impl PathTracer {
         aov: &mut AovSample,
         rec: &mut R,
     ) -> Color {
-        let c = &mut Ctx { scene, stats, emitted: Color::ZERO };
+        let c = &mut Ctx { scene, stats, emitted: Color::ZERO, split: false };
         let spread = scene.camera_spread(ray);
         let hit = scene.trace(ray).map(|si| si.with_spread(spread));
         // A camera ray is always within the bounce limit (depth 0).
@@ -452,7 +464,15 @@ impl PathTracer {
             Some(si) => at_bsdf(si, |bsdf, draws| {
                 aov.set_surface(si, bsdf.albedo());
                 aov.look_through(scene, si, |s| at_bsdf(s, |b, _| guide_step(b)));
-                self.arrive(c, ray, Some(si), Some((bsdf, draws)), &PathState::camera(ray.origin, sampler, spread), rec)
+                // With the guides, what a mirror or glass shows of the emitters is counted as its
+                // expectation, into the emission layer.
+                let branches = if aov.guides { delta_branches(bsdf, -ray.dir) } else { None };
+                c.split = branches.is_some();
+                let color = self.arrive(c, ray, Some(si), Some((bsdf, draws)), &PathState::camera(ray.origin, sampler, spread), rec);
+                let Some(branches) = branches else { return color };
+                let seen = self.specular_emission(c, si, &branches);
+                c.emitted += seen;
+                color + seen
             }),
             None => {
                 aov.escape(scene, ray.dir);
@@ -478,6 +498,104 @@ fn guide_step(bsdf: &dyn Bsdf) -> GuideStep {
         (Some(a), Some(b)) if a.pdf.is_none() && a.dir == b.dir => GuideStep::Specular { dir: a.dir, tint: albedo },
         _ => GuideStep::Surface(albedo),
     }
+}
+
+impl PathTracer {
+    /// The emitters a camera ray sees through its first surface `si` when that surface only
+    /// reflects or refracts specularly, as their expectation: its `branches` ([`delta_branches`]:
+    /// glass's reflection and refraction) followed together, weighed by their probabilities,
+    /// each counting the lights its ray meets before the surface it hits and that surface's
+    /// emission, in full (no light sample finds them), and nothing where it leaves the scene (the
+    /// sky stays sampled). The camera ray's own path leaves out what it would have met there at
+    /// random ([`PathState::counted`]): the same mean, without the noise of the branch choice.
+    /// A render that takes the denoiser's guides does this and puts it in the emission layer,
+    /// which the denoiser leaves out of its filter: the lamp a glass ball reflects is no longer
+    /// a few bright sub-pixels the filter takes for fireflies (`benches/error/RESULTS.md`).
+    fn specular_emission(&self, c: &mut Ctx, si: &Interaction, branches: &Branches) -> Color {
+        let mut total = Color::ZERO;
+        for &(p, s) in &branches.0[..branches.1] {
+            let ray = si.spawn_ray(s.dir);
+            let spread = match s.kind {
+                RayKind::Refraction => si.refracted_spread(s.dir, 1.0 / s.eta_squared.sqrt()),
+                _ => si.reflected_spread(s.dir),
+            };
+            let Some(hit) = c.scene.trace(&ray).map(|h| h.with_spread(spread)) else { continue };
+            let seen = self.emitters(c, &ray, hit.hit.t, None, &mut NoRecord) + self.emission(c, si.point(), &hit, None, &mut NoRecord);
+            total += p * s.weight * seen;
+        }
+        total
+    }
+}
+
+/// A specular surface's branches, each with its probability, and how many there are
+/// ([`delta_branches`]).
+type Branches = ([(f64, Scatter); 2], usize);
+
+/// Halvings that place the boundary between two branches where the Fresnel term does not
+/// (a thin slab): 2⁻⁴⁰ of the range of the numbers.
+const BRANCH_BISECTIONS: u32 = 40;
+
+/// How far either side of the Fresnel term the two branches are checked
+/// ([`delta_branches`]): the boundary is placed within it.
+const BRANCH_MARGIN: f64 = 1e-10;
+
+/// The largest number below 1 (the numbers are in [0, 1)).
+const BELOW_ONE: f64 = 1.0 - f64::EPSILON / 2.0;
+
+/// The branches of a surface that only reflects or refracts specularly, seen along `-wo`, each
+/// with its probability: one (a mirror, total internal reflection), or two (glass), the
+/// reflection for `fresnel` below a boundary and the refraction above it, the boundary found at
+/// the Fresnel term (checked on both sides) or else by halving. Its lobe choice `pick` must not
+/// matter and its `u` must not move the direction. `None` for any other surface (smooth lobes,
+/// a blurred direction, lobes to choose from): its events are not split.
+fn delta_branches(bsdf: &dyn Bsdf, wo: DVec3) -> Option<Branches> {
+    if bsdf.has_smooth_lobes() {
+        return None;
+    }
+    let (u0, u1) = (DVec2::splat(0.25), DVec2::splat(0.75));
+    let key = |s: &Option<Scatter>| s.map(|s| (s.dir.to_array().map(f64::to_bits), s.weight.to_array().map(f64::to_bits), s.pdf.is_none()));
+    let at = |f: f64| bsdf.sample(0.5, u0, f);
+    let (first, last) = (at(0.0), at(BELOW_ONE));
+    for (f, s) in [(0.0, &first), (BELOW_ONE, &last)] {
+        let same = |pick: f64| key(&bsdf.sample(pick, u1, f)) == key(s);
+        if s.is_some_and(|s| s.pdf.is_some()) || !same(0.0) || !same(BELOW_ONE) {
+            return None;
+        }
+    }
+    let empty = Scatter { dir: DVec3::Z, weight: Color::ZERO, pdf: None, lobe: Lobe::Mirror, kind: RayKind::Reflection, eta_squared: 1.0 };
+    let mut out = ([(0.0, empty); 2], 0);
+    let mut push = |p: f64, s: Option<Scatter>| {
+        if let Some(s) = s {
+            out.0[out.1] = (p, s);
+            out.1 += 1;
+        }
+    };
+    if key(&first) == key(&last) {
+        push(1.0, first);
+        return Some(out);
+    }
+    let (below, above) = (key(&first), key(&last));
+    // Glass reflects for `fresnel` below its Fresnel term: try it, from the two directions.
+    let guess = match (first, last) {
+        (Some(r), Some(t)) if r.kind == RayKind::Reflection && t.kind == RayKind::Refraction => {
+            let m = (r.dir + wo).normalize_or_zero();
+            fresnel_dielectric(wo.dot(m), t.eta_squared.sqrt())
+        }
+        _ => f64::NAN,
+    };
+    let boundary = if guess.is_finite() && key(&at(guess - BRANCH_MARGIN)) == below && key(&at(guess + BRANCH_MARGIN)) == above {
+        guess
+    } else {
+        let (mut a, mut b) = (0.0, BELOW_ONE);
+        for _ in 0..BRANCH_BISECTIONS {
+            let m = 0.5 * (a + b);
+            if key(&at(m)) == below { a = m } else { b = m }
+        }
+        b
+    };
+    push(boundary, first);
+    push(1.0 - boundary, last);
+    Some(out)
 }
 
 /// `f` of the BSDF at `si` and the numbers its sampling reads: its material's model's (all

@@ -667,3 +667,66 @@ fn guides_look_through_mirrors_and_glass() {
         assert!(close(up.albedo, DVec3::splat(seen)) && up.emitted == Color::ZERO, "{integrator} {sky}: {up:?}");
     }
 }
+
+/// A render that takes the denoiser's guides counts the emitters camera rays see through a
+/// mirror or smooth glass as their expectation ([`PathTracer::specular_emission`]): camera rays
+/// across a glass ball and a mirror ball that reflect (and, seen through the glass, show) an
+/// emitting sphere give the same mean with and without guides, the part seen through the balls
+/// the same in every sample (the emission layer) and the colour's spread smaller. Counting it
+/// twice, or not at all, moves the mean by far more than the noise allows.
+#[test]
+fn emitters_seen_in_mirrors_and_glass_count_as_their_expectation() {
+    let job = load(
+        "background = 0.1\n[render]\nwidth = 4\nheight = 4\n[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\nfov = 60\n\
+         [integrator]\ntype = \"path\"\n\
+         [[object]]\ntype = \"sphere\"\ncenter = [-1.2, 0, -4]\nradius = 1\nmaterial = { kd = 0, kt = 1, ior = 1.5 }\n\
+         [[object]]\ntype = \"sphere\"\ncenter = [1.2, 0, -4]\nradius = 1\nmaterial = { kd = 0, kr = 0.8 }\n\
+         [[object]]\ntype = \"plane\"\npoint = [0, -1, 0]\nnormal = [0, 1, 0]\nmaterial = { kd = 0.5 }\n\
+         [[object]]\ntype = \"sphere\"\ncenter = [0, 2.5, -3]\nradius = 1\nmaterial = { kd = 0, emission = 4 }\n\
+         [[object]]\ntype = \"sphere\"\ncenter = [-1.2, 0, -9]\nradius = 1.5\nmaterial = { kd = 0, emission = 2 }\n",
+    );
+    let n: u32 = 4000;
+    let (mut off_sum, mut on_sum, mut var_sum, mut seen_total) = (Color::ZERO, Color::ZERO, Color::ZERO, Color::ZERO);
+    let (mut spread_off, mut spread_on) = (0.0, 0.0);
+    for j in 0..6 {
+        for i in 0..12 {
+            let target = DVec3::new(-2.4 + 0.4 * f64::from(i) + 0.05, -0.9 + 0.4 * f64::from(j), -4.0);
+            let ray = Ray::new(DVec3::ZERO, target);
+            let mut stats = RayStats::new(job.integrator.counters());
+            let mut run = |guides: bool| {
+                let (mut sum, mut sq, mut emitted) = (Color::ZERO, Color::ZERO, None);
+                for k in 0..n {
+                    let mut aov = AovSample::miss(job.scene.background);
+                    aov.guides = guides;
+                    let v = job.integrator.radiance(&job.scene, &ray, &mut Sampler::new(u64::from(k), 0, 7), &mut stats, &mut aov);
+                    sum += v;
+                    sq += v * v;
+                    // The emission layer is the same in every sample: no noise but anti-aliasing.
+                    assert!(emitted.is_none_or(|e| e == aov.emitted), "{target}: emission layer {:?} then {:?}", emitted, aov.emitted);
+                    emitted = Some(aov.emitted);
+                }
+                let mean = sum / f64::from(n);
+                (mean, (sq / f64::from(n) - mean * mean).max(Color::ZERO), emitted.unwrap_or(Color::ZERO))
+            };
+            let (off, var_off, _) = run(false);
+            let (on, var_on, seen) = run(true);
+            off_sum += off;
+            on_sum += on;
+            var_sum += (var_off + var_on) / f64::from(n);
+            seen_total += seen;
+            // Where the balls show no emitter the colour is the same sample for sample.
+            if seen != Color::ZERO {
+                spread_off += var_off.element_sum();
+                spread_on += var_on.element_sum();
+            } else {
+                assert_eq!(off, on, "{target}");
+            }
+        }
+    }
+    let sigma = var_sum.map(f64::sqrt);
+    for c in 0..3 {
+        assert!((on_sum[c] - off_sum[c]).abs() <= 4.0 * sigma[c], "with guides {on_sum}, without {off_sum}, σ {sigma}");
+    }
+    assert!(seen_total.min_element() > 0.05 * on_sum.min_element(), "the balls show the emitters: {seen_total} of {on_sum}");
+    assert!(spread_on < 0.9 * spread_off, "where the balls show an emitter, variance with guides {spread_on}, without {spread_off}");
+}
