@@ -105,9 +105,11 @@ impl AliasTable {
     #[inline]
     pub fn sample(&self, u: f64) -> (usize, f64, f64) {
         let n = self.columns.len();
-        let scaled = below_one(u.max(0.0)) * n as f64;
-        let i = (scaled as usize).min(n - 1);
-        let frac = below_one(scaled - i as f64);
+        // Counts and indices through u32 (a table has fewer than 2³² items): the same values,
+        // one conversion each where a usize's takes a sequence.
+        let scaled = below_one(u.max(0.0)) * float(n);
+        let i = (scaled as u32 as usize).min(n - 1);
+        let frac = below_one(scaled - float(i));
         let c = self.columns[i];
         let (item, rest) =
             if frac < c.threshold { (i, frac / c.threshold) } else { (c.alias as usize, (frac - c.threshold) / (1.0 - c.threshold)) };
