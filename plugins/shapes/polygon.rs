@@ -5,7 +5,7 @@
 //! plane hit, then the point must lie strictly inside every boundary edge. There is no internal
 //! edge, so no crack; like a lone triangle, a ray exactly on the outline misses.
 
-use super::plane::intersect_plane;
+use super::plane::PlaneEquation;
 use super::triangle::barycentric_point;
 use raylab::geometry::samples::{Draw, Form, ShapeSample, ShapeSampler};
 use raylab::geometry::sampling::uniform_triangle;
@@ -30,6 +30,9 @@ pub struct Polygon {
     /// Edge i's inward-pointing normal within the plane: `normal × (v[i+1] − v[i])`.
     edge_normals: Vec<DVec3>,
     normal: DVec3,
+    /// The plane through the first vertex with `normal`, its magnitudes computed once (the
+    /// plane test `intersect_plane` makes, bit for bit).
+    plane: PlaneEquation,
     /// The plane's right and up axes ([`super::uv::tangent_frame`]), and the vertices in them
     /// relative to the first, for texture coordinates.
     axes: (DVec3, DVec3),
@@ -144,7 +147,8 @@ impl Polygon {
                 Some(*sum)
             })
             .collect();
-        Ok(Polygon { vertices, edge_normals, normal, axes, flat, fan })
+        let plane = PlaneEquation::new(vertices[0], normal);
+        Ok(Polygon { vertices, edge_normals, normal, plane, axes, flat, fan })
     }
 }
 
@@ -186,7 +190,7 @@ pub fn build_quadrangle(p: &mut Params, _: &LoadContext) -> Result<Box<dyn Geome
 
 impl Intersectable for Polygon {
     fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<Hit> {
-        let (t, point, error) = intersect_plane(ray, self.vertices[0], self.normal, t_min, t_max)?;
+        let (t, point, error) = self.plane.intersect(ray, t_min, t_max)?;
         for (v, en) in self.vertices.iter().zip(&self.edge_normals) {
             if !((point - *v).dot(*en) > 0.0) {
                 return None;
@@ -198,6 +202,11 @@ impl Intersectable for Polygon {
     #[inline]
     fn occludes_leaving(&self, _: &Ray, _: f64, _: f64, _: u32) -> bool {
         false
+    }
+    /// As `occludes_leaving`: nothing to find on the primitive the ray leaves.
+    #[inline]
+    fn intersect_leaving(&self, _: &Ray, _: f64, _: f64, _: u32) -> Option<Hit> {
+        None
     }
 }
 

@@ -213,6 +213,11 @@ impl Intersectable for Triangle {
     fn occludes_leaving(&self, _: &Ray, _: f64, _: f64, _: u32) -> bool {
         false
     }
+    /// As `occludes_leaving`: nothing to find on the primitive the ray leaves.
+    #[inline]
+    fn intersect_leaving(&self, _: &Ray, _: f64, _: f64, _: u32) -> Option<Hit> {
+        None
+    }
 }
 
 impl Geometry for Triangle {

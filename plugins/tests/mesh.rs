@@ -718,3 +718,63 @@ fn packets_of_shadow_rays_answer_as_single_rays() {
         assert!(blocked > 200 && open > 200, "{blocked} blocked, {open} open");
     }
 }
+
+/// A path's next ray finds the same closest hit through `Scene::trace_leaving` (the surface it
+/// leaves asked `intersect_leaving`, flat ones skipped) as through `Scene::trace`: rays spawned
+/// off hits of quadrangles, a plane, a triangle, a transformed quadrangle, a flat mesh, a cube
+/// mesh and spheres, to both sides of each surface (into the spheres, where the far side is met), in a
+/// list of objects, a hierarchy and with one bounded object.
+#[test]
+fn rays_leaving_a_hit_find_what_trace_finds() {
+    let mut body = String::from(
+        "[[object]]\ntype = \"plane\"\npoint = [0, -2, 0]\nnormal = [0, 1, 0]\n\
+         [[object]]\ntype = \"quadrangle\"\np0 = [-2, -2, -2]\np1 = [2, -2, -2]\np2 = [2, 2, -2]\np3 = [-2, 2, -2]\n\
+         [[object]]\ntype = \"quadrangle\"\np0 = [-2, -2, -2]\np1 = [-2, 2, -2]\np2 = [-2, 2, 2]\np3 = [-2, -2, 2]\n\
+         [[object]]\ntype = \"triangle\"\np0 = [2, -2, -2]\np1 = [2, 2, 0]\np2 = [2, -2, 2]\n\
+         [[object]]\ntype = \"quadrangle\"\np0 = [-1, -1, 0]\np1 = [1, -1, 0]\np2 = [1, 1, 0]\np3 = [-1, 1, 0]\n\
+         transform = { rotate = [20, 30, 0], translate = [0, 1.2, -1] }\n\
+         [[object]]\ntype = \"sphere\"\ncenter = [-0.8, -1.2, 0.5]\nradius = 0.7\n\
+         [[object]]\ntype = \"sphere\"\ncenter = [0.9, -1.4, 0.8]\nradius = 0.5\n",
+    );
+    // A flat mesh (an L-shaped ceiling tile) and a closed one (a cube).
+    body.push_str(
+        "[[object]]\ntype = \"mesh\"\nfile = \"concave.obj\"\nnormals = \"flat\"\ntransform = { scale = 2, translate = [-2, 2, -2] }\n\
+         [[object]]\ntype = \"mesh\"\nfile = \"cube.obj\"\ntransform = { scale = 0.6, translate = [0.5, -0.6, -1.2] }\n",
+    );
+    let lone = "[[object]]\ntype = \"plane\"\npoint = [0, -2, 0]\nnormal = [0, 1, 0]\n\
+                [[object]]\ntype = \"sphere\"\ncenter = [0, -1, 0]\nradius = 1\n";
+    let mut rng = 0x9e37_79b9_7f4a_7c15u64;
+    let mut uniform = move || {
+        rng = raylab::math::sampler::mix64(rng.wrapping_add(0x9e37_79b9_7f4a_7c15));
+        (rng >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for (text, accels) in [(body.as_str(), [AccelChoice::List, AccelChoice::Bvh]), (lone, [AccelChoice::List, AccelChoice::List])] {
+        for accel in accels {
+            let job = scene(text, accel).unwrap_or_else(|e| panic!("{}", e.report()));
+            let scene = &job.scene;
+            let (mut leaving, mut met) = (std::collections::HashSet::new(), 0);
+            for _ in 0..3000 {
+                let dir = |u: &mut dyn FnMut() -> f64| {
+                    let z = 2.0 * u() - 1.0;
+                    let phi = std::f64::consts::TAU * u();
+                    let r = (1.0 - z * z).max(0.0).sqrt();
+                    DVec3::new(r * phi.cos(), r * phi.sin(), z)
+                };
+                let origin = DVec3::new(0.3 * uniform() - 0.15, 0.5 * uniform(), 1.5 + uniform());
+                let Some(si) = scene.trace(&Ray::new(origin, dir(&mut uniform))) else { continue };
+                for _ in 0..4 {
+                    let ray = si.spawn_ray(dir(&mut uniform));
+                    let expected = scene.trace(&ray).map(|s| s.hit);
+                    assert_eq!(scene.trace_leaving(&ray, &si.hit).map(|s| s.hit), expected, "{accel:?}, leaving {:?}", si.hit);
+                    leaving.insert(si.hit.object);
+                    met += usize::from(expected.is_some());
+                }
+            }
+            assert!(
+                leaving.len() == scene.objects.len() && met > 400,
+                "{accel:?}: left {leaving:?} of {}, {met} hits",
+                scene.objects.len()
+            );
+        }
+    }
+}

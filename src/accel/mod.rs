@@ -96,47 +96,8 @@ pub struct Accelerated<'a, O> {
 
 impl<O: Intersectable> Intersectable for Accelerated<'_, O> {
     #[inline]
-    fn intersect(&self, ray: &Ray, t_min: f64, mut t_max: f64) -> Option<Hit> {
-        let (accel, objects) = (self.accel, self.objects);
-        let mut best: Option<Hit> = None;
-        for &i in &accel.unbounded {
-            if let Some(mut h) = objects[i as usize].intersect(ray, t_min, t_max) {
-                h.object = i;
-                t_max = h.t;
-                best = Some(h);
-            }
-        }
-        if accel.index.is_bvh() {
-            // Ties go to the smallest slot (the index's tie rule); unbounded objects, tested
-            // first, win ties with bounded ones.
-            if let Some((_, _, h)) = accel.index.closest(ray, t_min, t_max, |slot, limit| {
-                let i = accel.bounded[slot as usize].1;
-                let mut h = objects[i as usize].intersect(ray, t_min, limit)?;
-                h.object = i;
-                Some((h.t, h))
-            }) {
-                best = Some(h);
-            }
-        } else if let [(_, i)] = accel.bounded[..] {
-            // One bounded object: its own test culls as well as its box would (a mesh clips the
-            // ray to its box anyway), without the three divisions of the box test.
-            if let Some(mut h) = objects[i as usize].intersect(ray, t_min, t_max) {
-                h.object = i;
-                best = Some(h);
-            }
-        } else {
-            let inv = ray.dir.recip();
-            for (b, i) in &accel.bounded {
-                if b.hit(ray, inv, t_min, t_max)
-                    && let Some(mut h) = objects[*i as usize].intersect(ray, t_min, t_max)
-                {
-                    h.object = *i;
-                    t_max = h.t;
-                    best = Some(h);
-                }
-            }
-        }
-        best
+    fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<Hit> {
+        self.closest::<false>(ray, t_min, t_max, (u32::MAX, 0))
     }
 
     /// The unbounded objects ray by ray, then a lone bounded object's own packet query
@@ -207,6 +168,66 @@ impl<O: Intersectable> Intersectable for Accelerated<'_, O> {
 }
 
 impl<O: Intersectable> Accelerated<'_, O> {
+    /// [`Intersectable::intersect`]; with `LEAVING`, object `own` is asked
+    /// [`Intersectable::intersect_leaving`] its primitive `prim`, without its box (its test is
+    /// exact either way, and a flat primitive skips it): [`Accelerated::intersect_leaving`].
+    #[inline(always)]
+    fn closest<const LEAVING: bool>(&self, ray: &Ray, t_min: f64, mut t_max: f64, (own, prim): (u32, u32)) -> Option<Hit> {
+        let (accel, objects) = (self.accel, self.objects);
+        #[inline(always)]
+        fn test<O: Intersectable, const LEAVING: bool>(o: &O, ray: &Ray, t_min: f64, t_max: f64, leaves: bool, prim: u32) -> Option<Hit> {
+            if LEAVING && leaves { o.intersect_leaving(ray, t_min, t_max, prim) } else { o.intersect(ray, t_min, t_max) }
+        }
+        let mut best: Option<Hit> = None;
+        for &i in &accel.unbounded {
+            if let Some(mut h) = test::<O, LEAVING>(&objects[i as usize], ray, t_min, t_max, i == own, prim) {
+                h.object = i;
+                t_max = h.t;
+                best = Some(h);
+            }
+        }
+        if accel.index.is_bvh() {
+            // Ties go to the smallest slot (the index's tie rule); unbounded objects, tested
+            // first, win ties with bounded ones.
+            if let Some((_, _, h)) = accel.index.closest(ray, t_min, t_max, |slot, limit| {
+                let i = accel.bounded[slot as usize].1;
+                let mut h = test::<O, LEAVING>(&objects[i as usize], ray, t_min, limit, i == own, prim)?;
+                h.object = i;
+                Some((h.t, h))
+            }) {
+                best = Some(h);
+            }
+        } else if let [(_, i)] = accel.bounded[..] {
+            // One bounded object: its own test culls as well as its box would (a mesh clips the
+            // ray to its box anyway), without the three divisions of the box test.
+            if let Some(mut h) = test::<O, LEAVING>(&objects[i as usize], ray, t_min, t_max, i == own, prim) {
+                h.object = i;
+                best = Some(h);
+            }
+        } else {
+            let inv = ray.dir.recip();
+            for (b, i) in &accel.bounded {
+                let leaves = LEAVING && *i == own;
+                if (leaves || b.hit(ray, inv, t_min, t_max))
+                    && let Some(mut h) = test::<O, LEAVING>(&objects[*i as usize], ray, t_min, t_max, leaves, prim)
+                {
+                    h.object = *i;
+                    t_max = h.t;
+                    best = Some(h);
+                }
+            }
+        }
+        best
+    }
+
+    /// [`Intersectable::intersect`] for a ray leaving `from`, a hit of one of these objects (the
+    /// ray spawned off it: a path's next ray): the same hit, for less work where `from`'s
+    /// primitive is flat ([`Intersectable::intersect_leaving`]).
+    #[inline]
+    pub fn intersect_leaving(&self, ray: &Ray, t_min: f64, t_max: f64, from: &Hit) -> Option<Hit> {
+        self.closest::<true>(ray, t_min, t_max, (from.object, from.prim))
+    }
+
     /// [`Intersectable::intersect_packet`] over a hierarchy: the unbounded objects ray by ray
     /// (they win ties, as in [`Accelerated::intersect`]), then the rays walk the hierarchy
     /// together and each ray tests the objects of the leaves its own slab tests enter, keeping
@@ -278,7 +299,8 @@ impl<O: Intersectable> Accelerated<'_, O> {
             other(i)
         } else {
             let inv = ray.dir.recip();
-            accel.bounded.iter().any(|(b, i)| b.hit(ray, inv, t_min, t_max) && other(*i))
+            // The own object first: it is asked below, without its box.
+            accel.bounded.iter().any(|(b, i)| *i != own && b.hit(ray, inv, t_min, t_max) && other(*i))
         };
         blocked || objects[own as usize].occludes_leaving(ray, t_min, t_max, from.prim)
     }

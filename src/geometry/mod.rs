@@ -62,6 +62,17 @@ pub trait Intersectable: Send + Sync {
         self.occludes(ray, t_min, t_max)
     }
 
+    /// [`Intersectable::intersect`] for a ray that leaves this shape's primitive `prim` (spawned
+    /// off a hit of it, as for [`Intersectable::occludes_leaving`]): a path's next ray. A shape
+    /// whose primitive `prim` is flat may leave it out, as `occludes_leaving` does (a ray leaving
+    /// a plane never meets it again at `t > 0`: `intersect` finds no such hit either), so the
+    /// answer is `intersect`'s. The default tests everything.
+    #[inline]
+    fn intersect_leaving(&self, ray: &Ray, t_min: f64, t_max: f64, prim: u32) -> Option<Hit> {
+        let _ = prim;
+        self.intersect(ray, t_min, t_max)
+    }
+
     /// The closest hits of the rays `rays[k]` of mask `live`, ray `k` in `(t_min, t_max[k])`:
     /// where `intersect(&rays[k], t_min, t_max[k])` returns a hit, sets `out[k]` to it, exactly;
     /// leaves the other lanes alone, and returns the mask of the lanes set. A shape that walks a
@@ -253,6 +264,10 @@ macro_rules! forward_impls {
             #[inline]
             fn occludes_leaving(&self, ray: &Ray, t_min: f64, t_max: f64, prim: u32) -> bool {
                 (**self).occludes_leaving(ray, t_min, t_max, prim)
+            }
+            #[inline]
+            fn intersect_leaving(&self, ray: &Ray, t_min: f64, t_max: f64, prim: u32) -> Option<Hit> {
+                (**self).intersect_leaving(ray, t_min, t_max, prim)
             }
             #[inline]
             fn intersect_packet(

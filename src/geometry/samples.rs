@@ -404,6 +404,12 @@ pub fn reintersect(sampler: &ShapeSampler, seed: u64, points: u32, per_point: u3
                 let ts: Vec<f64> = again.iter().map(|h| h.t).collect();
                 tally.fail(at(&format!("spawned ray met its own surface at t = {ts:?} (allowed {limit})"), d));
             }
+            // The path's next ray asks `intersect_leaving`: the same hit as `intersect`.
+            let (closest, leaving) =
+                (g.intersect(&spawned, 0.0, f64::INFINITY), g.intersect_leaving(&spawned, 0.0, f64::INFINITY, hit.prim));
+            if closest != leaving {
+                tally.fail(at(&format!("intersect_leaving found {leaving:?}, intersect {closest:?}"), d));
+            }
             // Shadow rays toward a light off the plane / outside the tangent plane, or inside.
             let light = match &sub.form {
                 Form::Convex(interior) if !out => interior(r.cube()),

@@ -232,6 +232,20 @@ impl<G: Geometry> Intersectable for Transformed<G> {
             None => false,
         }
     }
+
+    /// [`Transformed::intersect`] asking the inner shape [`Intersectable::intersect_leaving`],
+    /// as `occludes_leaving` does.
+    #[inline]
+    fn intersect_leaving(&self, ray: &Ray, t_min: f64, t_max: f64, prim: u32) -> Option<Hit> {
+        let (r, len, shift) = self.object_ray(ray)?;
+        let h = self.inner.intersect_leaving(&r, (t_min * len - shift).max(0.0), t_max * len - shift, prim)?;
+        let t = (h.t + shift) / len;
+        if !(t > t_min && t < t_max) {
+            return None;
+        }
+        let (point, error) = apply_point(&self.transform.to_world, h.point, h.error);
+        Some(Hit { t, point, error, ..h })
+    }
 }
 
 impl<G: Geometry> Geometry for Transformed<G> {

@@ -720,31 +720,54 @@ impl StratifiedPixels<'_> {
         let pixel = pixel_setup(job, &self.setup, x, y);
         let points = want.min(self.end).saturating_sub(acc.samples);
         match pixel.film().tabled_pays(points).then(|| TabledSet::new(pixel.film())).flatten() {
-            Some(table) => self.add_pixel_samples(&pixel, |index| table.point(index), want, acc, layers, stats),
-            None => self.add_pixel_samples(&pixel, |index| pixel.film().point(index), want, acc, layers, stats),
+            // The film positions of up to 8 samples at a time, as for the pixel packets.
+            Some(table) => self.add_pixel_samples(&pixel, |index, _| film_points(&table, index), want, acc, layers, stats),
+            None => {
+                let at = |index: &[u32; PACKET], taken: usize| {
+                    let mut at = [DVec2::ZERO; PACKET];
+                    for (p, &i) in at.iter_mut().zip(&index[..taken]) {
+                        *p = pixel.film().point(i);
+                    }
+                    at
+                };
+                self.add_pixel_samples(&pixel, at, want, acc, layers, stats)
+            }
         }
     }
 
     /// The samples [`StratifiedPixels::add_samples`] adds to a pixel with stratified film
-    /// positions, sample `index` at `point(index)` in the pixel.
+    /// positions, sample `index[k]` at `points(index, taken)[k]` in the pixel (for `k < taken`):
+    /// the positions of up to [`PACKET`] samples computed together (the lanes past the pass's
+    /// last sample repeat the first index, a valid one; an error target's stop leaves some
+    /// computed and unused), then the samples traced in order, each sum the one a sample at a
+    /// time makes.
     #[inline(always)]
     fn add_pixel_samples(
         &self,
         pixel: &PixelSetup,
-        point: impl Fn(u32) -> DVec2,
+        points: impl Fn(&[u32; PACKET], usize) -> [DVec2; PACKET],
         want: u32,
         acc: &mut PixelSum,
         mut layers: Option<&mut AovSum>,
         stats: &mut RayStats,
     ) {
         let (job, share) = (self.job, self.share);
-        while acc.samples < want && share.sample_index(acc.samples) < self.end {
-            if job.settings.target.is_some_and(|t| t.converged(acc)) {
-                break;
+        let wants = |n: u32| n < want && share.sample_index(n) < self.end;
+        while wants(acc.samples) {
+            let mut index = [share.sample_index(acc.samples); PACKET];
+            let mut taken = 1;
+            while taken < PACKET && wants(acc.samples + taken as u32) {
+                index[taken] = share.sample_index(acc.samples + taken as u32);
+                taken += 1;
             }
-            let index = share.sample_index(acc.samples);
-            trace_pixel_sample(job, &self.setup, pixel, index, point(index), acc, layers.as_deref_mut(), stats);
-            acc.samples += 1;
+            let at = points(&index, taken);
+            for (&index, &at) in index[..taken].iter().zip(&at) {
+                if job.settings.target.is_some_and(|t| t.converged(acc)) {
+                    return;
+                }
+                trace_pixel_sample(job, &self.setup, pixel, index, at, acc, layers.as_deref_mut(), stats);
+                acc.samples += 1;
+            }
         }
     }
 }

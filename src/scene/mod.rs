@@ -269,6 +269,22 @@ impl Scene {
         self.intersect(ray, 0.0, f64::INFINITY)
     }
 
+    /// [`Scene::trace`] for a ray spawned off the hit `from` (a path's next ray, from
+    /// [`Interaction::spawn_ray`]): the same interaction, for less work where `from`'s primitive
+    /// is flat ([`Intersectable::intersect_leaving`]: its object is not tested again).
+    #[inline(always)]
+    pub fn trace_leaving(&self, ray: &Ray, from: &Hit) -> Option<Interaction<'_>> {
+        let hit = self.closest_hit_leaving(ray, from)?;
+        Some(self.interaction(ray, hit))
+    }
+
+    /// The closest hit along `ray` (`0 < t`) leaving `from`: [`Scene::trace_leaving`]'s
+    /// traversal, kept out of line.
+    #[inline(never)]
+    fn closest_hit_leaving(&self, ray: &Ray, from: &Hit) -> Option<Hit> {
+        self.accel.over(&self.objects).intersect_leaving(ray, 0.0, f64::INFINITY, from)
+    }
+
     /// The interaction of `ray` at `hit` (a hit of this scene: [`Hit::object`] indexes `objects`).
     /// Always inlined, as [`Scene::trace`]: the interaction is built where it is used.
     #[inline(always)]

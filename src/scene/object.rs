@@ -183,6 +183,10 @@ impl Intersectable for Object {
         self.geometry.occludes_leaving(ray, t_min, t_max, prim)
     }
     #[inline]
+    fn intersect_leaving(&self, ray: &Ray, t_min: f64, t_max: f64, prim: u32) -> Option<Hit> {
+        self.geometry.intersect_leaving(ray, t_min, t_max, prim)
+    }
+    #[inline]
     fn intersect_packet(&self, rays: &[Ray; PACKET], live: u32, t_min: f64, t_max: &[f64; PACKET], out: &mut [Hit; PACKET]) -> u32 {
         self.geometry.intersect_packet(rays, live, t_min, t_max, out)
     }

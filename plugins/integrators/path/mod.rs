@@ -62,6 +62,7 @@
 mod lights;
 
 use crate::materials::phong::{PhongBsdf, fresnel_dielectric};
+use raylab::geometry::Hit;
 use raylab::geometry::differential::RaySpread;
 use raylab::glam::{DVec2, DVec3};
 use raylab::math::color::max_channel;
@@ -325,9 +326,10 @@ impl PathTracer {
         if depth < self.stratify { stream.pixel_2d() } else { stream.next_2d() }
     }
 
-    /// Radiance arriving along `ray` (its state and stream `path`).
-    fn li<R: Recorder>(&self, c: &mut Ctx, ray: &Ray, path: &PathState, rec: &mut R) -> Color {
-        let hit = c.scene.trace(ray).map(|si| si.with_spread(path.spread));
+    /// Radiance arriving along `ray` (its state and stream `path`), spawned off the hit `from`.
+    fn li<R: Recorder>(&self, c: &mut Ctx, ray: &Ray, from: &Hit, path: &PathState, rec: &mut R) -> Color {
+        // The surface the ray leaves is not asked again where it is flat (the same hit).
+        let hit = c.scene.trace_leaving(ray, from).map(|si| si.with_spread(path.spread));
         match hit.as_ref().filter(|_| path.depth <= self.max_bounces) {
             Some(si) => at_bsdf(si, |bsdf, draws| self.arrive(c, ray, Some(si), Some((bsdf, draws)), path, rec)),
             None => self.arrive(c, ray, hit.as_ref(), None, path, rec),
@@ -441,7 +443,7 @@ impl PathTracer {
             spread,
         };
         let mut child = rec.child(s.kind, &ray, next.depth, next.beta);
-        let li = self.li(c, &ray, &next, &mut child);
+        let li = self.li(c, &ray, &si.hit, &next, &mut child);
         rec.adopt(child);
         weight * li
     }
