@@ -339,8 +339,11 @@ impl Scene {
                 let (tx, rx) = mpsc::channel();
                 let (job, cancel, done, total) = (&job, &cancel, &done, &total);
                 scope.spawn(move || {
-                    let options =
-                        RenderOptions { threads, cancel: Some(cancel), layers: !aov.is_empty(), share, ..RenderOptions::default() };
+                    // The summed layers only for layers that need them, as the CLI: summing them
+                    // makes `path` take its guides, which changes the colour (the error layer alone
+                    // is of the colour's sums).
+                    let layers = aov.iter().any(|a| raylab::render::aov::Aov::parse(a) != Some(raylab::render::aov::Aov::Error));
+                    let options = RenderOptions { threads, cancel: Some(cancel), layers, share, ..RenderOptions::default() };
                     let r = raylab::render::render(job, &options, &|d, t| {
                         done.fetch_max(d, Ordering::Relaxed);
                         total.store(t, Ordering::Relaxed);
