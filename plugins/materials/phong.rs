@@ -223,6 +223,24 @@ impl PhongBsdf {
         (first < 1.0, dir, c[4] > 0.0)
     }
 
+    /// At a lone sharp dielectric (the Fresnel number is all [`Bsdf::sample`] reads:
+    /// [`PhongBsdf::numbers_read`] is `(false, false, true)`), the probability that it reflects
+    /// (the Fresnel term it compares that number with; a thin sheet's `2F/(1+F)`) and whether the
+    /// surface bounds a solid (a ray into its inside meets it again before anything else). Where
+    /// there is no refraction (total internal reflection) it reflects whatever the number. `None`
+    /// for any other model.
+    pub fn dielectric_branches(&self) -> Option<(f64, bool)> {
+        if self.numbers_read() != (false, false, true) {
+            return None;
+        }
+        let cos_i = self.wo.dot(self.ms);
+        Some(if self.closed {
+            (fresnel_dielectric(cos_i, if self.entering { self.ior } else { 1.0 / self.ior }), true)
+        } else {
+            (thin_slab_reflectance(cos_i, self.ior), false)
+        })
+    }
+
     /// Fresnel reflection or transmission of the `kt` part, jittered when blurry.
     fn sample_dielectric(&self, u: DVec2, fresnel: f64) -> Scatter {
         let d = -self.wo;
