@@ -90,6 +90,15 @@ fn float(s: i128) -> f64 {
     ((s >> 64) as i64) as f64 * 18_446_744_073_709_551_616.0 + (s as u64) as f64
 }
 
+/// Whether the render loop's copies compiled for AVX2 (the film positions, the exact sums) run:
+/// where the CPU has AVX2 and `RAYLAB_SIMD` is not `baseline`. Decided once.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+pub(crate) fn runs_avx2() -> bool {
+    static AVX2: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *AVX2.get_or_init(|| std::env::var_os("RAYLAB_SIMD").is_none_or(|v| v != "baseline") && std::arch::is_x86_feature_detected!("avx2"))
+}
+
 /// The finite radiance of some camera rays, summed exactly, with their count and how many of the
 /// pixel's samples they came from.
 ///
@@ -133,7 +142,7 @@ impl PixelSum {
     #[inline(always)]
     pub fn add_sample(&mut self, c: Color, second: bool) {
         #[cfg(target_arch = "x86_64")]
-        if crate::render::runs_avx2() {
+        if runs_avx2() {
             // SAFETY: `runs_avx2()` is true only where the CPU has AVX2.
             unsafe { self.add_sample_avx2(c, second) };
             return;

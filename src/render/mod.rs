@@ -868,22 +868,13 @@ fn film_points(table: &TabledSet, index: &[u32; PACKET]) -> [DVec2; PACKET] {
         fn avx2(table: &TabledSet, index: &[u32; PACKET]) -> [DVec2; PACKET] {
             table.points(index)
         }
-        if runs_avx2() {
+        if crate::render::accum::runs_avx2() {
             // SAFETY: `avx2` only runs AVX2 instructions, and is called only after
             // `is_x86_feature_detected!` found AVX2 on this CPU.
             return unsafe { avx2(table, index) };
         }
     }
     table.points(index)
-}
-
-/// Whether the render loop's copies compiled for AVX2 (the film positions, the exact sums) run:
-/// where the CPU has AVX2 and `RAYLAB_SIMD` is not `baseline`. Decided once.
-#[cfg(target_arch = "x86_64")]
-#[inline]
-pub(crate) fn runs_avx2() -> bool {
-    static AVX2: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    *AVX2.get_or_init(|| std::env::var_os("RAYLAB_SIMD").is_none_or(|v| v != "baseline") && std::arch::is_x86_feature_detected!("avx2"))
 }
 
 /// What a packet of camera rays is gathered in (kept for a tile, so no round initialises it).
