@@ -3,7 +3,8 @@
 //!
 //! A camera ray's path scatters at each surface it meets by its material's BSDF
 //! ([`raylab::scene::bsdf`]): a material plugin's own model (`pbr`: the glTF BRDF), or for the
-//! report's coefficients the energy-conserving [`PhongBsdf`] (Lambertian `kd`, normalised Phong
+//! report's coefficients the energy-conserving
+//! [`PhongBsdf`](crate::materials::phong::PhongBsdf) (Lambertian `kd`, normalised Phong
 //! `ks`, mirror or glossy `kr`, Fresnel dielectric `kt`). At each vertex with a smooth lobe, every light is sampled with a shadow ray
 //! (next-event estimation, [`lights`]), and so are the emitting objects: `light_samples` points
 //! (at least one) on emitters chosen by `light_selection` (by power through an alias table, or
@@ -61,7 +62,7 @@
 
 mod lights;
 
-use crate::materials::phong::{PhongBsdf, fresnel_dielectric};
+use crate::materials::phong::{fresnel_dielectric, with_phong_bsdf};
 use raylab::geometry::Hit;
 use raylab::geometry::differential::RaySpread;
 use raylab::glam::{DVec2, DVec3};
@@ -601,16 +602,13 @@ fn delta_branches(bsdf: &dyn Bsdf, wo: DVec3) -> Option<Branches> {
 }
 
 /// `f` of the BSDF at `si` and the numbers its sampling reads: its material's model's (all
-/// of them), or the coefficients' ([`PhongBsdf`], [`PhongBsdf::numbers_read`]).
+/// of them), or the coefficients' ([`with_phong_bsdf`]; a lone diffuse
+/// lobe's as a [`LambertBsdf`](crate::materials::phong::LambertBsdf), the same answers).
 #[inline]
 fn at_bsdf<T>(si: &Interaction, f: impl FnOnce(&dyn Bsdf, Draws) -> T) -> T {
     match si.model() {
         Some(m) => with_bsdf(m, si, |b| f(b, Draws::ALL)),
-        None => {
-            let bsdf = PhongBsdf::new(si);
-            let (pick, dir, fresnel) = bsdf.numbers_read();
-            f(&bsdf, Draws { pick, dir, fresnel })
-        }
+        None => with_phong_bsdf(si, |bsdf, (pick, dir, fresnel)| f(bsdf, Draws { pick, dir, fresnel })),
     }
 }
 
