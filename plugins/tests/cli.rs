@@ -3,7 +3,7 @@
 use std::path::Path;
 
 mod common;
-use common::{raylab, repo, temp_dir, text};
+use common::{denoiser_here, displayed_rmse, raylab, repo, temp_dir, text};
 
 #[test]
 fn no_arguments_renders_the_default_scene_to_render_png() {
@@ -454,9 +454,7 @@ fn sweep_varies_the_denoiser() {
     let small = ["--width", "32", "--height", "32", "--reference-spp", "64", "--metric", "rmse", "-q"];
     let out = raylab(&dir, &[&["sweep", scene, "--vary", "spp=1", "--vary", "denoise=off,maybe"][..], &small].concat());
     assert!(!out.status.success() && text(&out.stderr).contains("denoise is off or on"), "{}", text(&out.stderr));
-    if !raylab::image::denoise::available() {
-        assert!(std::env::var_os("CI").is_none(), "CI must have the denoiser: {}", raylab::image::denoise::INSTALL_HINT);
-        eprintln!("SKIPPED the denoised rows: no oidnDenoise ({})", raylab::image::denoise::INSTALL_HINT);
+    if !denoiser_here("the denoised rows") {
         return;
     }
     let out = raylab(&dir, &[&["sweep", scene, "--vary", "spp=2,4", "--vary", "denoise=off,on", "--out", "s"][..], &small].concat());
@@ -498,9 +496,7 @@ fn sweep_varies_the_denoiser() {
 /// two commands give the same image from the same render.
 #[test]
 fn denoising_brings_a_noisy_render_closer_to_the_reference() {
-    if !raylab::image::denoise::available() {
-        assert!(std::env::var_os("CI").is_none(), "CI must have the denoiser: {}", raylab::image::denoise::INSTALL_HINT);
-        eprintln!("SKIPPED: no oidnDenoise ({})", raylab::image::denoise::INSTALL_HINT);
+    if !denoiser_here("denoising_brings_a_noisy_render_closer_to_the_reference") {
         return;
     }
     let dir = temp_dir("denoise");
@@ -524,15 +520,7 @@ fn denoising_brings_a_noisy_render_closer_to_the_reference() {
     let noisy =
         raylab::image::tonemap::read_layer(&std::fs::read(dir.join("noisy.exr")).unwrap(), "exr", raylab::image::tonemap::Layer::Color)
             .unwrap();
-    // On displayed values (clamped to 1): the light's own pixels, far brighter, would decide alone.
-    let rmse = |f: &raylab::Film| {
-        let d = f
-            .pixels
-            .iter()
-            .zip(&reference.pixels)
-            .map(|(a, b)| (a.min(raylab::glam::Vec3::ONE) - b.min(raylab::glam::Vec3::ONE)).length_squared() as f64);
-        (d.sum::<f64>() / f.pixels.len() as f64).sqrt()
-    };
+    let rmse = |f: &raylab::Film| displayed_rmse(f, &reference);
     assert!(rmse(&denoised) < 0.75 * rmse(&noisy), "RMSE noisy {}, denoised {}", rmse(&noisy), rmse(&denoised));
     assert!(rmse(&again) < 0.75 * rmse(&noisy), "RMSE noisy {}, denoised again {}", rmse(&noisy), rmse(&again));
     // The same layers, the same filter: `raylab denoise` of the EXR is `render --denoise`.
@@ -578,9 +566,7 @@ fn denoising_brings_a_noisy_render_closer_to_the_reference() {
 /// denoised render (or any map of counts its sub-pixels can share) repeats it bit for bit.
 #[test]
 fn an_error_target_or_time_budget_with_the_denoiser_stops_each_pixels_sub_pixels_together() {
-    if !raylab::image::denoise::available() {
-        assert!(std::env::var_os("CI").is_none(), "CI must have the denoiser: {}", raylab::image::denoise::INSTALL_HINT);
-        eprintln!("SKIPPED: no oidnDenoise ({})", raylab::image::denoise::INSTALL_HINT);
+    if !denoiser_here("an_error_target_or_time_budget_with_the_denoiser_stops_each_pixels_sub_pixels_together") {
         return;
     }
     let dir = temp_dir("target-denoise");
@@ -606,14 +592,7 @@ fn an_error_target_or_time_budget_with_the_denoiser_stops_each_pixels_sub_pixels
     assert_eq!((denoised.width, denoised.height), (32, 32));
     assert!(spp.iter().all(|&n| (64..=256).contains(&n) && n % 4 == 0), "{spp:?}");
     assert!(spp.iter().min() < spp.iter().max(), "pixels stopped at different counts");
-    let rmse = |f: &raylab::Film| {
-        let d = f
-            .pixels
-            .iter()
-            .zip(&reference.pixels)
-            .map(|(a, b)| (a.min(raylab::glam::Vec3::ONE) - b.min(raylab::glam::Vec3::ONE)).length_squared() as f64);
-        (d.sum::<f64>() / f.pixels.len() as f64).sqrt()
-    };
+    let rmse = |f: &raylab::Film| displayed_rmse(f, &reference);
     assert!(rmse(&denoised) < 0.75 * rmse(&noisy), "RMSE noisy {}, denoised {}", rmse(&noisy), rmse(&denoised));
     // A time budget it does not reach: every pixel at 128, on 4 × 4 sub-pixels of 8; its `spp`
     // layer, and the target's (counts its 4 × 4 sub-pixels share), as maps.

@@ -356,9 +356,14 @@ impl PathTracer {
         escape_scale: f64,
         rec: &mut R,
     ) -> Color {
+        let scene = c.scene;
+        // A ray that meets a surface meets no surroundings: where they are the only lights (a
+        // sky, an image around the scene), it meets none, and the loop is not set up.
+        if t_hit.is_finite() && scene.light_facts().iter().all(|f| f.environment) {
+            return Color::ZERO;
+        }
         // A light counts when no surface is closer than it by more than a shadow ray's margin.
         let t_max = if t_hit.is_finite() { t_hit / (1.0 - SHADOW_EPSILON) } else { f64::INFINITY };
-        let scene = c.scene;
         let mut total = Color::ZERO;
         for (index, light) in scene.lights.iter().enumerate() {
             let facts = scene.light_facts()[index];

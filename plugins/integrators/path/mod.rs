@@ -3,7 +3,8 @@
 //!
 //! A camera ray's path scatters at each surface it meets by its material's BSDF
 //! ([`raylab::scene::bsdf`]): a material plugin's own model (`pbr`: the glTF BRDF), or for the
-//! report's coefficients the energy-conserving [`PhongBsdf`] (Lambertian `kd`, normalised Phong
+//! report's coefficients the energy-conserving
+//! [`PhongBsdf`](crate::materials::phong::PhongBsdf) (Lambertian `kd`, normalised Phong
 //! `ks`, mirror or glossy `kr`, Fresnel dielectric `kt`). At each vertex with a smooth lobe, every light is sampled with a shadow ray
 //! (next-event estimation, [`lights`]), and so are the emitting objects: `light_samples` points
 //! (at least one) on emitters chosen by `light_selection` (by power through an alias table, or
@@ -67,7 +68,7 @@
 
 mod lights;
 
-use crate::materials::phong::{PhongBsdf, fresnel_dielectric};
+use crate::materials::phong::{fresnel_dielectric, with_phong_bsdf};
 use raylab::geometry::Hit;
 use raylab::geometry::differential::RaySpread;
 use raylab::glam::{DVec2, DVec3};
@@ -686,16 +687,14 @@ fn delta_branches(bsdf: &dyn Bsdf, wo: DVec3) -> Option<Branches> {
 }
 
 /// `f` of the BSDF at `si` and the numbers its sampling reads: its material's model's (all
-/// of them), or the coefficients' ([`PhongBsdf`], [`PhongBsdf::numbers_read`]).
+/// of them), or the coefficients' ([`with_phong_bsdf`]; a lone diffuse
+/// lobe's as a [`LambertBsdf`](crate::materials::phong::LambertBsdf), the same answers).
 #[inline]
 fn at_bsdf<T>(si: &Interaction, f: impl FnOnce(&dyn Bsdf, Draws) -> T) -> T {
     match si.model() {
         Some(m) => with_bsdf(m, si, |b| f(b, Draws::ALL)),
         None => {
-            let bsdf = PhongBsdf::new(si);
-            let (pick, dir, fresnel) = bsdf.numbers_read();
-            let dielectric = if fresnel && !pick && !dir { bsdf.dielectric_branches() } else { None };
-            f(&bsdf, Draws { pick, dir, fresnel, dielectric, model: false })
+            with_phong_bsdf(si, |bsdf, (pick, dir, fresnel), dielectric| f(bsdf, Draws { pick, dir, fresnel, dielectric, model: false }))
         }
     }
 }
@@ -708,7 +707,7 @@ struct Draws {
     dir: bool,
     fresnel: bool,
     /// A lone sharp dielectric's probability of reflecting and whether it bounds a solid
-    /// ([`PhongBsdf::dielectric_branches`]).
+    /// ([`PhongBsdf::dielectric_branches`](crate::materials::phong::PhongBsdf::dielectric_branches)).
     dielectric: Option<(f64, bool)>,
     /// A material model's BSDF, which does not say which numbers it reads (all are drawn).
     model: bool,

@@ -3,7 +3,7 @@
 //! direct light against `phong`.
 
 use super::*;
-use crate::materials::phong::{PhongBsdf, fresnel_dielectric, lobe_brdf, lobe_pdf, thin_slab_reflectance};
+use crate::materials::phong::{LambertBsdf, PhongBsdf, fresnel_dielectric, lobe_brdf, lobe_pdf, thin_slab_reflectance};
 use crate::shapes::sphere::Sphere;
 use raylab::RayKind;
 use raylab::glam::{DVec2, DVec3};
@@ -73,6 +73,70 @@ fn bsdf_at(material: Material, theta: f64, inside: bool) -> (PhongBsdf, DVec3) {
     let si = scene.trace(&ray).expect("the ray meets the sphere");
     assert!((si.point() - DVec3::Y).length() < 1e-9);
     (PhongBsdf::new(&si), si.n)
+}
+
+/// The bits of everything a BSDF answers toward `wi` and for the numbers `(pick, u, fresnel)`.
+fn answers(b: &dyn Bsdf, wi: DVec3, (pick, u, fresnel): (f64, DVec2, f64)) -> Vec<u64> {
+    let (f, pdf) = b.eval_pdf(wi);
+    let mut out: Vec<f64> = [b.eval(wi), f, b.albedo()].iter().flat_map(|c| c.to_array()).collect();
+    out.extend([b.pdf(wi), pdf, f64::from(u8::from(b.has_smooth_lobes()))]);
+    match b.sample(pick, u, fresnel) {
+        Some(s) => {
+            out.extend(s.dir.to_array());
+            out.extend(s.weight.to_array());
+            out.extend([s.pdf.unwrap_or(-1.0), s.eta_squared, f64::from(s.lobe as u8), f64::from(s.kind == RayKind::Reflection)]);
+        }
+        None => out.push(f64::NAN),
+    }
+    out.into_iter().map(f64::to_bits).collect()
+}
+
+/// Where only the diffuse lobe has weight the path tracer reads the coefficients through
+/// `LambertBsdf`: it must give every answer of `PhongBsdf` bit for bit (the images stay the
+/// same), read the same numbers, and stand aside for every other material.
+#[test]
+fn a_lone_diffuse_lobe_answers_as_the_full_model_bit_for_bit() {
+    let plain = Material { kd: Color::ZERO, ks: Color::ZERO, kr: Color::ZERO, kt: Color::ZERO, ..Material::default() };
+    let lone = [
+        Color::new(0.8, 0.5, 0.3),
+        Color::new(0.75, 0.75, 0.75),
+        // Scaled down (a channel above 1), with a negative zero, and barely above black.
+        Color::new(2.5, 0.4, -0.0),
+        Color::new(0.0, 0.0, 1e-300),
+    ];
+    let mut compared = 0;
+    for kd in lone {
+        for (theta, inside) in [(0.0, false), (0.7, false), (1.45, false), (0.3, true)] {
+            let (scene, ray) = top_of_sphere(Material { kd, ..plain.clone() }, theta, inside);
+            let si = scene.trace(&ray).expect("the ray meets the sphere");
+            let lambert = LambertBsdf::of(&si, &si.coefficients()).expect("a lone diffuse lobe");
+            let full = PhongBsdf::new(&si);
+            assert_eq!(full.numbers_read(), LambertBsdf::NUMBERS_READ);
+            for i in 0..4096 {
+                let u = stratified_2d(i, 4096, 5);
+                // Directions all around (above and below both normals), and the sampled ones.
+                let z = 2.0 * u.x - 1.0;
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                let wi = DVec3::new(r * (TAU * u.y).cos(), r * (TAU * u.y).sin(), z);
+                let numbers = (f64::from(i) / 4096.0, u, 0.5);
+                assert_eq!(answers(&lambert, wi, numbers), answers(&full, wi, numbers), "kd {kd}, θ {theta}, wi {wi}");
+                compared += 1;
+            }
+        }
+    }
+    assert_eq!(compared, 4 * 4 * 4096);
+    // Any other lobe, a Fresnel setting, or black: the full model.
+    for m in [
+        Material { kd: Color::splat(0.5), ks: Color::new(0.0, 0.0, 0.1), ..plain.clone() },
+        Material { kd: Color::splat(0.5), kr: Color::splat(0.2), ..plain.clone() },
+        Material { kd: Color::splat(0.5), kt: Color::splat(0.2), ..plain.clone() },
+        Material { kd: Color::splat(0.5), fresnel: raylab::scene::material::Fresnel::Schlick, ..plain.clone() },
+        Material { kd: Color::ZERO, ..plain.clone() },
+    ] {
+        let (scene, ray) = top_of_sphere(m, 0.4, false);
+        let si = scene.trace(&ray).expect("the ray meets the sphere");
+        assert!(LambertBsdf::of(&si, &si.coefficients()).is_none());
+    }
 }
 
 #[test]
