@@ -759,6 +759,25 @@ fn a_malformed_spp_map_is_refused_clearly() {
     std::fs::remove_dir_all(dir).unwrap();
 }
 
+/// `raylab denoise` refuses a partial image (a tile, crop, pass or checkpoint), as `render
+/// --denoise` refuses a tile: the filter reads each pixel's neighbours, so a tile denoised alone
+/// leaves seams. Checked before the denoiser is looked for.
+#[cfg(feature = "exr")]
+#[test]
+fn denoise_refuses_a_partial_image() {
+    let dir = temp_dir("denoise-partial");
+    let scene = repo().join("scenes/path-cornell.toml");
+    for (share, name) in [(["--tile", "0/2"], "tile.exr"), (["--pass", "1/2"], "pass.exr")] {
+        let args = ["render", scene.to_str().unwrap(), "--width", "8", "--height", "8", "--spp", "4", "-q", "-o", name];
+        let out = raylab(&dir, &[&args[..], &share[..]].concat());
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        let out = raylab(&dir, &["denoise", name, "-o", "d.pfm"]);
+        let err = text(&out.stderr);
+        assert!(out.status.code() == Some(1) && err.contains(&format!("{name}: a partial image")) && err.contains("raylab merge"), "{err}");
+    }
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
 /// `sweep` varies the light-sampling knobs: the path tracer's `light_samples` and a light's own
 /// parameter as `TYPE.PARAM` (the environment's sampling grid); a parameter the light type has
 /// not, or a type the scene has no light of, is refused.
