@@ -398,26 +398,23 @@ impl Bsdf for PhongBsdf {
 /// ([`PhongBsdf::numbers_read`], as `(pick, u, fresnel)`): where only the Lambertian lobe has
 /// weight (`ks`, `kr` and `kt` zero, Fresnel off, `kd` not black: most walls), the
 /// [`LambertBsdf`] that answers every question with the same bits for a fraction of the work
-/// (no five lobes to weigh, no axes, a third of the state to write); else the full model. And
-/// for glass alone, its branches ([`PhongBsdf::dielectric_branches`]).
+/// (no five lobes to weigh, no axes, a third of the state to write); else the full model.
 #[inline]
-pub fn with_phong_bsdf<T>(si: &Interaction, f: impl FnOnce(&dyn Bsdf, (bool, bool, bool), Option<(f64, bool)>) -> T) -> T {
+pub fn with_phong_bsdf<T>(si: &Interaction, f: impl FnOnce(&dyn Bsdf, (bool, bool, bool)) -> T) -> T {
     let m = si.coefficients();
     let (lambert, full);
-    let (bsdf, numbers, dielectric): (&dyn Bsdf, _, _) = match LambertBsdf::of(si, &m) {
+    let (bsdf, numbers): (&dyn Bsdf, _) = match LambertBsdf::of(si, &m) {
         Some(b) => {
             lambert = b;
-            (&lambert, LambertBsdf::NUMBERS_READ, None)
+            (&lambert, LambertBsdf::NUMBERS_READ)
         }
         None => {
             full = PhongBsdf::with_coefficients(si, &m);
             let numbers = full.numbers_read();
-            // Glass alone: its two branches ([`PhongBsdf::dielectric_branches`]).
-            let dielectric = if numbers == (false, false, true) { full.dielectric_branches() } else { None };
-            (&full, numbers, dielectric)
+            (&full, numbers)
         }
     };
-    f(bsdf, numbers, dielectric)
+    f(bsdf, numbers)
 }
 
 /// [`PhongBsdf`] where only its Lambertian lobe has weight: every answer (`eval`, `pdf`,

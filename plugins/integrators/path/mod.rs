@@ -68,7 +68,7 @@
 
 mod lights;
 
-use crate::materials::phong::{fresnel_dielectric, with_phong_bsdf};
+use crate::materials::phong::{PhongBsdf, fresnel_dielectric, with_phong_bsdf};
 use raylab::geometry::Hit;
 use raylab::geometry::differential::RaySpread;
 use raylab::glam::{DVec2, DVec3};
@@ -426,11 +426,12 @@ impl PathTracer {
             return Color::ZERO;
         };
         let mut weight = s.weight;
-        let (escaped, escape_scale) = if s.pdf.is_none() && self.split_glass && (draws.dielectric.is_some() || draws.model) {
-            self.other_escape(c, si, (bsdf, draws), &s)
-        } else {
-            (Color::ZERO, 1.0)
-        };
+        let (escaped, escape_scale) =
+            if s.pdf.is_none() && self.split_glass && draws.fresnel && c.scene.light_facts().iter().any(|f| f.environment && !f.uniform) {
+                self.other_escape(c, si, (bsdf, draws), &s)
+            } else {
+                (Color::ZERO, 1.0)
+            };
         if escaped != Color::ZERO {
             rec.term(|| Term::color("the branch not taken leaves the scene: its sky × its probability", escaped));
         }
@@ -494,11 +495,11 @@ impl PathTracer {
     fn other_escape(&self, c: &mut Ctx, si: &Interaction, (bsdf, draws): (&dyn Bsdf, Draws), s: &Scatter) -> (Color, f64) {
         const NONE: (Color, f64) = (Color::ZERO, 1.0);
         let scene = c.scene;
-        if !scene.light_facts().iter().any(|f| f.environment && !f.uniform) {
-            return NONE;
-        }
-        let (taken, other, closed) = match draws.dielectric {
-            // A lone sharp dielectric: its other branch is at the other end of the Fresnel number.
+        // Glass alone ([`PhongBsdf::numbers_read`]: only the Fresnel number): its other branch is
+        // at the other end of that number, its probability the Fresnel term (the model built
+        // again here, at glass only, so the vertices' `Draws` stay three flags).
+        let glass = if !draws.pick && !draws.dir && si.model().is_none() { PhongBsdf::new(si).dielectric_branches() } else { None };
+        let (taken, other, closed) = match glass {
             Some((reflect, closed)) => {
                 let reflected = s.kind == RayKind::Reflection;
                 match bsdf.sample(0.5, DVec2::splat(0.5), if reflected { BELOW_ONE } else { 0.0 }) {
@@ -506,7 +507,7 @@ impl PathTracer {
                     _ => return NONE,
                 }
             }
-            // A model's BSDF: its branches found by probing.
+            // Any other model: its branches found by probing (none where it has smooth lobes).
             None => {
                 let Some((b, 2)) = delta_branches(bsdf, -si.dir) else { return NONE };
                 match (b[0].1.dir == s.dir, b[1].1.dir == s.dir) {
@@ -693,9 +694,7 @@ fn delta_branches(bsdf: &dyn Bsdf, wo: DVec3) -> Option<Branches> {
 fn at_bsdf<T>(si: &Interaction, f: impl FnOnce(&dyn Bsdf, Draws) -> T) -> T {
     match si.model() {
         Some(m) => with_bsdf(m, si, |b| f(b, Draws::ALL)),
-        None => {
-            with_phong_bsdf(si, |bsdf, (pick, dir, fresnel), dielectric| f(bsdf, Draws { pick, dir, fresnel, dielectric, model: false }))
-        }
+        None => with_phong_bsdf(si, |bsdf, (pick, dir, fresnel)| f(bsdf, Draws { pick, dir, fresnel })),
     }
 }
 
@@ -706,16 +705,11 @@ struct Draws {
     pick: bool,
     dir: bool,
     fresnel: bool,
-    /// A lone sharp dielectric's probability of reflecting and whether it bounds a solid
-    /// ([`PhongBsdf::dielectric_branches`](crate::materials::phong::PhongBsdf::dielectric_branches)).
-    dielectric: Option<(f64, bool)>,
-    /// A material model's BSDF, which does not say which numbers it reads (all are drawn).
-    model: bool,
 }
 
 impl Draws {
     /// Every number (a material model's BSDF, which does not say).
-    const ALL: Draws = Draws { pick: true, dir: true, fresnel: true, dielectric: None, model: true };
+    const ALL: Draws = Draws { pick: true, dir: true, fresnel: true };
 }
 
 /// The radiance of environment `light` along `dir` from `origin` when a ray leaving the scene
