@@ -227,6 +227,24 @@ impl PhongBsdf {
         (first < 1.0, dir, c[4] > 0.0)
     }
 
+    /// At a lone sharp dielectric (the Fresnel number is all [`Bsdf::sample`] reads:
+    /// [`PhongBsdf::numbers_read`] is `(false, false, true)`), the probability that it reflects
+    /// (the Fresnel term it compares that number with; a thin sheet's `2F/(1+F)`) and whether the
+    /// surface bounds a solid (a ray into its inside meets it again before anything else). Where
+    /// there is no refraction (total internal reflection) it reflects whatever the number. `None`
+    /// for any other model.
+    pub fn dielectric_branches(&self) -> Option<(f64, bool)> {
+        if self.numbers_read() != (false, false, true) {
+            return None;
+        }
+        let cos_i = self.wo.dot(self.ms);
+        Some(if self.closed {
+            (fresnel_dielectric(cos_i, if self.entering { self.ior } else { 1.0 / self.ior }), true)
+        } else {
+            (thin_slab_reflectance(cos_i, self.ior), false)
+        })
+    }
+
     /// Fresnel reflection or transmission of the `kt` part, jittered when blurry.
     fn sample_dielectric(&self, u: DVec2, fresnel: f64) -> Scatter {
         let d = -self.wo;
@@ -380,23 +398,26 @@ impl Bsdf for PhongBsdf {
 /// ([`PhongBsdf::numbers_read`], as `(pick, u, fresnel)`): where only the Lambertian lobe has
 /// weight (`ks`, `kr` and `kt` zero, Fresnel off, `kd` not black: most walls), the
 /// [`LambertBsdf`] that answers every question with the same bits for a fraction of the work
-/// (no five lobes to weigh, no axes, a third of the state to write); else the full model.
+/// (no five lobes to weigh, no axes, a third of the state to write); else the full model. And
+/// for glass alone, its branches ([`PhongBsdf::dielectric_branches`]).
 #[inline]
-pub fn with_phong_bsdf<T>(si: &Interaction, f: impl FnOnce(&dyn Bsdf, (bool, bool, bool)) -> T) -> T {
+pub fn with_phong_bsdf<T>(si: &Interaction, f: impl FnOnce(&dyn Bsdf, (bool, bool, bool), Option<(f64, bool)>) -> T) -> T {
     let m = si.coefficients();
     let (lambert, full);
-    let (bsdf, numbers): (&dyn Bsdf, _) = match LambertBsdf::of(si, &m) {
+    let (bsdf, numbers, dielectric): (&dyn Bsdf, _, _) = match LambertBsdf::of(si, &m) {
         Some(b) => {
             lambert = b;
-            (&lambert, LambertBsdf::NUMBERS_READ)
+            (&lambert, LambertBsdf::NUMBERS_READ, None)
         }
         None => {
             full = PhongBsdf::with_coefficients(si, &m);
             let numbers = full.numbers_read();
-            (&full, numbers)
+            // Glass alone: its two branches ([`PhongBsdf::dielectric_branches`]).
+            let dielectric = if numbers == (false, false, true) { full.dielectric_branches() } else { None };
+            (&full, numbers, dielectric)
         }
     };
-    f(bsdf, numbers)
+    f(bsdf, numbers, dielectric)
 }
 
 /// [`PhongBsdf`] where only its Lambertian lobe has weight: every answer (`eval`, `pdf`,

@@ -692,6 +692,92 @@ fn a_time_budget_render_repeats_from_its_spp_layer() {
     std::fs::remove_dir_all(dir).unwrap();
 }
 
+/// `--spp-map` refuses a map that cannot be this render's, naming the file and what it expected:
+/// a PFM (colour only), an EXR without an `spp` channel or of another size, a count that is not
+/// a whole number of samples (NaN, infinite, negative, fractional, past 2^24) or more than the
+/// render's `spp`.
+#[cfg(feature = "exr")]
+#[test]
+fn a_malformed_spp_map_is_refused_clearly() {
+    use exr::prelude::*;
+    let dir = temp_dir("spp-map-hostile");
+    let scene = repo().join("scenes/path-cornell.toml");
+    let write = |name: &str, channel: &str, (w, h): (usize, usize), value: f32| {
+        let channels = AnyChannels::sort(SmallVec::from_vec(vec![AnyChannel::new(channel, FlatSamples::F32(vec![value; w * h]))]));
+        Image::from_layer(Layer::new((w, h), LayerAttributes::default(), Encoding::UNCOMPRESSED, channels))
+            .write()
+            .to_file(dir.join(name))
+            .unwrap();
+    };
+    write("ok.exr", "spp", (8, 8), 4.0);
+    write("rgb.exr", "R", (8, 8), 4.0);
+    write("small.exr", "spp", (4, 8), 4.0);
+    std::fs::write(dir.join("map.pfm"), b"PF\n8 8\n-1\n").unwrap();
+    write("many.exr", "spp", (8, 8), 8.0);
+    let mut cases: Vec<(String, String)> = [
+        ("map.pfm", "the spp layer needs an OpenEXR file"),
+        ("rgb.exr", "no channel spp"),
+        ("small.exr", "its 4×8 pixels are not this render's 8×8"),
+        ("many.exr", "more than the 4 spp this render takes at most"),
+    ]
+    .map(|(m, e)| (m.to_string(), e.to_string()))
+    .into();
+    for (name, value) in [("nan", f32::NAN), ("inf", f32::INFINITY), ("neg", -1.0), ("half", 1.5), ("huge", 3e7)] {
+        write(&format!("{name}.exr"), "spp", (8, 8), value);
+        cases.push((format!("{name}.exr"), format!("pixel (0, 0) has {value} samples: expected a whole number")));
+    }
+    let render = |map: &str| {
+        raylab(
+            &dir,
+            &[
+                "render",
+                scene.to_str().unwrap(),
+                "--width",
+                "8",
+                "--height",
+                "8",
+                "--spp",
+                "4",
+                "--time-budget",
+                "100",
+                "--spp-map",
+                map,
+                "-o",
+                "o.exr",
+                "-q",
+            ],
+        )
+    };
+    assert!(render("ok.exr").status.success(), "{}", text(&render("ok.exr").stderr));
+    for (map, expect) in &cases {
+        let out = render(map);
+        let err = text(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{map}: {err}");
+        assert!(err.contains(map.as_str()) || expect.contains("more than"), "{map}: the error names the file: {err}");
+        assert!(err.contains(expect.as_str()), "{map}: expected {expect:?} in {err}");
+    }
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// `raylab denoise` refuses a partial image (a tile, crop, pass or checkpoint), as `render
+/// --denoise` refuses a tile: the filter reads each pixel's neighbours, so a tile denoised alone
+/// leaves seams. Checked before the denoiser is looked for.
+#[cfg(feature = "exr")]
+#[test]
+fn denoise_refuses_a_partial_image() {
+    let dir = temp_dir("denoise-partial");
+    let scene = repo().join("scenes/path-cornell.toml");
+    for (share, name) in [(["--tile", "0/2"], "tile.exr"), (["--pass", "1/2"], "pass.exr")] {
+        let args = ["render", scene.to_str().unwrap(), "--width", "8", "--height", "8", "--spp", "4", "-q", "-o", name];
+        let out = raylab(&dir, &[&args[..], &share[..]].concat());
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        let out = raylab(&dir, &["denoise", name, "-o", "d.pfm"]);
+        let err = text(&out.stderr);
+        assert!(out.status.code() == Some(1) && err.contains(&format!("{name}: a partial image")) && err.contains("raylab merge"), "{err}");
+    }
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
 /// `sweep` varies the light-sampling knobs: the path tracer's `light_samples` and a light's own
 /// parameter as `TYPE.PARAM` (the environment's sampling grid); a parameter the light type has
 /// not, or a type the scene has no light of, is refused.

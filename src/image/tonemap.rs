@@ -42,6 +42,18 @@ impl Layer {
         }
     }
 
+    /// Its name, as [`Layer::parse`] takes it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Layer::Color => "color",
+            Layer::Depth => "depth",
+            Layer::Normal => "normal",
+            Layer::Albedo => "albedo",
+            Layer::Emission => "emission",
+            Layer::Spp => "spp",
+        }
+    }
+
     /// The EXR channel names holding it (one for depth, three otherwise).
     #[cfg(feature = "exr")]
     fn channels(self) -> &'static [&'static str] {
@@ -81,7 +93,7 @@ pub fn read_layer(bytes: &[u8], ext: &str, layer: Layer) -> Result<Film, String>
 /// read: an unknown type, a layer of a PFM file, or OpenEXR without the `exr` feature is refused.
 pub fn check_input(ext: &str, layer: Layer) -> Result<(), String> {
     match ext {
-        "pfm" if layer != Layer::Color => Err("a PFM file holds colour only; --layer needs an OpenEXR file".into()),
+        "pfm" if layer != Layer::Color => Err(format!("a PFM file holds colour only; the {} layer needs an OpenEXR file", layer.name())),
         "pfm" => Ok(()),
         "exr" if cfg!(feature = "exr") => Ok(()),
         "exr" => Err(exr_needs_feature()),
