@@ -89,6 +89,23 @@ pub fn read_layer(bytes: &[u8], ext: &str, layer: Layer) -> Result<Film, String>
     }
 }
 
+/// What the `image_layer` fuzz target and its corpus replay check: `bytes` read as a PFM and as
+/// an OpenEXR file, every layer, as `tonemap`, `denoise`, `--spp-map` and reference images read
+/// them: a film whose pixels fill its size, or an error that says something; never a panic.
+pub fn fuzz_read_layers(bytes: &[u8]) -> Result<(), String> {
+    let layers = [Layer::Color, Layer::Depth, Layer::Normal, Layer::Albedo, Layer::Emission, Layer::Spp];
+    for (ext, layer) in ["pfm", "exr"].into_iter().flat_map(|e| layers.map(|l| (e, l))) {
+        match read_layer(bytes, ext, layer) {
+            Ok(f) if f.width == 0 || f.height == 0 || f.pixels.len() != f.width as usize * f.height as usize => {
+                return Err(format!(".{ext}, {}: a {}×{} film of {} pixels", layer.name(), f.width, f.height, f.pixels.len()));
+            }
+            Err(e) if e.is_empty() => return Err(format!(".{ext}, {}: an empty error", layer.name())),
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
 /// Whether a file of extension `ext` (lower case) can give `layer`, asked before the file is
 /// read: an unknown type, a layer of a PFM file, or OpenEXR without the `exr` feature is refused.
 pub fn check_input(ext: &str, layer: Layer) -> Result<(), String> {

@@ -159,6 +159,7 @@ impl PixelSum {
 
     /// [`PixelSum::add_sample_scalar`] as the AVX2 copy's way out (off its short path, or at
     /// saturation), out of its way.
+    #[cfg(target_arch = "x86_64")]
     #[cold]
     #[inline(never)]
     fn add_sample_rare(&mut self, c: Color, second: bool) {
