@@ -66,6 +66,17 @@ fn partial_exr_corpus_reads_or_fails_cleanly() {
     }
 }
 
+/// Images whose layers `tonemap`, `denoise` and `--spp-map` read (PFM, OpenEXR with layers).
+#[test]
+fn image_layer_corpus_reads_or_fails_cleanly() {
+    for f in corpus("image_layer") {
+        let data = std::fs::read(&f).unwrap();
+        if let Err(v) = raylab::image::tonemap::fuzz_read_layers(&data) {
+            panic!("{}: {v}", f.display());
+        }
+    }
+}
+
 #[test]
 fn texture_image_corpus_decodes_within_the_limits_or_fails_cleanly() {
     for f in corpus("texture_image") {

@@ -21,7 +21,6 @@ mesh,bvh,exr`); from the top of the checkout:
 """
 import argparse
 import os
-import subprocess
 import sys
 import tempfile
 
@@ -29,21 +28,13 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import compare  # noqa: E402
+import variance  # noqa: E402
 
 ROOT = compare.ROOT
 
 
-def render(binary, scene_path, size, spp, seed, stratify):
-    with tempfile.TemporaryDirectory() as d:
-        out = os.path.join(d, "out.pfm")
-        cmd = [binary, "render", scene_path, "-o", out, "--threads", "2", "--seed", str(seed), "--spp", str(spp),
-               "--width", str(size), "--height", str(size), "--set", f"stratify={stratify}"]
-        subprocess.run(cmd, check=True, capture_output=True)
-        return compare.read_pfm(out)
-
-
 def mse(binary, scene_path, size, spp, seeds, stratify):
-    imgs = np.array([render(binary, scene_path, size, spp, 1 + k, stratify) for k in range(seeds)])
+    imgs = variance.renders(binary, scene_path, size, spp, seeds, [f"stratify={stratify}"])
     return float(imgs.var(axis=0, ddof=1).mean()), float(imgs.mean())
 
 
@@ -64,20 +55,8 @@ def main():
     print("| scene | spp | rel. RMSE, stratify 0 | " + " | ".join(f"rel. RMSE, {n}" for n in settings) + " | "
           + " | ".join(f"MSE ratio {n} ÷ 0" for n in settings) + " | mean ratio " + " | ".join(str(n) for n in settings) + " |")
     print("|---|---:|---:|" + "---:|" * (3 * len(settings)))
-    jobs = []
     with tempfile.TemporaryDirectory() as folder:
-        for name, s in compare.scenes().items():
-            if args.only and args.only not in name:
-                continue
-            sub = os.path.join(folder, f"s{len(jobs)}")
-            os.mkdir(sub)
-            path = os.path.join(sub, "scene.toml")
-            with open(path, "w") as f:
-                f.write(compare.raylab_scene(s, sub, args.size, 1, args.bounces))
-            jobs.append((name, path))
-        for b in filter(None, args.bundled.split(",")):
-            jobs.append((b, os.path.join(ROOT, "scenes", b + ".toml")))
-        for name, path in jobs:
+        for name, path, _ in variance.scene_jobs(folder, args.only, args.bundled, args.size, args.bounces):
             for spp in spps:
                 m_i, mean = mse(args.binary, path, args.size, spp, args.seeds, 0)
                 rest = [mse(args.binary, path, args.size, spp, args.seeds, n) for n in settings]

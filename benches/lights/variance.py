@@ -49,6 +49,31 @@ def render(binary, scene_path, size, spp, seed, sets):
         return compare.read_pfm(out)
 
 
+def renders(binary, scene_path, size, spp, seeds, sets):
+    """`seeds` renders with seeds 1, 2, …, integrator parameters `sets` (KEY=VALUE): an array
+    (seed, row, column, channel)."""
+    return np.array([render(binary, scene_path, size, spp, 1 + k, sets) for k in range(seeds)])
+
+
+def scene_jobs(folder, only, bundled, size, bounces):
+    """The scenes to compare: compare.py's whose name contains `only` (all without it), written as
+    raylab scenes under `folder`, then the bundled ones named in `bundled` (comma-separated). A
+    list of (name, scene file, compare.py's scene or None)."""
+    jobs = []
+    for name, s in compare.scenes().items():
+        if only and only not in name:
+            continue
+        sub = os.path.join(folder, f"s{len(jobs)}")
+        os.mkdir(sub)
+        path = os.path.join(sub, "scene.toml")
+        with open(path, "w") as f:
+            f.write(compare.raylab_scene(s, sub, size, 1, bounces))
+        jobs.append((name, path, s))
+    for b in filter(None, bundled.split(",")):
+        jobs.append((b, os.path.join(ROOT, "scenes", b + ".toml"), None))
+    return jobs
+
+
 def mse_of(imgs):
     return float(imgs.var(axis=0, ddof=1).mean())
 
@@ -101,21 +126,9 @@ def main():
           + (" A's MSE through the balls |" if args.specular else "") + " mean B ÷ A |")
     print("|---|---:|---:|---:|---:|---:|" + ("---:|" if args.specular else "") + "---:|")
     with tempfile.TemporaryDirectory() as folder:
-        jobs = []
-        for name, s in compare.scenes().items():
-            if args.only and args.only not in name:
-                continue
-            sub = os.path.join(folder, f"s{len(jobs)}")
-            os.mkdir(sub)
-            path = os.path.join(sub, "scene.toml")
-            with open(path, "w") as f:
-                f.write(compare.raylab_scene(s, sub, args.size, 1, args.bounces))
-            jobs.append((name, path, s))
-        for b in filter(None, args.bundled.split(",")):
-            jobs.append((b, os.path.join(ROOT, "scenes", b + ".toml"), None))
-        for name, path, s in jobs:
-            a = np.array([render(args.binary_a, path, args.size, args.spp, 1 + k, args.a) for k in range(args.seeds)])
-            b = np.array([render(args.binary_b, path, args.size, args.spp, 1 + k, args.b) for k in range(args.seeds)])
+        for name, path, s in scene_jobs(folder, args.only, args.bundled, args.size, args.bounces):
+            a = renders(args.binary_a, path, args.size, args.spp, args.seeds, args.a)
+            b = renders(args.binary_b, path, args.size, args.spp, args.seeds, args.b)
             ma, mb = mse_of(a), mse_of(b)
             lo, hi = interval(a, b, rng)
             mean = max(float(a.mean()), 1e-12)

@@ -170,8 +170,12 @@ fn mean(c: Color) -> f64 {
 impl PhongBsdf {
     /// The model at the hit `si`.
     pub fn new(si: &Interaction) -> PhongBsdf {
-        let m = si.coefficients();
-        let kr = fresnel_mirror(si, &m);
+        PhongBsdf::with_coefficients(si, &si.coefficients())
+    }
+
+    /// The model at the hit `si` of the material's coefficients there, `m`.
+    fn with_coefficients(si: &Interaction, m: &Coefficients) -> PhongBsdf {
+        let kr = fresnel_mirror(si, m);
         let scale = 1.0 / max_channel(m.kd + m.ks + kr + m.kt).max(1.0);
         let (kd, ks, kr, kt) = (m.kd * scale, m.ks * scale, kr * scale, m.kt * scale);
         let blurred = m.blur > 0.0;
@@ -221,6 +225,24 @@ impl PhongBsdf {
         let first = if c[0] > 0.0 { c[0] } else { c[1..].iter().copied().find(|&p| p > 0.0).unwrap_or(1.0) };
         let dir = c[0] > 0.0 || c[1] > 0.0 || c[2] > 0.0 || (c[4] > 0.0 && self.blur_lobe > 0.0);
         (first < 1.0, dir, c[4] > 0.0)
+    }
+
+    /// At a lone sharp dielectric (the Fresnel number is all [`Bsdf::sample`] reads:
+    /// [`PhongBsdf::numbers_read`] is `(false, false, true)`), the probability that it reflects
+    /// (the Fresnel term it compares that number with; a thin sheet's `2F/(1+F)`) and whether the
+    /// surface bounds a solid (a ray into its inside meets it again before anything else). Where
+    /// there is no refraction (total internal reflection) it reflects whatever the number. `None`
+    /// for any other model.
+    pub fn dielectric_branches(&self) -> Option<(f64, bool)> {
+        if self.numbers_read() != (false, false, true) {
+            return None;
+        }
+        let cos_i = self.wo.dot(self.ms);
+        Some(if self.closed {
+            (fresnel_dielectric(cos_i, if self.entering { self.ior } else { 1.0 / self.ior }), true)
+        } else {
+            (thin_slab_reflectance(cos_i, self.ior), false)
+        })
     }
 
     /// Fresnel reflection or transmission of the `kt` part, jittered when blurry.
@@ -369,5 +391,110 @@ impl Bsdf for PhongBsdf {
         }
         let weight = f * self.ns.dot(dir) / pdf;
         Some(Scatter { dir, weight, pdf: Some(pdf), lobe, kind: RayKind::Reflection, eta_squared: 1.0 })
+    }
+}
+
+/// `f` of the model at the hit `si` ([`PhongBsdf`]) and the numbers its sampling reads
+/// ([`PhongBsdf::numbers_read`], as `(pick, u, fresnel)`): where only the Lambertian lobe has
+/// weight (`ks`, `kr` and `kt` zero, Fresnel off, `kd` not black: most walls), the
+/// [`LambertBsdf`] that answers every question with the same bits for a fraction of the work
+/// (no five lobes to weigh, no axes, a third of the state to write); else the full model. And
+/// for glass alone, its branches ([`PhongBsdf::dielectric_branches`]).
+#[inline]
+pub fn with_phong_bsdf<T>(si: &Interaction, f: impl FnOnce(&dyn Bsdf, (bool, bool, bool), Option<(f64, bool)>) -> T) -> T {
+    let m = si.coefficients();
+    let (lambert, full);
+    let (bsdf, numbers, dielectric): (&dyn Bsdf, _, _) = match LambertBsdf::of(si, &m) {
+        Some(b) => {
+            lambert = b;
+            (&lambert, LambertBsdf::NUMBERS_READ, None)
+        }
+        None => {
+            full = PhongBsdf::with_coefficients(si, &m);
+            let numbers = full.numbers_read();
+            // Glass alone: its two branches ([`PhongBsdf::dielectric_branches`]).
+            let dielectric = if numbers == (false, false, true) { full.dielectric_branches() } else { None };
+            (&full, numbers, dielectric)
+        }
+    };
+    f(bsdf, numbers, dielectric)
+}
+
+/// [`PhongBsdf`] where only its Lambertian lobe has weight: every answer (`eval`, `pdf`,
+/// `eval_pdf`, `sample`, `albedo`) the full model's, bit for bit, computed as it computes them
+/// with the other lobes' terms (zeros, never read) left out. The lobe's choice is exactly 1
+/// (its mean over its own mean) and the lobes after it are never chosen.
+#[derive(Clone, Copy, Debug)]
+pub struct LambertBsdf {
+    /// Geometric normal facing `wo`.
+    n: DVec3,
+    /// Shading normal facing `wo`.
+    ns: DVec3,
+    /// `kd` scaled as [`PhongBsdf`] scales it (by the four weights' largest channel, when above 1).
+    kd: Color,
+}
+
+impl LambertBsdf {
+    /// The numbers [`Bsdf::sample`] reads, as [`PhongBsdf::numbers_read`] says them for a lone
+    /// diffuse lobe: the direction's pair only.
+    pub const NUMBERS_READ: (bool, bool, bool) = (false, true, false);
+
+    /// The model at `si` of the coefficients `m` when only their Lambertian lobe has weight
+    /// (`ks`, `kr`, `kt` equal to zero in every channel, Fresnel off: `kr` then stays zero, and
+    /// `kd`'s mean above zero); `None` otherwise (the full [`PhongBsdf`]).
+    #[inline]
+    pub fn of(si: &Interaction, m: &Coefficients) -> Option<LambertBsdf> {
+        if m.fresnel != Fresnel::Off || m.ks != Color::ZERO || m.kr != Color::ZERO || m.kt != Color::ZERO {
+            return None;
+        }
+        // As `PhongBsdf::with_coefficients` scales (the zeros added change no channel that
+        // could exceed 1).
+        let scale = 1.0 / max_channel(m.kd + m.ks + m.kr + m.kt).max(1.0);
+        let kd = m.kd * scale;
+        (mean(kd) > 0.0).then_some(LambertBsdf { n: si.n, ns: si.ns, kd })
+    }
+}
+
+impl Bsdf for LambertBsdf {
+    fn has_smooth_lobes(&self) -> bool {
+        true
+    }
+
+    /// The sum of the weights, the zeros' (+0) included: `-0` channels read `+0` as they do there.
+    fn albedo(&self) -> Color {
+        self.kd + Color::ZERO
+    }
+
+    fn eval(&self, wi: DVec3) -> Color {
+        if !(self.n.dot(wi) > 0.0 && self.ns.dot(wi) > 0.0) {
+            return Color::ZERO;
+        }
+        self.kd * FRAC_1_PI
+    }
+
+    /// The diffuse lobe's density times its choice, 1.
+    fn pdf(&self, wi: DVec3) -> f64 {
+        let cos = self.ns.dot(wi);
+        if cos > 0.0 { cos * FRAC_1_PI } else { 0.0 }
+    }
+
+    fn eval_pdf(&self, wi: DVec3) -> (Color, f64) {
+        let cos = self.ns.dot(wi);
+        let above = self.n.dot(wi) > 0.0 && cos > 0.0;
+        let diffuse = if cos > 0.0 { cos * FRAC_1_PI } else { 0.0 };
+        (if above { self.kd * FRAC_1_PI } else { Color::ZERO }, diffuse)
+    }
+
+    /// A cosine-weighted direction about `ns` from `u` (`pick` and `fresnel` are not read).
+    fn sample(&self, _: f64, u: DVec2, _: f64) -> Option<Scatter> {
+        let d = concentric_disc(u);
+        let (b1, b2) = orthonormal_basis(self.ns);
+        let dir = d.x * b1 + d.y * b2 + (1.0 - d.length_squared()).max(0.0).sqrt() * self.ns;
+        let (f, pdf) = self.eval_pdf(dir);
+        if max_channel(f) <= 0.0 || !(pdf > 0.0) {
+            return None;
+        }
+        let weight = f * self.ns.dot(dir) / pdf;
+        Some(Scatter { dir, weight, pdf: Some(pdf), lobe: Lobe::Diffuse, kind: RayKind::Reflection, eta_squared: 1.0 })
     }
 }

@@ -3,7 +3,7 @@
 use std::path::Path;
 
 mod common;
-use common::{raylab, repo, temp_dir, text};
+use common::{denoiser_here, displayed_rmse, raylab, repo, temp_dir, text};
 
 #[test]
 fn no_arguments_renders_the_default_scene_to_render_png() {
@@ -454,9 +454,7 @@ fn sweep_varies_the_denoiser() {
     let small = ["--width", "32", "--height", "32", "--reference-spp", "64", "--metric", "rmse", "-q"];
     let out = raylab(&dir, &[&["sweep", scene, "--vary", "spp=1", "--vary", "denoise=off,maybe"][..], &small].concat());
     assert!(!out.status.success() && text(&out.stderr).contains("denoise is off or on"), "{}", text(&out.stderr));
-    if !raylab::image::denoise::available() {
-        assert!(std::env::var_os("CI").is_none(), "CI must have the denoiser: {}", raylab::image::denoise::INSTALL_HINT);
-        eprintln!("SKIPPED the denoised rows: no oidnDenoise ({})", raylab::image::denoise::INSTALL_HINT);
+    if !denoiser_here("the denoised rows") {
         return;
     }
     let out = raylab(&dir, &[&["sweep", scene, "--vary", "spp=2,4", "--vary", "denoise=off,on", "--out", "s"][..], &small].concat());
@@ -498,9 +496,7 @@ fn sweep_varies_the_denoiser() {
 /// two commands give the same image from the same render.
 #[test]
 fn denoising_brings_a_noisy_render_closer_to_the_reference() {
-    if !raylab::image::denoise::available() {
-        assert!(std::env::var_os("CI").is_none(), "CI must have the denoiser: {}", raylab::image::denoise::INSTALL_HINT);
-        eprintln!("SKIPPED: no oidnDenoise ({})", raylab::image::denoise::INSTALL_HINT);
+    if !denoiser_here("denoising_brings_a_noisy_render_closer_to_the_reference") {
         return;
     }
     let dir = temp_dir("denoise");
@@ -524,15 +520,7 @@ fn denoising_brings_a_noisy_render_closer_to_the_reference() {
     let noisy =
         raylab::image::tonemap::read_layer(&std::fs::read(dir.join("noisy.exr")).unwrap(), "exr", raylab::image::tonemap::Layer::Color)
             .unwrap();
-    // On displayed values (clamped to 1): the light's own pixels, far brighter, would decide alone.
-    let rmse = |f: &raylab::Film| {
-        let d = f
-            .pixels
-            .iter()
-            .zip(&reference.pixels)
-            .map(|(a, b)| (a.min(raylab::glam::Vec3::ONE) - b.min(raylab::glam::Vec3::ONE)).length_squared() as f64);
-        (d.sum::<f64>() / f.pixels.len() as f64).sqrt()
-    };
+    let rmse = |f: &raylab::Film| displayed_rmse(f, &reference);
     assert!(rmse(&denoised) < 0.75 * rmse(&noisy), "RMSE noisy {}, denoised {}", rmse(&noisy), rmse(&denoised));
     assert!(rmse(&again) < 0.75 * rmse(&noisy), "RMSE noisy {}, denoised again {}", rmse(&noisy), rmse(&again));
     // The same layers, the same filter: `raylab denoise` of the EXR is `render --denoise`.
@@ -578,9 +566,7 @@ fn denoising_brings_a_noisy_render_closer_to_the_reference() {
 /// denoised render (or any map of counts its sub-pixels can share) repeats it bit for bit.
 #[test]
 fn an_error_target_or_time_budget_with_the_denoiser_stops_each_pixels_sub_pixels_together() {
-    if !raylab::image::denoise::available() {
-        assert!(std::env::var_os("CI").is_none(), "CI must have the denoiser: {}", raylab::image::denoise::INSTALL_HINT);
-        eprintln!("SKIPPED: no oidnDenoise ({})", raylab::image::denoise::INSTALL_HINT);
+    if !denoiser_here("an_error_target_or_time_budget_with_the_denoiser_stops_each_pixels_sub_pixels_together") {
         return;
     }
     let dir = temp_dir("target-denoise");
@@ -606,14 +592,7 @@ fn an_error_target_or_time_budget_with_the_denoiser_stops_each_pixels_sub_pixels
     assert_eq!((denoised.width, denoised.height), (32, 32));
     assert!(spp.iter().all(|&n| (64..=256).contains(&n) && n % 4 == 0), "{spp:?}");
     assert!(spp.iter().min() < spp.iter().max(), "pixels stopped at different counts");
-    let rmse = |f: &raylab::Film| {
-        let d = f
-            .pixels
-            .iter()
-            .zip(&reference.pixels)
-            .map(|(a, b)| (a.min(raylab::glam::Vec3::ONE) - b.min(raylab::glam::Vec3::ONE)).length_squared() as f64);
-        (d.sum::<f64>() / f.pixels.len() as f64).sqrt()
-    };
+    let rmse = |f: &raylab::Film| displayed_rmse(f, &reference);
     assert!(rmse(&denoised) < 0.75 * rmse(&noisy), "RMSE noisy {}, denoised {}", rmse(&noisy), rmse(&denoised));
     // A time budget it does not reach: every pixel at 128, on 4 × 4 sub-pixels of 8; its `spp`
     // layer, and the target's (counts its 4 × 4 sub-pixels share), as maps.
@@ -710,6 +689,92 @@ fn a_time_budget_render_repeats_from_its_spp_layer() {
     let out =
         raylab(&dir, &["render", scene.to_str().unwrap(), "--width", "24", "--height", "24", "--spp-map", "first.exr", "-o", "x.png"]);
     assert!(!out.status.success() && text(&out.stderr).contains("time budget"), "{}", text(&out.stderr));
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// `--spp-map` refuses a map that cannot be this render's, naming the file and what it expected:
+/// a PFM (colour only), an EXR without an `spp` channel or of another size, a count that is not
+/// a whole number of samples (NaN, infinite, negative, fractional, past 2^24) or more than the
+/// render's `spp`.
+#[cfg(feature = "exr")]
+#[test]
+fn a_malformed_spp_map_is_refused_clearly() {
+    use exr::prelude::*;
+    let dir = temp_dir("spp-map-hostile");
+    let scene = repo().join("scenes/path-cornell.toml");
+    let write = |name: &str, channel: &str, (w, h): (usize, usize), value: f32| {
+        let channels = AnyChannels::sort(SmallVec::from_vec(vec![AnyChannel::new(channel, FlatSamples::F32(vec![value; w * h]))]));
+        Image::from_layer(Layer::new((w, h), LayerAttributes::default(), Encoding::UNCOMPRESSED, channels))
+            .write()
+            .to_file(dir.join(name))
+            .unwrap();
+    };
+    write("ok.exr", "spp", (8, 8), 4.0);
+    write("rgb.exr", "R", (8, 8), 4.0);
+    write("small.exr", "spp", (4, 8), 4.0);
+    std::fs::write(dir.join("map.pfm"), b"PF\n8 8\n-1\n").unwrap();
+    write("many.exr", "spp", (8, 8), 8.0);
+    let mut cases: Vec<(String, String)> = [
+        ("map.pfm", "the spp layer needs an OpenEXR file"),
+        ("rgb.exr", "no channel spp"),
+        ("small.exr", "its 4×8 pixels are not this render's 8×8"),
+        ("many.exr", "more than the 4 spp this render takes at most"),
+    ]
+    .map(|(m, e)| (m.to_string(), e.to_string()))
+    .into();
+    for (name, value) in [("nan", f32::NAN), ("inf", f32::INFINITY), ("neg", -1.0), ("half", 1.5), ("huge", 3e7)] {
+        write(&format!("{name}.exr"), "spp", (8, 8), value);
+        cases.push((format!("{name}.exr"), format!("pixel (0, 0) has {value} samples: expected a whole number")));
+    }
+    let render = |map: &str| {
+        raylab(
+            &dir,
+            &[
+                "render",
+                scene.to_str().unwrap(),
+                "--width",
+                "8",
+                "--height",
+                "8",
+                "--spp",
+                "4",
+                "--time-budget",
+                "100",
+                "--spp-map",
+                map,
+                "-o",
+                "o.exr",
+                "-q",
+            ],
+        )
+    };
+    assert!(render("ok.exr").status.success(), "{}", text(&render("ok.exr").stderr));
+    for (map, expect) in &cases {
+        let out = render(map);
+        let err = text(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{map}: {err}");
+        assert!(err.contains(map.as_str()) || expect.contains("more than"), "{map}: the error names the file: {err}");
+        assert!(err.contains(expect.as_str()), "{map}: expected {expect:?} in {err}");
+    }
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// `raylab denoise` refuses a partial image (a tile, crop, pass or checkpoint), as `render
+/// --denoise` refuses a tile: the filter reads each pixel's neighbours, so a tile denoised alone
+/// leaves seams. Checked before the denoiser is looked for.
+#[cfg(feature = "exr")]
+#[test]
+fn denoise_refuses_a_partial_image() {
+    let dir = temp_dir("denoise-partial");
+    let scene = repo().join("scenes/path-cornell.toml");
+    for (share, name) in [(["--tile", "0/2"], "tile.exr"), (["--pass", "1/2"], "pass.exr")] {
+        let args = ["render", scene.to_str().unwrap(), "--width", "8", "--height", "8", "--spp", "4", "-q", "-o", name];
+        let out = raylab(&dir, &[&args[..], &share[..]].concat());
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        let out = raylab(&dir, &["denoise", name, "-o", "d.pfm"]);
+        let err = text(&out.stderr);
+        assert!(out.status.code() == Some(1) && err.contains(&format!("{name}: a partial image")) && err.contains("raylab merge"), "{err}");
+    }
     std::fs::remove_dir_all(dir).unwrap();
 }
 

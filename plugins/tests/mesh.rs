@@ -17,6 +17,8 @@ use raylab_plugins::mesh::triangle_mesh::{MeshData, Normals, TriangleMesh};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+mod common;
+
 fn assets() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/assets")
 }
@@ -609,8 +611,6 @@ fn packets_render_single_rays(path: &Path) {
 /// (finite shadow rays) and a highlight.
 #[test]
 fn a_block_of_camera_hits_shades_as_single_hits() {
-    use raylab::render::aov::AovSample;
-    use raylab::render::sample::{SampleId, image_setup, single_camera_ray};
     let dir = std::env::temp_dir().join(format!("raylab-block-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::write(dir.join("lumpy.obj"), lumpy_obj()).unwrap();
@@ -626,44 +626,11 @@ fn a_block_of_camera_hits_shades_as_single_hits() {
         std::fs::write(dir.join(format!("{name}.toml")), scene).unwrap();
         let job = load_file(&raylab_plugins::registry(), &dir.join(format!("{name}.toml")), &options(AccelChoice::Auto))
             .unwrap_or_else(|e| panic!("{}", e.report()));
-        let (scene, integrator, setup) = (&job.scene, &job.integrator, image_setup(&job));
         for y in (0..40).step_by(3) {
             for x0 in (0..64).step_by(8) {
-                let mut rays = [Ray::new(DVec3::ZERO, DVec3::Z); 8];
-                for (k, ray) in rays.iter_mut().enumerate() {
-                    *ray = single_camera_ray(&job, &setup, SampleId::Pixel { x: x0 + k as u32, y, index: 0 }).unwrap();
-                }
                 // Every lane, and a gap.
                 for live in [0xff, 0b1101_1011] {
-                    let mut hit = [raylab::geometry::Hit::new(0.0, DVec3::ZERO, DVec3::ZERO); 8];
-                    let hits = scene.intersect_packet(&rays, live, 0.0, &[f64::INFINITY; 8], &mut hit);
-                    for allowance in (0..=24).chain([u64::MAX]) {
-                        let guides = allowance % 2 == 1;
-                        let fresh = || {
-                            let mut stats = raylab::RayStats::new(integrator.counters());
-                            stats.set_allowance(allowance);
-                            let samplers: [raylab::Sampler; 8] =
-                                std::array::from_fn(|k| raylab::Sampler::new(u64::from(x0) + k as u64, 0, 7));
-                            let aovs = [AovSample { guides, ..AovSample::miss(scene.background) }; 8];
-                            (stats, samplers, aovs, [Color::ZERO; 8])
-                        };
-                        let (mut s1, mut r1, mut a1, mut c1) = fresh();
-                        integrator.radiance_packet(scene, &rays, live, hits, &hit, &mut r1, &mut s1, &mut a1, &mut c1);
-                        let (mut s2, mut r2, mut a2, mut c2) = fresh();
-                        for k in (0..8).filter(|k| live >> k & 1 != 0) {
-                            s2.camera_rays += 1;
-                            let h = (hits >> k & 1 != 0).then_some(&hit[k]);
-                            c2[k] = integrator.radiance_from(scene, &rays[k], h, &mut r2[k], &mut s2, &mut a2[k]);
-                        }
-                        let at = format!("{name}, row {y}, x {x0}, lanes {live:08b}, allowance {allowance}");
-                        assert_eq!(c1, c2, "{at}");
-                        assert_eq!(a1, a2, "{at}");
-                        assert_eq!((s1.camera_rays, s1.rays()), (s2.camera_rays, s2.rays()), "{at}");
-                        for (i, c) in integrator.counters().iter().enumerate() {
-                            assert_eq!(s1.count(i), s2.count(i), "{at}: {}", c.name);
-                        }
-                        blocks += 1;
-                    }
+                    blocks += common::blocks::assert_block_shades_as_single_hits(&job, name, (x0, y), live, (0..=24).chain([u64::MAX]));
                 }
             }
         }

@@ -9,6 +9,8 @@ use raylab::load::loader::load_str;
 use raylab::render::{RenderJob, RenderOptions, render, render_pixel, render_progressive};
 use std::fmt::Write as _;
 
+mod common;
+
 /// Spheres in a grid over a ground plane, some mirrors, and two pairs of coincident spheres of
 /// different colours (ties: the hierarchy's tie rule gives the smaller slot, whatever the order
 /// in which a packet meets the leaves).
@@ -138,48 +140,15 @@ fn whitted_scenes_render_what_single_rays_render() {
 /// anywhere inside the block.
 #[test]
 fn a_block_of_whitted_camera_hits_shades_as_single_hits() {
-    use raylab::render::aov::AovSample;
-    use raylab::render::sample::{SampleId, image_setup, single_camera_ray};
-    use raylab::{Color, Ray};
     let mut blocks = 0;
     for name in ["dozen", "whitted"] {
         let (width, height) = (64, 48);
         let job = bundled(name, width, height, 1);
-        let (scene, integrator, setup) = (&job.scene, &job.integrator, image_setup(&job));
         for y in (0..height).step_by(5) {
             for x0 in (0..width).step_by(8) {
-                let rays: [Ray; 8] =
-                    std::array::from_fn(|k| single_camera_ray(&job, &setup, SampleId::Pixel { x: x0 + k as u32, y, index: 0 }).unwrap());
                 for live in [0xff, 0b1011_0110] {
-                    let mut hit = [raylab::geometry::Hit::new(0.0, raylab::glam::DVec3::ZERO, raylab::glam::DVec3::ZERO); 8];
-                    let hits = scene.intersect_packet(&rays, live, 0.0, &[f64::INFINITY; 8], &mut hit);
-                    for allowance in (0..=40).step_by(3).chain([u64::MAX]) {
-                        let guides = allowance % 2 == 1;
-                        let fresh = || {
-                            let mut stats = raylab::RayStats::new(integrator.counters());
-                            stats.set_allowance(allowance);
-                            let samplers: [raylab::Sampler; 8] =
-                                std::array::from_fn(|k| raylab::Sampler::new(u64::from(x0) + k as u64, 0, 7));
-                            let aovs = [AovSample { guides, ..AovSample::miss(scene.background) }; 8];
-                            (stats, samplers, aovs, [Color::ZERO; 8])
-                        };
-                        let (mut s1, mut r1, mut a1, mut c1) = fresh();
-                        integrator.radiance_packet(scene, &rays, live, hits, &hit, &mut r1, &mut s1, &mut a1, &mut c1);
-                        let (mut s2, mut r2, mut a2, mut c2) = fresh();
-                        for k in (0..8).filter(|k| live >> k & 1 != 0) {
-                            s2.camera_rays += 1;
-                            let h = (hits >> k & 1 != 0).then_some(&hit[k]);
-                            c2[k] = integrator.radiance_from(scene, &rays[k], h, &mut r2[k], &mut s2, &mut a2[k]);
-                        }
-                        let at = format!("{name}, row {y}, x {x0}, lanes {live:08b}, allowance {allowance}");
-                        assert_eq!(c1, c2, "{at}");
-                        assert_eq!(a1, a2, "{at}");
-                        assert_eq!((s1.camera_rays, s1.rays()), (s2.camera_rays, s2.rays()), "{at}");
-                        for (i, c) in integrator.counters().iter().enumerate() {
-                            assert_eq!(s1.count(i), s2.count(i), "{at}: {}", c.name);
-                        }
-                        blocks += 1;
-                    }
+                    let allowances = (0..=40).step_by(3).chain([u64::MAX]);
+                    blocks += common::blocks::assert_block_shades_as_single_hits(&job, name, (x0, y), live, allowances);
                 }
             }
         }

@@ -14,7 +14,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 mod common;
-use common::{Guard, LiveView, repo, start_view, temp_dir};
+use common::{Guard, LiveView, denoiser_here, repo, start_view, temp_dir};
 
 /// How long the page may take to reach a state (a loaded machine renders slowly).
 const PATIENCE: Duration = Duration::from_secs(180);
@@ -267,16 +267,6 @@ fn wait_for_error(addr: &str, token: &str) -> Value {
         assert!(Instant::now() < deadline, "no error; the status is {}", head["status"]);
         version = head["version"].as_u64().unwrap();
     }
-}
-
-/// Whether the denoiser's tool is here (else the test says it is skipped; CI must have it).
-fn denoiser_here(test: &str) -> bool {
-    if raylab::image::denoise::available() {
-        return true;
-    }
-    assert!(std::env::var_os("CI").is_none(), "CI must have the denoiser: {}", raylab::image::denoise::INSTALL_HINT);
-    eprintln!("SKIPPED {test}: no oidnDenoise ({})", raylab::image::denoise::INSTALL_HINT);
-    false
 }
 
 /// The page's Denoise control: the finished image is the one `raylab render --denoise` writes,

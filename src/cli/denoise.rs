@@ -38,6 +38,14 @@ pub(crate) fn run(app: &App, a: DenoiseArgs) -> Result<(), Failure> {
     let format = app.registry.output_format_for(&a.output).map_err(|e| e.to_string())?;
     let ext = a.input.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let bytes = crate::load::context::read_user_file(&a.input, "image", crate::image::tonemap::MAX_FILE_BYTES, None)?;
+    // The filter looks at each pixel's neighbourhood: a tile denoised alone leaves seams.
+    #[cfg(feature = "exr")]
+    if ext == "exr" && crate::image::partial::is_partial(&bytes) {
+        return Err(Failure::Other(format!(
+            "{}: a partial image (a tile, crop, pass or checkpoint of a frame): denoise the whole frame, merged first (`raylab merge`)",
+            a.input.display()
+        )));
+    }
     let l = read(&a, &ext, &bytes)?;
     let guides = match (&l.albedo, &l.normal) {
         (Some(_), Some(_)) => "albedo and normal guides",

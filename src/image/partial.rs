@@ -16,8 +16,9 @@
 //!   only leaves it to the denoiser's filter with the rest.
 //! - Header attributes (written in name order: the same share gives the same bytes): `raylab.partial` (the format version), `raylab.fingerprint` (scene, files
 //!   and settings), `raylab.pass` and `raylab.passes` (the sample share), `raylab.sampling` (for
-//!   people), with an error target `raylab.target_error` and `raylab.target_min_spp`, and for
-//!   checkpoints `raylab.resume` (how to continue: JSON).
+//!   people), with an error target `raylab.target_error` and `raylab.target_min_spp`, on a finer
+//!   grid (`render --denoise`'s sub-pixels) `raylab.subpixels`, and for checkpoints
+//!   `raylab.resume` (how to continue: JSON).
 //!
 //! Reading is hostile-input safe: sizes are checked against the limits from the header before
 //! any pixel is decoded, every channel and attribute is checked, and every error says what was
@@ -213,6 +214,13 @@ impl std::fmt::Display for PartialError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(&self.0)
     }
+}
+
+/// Whether `bytes` are a partial EXR (its header has `raylab.partial`): a share of a frame, not
+/// the frame. False for anything else, readable or not.
+pub fn is_partial(bytes: &[u8]) -> bool {
+    exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
+        .is_ok_and(|m| m.headers.iter().any(|h| h.own_attributes.other.contains_key(&Text::from("raylab.partial"))))
 }
 
 /// Reads a partial EXR from `bytes` (named `name` in messages), refusing frames of more than

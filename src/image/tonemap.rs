@@ -42,6 +42,18 @@ impl Layer {
         }
     }
 
+    /// Its name, as [`Layer::parse`] takes it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Layer::Color => "color",
+            Layer::Depth => "depth",
+            Layer::Normal => "normal",
+            Layer::Albedo => "albedo",
+            Layer::Emission => "emission",
+            Layer::Spp => "spp",
+        }
+    }
+
     /// The EXR channel names holding it (one for depth, three otherwise).
     #[cfg(feature = "exr")]
     fn channels(self) -> &'static [&'static str] {
@@ -77,11 +89,28 @@ pub fn read_layer(bytes: &[u8], ext: &str, layer: Layer) -> Result<Film, String>
     }
 }
 
+/// What the `image_layer` fuzz target and its corpus replay check: `bytes` read as a PFM and as
+/// an OpenEXR file, every layer, as `tonemap`, `denoise`, `--spp-map` and reference images read
+/// them: a film whose pixels fill its size, or an error that says something; never a panic.
+pub fn fuzz_read_layers(bytes: &[u8]) -> Result<(), String> {
+    let layers = [Layer::Color, Layer::Depth, Layer::Normal, Layer::Albedo, Layer::Emission, Layer::Spp];
+    for (ext, layer) in ["pfm", "exr"].into_iter().flat_map(|e| layers.map(|l| (e, l))) {
+        match read_layer(bytes, ext, layer) {
+            Ok(f) if f.width == 0 || f.height == 0 || f.pixels.len() != f.width as usize * f.height as usize => {
+                return Err(format!(".{ext}, {}: a {}×{} film of {} pixels", layer.name(), f.width, f.height, f.pixels.len()));
+            }
+            Err(e) if e.is_empty() => return Err(format!(".{ext}, {}: an empty error", layer.name())),
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
 /// Whether a file of extension `ext` (lower case) can give `layer`, asked before the file is
 /// read: an unknown type, a layer of a PFM file, or OpenEXR without the `exr` feature is refused.
 pub fn check_input(ext: &str, layer: Layer) -> Result<(), String> {
     match ext {
-        "pfm" if layer != Layer::Color => Err("a PFM file holds colour only; --layer needs an OpenEXR file".into()),
+        "pfm" if layer != Layer::Color => Err(format!("a PFM file holds colour only; the {} layer needs an OpenEXR file", layer.name())),
         "pfm" => Ok(()),
         "exr" if cfg!(feature = "exr") => Ok(()),
         "exr" => Err(exr_needs_feature()),

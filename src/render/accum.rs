@@ -90,9 +90,22 @@ fn float(s: i128) -> f64 {
     ((s >> 64) as i64) as f64 * 18_446_744_073_709_551_616.0 + (s as u64) as f64
 }
 
+/// Whether the render loop's copies compiled for AVX2 (the film positions, the exact sums) run:
+/// where the CPU has AVX2 and `RAYLAB_SIMD` is not `baseline`. Decided once.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+pub(crate) fn runs_avx2() -> bool {
+    static AVX2: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *AVX2.get_or_init(|| std::env::var_os("RAYLAB_SIMD").is_none_or(|v| v != "baseline") && std::arch::is_x86_feature_detected!("avx2"))
+}
+
 /// The finite radiance of some camera rays, summed exactly, with their count and how many of the
 /// pixel's samples they came from.
+///
+/// `repr(C)`: `sum` and `sq` are four `i128` in a row, which [`PixelSum::add_sample`]'s AVX2 copy
+/// reads and writes as two 32-byte vectors.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[repr(C)]
 pub struct PixelSum {
     /// Σ radiance per channel, in units of 2⁻⁶⁴.
     pub sum: [i128; 3],
@@ -111,6 +124,10 @@ pub struct PixelSum {
     pub samples: u32,
 }
 
+// `PixelSum::add_sample_avx2` reads `sum` and `sq` as the struct's first 64 bytes.
+const _: () =
+    assert!(std::mem::offset_of!(PixelSum, sum) == 0 && std::mem::offset_of!(PixelSum, sq) == 48 && std::mem::align_of::<PixelSum>() >= 8);
+
 impl PixelSum {
     /// Adds one ray's radiance `c` (finite), to the first half.
     #[inline]
@@ -120,13 +137,95 @@ impl PixelSum {
 
     /// Adds one ray's radiance `c` (finite), to the second of the two halves of the error
     /// estimate when `second` ([`PixelSum::half_variance`]).
-    #[inline]
+    ///
+    /// Always inlined: the choice of copy is made where it is called, not in a call of its own.
+    #[inline(always)]
     pub fn add_sample(&mut self, c: Color, second: bool) {
+        #[cfg(target_arch = "x86_64")]
+        if runs_avx2() {
+            // SAFETY: `runs_avx2()` is true only where the CPU has AVX2.
+            unsafe { self.add_sample_avx2(c, second) };
+            return;
+        }
+        self.add_sample_scalar(c, second);
+    }
+
+    /// [`PixelSum::add_sample`] channel by channel (any CPU).
+    #[inline(never)]
+    fn add_sample_scalar(&mut self, c: Color, second: bool) {
         let y = self.add_luminance(c);
+        self.add_second(y, second);
+    }
+
+    /// [`PixelSum::add_sample_scalar`] as the AVX2 copy's way out (off its short path, or at
+    /// saturation), out of its way.
+    #[cfg(target_arch = "x86_64")]
+    #[cold]
+    #[inline(never)]
+    fn add_sample_rare(&mut self, c: Color, second: bool) {
+        self.add_sample_scalar(c, second);
+    }
+
+    /// The second half's sum and count, for a ray of luminance `y` in it.
+    #[inline(always)]
+    fn add_second(&mut self, y: f64, second: bool) {
         if second {
             self.odd = add_saturating(self.odd, fixed_color(y));
             self.n_odd += 1;
         }
+    }
+
+    /// [`PixelSum::add_sample`] with the four conversions and exact additions of the colour sums
+    /// and the squared luminance done together, one 64-bit lane each (AVX2), to the bit: each
+    /// lane is [`fixed_color`]'s short path (the significand shifted by `exponent − 1011` into a
+    /// 128-bit value, split into its 64-bit halves by two variable shifts, AVX2's `vpsllvq` and
+    /// `vpsrlvq`, which give 0 for counts of 64 or more) added to its sum with the carry from the
+    /// low half. A sample with a value off the short path (negative, tiny, huge) or a sum that
+    /// would overflow (and saturate) is added channel by channel instead, from the same state.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn add_sample_avx2(&mut self, c: Color, second: bool) {
+        use std::arch::x86_64::*;
+        let y = luminance(c);
+        // Lanes in the order the sums' halves come out of `unpack` below: r, b, g, y².
+        let v = _mm256_castpd_si256(_mm256_set_pd(y * y, c.y, c.z, c.x));
+        let sign = _mm256_set1_epi64x(i64::MIN);
+        let shift = _mm256_sub_epi64(_mm256_srli_epi64::<52>(v), _mm256_set1_epi64x(1011));
+        // `shift < 74` unsigned (the sign bit in the exponent's place sends negatives off it).
+        let short = _mm256_cmpgt_epi64(_mm256_set1_epi64x(74 ^ i64::MIN), _mm256_xor_si256(shift, sign));
+        let zero = _mm256_cmpeq_epi64(_mm256_andnot_si256(sign, v), _mm256_setzero_si256());
+        if _mm256_movemask_pd(_mm256_castsi256_pd(_mm256_or_si256(short, zero))) != 0b1111 {
+            return self.add_sample_rare(c, second);
+        }
+        let significand =
+            _mm256_or_si256(_mm256_and_si256(v, _mm256_set1_epi64x(0x000F_FFFF_FFFF_FFFF)), _mm256_set1_epi64x(0x0010_0000_0000_0000));
+        let lo = _mm256_and_si256(short, _mm256_sllv_epi64(significand, shift));
+        let hi = _mm256_or_si256(
+            _mm256_srlv_epi64(significand, _mm256_sub_epi64(_mm256_set1_epi64x(64), shift)),
+            _mm256_sllv_epi64(significand, _mm256_sub_epi64(shift, _mm256_set1_epi64x(64))),
+        );
+        let hi = _mm256_and_si256(short, hi);
+        let sums = (self as *mut PixelSum).cast::<__m256i>();
+        // SAFETY: `repr(C)`: `sum` and `sq` are the struct's first 64 bytes (the assertion below
+        // the struct), each `i128` its low then its high half (little-endian).
+        let (a, b) = unsafe { (_mm256_loadu_si256(sums), _mm256_loadu_si256(sums.add(1))) };
+        // [lo r, lo b, lo g, lo y²] and the high halves.
+        let (sum_lo, sum_hi) = (_mm256_unpacklo_epi64(a, b), _mm256_unpackhi_epi64(a, b));
+        let new_lo = _mm256_add_epi64(sum_lo, lo);
+        // The carry, −1 where the low half wrapped (`new_lo < lo` unsigned).
+        let carry = _mm256_cmpgt_epi64(_mm256_xor_si256(lo, sign), _mm256_xor_si256(new_lo, sign));
+        let new_hi = _mm256_sub_epi64(_mm256_add_epi64(sum_hi, hi), carry);
+        // A non-negative value overflows a sum only from non-negative to negative.
+        if _mm256_movemask_pd(_mm256_castsi256_pd(_mm256_andnot_si256(sum_hi, new_hi))) != 0 {
+            return self.add_sample_rare(c, second);
+        }
+        // SAFETY: as the loads.
+        unsafe {
+            _mm256_storeu_si256(sums, _mm256_unpacklo_epi64(new_lo, new_hi));
+            _mm256_storeu_si256(sums.add(1), _mm256_unpackhi_epi64(new_lo, new_hi));
+        }
+        self.n += 1;
+        self.add_second(y, second);
     }
 
     /// Adds `c` to the sums and its squared luminance to `sq`; returns the luminance.
@@ -454,6 +553,51 @@ mod tests {
         assert_eq!((merged.sum, merged.n), (forward.sum, forward.n));
         let plain: Color = values.iter().sum::<Color>() / 1000.0;
         assert!((forward.mean() - plain).abs().max_element() < 1e-12 * plain.max_element());
+    }
+
+    /// The AVX2 copy of `add_sample` leaves every sum as the scalar one does, to the bit: values on
+    /// and off the short path (zeros of both signs, negatives, tiny, huge, every exponent), sums
+    /// whose low halves carry, and sums at the edge of saturation both ways.
+    #[test]
+    fn avx2_sums_match_the_scalar_sums() {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if !std::arch::is_x86_feature_detected!("avx2") {
+                return;
+            }
+            let mut values =
+                vec![0.0, -0.0, 1.0, 0.5, 2f64.powi(-12), 2f64.powi(-13), 2f64.powi(62), 2f64.powi(61) * 1.5, 1e-300, 5e-324, -1.0, 1e30];
+            for e in -20..70 {
+                for m in [1.0, 1.0 + f64::EPSILON, 1.5, 1.9999999999999998, 1.2345678901234567] {
+                    values.push(m * 2f64.powi(e));
+                }
+            }
+            let mut starts = vec![PixelSum::default()];
+            for (lo, hi) in
+                [(u64::MAX, 0i64), (u64::MAX - 5, i64::MAX), (0, i64::MAX), (u64::MAX, -1), (3, i64::MIN), (u64::MAX, i64::MAX - 1)]
+            {
+                let s = (i128::from(hi) << 64) | i128::from(lo);
+                starts.push(PixelSum { sum: [s, s.wrapping_add(7), -s], sq: s, odd: s, n: 3, n_odd: 1, samples: 3 });
+            }
+            let mut checked = 0;
+            for start in &starts {
+                for (i, &a) in values.iter().enumerate() {
+                    let b = values[(i * 7 + 3) % values.len()];
+                    let c = values[(i * 13 + 5) % values.len()];
+                    for color in [Color::new(a, b, c), Color::new(c, a, b), Color::splat(a)] {
+                        for second in [false, true] {
+                            let (mut scalar, mut wide) = (*start, *start);
+                            scalar.add_sample_scalar(color, second);
+                            // SAFETY: AVX2 was detected above.
+                            unsafe { wide.add_sample_avx2(color, second) };
+                            assert_eq!(wide, scalar, "{color} added to {start:?}");
+                            checked += 1;
+                        }
+                    }
+                }
+            }
+            assert!(checked > 10_000);
+        }
     }
 
     #[test]

@@ -868,10 +868,7 @@ fn film_points(table: &TabledSet, index: &[u32; PACKET]) -> [DVec2; PACKET] {
         fn avx2(table: &TabledSet, index: &[u32; PACKET]) -> [DVec2; PACKET] {
             table.points(index)
         }
-        static AVX2: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-        let fast = *AVX2
-            .get_or_init(|| std::env::var_os("RAYLAB_SIMD").is_none_or(|v| v != "baseline") && std::arch::is_x86_feature_detected!("avx2"));
-        if fast {
+        if crate::render::accum::runs_avx2() {
             // SAFETY: `avx2` only runs AVX2 instructions, and is called only after
             // `is_x86_feature_detected!` found AVX2 on this CPU.
             return unsafe { avx2(table, index) };

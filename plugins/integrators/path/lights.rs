@@ -347,10 +347,23 @@ impl PathTracer {
     /// weighed against light sampling at the vertex the ray left when it was sampled there with
     /// density `bsdf_pdf` (`None`: a camera ray or a specular event, which light samples cannot
     /// find, so the light counts in full). Lights do not block each other or rays.
-    pub(super) fn emitters<R: Recorder>(&self, c: &mut Ctx, ray: &Ray, t_hit: f64, bsdf_pdf: Option<f64>, rec: &mut R) -> Color {
+    pub(super) fn emitters<R: Recorder>(
+        &self,
+        c: &mut Ctx,
+        ray: &Ray,
+        t_hit: f64,
+        bsdf_pdf: Option<f64>,
+        escape_scale: f64,
+        rec: &mut R,
+    ) -> Color {
+        let scene = c.scene;
+        // A ray that meets a surface meets no surroundings: where they are the only lights (a
+        // sky, an image around the scene), it meets none, and the loop is not set up.
+        if t_hit.is_finite() && scene.light_facts().iter().all(|f| f.environment) {
+            return Color::ZERO;
+        }
         // A light counts when no surface is closer than it by more than a shadow ray's margin.
         let t_max = if t_hit.is_finite() { t_hit / (1.0 - SHADOW_EPSILON) } else { f64::INFINITY };
-        let scene = c.scene;
         let mut total = Color::ZERO;
         for (index, light) in scene.lights.iter().enumerate() {
             let facts = scene.light_facts()[index];
@@ -363,7 +376,18 @@ impl PathTracer {
                 }
                 // A camera ray, or one after specular events, counts it in full: no density.
                 if bsdf_pdf.is_none() {
-                    let Some(radiance) = light.environment(ray.dir).filter(|&r| max_channel(r) > 0.0) else { continue };
+                    // After glass whose other branch was counted there, the bright part by the
+                    // taken branch's probability ([`PathTracer::other_escape`]).
+                    let split = if escape_scale < 1.0 && !facts.uniform {
+                        super::split_radiance(light.as_ref(), ray.origin, ray.dir)
+                    } else {
+                        None
+                    };
+                    if split.is_some() {
+                        rec.note(|| format!("the sky here is bright: counted × {escape_scale:.4}, the glass's branch taken (the other one was counted there)"));
+                    }
+                    let radiance = split.map(|r| r * escape_scale).or_else(|| light.environment(ray.dir));
+                    let Some(radiance) = radiance.filter(|&r| max_channel(r) > 0.0) else { continue };
                     (radiance, f64::NAN, f64::INFINITY) // no density: never weighed
                 } else {
                     let Some((radiance, p)) = light.environment_pdf(ray.origin, ray.dir) else { continue };

@@ -3,7 +3,8 @@
 //!
 //! A camera ray's path scatters at each surface it meets by its material's BSDF
 //! ([`raylab::scene::bsdf`]): a material plugin's own model (`pbr`: the glTF BRDF), or for the
-//! report's coefficients the energy-conserving [`PhongBsdf`] (Lambertian `kd`, normalised Phong
+//! report's coefficients the energy-conserving
+//! [`PhongBsdf`](crate::materials::phong::PhongBsdf) (Lambertian `kd`, normalised Phong
 //! `ks`, mirror or glossy `kr`, Fresnel dielectric `kt`). At each vertex with a smooth lobe, every light is sampled with a shadow ray
 //! (next-event estimation, [`lights`]), and so are the emitting objects: `light_samples` points
 //! (at least one) on emitters chosen by `light_selection` (by power through an alias table, or
@@ -40,6 +41,12 @@
 //! - **Shadow rays** are blocked by every surface, glass included: light through glass arrives
 //!   by refraction (caustics), which light sampling cannot aim at; from point-like lights it
 //!   cannot arrive at all, as in every unidirectional path tracer.
+//! - **Glass** (a smooth dielectric) reflects or refracts, chosen by the Fresnel term; with
+//!   `split_glass` (the default) the branch not taken is followed one ray further: where it
+//!   leaves the scene toward a bright part of an environment (the sun), that light counts by the
+//!   branch's probability, and the taken branch's ray counts it by its own
+//!   ([`PathTracer::other_escape`]): the sun reflected in a glass ball is its expectation in every
+//!   sample instead of one sample in 25 worth 25 times its share.
 //!
 //! `max_bounces` limits the scattering events that light passes through after the first
 //! surface: 0 is direct light (the lights and the emitters the first surface sees); the ray
@@ -61,7 +68,7 @@
 
 mod lights;
 
-use crate::materials::phong::{PhongBsdf, fresnel_dielectric};
+use crate::materials::phong::{fresnel_dielectric, with_phong_bsdf};
 use raylab::geometry::Hit;
 use raylab::geometry::differential::RaySpread;
 use raylab::glam::{DVec2, DVec3};
@@ -76,7 +83,7 @@ use raylab::render::trace::{NoRecord, Recorder, Term};
 use raylab::scene::bsdf::{Bsdf, Lobe, Scatter, with_bsdf};
 use raylab::scene::emitters::Selection;
 use raylab::scene::interaction::Interaction;
-use raylab::{Color, Integrator, LoadContext, PluginInfo, Ray, RayKind, RayStats, Sampler, Scene, TraceNode};
+use raylab::{Color, Integrator, LightSource, LoadContext, PluginInfo, Ray, RayKind, RayStats, Sampler, Scene, TraceNode};
 
 pub use lights::{IRRADIANCE_PER_INTENSITY, power_heuristic};
 
@@ -98,6 +105,9 @@ pub struct PathTracer {
     /// reached after fewer than this many diffuse or glossy bounces (specular ones do not
     /// count); later ones draw independent numbers (0: all do).
     pub stratify: u32,
+    /// At glass, the bright environment the branch not taken sees is counted too
+    /// ([`PathTracer::other_escape`]).
+    pub split_glass: bool,
 }
 
 /// The `path` plugin's description.
@@ -147,6 +157,13 @@ pub const INFO: PluginInfo = PluginInfo {
             "path vertices whose light, emitter, BSDF and roulette numbers are stratified across the pixel's samples (each a padded, Owen-scrambled Sobol sequence over the sample index, as pbrt-v4's samplers do): those reached after fewer than this many diffuse or glossy bounces (specular ones do not count: the first surface and the one after it, seen directly or through glass, by default); later vertices draw independent numbers, where stratification gains little for its cost; 0 = none, 0..1024",
         )
         .quality(Reference::Keep),
+        ParamSpec::new(
+            "split_glass",
+            ParamKind::Bool,
+            ParamDefault::Bool(true),
+            "at smooth glass, which reflects or refracts by the Fresnel term, also count the environment the branch not taken sees where its ray leaves the scene toward a bright part of it (where its light samples gather: the sun), weighed by that branch's probability, and the taken branch's ray that part by its own: the same mean, and the sun reflected in a glass ball is no longer one sample in 25 worth 25 times its share; false: only the branch taken",
+        )
+        .quality(Reference::Keep),
     ],
 };
 
@@ -165,6 +182,7 @@ impl PathTracer {
             sample_emitters: p.bool("sample_emitters")?,
             light_selection: Selection::parse(&p.choice("light_selection", &Selection::NAMES)?).unwrap_or_default(),
             stratify: p.int_in("stratify", 0..=1024)? as u32,
+            split_glass: p.bool("split_glass")?,
         })
     }
 }
@@ -259,6 +277,10 @@ struct PathState<'s> {
     /// the ray it sent: the lights it meets before a surface and that surface's emission were
     /// counted there, as their expectation.
     counted: bool,
+    /// What the bright part of an environment this ray meets when it leaves the scene counts
+    /// for: 1, or after glass the probability of the branch it took, the other branch's having
+    /// been counted there ([`PathTracer::other_escape`]).
+    escape_scale: f64,
     /// The point of the vertex that sent this ray (the camera ray: its origin): where its light
     /// samples were taken from, so an emitter it meets is weighed with the same density.
     from: DVec3,
@@ -279,6 +301,7 @@ impl<'s> PathState<'s> {
             bsdf_pdf: None,
             specular: true,
             counted: false,
+            escape_scale: 1.0,
             from: origin,
             spread,
         }
@@ -350,7 +373,7 @@ impl PathTracer {
     ) -> Color {
         let t_hit = hit.map_or(f64::INFINITY, |si| si.hit.t);
         let counted = path.counted && hit.is_some();
-        let mut radiance = if counted { Color::ZERO } else { self.emitters(c, ray, t_hit, path.bsdf_pdf, rec) };
+        let mut radiance = if counted { Color::ZERO } else { self.emitters(c, ray, t_hit, path.bsdf_pdf, path.escape_scale, rec) };
         let Some(si) = hit else {
             c.stats.add(counter::ESCAPED, 1);
             // An environment light replaces the background: it was met above, like any light.
@@ -403,6 +426,14 @@ impl PathTracer {
             return Color::ZERO;
         };
         let mut weight = s.weight;
+        let (escaped, escape_scale) = if s.pdf.is_none() && self.split_glass && (draws.dielectric.is_some() || draws.model) {
+            self.other_escape(c, si, (bsdf, draws), &s)
+        } else {
+            (Color::ZERO, 1.0)
+        };
+        if escaped != Color::ZERO {
+            rec.term(|| Term::color("the branch not taken leaves the scene: its sky × its probability", escaped));
+        }
         let eta_scale = path.eta_scale * s.eta_squared;
         rec.note(|| format!("scatters by the {} lobe{}", s.lobe.name(), if s.pdf.is_none() { " (specular)" } else { "" }));
         rec.term(|| Term::color("bsdf·cos/pdf", s.weight));
@@ -439,13 +470,67 @@ impl PathTracer {
             bsdf_pdf: s.pdf,
             specular: path.specular && s.pdf.is_none(),
             counted: path.depth == 0 && c.split,
+            escape_scale,
             from: si.point(),
             spread,
         };
         let mut child = rec.child(s.kind, &ray, next.depth, next.beta);
         let li = self.li(c, &ray, &si.hit, &next, &mut child);
         rec.adopt(child);
-        weight * li
+        weight * li + escaped
+    }
+
+    /// At glass (a surface whose only event is a reflection or a refraction, chosen by the Fresnel
+    /// term) where the path took `s`: what the branch not taken sees of the environments' bright
+    /// parts ([`split_radiance`]) if its ray leaves the scene, times its probability and weight,
+    /// and the share of those parts the taken branch's ray counts if it leaves (its probability).
+    /// Each branch's escape toward the sun then counts as its expectation, whichever branch the
+    /// path took: same mean, and the sun reflected in a glass ball (4 % of the samples, each
+    /// worth 25 times its share) no longer varies. Where the branches' values are alike (the dim
+    /// sky) splitting would add variance (they are anticorrelated): those escapes stay unsplit.
+    /// Costs a shadow-like ray per glass vertex, none for a branch into the inside of a solid
+    /// (it meets the solid again). `(0, 1)` where there is nothing to split.
+    #[inline(never)]
+    fn other_escape(&self, c: &mut Ctx, si: &Interaction, (bsdf, draws): (&dyn Bsdf, Draws), s: &Scatter) -> (Color, f64) {
+        const NONE: (Color, f64) = (Color::ZERO, 1.0);
+        let scene = c.scene;
+        if !scene.light_facts().iter().any(|f| f.environment && !f.uniform) {
+            return NONE;
+        }
+        let (taken, other, closed) = match draws.dielectric {
+            // A lone sharp dielectric: its other branch is at the other end of the Fresnel number.
+            Some((reflect, closed)) => {
+                let reflected = s.kind == RayKind::Reflection;
+                match bsdf.sample(0.5, DVec2::splat(0.5), if reflected { BELOW_ONE } else { 0.0 }) {
+                    Some(o) if o.kind != s.kind => (if reflected { reflect } else { 1.0 - reflect }, o, closed),
+                    _ => return NONE,
+                }
+            }
+            // A model's BSDF: its branches found by probing.
+            None => {
+                let Some((b, 2)) = delta_branches(bsdf, -si.dir) else { return NONE };
+                match (b[0].1.dir == s.dir, b[1].1.dir == s.dir) {
+                    (true, false) => (b[0].0, b[1].1, false),
+                    (false, true) => (b[1].0, b[0].1, false),
+                    _ => return NONE,
+                }
+            }
+        };
+        let outward = if si.front_face { si.n } else { -si.n };
+        if closed && !(other.dir.dot(outward) > 0.0) {
+            return (Color::ZERO, taken);
+        }
+        let ray = si.spawn_ray(other.dir);
+        if scene.occludes_leaving(&ray, f64::INFINITY, &si.hit) {
+            return (Color::ZERO, taken);
+        }
+        let mut seen = Color::ZERO;
+        for (light, facts) in scene.lights.iter().zip(scene.light_facts()) {
+            if facts.environment && !facts.uniform {
+                seen += split_radiance(light.as_ref(), ray.origin, other.dir).unwrap_or(Color::ZERO);
+            }
+        }
+        ((1.0 - taken) * other.weight * seen, taken)
     }
 
     /// The whole path of a camera ray, recorded into `rec`; `aov` gets the first surface.
@@ -522,7 +607,8 @@ impl PathTracer {
                 _ => si.reflected_spread(s.dir),
             };
             let Some(hit) = c.scene.trace(&ray).map(|h| h.with_spread(spread)) else { continue };
-            let seen = self.emitters(c, &ray, hit.hit.t, None, &mut NoRecord) + self.emission(c, si.point(), &hit, None, &mut NoRecord);
+            let seen =
+                self.emitters(c, &ray, hit.hit.t, None, 1.0, &mut NoRecord) + self.emission(c, si.point(), &hit, None, &mut NoRecord);
             total += p * s.weight * seen;
         }
         total
@@ -601,15 +687,14 @@ fn delta_branches(bsdf: &dyn Bsdf, wo: DVec3) -> Option<Branches> {
 }
 
 /// `f` of the BSDF at `si` and the numbers its sampling reads: its material's model's (all
-/// of them), or the coefficients' ([`PhongBsdf`], [`PhongBsdf::numbers_read`]).
+/// of them), or the coefficients' ([`with_phong_bsdf`]; a lone diffuse
+/// lobe's as a [`LambertBsdf`](crate::materials::phong::LambertBsdf), the same answers).
 #[inline]
 fn at_bsdf<T>(si: &Interaction, f: impl FnOnce(&dyn Bsdf, Draws) -> T) -> T {
     match si.model() {
         Some(m) => with_bsdf(m, si, |b| f(b, Draws::ALL)),
         None => {
-            let bsdf = PhongBsdf::new(si);
-            let (pick, dir, fresnel) = bsdf.numbers_read();
-            f(&bsdf, Draws { pick, dir, fresnel })
+            with_phong_bsdf(si, |bsdf, (pick, dir, fresnel), dielectric| f(bsdf, Draws { pick, dir, fresnel, dielectric, model: false }))
         }
     }
 }
@@ -621,12 +706,31 @@ struct Draws {
     pick: bool,
     dir: bool,
     fresnel: bool,
+    /// A lone sharp dielectric's probability of reflecting and whether it bounds a solid
+    /// ([`PhongBsdf::dielectric_branches`](crate::materials::phong::PhongBsdf::dielectric_branches)).
+    dielectric: Option<(f64, bool)>,
+    /// A material model's BSDF, which does not say which numbers it reads (all are drawn).
+    model: bool,
 }
 
 impl Draws {
     /// Every number (a material model's BSDF, which does not say).
-    const ALL: Draws = Draws { pick: true, dir: true, fresnel: true };
+    const ALL: Draws = Draws { pick: true, dir: true, fresnel: true, dielectric: None, model: true };
 }
+
+/// The radiance of environment `light` along `dir` from `origin` when a ray leaving the scene
+/// there has its escape split ([`PathTracer::other_escape`]): where the light's density for MIS
+/// is above the uniform one (its light samples gather there: the sun, its glow); `None`
+/// elsewhere (the dim sky, whose split would cost more variance than it saves: the branches'
+/// values are anticorrelated).
+#[inline]
+pub(crate) fn split_radiance(light: &dyn LightSource, origin: DVec3, dir: DVec3) -> Option<Color> {
+    let (radiance, p) = light.environment_pdf(origin, dir)?;
+    (p > SPLIT_DENSITY).then_some(radiance)
+}
+
+/// See [`split_radiance`]: the density over the sphere of directions drawn uniformly.
+const SPLIT_DENSITY: f64 = 1.0 / (4.0 * std::f64::consts::PI);
 
 /// Passes `stream` over `n` numbers ([`Sampler::skip_1d`]) and returns `unread`.
 #[inline(always)]

@@ -3,7 +3,7 @@
 //! direct light against `phong`.
 
 use super::*;
-use crate::materials::phong::{PhongBsdf, fresnel_dielectric, lobe_brdf, lobe_pdf, thin_slab_reflectance};
+use crate::materials::phong::{LambertBsdf, PhongBsdf, fresnel_dielectric, lobe_brdf, lobe_pdf, thin_slab_reflectance};
 use crate::shapes::sphere::Sphere;
 use raylab::RayKind;
 use raylab::glam::{DVec2, DVec3};
@@ -73,6 +73,70 @@ fn bsdf_at(material: Material, theta: f64, inside: bool) -> (PhongBsdf, DVec3) {
     let si = scene.trace(&ray).expect("the ray meets the sphere");
     assert!((si.point() - DVec3::Y).length() < 1e-9);
     (PhongBsdf::new(&si), si.n)
+}
+
+/// The bits of everything a BSDF answers toward `wi` and for the numbers `(pick, u, fresnel)`.
+fn answers(b: &dyn Bsdf, wi: DVec3, (pick, u, fresnel): (f64, DVec2, f64)) -> Vec<u64> {
+    let (f, pdf) = b.eval_pdf(wi);
+    let mut out: Vec<f64> = [b.eval(wi), f, b.albedo()].iter().flat_map(|c| c.to_array()).collect();
+    out.extend([b.pdf(wi), pdf, f64::from(u8::from(b.has_smooth_lobes()))]);
+    match b.sample(pick, u, fresnel) {
+        Some(s) => {
+            out.extend(s.dir.to_array());
+            out.extend(s.weight.to_array());
+            out.extend([s.pdf.unwrap_or(-1.0), s.eta_squared, f64::from(s.lobe as u8), f64::from(s.kind == RayKind::Reflection)]);
+        }
+        None => out.push(f64::NAN),
+    }
+    out.into_iter().map(f64::to_bits).collect()
+}
+
+/// Where only the diffuse lobe has weight the path tracer reads the coefficients through
+/// `LambertBsdf`: it must give every answer of `PhongBsdf` bit for bit (the images stay the
+/// same), read the same numbers, and stand aside for every other material.
+#[test]
+fn a_lone_diffuse_lobe_answers_as_the_full_model_bit_for_bit() {
+    let plain = Material { kd: Color::ZERO, ks: Color::ZERO, kr: Color::ZERO, kt: Color::ZERO, ..Material::default() };
+    let lone = [
+        Color::new(0.8, 0.5, 0.3),
+        Color::new(0.75, 0.75, 0.75),
+        // Scaled down (a channel above 1), with a negative zero, and barely above black.
+        Color::new(2.5, 0.4, -0.0),
+        Color::new(0.0, 0.0, 1e-300),
+    ];
+    let mut compared = 0;
+    for kd in lone {
+        for (theta, inside) in [(0.0, false), (0.7, false), (1.45, false), (0.3, true)] {
+            let (scene, ray) = top_of_sphere(Material { kd, ..plain.clone() }, theta, inside);
+            let si = scene.trace(&ray).expect("the ray meets the sphere");
+            let lambert = LambertBsdf::of(&si, &si.coefficients()).expect("a lone diffuse lobe");
+            let full = PhongBsdf::new(&si);
+            assert_eq!(full.numbers_read(), LambertBsdf::NUMBERS_READ);
+            for i in 0..4096 {
+                let u = stratified_2d(i, 4096, 5);
+                // Directions all around (above and below both normals), and the sampled ones.
+                let z = 2.0 * u.x - 1.0;
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                let wi = DVec3::new(r * (TAU * u.y).cos(), r * (TAU * u.y).sin(), z);
+                let numbers = (f64::from(i) / 4096.0, u, 0.5);
+                assert_eq!(answers(&lambert, wi, numbers), answers(&full, wi, numbers), "kd {kd}, θ {theta}, wi {wi}");
+                compared += 1;
+            }
+        }
+    }
+    assert_eq!(compared, 4 * 4 * 4096);
+    // Any other lobe, a Fresnel setting, or black: the full model.
+    for m in [
+        Material { kd: Color::splat(0.5), ks: Color::new(0.0, 0.0, 0.1), ..plain.clone() },
+        Material { kd: Color::splat(0.5), kr: Color::splat(0.2), ..plain.clone() },
+        Material { kd: Color::splat(0.5), kt: Color::splat(0.2), ..plain.clone() },
+        Material { kd: Color::splat(0.5), fresnel: raylab::scene::material::Fresnel::Schlick, ..plain.clone() },
+        Material { kd: Color::ZERO, ..plain.clone() },
+    ] {
+        let (scene, ray) = top_of_sphere(m, 0.4, false);
+        let si = scene.trace(&ray).expect("the ray meets the sphere");
+        assert!(LambertBsdf::of(&si, &si.coefficients()).is_none());
+    }
 }
 
 #[test]
@@ -729,4 +793,73 @@ fn emitters_seen_in_mirrors_and_glass_count_as_their_expectation() {
     }
     assert!(seen_total.min_element() > 0.05 * on_sum.min_element(), "the balls show the emitters: {seen_total} of {on_sum}");
     assert!(spread_on < 0.9 * spread_off, "where the balls show an emitter, variance with guides {spread_on}, without {spread_off}");
+}
+
+/// Glass counts the bright sky its branch not taken sees as its expectation
+/// ([`PathTracer::other_escape`], `split_glass`): camera rays at a glass ball under the bundled
+/// sky, aimed where the ball reflects the sun, give the same mean with and without the split,
+/// and with it the sun's reflection (the Fresnel branch taken by ~4 % of the samples, each worth
+/// 25 times its share) no longer varies. Counting that branch's escape twice (or never) moves the
+/// mean by far more than the noise allows.
+#[test]
+fn glass_counts_the_sun_its_branch_not_taken_sees_as_its_expectation() {
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
+    let options = LoadOptions { limits: Limits::unlimited(), ..LoadOptions::default() };
+    let job = |split: bool| {
+        let text = format!(
+            "[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\nfov = 60\n\
+             [integrator]\ntype = \"path\"\nsplit_glass = {split}\n\
+             [[light]]\ntype = \"environment\"\nfile = \"assets/sky.hdr\"\n\
+             [[object]]\ntype = \"sphere\"\ncenter = [0, 0, -4]\nradius = 1\nmaterial = {{ kd = 0, kt = 1, ior = 1.5 }}\n\
+             [[object]]\ntype = \"plane\"\npoint = [0, -1, 0]\nnormal = [0, 1, 0]\nmaterial = {{ kd = 0.5 }}\n"
+        );
+        raylab::load::loader::load_str(&crate::registry(), "test.toml", &text, &scenes, &options)
+            .unwrap_or_else(|e| panic!("{}", e.report()))
+    };
+    let (on, off) = (job(true), job(false));
+    // The sun: the sky's brightest direction, on a fine grid.
+    let sky = &on.scene.lights[0];
+    let sun = (0..512 * 256)
+        .map(|i| {
+            let (phi, theta) = ((f64::from(i % 512) + 0.5) / 512.0 * TAU, (f64::from(i / 512) + 0.5) / 256.0 * std::f64::consts::PI);
+            DVec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin())
+        })
+        .max_by(|a, b| sky.environment(*a).unwrap().element_sum().total_cmp(&sky.environment(*b).unwrap().element_sum()))
+        .unwrap();
+    // Where the ball mirrors it toward the camera: the normal halfway between the sun and the
+    // way back to the camera, found by a few fixed-point steps.
+    let centre = DVec3::new(0.0, 0.0, -4.0);
+    let mut point = centre + (sun - centre.normalize()).normalize();
+    for _ in 0..20 {
+        point = centre + (sun - point.normalize()).normalize();
+    }
+    let n: u32 = 2000;
+    let (mut sum_on, mut sum_off, mut var_on, mut var_off) = (Color::ZERO, Color::ZERO, 0.0, 0.0);
+    let mut err = Color::ZERO;
+    for (dx, dy) in [(0.0, 0.0), (0.004, 0.0), (-0.004, 0.0), (0.0, 0.004), (0.0, -0.004), (0.03, 0.03)] {
+        let ray = Ray::new(DVec3::ZERO, point + DVec3::new(dx, dy, 0.0));
+        let run = |job: &RenderJob| {
+            let mut stats = RayStats::new(job.integrator.counters());
+            let values: Vec<Color> = (0..n)
+                .map(|k| {
+                    let mut aov = AovSample::miss(job.scene.background);
+                    job.integrator.radiance(&job.scene, &ray, &mut Sampler::new(u64::from(k), 0, 7), &mut stats, &mut aov)
+                })
+                .collect();
+            mean_and_error(&values)
+        };
+        let ((m_on, e_on), (m_off, e_off)) = (run(&on), run(&off));
+        sum_on += m_on;
+        sum_off += m_off;
+        err += e_on * e_on + e_off * e_off;
+        var_on += (e_on * e_on).element_sum();
+        var_off += (e_off * e_off).element_sum();
+    }
+    let sigma = err.map(f64::sqrt);
+    for c in 0..3 {
+        assert!((sum_on[c] - sum_off[c]).abs() <= 4.0 * sigma[c], "split {sum_on}, not split {sum_off}, σ {sigma}");
+    }
+    // The rays see the sun in the ball: each worth ten times the sky's ~1 and more.
+    assert!(sum_off.min_element() > 6.0 * 10.0, "the rays miss the sun's reflection: {sum_off}");
+    assert!(var_on < 0.1 * var_off, "variance of the mean split {var_on}, not split {var_off}");
 }

@@ -1,7 +1,10 @@
-//! What the tests that run the `raylab` binary share: running it, a fresh folder per test, the
-//! checkout's root, a live view started and its page's address. Each test file takes the part it needs (`mod common;`), so the rest is unused
-//! there.
+//! What the test files share: running the `raylab` binary, a fresh folder per test, the
+//! checkout's root, a live view started and its page's address, and ([`blocks`]) a block of
+//! camera hits shaded together checked against the same hits shaded one by one. Each test file
+//! takes the part it needs (`mod common;`), so the rest is unused there.
 #![allow(dead_code)]
+
+pub mod blocks;
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -28,6 +31,24 @@ pub fn repo() -> PathBuf {
 /// Output bytes as text.
 pub fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()
+}
+
+/// Whether the denoiser's tool is here (else the test says it skips `what`; CI must have it).
+pub fn denoiser_here(what: &str) -> bool {
+    if raylab::image::denoise::available() {
+        return true;
+    }
+    assert!(std::env::var_os("CI").is_none(), "CI must have the denoiser: {}", raylab::image::denoise::INSTALL_HINT);
+    eprintln!("SKIPPED {what}: no oidnDenoise ({})", raylab::image::denoise::INSTALL_HINT);
+    false
+}
+
+/// The RMSE of `image` against `reference` on displayed values (each channel clamped to 1: a
+/// light's own pixels, far brighter, would decide alone).
+pub fn displayed_rmse(image: &raylab::Film, reference: &raylab::Film) -> f64 {
+    let one = raylab::glam::Vec3::ONE;
+    let d = image.pixels.iter().zip(&reference.pixels).map(|(a, b)| (a.min(one) - b.min(one)).length_squared() as f64);
+    (d.sum::<f64>() / image.pixels.len() as f64).sqrt()
 }
 
 /// Kills the process when dropped (a failed assertion must not leave a server behind).
