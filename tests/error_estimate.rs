@@ -215,9 +215,9 @@ fn one_light_sampled_uniformly_over_its_area_has_the_closed_form_variance() {
 /// taken by a stratum's parity alone are stripes of the pixel (the estimate was 3.5× too high).
 #[test]
 fn the_image_error_estimate_matches_the_spread_between_seeds() {
-    estimate_matches_spread(false, 16);
+    estimate_matches_spread(false, 32);
     estimate_matches_spread(false, 49);
-    estimate_matches_spread(true, 16);
+    estimate_matches_spread(true, 32);
 }
 
 fn estimate_matches_spread(sobol: bool, spp: u32) {
@@ -234,11 +234,12 @@ fn estimate_matches_spread(sobol: bool, spp: u32) {
 /// Below `ErrorEstimate::FEW_SPP` samples a pixel, each half of a pixel's samples is stratified
 /// much less well than the whole, and the halves' estimate reads high: at 8 spp on
 /// `path-cornell` (stratified, a 3 × 3 grid with halves of four points) the bench read 2.25× the
-/// true error, unflagged. Now the estimate is within 1.5× of the spread between seeds, or it says
-/// it may read high and does (never low while saying high).
+/// true error, unflagged, and at 16 spp up to 1.55× one seed's true error (the threshold was 16).
+/// Now the estimate is within 1.5× of the spread between seeds, or it says it may read high and
+/// does (never low while saying high).
 #[test]
 fn with_few_samples_the_estimate_is_honest_or_says_it_reads_high() {
-    for (sobol, spp) in [(false, 8), (false, 4), (true, 8)] {
+    for (sobol, spp) in [(false, 16), (false, 8), (false, 4), (true, 16), (true, 8)] {
         let (estimated, spread, reads_high) = estimate_and_spread(sobol, spp);
         let ratio = estimated / spread;
         let what = if sobol { "Sobol points" } else { "stratified" };

@@ -16,7 +16,11 @@ mean squared difference, is removed from the true error), renders each target wi
   first possible stop reading far below 1 are the ones whose own samples missed what lights them;
 - the share of the estimated variance in pixels lit by samples rarer than one per first possible
   stop (`ShareSums::rare_light_share`, from the `error` and `spp` layers here), and whether the
-  summary line said the estimate may read low.
+  summary line said the estimate may read low;
+- each seed's estimate ÷ its own true error, and how many of the readings outside a factor
+  `HONEST` = 1.5 of it went unflagged (the summary's flag, checked against the EXR header's
+  `raylab.estimate_may_read`, which must say the same). The last line says whether every reading
+  outside 1.5× was flagged; the exit status is 1 if one was not.
 
 Needs numpy and OpenEXR (the Python package).
 """
@@ -34,6 +38,15 @@ import run  # noqa: E402
 
 FLOOR = 0.25  # ErrorTarget::FLOOR
 MIN_SPP = 16  # target_min_spp's default
+HONEST = 1.5  # issue 30: the estimate within this factor of the true error, or it says it is not
+
+
+def header_flag(path):
+    """The EXR header's `raylab.estimate_may_read` (high, low or no)."""
+    import OpenEXR
+
+    with OpenEXR.File(path) as f:
+        return str(f.header().get("raylab.estimate_may_read"))
 
 
 def exr(path):
@@ -62,6 +75,7 @@ def main():
     os.makedirs(a.out, exist_ok=True)
     b = run.Bench(os.path.abspath(a.raylab), a.out, dict(os.environ))
     out = os.path.join(a.out, "honesty.exr")
+    unflagged = []
     for name in a.scenes.split(","):
         file, w, h, ref_spp, _ = run.SCENES[name]
         scene = os.path.join(run.ROOT, file)
@@ -70,10 +84,10 @@ def main():
         ref, noise2 = (r1 + r2) / 2, (r1 - r2) ** 2 / 4
         mu = float(ref.mean())
         print(f"\n## {name} {w}×{h} (reference: two seeds × {ref_spp} spp)\n")
-        print("| target | first stop | mean spp | estimated | true | est. ÷ true | rare share | flagged | per stop count: pixels, share of true sq. error, true ÷ estimated |")
-        print("|---|---|---|---|---|---|---|---|---|")
+        print("| target | first stop | mean spp | estimated | true | est. ÷ true | per seed | rare share | flagged | outside 1.5×, unflagged | per stop count: pixels, share of true sq. error, true ÷ estimated |")
+        print("|---|---|---|---|---|---|---|---|---|---|---|")
         for target in [float(t) for t in a.targets.split(",")]:
-            est2, true2, spp, shares, flags = [], [], [], [], 0
+            est2, true2, spp, shares, flags, ratios, missed = [], [], [], [], 0, [], 0
             classes = {}
             first = floor_spp(target)
             for seed in range(1, a.seeds + 1):
@@ -82,12 +96,22 @@ def main():
                 text = subprocess.run(cmd, capture_output=True, text=True, check=True, cwd=run.ROOT).stdout
                 line = next(l for l in text.splitlines() if "estimated error" in l)
                 est = float(re.search(r"relative RMSE ([0-9.]+) %", line).group(1)) / 100
-                flags += "may read low" in line
+                said = "low" if "may read low" in line else "high" if "may read high" in line else "no"
+                if header_flag(out) != said:
+                    sys.exit(f"{name} E = {target} seed {seed}: the EXR header says {header_flag(out)!r}, the summary {said!r}")
+                flags += said == "low"
                 d = exr(out)
                 y, n, se2 = d["RGB"] @ run.L, d["spp"], np.nan_to_num(d["error"] ** 2)
                 err2 = (y - ref) ** 2 - noise2
                 est2.append(est * est)
                 true2.append(max(float(err2.mean()), 0.0) / mu**2)
+                ratio = est / math.sqrt(true2[-1]) if true2[-1] > 0 else math.inf
+                ratios.append(ratio)
+                outside = not (1 / HONEST <= ratio <= HONEST)
+                # A reading outside 1.5× must be flagged, and the way it errs.
+                if outside and said != ("low" if ratio < 1 else "high"):
+                    missed += 1
+                    unflagged.append(f"{name} E = {target} seed {seed}: {ratio:.2f}, flagged {said!r}")
                 spp.append(float(n.mean()))
                 # ShareSums::rare_light_share from the layers: mean square = mean² + s²(n − 1)/n.
                 ms = y**2 + se2 * n * (n - 1) / n
@@ -104,7 +128,10 @@ def main():
             per = "; ".join(f"{k}: {c[0] / a.seeds:.0f}, {c[1] / total:.2f}, {c[1] / max(c[2], 1e-300):.1f}" for k, c in sorted(classes.items())
                             if c[1] / total >= 0.01)
             print(f"| {target} | {first} | {np.mean(spp):.1f} | {est:.4f} | {true:.4f} | {est / true:.2f} | "
-                  f"{' '.join(f'{s:.3f}' for s in shares)} | {flags}/{a.seeds} | {per} |")
+                  f"{' '.join(f'{r:.2f}' for r in ratios)} | {' '.join(f'{s:.3f}' for s in shares)} | {flags}/{a.seeds} | {missed} | {per} |",
+                  flush=True)
+    print(f"\nEvery reading outside {HONEST}× of the true error flagged: " + ("yes" if not unflagged else "no: " + "; ".join(unflagged)))
+    sys.exit(1 if unflagged else 0)
 
 
 if __name__ == "__main__":

@@ -359,17 +359,19 @@ class Image:
 
     @property
     def estimate_may_read_low(self) -> Optional[float]:
-        """Under an error target, where part of the image is lit by samples rarer than the
-        target's first stop (caustics, glints) and so ``estimated_error`` may read low: the share
-        of the estimated variance in those pixels (the CLI's "may read low"); None otherwise.
-        A larger ``target_min_spp`` looks longer."""
+        """Under an error target, where ``estimated_error`` may read low (the CLI's "may read
+        low"): part of the image is lit by samples rarer than the target's first stop (caustics,
+        glints), or the estimate rests on fewer than 32 pixels' worth of variance. The share of
+        the estimated variance in the rarely lit pixels (1 % or more, or less when the flag is
+        for few pixels); None otherwise. A larger ``target_min_spp`` looks longer."""
         return self._native.estimate_reads_low()
 
     @property
     def estimate_may_read_high(self) -> Optional[bool]:
-        """Whether ``estimated_error`` may read high: below 16 samples a pixel on average, each
-        half of a pixel's samples is stratified much less well than the whole (the CLI's "may read
-        high"; up to 2.3× the true error at 8 spp); None without an estimate."""
+        """Whether ``estimated_error`` may read high: below 32 samples a pixel on average without
+        an error target, each half of a pixel's samples is stratified much less well than the
+        whole (the CLI's "may read high"; up to 2.3× the true error at 8 spp, 1.55× at 16); None
+        without an estimate."""
         return self._native.estimate_reads_high()
 
     @property

@@ -37,9 +37,10 @@ pub struct Rendered {
     error: Option<(Vec<f32>, Vec<f32>)>,
     /// The image's estimated relative RMSE and mean samples per pixel, as the CLI's summary.
     estimate: Option<ErrorEstimate>,
-    /// Under an error target: the share of the estimated variance in pixels whose light came
-    /// from samples rarer than the first stop (`ShareSums::rare_light_share`), as the CLI's summary.
-    rare_share: Option<f64>,
+    /// Under an error target: why the estimate may read low (`ShareSums::low_reading`: the share
+    /// of the estimated variance in pixels whose light came from samples rarer than the first
+    /// stop, and how many pixels it rests on), as the CLI's summary.
+    low: Option<raylab::render::share::LowReading>,
 }
 
 impl Rendered {
@@ -51,7 +52,7 @@ impl Rendered {
             None
         };
         let estimate = r.sums.error_estimate();
-        let rare_share = job.settings.target.map(|t| r.sums.rare_light_share(t.floor_spp()));
+        let low = job.settings.target.map(|t| r.sums.low_reading(&t));
         Ok(Rendered {
             film: r.film,
             layers: r.layers,
@@ -63,7 +64,7 @@ impl Rendered {
             part: is_part.then_some((r.sums, info)),
             error,
             estimate,
-            rare_share,
+            low,
         })
     }
 
@@ -169,16 +170,17 @@ impl Rendered {
     }
 
     /// Whether the estimate may read high: fewer than `ErrorEstimate::FEW_SPP` samples a pixel on
-    /// average (the CLI's "may read high"); None without an estimate.
+    /// average without an error target (the CLI's "may read high"); None without an estimate.
     fn estimate_reads_high(&self) -> Option<bool> {
         self.estimate.map(|e| e.reads_high)
     }
 
-    /// Under an error target, the share of the estimated variance held by pixels lit by samples
-    /// rarer than the target's first stop, when it is at least `ErrorTarget::RARE_SHARE`: the
-    /// estimate may read low (the CLI's "may read low"). None otherwise.
+    /// Under an error target, when the estimate may read low (the CLI's "may read low":
+    /// `LowReading::flagged`), the share of the estimated variance held by pixels lit by samples
+    /// rarer than the target's first stop (flagged from `ErrorTarget::RARE_SHARE`, or below it
+    /// when the estimate rests on fewer than `LowReading::FEW_PIXELS` pixels). None otherwise.
     fn estimate_reads_low(&self) -> Option<f64> {
-        self.rare_share.filter(|&r| r >= raylab::render::job::ErrorTarget::RARE_SHARE)
+        self.low.filter(|l| l.flagged()).map(|l| l.rare_share)
     }
 
     /// The image as PNG bytes: clamped and encoded as the CLI's PNG (the scene's encoding).
@@ -273,11 +275,11 @@ pub fn merge(
         encoding.get_or_insert(Encoding::parse(&info.encoding).unwrap_or_default());
         merged.push(raylab::render::share::Part { name, sums, fingerprint: info.fingerprint });
     }
-    let (film, layers, estimate, rare_share) = py
+    let (film, layers, estimate, low) = py
         .detach(|| -> Result<_, String> {
             let whole = raylab::render::share::merge(&merged, allow_partial)?;
-            let rare = whole.sampling.target.map(|t| whole.rare_light_share(t.floor_spp()));
-            Ok((whole.film().map_err(|e| e.to_string())?, whole.aovs().map_err(|e| e.to_string())?, whole.error_estimate(), rare))
+            let low = whole.sampling.target.map(|t| whole.low_reading(&t));
+            Ok((whole.film().map_err(|e| e.to_string())?, whole.aovs().map_err(|e| e.to_string())?, whole.error_estimate(), low))
         })
         .map_err(runtime_error)?;
     let aov = if layers.is_some() { vec!["depth".into(), "normal".into(), "albedo".into(), "emission".into()] } else { Vec::new() };
@@ -292,7 +294,7 @@ pub fn merge(
         part: None,
         error: None,
         estimate,
-        rare_share,
+        low,
     })
 }
 

@@ -91,7 +91,7 @@ def test_the_error_layer_and_target_are_the_cli_s(cli, tmp_path):
     # flag's threshold: the Python property and the CLI's line agree either way.)
     assert (img.estimate_may_read_low is None) == ("may read low" not in line), line
     assert img.estimate_may_read_high is False and "may read high" not in line
-    # Below 16 samples a pixel the estimate may read high, and says so.
+    # Below 32 samples a pixel (without a target) the estimate may read high, and says so.
     few = raylab.load("scenes/path-cornell.toml", **SMALL, spp=8).render()
     text = cli("render", "scenes/path-cornell.toml", "-o", tmp_path / "few.png", "--width", SMALL["width"], "--height", SMALL["height"], "--spp", 8).stdout
     assert few.estimate_may_read_high is True and "may read high" in text, text

@@ -90,7 +90,12 @@ pub fn share(job: &RenderJob, crop: Option<&str>, tile: Option<&str>, pass: Opti
         (None, Some(t)) => {
             let (i, n) = if t == "auto" { tile_from_env(&|k| std::env::var(k).ok())? } else { fraction("--tile", t)? };
             let costs = crate::render::split::row_costs(job);
-            crate::render::split::tile_bounds(s.width, &costs, i, n).map_err(Failure::Other)?
+            // On sub-pixels that stop in blocks (`--subpixels K`), bands of whole blocks: the
+            // rows balanced K at a time.
+            let k = s.subpixels.max(1);
+            let blocks: Vec<f64> = costs.chunks(k as usize).map(|c| c.iter().sum()).collect();
+            let r = crate::render::split::tile_bounds(s.width, &blocks, i, n).map_err(Failure::Other)?;
+            Rect { y0: r.y0 * k, y1: (r.y1 * k).min(s.height), ..r }
         }
         (None, None) => frame,
     };

@@ -54,6 +54,15 @@ pub(crate) struct RenderArgs {
     /// --pass: denoise the merged frame (`raylab denoise`).
     #[arg(long)]
     denoise: bool,
+    /// The frame is the K × K sub-pixels of each pixel of a frame K times narrower and lower, as
+    /// `render --denoise` renders it on its finer grid (give --width and --height K times the
+    /// frame's and --spp ÷ K²; --target-error and --target-min-spp as for the frame): under
+    /// --target-error or --time-budget each pixel's K × K sub-pixels stop together, on their
+    /// merged sums. For a farm's parts of `render --denoise --target-error E` (crops and tiles
+    /// of whole blocks): merge them, then `raylab denoise --subpixels K`. Not with --denoise,
+    /// which chooses its own grid.
+    #[arg(long, value_name = "K", allow_hyphen_values = true, value_parser = super::int_in::<u32>(1, i128::from(crate::render::share::MAX_SUBPIXELS)))]
+    subpixels: Option<u32>,
     /// Print the counters of traced and avoided work after the summary.
     #[arg(long)]
     stats: bool,
@@ -113,6 +122,7 @@ impl RenderArgs {
             grid_color: "255,255,255".into(),
             stats: false,
             denoise: false,
+            subpixels: None,
             reference: None,
             error_csv: None,
             quiet: false,
@@ -343,6 +353,11 @@ fn validate<'a>(app: &'a App, a: &RenderArgs) -> Result<Request<'a>, Failure> {
             a.output.display()
         )));
     }
+    if a.denoise && a.subpixels.is_some() {
+        return Err(Failure::Other(
+            "--subpixels renders a farm's part of --denoise's finer grid; --denoise chooses its own grid: give one or the other".into(),
+        ));
+    }
     if parts && a.denoise {
         return Err(Failure::Other(
             "--denoise applies to a whole image, not to a tile, crop or pass (the filter looks across tile borders): merge the parts, then `raylab denoise`".into(),
@@ -410,7 +425,12 @@ fn plan<'a>(app: &App, a: &'a RenderArgs, request: Request<'a>, resumed: Option<
     outputs.extend(Some(checkpoint.as_path()).filter(|_| resumed.is_none()));
     let named: Vec<&Path> = a.scene.iter().chain(&a.reference).chain(&a.spp_map).map(PathBuf::as_path).collect();
     super::refuse_overwrite("render", &outputs, named.iter().copied())?;
-    let (job, scene_name) = super::load(app, a.scene.as_deref(), &a.scene_args, request.image)?;
+    let (mut job, scene_name) = super::load(app, a.scene.as_deref(), &a.scene_args, request.image)?;
+    // A part of `render --denoise`'s finer grid: its blocks of sub-pixels stop together (the
+    // render checks that the frame and the share are made of whole blocks).
+    if let Some(k) = a.subpixels {
+        job.settings.subpixels = k;
+    }
     super::refuse_overwrite("render", &outputs, job.inputs.iter().map(PathBuf::as_path))?;
     if INTERRUPTED.load(Ordering::SeqCst) {
         return Err(Failure::Interrupted("interrupted while loading: nothing rendered, nothing written".into()));
@@ -697,8 +717,8 @@ fn summarize(plan: &Plan, written: &Written, trace_cpu: Option<f64>) -> Result<(
     );
     println!("  {}", accel_line(&accel));
     if let Some(e) = rendered.sums.error_estimate() {
-        let rare = s.target.map(|t| (rendered.sums.rare_light_share(t.floor_spp()), t.floor_spp()));
-        println!("  {}{}", error_line(&e, s.target.is_some(), rare), if a.denoise { " (before denoising)" } else { "" });
+        let low = s.target.map(|t| rendered.sums.low_reading(&t));
+        println!("  {}{}", error_line(&e, s.target.is_some(), low), if a.denoise { " (before denoising)" } else { "" });
     }
     if let Some(budget) = s.time_budget {
         let recorded = a.aov.iter().any(|l| l == "spp" || l == "error" || l == "variance");
@@ -746,20 +766,32 @@ fn save_state(path: &Path, sums: &ShareSums, job: &RenderJob, resume: Option<&st
 }
 
 /// The summary's line on the image's estimated error ([`crate::render::share::ErrorEstimate`]);
-/// under an error target, `rare` is the share of the estimated variance in pixels lit by samples
-/// rarer than one per the target's first possible stop, and that count
-/// ([`crate::render::share::ShareSums::rare_light_share`]): from
-/// [`crate::render::job::ErrorTarget::RARE_SHARE`] on, the line says the estimate may read low.
-pub fn error_line(e: &crate::render::share::ErrorEstimate, target: bool, rare: Option<(f64, u32)>) -> String {
-    let warning = match (estimate_may_read(e, rare), rare) {
-        ("low", Some((share, first))) => format!(
-            "; may read low: {:.1} % of it is in pixels lit by samples rarer than 1 in {first} (caustics, glints), \
-             and pixels like them that stopped at {first} samples likely missed theirs (a larger target_min_spp looks longer)",
-            100.0 * share
-        ),
+/// under an error target, `low` says why it may read low ([`crate::render::share::LowReading`]):
+/// when flagged, the line says so, and why.
+pub fn error_line(e: &crate::render::share::ErrorEstimate, target: bool, low: Option<crate::render::share::LowReading>) -> String {
+    let warning = match (estimate_may_read(e, low), low) {
+        ("low", Some(l)) => {
+            let mut why = Vec::new();
+            if l.rare_share >= crate::render::job::ErrorTarget::RARE_SHARE {
+                why.push(format!(
+                    "{:.1} % of it is in pixels lit by samples rarer than 1 in {first} (caustics, glints), \
+                     and pixels like them that stopped at {first} samples likely missed theirs (a larger target_min_spp looks longer)",
+                    100.0 * l.rare_share,
+                    first = l.first
+                ));
+            }
+            if l.pixels < crate::render::share::LowReading::FEW_PIXELS {
+                why.push(format!(
+                    "it rests on few pixels (as concentrated as {:.0} equally noisy ones), which read from their own few samples, \
+                     and the pixels that stop are those whose samples look quiet",
+                    l.pixels
+                ));
+            }
+            format!("; may read low: {}", why.join("; "))
+        }
         ("high", _) => format!(
             "; may read high: below {} samples a pixel, each half of a pixel's samples is stratified much less well than the whole \
-             (it read up to 2.3× the true error at 8 spp, benches/error)",
+             (it read up to 2.3× the true error at 8 spp, 1.55× at 16, benches/error)",
             crate::render::share::ErrorEstimate::FEW_SPP
         ),
         _ => String::new(),
@@ -772,13 +804,13 @@ pub fn error_line(e: &crate::render::share::ErrorEstimate, target: bool, rare: O
     )
 }
 
-/// Which way the estimate `e` may be wrong, as the summary's line says: `"low"` where pixels lit by
-/// rare samples hold [`crate::render::job::ErrorTarget::RARE_SHARE`] of it (`rare`, under an error
-/// target), else `"high"` below [`crate::render::share::ErrorEstimate::FEW_SPP`] samples a pixel,
-/// else `"no"`.
-pub fn estimate_may_read(e: &crate::render::share::ErrorEstimate, rare: Option<(f64, u32)>) -> &'static str {
-    match rare {
-        Some((share, _)) if share >= crate::render::job::ErrorTarget::RARE_SHARE => "low",
+/// Which way the estimate `e` may be wrong, as the summary's line says: `"low"` where, under an
+/// error target, `low` is flagged ([`crate::render::share::LowReading::flagged`]), else `"high"`
+/// below [`crate::render::share::ErrorEstimate::FEW_SPP`] samples a pixel without a target, else
+/// `"no"`.
+pub fn estimate_may_read(e: &crate::render::share::ErrorEstimate, low: Option<crate::render::share::LowReading>) -> &'static str {
+    match low {
+        Some(l) if l.flagged() => "low",
         _ if e.reads_high => "high",
         _ => "no",
     }
@@ -852,8 +884,8 @@ fn write(plan: &Plan, path: &Path, film: &Film, layers: Option<&AovLayers>, sums
         let (error, spp) = sums.error_layers().map_err(|e| e.to_string())?;
         let c = chosen.get_or_insert_with(AovLayers::default);
         (c.error, c.spp) = (Some(error), Some(spp));
-        let rare = plan.job.settings.target.map(|t| (sums.rare_light_share(t.floor_spp()), t.floor_spp()));
-        c.estimate = sums.error_estimate().map(|e| (e.relative_rmse, estimate_may_read(&e, rare)));
+        let low = plan.job.settings.target.map(|t| sums.low_reading(&t));
+        c.estimate = sums.error_estimate().map(|e| (e.relative_rmse, estimate_may_read(&e, low)));
     }
     let settings = crate::image::output::WriteSettings {
         encoding: plan.job.settings.encoding,

@@ -75,7 +75,42 @@ pub fn encode_exr(film: &Film, aovs: &AovLayers, half: bool) -> Result<Vec<u8>, 
     bytes.try_reserve_exact(raw.saturating_add(raw / 64)).map_err(|_| out_of_memory("encoded file"))?;
     let mut out = std::io::Cursor::new(bytes);
     Image::from_layer(layer).write().to_buffered(&mut out).map_err(|e| e.to_string())?;
-    Ok(out.into_inner())
+    let mut bytes = out.into_inner();
+    sort_header(&mut bytes)?;
+    Ok(bytes)
+}
+
+/// Puts a single-part EXR file's header attributes in name order, in place.
+///
+/// The `exr` crate keeps custom attributes in a `HashMap` and writes them in its random order, so
+/// two writes of the same image would differ in bytes. Sorting keeps the header's length, so the
+/// offset table after it stays valid.
+pub(crate) fn sort_header(bytes: &mut [u8]) -> Result<(), String> {
+    let bad = || "EXR header is not a single-part header".to_string();
+    let cstr = |at: usize| -> Option<usize> { bytes.get(at..)?.iter().position(|&b| b == 0).map(|n| at + n) };
+    let mut at = 8;
+    let mut records: Vec<(usize, usize, usize)> = Vec::new(); // (start, name end, record end)
+    loop {
+        let name_end = cstr(at).ok_or_else(bad)?;
+        if name_end == at {
+            break;
+        }
+        let type_end = cstr(name_end + 1).ok_or_else(bad)?;
+        let size = bytes.get(type_end + 1..type_end + 5).ok_or_else(bad)?;
+        let size = usize::try_from(i32::from_le_bytes([size[0], size[1], size[2], size[3]])).map_err(|_| bad())?;
+        let end = type_end + 5 + size;
+        if end > bytes.len() {
+            return Err(bad());
+        }
+        records.push((at, name_end, end));
+        at = end;
+    }
+    let start = records.first().map_or(at, |r| r.0);
+    let mut sorted: Vec<&(usize, usize, usize)> = records.iter().collect();
+    sorted.sort_by(|a, b| bytes[a.0..a.1].cmp(&bytes[b.0..b.1]));
+    let header: Vec<u8> = sorted.iter().flat_map(|r| bytes[r.0..r.2].iter().copied()).collect();
+    bytes[start..start + header.len()].copy_from_slice(&header);
+    Ok(())
 }
 
 /// An EXR file's first layer with every channel, as stored.
@@ -110,4 +145,21 @@ pub fn read_exr_rgb(bytes: &[u8]) -> Result<(usize, usize, Vec<[f32; 3]>), Strin
     };
     let (r, g, b) = (channel("R")?, channel("G")?, channel("B")?);
     Ok((w, h, (0..w * h).map(|i| [r[i], g[i], b[i]]).collect()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The same image encodes to the same bytes every time: the header's own attributes (the
+    /// estimate's two) come in name order, not in a hash map's order, which changes per map.
+    #[test]
+    fn encoding_is_byte_identical_across_writes() {
+        let film = Film::new(3, 2).unwrap();
+        let aovs = AovLayers { error: Some(vec![0.5; 6]), estimate: Some((0.01, "no")), ..Default::default() };
+        let first = encode_exr(&film, &aovs, false).unwrap();
+        for _ in 0..16 {
+            assert_eq!(encode_exr(&film, &aovs, false).unwrap(), first);
+        }
+    }
 }

@@ -169,41 +169,8 @@ pub fn encode_partial(sums: &ShareSums, info: &PartialInfo) -> Result<Vec<u8>, S
     let mut out = std::io::Cursor::new(Vec::new());
     Image::new(image_attributes, layer).write().to_buffered(&mut out).map_err(|e| e.to_string())?;
     let mut bytes = out.into_inner();
-    sort_header(&mut bytes)?;
+    crate::image::exr::sort_header(&mut bytes)?;
     Ok(bytes)
-}
-
-/// Puts a single-part EXR file's header attributes in name order, in place.
-///
-/// The `exr` crate keeps custom attributes in a `HashMap` and writes them in its random order, so
-/// two writes of the same share would differ in bytes. Sorting keeps the header's length, so the
-/// offset table after it stays valid.
-fn sort_header(bytes: &mut [u8]) -> Result<(), String> {
-    let bad = || "EXR header is not a single-part header".to_string();
-    let cstr = |at: usize| -> Option<usize> { bytes.get(at..)?.iter().position(|&b| b == 0).map(|n| at + n) };
-    let mut at = 8;
-    let mut records: Vec<(usize, usize, usize)> = Vec::new(); // (start, name end, record end)
-    loop {
-        let name_end = cstr(at).ok_or_else(bad)?;
-        if name_end == at {
-            break;
-        }
-        let type_end = cstr(name_end + 1).ok_or_else(bad)?;
-        let size = bytes.get(type_end + 1..type_end + 5).ok_or_else(bad)?;
-        let size = usize::try_from(i32::from_le_bytes([size[0], size[1], size[2], size[3]])).map_err(|_| bad())?;
-        let end = type_end + 5 + size;
-        if end > bytes.len() {
-            return Err(bad());
-        }
-        records.push((at, name_end, end));
-        at = end;
-    }
-    let start = records.first().map_or(at, |r| r.0);
-    let mut sorted: Vec<&(usize, usize, usize)> = records.iter().collect();
-    sorted.sort_by(|a, b| bytes[a.0..a.1].cmp(&bytes[b.0..b.1]));
-    let header: Vec<u8> = sorted.iter().flat_map(|r| bytes[r.0..r.2].iter().copied()).collect();
-    bytes[start..start + header.len()].copy_from_slice(&header);
-    Ok(())
 }
 
 /// Why a partial file cannot be used.

@@ -107,6 +107,8 @@ impl ErrorTarget {
     /// the mirror); 0.000–0.002 at 0.0125 (0.82×); `pbr-spheres` 0.008–0.033 where it read
     /// 0.70–0.84×, 0 from 0.025 on (0.83–0.85×); `path-cornell` ≤ 0.005 (0.93–1.04×), `quality` 0.
     /// (It was 0.03 until the stratified numbers moved `environment` at 0.025 to 0.61×, unflagged.)
+    /// With six seeds a target it missed readings below 1/1.5 (`environment` from 0.0125 on,
+    /// `pbr-spheres` at 0.1): [`crate::render::share::LowReading::FEW_PIXELS`] flags those.
     pub const RARE_SHARE: f64 = 0.01;
 
     /// The error `p` must reach to stop at its `n` samples: `error · √(n / min_spp)`.

@@ -10,7 +10,7 @@
 use crate::render::accum::{AovSum, PixelSum};
 use crate::render::aov::AovLayers;
 use crate::render::film::{Film, OutOfMemory, try_filled};
-use crate::render::job::{Antialiasing, RenderSettings};
+use crate::render::job::{Antialiasing, ErrorTarget, RenderSettings};
 use glam::Vec3;
 use serde::Serialize;
 
@@ -391,7 +391,7 @@ impl ShareSums {
             relative_rmse: (variance / pixels as f64).sqrt() / (mean / pixels as f64).max(f64::MIN_POSITIVE),
             pixels,
             mean_spp,
-            reads_high: mean_spp < ErrorEstimate::FEW_SPP,
+            reads_high: mean_spp < ErrorEstimate::FEW_SPP && self.sampling.target.is_none(),
         })
     }
 
@@ -412,6 +412,67 @@ impl ShareSums {
         }
         if all > 0.0 { rare / all } else { 0.0 }
     }
+
+    /// How many pixels the image's estimated variance rests on: `(Σ vᵢ)² / Σ vᵢ²` over the
+    /// pixels' squared standard errors `vᵢ` ([`PixelSum::std_error`]; Kish's effective count),
+    /// the number of equally noisy pixels whose variance would be as concentrated. Each pixel's
+    /// share of the image's estimate comes from its own few samples, so an estimate resting on
+    /// `m` pixels is itself noisy, by about `1/√m`, and so is the true error of one image. 0
+    /// without variance.
+    pub fn effective_pixels(&self) -> f64 {
+        let (mut sum, mut sq) = (0.0f64, 0.0f64);
+        for p in &self.pixels {
+            let Some(e) = p.std_error().filter(|e| e.is_finite()) else { continue };
+            sum += e * e;
+            sq += e * e * e * e;
+        }
+        if sq > 0.0 { sum * sum / sq } else { 0.0 }
+    }
+
+    /// Why the estimate of this image, rendered to `target`, may read low ([`LowReading`]).
+    pub fn low_reading(&self, target: &ErrorTarget) -> LowReading {
+        let first = target.floor_spp();
+        LowReading { rare_share: self.rare_light_share(first), first, pixels: self.effective_pixels() }
+    }
+}
+
+/// What says the estimate of an image rendered to an error target may read low: a pixel stops
+/// when its own samples look quiet, so the pixels that stop are selected for estimates that
+/// are too low. Measured by `benches/error/honesty.py` (2026-11-28, six seeds a target): the
+/// estimate read 0.19–1.01× the true error on `environment` at every target from 0.05 to 0.006,
+/// 0.59–0.97× on `pbr-spheres` from 0.2 to 0.0125, 0.84–1.13× on `path-cornell`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LowReading {
+    /// The share of the estimated variance in pixels lit by samples rarer than one per first
+    /// possible stop ([`ShareSums::rare_light_share`]): caustics, glints, which pixels like them
+    /// that stopped there most likely missed.
+    pub rare_share: f64,
+    /// The target's first possible stop ([`ErrorTarget::floor_spp`]).
+    pub first: u32,
+    /// How many pixels the estimated variance rests on ([`ShareSums::effective_pixels`]).
+    pub pixels: f64,
+}
+
+impl LowReading {
+    /// The effective pixels below which the estimate may read low
+    /// ([`ShareSums::effective_pixels`]): where a few bright pixels hold the variance, each
+    /// reads from few samples, the stop selects the quiet readings, and the estimate and the
+    /// image's true error each vary by about `1/√m` from image to image. Chosen on
+    /// `benches/error/honesty.py` (2026-11-28, six seeds a target): `environment` rests on 6–8
+    /// pixels (the sun seen in and through the balls, its caustics) and read
+    /// 0.19–1.01× the true error, with readings below 1/1.5 at every target from 0.05 to 0.006
+    /// that the rare share missed from 0.0125 on (0.40–0.62×, shares 0–0.003); `pbr-spheres`
+    /// rests on 13–24 and read 0.59–0.97×, below 1/1.5 at 0.1 and 0.05 with shares 0.006–0.008;
+    /// `path-cornell` rests on 61–73 and read 0.84–1.13× (`1/√32` ≈ 0.18: an estimate on 32
+    /// pixels stays within 1.5× at about two standard deviations).
+    pub const FEW_PIXELS: f64 = 32.0;
+
+    /// Whether the summary says the estimate may read low: rare paths hold at least
+    /// [`ErrorTarget::RARE_SHARE`] of it, or it rests on fewer than
+    /// [`LowReading::FEW_PIXELS`] pixels.
+    pub fn flagged(&self) -> bool {
+        self.rare_share >= ErrorTarget::RARE_SHARE || self.pixels < Self::FEW_PIXELS
+    }
 }
 
 /// The estimated error of an image, from the spread of its pixels' samples
@@ -429,17 +490,23 @@ pub struct ErrorEstimate {
     /// Whether the estimate may read high: with fewer than [`ErrorEstimate::FEW_SPP`] samples a
     /// pixel on average, each of a pixel's two halves is stratified much less well than the
     /// whole (a few of a stratified set's points, or of a Sobol net's), so the halves' spread
-    /// over-reads the error of their mean.
+    /// over-reads the error of their mean. Not under an error target, whose stop selects quiet
+    /// readings ([`LowReading`]; it never read above 1.26× there).
     pub reads_high: bool,
 }
 
 impl ErrorEstimate {
     /// The mean samples per pixel below which the estimate may read high
-    /// ([`ErrorEstimate::reads_high`]). Measured against the spread between 12 seeds
-    /// (`benches/error/spread.py`, 2026-11-28): at 2, 4 and 8 spp it read 1.52,
-    /// 1.34 and 2.30× the spread on `path-cornell` (stratified; 1.60, 1.34, 2.20 with the Sobol points
-    /// of a time budget), 1.04–1.25× on `pbr-spheres` and `environment`; from 16 spp on 1.13–1.36×.
-    pub const FEW_SPP: f64 = 16.0;
+    /// ([`ErrorEstimate::reads_high`]). The halves' estimate of the variance of the mean of `n`
+    /// samples is, in expectation, `V(n/2) − V(n)` (the second half of a stratified set fills
+    /// what the first left, so the halves are negatively correlated); where stratification makes
+    /// the error fall faster than `1/√n` it reads `√(V(n/2)/V(n) − 1)` times the true error
+    /// (`benches/error/RESULTS.md`, 2026-11-28). Against the spread between 12 seeds
+    /// (`benches/error/spread.py`): 1.52, 1.34 and 2.30× at 2, 4 and 8 spp on `path-cornell`,
+    /// 1.13–1.36× from 16 spp; against each seed's true error (`honesty.py`'s references) 1.14–1.55×
+    /// at 16 spp over eight seeds (two above 1.5), 0.98–1.35× at 32 over six. It was 16 until
+    /// then.
+    pub const FEW_SPP: f64 = 32.0;
 }
 
 /// One part of a frame to merge, named for messages.
@@ -545,6 +612,37 @@ mod tests {
     use super::*;
     use crate::math::color::Color;
     use crate::render::aov::AovSample;
+
+    /// The pixels an image's estimated variance rests on: all `P` of them when they are equally
+    /// noisy, one when a single pixel holds it, and the summary's "may read low" for few pixels
+    /// even where no rare path is seen (which the rare share alone let through: `environment`
+    /// rests on 6–8 pixels and read 0.40–0.62× at `E` = 0.0125 with shares 0–0.003).
+    #[test]
+    fn an_estimate_on_few_pixels_may_read_low() {
+        let settings = RenderSettings::new(8, 8, 4);
+        let image = |noisy: &dyn Fn(usize) -> bool| {
+            let mut sums = ShareSums::new(&settings, Share::whole(8, 8), false).unwrap();
+            for (i, p) in sums.pixels.iter_mut().enumerate() {
+                for s in 0..4 {
+                    let v = if noisy(i) { [0.2, 1.8, 0.6, 1.4][s] } else { 1.0 };
+                    p.add_sample(Color::splat(v), s % 2 == 1);
+                }
+            }
+            sums
+        };
+        let all = image(&|_| true);
+        assert!((all.effective_pixels() - 64.0).abs() < 1e-9, "{}", all.effective_pixels());
+        let one = image(&|i| i == 9);
+        assert!((one.effective_pixels() - 1.0).abs() < 1e-9, "{}", one.effective_pixels());
+        assert_eq!(image(&|_| false).effective_pixels(), 0.0);
+        let target = ErrorTarget { error: 0.1, min_spp: 4 };
+        let quiet = LowReading { rare_share: 0.0, first: 16, pixels: 64.0 };
+        assert!(!quiet.flagged());
+        assert!(LowReading { pixels: 7.0, ..quiet }.flagged(), "few pixels, no rare path");
+        assert!(LowReading { rare_share: ErrorTarget::RARE_SHARE, ..quiet }.flagged());
+        assert_eq!(one.low_reading(&target).pixels, one.effective_pixels());
+        assert_eq!(one.low_reading(&target).first, target.floor_spp());
+    }
 
     /// A 4 × 2 frame of 2 samples a pixel brought to 2 × 1 pixels of 8: each pixel holds its
     /// block's samples (colour sums, squares, halves, counts, layers) exactly, so it is complete,

@@ -346,7 +346,9 @@ impl PathTracer {
     /// The lights `ray` meets before the surface it hits at `t_hit` (∞: none): their radiance,
     /// weighed against light sampling at the vertex the ray left when it was sampled there with
     /// density `bsdf_pdf` (`None`: a camera ray or a specular event, which light samples cannot
-    /// find, so the light counts in full). Lights do not block each other or rays.
+    /// find, so the light counts in full). Lights do not block each other or rays. A scene
+    /// without lights (lit by its emitters) answers here, inline, without a call.
+    #[inline(always)]
     pub(super) fn emitters<R: Recorder>(
         &self,
         c: &mut Ctx,
@@ -356,6 +358,15 @@ impl PathTracer {
         escape_scale: f64,
         rec: &mut R,
     ) -> Color {
+        if c.scene.lights.is_empty() {
+            return Color::ZERO;
+        }
+        self.lights_met(c, ray, t_hit, bsdf_pdf, escape_scale, rec)
+    }
+
+    /// [`PathTracer::emitters`] where the scene has lights.
+    #[inline(never)]
+    fn lights_met<R: Recorder>(&self, c: &mut Ctx, ray: &Ray, t_hit: f64, bsdf_pdf: Option<f64>, escape_scale: f64, rec: &mut R) -> Color {
         let scene = c.scene;
         // A ray that meets a surface meets no surroundings: where they are the only lights (a
         // sky, an image around the scene), it meets none, and the loop is not set up.
