@@ -4,16 +4,20 @@
 //! and bounded ones in a [`PrimitiveIndex`]: a hierarchy when the scene has enough of them
 //! ([`SCENE_BVH_THRESHOLD`] under `auto`), a list with a box test per object otherwise: for a
 //! dozen analytic shapes, building a hierarchy costs more than it saves (a lone bounded object
-//! gets no box test: its own test culls as well, and a mesh clips rays to its box). Meshes index
+//! gets no box test: its own test culls as well, and a mesh clips rays to its box). A list tests
+//! its boxes four at a time ([`list`]: the same answers as one by one), then the objects whose
+//! box the ray meets, in order. Meshes index
 //! their own triangles, so a scene of meshes is a two-level hierarchy, and a mesh placed several
 //! times is stored once.
 
 pub mod build;
 pub mod bvh;
+mod list;
 #[cfg(feature = "bvh")]
 mod wide;
 
 use crate::accel::bvh::PrimitiveIndex;
+use crate::accel::list::BoxLanes;
 
 pub use crate::accel::build::{AccelChoice, BVH_AVAILABLE, BuildStats, MESH_BVH_THRESHOLD, SCENE_BVH_THRESHOLD};
 use crate::geometry::{Hit, Intersectable, PACKET};
@@ -37,11 +41,21 @@ pub struct ObjectAccel {
     /// Box and object index of each bounded object, in the index's slot order.
     bounded: Vec<(Aabb, u32)>,
     unbounded: Vec<u32>,
+    /// A list's boxes in packs, tested together (empty for a hierarchy).
+    lanes: BoxLanes,
+    /// The slot of each object of a list, by object index (`usize::MAX`: none).
+    slot_of: Vec<usize>,
 }
 
 impl Default for ObjectAccel {
     fn default() -> Self {
-        ObjectAccel { index: PrimitiveIndex::list(0), bounded: Vec::new(), unbounded: Vec::new() }
+        ObjectAccel {
+            index: PrimitiveIndex::list(0),
+            bounded: Vec::new(),
+            unbounded: Vec::new(),
+            lanes: BoxLanes::default(),
+            slot_of: Vec::new(),
+        }
     }
 }
 
@@ -60,8 +74,23 @@ impl ObjectAccel {
         }
         let boxes: Vec<Aabb> = bounded.iter().map(|(b, _)| *b).collect();
         let (index, order, stats) = PrimitiveIndex::build(&boxes, choice.use_bvh(boxes.len(), SCENE_BVH_THRESHOLD));
-        let bounded = order.iter().map(|&i| bounded[i as usize]).collect();
-        (ObjectAccel { index, bounded, unbounded }, stats)
+        let bounded: Vec<(Aabb, u32)> = order.iter().map(|&i| bounded[i as usize]).collect();
+        let (lanes, slot_of) = if index.is_bvh() {
+            (BoxLanes::default(), Vec::new())
+        } else {
+            let mut slot_of = vec![usize::MAX; bounds.len()];
+            for (slot, (_, i)) in bounded.iter().enumerate() {
+                slot_of[*i as usize] = slot;
+            }
+            (BoxLanes::new(bounded.iter().map(|(b, _)| *b)), slot_of)
+        };
+        (ObjectAccel { index, bounded, unbounded, lanes, slot_of }, stats)
+    }
+
+    /// The slot of object `i` in a list (`usize::MAX` when it is not in one).
+    #[inline]
+    fn slot_of(&self, i: u32) -> usize {
+        self.slot_of.get(i as usize).copied().unwrap_or(usize::MAX)
     }
 
     /// The structure over `objects` (the slice it was built for), answering ray queries.
@@ -162,8 +191,10 @@ impl<O: Intersectable> Intersectable for Accelerated<'_, O> {
         if let [(_, i)] = accel.bounded[..] {
             return objects[i as usize].occludes(ray, t_min, t_max);
         }
-        let inv = ray.dir.recip();
-        accel.bounded.iter().any(|(b, i)| b.hit(ray, inv, t_min, t_max) && objects[*i as usize].occludes(ray, t_min, t_max))
+        // The boxes met, in slot order ([`BoxLanes::visit`]: `Aabb::hit`'s answers).
+        accel.lanes.visit(ray.origin, ray.dir.recip(), t_min, t_max, usize::MAX, |slot, _| {
+            objects[accel.bounded[slot].1 as usize].occludes(ray, t_min, t_max)
+        })
     }
 }
 
@@ -205,17 +236,21 @@ impl<O: Intersectable> Accelerated<'_, O> {
                 best = Some(h);
             }
         } else {
-            let inv = ray.dir.recip();
-            for (b, i) in &accel.bounded {
-                let leaves = LEAVING && *i == own;
-                if (leaves || b.hit(ray, inv, t_min, t_max))
-                    && let Some(mut h) = test::<O, LEAVING>(&objects[*i as usize], ray, t_min, t_max, leaves, prim)
+            // The boxes met within the limit, in slot order, all at once ([`BoxLanes::visit`]:
+            // `Aabb::hit`'s answers); each is tested again against the limit as it shrinks.
+            let own_slot = if LEAVING { accel.slot_of(own) } else { usize::MAX };
+            accel.lanes.visit(ray.origin, ray.dir.recip(), t_min, t_max, own_slot, |slot, near| {
+                let leaves = LEAVING && slot == own_slot;
+                let i = accel.bounded[slot].1;
+                if (leaves || !(near > t_max))
+                    && let Some(mut h) = test::<O, LEAVING>(&objects[i as usize], ray, t_min, t_max, leaves, prim)
                 {
-                    h.object = *i;
+                    h.object = i;
                     t_max = h.t;
                     best = Some(h);
                 }
-            }
+                false
+            });
         }
         best
     }
@@ -298,9 +333,8 @@ impl<O: Intersectable> Accelerated<'_, O> {
         } else if let [(_, i)] = accel.bounded[..] {
             other(i)
         } else {
-            let inv = ray.dir.recip();
-            // The own object first: it is asked below, without its box.
-            accel.bounded.iter().any(|(b, i)| *i != own && b.hit(ray, inv, t_min, t_max) && other(*i))
+            // The own object is asked below, without its box.
+            accel.lanes.visit(ray.origin, ray.dir.recip(), t_min, t_max, usize::MAX, |slot, _| other(accel.bounded[slot].1))
         };
         blocked || objects[own as usize].occludes_leaving(ray, t_min, t_max, from.prim)
     }
@@ -426,7 +460,9 @@ impl<O: Intersectable> Accelerated<'_, O> {
         if let [(_, i)] = accel.bounded[..] {
             return i != skip && objects[i as usize].occludes(ray, t_min, t_max);
         }
-        let inv = ray.dir.recip();
-        accel.bounded.iter().any(|(b, i)| b.hit(ray, inv, t_min, t_max) && *i != skip && objects[*i as usize].occludes(ray, t_min, t_max))
+        accel.lanes.visit(ray.origin, ray.dir.recip(), t_min, t_max, usize::MAX, |slot, _| {
+            let i = accel.bounded[slot].1;
+            i != skip && objects[i as usize].occludes(ray, t_min, t_max)
+        })
     }
 }
