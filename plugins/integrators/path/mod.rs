@@ -449,7 +449,8 @@ impl PathTracer {
             if !(self.roulette_number(d, sampler) < survive) {
                 c.stats.add(counter::ROULETTE_ENDED, 1);
                 rec.note(|| format!("Russian roulette ends the path (survival probability {survive:.4})"));
-                return Color::ZERO;
+                // The branch not taken was counted at this vertex, before the gamble: it stays.
+                return escaped;
             }
             weight /= survive;
             rec.term(|| Term::number("survival", survive));
