@@ -75,7 +75,13 @@ impl PlaneEquation {
     #[inline(always)]
     pub fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<(f64, DVec3, DVec3)> {
         let (t, p) = self.crossing(ray, t_min, t_max)?;
-        Some((t, p, gamma(8) * (p.abs() + self.q_abs)))
+        Some((t, p, self.error(p)))
+    }
+
+    /// The error bound [`PlaneEquation::intersect`] gives the point `p` it found.
+    #[inline(always)]
+    pub fn error(&self, p: DVec3) -> DVec3 {
+        gamma(8) * (p.abs() + self.q_abs)
     }
 
     /// Whether [`PlaneEquation::intersect`] finds a hit: the same decision, without the error
@@ -87,7 +93,7 @@ impl PlaneEquation {
 
     /// `t` and the point projected onto the plane, where [`PlaneEquation::intersect`] hits.
     #[inline(always)]
-    fn crossing(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<(f64, DVec3)> {
+    pub fn crossing(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<(f64, DVec3)> {
         if let Some((k, sign)) = self.axis {
             return self.crossing_along(ray, k, sign, t_min, t_max);
         }
@@ -210,6 +216,17 @@ impl Intersectable for Plane {
     #[inline]
     fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
         self.equation.crosses(ray, t_min, t_max)
+    }
+    #[inline]
+    fn intersect_into(&self, ray: &Ray, t_min: f64, t_max: f64, hit: &mut Hit) -> bool {
+        let Some((t, point)) = self.equation.crossing(ray, t_min, t_max) else { return false };
+        *hit = Hit { t, point, error: self.equation.error(point), uv: DVec2::ZERO, prim: 0, object: 0 };
+        true
+    }
+    /// One plane.
+    #[inline]
+    fn is_flat(&self) -> bool {
+        true
     }
     /// A normal along an axis: [`PlaneEquation::intersect_packet_along`]; else the rays one
     /// after the other through the inlined test of [`Plane::intersect`]. The same hits, bit for

@@ -127,6 +127,13 @@ impl Intersectable for Sphere {
     fn occludes(&self, ray: &Ray, t_min: f64, t_max: f64) -> bool {
         self.first_root(ray, ray.origin - self.center, t_min, t_max).is_some()
     }
+    /// [`Sphere::intersect`], the hit written in place.
+    fn intersect_into(&self, ray: &Ray, t_min: f64, t_max: f64, hit: &mut Hit) -> bool {
+        let f = ray.origin - self.center;
+        let Some(t) = self.first_root(ray, f, t_min, t_max) else { return false };
+        *hit = self.hit_at(ray, f, t);
+        true
+    }
     /// The rays one after the other through the inlined test of [`Sphere::intersect`] (one call
     /// for the packet, not one per ray): the same hits, bit for bit.
     #[inline]

@@ -218,6 +218,11 @@ impl Intersectable for Triangle {
     fn intersect_leaving(&self, _: &Ray, _: f64, _: f64, _: u32) -> Option<Hit> {
         None
     }
+    /// One plane.
+    #[inline]
+    fn is_flat(&self) -> bool {
+        true
+    }
 }
 
 impl Geometry for Triangle {

@@ -31,6 +31,8 @@ pub struct BoxPack {
     lo: [[f64; LANES]; 3],
     /// `hi[axis][lane]`: their maxima.
     hi: [[f64; LANES]; 3],
+    /// The mask of the lanes that hold a box of the list (the others are masked off).
+    valid: u32,
 }
 
 /// What a pack's slab test gives: the mask of the lanes whose box the ray meets within
@@ -42,7 +44,6 @@ pub type PackHits = (u32, [f64; LANES]);
 #[derive(Clone, Debug, Default)]
 pub struct BoxLanes {
     packs: Vec<BoxPack>,
-    len: usize,
     avx: bool,
 }
 
@@ -66,23 +67,26 @@ impl BoxLanes {
     /// The boxes, in slot order.
     pub fn new(boxes: impl ExactSizeIterator<Item = Aabb>) -> BoxLanes {
         let len = boxes.len();
-        let empty = BoxPack { lo: [[f64::INFINITY; LANES]; 3], hi: [[f64::NEG_INFINITY; LANES]; 3] };
+        let empty = BoxPack { lo: [[f64::INFINITY; LANES]; 3], hi: [[f64::NEG_INFINITY; LANES]; 3], valid: 0 };
         let mut packs = vec![empty; len.div_ceil(LANES)];
         for (slot, b) in boxes.enumerate() {
             let p = &mut packs[slot / LANES];
+            p.valid |= 1 << (slot % LANES);
             for axis in 0..3 {
                 p.lo[axis][slot % LANES] = b.min[axis];
                 p.hi[axis][slot % LANES] = b.max[axis];
             }
         }
-        BoxLanes { packs, len, avx: avx_available() }
+        BoxLanes { packs, avx: avx_available() }
     }
 
     /// Calls `visit(slot, t_near)` for every box the ray from `origin` with reciprocal direction
     /// `inv` meets within `(t_min, t_max)` by [`Aabb::hit`], in slot order, and for slot `always`
-    /// (if any) at its place whatever its box; stops when `visit` returns true, and says whether
-    /// it did. `visit` itself tests a box against a limit lowered since (`!(t_near > t)`). The
-    /// boxes of [`CHUNK`] slots are tested at once, before any is visited.
+    /// (if any) at its place whatever its box, but never for slot `never`; stops when `visit`
+    /// returns true, and says whether it did. `visit` itself tests a box against a limit lowered
+    /// since (`!(t_near > t)`). The boxes of [`CHUNK`] slots are tested at once, before any is
+    /// visited.
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     pub fn visit(
         &self,
@@ -91,17 +95,18 @@ impl BoxLanes {
         t_min: f64,
         t_max: f64,
         always: usize,
+        never: usize,
         mut visit: impl FnMut(usize, f64) -> bool,
     ) -> bool {
-        for (c, packs) in self.packs.chunks(CHUNK / LANES).enumerate() {
-            let (mut mask, near) = self.chunk_hits(packs, origin, inv, t_min, t_max);
-            let first = c * CHUNK;
-            let used = self.len - first;
-            if used < CHUNK {
-                mask &= (1 << used) - 1;
-            }
+        let mut near = [0.0; CHUNK];
+        let mut first = 0;
+        for packs in self.packs.chunks(CHUNK / LANES) {
+            let mut mask = self.chunk_hits(packs, origin, inv, t_min, t_max, &mut near);
             if always.wrapping_sub(first) < CHUNK {
                 mask |= 1 << (always - first);
+            }
+            if never.wrapping_sub(first) < CHUNK {
+                mask &= !(1 << (never - first));
             }
             while mask != 0 {
                 let slot = mask.trailing_zeros() as usize;
@@ -110,44 +115,43 @@ impl BoxLanes {
                     return true;
                 }
             }
+            first += CHUNK;
         }
         false
     }
 
-    /// The slab tests of up to [`CHUNK`] boxes (`packs`): the mask of those met, and their entry
-    /// distances, lane `LANES·p + l` for lane `l` of pack `p`. Out of line, in either copy: the
-    /// caller's loop keeps no vector set-up across the objects' tests.
+    /// The slab tests of up to [`CHUNK`] boxes (`packs`): the mask of those met (lanes past the
+    /// list's end left out), their entry distances written to `near`, lane `LANES·p + l` for lane
+    /// `l` of pack `p`. Out of line, in either copy: the caller's loop keeps no vector set-up
+    /// across the objects' tests.
     #[inline(always)]
-    fn chunk_hits(&self, packs: &[BoxPack], origin: DVec3, inv: DVec3, t_min: f64, t_max: f64) -> ChunkHits {
+    fn chunk_hits(&self, packs: &[BoxPack], origin: DVec3, inv: DVec3, t_min: f64, t_max: f64, near: &mut [f64; CHUNK]) -> u32 {
         #[cfg(target_arch = "x86_64")]
         if self.avx {
             // SAFETY: `avx` is set only where `avx_available` found AVX on this CPU.
-            return unsafe { chunk_hits_avx(packs, origin, inv, t_min, t_max) };
+            return unsafe { chunk_hits_avx(packs, origin, inv, t_min, t_max, near) };
         }
-        chunk_hits_baseline(packs, origin, inv, t_min, t_max)
+        chunk_hits_baseline(packs, origin, inv, t_min, t_max, near)
     }
 }
 
 /// [`BoxLanes::chunk_hits`] in the baseline build: SSE2 halves on x86-64, lane by lane elsewhere.
 #[inline(never)]
-fn chunk_hits_baseline(packs: &[BoxPack], origin: DVec3, inv: DVec3, t_min: f64, t_max: f64) -> ChunkHits {
-    let (mut mask, mut near) = (0, [0.0; CHUNK]);
+fn chunk_hits_baseline(packs: &[BoxPack], origin: DVec3, inv: DVec3, t_min: f64, t_max: f64, near: &mut [f64; CHUNK]) -> u32 {
+    let mut mask = 0;
     for (p, pack) in packs.iter().enumerate().take(CHUNK / LANES) {
         #[cfg(target_arch = "x86_64")]
         let (m, n) = pack.hits_sse2(origin, inv, t_min, t_max);
         #[cfg(not(target_arch = "x86_64"))]
         let (m, n) = pack.hits_scalar(origin, inv, t_min, t_max);
-        mask |= m << (p * LANES);
+        mask |= (m & pack.valid) << (p * LANES);
         near[p * LANES..(p + 1) * LANES].copy_from_slice(&n);
     }
-    (mask, near)
+    mask
 }
 
 /// Boxes tested in one call of the slab test ([`BoxLanes::visit`]): two packs.
 pub const CHUNK: usize = 2 * LANES;
-
-/// The mask of the boxes of a chunk the ray meets, and each one's entry distance.
-type ChunkHits = (u32, [f64; CHUNK]);
 
 /// [`BoxLanes::chunk_hits`] compiled for AVX: a leaf function, its broadcasts made once for the
 /// chunk's packs.
@@ -157,15 +161,15 @@ type ChunkHits = (u32, [f64; CHUNK]);
 #[cfg(target_arch = "x86_64")]
 #[inline(never)]
 #[target_feature(enable = "avx")]
-unsafe fn chunk_hits_avx(packs: &[BoxPack], origin: DVec3, inv: DVec3, t_min: f64, t_max: f64) -> ChunkHits {
-    let (mut mask, mut near) = (0, [0.0; CHUNK]);
+unsafe fn chunk_hits_avx(packs: &[BoxPack], origin: DVec3, inv: DVec3, t_min: f64, t_max: f64, near: &mut [f64; CHUNK]) -> u32 {
+    let mut mask = 0;
     for (p, pack) in packs.iter().enumerate().take(CHUNK / LANES) {
         // SAFETY: the caller guarantees AVX.
         let (m, n) = unsafe { pack.hits_avx(origin, inv, t_min, t_max) };
-        mask |= m << (p * LANES);
+        mask |= (m & pack.valid) << (p * LANES);
         near[p * LANES..(p + 1) * LANES].copy_from_slice(&n);
     }
-    (mask, near)
+    mask
 }
 
 impl BoxPack {
@@ -333,8 +337,8 @@ mod tests {
         assert!(agreed[0] > 10_000 && agreed[1] > 10_000, "{agreed:?}");
     }
 
-    /// `visit` goes through the boxes met in slot order, adds the `always` slot at its place, and
-    /// stops when asked.
+    /// `visit` goes through the boxes met in slot order, adds the `always` slot at its place,
+    /// leaves the `never` slot out, and stops when asked.
     #[test]
     fn visit_goes_in_slot_order_and_stops() {
         let unit = |x: f64| Aabb { min: DVec3::new(x, -1.0, -1.0), max: DVec3::new(x + 1.0, 1.0, 1.0) };
@@ -345,14 +349,20 @@ mod tests {
         let lanes = BoxLanes::new(boxes.iter().copied());
         let (origin, dir) = (DVec3::new(-1.0, 0.0, 0.0), DVec3::X);
         let mut seen = Vec::new();
-        let stopped = lanes.visit(origin, dir.recip(), 0.0, f64::INFINITY, 3, |slot, _| {
+        let stopped = lanes.visit(origin, dir.recip(), 0.0, f64::INFINITY, 3, usize::MAX, |slot, _| {
             seen.push(slot);
             false
         });
         assert!(!stopped);
         assert_eq!(seen, [0, 1, 2, 3, 4, 5]);
         seen.clear();
-        let stopped = lanes.visit(origin, dir.recip(), 0.0, f64::INFINITY, usize::MAX, |slot, near| {
+        lanes.visit(origin, dir.recip(), 0.0, f64::INFINITY, usize::MAX, 2, |slot, _| {
+            seen.push(slot);
+            false
+        });
+        assert_eq!(seen, [0, 1, 4, 5]);
+        seen.clear();
+        let stopped = lanes.visit(origin, dir.recip(), 0.0, f64::INFINITY, usize::MAX, usize::MAX, |slot, near| {
             seen.push(slot);
             assert_eq!(near, 1.0 + 2.0 * slot as f64);
             slot == 4

@@ -126,7 +126,12 @@ pub struct Accelerated<'a, O> {
 impl<O: Intersectable> Intersectable for Accelerated<'_, O> {
     #[inline]
     fn intersect(&self, ray: &Ray, t_min: f64, t_max: f64) -> Option<Hit> {
-        self.closest::<false>(ray, t_min, t_max, (u32::MAX, 0))
+        let mut best = Hit::new(0.0, glam::DVec3::ZERO, glam::DVec3::ZERO);
+        self.closest::<false>(ray, t_min, t_max, (u32::MAX, 0), &mut best).then_some(best)
+    }
+    #[inline]
+    fn intersect_into(&self, ray: &Ray, t_min: f64, t_max: f64, hit: &mut Hit) -> bool {
+        self.closest::<false>(ray, t_min, t_max, (u32::MAX, 0), hit)
     }
 
     /// The unbounded objects ray by ray, then a lone bounded object's own packet query
@@ -186,73 +191,121 @@ impl<O: Intersectable> Intersectable for Accelerated<'_, O> {
             return true;
         }
         if accel.index.is_bvh() {
-            return accel.index.any(ray, t_min, t_max, |slot| objects[accel.bounded[slot as usize].1 as usize].occludes(ray, t_min, t_max));
+            return self.any_bvh_except(ray, t_min, t_max, u32::MAX);
         }
         if let [(_, i)] = accel.bounded[..] {
             return objects[i as usize].occludes(ray, t_min, t_max);
         }
         // The boxes met, in slot order ([`BoxLanes::visit`]: `Aabb::hit`'s answers).
-        accel.lanes.visit(ray.origin, ray.dir.recip(), t_min, t_max, usize::MAX, |slot, _| {
+        accel.lanes.visit(ray.origin, ray.dir.recip(), t_min, t_max, usize::MAX, usize::MAX, |slot, _| {
             objects[accel.bounded[slot].1 as usize].occludes(ray, t_min, t_max)
         })
     }
 }
 
-impl<O: Intersectable> Accelerated<'_, O> {
-    /// [`Intersectable::intersect`]; with `LEAVING`, object `own` is asked
-    /// [`Intersectable::intersect_leaving`] its primitive `prim`, without its box (its test is
-    /// exact either way, and a flat primitive skips it): [`Accelerated::intersect_leaving`].
-    #[inline(always)]
-    fn closest<const LEAVING: bool>(&self, ray: &Ray, t_min: f64, mut t_max: f64, (own, prim): (u32, u32)) -> Option<Hit> {
-        let (accel, objects) = (self.accel, self.objects);
-        #[inline(always)]
-        fn test<O: Intersectable, const LEAVING: bool>(o: &O, ray: &Ray, t_min: f64, t_max: f64, leaves: bool, prim: u32) -> Option<Hit> {
-            if LEAVING && leaves { o.intersect_leaving(ray, t_min, t_max, prim) } else { o.intersect(ray, t_min, t_max) }
+/// Asks `o` for a hit closer than `t_max` into `best` ([`Intersectable::intersect_into`]), or,
+/// when `LEAVING` and `leaves`, [`Intersectable::intersect_leaving`] its primitive `prim`; true
+/// when it wrote one.
+#[inline(always)]
+fn test<O: Intersectable, const LEAVING: bool>(o: &O, ray: &Ray, t_min: f64, t_max: f64, leaves: bool, prim: u32, best: &mut Hit) -> bool {
+    if LEAVING && leaves {
+        match o.intersect_leaving(ray, t_min, t_max, prim) {
+            Some(h) => {
+                *best = h;
+                true
+            }
+            None => false,
         }
-        let mut best: Option<Hit> = None;
+    } else {
+        o.intersect_into(ray, t_min, t_max, best)
+    }
+}
+
+impl<O: Intersectable> Accelerated<'_, O> {
+    /// [`Intersectable::intersect`] into `best` (as [`Intersectable::intersect_into`]: written
+    /// only when a hit is found, and then true); with `LEAVING`, object `own` is asked
+    /// [`Intersectable::intersect_leaving`] its primitive `prim`, without its box (its test is
+    /// exact either way, and a flat primitive skips it), or not at all where it is flat
+    /// ([`Intersectable::is_flat`]: it has nothing to answer): [`Accelerated::intersect_leaving`].
+    /// The closest hit so far is kept in `best`, which the objects write into. The hierarchy's
+    /// walk is out of line: a list's query keeps a small frame.
+    #[inline(always)]
+    fn closest<const LEAVING: bool>(&self, ray: &Ray, t_min: f64, mut t_max: f64, (own, prim): (u32, u32), best: &mut Hit) -> bool {
+        let (accel, objects) = (self.accel, self.objects);
+        // Whether the own object is asked at all (a flat one meets nothing of itself).
+        let own_asked = LEAVING && objects.get(own as usize).is_some_and(|o| !o.is_flat());
+        let mut found = false;
         for &i in &accel.unbounded {
-            if let Some(mut h) = test::<O, LEAVING>(&objects[i as usize], ray, t_min, t_max, i == own, prim) {
-                h.object = i;
-                t_max = h.t;
-                best = Some(h);
+            let leaves = LEAVING && i == own;
+            if leaves && !own_asked {
+                continue;
+            }
+            if test::<O, LEAVING>(&objects[i as usize], ray, t_min, t_max, leaves, prim, best) {
+                best.object = i;
+                t_max = best.t;
+                found = true;
             }
         }
         if accel.index.is_bvh() {
-            // Ties go to the smallest slot (the index's tie rule); unbounded objects, tested
-            // first, win ties with bounded ones.
-            if let Some((_, _, h)) = accel.index.closest(ray, t_min, t_max, |slot, limit| {
-                let i = accel.bounded[slot as usize].1;
-                let mut h = test::<O, LEAVING>(&objects[i as usize], ray, t_min, limit, i == own, prim)?;
-                h.object = i;
-                Some((h.t, h))
-            }) {
-                best = Some(h);
-            }
-        } else if let [(_, i)] = accel.bounded[..] {
+            return self.closest_bvh::<LEAVING>(ray, t_min, t_max, (own, prim), own_asked, best) || found;
+        }
+        if let [(_, i)] = accel.bounded[..] {
             // One bounded object: its own test culls as well as its box would (a mesh clips the
             // ray to its box anyway), without the three divisions of the box test.
-            if let Some(mut h) = test::<O, LEAVING>(&objects[i as usize], ray, t_min, t_max, i == own, prim) {
-                h.object = i;
-                best = Some(h);
+            let leaves = LEAVING && i == own;
+            if (!leaves || own_asked) && test::<O, LEAVING>(&objects[i as usize], ray, t_min, t_max, leaves, prim, best) {
+                best.object = i;
+                found = true;
             }
-        } else {
-            // The boxes met within the limit, in slot order, all at once ([`BoxLanes::visit`]:
-            // `Aabb::hit`'s answers); each is tested again against the limit as it shrinks.
-            let own_slot = if LEAVING { accel.slot_of(own) } else { usize::MAX };
-            accel.lanes.visit(ray.origin, ray.dir.recip(), t_min, t_max, own_slot, |slot, near| {
-                let leaves = LEAVING && slot == own_slot;
-                let i = accel.bounded[slot].1;
-                if (leaves || !(near > t_max))
-                    && let Some(mut h) = test::<O, LEAVING>(&objects[i as usize], ray, t_min, t_max, leaves, prim)
-                {
-                    h.object = i;
-                    t_max = h.t;
-                    best = Some(h);
-                }
-                false
-            });
+            return found;
         }
-        best
+        // The boxes met within the limit, in slot order, all at once ([`BoxLanes::visit`]:
+        // `Aabb::hit`'s answers); each is tested again against the limit as it shrinks. The own
+        // object is asked at its place without its box, or left out when flat.
+        let own_slot = if LEAVING { accel.slot_of(own) } else { usize::MAX };
+        let (always, never) = if own_asked { (own_slot, usize::MAX) } else { (usize::MAX, own_slot) };
+        accel.lanes.visit(ray.origin, ray.dir.recip(), t_min, t_max, always, never, |slot, near| {
+            let leaves = LEAVING && slot == always;
+            let i = accel.bounded[slot].1;
+            if (leaves || !(near > t_max)) && test::<O, LEAVING>(&objects[i as usize], ray, t_min, t_max, leaves, prim, best) {
+                best.object = i;
+                t_max = best.t;
+                found = true;
+            }
+            false
+        });
+        found
+    }
+
+    /// [`Accelerated::closest`]'s walk of a hierarchy, below the hits `best` already holds (up
+    /// to `t_max`).
+    #[inline(never)]
+    fn closest_bvh<const LEAVING: bool>(
+        &self,
+        ray: &Ray,
+        t_min: f64,
+        t_max: f64,
+        (own, prim): (u32, u32),
+        own_asked: bool,
+        best: &mut Hit,
+    ) -> bool {
+        let (accel, objects) = (self.accel, self.objects);
+        // Ties go to the smallest slot (the index's tie rule); unbounded objects, tested first,
+        // win ties with bounded ones.
+        let found = accel.index.closest(ray, t_min, t_max, |slot, limit| {
+            let i = accel.bounded[slot as usize].1;
+            let mut h = if LEAVING && i == own {
+                if !own_asked {
+                    return None;
+                }
+                objects[i as usize].intersect_leaving(ray, t_min, limit, prim)?
+            } else {
+                objects[i as usize].intersect(ray, t_min, limit)?
+            };
+            h.object = i;
+            Some((h.t, h))
+        });
+        found.map(|(_, _, h)| *best = h).is_some()
     }
 
     /// [`Intersectable::intersect`] for a ray leaving `from`, a hit of one of these objects (the
@@ -260,7 +313,15 @@ impl<O: Intersectable> Accelerated<'_, O> {
     /// primitive is flat ([`Intersectable::intersect_leaving`]).
     #[inline]
     pub fn intersect_leaving(&self, ray: &Ray, t_min: f64, t_max: f64, from: &Hit) -> Option<Hit> {
-        self.closest::<true>(ray, t_min, t_max, (from.object, from.prim))
+        let mut best = Hit::new(0.0, glam::DVec3::ZERO, glam::DVec3::ZERO);
+        self.intersect_leaving_into(ray, t_min, t_max, from, &mut best).then_some(best)
+    }
+
+    /// [`Accelerated::intersect_leaving`] into `hit`, as [`Intersectable::intersect_into`]:
+    /// written only when a hit is found, and then true.
+    #[inline]
+    pub fn intersect_leaving_into(&self, ray: &Ray, t_min: f64, t_max: f64, from: &Hit, hit: &mut Hit) -> bool {
+        self.closest::<true>(ray, t_min, t_max, (from.object, from.prim), hit)
     }
 
     /// [`Intersectable::intersect_packet`] over a hierarchy: the unbounded objects ray by ray
@@ -329,14 +390,17 @@ impl<O: Intersectable> Accelerated<'_, O> {
             return true;
         }
         let blocked = if accel.index.is_bvh() {
-            accel.index.any(ray, t_min, t_max, |slot| other(accel.bounded[slot as usize].1))
+            self.any_bvh_except(ray, t_min, t_max, own)
         } else if let [(_, i)] = accel.bounded[..] {
             other(i)
         } else {
             // The own object is asked below, without its box.
-            accel.lanes.visit(ray.origin, ray.dir.recip(), t_min, t_max, usize::MAX, |slot, _| other(accel.bounded[slot].1))
+            let never = accel.slot_of(own);
+            accel.lanes.visit(ray.origin, ray.dir.recip(), t_min, t_max, usize::MAX, never, |slot, _| other(accel.bounded[slot].1))
         };
-        blocked || objects[own as usize].occludes_leaving(ray, t_min, t_max, from.prim)
+        // A flat own object meets nothing of itself ([`Intersectable::is_flat`]).
+        let o = &objects[own as usize];
+        blocked || (!o.is_flat() && o.occludes_leaving(ray, t_min, t_max, from.prim))
     }
 
     /// [`Accelerated::occludes_leaving`] for the shadow rays `rays[k]` of mask `live`, ray `k` up
@@ -442,6 +506,17 @@ impl<O: Intersectable> Accelerated<'_, O> {
         blocked
     }
 
+    /// Whether a bounded object other than `skip` is hit with `t_min < t < t_max`, the hierarchy
+    /// walked out of line (a list's query keeps a small frame).
+    #[inline(never)]
+    fn any_bvh_except(&self, ray: &Ray, t_min: f64, t_max: f64, skip: u32) -> bool {
+        let (accel, objects) = (self.accel, self.objects);
+        accel.index.any(ray, t_min, t_max, |slot| {
+            let i = accel.bounded[slot as usize].1;
+            i != skip && objects[i as usize].occludes(ray, t_min, t_max)
+        })
+    }
+
     /// [`Intersectable::occludes`] leaving out object `skip` (the object not asked): for a
     /// shadow ray that object cannot stop (an emitter's own point, facing the ray, on a convex
     /// shape).
@@ -452,17 +527,13 @@ impl<O: Intersectable> Accelerated<'_, O> {
             return true;
         }
         if accel.index.is_bvh() {
-            return accel.index.any(ray, t_min, t_max, |slot| {
-                let i = accel.bounded[slot as usize].1;
-                i != skip && objects[i as usize].occludes(ray, t_min, t_max)
-            });
+            return self.any_bvh_except(ray, t_min, t_max, skip);
         }
         if let [(_, i)] = accel.bounded[..] {
             return i != skip && objects[i as usize].occludes(ray, t_min, t_max);
         }
-        accel.lanes.visit(ray.origin, ray.dir.recip(), t_min, t_max, usize::MAX, |slot, _| {
-            let i = accel.bounded[slot].1;
-            i != skip && objects[i as usize].occludes(ray, t_min, t_max)
+        accel.lanes.visit(ray.origin, ray.dir.recip(), t_min, t_max, usize::MAX, accel.slot_of(skip), |slot, _| {
+            objects[accel.bounded[slot].1 as usize].occludes(ray, t_min, t_max)
         })
     }
 }

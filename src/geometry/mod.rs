@@ -62,6 +62,31 @@ pub trait Intersectable: Send + Sync {
         self.occludes(ray, t_min, t_max)
     }
 
+    /// [`Intersectable::intersect`] written into `hit`: where `intersect(ray, t_min, t_max)` finds
+    /// a hit, stores exactly that hit in `hit` and returns true; otherwise leaves `hit` alone and
+    /// returns false. A list of objects keeps its closest hit so far in place this way (no `Hit`
+    /// copied per object); a shape overrides it to write its hit there directly. The default
+    /// calls `intersect`.
+    #[inline]
+    fn intersect_into(&self, ray: &Ray, t_min: f64, t_max: f64, hit: &mut Hit) -> bool {
+        match self.intersect(ray, t_min, t_max) {
+            Some(h) => {
+                *hit = h;
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// True when the whole shape is one flat primitive (a plane, a polygon, a triangle): a ray
+    /// leaving it meets nothing of it, so [`Intersectable::intersect_leaving`] and
+    /// [`Intersectable::occludes_leaving`] answer `None` and `false` whatever `prim`, and a list
+    /// of objects does not ask them. False, the default, where the shape does not say.
+    #[inline]
+    fn is_flat(&self) -> bool {
+        false
+    }
+
     /// [`Intersectable::intersect`] for a ray that leaves this shape's primitive `prim` (spawned
     /// off a hit of it, as for [`Intersectable::occludes_leaving`]): a path's next ray. A shape
     /// whose primitive `prim` is flat may leave it out, as `occludes_leaving` does (a ray leaving
@@ -268,6 +293,14 @@ macro_rules! forward_impls {
             #[inline]
             fn intersect_leaving(&self, ray: &Ray, t_min: f64, t_max: f64, prim: u32) -> Option<Hit> {
                 (**self).intersect_leaving(ray, t_min, t_max, prim)
+            }
+            #[inline]
+            fn intersect_into(&self, ray: &Ray, t_min: f64, t_max: f64, hit: &mut Hit) -> bool {
+                (**self).intersect_into(ray, t_min, t_max, hit)
+            }
+            #[inline]
+            fn is_flat(&self) -> bool {
+                (**self).is_flat()
             }
             #[inline]
             fn intersect_packet(

@@ -18,7 +18,7 @@
 //!
 //! So a new shape is its file (the shape, its oracle, its sampler) and one registration line.
 
-use crate::geometry::testing::{ExactSurface, Tolerance, Violation, check_hits_ascending, check_t_window};
+use crate::geometry::testing::{ExactSurface, Tolerance, Violation, check_hits_ascending, check_intersect_into, check_t_window};
 use crate::geometry::{Geometry, Hit};
 use crate::math::float::{MACHINE_EPSILON, NORMAL_TOLERANCE, SURFACE_TOLERANCE, max_abs};
 use crate::math::ray::Ray;
@@ -295,6 +295,7 @@ pub fn check_sample(sampler: &ShapeSampler, seed: u64) -> Result<usize, Violatio
     let tol = sample.tolerance(&ray);
     let g = sample.geometry.as_ref();
     let hits = check_hits_ascending(g, &ray, &tol, sample.exact.as_ref(), sample.max_hits).map_err(|v| named(sampler, s, center, v))?;
+    check_intersect_into(g, &ray, 0.0, f64::INFINITY).map_err(|v| named(sampler, s, center, v))?;
     let span = hits.last().map_or(tol.scale, |h| 1.5 * h.t);
     for _ in 0..3 {
         let (a, b) = (d.uniform(), d.uniform());
@@ -409,6 +410,10 @@ pub fn reintersect(sampler: &ShapeSampler, seed: u64, points: u32, per_point: u3
                 (g.intersect(&spawned, 0.0, f64::INFINITY), g.intersect_leaving(&spawned, 0.0, f64::INFINITY, hit.prim));
             if closest != leaving {
                 tally.fail(at(&format!("intersect_leaving found {leaving:?}, intersect {closest:?}"), d));
+            }
+            // A flat shape is not asked at all: it must meet nothing of itself.
+            if g.is_flat() && closest.is_some() {
+                tally.fail(at(&format!("is_flat, yet the spawned ray met it: {closest:?}"), d));
             }
             // Shadow rays toward a light off the plane / outside the tangent plane, or inside.
             let light = match &sub.form {

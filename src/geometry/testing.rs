@@ -204,10 +204,29 @@ pub fn check_closed_crossings(g: &dyn Geometry, ray: &Ray, hits: &[Hit], origin_
     Ok(())
 }
 
+/// Checks that [`Intersectable::intersect_into`] gives `intersect(ray, t_min, t_max)`'s answer
+/// bit for bit: the same hit written (compared by its `Debug` text, which tells `-0.0` from `0.0`),
+/// or nothing written on a miss.
+///
+/// [`Intersectable::intersect_into`]: crate::geometry::Intersectable::intersect_into
+pub fn check_intersect_into(g: &dyn Geometry, ray: &Ray, t_min: f64, t_max: f64) -> Result<(), Violation> {
+    let untouched = Hit { t: -1.0, point: DVec3::splat(-2.0), error: DVec3::splat(-3.0), uv: glam::DVec2::splat(-4.0), prim: 5, object: 6 };
+    let mut into = untouched;
+    let wrote = g.intersect_into(ray, t_min, t_max, &mut into);
+    let whole = g.intersect(ray, t_min, t_max);
+    let (got, expected) = (format!("{wrote} {into:?}"), format!("{} {:?}", whole.is_some(), whole.unwrap_or(untouched)));
+    if got != expected {
+        return Err(Violation { what: format!("in ({t_min}, {t_max}) intersect_into wrote {got}, intersect gives {expected}"), ray: *ray });
+    }
+    Ok(())
+}
+
 /// Checks that `intersect(ray, t_min, t_max)` (and `occludes`) return exactly the first of `hits`
 /// (all hits of the ray, from [`check_hits_ascending`]) inside `(t_min, t_max)`, or nothing when
-/// none lies there. A hit within a relative `1e-12` of either end may go either way.
+/// none lies there. A hit within a relative `1e-12` of either end may go either way. Also
+/// [`check_intersect_into`] in that window.
 pub fn check_t_window(g: &dyn Geometry, ray: &Ray, hits: &[Hit], t_min: f64, t_max: f64) -> Result<(), Violation> {
+    check_intersect_into(g, ray, t_min, t_max)?;
     let fail = |what: String| Err(Violation { what, ray: *ray });
     let near = |t: f64, end: f64| (t - end).abs() <= 1e-12 * end.abs();
     if hits.iter().any(|h| near(h.t, t_min) || near(h.t, t_max)) {

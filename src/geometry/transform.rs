@@ -233,6 +233,12 @@ impl<G: Geometry> Intersectable for Transformed<G> {
         }
     }
 
+    /// A plane maps to a plane.
+    #[inline]
+    fn is_flat(&self) -> bool {
+        self.inner.is_flat()
+    }
+
     /// [`Transformed::intersect`] asking the inner shape [`Intersectable::intersect_leaving`],
     /// as `occludes_leaving` does.
     #[inline]

@@ -259,14 +259,19 @@ impl Scene {
     /// the interaction is built in the caller's frame.
     #[inline(always)]
     pub fn trace(&self, ray: &Ray) -> Option<Interaction<'_>> {
-        let hit = self.closest_hit(ray)?;
+        let mut hit = Hit::new(0.0, DVec3::ZERO, DVec3::ZERO);
+        if !self.closest_hit(ray, &mut hit) {
+            return None;
+        }
         Some(self.interaction(ray, hit))
     }
 
-    /// The closest hit along `ray` (`0 < t`): [`Scene::trace`]'s traversal, kept out of line.
+    /// The closest hit along `ray` (`0 < t`) into `hit` (written only when there is one, and then
+    /// true): [`Scene::trace`]'s traversal, kept out of line, its hit written where the caller
+    /// keeps it.
     #[inline(never)]
-    fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
-        self.intersect(ray, 0.0, f64::INFINITY)
+    fn closest_hit(&self, ray: &Ray, hit: &mut Hit) -> bool {
+        self.accel.over(&self.objects).intersect_into(ray, 0.0, f64::INFINITY, hit)
     }
 
     /// [`Scene::trace`] for a ray spawned off the hit `from` (a path's next ray, from
@@ -274,15 +279,18 @@ impl Scene {
     /// is flat ([`Intersectable::intersect_leaving`]: its object is not tested again).
     #[inline(always)]
     pub fn trace_leaving(&self, ray: &Ray, from: &Hit) -> Option<Interaction<'_>> {
-        let hit = self.closest_hit_leaving(ray, from)?;
+        let mut hit = Hit::new(0.0, DVec3::ZERO, DVec3::ZERO);
+        if !self.closest_hit_leaving(ray, from, &mut hit) {
+            return None;
+        }
         Some(self.interaction(ray, hit))
     }
 
-    /// The closest hit along `ray` (`0 < t`) leaving `from`: [`Scene::trace_leaving`]'s
-    /// traversal, kept out of line.
+    /// The closest hit along `ray` (`0 < t`) leaving `from`, into `hit` as
+    /// [`Scene::closest_hit`]: [`Scene::trace_leaving`]'s traversal, kept out of line.
     #[inline(never)]
-    fn closest_hit_leaving(&self, ray: &Ray, from: &Hit) -> Option<Hit> {
-        self.accel.over(&self.objects).intersect_leaving(ray, 0.0, f64::INFINITY, from)
+    fn closest_hit_leaving(&self, ray: &Ray, from: &Hit, hit: &mut Hit) -> bool {
+        self.accel.over(&self.objects).intersect_leaving_into(ray, 0.0, f64::INFINITY, from, hit)
     }
 
     /// The interaction of `ray` at `hit` (a hit of this scene: [`Hit::object`] indexes `objects`).

@@ -68,6 +68,8 @@ pub struct Object {
     normal_mapped: bool,
     /// No material can emit: each has no model of its own, no texture and zero `emission`.
     dark: bool,
+    /// [`Intersectable::is_flat`], asked once: the scene's lists read it per ray.
+    flat: bool,
 }
 
 impl Object {
@@ -83,7 +85,19 @@ impl Object {
         let constants = materials.iter().map(Material::constants).collect();
         let normal_mapped = materials.iter().any(|m| m.normal_map.is_some());
         let dark = materials.iter().all(|m| m.model.is_none() && !m.is_textured() && m.emission == Color::ZERO);
-        Object { name: name.into(), geometry, materials, constants, transmissive, closed, sides: EmissionSides::Both, normal_mapped, dark }
+        let flat = geometry.is_flat();
+        Object {
+            name: name.into(),
+            geometry,
+            materials,
+            constants,
+            transmissive,
+            closed,
+            sides: EmissionSides::Both,
+            normal_mapped,
+            dark,
+            flat,
+        }
     }
 
     /// `geometry` with one material.
@@ -185,6 +199,15 @@ impl Intersectable for Object {
     #[inline]
     fn intersect_leaving(&self, ray: &Ray, t_min: f64, t_max: f64, prim: u32) -> Option<Hit> {
         self.geometry.intersect_leaving(ray, t_min, t_max, prim)
+    }
+    #[inline]
+    fn intersect_into(&self, ray: &Ray, t_min: f64, t_max: f64, hit: &mut Hit) -> bool {
+        self.geometry.intersect_into(ray, t_min, t_max, hit)
+    }
+    /// The shape's answer, kept when the object was made.
+    #[inline]
+    fn is_flat(&self) -> bool {
+        self.flat
     }
     #[inline]
     fn intersect_packet(&self, rays: &[Ray; PACKET], live: u32, t_min: f64, t_max: &[f64; PACKET], out: &mut [Hit; PACKET]) -> u32 {
