@@ -315,24 +315,41 @@ impl PathTracer {
     /// as they were.
     /// Only the numbers the BSDF reads (`draws`) are computed; the others are passed over
     /// ([`Sampler::skip_1d`]) and given as 0.5, which the BSDF does not read: the same scatter.
+    /// The stream is forked in each branch of [`PathTracer::stratify`]'s choice: a pixel draw
+    /// reads only the fork's chain and a plain one only its key, so each computes only its own.
     #[inline(never)]
     fn bsdf_numbers(&self, depth: u32, sampler: &Sampler, draws: Draws) -> (f64, DVec2, f64) {
         const UNREAD: f64 = 0.5;
         if !(draws.pick || draws.dir || draws.fresnel) {
             return (UNREAD, DVec2::splat(UNREAD), UNREAD);
         }
-        let mut stream = sampler.fork(TAG_BSDF);
-        let pick = if draws.pick { self.draw_1d(depth, &mut stream) } else { skip(&mut stream, 1, UNREAD) };
-        let u = if draws.dir { self.draw_2d(depth, &mut stream) } else { DVec2::splat(skip(&mut stream, 2, UNREAD)) };
-        let fresnel = if draws.fresnel { self.draw_1d(depth, &mut stream) } else { UNREAD };
-        (pick, u, fresnel)
+        /// The numbers from `stream` by `draw_1d` and `draw_2d` (as [`PathTracer::draw_1d`]
+        /// and [`PathTracer::draw_2d`] choose them).
+        #[inline(always)]
+        fn numbers(
+            mut stream: Sampler,
+            draws: Draws,
+            draw_1d: impl Fn(&mut Sampler) -> f64,
+            draw_2d: impl Fn(&mut Sampler) -> DVec2,
+        ) -> (f64, DVec2, f64) {
+            let pick = if draws.pick { draw_1d(&mut stream) } else { skip(&mut stream, 1, UNREAD) };
+            let u = if draws.dir { draw_2d(&mut stream) } else { DVec2::splat(skip(&mut stream, 2, UNREAD)) };
+            let fresnel = if draws.fresnel { draw_1d(&mut stream) } else { UNREAD };
+            (pick, u, fresnel)
+        }
+        if depth < self.stratify {
+            numbers(sampler.fork(TAG_BSDF), draws, Sampler::pixel_1d, Sampler::pixel_2d)
+        } else {
+            numbers(sampler.fork(TAG_BSDF), draws, Sampler::next_1d, Sampler::next_2d)
+        }
     }
 
     /// The roulette's number at a vertex after `depth` diffuse or glossy bounces (out of line,
     /// as [`PathTracer::bsdf_numbers`]).
     #[inline(never)]
     fn roulette_number(&self, depth: u32, sampler: &Sampler) -> f64 {
-        self.draw_1d(depth, &mut sampler.fork(TAG_ROULETTE))
+        // Forked in each branch, as there.
+        if depth < self.stratify { sampler.fork(TAG_ROULETTE).pixel_1d() } else { sampler.fork(TAG_ROULETTE).next_1d() }
     }
 
     /// The next number of `stream`, at a vertex after `depth` diffuse or glossy bounces:
