@@ -261,16 +261,7 @@ impl Intersectable for Polygon {
     fn is_flat(&self) -> bool {
         true
     }
-    /// A ray leaving the polygon's plane, on either side, does not meet it again (as the plane).
-    #[inline]
-    fn occludes_leaving(&self, _: &Ray, _: f64, _: f64, _: u32) -> bool {
-        false
-    }
-    /// As `occludes_leaving`: nothing to find on the primitive the ray leaves.
-    #[inline]
-    fn intersect_leaving(&self, _: &Ray, _: f64, _: f64, _: u32) -> Option<Hit> {
-        None
-    }
+    flat_leaving!();
 }
 
 impl Geometry for Polygon {
