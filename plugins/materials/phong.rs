@@ -399,23 +399,50 @@ impl Bsdf for PhongBsdf {
 /// weight (`ks`, `kr` and `kt` zero, Fresnel off, `kd` not black: most walls), the
 /// [`LambertBsdf`] that answers every question with the same bits for a fraction of the work
 /// (no five lobes to weigh, no axes, a third of the state to write); else the full model.
+///
+/// The diffuse case is built in place and handed on directly (no copy through a slot shared
+/// with the full model); the full model is built out of line.
 #[inline]
 pub fn with_phong_bsdf<T>(si: &Interaction, f: impl FnOnce(&dyn Bsdf, (bool, bool, bool)) -> T) -> T {
     let m = si.coefficients();
-    let (lambert, full);
-    let (bsdf, numbers): (&dyn Bsdf, _) = match LambertBsdf::of(si, &m) {
-        Some(b) => {
-            lambert = b;
-            (&lambert, LambertBsdf::NUMBERS_READ)
-        }
-        None => {
-            full = PhongBsdf::with_coefficients(si, &m);
-            let numbers = full.numbers_read();
-            (&full, numbers)
-        }
-    };
-    f(bsdf, numbers)
+    match lone_diffuse(&m) {
+        Some(kd) => f(&LambertBsdf { n: si.n, ns: si.ns, kd }, LambertBsdf::NUMBERS_READ),
+        None => with_full_bsdf(si, &m, f),
+    }
 }
+
+/// [`with_phong_bsdf`] for a material with more than a diffuse lobe (or black): the full model.
+#[inline(never)]
+fn with_full_bsdf<T>(si: &Interaction, m: &Coefficients, f: impl FnOnce(&dyn Bsdf, (bool, bool, bool)) -> T) -> T {
+    let full = PhongBsdf::with_coefficients(si, m);
+    let numbers = full.numbers_read();
+    f(&full, numbers)
+}
+
+/// `kd` scaled as [`PhongBsdf`] scales it, when only the Lambertian lobe of `m` has weight (`ks`,
+/// `kr`, `kt` zero in every channel, Fresnel off: `kr` then stays zero, and `kd`'s mean above
+/// zero); `None` otherwise. Every test and value as the full model's, with less work:
+/// - `x == 0.0` (either sign) is `x`'s bits without the sign all clear: one test of the nine
+///   channels' bits together instead of nine comparisons;
+/// - the scale `1 / max(max_channel(kd + ks + kr + kt), 1)`: the zeros added change no channel
+///   but a zero's sign, which the maximum with 1 does not see, so it is `kd`'s largest channel's;
+///   where that is at most 1 the scale is exactly 1 and `kd · 1` is `kd`: no division;
+/// - `mean(kd) > 0`, `(x + y + z) / 3 > 0`: the sum is above zero and its third does not round
+///   to zero, that is the sum is above the smallest subnormal (`5e-324 / 3` rounds to 0, twice
+///   it, the next value, to `5e-324`); NaN fails both.
+#[inline(always)]
+fn lone_diffuse(m: &Coefficients) -> Option<Color> {
+    let bits = [m.ks, m.kr, m.kt].iter().fold(0u64, |a, c| a | c.x.to_bits() | c.y.to_bits() | c.z.to_bits());
+    if m.fresnel != Fresnel::Off || bits << 1 != 0 {
+        return None;
+    }
+    let largest = max_channel(m.kd).max(1.0);
+    let kd = if largest > 1.0 { m.kd * (1.0 / largest) } else { m.kd };
+    (kd.x + kd.y + kd.z > SMALLEST_SUBNORMAL).then_some(kd)
+}
+
+/// The smallest positive `f64` (2⁻¹⁰⁷⁴).
+const SMALLEST_SUBNORMAL: f64 = f64::from_bits(1);
 
 /// [`PhongBsdf`] where only its Lambertian lobe has weight: every answer (`eval`, `pdf`,
 /// `eval_pdf`, `sample`, `albedo`) the full model's, bit for bit, computed as it computes them
@@ -441,14 +468,7 @@ impl LambertBsdf {
     /// `kd`'s mean above zero); `None` otherwise (the full [`PhongBsdf`]).
     #[inline]
     pub fn of(si: &Interaction, m: &Coefficients) -> Option<LambertBsdf> {
-        if m.fresnel != Fresnel::Off || m.ks != Color::ZERO || m.kr != Color::ZERO || m.kt != Color::ZERO {
-            return None;
-        }
-        // As `PhongBsdf::with_coefficients` scales (the zeros added change no channel that
-        // could exceed 1).
-        let scale = 1.0 / max_channel(m.kd + m.ks + m.kr + m.kt).max(1.0);
-        let kd = m.kd * scale;
-        (mean(kd) > 0.0).then_some(LambertBsdf { n: si.n, ns: si.ns, kd })
+        lone_diffuse(m).map(|kd| LambertBsdf { n: si.n, ns: si.ns, kd })
     }
 }
 
@@ -493,5 +513,105 @@ impl Bsdf for LambertBsdf {
         }
         let weight = f * self.ns.dot(dir) / pdf;
         Some(Scatter { dir, weight, pdf: Some(pdf), lobe: Lobe::Diffuse, kind: RayKind::Reflection, eta_squared: 1.0 })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// What `LambertBsdf::of` computed before [`lone_diffuse`] (as `PhongBsdf` computes it): nine
+    /// comparisons with zero, the scale of the four weights' sum, the mean's division.
+    fn lone_diffuse_as_before(m: &Coefficients) -> Option<Color> {
+        if m.fresnel != Fresnel::Off || m.ks != Color::ZERO || m.kr != Color::ZERO || m.kt != Color::ZERO {
+            return None;
+        }
+        let scale = 1.0 / max_channel(m.kd + m.ks + m.kr + m.kt).max(1.0);
+        let kd = m.kd * scale;
+        (mean(kd) > 0.0).then_some(kd)
+    }
+
+    /// [`lone_diffuse`] agrees with the old computation bit for bit over channels at every edge
+    /// (zeros of either sign, subnormals about the mean's rounding to zero, 1 and just above it,
+    /// negatives, infinities, NaN) in every place of every weight, and over random ones.
+    #[test]
+    fn lone_diffuse_answers_as_before_bit_for_bit() {
+        let tiny = f64::from_bits(1);
+        let edges = [
+            0.0,
+            -0.0,
+            tiny,
+            -tiny,
+            2.0 * tiny,
+            3.0 * tiny,
+            1e-300,
+            0.5,
+            0.75,
+            1.0,
+            1.0 + f64::EPSILON,
+            2.5,
+            -0.3,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ];
+        let base = Coefficients {
+            ka: Color::ZERO,
+            kd: Color::ZERO,
+            ks: Color::ZERO,
+            kr: Color::ZERO,
+            kt: Color::ZERO,
+            shininess: 32.0,
+            ior: 1.5,
+            emission: Color::ZERO,
+            blur: 0.0,
+            fresnel: Fresnel::Off,
+        };
+        let same = |m: &Coefficients| {
+            let (new, old) = (lone_diffuse(m), lone_diffuse_as_before(m));
+            let bits = |c: Option<Color>| c.map(|c| c.to_array().map(f64::to_bits));
+            assert_eq!(bits(new), bits(old), "{m:?}");
+            u32::from(new.is_some())
+        };
+        let mut lambert = 0;
+        // Every kd over the edges (three channels), with the other weights zero of either sign.
+        for &x in &edges {
+            for &y in &edges {
+                for &z in &edges {
+                    for zero in [0.0, -0.0] {
+                        let others = Color::splat(zero);
+                        lambert += same(&Coefficients { kd: Color::new(x, y, z), ks: others, kr: others, kt: others, ..base });
+                    }
+                }
+            }
+        }
+        // One edge value in one channel of one other weight, kd fixed: only zeros pass.
+        for &v in &edges {
+            for w in 0..3 {
+                for c in 0..3 {
+                    let mut weights = [Color::ZERO; 3];
+                    weights[w][c] = v;
+                    let [ks, kr, kt] = weights;
+                    same(&Coefficients { kd: Color::new(0.6, 0.3, 0.2), ks, kr, kt, ..base });
+                }
+            }
+        }
+        for fresnel in [Fresnel::Schlick, Fresnel::Exact] {
+            same(&Coefficients { kd: Color::splat(0.5), fresnel, ..base });
+        }
+        // Random weights, most zero.
+        let mut h = 7u64;
+        let mut next = || {
+            h = raylab::math::sampler::mix64(h);
+            let pick = edges[(h % 16) as usize];
+            if h >> 60 < 6 { (h >> 11) as f64 / (1u64 << 53) as f64 * 3.0 - 0.5 } else { pick }
+        };
+        for i in 0..100_000 {
+            let mut c = || Color::new(next(), next(), next());
+            let kd = c();
+            let (ks, kr, kt) = if i % 4 == 0 { (c(), c(), c()) } else { (Color::ZERO, Color::ZERO, Color::ZERO) };
+            lambert += same(&Coefficients { kd, ks, kr, kt, ..base });
+        }
+        assert!(lambert > 20_000, "the diffuse case is exercised ({lambert})");
     }
 }

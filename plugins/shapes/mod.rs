@@ -1,6 +1,24 @@
 //! The report's shapes: plane, sphere, hemisphere (bowl), triangle, quadrangle, convex polygon,
 //! finite capped cylinder and infinite tube.
 
+/// The two `*_leaving` queries of [`raylab::geometry::Intersectable`] for a flat shape (plane,
+/// polygon, triangle), inside its `impl`: a ray leaving its plane, on either side, never meets
+/// it again at `t > 0`, so there is nothing to test (`intersect` and `occludes` would find nothing).
+macro_rules! flat_leaving {
+    () => {
+        /// A ray leaving the flat shape, on either side, does not meet it again.
+        #[inline]
+        fn occludes_leaving(&self, _: &raylab::Ray, _: f64, _: f64, _: u32) -> bool {
+            false
+        }
+        /// As `occludes_leaving`: nothing to find on the primitive the ray leaves.
+        #[inline]
+        fn intersect_leaving(&self, _: &raylab::Ray, _: f64, _: f64, _: u32) -> Option<raylab::geometry::Hit> {
+            None
+        }
+    };
+}
+
 pub mod cylinder;
 pub mod fuzz;
 pub mod hemisphere;

@@ -235,16 +235,7 @@ impl Intersectable for Plane {
         }
         hits
     }
-    /// A ray leaving the plane, on either side, does not meet it again.
-    #[inline]
-    fn occludes_leaving(&self, _: &Ray, _: f64, _: f64, _: u32) -> bool {
-        false
-    }
-    /// As `occludes_leaving`: nothing to find on the primitive the ray leaves.
-    #[inline]
-    fn intersect_leaving(&self, _: &Ray, _: f64, _: f64, _: u32) -> Option<Hit> {
-        None
-    }
+    flat_leaving!();
 }
 
 impl Geometry for Plane {

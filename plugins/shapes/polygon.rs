@@ -201,16 +201,7 @@ impl Intersectable for Polygon {
         }
         Some(Hit { t, point, error, uv: DVec2::ZERO, prim: 0, object: 0 })
     }
-    /// A ray leaving the polygon's plane, on either side, does not meet it again (as the plane).
-    #[inline]
-    fn occludes_leaving(&self, _: &Ray, _: f64, _: f64, _: u32) -> bool {
-        false
-    }
-    /// As `occludes_leaving`: nothing to find on the primitive the ray leaves.
-    #[inline]
-    fn intersect_leaving(&self, _: &Ray, _: f64, _: f64, _: u32) -> Option<Hit> {
-        None
-    }
+    flat_leaving!();
 }
 
 impl Geometry for Polygon {

@@ -208,16 +208,7 @@ impl Intersectable for Triangle {
         let (point, error) = barycentric_point(h.b, p0, p1, p2);
         Some(Hit { t: h.t, point, error, uv: DVec2::new(h.b.y, h.b.z), prim: 0, object: 0 })
     }
-    /// A ray leaving a flat triangle does not meet it again.
-    #[inline]
-    fn occludes_leaving(&self, _: &Ray, _: f64, _: f64, _: u32) -> bool {
-        false
-    }
-    /// As `occludes_leaving`: nothing to find on the primitive the ray leaves.
-    #[inline]
-    fn intersect_leaving(&self, _: &Ray, _: f64, _: f64, _: u32) -> Option<Hit> {
-        None
-    }
+    flat_leaving!();
 }
 
 impl Geometry for Triangle {

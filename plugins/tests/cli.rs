@@ -802,6 +802,127 @@ fn denoise_refuses_a_partial_image() {
     std::fs::remove_dir_all(dir).unwrap();
 }
 
+/// `raylab denoise` does not let NaN, infinite or negative pixels pass in silence (Open Image
+/// Denoise takes them as 0 without a word): it sets those channels to 0 itself and warns with
+/// the count and the first pixel. A stand-in for the tool (`RAYLAB_OIDN`, copying its colour
+/// input to its output) shows what raylab gave it, so the test needs no denoiser.
+#[cfg(unix)]
+#[test]
+fn denoise_warns_of_pixels_it_cannot_filter() {
+    use raylab::glam::Vec3;
+    use std::os::unix::fs::PermissionsExt;
+    let dir = temp_dir("denoise-nan");
+    let tool = dir.join("fake-oidn");
+    std::fs::write(
+        &tool,
+        "#!/bin/sh\nwhile [ $# -gt 0 ]; do case \"$1\" in --hdr) i=\"$2\"; shift;; -o) o=\"$2\"; shift;; esac; shift; done\ncp \"$i\" \"$o\"\n",
+    )
+    .unwrap();
+    std::fs::set_permissions(&tool, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let mut film = raylab::Film::new(4, 3).unwrap();
+    film.pixels.fill(Vec3::splat(0.5));
+    film.pixels[6] = Vec3::new(0.5, f32::NAN, 0.5); // x 2, y 1: the first, row by row
+    film.pixels[9] = Vec3::new(f32::INFINITY, 0.5, 0.5);
+    film.pixels[11] = Vec3::new(0.5, 0.5, -1.0);
+    std::fs::write(dir.join("in.pfm"), raylab::image::reference::encode_pfm(&film)).unwrap();
+    let denoise = |input: &str, output: &str| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_raylab"))
+            .args(["denoise", input, "-o", output])
+            .env("RAYLAB_OIDN", &tool)
+            .current_dir(&dir)
+            .output()
+            .unwrap()
+    };
+    let out = denoise("in.pfm", "out.pfm");
+    let err = text(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("warning: 3 pixels of in.pfm's colour have a channel that is NaN, infinite or negative (the first at x 2, y 1)"),
+        "{err}"
+    );
+    let got = raylab::image::reference::decode_pfm(&std::fs::read(dir.join("out.pfm")).unwrap()).unwrap();
+    let (bad, good) = ([6, 9, 11], Vec3::splat(0.5));
+    assert_eq!(
+        [got.pixels[6], got.pixels[9], got.pixels[11]],
+        [Vec3::new(0.5, 0.0, 0.5), Vec3::new(0.0, 0.5, 0.5), Vec3::new(0.5, 0.5, 0.0)]
+    );
+    assert!(got.pixels.iter().enumerate().all(|(i, p)| bad.contains(&i) || *p == good), "{:?}", got.pixels);
+    // A clean image: no warning.
+    film.pixels.fill(Vec3::splat(0.5));
+    std::fs::write(dir.join("clean.pfm"), raylab::image::reference::encode_pfm(&film)).unwrap();
+    let out = denoise("clean.pfm", "clean-out.pfm");
+    assert!(out.status.success() && !text(&out.stderr).contains("warning"), "{}", text(&out.stderr));
+    let help = text(&raylab(&dir, &["denoise", "--help"]).stdout);
+    assert!(help.contains("NaN, infinite or negative is taken as 0, with a warning"), "{help}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// An error target is a relative RMSE in (0, 1]: an absurd one is refused with the range, and
+/// the summary and messages show targets compactly (`1e-9`, not `0.000000001`; `1e300`, not
+/// 301 digits).
+#[test]
+fn error_targets_are_bounded_and_shown_compactly() {
+    let dir = temp_dir("target-range");
+    let scene = repo().join("scenes/path-cornell.toml");
+    let render = |target: &str, spp: &str| {
+        let args =
+            ["render", scene.to_str().unwrap(), "--width", "8", "--height", "8", "--spp", spp, "-o", "t.png", "--target-min-spp", "2"];
+        raylab(&dir, &[&args[..], &["--target-error", target]].concat())
+    };
+    for absurd in ["1e300", "1.5", "0", "-0.1", "inf", "NaN"] {
+        let out = render(absurd, "4");
+        let err = text(&out.stderr);
+        let finite = absurd.parse::<f64>().unwrap().is_finite();
+        let said = if finite { "expected a relative error (RMSE) in (0, 1]" } else { "expected a finite number" };
+        assert!(!out.status.success() && err.contains(said), "{absurd}: {err}");
+        assert!(err.len() < 600 && !err.contains("0000000000"), "{absurd}: {err}");
+    }
+    assert!(text(&render("1e300", "4").stderr).contains("found 1e300"));
+    let out = render("1e-9", "4");
+    let stdout = text(&out.stdout);
+    assert!(out.status.success() && stdout.contains("to error 1e-9 (4..4 spp)"), "{}{stdout}", text(&out.stderr));
+    let out = render("1", "4");
+    assert!(out.status.success() && text(&out.stdout).contains("to error 1 (2..4 spp)"), "{}", text(&out.stdout));
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// An output whose folder is not there is refused before anything is loaded or traced (it
+/// used to fail only on writing, after the whole render).
+#[test]
+fn an_output_in_no_folder_is_refused_at_once() {
+    let dir = temp_dir("no-folder");
+    std::fs::write(dir.join("file"), "").unwrap();
+    let scene = repo().join("scenes/path-cornell.toml");
+    for (out, said) in [("no/such/x.png", "there is no folder \"no/such\""), ("file/x.png", "\"file\" is not a folder")] {
+        // The scene is loaded after the check: a scene that is not there either is not reached.
+        let out = raylab(&dir, &["render", "missing.toml", "-o", out]);
+        let err = text(&out.stderr);
+        assert!(!out.status.success() && err.contains(said) && !err.contains("missing.toml"), "{err}");
+    }
+    let out = raylab(&dir, &["render", scene.to_str().unwrap(), "-o", "x.png", "--reference", "r.pfm", "--error-csv", "no/e.csv"]);
+    assert!(!out.status.success() && text(&out.stderr).contains("cannot write \"no/e.csv\""), "{}", text(&out.stderr));
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// `render --subpixels K` takes the sides that divide the 16-pixel tiles, and says so.
+#[test]
+fn subpixels_must_divide_the_tiles() {
+    let dir = temp_dir("subpixels-rule");
+    let scene = repo().join("scenes/path-cornell.toml");
+    for (k, ok) in [("3", false), ("6", false), ("32", false), ("0", false), ("4", true)] {
+        let args =
+            ["render", scene.to_str().unwrap(), "--width", "16", "--height", "16", "--spp", "4", "-q", "-o", "s.png", "--subpixels", k];
+        let out = raylab(&dir, &args);
+        let err = text(&out.stderr);
+        assert_eq!(out.status.success(), ok, "--subpixels {k}: {err}");
+        if !ok {
+            assert!(err.contains("K must divide 16, the side of the render's tiles: 1, 2, 4, 8 or 16"), "--subpixels {k}: {err}");
+            assert!(!err.contains("multiples"), "--subpixels {k}: {err}");
+        }
+    }
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
 /// `sweep` varies the light-sampling knobs: the path tracer's `light_samples` and a light's own
 /// parameter as `TYPE.PARAM` (the environment's sampling grid); a parameter the light type has
 /// not, or a type the scene has no light of, is refused.

@@ -12,7 +12,9 @@ use std::path::PathBuf;
 pub(crate) struct DenoiseArgs {
     /// The noisy image: .exr (`--features exr`; its `albedo` and `normal` layers guide the
     /// denoiser when present, and its `emission` layer is left out of the filter: render with
-    /// `--aov albedo,normal,emission`) or .pfm (colour alone).
+    /// `--aov albedo,normal,emission`) or .pfm (colour alone). A colour or emission channel
+    /// that is NaN, infinite or negative is taken as 0, with a warning on stderr that counts
+    /// the pixels and names the first (x, y from the top left).
     input: PathBuf,
     /// The denoised image: .exr, .pfm, .png, .jpg or .jpeg.
     #[arg(short, long)]
@@ -46,7 +48,18 @@ pub(crate) fn run(app: &App, a: DenoiseArgs) -> Result<(), Failure> {
             a.input.display()
         )));
     }
-    let l = read(&a, &ext, &bytes)?;
+    let mut l = read(&a, &ext, &bytes)?;
+    for (layer, bad) in l.clear_unfilterable() {
+        eprintln!(
+            "warning: {} pixel{} of {}'s {layer} {} a channel that is NaN, infinite or negative (the first at x {}, y {}): taken as 0",
+            bad.pixels,
+            if bad.pixels == 1 { "" } else { "s" },
+            a.input.display(),
+            if bad.pixels == 1 { "has" } else { "have" },
+            bad.first.0,
+            bad.first.1
+        );
+    }
     let guides = match (&l.albedo, &l.normal) {
         (Some(_), Some(_)) => "albedo and normal guides",
         (Some(_), None) => "an albedo guide",

@@ -100,7 +100,7 @@ pub(crate) struct SceneArgs {
     /// Adaptive sampling: stop each pixel once the estimated error of its mean (relative, at
     /// luminance 1; over √mean) is at most E × √(samples / --target-min-spp) (e.g. 0.05), so
     /// samples go in proportion to each pixel's noise; --spp is then the most samples a pixel
-    /// takes (stratified sampling).
+    /// takes (stratified sampling). A relative RMSE in (0, 1].
     #[arg(long, value_name = "E", allow_hyphen_values = true)]
     target_error: Option<f64>,
     /// With --target-error: samples every pixel takes before its error is first tested (≥ 2).
@@ -371,6 +371,22 @@ pub(crate) fn refuse_overwrite<'a>(
         }
     }
     Ok(())
+}
+
+/// Refuses an output whose folder is not there, before any work: a render that can only fail
+/// to write should fail at once, not after its tracing (raylab creates no folders).
+pub(crate) fn output_folder_exists(out: &Path) -> Result<(), Failure> {
+    match out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        Some(dir) if dir.exists() && !dir.is_dir() => {
+            Err(Failure::Other(format!("cannot write \"{}\": \"{}\" is not a folder", out.display(), dir.display())))
+        }
+        Some(dir) if !dir.is_dir() => Err(Failure::Other(format!(
+            "cannot write \"{}\": there is no folder \"{}\" (raylab creates no folders)",
+            out.display(),
+            dir.display()
+        ))),
+        _ => Ok(()),
+    }
 }
 
 /// `1234567.0` → `1.23 M`.

@@ -60,8 +60,8 @@ pub(crate) struct RenderArgs {
     /// --target-error or --time-budget each pixel's K × K sub-pixels stop together, on their
     /// merged sums. For a farm's parts of `render --denoise --target-error E` (crops and tiles
     /// of whole blocks): merge them, then `raylab denoise --subpixels K`. Not with --denoise,
-    /// which chooses its own grid.
-    #[arg(long, value_name = "K", allow_hyphen_values = true, value_parser = super::int_in::<u32>(1, i128::from(crate::render::share::MAX_SUBPIXELS)))]
+    /// which chooses its own grid. K divides the render's 16-pixel tiles: 1, 2, 4, 8 or 16.
+    #[arg(long, value_name = "K", allow_hyphen_values = true, value_parser = subpixel_side)]
     subpixels: Option<u32>,
     /// Print the counters of traced and avoided work after the summary.
     #[arg(long)]
@@ -165,6 +165,15 @@ pub(crate) fn partial_path(output: &Path) -> PathBuf {
     let stem = output.file_stem().map_or_else(|| "render".into(), |s| s.to_string_lossy().into_owned());
     let ext = output.extension().map_or_else(String::new, |e| format!(".{}", e.to_string_lossy()));
     output.with_file_name(format!("{stem}.partial{ext}"))
+}
+
+/// Value parser of `--subpixels`: a side of [`crate::render::share::SUBPIXEL_SIDES`], with the
+/// rule in the message (clap's names the option: "invalid value '3' for '--subpixels <K>': …").
+fn subpixel_side(text: &str) -> Result<u32, String> {
+    match text.trim().parse::<u32>() {
+        Ok(k) if crate::render::share::SUBPIXEL_SIDES.contains(&k) => Ok(k),
+        _ => Err(crate::render::share::subpixel_rule()),
+    }
 }
 
 pub(crate) fn run(app: &App, a: RenderArgs) -> Result<(), Failure> {
@@ -343,6 +352,9 @@ fn validate<'a>(app: &'a App, a: &RenderArgs) -> Result<Request<'a>, Failure> {
     }
     let parts = a.crop.is_some() || a.tile.is_some() || a.pass.is_some();
     let format = app.registry.output_format_for(&a.output).map_err(|e| e.to_string())?;
+    for out in std::iter::once(&a.output).chain(&a.error_csv).chain(&a.checkpoint) {
+        super::output_folder_exists(out)?;
+    }
     let exr = format.name == "exr";
     if !format.layers && (a.half || !a.aov.is_empty()) {
         return Err("--half and --aov apply to .exr output only".to_string().into());

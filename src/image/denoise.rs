@@ -312,6 +312,41 @@ pub struct Layers {
     pub emitted: Option<Film>,
 }
 
+/// Pixels a denoiser cannot take: a channel NaN, infinite or negative (what `raylab denoise`
+/// counts and warns of before [`Layers::clear_unfilterable`] sets them to 0).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Unfilterable {
+    /// How many pixels have such a channel.
+    pub pixels: usize,
+    /// The first of them, row by row from the top left: (x, y), 0-based.
+    pub first: (u32, u32),
+}
+
+impl Layers {
+    /// Sets every channel of the colour and emission layers (radiance, ≥ 0) that is NaN,
+    /// infinite or negative to 0, as Open Image Denoise would take it without a word (a NaN
+    /// from another renderer, a negative lobe of a filter), so that raylab, not the tool, decides
+    /// and can say so: returns, per layer that had any, its name and the pixels it had.
+    pub fn clear_unfilterable(&mut self) -> Vec<(&'static str, Unfilterable)> {
+        let mut found = Vec::new();
+        for (name, film) in [("colour", Some(&mut self.color)), ("emission", self.emitted.as_mut())] {
+            let Some(film) = film else { continue };
+            let width = film.width.max(1) as usize;
+            let mut bad: Option<Unfilterable> = None;
+            for (i, p) in film.pixels.iter_mut().enumerate() {
+                let ok = p.to_array().map(|c| c.is_finite() && c >= 0.0);
+                if ok != [true; 3] {
+                    *p = glam::Vec3::select(glam::BVec3::from(ok), *p, glam::Vec3::ZERO);
+                    let b = bad.get_or_insert(Unfilterable { pixels: 0, first: ((i % width) as u32, (i / width) as u32) });
+                    b.pixels += 1;
+                }
+            }
+            found.extend(bad.map(|b| (name, b)));
+        }
+        found
+    }
+}
+
 /// Whether the tool can be found (for tests that need it).
 pub fn available() -> bool {
     find_tool().is_ok()

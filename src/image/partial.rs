@@ -226,20 +226,22 @@ pub fn read_partial(bytes: &[u8], name: &str, max_pixels: u64) -> Result<(ShareS
     }
     let target = match attrs.get(&Text::from("raylab.target_error")) {
         None => None,
-        Some(AttributeValue::F64(e)) if *e > 0.0 && e.is_finite() => {
+        Some(AttributeValue::F64(e)) if *e > 0.0 && *e <= crate::render::job::ErrorTarget::MAX => {
             let min_spp = int("raylab.target_min_spp")?;
             if min_spp < 2 {
                 return Err(err(format!("raylab.target_min_spp is {min_spp}: expected 2 or more")));
             }
             Some(crate::render::job::ErrorTarget { error: *e, min_spp: min_spp as u32 })
         }
-        Some(_) => return Err(err("attribute raylab.target_error is not a number > 0".into())),
+        Some(_) => {
+            return Err(err(format!("attribute raylab.target_error is not a number in (0, {}]", crate::render::job::ErrorTarget::MAX)));
+        }
     };
     let subpixels = match attrs.get(&Text::from("raylab.subpixels")) {
         None => 1,
         Some(_) => match int("raylab.subpixels")? {
-            k @ 1..=crate::render::share::MAX_SUBPIXELS => k as u32,
-            k => return Err(err(format!("raylab.subpixels is {k}: expected 1 to {}", crate::render::share::MAX_SUBPIXELS))),
+            k if u32::try_from(k).is_ok_and(|k| crate::render::share::SUBPIXEL_SIDES.contains(&k)) => k as u32,
+            k => return Err(err(format!("raylab.subpixels is {k}: {}", crate::render::share::subpixel_rule()))),
         },
     };
     let sampling = Sampling { spp: spp as u32, adaptive: adaptive == 1, target, subpixels };

@@ -11,14 +11,14 @@ use crate::load::registry::{BuiltGeometry, Registry};
 use crate::load::textures::TextureLibrary;
 use crate::math::color::Encoding;
 use crate::param::description::SceneDescription;
-use crate::param::error::{Loc, Result, SceneError, Source, did_you_mean};
+use crate::param::error::{Loc, Num, Result, SceneError, Source, did_you_mean};
 use crate::param::fingerprint::{Fingerprint, differing_fields};
 use crate::param::limits::{OBJECT_BYTES, toml_memory_estimate};
 use crate::param::params::Params;
 use crate::param::spec::{ParamDefault, ParamKind, ParamSpec, Role};
 use crate::param::toml::parse_toml;
 use crate::param::value::{Node, Table, Value};
-use crate::render::job::{AdaptiveSettings, MAX_ADAPTIVE_COARSE, MAX_CELL_SAMPLES};
+use crate::render::job::{AdaptiveSettings, ErrorTarget, MAX_ADAPTIVE_COARSE, MAX_CELL_SAMPLES};
 use crate::render::{Antialiasing, MAX_ADAPTIVE_DEPTH, RenderJob, RenderSettings};
 use crate::scene::Scene;
 use crate::scene::camera::{CAMERA_PARAMS, Camera};
@@ -119,7 +119,7 @@ pub const RENDER_PARAMS: &[ParamSpec] = &[
         "target_error",
         ParamKind::Float,
         ParamDefault::Optional,
-        "adaptive sampling: a pixel is tested at target_min_spp samples and each doubling, and stops once the estimated standard error of its mean luminance over √mean (its relative error at luminance 1) is at most this times √(samples / target_min_spp), so samples go in proportion to each pixel's noise (e.g. 0.05); spp is then the most a pixel takes (stratified only)",
+        "adaptive sampling: a pixel is tested at target_min_spp samples and each doubling, and stops once the estimated standard error of its mean luminance over √mean (its relative error at luminance 1) is at most this times √(samples / target_min_spp), so samples go in proportion to each pixel's noise (e.g. 0.05; in (0, 1]); spp is then the most a pixel takes (stratified only)",
     ),
     ParamSpec::new(
         "target_min_spp",
@@ -475,12 +475,17 @@ fn antialiasing(rp: &mut Params) -> Result<Antialiasing> {
 
 /// `[render]`'s error target (`target_error`, `target_min_spp`), checked against `spp` and the
 /// anti-aliasing.
-fn error_target(rp: &mut Params, spp: i64, aa: Antialiasing) -> Result<Option<crate::render::job::ErrorTarget>> {
+fn error_target(rp: &mut Params, spp: i64, aa: Antialiasing) -> Result<Option<ErrorTarget>> {
     let target_min_spp = rp.int_in("target_min_spp", 2..=i64::from(u32::MAX))? as u32;
     Ok(match rp.float_opt("target_error")? {
         None => None,
-        Some(e) if !(e > 0.0 && e.is_finite()) => {
-            return Err(rp.error_at("target_error", format_args!("expected a relative error > 0, found {e}")));
+        Some(e) if !(e > 0.0 && e <= ErrorTarget::MAX) => {
+            return Err(rp
+                .error_at(
+                    "target_error",
+                    format_args!("expected a relative error (RMSE) in (0, {}], found {}", Num(ErrorTarget::MAX), Num(e)),
+                )
+                .with_help("0.05 is 5 %; for a fixed number of samples a pixel, give spp (--spp) without a target"));
         }
         Some(_) if matches!(aa, Antialiasing::Adaptive(_)) => {
             return Err(rp
@@ -495,7 +500,7 @@ fn error_target(rp: &mut Params, spp: i64, aa: Antialiasing) -> Result<Option<cr
                 )
                 .with_help("raise spp (--spp 1024, say) or lower target_min_spp"));
         }
-        Some(error) => Some(crate::render::job::ErrorTarget { error, min_spp: target_min_spp }),
+        Some(error) => Some(ErrorTarget { error, min_spp: target_min_spp }),
     })
 }
 
@@ -507,7 +512,7 @@ fn time_budget(rp: &mut Params, aa: Antialiasing) -> Result<Option<std::time::Du
     Ok(match rp.float_opt("time_budget")? {
         None => None,
         Some(t) if !(t > 0.0 && t <= MAX_TIME_BUDGET) => {
-            return Err(rp.error_at("time_budget", format_args!("expected seconds in (0, {MAX_TIME_BUDGET}], found {t}")));
+            return Err(rp.error_at("time_budget", format_args!("expected seconds in (0, {MAX_TIME_BUDGET}], found {}", Num(t))));
         }
         Some(_) if matches!(aa, Antialiasing::Adaptive(_)) => {
             return Err(rp

@@ -59,8 +59,12 @@ impl Loc {
         Loc { source: source.clone(), start: range.start, end: range.end }
     }
 
-    /// `name:line:col`.
+    /// `name:line:col`; `name` alone in a source with no text (a scene raylab made itself from a
+    /// model file, located at the file: there is no line 1 to point at).
     pub fn describe(&self) -> String {
+        if self.source.text.is_empty() {
+            return self.source.name.clone();
+        }
         let (l, c) = self.source.line_col(self.start);
         format!("{}:{l}:{c}", self.source.name)
     }
@@ -134,7 +138,9 @@ impl SceneError {
     /// The full report: location, message, the offending source line with a caret, and the hint.
     pub fn report(&self) -> String {
         let mut out = self.to_string();
-        if let Location::Span(loc) = &self.location {
+        if let Location::Span(loc) = &self.location
+            && !loc.source.text.is_empty()
+        {
             let (line, col) = loc.source.line_col(loc.start);
             let text = loc.source.line_text(line);
             let width = loc.source.text.get(loc.start..loc.end).map_or(1, |s| s.lines().next().unwrap_or("").chars().count()).max(1);
@@ -191,6 +197,24 @@ fn edit_distance(a: &str, b: &str) -> usize {
     prev[b.len()]
 }
 
+/// A number as messages and summaries show it: as written (`0.05`, `1024`) between
+/// [`Num::PLAIN`]'s bounds, in scientific notation outside them (`1e300`, `1e-9`), where Rust's
+/// `{}` spells out every digit (301 of them for `1e300`). Shortest text that reads back exactly.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Num(pub f64);
+
+impl Num {
+    /// Magnitudes shown as written: `1e-4 ≤ |v| < 1e9` (and 0).
+    pub const PLAIN: (f64, f64) = (1e-4, 1e9);
+}
+
+impl std::fmt::Display for Num {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let v = self.0;
+        if v == 0.0 || !v.is_finite() || (Self::PLAIN.0..Self::PLAIN.1).contains(&v.abs()) { write!(f, "{v}") } else { write!(f, "{v:e}") }
+    }
+}
+
 /// The sentence that says raylab lacks the cargo feature `feature`, and how to build it in:
 /// every error about something a feature would add (a mesh file, EXR output, a BVH) ends with it.
 pub fn built_without(feature: &str) -> String {
@@ -203,6 +227,27 @@ pub fn built_without(feature: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A location in a source with no text (a model file's own scene) names the file alone,
+    /// without a line 1 that is not the file's and an empty snippet.
+    #[test]
+    fn a_location_in_no_text_names_the_file_alone() {
+        let s = Source::new("/models/box.obj", String::new());
+        let e = SceneError::at(&Loc::new(&s, 0..0), "object #0 (mesh): cannot read it").with_help("fix it");
+        assert_eq!(e.report(), "/models/box.obj: object #0 (mesh): cannot read it\n  help: fix it");
+        let s = Source::new("a.toml", "x = 1\n".to_string());
+        assert_eq!(SceneError::at(&Loc::new(&s, 4..5), "bad").report(), "a.toml:1:5: bad\n  |\n1 | x = 1\n  |     ^");
+    }
+
+    #[test]
+    fn numbers_are_compact_and_exact() {
+        let shown: Vec<String> =
+            [0.05, 1024.0, 0.0, 1e300, 1e-9, -2.5e12, f64::INFINITY, 1e-4, 123456789.0].iter().map(|&v| Num(v).to_string()).collect();
+        assert_eq!(shown, ["0.05", "1024", "0", "1e300", "1e-9", "-2.5e12", "inf", "0.0001", "123456789"]);
+        for v in [0.1, 1e300, 3.0e-7, -1.0 / 3.0, f64::MIN_POSITIVE] {
+            assert_eq!(Num(v).to_string().parse::<f64>(), Ok(v), "{v:e} reads back");
+        }
+    }
 
     #[test]
     fn line_and_column_are_one_based_and_count_characters() {

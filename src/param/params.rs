@@ -7,7 +7,7 @@
 //! naming its location (a typo never passes silently).
 
 use crate::math::color::Color;
-use crate::param::error::{Loc, Result, SceneError, did_you_mean};
+use crate::param::error::{Loc, Num, Result, SceneError, did_you_mean};
 use crate::param::spec::{ParamDefault, ParamKind, ParamSpec};
 use crate::param::value::{Node, Table, Value, color_of, vec3_of};
 use glam::DVec3;
@@ -141,20 +141,20 @@ impl<'a> Params<'a> {
         if range.contains(&v) {
             Ok(v)
         } else {
-            Err(self.error_at(name, format_args!("{v} is out of range; expected {} to {}", range.start(), range.end())))
+            Err(self.error_at(name, format_args!("{} is out of range; expected {} to {}", Num(v), Num(*range.start()), Num(*range.end()))))
         }
     }
 
     /// A finite number > 0.
     pub fn positive(&mut self, name: &str) -> Result<f64> {
         let v = self.float(name)?;
-        if v > 0.0 { Ok(v) } else { Err(self.error_at(name, format_args!("expected a number > 0, found {v}"))) }
+        if v > 0.0 { Ok(v) } else { Err(self.error_at(name, format_args!("expected a number > 0, found {}", Num(v)))) }
     }
 
     /// A finite number ≥ 0.
     pub fn non_negative(&mut self, name: &str) -> Result<f64> {
         let v = self.float(name)?;
-        if v >= 0.0 { Ok(v) } else { Err(self.error_at(name, format_args!("expected a number ≥ 0, found {v}"))) }
+        if v >= 0.0 { Ok(v) } else { Err(self.error_at(name, format_args!("expected a number ≥ 0, found {}", Num(v)))) }
     }
 
     fn as_float(&self, name: &str, n: &Node) -> Result<f64> {

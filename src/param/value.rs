@@ -21,7 +21,7 @@ impl Node {
         let text = match &value {
             Value::Str(s) => s.clone(),
             Value::Int(i) => i.to_string(),
-            Value::Float(f) => f.to_string(),
+            Value::Float(f) => crate::param::error::Num(*f).to_string(),
             Value::Bool(b) => b.to_string(),
             other => other.type_name().to_string(),
         };

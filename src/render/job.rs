@@ -1,6 +1,7 @@
 //! A render job: the scene, its integrator, and the image and sampling settings.
 
 use crate::math::color::Encoding;
+use crate::param::error::Num;
 use crate::render::accum::PixelSum;
 use crate::render::integrator::Integrator;
 use crate::scene::Scene;
@@ -110,6 +111,11 @@ impl ErrorTarget {
     /// With six seeds a target it missed readings below 1/1.5 (`environment` from 0.0125 on,
     /// `pbr-spheres` at 0.1): [`crate::render::share::LowReading::FEW_PIXELS`] flags those.
     pub const RARE_SHARE: f64 = 0.01;
+
+    /// The largest error a target may ask for: a relative RMSE of 1, 100 % (a pixel of luminance
+    /// 1 whose mean may be off by as much as itself; its first possible stop is `min_spp`). A
+    /// looser one is a typo, or a fixed sample count meant (`spp`).
+    pub const MAX: f64 = 1.0;
 
     /// The error `p` must reach to stop at its `n` samples: `error · √(n / min_spp)`.
     #[inline]
@@ -243,7 +249,7 @@ impl RenderSettings {
                 let spp = match self.target {
                     None if self.time_budget.is_some() => format!("≤ {} spp", self.spp),
                     None => format!("{} spp", self.spp),
-                    Some(t) => format!("to error {} ({}..{} spp)", t.error, t.floor_spp().min(self.spp), self.spp),
+                    Some(t) => format!("to error {} ({}..{} spp)", Num(t.error), t.floor_spp().min(self.spp), self.spp),
                 };
                 match self.time_budget {
                     Some(b) => format!("{spp} within {} s", b.as_secs_f64()),

@@ -306,10 +306,11 @@ fn starting_sums(s: &RenderSettings, share: Share, options: &RenderOptions) -> R
             && matches!(s.aa, Antialiasing::Stratified))
     {
         return Err(format!(
-            "{} of the {}×{} frame is not made of whole blocks of {k} × {k} sub-pixels (stratified sampling; tiles, crops and the frame's sides multiples of {k}, at most {TILE_SIZE})",
+            "{} of the {}×{} frame is not made of whole blocks of {k} × {k} sub-pixels (stratified sampling; {}; crops and the frame's sides multiples of K)",
             share.describe(),
             s.width,
-            s.height
+            s.height,
+            crate::render::share::subpixel_rule()
         ));
     }
     if (s.target.is_some() || s.time_budget.is_some()) && share.passes > 1 {

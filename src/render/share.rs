@@ -7,6 +7,7 @@
 //! lattice point, index and the seed) and the sums are exact ([`crate::render::accum`]), so any
 //! set of disjoint shares that covers the frame merges to the bits of one whole render.
 
+use crate::param::error::Num;
 use crate::render::accum::{AovSum, PixelSum};
 use crate::render::aov::AovLayers;
 use crate::render::film::{Film, OutOfMemory, try_filled};
@@ -84,9 +85,17 @@ impl Rect {
     }
 }
 
-/// The most sub-pixels per side a block of [`Sampling::subpixels`] may have (a partial image's
-/// attribute is checked against it).
-pub const MAX_SUBPIXELS: i32 = 16;
+/// The sides a block of [`Sampling::subpixels`] may have: the divisors of the render's tile
+/// side ([`crate::render::job::TILE_SIZE`]), so that every tile holds whole blocks (a partial
+/// image's attribute and `render --subpixels` are checked against them).
+pub const SUBPIXEL_SIDES: [u32; 5] = [1, 2, 4, 8, 16];
+
+/// The rule on [`SUBPIXEL_SIDES`], for messages: "K must divide 16, …: 1, 2, 4, 8 or 16".
+pub fn subpixel_rule() -> String {
+    let sides: Vec<String> = SUBPIXEL_SIDES.iter().map(u32::to_string).collect();
+    let (last, rest) = sides.split_last().expect("sides");
+    format!("K must divide {}, the side of the render's tiles: {} or {last}", crate::render::job::TILE_SIZE, rest.join(", "))
+}
 
 /// How many samples each pixel of a whole render has: `spp` stratified samples, or one adaptive
 /// value (whose lattice samples are not counted).
@@ -123,11 +132,11 @@ impl Sampling {
             (false, Some(t)) if self.subpixels > 1 => format!(
                 "at most {} spp a sub-pixel to a relative error of {} (at least {}) over each {k} × {k} block",
                 self.spp,
-                t.error,
+                Num(t.error),
                 t.min_spp,
                 k = self.subpixels
             ),
-            (false, Some(t)) => format!("at most {} spp to a relative error of {} (at least {})", self.spp, t.error, t.min_spp),
+            (false, Some(t)) => format!("at most {} spp to a relative error of {} (at least {})", self.spp, Num(t.error), t.min_spp),
         }
     }
 }
@@ -612,6 +621,14 @@ mod tests {
     use super::*;
     use crate::math::color::Color;
     use crate::render::aov::AovSample;
+
+    /// The sub-pixel sides are the divisors of the tile side, as the rule in messages says.
+    #[test]
+    fn subpixel_sides_divide_the_tiles() {
+        let divisors: Vec<u32> = (1..=crate::render::job::TILE_SIZE).filter(|k| crate::render::job::TILE_SIZE.is_multiple_of(*k)).collect();
+        assert_eq!(divisors, SUBPIXEL_SIDES);
+        assert_eq!(subpixel_rule(), "K must divide 16, the side of the render's tiles: 1, 2, 4, 8 or 16");
+    }
 
     /// The pixels an image's estimated variance rests on: all `P` of them when they are equally
     /// noisy, one when a single pixel holds it, and the summary's "may read low" for few pixels

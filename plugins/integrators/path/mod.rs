@@ -290,8 +290,8 @@ struct PathState<'s> {
 }
 
 impl<'s> PathState<'s> {
-    /// The state of a camera ray from `origin`, with its stream `sampler` and its `spread`.
-    fn camera(origin: DVec3, sampler: &'s Sampler, spread: RaySpread) -> Self {
+    /// The state of camera ray `ray` of `scene`, with its stream `sampler`.
+    fn camera(ray: &Ray, sampler: &'s Sampler, scene: &Scene) -> Self {
         PathState {
             sampler,
             depth: 0,
@@ -302,8 +302,8 @@ impl<'s> PathState<'s> {
             specular: true,
             counted: false,
             escape_scale: 1.0,
-            from: origin,
-            spread,
+            from: ray.origin,
+            spread: scene.camera_spread(ray),
         }
     }
 }
@@ -315,24 +315,41 @@ impl PathTracer {
     /// as they were.
     /// Only the numbers the BSDF reads (`draws`) are computed; the others are passed over
     /// ([`Sampler::skip_1d`]) and given as 0.5, which the BSDF does not read: the same scatter.
+    /// The stream is forked in each branch of [`PathTracer::stratify`]'s choice: a pixel draw
+    /// reads only the fork's chain and a plain one only its key, so each computes only its own.
     #[inline(never)]
     fn bsdf_numbers(&self, depth: u32, sampler: &Sampler, draws: Draws) -> (f64, DVec2, f64) {
         const UNREAD: f64 = 0.5;
         if !(draws.pick || draws.dir || draws.fresnel) {
             return (UNREAD, DVec2::splat(UNREAD), UNREAD);
         }
-        let mut stream = sampler.fork(TAG_BSDF);
-        let pick = if draws.pick { self.draw_1d(depth, &mut stream) } else { skip(&mut stream, 1, UNREAD) };
-        let u = if draws.dir { self.draw_2d(depth, &mut stream) } else { DVec2::splat(skip(&mut stream, 2, UNREAD)) };
-        let fresnel = if draws.fresnel { self.draw_1d(depth, &mut stream) } else { UNREAD };
-        (pick, u, fresnel)
+        /// The numbers from `stream` by `draw_1d` and `draw_2d` (as [`PathTracer::draw_1d`]
+        /// and [`PathTracer::draw_2d`] choose them).
+        #[inline(always)]
+        fn numbers(
+            mut stream: Sampler,
+            draws: Draws,
+            draw_1d: impl Fn(&mut Sampler) -> f64,
+            draw_2d: impl Fn(&mut Sampler) -> DVec2,
+        ) -> (f64, DVec2, f64) {
+            let pick = if draws.pick { draw_1d(&mut stream) } else { skip(&mut stream, 1, UNREAD) };
+            let u = if draws.dir { draw_2d(&mut stream) } else { DVec2::splat(skip(&mut stream, 2, UNREAD)) };
+            let fresnel = if draws.fresnel { draw_1d(&mut stream) } else { UNREAD };
+            (pick, u, fresnel)
+        }
+        if depth < self.stratify {
+            numbers(sampler.fork(TAG_BSDF), draws, Sampler::pixel_1d, Sampler::pixel_2d)
+        } else {
+            numbers(sampler.fork(TAG_BSDF), draws, Sampler::next_1d, Sampler::next_2d)
+        }
     }
 
     /// The roulette's number at a vertex after `depth` diffuse or glossy bounces (out of line,
     /// as [`PathTracer::bsdf_numbers`]).
     #[inline(never)]
     fn roulette_number(&self, depth: u32, sampler: &Sampler) -> f64 {
-        self.draw_1d(depth, &mut sampler.fork(TAG_ROULETTE))
+        // Forked in each branch, as there.
+        if depth < self.stratify { sampler.fork(TAG_ROULETTE).pixel_1d() } else { sampler.fork(TAG_ROULETTE).next_1d() }
     }
 
     /// The next number of `stream`, at a vertex after `depth` diffuse or glossy bounces:
@@ -352,7 +369,8 @@ impl PathTracer {
     /// Radiance arriving along `ray` (its state and stream `path`), spawned off the hit `from`.
     fn li<R: Recorder>(&self, c: &mut Ctx, ray: &Ray, from: &Hit, path: &PathState, rec: &mut R) -> Color {
         // The surface the ray leaves is not asked again where it is flat (the same hit).
-        let hit = c.scene.trace_leaving(ray, from).map(|si| si.with_spread(path.spread));
+        let mut hit = c.scene.trace_leaving(ray, from);
+        set_spread(c.scene, &mut hit, &path.spread);
         match hit.as_ref().filter(|_| path.depth <= self.max_bounces) {
             Some(si) => at_bsdf(si, |bsdf, draws| self.arrive(c, ray, Some(si), Some((bsdf, draws)), path, rec)),
             None => self.arrive(c, ray, hit.as_ref(), None, path, rec),
@@ -457,11 +475,6 @@ impl PathTracer {
         }
         c.stats.add(counter::BOUNCE_RAYS, 1);
         let ray = si.spawn_ray(s.dir);
-        let spread = match (s.pdf, s.kind) {
-            (None, RayKind::Refraction) => si.refracted_spread(s.dir, 1.0 / s.eta_squared.sqrt()),
-            (None, _) => si.reflected_spread(s.dir),
-            (Some(_), _) => c.scene.scattered_spread(si.spread),
-        };
         let next_sampler = sampler.fork(TAG_NEXT);
         let next = PathState {
             sampler: &next_sampler,
@@ -474,7 +487,13 @@ impl PathTracer {
             counted: path.depth == 0 && c.split,
             escape_scale,
             from: si.point(),
-            spread,
+            // Spreads are all `Off` where the scene filters no texture: nothing to carry.
+            spread: match (s.pdf, s.kind) {
+                _ if !c.scene.filters_textures() => RaySpread::Off,
+                (None, RayKind::Refraction) => si.refracted_spread(s.dir, 1.0 / s.eta_squared.sqrt()),
+                (None, _) => si.reflected_spread(s.dir),
+                (Some(_), _) => c.scene.scattered_spread(si.spread),
+            },
         };
         let mut child = rec.child(s.kind, &ray, next.depth, next.beta);
         let li = self.li(c, &ray, &si.hit, &next, &mut child);
@@ -546,8 +565,9 @@ impl PathTracer {
         rec: &mut R,
     ) -> Color {
         let c = &mut Ctx { scene, stats, emitted: Color::ZERO, split: false };
-        let spread = scene.camera_spread(ray);
-        let hit = scene.trace(ray).map(|si| si.with_spread(spread));
+        let path = &PathState::camera(ray, sampler, scene);
+        let mut hit = scene.trace(ray);
+        set_spread(scene, &mut hit, &path.spread);
         // A camera ray is always within the bounce limit (depth 0).
         let color = match &hit {
             Some(si) => at_bsdf(si, |bsdf, draws| {
@@ -557,7 +577,7 @@ impl PathTracer {
                 // expectation, into the emission layer.
                 let branches = if aov.guides { delta_branches(bsdf, -ray.dir) } else { None };
                 c.split = branches.is_some();
-                let color = self.arrive(c, ray, Some(si), Some((bsdf, draws)), &PathState::camera(ray.origin, sampler, spread), rec);
+                let color = self.arrive(c, ray, Some(si), Some((bsdf, draws)), path, rec);
                 let Some(branches) = branches else { return color };
                 let seen = self.specular_emission(c, si, &branches);
                 c.emitted += seen;
@@ -565,11 +585,22 @@ impl PathTracer {
             }),
             None => {
                 aov.escape(scene, ray.dir);
-                self.arrive(c, ray, None, None, &PathState::camera(ray.origin, sampler, spread), rec)
+                self.arrive(c, ray, None, None, path, rec)
             }
         };
         aov.emitted = c.emitted;
         color
+    }
+}
+
+/// Gives the hit the incoming ray's `spread` where `scene` filters textures; elsewhere every
+/// spread is `Off`, as the hit's already is, and nothing is copied.
+#[inline(always)]
+fn set_spread(scene: &Scene, hit: &mut Option<Interaction>, spread: &RaySpread) {
+    if scene.filters_textures()
+        && let Some(si) = hit
+    {
+        si.spread = *spread;
     }
 }
 

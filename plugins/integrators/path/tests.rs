@@ -863,3 +863,31 @@ fn glass_counts_the_sun_its_branch_not_taken_sees_as_its_expectation() {
     assert!(sum_off.min_element() > 6.0 * 10.0, "the rays miss the sun's reflection: {sum_off}");
     assert!(var_on < 0.1 * var_off, "variance of the mean split {var_on}, not split {var_off}");
 }
+
+/// The BSDF's numbers, forked in each branch of `stratify`'s choice, are the ones drawn from one
+/// fork with `draw_1d` and `draw_2d` as before (pixel draws below `stratify`, plain ones from
+/// it), bit for bit, for every set of numbers read; the roulette's likewise.
+#[test]
+fn bsdf_numbers_are_one_forks_draws_as_before() {
+    let tracer = PathTracer::default();
+    let bits = |(a, u, b): (f64, DVec2, f64)| [a, u.x, u.y, b].map(f64::to_bits);
+    let mut compared = 0;
+    for depth in 0..4 {
+        for sample in 0..64 {
+            let sampler = Sampler::new(17, sample, 9).fork(TAG_NEXT);
+            for flags in 1..8u8 {
+                let draws = Draws { pick: flags & 1 != 0, dir: flags & 2 != 0, fresnel: flags & 4 != 0 };
+                let mut stream = sampler.fork(TAG_BSDF);
+                let pick = if draws.pick { tracer.draw_1d(depth, &mut stream) } else { skip(&mut stream, 1, 0.5) };
+                let u = if draws.dir { tracer.draw_2d(depth, &mut stream) } else { DVec2::splat(skip(&mut stream, 2, 0.5)) };
+                let fresnel = if draws.fresnel { tracer.draw_1d(depth, &mut stream) } else { 0.5 };
+                assert_eq!(bits(tracer.bsdf_numbers(depth, &sampler, draws)), bits((pick, u, fresnel)), "depth {depth}, {draws:?}");
+                compared += 1;
+            }
+            let roulette = tracer.draw_1d(depth, &mut sampler.fork(TAG_ROULETTE));
+            assert_eq!(tracer.roulette_number(depth, &sampler).to_bits(), roulette.to_bits(), "depth {depth}");
+        }
+    }
+    assert_eq!(compared, 4 * 64 * 7);
+    assert_eq!(tracer.stratify, 2, "both branches are compared");
+}
