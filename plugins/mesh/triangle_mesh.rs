@@ -156,7 +156,7 @@ pub struct TriangleMesh {
     closed: OnceLock<bool>,
     /// Triangles by area, for choosing surface points ([`TriangleMesh::sample_point`]): built on
     /// first use (only emitting meshes are sampled); `None` for a mesh without area.
-    by_area: OnceLock<Option<(AliasTable, f64)>>,
+    by_area: OnceLock<Option<ByArea>>,
     build: BuildStats,
 }
 
@@ -729,37 +729,37 @@ impl TriangleMesh {
     }
 
     /// The slots' areas in an alias table, and their total (built on first use).
-    fn by_area(&self) -> Option<&(AliasTable, f64)> {
+    fn by_area(&self) -> Option<&ByArea> {
         self.by_area
             .get_or_init(|| {
-                let areas: Vec<f64> = (0..self.packs.len() as u32 * PACK)
+                let (areas, normals): (Vec<f64>, Vec<DVec3>) = (0..self.packs.len() as u32 * PACK)
                     .map(|slot| {
                         let [p0, p1, p2] = self.vertices(slot).map(DVec3::from);
-                        0.5 * (p1 - p0).cross(p2 - p0).length()
+                        let cross = (p1 - p0).cross(p2 - p0);
+                        // `geometric_normal`, from the vertices read here.
+                        (0.5 * cross.length(), cross.normalize())
                     })
-                    .collect();
+                    .unzip();
                 let total = areas.iter().filter(|a| a.is_finite()).sum();
-                AliasTable::new(&areas).map(|t| (t, total))
+                AliasTable::new(&areas).map(|table| ByArea { table, area: total, normals: normals.into_boxed_slice() })
             })
             .as_ref()
     }
 
     /// The mesh's surface area (0 for a mesh without triangles).
     pub fn area(&self) -> f64 {
-        self.by_area().map_or(0.0, |&(_, a)| a)
+        self.by_area().map_or(0.0, |b| b.area)
     }
 
     /// A point uniform by area on the mesh for `u` uniform in `[0, 1)²`: a triangle chosen by its
     /// area (`u.x`, reused within it), then a point of it.
     pub fn sample_point(&self, u: DVec2) -> Option<MeshPoint> {
-        let &(ref table, area) = self.by_area()?;
+        let ByArea { table, area, normals } = self.by_area()?;
         let (slot, _, rest) = table.sample(u.x);
         let b = uniform_triangle(DVec2::new(rest, u.y));
         let [p0, p1, p2] = self.vertices(slot as u32).map(DVec3::from);
         let (point, error) = barycentric_point(DVec3::new(1.0 - b.x - b.y, b.x, b.y), p0, p1, p2);
-        // `geometric_normal`, from the vertices read here.
-        let normal = (p1 - p0).cross(p2 - p0).normalize();
-        Some(MeshPoint { slot: slot as u32, point, error, b, normal, area })
+        Some(MeshPoint { slot: slot as u32, point, error, b, normal: normals[slot], area: *area })
     }
 
     /// Whether the triangles lie on the boundary of one convex body with their windings' normals
@@ -791,6 +791,18 @@ impl TriangleMesh {
             .filter(|t| !t[0][0].is_nan())
             .map(|[a, b, c]| [a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2]])
     }
+}
+
+/// The triangles by area ([`TriangleMesh::sample_point`]).
+#[derive(Debug)]
+struct ByArea {
+    /// Each slot's triangle by its area.
+    table: AliasTable,
+    /// The mesh's area.
+    area: f64,
+    /// Each slot's unit normal, as [`TriangleMesh::geometric_normal`] finds it (computed once:
+    /// a sample reads it instead of a cross product and a square root).
+    normals: Box<[DVec3]>,
 }
 
 /// A point chosen on a mesh ([`TriangleMesh::sample_point`]).

@@ -41,6 +41,8 @@ pub struct Polygon {
     /// Running totals of the areas of the fan's triangles `(v0, v[i+1], v[i+2])`: the last is the
     /// polygon's area. Surface samples choose a triangle by its area.
     fan: Vec<f64>,
+    /// `1 / area`, the density of its surface samples.
+    inv_area: f64,
 }
 
 /// Four edges of a polygon, structure of arrays: `v[axis][k]` is edge k's start, `n[axis][k]` its
@@ -167,7 +169,7 @@ impl Polygon {
         }
         let axes = super::uv::tangent_frame(normal);
         let flat = vertices.iter().map(|v| DVec2::new((v - origin).dot(axes.0), (v - origin).dot(axes.1))).collect();
-        let fan = (1..n - 1)
+        let fan: Vec<f64> = (1..n - 1)
             .scan(0.0, |sum, i| {
                 *sum += 0.5 * normal.dot((vertices[i] - vertices[0]).cross(vertices[i + 1] - vertices[0]));
                 Some(*sum)
@@ -187,7 +189,8 @@ impl Polygon {
                 pack
             })
             .collect();
-        Ok(Polygon { vertices, edges, normal, plane, axes, flat, fan })
+        let inv_area = fan.last().map_or(0.0, |a| 1.0 / a);
+        Ok(Polygon { vertices, edges, normal, plane, axes, flat, fan, inv_area })
     }
 }
 
@@ -307,16 +310,23 @@ impl Geometry for Polygon {
     fn sample_surface(&self, reference: DVec3, u: DVec2) -> Option<SurfaceSample> {
         let area = self.area()?;
         let target = u.x * area;
-        let i = self.fan.partition_point(|&a| a <= target).min(self.fan.len() - 1);
+        // The first triangle whose running total passes `target`, the last one past every total
+        // (rounding): a quadrangle's two in one comparison.
+        let last = self.fan.len() - 1;
+        let i = if last == 1 { usize::from(self.fan[0] <= target) } else { self.fan[..last].partition_point(|&a| a <= target) };
         let below = if i == 0 { 0.0 } else { self.fan[i - 1] };
         let ux = ((target - below) / (self.fan[i] - below)).clamp(0.0, 1.0 - f64::EPSILON / 2.0);
         let b = uniform_triangle(DVec2::new(ux, u.y));
         let (p0, p1, p2) = (self.vertices[0], self.vertices[i + 1], self.vertices[i + 2]);
         let (point, error) = barycentric_point(DVec3::new(1.0 - b.x - b.y, b.x, b.y), p0, p1, p2);
-        Some(SurfaceSample::new(reference, point, error, self.normal, SurfacePdf::Area(1.0 / area)))
+        Some(SurfaceSample::new(reference, point, error, self.normal, SurfacePdf::Area(self.inv_area)))
     }
     fn surface_pdf(&self, _: DVec3, _: &Hit) -> SurfacePdf {
-        SurfacePdf::Area(self.area().map_or(0.0, |a| 1.0 / a))
+        SurfacePdf::Area(self.inv_area)
+    }
+    /// The plane of its vertices: they lie within [`COPLANAR_TOLERANCE`] of its size from it.
+    fn plane(&self) -> Option<(DVec3, DVec3)> {
+        Some((self.vertices[0], self.normal))
     }
 }
 

@@ -248,6 +248,10 @@ impl Geometry for Triangle {
     fn surface_pdf(&self, _: DVec3, _: &Hit) -> SurfacePdf {
         SurfacePdf::Area(self.area().map_or(0.0, |a| 1.0 / a))
     }
+    /// The plane through its vertices (exactly, up to rounding).
+    fn plane(&self) -> Option<(DVec3, DVec3)> {
+        Some((self.p[0], self.normal))
+    }
 }
 
 // The shape harnesses' view of it (raylab::geometry::samples): its exact surface, written from

@@ -267,7 +267,22 @@ pub trait Geometry: Intersectable {
     fn is_convex(&self) -> bool {
         false
     }
+
+    /// The plane the whole surface lies in, where it is flat: a point of it and the unit outward
+    /// normal every point of the surface has ([`Geometry::outward_normal`], bit for bit). Every
+    /// point of the surface lies within [`PLANE_TOLERANCE`] of its magnitude (largest coordinate
+    /// of its bounds) from that plane. `None`, the default: curved, or not known. Emitters
+    /// read it to know, before a point is drawn, that every point of a one-sided emitter faces
+    /// away from a shaded point ([`crate::scene::emitters::Emitters::dark_from`]).
+    fn plane(&self) -> Option<(DVec3, DVec3)> {
+        None
+    }
 }
+
+/// How far, relative to a flat surface's magnitude, its points may lie from the plane it reports
+/// ([`Geometry::plane`]): a polygon's vertices are coplanar within 10⁻⁹ of its size, rounding is
+/// near 10⁻¹⁶; readers allow 10⁻⁶.
+pub const PLANE_TOLERANCE: f64 = 1e-6;
 
 /// `n` flipped, if needed, to face against `dir` (`result · dir ≤ 0`).
 #[inline]
@@ -373,6 +388,9 @@ macro_rules! forward_impls {
             }
             fn is_convex(&self) -> bool {
                 (**self).is_convex()
+            }
+            fn plane(&self) -> Option<(DVec3, DVec3)> {
+                (**self).plane()
             }
         }
     )*};

@@ -320,6 +320,16 @@ impl<G: Geometry> Geometry for Transformed<G> {
         let scale = if self.similarity { l.x_axis.length_squared() } else { l.determinant().abs().powf(2.0 / 3.0) };
         Some(a * scale)
     }
+    /// The inner shape's plane carried out under a similarity: its point mapped, its normal as
+    /// the samples' and hits' normals are. (A stretch keeps it flat, but could carry the inner
+    /// shape's small distances from its plane out beyond the tolerance: `None`.)
+    fn plane(&self) -> Option<(DVec3, DVec3)> {
+        if !self.similarity {
+            return None;
+        }
+        let (point, normal) = self.inner.plane()?;
+        Some((self.transform.to_world.transform_point3(point), self.transform.normal(normal)))
+    }
     /// The inner shape's sample, seen from the reference carried into its frame, carried out.
     fn sample_surface(&self, reference: DVec3, u: DVec2) -> Option<SurfaceSample> {
         let r = self.transform.to_object.transform_point3(reference);

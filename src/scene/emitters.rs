@@ -4,12 +4,12 @@
 //! the same density when one of its own rays meets the emitter (multiple importance sampling).
 //! Objects whose shape offers no sampling still emit: only rays find them.
 
-use crate::geometry::{Hit, SurfacePdf};
+use crate::geometry::{Hit, PLANE_TOLERANCE, SurfacePdf};
 use crate::math::color::{Color, luminance};
 use crate::math::distribution::AliasTable;
 use crate::math::ray::Ray;
 use crate::scene::interaction::Interaction;
-use crate::scene::object::Object;
+use crate::scene::object::{EmissionSides, Object};
 use glam::{DVec2, DVec3};
 use std::f64::consts::PI;
 
@@ -57,8 +57,32 @@ pub struct Emitters {
     constant: Vec<Option<Color>>,
     /// Each emitter's [`crate::Geometry::is_convex`].
     convex: Vec<bool>,
+    /// Each emitter's dark side where it is flat and emits on one side only ([`DarkSide`]).
+    dark: Vec<Option<DarkSide>>,
     /// The emitters by power; `None` when there is none.
     table: Option<AliasTable>,
+}
+
+/// The side of a flat emitter that gives off no light ([`crate::Geometry::plane`]): a point
+/// there, farther than the margin from the plane, sees only the emitter's back.
+#[derive(Clone, Copy, Debug)]
+struct DarkSide {
+    /// A point of the plane.
+    point: DVec3,
+    /// Unit normal of the plane toward its dark side.
+    toward: DVec3,
+    /// The emitter's magnitude (largest coordinate of its bounds).
+    magnitude: f64,
+}
+
+impl DarkSide {
+    /// Whether `reference` lies on the dark side, beyond the points' distances from the plane
+    /// and any rounding of a sample's side test ([`PLANE_TOLERANCE`] of the magnitudes).
+    #[inline]
+    fn holds(&self, reference: DVec3) -> bool {
+        let margin = PLANE_TOLERANCE * (self.magnitude + reference.abs().max_element());
+        (reference - self.point).dot(self.toward) > margin
+    }
 }
 
 /// A point of an emitter chosen to light a point ([`Emitters::sample`]).
@@ -102,6 +126,7 @@ impl Emitters {
                 e.power.push(power);
                 e.constant.push(constant_emission(o));
                 e.convex.push(o.geometry().is_convex());
+                e.dark.push(dark_side(o));
             }
         }
         e.table = AliasTable::new(&e.power);
@@ -139,10 +164,18 @@ impl Emitters {
 
     /// An emitter chosen by `selection` with `pick` uniform in `[0, 1)`, and a point of it seen
     /// from `reference` for `u` uniform in `[0, 1)²`. `None` when there is no emitter or its shape
-    /// gives no point there.
+    /// gives no point there. ([`Emitters::choose`], then [`Emitters::sample_chosen`].)
     #[inline]
     pub fn sample(&self, objects: &[Object], reference: DVec3, pick: f64, u: DVec2, selection: Selection) -> Option<EmitterSample> {
-        let (e, pmf) = match selection {
+        let chosen = self.choose(pick, selection)?;
+        self.sample_chosen(objects, chosen, reference, u)
+    }
+
+    /// The emitter `selection` chooses with `pick` uniform in `[0, 1)`: its index among the
+    /// emitters and the probability of the choice. `None` when there is no emitter.
+    #[inline]
+    pub fn choose(&self, pick: f64, selection: Selection) -> Option<(usize, f64)> {
+        Some(match selection {
             // A lone emitter is chosen with probability 1, which is its table's pmf exactly.
             Selection::Power if self.objects.len() == 1 => (0, 1.0),
             Selection::Power => {
@@ -153,7 +186,22 @@ impl Emitters {
                 let n = self.objects.len();
                 (((pick * n as f64) as usize).min(n.checked_sub(1)?), 1.0 / n as f64)
             }
-        };
+        })
+    }
+
+    /// Whether no point of emitter `e` (an index [`Emitters::choose`] gives) sends light toward
+    /// `reference`: a flat emitter ([`crate::Geometry::plane`]) that emits on one side only,
+    /// seen from the other side, clear of its plane. Every sample of it from there has zero
+    /// radiance ([`Emitters::sample_chosen`]); a caller may skip drawing one. False where unsure.
+    #[inline]
+    pub fn dark_from(&self, e: usize, reference: DVec3) -> bool {
+        matches!(self.dark.get(e), Some(Some(d)) if d.holds(reference))
+    }
+
+    /// A point of emitter `e`, chosen with probability `pmf` ([`Emitters::choose`]), seen from
+    /// `reference`, for `u` uniform in `[0, 1)²`. `None` when its shape gives no point there.
+    #[inline]
+    pub fn sample_chosen(&self, objects: &[Object], (e, pmf): (usize, f64), reference: DVec3, u: DVec2) -> Option<EmitterSample> {
         let object = self.objects[e];
         let o = &objects[object as usize];
         let s = o.geometry().sample_surface(reference, u)?;
@@ -200,6 +248,20 @@ impl Emitters {
         let pdf: SurfacePdf = g.surface_pdf(reference, &si.hit);
         pmf * pdf.solid_angle(reference, si.hit.point, g.outward_normal(&si.hit))
     }
+}
+
+/// The dark side of `o` where it is flat and emits on one side only ([`Emitters::dark`]).
+fn dark_side(o: &Object) -> Option<DarkSide> {
+    let g = o.geometry();
+    let (point, outward) = g.plane()?;
+    let toward = match o.emission_sides() {
+        EmissionSides::Front => -outward,
+        EmissionSides::Back => outward,
+        EmissionSides::Both => return None,
+    };
+    let b = g.bounds()?;
+    let magnitude = b.min.abs().max(b.max.abs()).max_element();
+    (point.is_finite() && toward.is_finite() && magnitude.is_finite()).then_some(DarkSide { point, toward, magnitude })
 }
 
 /// The emission of every point of `o`, when it is one constant ([`Emitters::constant`]).

@@ -117,3 +117,47 @@ fn an_emitter_never_hides_a_point_it_says_it_cannot() {
     }
     assert!(clear[..6].iter().all(|&n| n > 300), "{clear:?}");
 }
+
+/// A flat one-sided emitter seen from its dark side ([`raylab::scene::emitters::Emitters::dark_from`],
+/// which lets the path tracer draw no point) gives no sample with light: every point drawn
+/// from there has zero radiance, near its plane and far from it, for polygons, triangles, and
+/// both placed by a similarity; emitters that emit on both sides, or are round, are never dark.
+#[test]
+fn a_flat_emitter_is_dark_from_its_back_exactly_where_its_samples_are() {
+    let job = load(
+        "[render]\nwidth = 4\nheight = 4\n[camera]\nposition = [0, 0, 8]\nlook_at = [0, 0, 0]\n[integrator]\ntype = \"path\"\n\
+         [[object]]\ntype = \"quadrangle\"\np0 = [-0.25, 1.999, -0.25]\np1 = [0.25, 1.999, -0.25]\np2 = [0.25, 1.999, 0.25]\np3 = [-0.25, 1.999, 0.25]\nmaterial = { kd = 0, emission = 3 }\nemission_sides = \"front\"\n\
+         [[object]]\ntype = \"quadrangle\"\np0 = [1, -1, 0]\np1 = [2, -1, 0]\np2 = [2, 0, 1]\np3 = [1, 0, 1]\nmaterial = { kd = 0, emission = 2 }\nemission_sides = \"back\"\n\
+         [[object]]\ntype = \"triangle\"\np0 = [0, -2, 0]\np1 = [1, -2, 0]\np2 = [0, -2, 1]\nmaterial = { kd = 0, emission = [1, 4, 1] }\nemission_sides = \"front\"\n\
+         [[object]]\ntype = \"polygon\"\nvertices = [[0, 0, 0], [1, 0, 0], [1.3, 0, 0.7], [0.5, 0, 1.2], [-0.2, 0, 0.6]]\nmaterial = { kd = 0, emission = 1 }\nemission_sides = \"front\"\n\
+         transform = { scale = 1.5, rotate = [20, 40, 30], translate = [-2, 1, 0.5] }\n\
+         [[object]]\ntype = \"quadrangle\"\np0 = [-3, 0, -3]\np1 = [-2, 0, -3]\np2 = [-2, 0, -2]\np3 = [-3, 0, -2]\nmaterial = { kd = 0, emission = 1 }\n\
+         [[object]]\ntype = \"sphere\"\ncenter = [2, 2, 0]\nradius = 0.4\nmaterial = { kd = 0, emission = 1 }\nemission_sides = \"front\"\n",
+    );
+    let scene = &job.scene;
+    let emitters = scene.emitters();
+    assert_eq!(emitters.len(), 6);
+    let mut dark = [0u32; 6];
+    let mut rng = TestRng::new(11);
+    for k in 0..20_000 {
+        // Half of the points in a thin slab around the ceiling light's plane (y = 1.999).
+        let y = if k % 2 == 0 { 1.999 + 1e-3 * (2.0 * rng.uniform() - 1.0) } else { 6.0 * rng.uniform() - 3.0 };
+        let reference = DVec3::new(6.0 * rng.uniform() - 3.0, y, 6.0 * rng.uniform() - 3.0);
+        for (e, count) in dark.iter_mut().enumerate() {
+            if !emitters.dark_from(e, reference) {
+                continue;
+            }
+            *count += 1;
+            for _ in 0..4 {
+                let pmf = emitters.choose((e as f64 + 0.5) / 6.0, Selection::Uniform).unwrap().1;
+                let Some(es) = emitters.sample_chosen(&scene.objects, (e, pmf), reference, rng.next_2d()) else { continue };
+                assert_eq!(es.radiance, Color::ZERO, "emitter {e} from {reference}");
+            }
+        }
+    }
+    // The one-sided flat ones are dark from about half of space; the others never.
+    assert!(dark[..4].iter().all(|&n| n > 4000), "{dark:?}");
+    assert_eq!(dark[4..], [0, 0], "{dark:?}");
+    // And not dark from the lit side: a point just below the ceiling light sees its front.
+    assert!(!emitters.dark_from(0, DVec3::new(0.0, 1.99, 0.0)) && emitters.dark_from(0, DVec3::new(0.0, 2.0, 0.0)));
+}

@@ -174,25 +174,51 @@ impl PathTracer {
         if self.samples_emitters(scene) {
             let n = self.emitter_samples();
             let mut stream = sampler.fork(TAG_EMITTERS);
-            // A lone emitter is chosen whatever the number: it is skipped, not drawn (the same
-            // numbers after it).
-            let lone = scene.emitters().len() == 1;
-            let mut sum = Color::ZERO;
-            for _ in 0..n {
-                let pick = if lone {
-                    stream.skip_1d();
-                    0.0
-                } else {
-                    self.draw_1d(depth, &mut stream)
-                };
-                let u = self.draw_2d(depth, &mut stream);
-                if let Some(es) = scene.emitters().sample(&scene.objects, si.point(), pick, u, self.light_selection) {
-                    sum += self.emitter_sample(c, v, &es, n, rec);
-                }
-            }
-            total += sum / f64::from(n);
+            // One sample (the default): no loop, and its value as it is (the same bits as
+            // divided by one).
+            total += if n == 1 {
+                self.emitter_draw(c, v, (&mut stream, depth), n, rec)
+            } else {
+                (0..n).fold(Color::ZERO, |sum, _| sum + self.emitter_draw(c, v, (&mut stream, depth), n, rec)) / f64::from(n)
+            };
         }
         total
+    }
+
+    /// One of the `n` emitter samples at a vertex, its numbers from `stream` (before dividing
+    /// by `n`): an emitter chosen by [`PathTracer::light_selection`], a point of it, its
+    /// contribution.
+    #[inline(always)]
+    fn emitter_draw<R: Recorder>(&self, c: &mut Ctx, v: Vertex, (stream, depth): (&mut Sampler, u32), n: u32, rec: &mut R) -> Color {
+        let scene = c.scene;
+        let emitters = scene.emitters();
+        // A lone emitter is chosen whatever the number: it is skipped, not drawn (the same
+        // numbers after it).
+        let pick = if emitters.len() == 1 {
+            stream.skip_1d();
+            0.0
+        } else {
+            self.draw_1d(depth, stream)
+        };
+        let Some(chosen) = emitters.choose(pick, self.light_selection) else {
+            stream.skip_1d();
+            stream.skip_1d();
+            return Color::ZERO;
+        };
+        // A one-sided flat emitter seen from its dark side sends nothing from any point: none
+        // is drawn, its pair of numbers skipped (the same numbers after it). Drawn in full
+        // where the sample is explained.
+        if !R::ON && emitters.dark_from(chosen.0, v.si.point()) {
+            stream.skip_1d();
+            stream.skip_1d();
+            c.stats.add(counter::LIGHTS_UNREACHABLE, 1);
+            return Color::ZERO;
+        }
+        let u = self.draw_2d(depth, stream);
+        match emitters.sample_chosen(&scene.objects, chosen, v.si.point(), u) {
+            Some(es) => self.emitter_sample(c, v, &es, n, rec),
+            None => Color::ZERO,
+        }
     }
 
     /// One emitter sample's contribution (before dividing by the `n` samples), weighed against
