@@ -155,8 +155,9 @@ fn a_flat_emitter_is_dark_from_its_back_exactly_where_its_samples_are() {
             }
         }
     }
-    // The one-sided flat ones are dark from about half of space; the others never.
-    assert!(dark[..4].iter().all(|&n| n > 4000), "{dark:?}");
+    // The one-sided flat ones are dark from a good share of the points (the tilted one from
+    // ~18 %: the slab's points all lie on its lit side); the others never.
+    assert!(dark[..4].iter().all(|&n| n > 2000), "{dark:?}");
     assert_eq!(dark[4..], [0, 0], "{dark:?}");
     // And not dark from the lit side: a point just below the ceiling light sees its front.
     assert!(!emitters.dark_from(0, DVec3::new(0.0, 1.99, 0.0)) && emitters.dark_from(0, DVec3::new(0.0, 2.0, 0.0)));
